@@ -1,0 +1,32 @@
+# Two commands on a fresh machine (see README):  make run  /  make test
+# Each creates or refreshes the project venv (.venv) on first use.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+PKGS   := gimbal_kinematics gimbal_sim gimbal_control gimbal_estimators
+SETUPS := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
+
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+
+.PHONY: run test venv clean-venv
+
+venv: $(STAMP)
+
+$(STAMP): requirements.txt $(SETUPS)
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation \
+		$(foreach p,$(PKGS),-e src/$(p))
+	@# setup.cfg puts executables where `ros2 run` looks ($$prefix/lib/<pkg>/); link them onto PATH too
+	for exe in $(foreach p,$(PKGS),$(VENV)/lib/$(p)/*); do [ -f "$$exe" ] && ln -sf "$$(realpath $$exe)" $(BIN)/ || true; done
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/gimbal-run $(ARGS)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+clean-venv:
+	rm -rf $(VENV)

@@ -1,0 +1,1 @@
+"""Stabilization controllers for gimbaled sighting systems: inverse-dynamics PI (paper 1), PID with encoder/gyro fusion (paper 2), four-gimbal platform servo (paper 3)."""

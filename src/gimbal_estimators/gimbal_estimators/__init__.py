@@ -1,0 +1,1 @@
+"""Estimators for sighting platforms: gyro-bias EKF, ship-flexure KF, rotation-modulated alignment, free-gyro positioning."""

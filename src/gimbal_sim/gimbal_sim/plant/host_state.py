@@ -1,0 +1,176 @@
+"""Host-vehicle motion sample: exact attitude, body rates and accelerations at one instant.
+
+A motion profile (:mod:`.motion_profiles`) returns a :class:`HostState`: the 3-2-1 Euler
+angles (φ, θ, ψ) of the host body ``b`` relative to the navigation frame ``n`` (NED) and
+their first two time derivatives, the body rate ``ω_nb^b`` and body angular acceleration
+``α_nb^b`` derived from them analytically, the turret angle ψt (about b-z) with its rate
+and acceleration, and the linear acceleration of the gimbal pivot relative to the earth,
+resolved in b.
+
+Body rates from Euler rates (ω = E(φ, θ) ė)::
+
+    p = φ̇ − sθ ψ̇
+    q = cφ θ̇ + sφ cθ ψ̇
+    r = −sφ θ̇ + cφ cθ ψ̇
+
+and α = dω/dt, which keeps the Ė ė term (product rule on every sine and cosine).
+
+The gimbal dynamics need *inertial* rates. With ``ω_in^n`` the rotation rate of n relative
+to inertial space (earth rate at the site; the profiles do not translate, so transport
+rate is zero) held constant in n::
+
+    ω_ib^b = ω_nb^b + C_bn ω_in^n
+    α_ib^b = α_nb^b − ω_nb^b × (C_bn ω_in^n)
+
+The second line follows from Ċ_bn = −[ω_nb^b ×] C_bn. α is the time derivative of the
+b-resolved components, which equals the inertial derivative resolved in b because
+ω × ω = 0. :func:`body_inertial_rates` is the single place where this conversion is done.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+
+class HostState(NamedTuple):
+    """Exact host motion at time ``t`` [s]; every field is a float.
+
+    Angles [rad], rates [rad/s], accelerations [rad/s²]; ``p, q, r`` is ω_nb^b and
+    ``p_dot, q_dot, r_dot`` is α_nb^b (host relative to NED, resolved in b);
+    ``accel_x, accel_y, accel_z`` is the gimbal pivot's acceleration relative to the
+    earth, resolved in b [m/s²] (gravity not included).
+    """
+
+    t: float
+    roll: float
+    pitch: float
+    yaw: float
+    roll_dot: float
+    pitch_dot: float
+    yaw_dot: float
+    roll_ddot: float
+    pitch_ddot: float
+    yaw_ddot: float
+    p: float
+    q: float
+    r: float
+    p_dot: float
+    q_dot: float
+    r_dot: float
+    psi_t: float
+    psi_t_dot: float
+    psi_t_ddot: float
+    accel_x: float
+    accel_y: float
+    accel_z: float
+
+    @property
+    def euler(self) -> np.ndarray:
+        """(φ, θ, ψ) [rad]; shape (3,)."""
+        return np.array([self.roll, self.pitch, self.yaw])
+
+    @property
+    def euler_rates(self) -> np.ndarray:
+        """(φ̇, θ̇, ψ̇) [rad/s]; shape (3,)."""
+        return np.array([self.roll_dot, self.pitch_dot, self.yaw_dot])
+
+    @property
+    def omega_nb_b(self) -> np.ndarray:
+        """Body rate relative to NED, resolved in b [rad/s]; shape (3,)."""
+        return np.array([self.p, self.q, self.r])
+
+    @property
+    def alpha_nb_b(self) -> np.ndarray:
+        """Body angular acceleration relative to NED, resolved in b [rad/s²]; shape (3,)."""
+        return np.array([self.p_dot, self.q_dot, self.r_dot])
+
+    @property
+    def accel_b(self) -> np.ndarray:
+        """Pivot acceleration relative to the earth, resolved in b [m/s²]; shape (3,)."""
+        return np.array([self.accel_x, self.accel_y, self.accel_z])
+
+
+def host_state_from_euler(
+    t: float,
+    euler: tuple[float, float, float],
+    euler_dot: tuple[float, float, float],
+    euler_ddot: tuple[float, float, float],
+    turret: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    accel_b: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> HostState:
+    """Build a :class:`HostState` from Euler angles and their derivatives [rad, rad/s, rad/s²].
+
+    ``turret`` is (ψt, ψ̇t, ψ̈t); ``accel_b`` the pivot acceleration in b [m/s²].
+    Body rates and accelerations follow the module docstring.
+    """
+    phi, theta, psi = euler
+    dphi, dtheta, dpsi = euler_dot
+    ddphi, ddtheta, ddpsi = euler_ddot
+    cf, sf = math.cos(phi), math.sin(phi)
+    ct, st = math.cos(theta), math.sin(theta)
+    p = dphi - st * dpsi
+    q = cf * dtheta + sf * ct * dpsi
+    r = -sf * dtheta + cf * ct * dpsi
+    # Time derivatives of E(φ, θ) ė: each sine/cosine contributes its own rate term.
+    p_dot = ddphi - ct * dtheta * dpsi - st * ddpsi
+    q_dot = (
+        -sf * dphi * dtheta + cf * ddtheta
+        + (cf * dphi * ct - sf * st * dtheta) * dpsi + sf * ct * ddpsi
+    )
+    r_dot = (
+        -cf * dphi * dtheta - sf * ddtheta
+        - (sf * dphi * ct + cf * st * dtheta) * dpsi + cf * ct * ddpsi
+    )
+    return HostState(
+        t, phi, theta, psi, dphi, dtheta, dpsi, ddphi, ddtheta, ddpsi,
+        p, q, r, p_dot, q_dot, r_dot,
+        turret[0], turret[1], turret[2],
+        accel_b[0], accel_b[1], accel_b[2],
+    )
+
+
+def _nav_rate_in_body(state: HostState, w_n: tuple[float, float, float]) -> tuple[float, float, float]:
+    """C_bn w_n with C_bn = rot1(φ) rot2(θ) rot3(ψ), in scalars."""
+    cf, sf = math.cos(state.roll), math.sin(state.roll)
+    ct, st = math.cos(state.pitch), math.sin(state.pitch)
+    cy, sy = math.cos(state.yaw), math.sin(state.yaw)
+    x, y, z = w_n
+    # rot3(ψ), then rot2(θ), then rot1(φ).
+    x1 = cy * x + sy * y
+    y1 = -sy * x + cy * y
+    x2 = ct * x1 - st * z
+    z2 = st * x1 + ct * z
+    return x2, cf * y1 + sf * z2, -sf * y1 + cf * z2
+
+
+def inertial_rates_scalar(
+    state: HostState, omega_in_n: tuple[float, float, float]
+) -> tuple[float, float, float, float, float, float]:
+    """(ω_ib^b, α_ib^b) as six floats [rad/s, rad/s²]; the hot-path form of
+    :func:`body_inertial_rates` (module docstring for the equations)."""
+    p, q, r = state.p, state.q, state.r
+    if omega_in_n[0] == 0.0 and omega_in_n[1] == 0.0 and omega_in_n[2] == 0.0:
+        return p, q, r, state.p_dot, state.q_dot, state.r_dot
+    e1, e2, e3 = _nav_rate_in_body(state, omega_in_n)
+    return (
+        p + e1, q + e2, r + e3,
+        state.p_dot - (q * e3 - r * e2),
+        state.q_dot - (r * e1 - p * e3),
+        state.r_dot - (p * e2 - q * e1),
+    )
+
+
+def body_inertial_rates(state: HostState, omega_in_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Host inertial rate ω_ib^b [rad/s] and acceleration α_ib^b [rad/s²], each shape (3,).
+
+    ``omega_in_n``: rotation rate of NED relative to inertial space, resolved in n [rad/s],
+    shape (3,), assumed constant (``earth.earth_rate_n(lat)`` for a host that does not
+    translate). Pass zeros to treat n as inertial, as paper 1 does in its rate equations.
+    """
+    w = np.asarray(omega_in_n, dtype=float)
+    if w.shape != (3,):
+        raise ValueError(f"omega_in_n: expected shape (3,), got {w.shape}")
+    v = inertial_rates_scalar(state, (float(w[0]), float(w[1]), float(w[2])))
+    return np.array(v[:3]), np.array(v[3:])

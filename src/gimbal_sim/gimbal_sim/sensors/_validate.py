@@ -1,0 +1,66 @@
+"""Parameter checks shared by the sensor parameter dataclasses.
+
+Every failure raises ``ValueError`` naming the offending field, because a config typo
+must point at the key to fix, not at a NaN ten thousand steps later.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+Number = float | int
+
+
+def finite(name: str, value: float) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+
+
+def nonneg(name: str, value: float) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or math.isnan(value) or value < 0.0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+
+
+def nonneg_finite(name: str, value: float) -> None:
+    nonneg(name, value)
+    finite(name, value)
+
+
+def positive(name: str, value: float, allow_inf: bool = False) -> None:
+    """``value > 0``; ``allow_inf`` admits +inf (e.g. a correlation time meaning 'constant')."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or math.isnan(value) or value <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if not allow_inf and math.isinf(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+
+
+def per_axis(name: str, value: Number | Sequence[Number], n: int | None = None) -> tuple[float, ...]:
+    """Normalise a scalar-or-sequence field to a tuple of floats (length ``n`` when given).
+
+    A scalar is kept as a 1-tuple when ``n`` is None; models broadcast 1-tuples over their
+    axes, so one value can serve every axis.
+    """
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        vals = (float(value),) if n is None else (float(value),) * n
+    else:
+        try:
+            vals = tuple(float(v) for v in value)  # type: ignore[union-attr]
+        except TypeError as exc:
+            raise ValueError(f"{name} must be a number or a sequence of numbers, got {value!r}") from exc
+        if len(vals) == 0:
+            raise ValueError(f"{name} must not be empty")
+        if n is not None and len(vals) != n:
+            raise ValueError(f"{name} must have {n} elements, got {len(vals)}")
+    for v in vals:
+        if not math.isfinite(v):
+            raise ValueError(f"{name} must be finite, got {value!r}")
+    return vals
+
+
+def broadcast(name: str, vals: tuple[float, ...], n: int) -> list[float]:
+    """Expand a 1-tuple to ``n`` axes, or check an ``n``-tuple; raises naming ``name``."""
+    if len(vals) == 1:
+        return [vals[0]] * n
+    if len(vals) != n:
+        raise ValueError(f"{name} has {len(vals)} elements but the sensor has {n} axes")
+    return list(vals)

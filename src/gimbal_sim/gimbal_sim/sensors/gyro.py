@@ -1,0 +1,141 @@
+"""Reusable n-axis gyro error model: parameters at the config edge, presets from the papers.
+
+Terms (SPEC §3.1, paper 1 §3): fixed bias (given and/or drawn per run), first-order
+Gauss-Markov bias instability (exact discretisation), angle random walk, rate random walk,
+scale factor, small-angle axis misalignment, quantisation with carried residual and
+saturation; output as step-average rate [rad/s] or incremental angle [rad]. The maths is in
+:mod:`.inertial_core`; this module converts the unit-suffixed fields to SI once.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _validate as v
+from .inertial_core import ErrorSpecSI, InertialErrorCore
+from .units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
+
+
+def _misalignment(name: str, value: object) -> tuple[tuple[float, ...], ...] | None:
+    if value is None:
+        return None
+    try:
+        M = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a square matrix of numbers, got {value!r}") from exc
+    if M.ndim != 2 or M.shape[0] != M.shape[1] or M.shape[0] < 1:
+        raise ValueError(f"{name} must be a square (n, n) matrix, got shape {M.shape}")
+    if not np.all(np.isfinite(M)):
+        raise ValueError(f"{name} must be finite")
+    if np.any(np.diag(M) != 0.0):
+        raise ValueError(f"{name} must have a zero diagonal (scale errors go in scale_factor_ppm)")
+    return tuple(tuple(float(x) for x in row) for row in M)
+
+
+@dataclass(frozen=True)
+class GyroParams:
+    """Gyro error parameters in engineering units (validated, immutable).
+
+    Per-axis fields take a scalar (every axis) or one value per axis.
+
+    Attributes:
+        bias_deg_h: given fixed bias [°/h].
+        bias_sigma_deg_h: σ of a run-to-run bias drawn once per run and added [°/h].
+        bias_instability_deg_h: stationary RMS of the Gauss-Markov bias instability [°/h].
+        bias_instability_tau_s: its correlation time [s] (> 0; inf = random constant).
+        arw_deg_rt_h: angle random walk [°/√h].
+        rrw_deg_h_rt_h: rate random walk [°/h/√h].
+        scale_factor_ppm: scale-factor error [ppm].
+        misalignment_rad: (n, n) small-angle cross-coupling, zero diagonal [rad], or None.
+        quantisation_rad: incremental-angle quantum [rad] (0 = none).
+        saturation_deg_s: measurement range ±[°/s] (inf = none).
+    """
+
+    bias_deg_h: float | tuple[float, ...] = 0.0
+    bias_sigma_deg_h: float = 0.0
+    bias_instability_deg_h: float = 0.0
+    bias_instability_tau_s: float = math.inf
+    arw_deg_rt_h: float = 0.0
+    rrw_deg_h_rt_h: float = 0.0
+    scale_factor_ppm: float | tuple[float, ...] = 0.0
+    misalignment_rad: tuple[tuple[float, ...], ...] | None = None
+    quantisation_rad: float = 0.0
+    saturation_deg_s: float = math.inf
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "bias_deg_h", v.per_axis("bias_deg_h", self.bias_deg_h))
+        v.nonneg_finite("bias_sigma_deg_h", self.bias_sigma_deg_h)
+        v.nonneg_finite("bias_instability_deg_h", self.bias_instability_deg_h)
+        v.positive("bias_instability_tau_s", self.bias_instability_tau_s, allow_inf=True)
+        v.nonneg_finite("arw_deg_rt_h", self.arw_deg_rt_h)
+        v.nonneg_finite("rrw_deg_h_rt_h", self.rrw_deg_h_rt_h)
+        set_(self, "scale_factor_ppm", v.per_axis("scale_factor_ppm", self.scale_factor_ppm))
+        set_(self, "misalignment_rad", _misalignment("misalignment_rad", self.misalignment_rad))
+        v.nonneg_finite("quantisation_rad", self.quantisation_rad)
+        v.positive("saturation_deg_s", self.saturation_deg_s, allow_inf=True)
+
+    def to_si(self) -> ErrorSpecSI:
+        """The same terms in rad/s, rad/√s, rad/s/√s, rad (done once per model)."""
+        return ErrorSpecSI(
+            bias=tuple(b * DEG_H for b in self.bias_deg_h),  # type: ignore[union-attr]
+            bias_sigma=self.bias_sigma_deg_h * DEG_H,
+            gm_sigma=self.bias_instability_deg_h * DEG_H,
+            gm_tau=float(self.bias_instability_tau_s),
+            white_density=self.arw_deg_rt_h * DEG_RT_H,
+            rrw_density=self.rrw_deg_h_rt_h * DEG_H_RT_H,
+            scale_factor=tuple(s * 1e-6 for s in self.scale_factor_ppm),  # type: ignore[union-attr]
+            misalignment=self.misalignment_rad,
+            quantum=float(self.quantisation_rad),
+            saturation=self.saturation_deg_s * DEG,
+        )
+
+
+class GyroModel(InertialErrorCore):
+    """n-axis gyro: ``step_rate(omega)`` -> rad/s, ``step_increment(omega_avg)`` -> rad.
+
+    Args:
+        params: the error parameters.
+        n_axes: sensing axes (2 for the gimbal gyro's q_m, r_m; 3 for a triad).
+        rng: the run's seeded numpy Generator (this model's own stream).
+        dt: default step [s].
+
+    Inputs are the true inertial rates along the sensing axes, (n,) rad/s, averaged over
+    the step. ``true_bias`` (n,) rad/s is what the simulator publishes as truth.
+    """
+
+    def __init__(self, params: GyroParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
+        if not isinstance(params, GyroParams):
+            raise TypeError(f"params must be GyroParams, got {type(params).__name__}")
+        self.params = params
+        super().__init__(params.to_si(), n_axes, rng, dt)
+
+
+#: Paper 1 gimbal gyro (q_m, r_m): 100 °/h bias (given, so the no-EKF LOS drift of
+#: SPEC §3.1, ~3.3° in 120 s, is reproduced every run), ARW 0.15 °/√h, bias instability
+#: Gauss-Markov 30 °/h RMS with τ = 100 s.
+PAPER1_GIMBAL_GYRO = GyroParams(
+    bias_deg_h=100.0, arw_deg_rt_h=0.15, bias_instability_deg_h=30.0, bias_instability_tau_s=100.0
+)
+
+#: Paper 1 INS rate errors: 1 °/h fixed bias (the paper gives RMS values, so it is drawn
+#: per run with σ = 1 °/h), 1 °/h Gauss-Markov with τ = 60 s, ARW 0.1 °/√h.
+PAPER1_INS_GYRO = GyroParams(
+    bias_sigma_deg_h=1.0, arw_deg_rt_h=0.1, bias_instability_deg_h=1.0, bias_instability_tau_s=60.0
+)
+
+#: Ring-laser-gyro unit noise for paper 5 (the paper gives no figure): ARW 0.001 °/√h,
+#: a navigation-grade RLG.
+LGU_ARW_DEG_RT_H = 0.001
+
+#: Paper 5 LGU1 / LGU2: fixed biases +0.05 °/h and -0.05 °/h on every axis.
+LGU1_GYRO = GyroParams(bias_deg_h=0.05, arw_deg_rt_h=LGU_ARW_DEG_RT_H)
+LGU2_GYRO = GyroParams(bias_deg_h=-0.05, arw_deg_rt_h=LGU_ARW_DEG_RT_H)
+
+
+def as_list(x: Sequence[float] | np.ndarray) -> list[float]:
+    """Plain float list from a vector, for the models' scalar hot paths."""
+    return [float(a) for a in x]

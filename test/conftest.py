@@ -1,0 +1,34 @@
+"""Suite-wide ROS hygiene: DDS stays on loopback, and every process gets its own domain.
+
+This runs before any test module imports rclpy, so the pytest process itself is covered;
+tests that start node processes take a fresh id from the ``ros_domain_env`` fixture.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.pop("ROS_STATIC_PEERS", None)
+
+from gimbal_sim.ros_domain import claim_domain_id  # noqa: E402
+
+_SESSION_DOMAIN = claim_domain_id()
+os.environ["ROS_DOMAIN_ID"] = str(_SESSION_DOMAIN.domain_id)
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+VENV_BIN = Path(sys.executable).parent
+
+
+@pytest.fixture
+def ros_domain_env() -> dict[str, str]:
+    """Environment for a child process: loopback discovery and a domain id of its own."""
+    claim = claim_domain_id()
+    env = dict(os.environ)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env["ROS_DOMAIN_ID"] = str(claim.domain_id)
+    yield env
+    claim.release()
