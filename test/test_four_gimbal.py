@@ -347,7 +347,8 @@ def test_bidirectional_schedule_kinematics(reversal_time_s):
         assert sched.angle(tk) == pytest.approx(sweep if k % 2 else 0.0, abs=1e-9)
     # angle is the integral of the rate (independent quadrature), rate the derivative of angle
     rng = np.random.default_rng(RNG_SEED + 10)
-    pts = sorted({*(rev[:3]), *(rev[:3] - reversal_time_s / 2), *(rev[:3] + reversal_time_s / 2)})
+    pts = sorted({reversal_time_s / 2, *(rev[:3]), *(rev[:3] - reversal_time_s / 2),
+                  *(rev[:3] + reversal_time_s / 2)} - {0.0})
     for t in rng.uniform(0.0, 3 * leg, 20):
         integral, _ = quad(sched.rate, 0.0, t, points=[p for p in pts if p < t], limit=200)
         assert sched.angle(t) == pytest.approx(integral, abs=1e-8)

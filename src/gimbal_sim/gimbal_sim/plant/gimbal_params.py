@@ -74,6 +74,15 @@ class GimbalParams:
     elevation_torque_limit_nm: float = 2.0
 
     def __post_init__(self) -> None:
+        # YAML gives lists: store tuples so the params stay immutable and hashable.
+        for name in ("outer_inertia_kg_m2", "outer_cg_m", "inner_inertia_kg_m2", "inner_cg_m"):
+            value = getattr(self, name)
+            if isinstance(value, str) or not hasattr(value, "__len__"):
+                raise ValueError(f"{name} must be a sequence of numbers, got {value!r}")
+            try:
+                object.__setattr__(self, name, tuple(float(v) for v in value))
+            except (TypeError, ValueError):
+                raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from None
         for name in ("outer_mass_kg", "inner_mass_kg"):
             value = getattr(self, name)
             if not math.isfinite(value) or value <= 0.0:

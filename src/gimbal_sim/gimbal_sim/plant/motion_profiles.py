@@ -334,13 +334,16 @@ def _channel(profile: str, key: str, spec: Any, unit: str, rate_unit: str, scale
     if isinstance(terms, (str, Mapping)) or not isinstance(terms, Sequence):
         raise ValueError(f"{profile}: {key} terms must be a list, got {terms!r}")
     parsed = [_term(profile, f"{key}[{k}]", term, f"amplitude_{unit}", scale) for k, term in enumerate(terms)]
-    return SinusoidChannel(
-        offset=offset, rate=rate,
-        amplitudes=tuple(t[0] for t in parsed),
-        frequencies_rad_s=tuple(t[1] for t in parsed),
-        phases_rad=tuple(t[2] for t in parsed),
-        name=name,
-    )
+    try:
+        return SinusoidChannel(
+            offset=offset, rate=rate,
+            amplitudes=tuple(t[0] for t in parsed),
+            frequencies_rad_s=tuple(t[1] for t in parsed),
+            phases_rad=tuple(t[2] for t in parsed),
+            name=name,
+        )
+    except ValueError as exc:
+        raise ValueError(f"{profile}: {exc}") from None
 
 
 def _make_sinusoids(params: Mapping[str, Any]) -> SinusoidProfile:
@@ -353,10 +356,8 @@ def _make_sinusoids(params: Mapping[str, Any]) -> SinusoidProfile:
     for key, attr in _ACCEL_CHANNELS.items():
         if key in params:
             kwargs[attr] = _channel(profile, key, params[key], "m_s2", "m_s3", 1.0, key)
-    try:
-        return SinusoidProfile(name=profile, site=_site(profile, params), **kwargs)
-    except ValueError as exc:
-        raise ValueError(f"{profile}: {exc}") from None
+    # SinusoidProfile prefixes its own errors with the profile name.
+    return SinusoidProfile(name=profile, site=_site(profile, params), **kwargs)
 
 
 def _make_paper1(params: Mapping[str, Any]) -> SinusoidProfile:
@@ -389,10 +390,7 @@ def _make_static(params: Mapping[str, Any]) -> SinusoidProfile:
     profile = "static"
     _check_keys(profile, params, _SITE_KEYS + _STATIC_KEYS)
     kwargs = {k: _number(profile, k, params[k]) for k in _STATIC_KEYS if k in params}
-    try:
-        return static_base(_site(profile, params), **kwargs)
-    except ValueError as exc:
-        raise ValueError(f"{profile}: {exc}") from None
+    return static_base(_site(profile, params), **kwargs)
 
 
 _FACTORIES = {

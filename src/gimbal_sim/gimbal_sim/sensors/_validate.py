@@ -44,8 +44,10 @@ def per_axis(name: str, value: Number | Sequence[Number], n: int | None = None) 
         vals = (float(value),) if n is None else (float(value),) * n
     else:
         try:
+            if isinstance(value, (str, bytes)):
+                raise TypeError("a string is not a number")
             vals = tuple(float(v) for v in value)  # type: ignore[union-attr]
-        except TypeError as exc:
+        except (TypeError, ValueError) as exc:
             raise ValueError(f"{name} must be a number or a sequence of numbers, got {value!r}") from exc
         if len(vals) == 0:
             raise ValueError(f"{name} must not be empty")

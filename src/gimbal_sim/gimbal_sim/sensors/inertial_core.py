@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._normals import NormalStream
-from ._validate import broadcast, positive
+from ._validate import broadcast, nonneg_finite, positive
 from .markov import gm1_coefficients
 
 
@@ -48,6 +48,12 @@ class ErrorSpecSI:
     misalignment: tuple[tuple[float, ...], ...] | None = None  # (n, n) rad, zero diagonal
     quantum: float = 0.0  # increment quantum [u·s], 0 = none
     saturation: float = math.inf  # output clamp [u]
+
+    def __post_init__(self) -> None:
+        for name in ("bias_sigma", "gm_sigma", "white_density", "rrw_density", "quantum"):
+            nonneg_finite(name, getattr(self, name))
+        positive("gm_tau", self.gm_tau, allow_inf=True)
+        positive("saturation", self.saturation, allow_inf=True)
 
 
 class InertialErrorCore:

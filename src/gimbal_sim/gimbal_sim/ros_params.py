@@ -1,0 +1,67 @@
+"""Declare a node's parameters from one table and load them for its pure-Python core.
+
+Every parameter is declared in a single ``declare_parameters`` call with a
+``ParameterDescriptor`` that carries its description (with units) and its range, so rclpy
+itself refuses an out-of-range or wrongly typed value at startup and names the parameter.
+Checks a range cannot express (choices, cross-parameter rules) run when the values are
+loaded into the core's frozen dataclass, which raises ``ValueError`` naming the parameter.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+from rclpy.node import Node
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: name, default (its type is the parameter's type), description with
+    units, and for numbers an inclusive range [low, high]; for strings a set of choices."""
+
+    name: str
+    default: Any
+    description: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] = ()
+
+    def descriptor(self) -> ParameterDescriptor:
+        desc = ParameterDescriptor(description=self.description)
+        if self.choices:
+            desc.additional_constraints = "one of: " + ", ".join(self.choices)
+        if isinstance(self.default, bool):
+            return desc
+        if isinstance(self.default, float) and (self.low is not None or self.high is not None):
+            desc.floating_point_range = [FloatingPointRange(
+                from_value=-math.inf if self.low is None else float(self.low),
+                to_value=math.inf if self.high is None else float(self.high), step=0.0)]
+        elif isinstance(self.default, int) and (self.low is not None or self.high is not None):
+            desc.integer_range = [IntegerRange(
+                from_value=-(2**63) if self.low is None else int(self.low),
+                to_value=2**63 - 1 if self.high is None else int(self.high), step=1)]
+        return desc
+
+
+class ParameterError(ValueError):
+    """A parameter was refused at startup; the message names it."""
+
+
+def declare_and_read(node: Node, params: Sequence[Param]) -> dict[str, Any]:
+    """Declare ``params`` in one call and return their values by name.
+
+    Raises :class:`ParameterError` naming the parameter for a value rclpy refuses (range,
+    type) or one outside its choices.
+    """
+    try:
+        node.declare_parameters("", [(p.name, p.default, p.descriptor()) for p in params])
+    except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
+        raise ParameterError(str(exc)) from exc
+    values = {p.name: node.get_parameter(p.name).value for p in params}
+    for p in params:
+        if p.choices and values[p.name] not in p.choices:
+            raise ParameterError(f"parameter {p.name!r} = {values[p.name]!r} is not one of {list(p.choices)}")
+    return values

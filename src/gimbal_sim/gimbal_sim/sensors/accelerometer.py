@@ -1,0 +1,84 @@
+"""Accelerometer error model (paper 3: 100 µg grade), on the shared inertial error core.
+
+Terms: fixed bias (given and/or drawn per run), optional Gauss-Markov bias instability,
+white noise (velocity random walk) and scale factor; n = 3 for a triad or 2 for the level
+pair of paper 3's alignment. Output as step-average specific force [m/s²] or velocity
+increment [m/s].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _validate as v
+from .inertial_core import ErrorSpecSI, InertialErrorCore
+from .units import UG, UG_RT_HZ
+
+
+@dataclass(frozen=True)
+class AccelerometerParams:
+    """Accelerometer error parameters in engineering units (validated, immutable).
+
+    Attributes:
+        bias_ug: given fixed bias [µg], scalar or per axis.
+        bias_sigma_ug: σ of a run-to-run bias drawn once per run [µg].
+        bias_instability_ug: Gauss-Markov bias instability RMS [µg].
+        bias_instability_tau_s: its correlation time [s] (> 0; inf = random constant).
+        noise_ug_rt_hz: white noise density [µg/√Hz] (step-average σ = density/√Δt).
+        scale_factor_ppm: scale-factor error [ppm], scalar or per axis.
+    """
+
+    bias_ug: float | tuple[float, ...] = 0.0
+    bias_sigma_ug: float = 0.0
+    bias_instability_ug: float = 0.0
+    bias_instability_tau_s: float = math.inf
+    noise_ug_rt_hz: float = 0.0
+    scale_factor_ppm: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "bias_ug", v.per_axis("bias_ug", self.bias_ug))
+        v.nonneg_finite("bias_sigma_ug", self.bias_sigma_ug)
+        v.nonneg_finite("bias_instability_ug", self.bias_instability_ug)
+        v.positive("bias_instability_tau_s", self.bias_instability_tau_s, allow_inf=True)
+        v.nonneg_finite("noise_ug_rt_hz", self.noise_ug_rt_hz)
+        object.__setattr__(self, "scale_factor_ppm", v.per_axis("scale_factor_ppm", self.scale_factor_ppm))
+
+    def to_si(self) -> ErrorSpecSI:
+        """The same terms in m/s² and m/s/√s."""
+        return ErrorSpecSI(
+            bias=tuple(b * UG for b in self.bias_ug),  # type: ignore[union-attr]
+            bias_sigma=self.bias_sigma_ug * UG,
+            gm_sigma=self.bias_instability_ug * UG,
+            gm_tau=float(self.bias_instability_tau_s),
+            white_density=self.noise_ug_rt_hz * UG_RT_HZ,
+            scale_factor=tuple(s * 1e-6 for s in self.scale_factor_ppm),  # type: ignore[union-attr]
+        )
+
+
+class AccelerometerModel(InertialErrorCore):
+    """n-axis accelerometer: ``step_rate(f)`` -> m/s², ``step_increment(f_avg)`` -> m/s.
+
+    Args:
+        params: the error parameters.
+        n_axes: 3 for a triad, 2 for a level pair.
+        rng: the run's seeded numpy Generator (this model's own stream).
+        dt: default step [s].
+
+    Input: true specific force along the sensing axes, (n,) m/s², averaged over the step.
+    ``true_bias`` (n,) m/s² is the truth to publish.
+    """
+
+    def __init__(self, params: AccelerometerParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
+        if not isinstance(params, AccelerometerParams):
+            raise TypeError(f"params must be AccelerometerParams, got {type(params).__name__}")
+        self.params = params
+        super().__init__(params.to_si(), n_axes, rng, dt)
+
+    step = InertialErrorCore.step_rate
+
+
+#: Paper 3 accelerometers: "accuracy 100 µg" read as a run-to-run bias with σ = 100 µg
+#: per axis; white noise 50 µg/√Hz is our choice (quartz-flexure class, paper gives none).
+PAPER3_ACCELEROMETER = AccelerometerParams(bias_sigma_ug=100.0, noise_ug_rt_hz=50.0)
