@@ -116,3 +116,16 @@ def test_euler_rates_body_rates_against_dcm_derivative():
         omega = rt.euler_rates_to_body_rates(e0[0], e0[1], de)
         np.testing.assert_allclose(omega, omega_num, atol=1e-8)
         np.testing.assert_allclose(rt.body_rates_to_euler_rates(e0[0], e0[1], omega), de, atol=1e-10)
+
+
+def test_rotation_vector_maps_match_scipy():
+    rng = np.random.default_rng(RNG_SEED + 6)
+    for scale in (1e-9, 1e-5, 1e-2, 1.0, 3.0):
+        for _ in range(30):
+            v = rng.normal(size=3)
+            v *= scale / np.linalg.norm(v) if scale < 3.0 else rng.uniform(0.0, math.pi) / np.linalg.norm(v)
+            ref = Rotation.from_rotvec(v)
+            C = rt.dcm_from_rotation_vector(v)
+            # scipy's from_rotvec is an active rotation by v: the matrix exp(skew(v))
+            np.testing.assert_allclose(C, ref.as_matrix(), atol=1e-15)
+            np.testing.assert_allclose(rt.rotation_vector_from_dcm(C), v, atol=1e-12 * max(1.0, scale))

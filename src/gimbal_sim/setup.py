@@ -23,6 +23,8 @@ setup(
     entry_points={
         "console_scripts": [
             "gimbal-run = gimbal_sim.run_cli:main",
+            "vehicle_dynamics = gimbal_sim.vehicle_dynamics_node:main",
+            "sensor_models = gimbal_sim.sensor_models_node:main",
         ],
     },
 )

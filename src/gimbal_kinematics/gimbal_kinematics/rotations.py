@@ -225,3 +225,41 @@ def body_rates_to_euler_rates(roll: float, pitch: float, omega_b: np.ndarray) ->
     cr, sr = math.cos(roll), math.sin(roll)
     tp = math.sin(pitch) / cp
     return np.array([p + (q * sr + r * cr) * tp, q * cr - r * sr, (q * sr + r * cr) / cp])
+
+
+def dcm_from_rotation_vector(rotvec: np.ndarray) -> np.ndarray:
+    """Rotation matrix ``exp(skew(v))`` of a rotation vector ``v`` [rad]; (3,) -> (3, 3).
+
+    With ``C_ab = dcm_from_rotation_vector(v)``, frame b is frame a turned by |v| about v.
+    Rodrigues' formula with series coefficients near zero, so tiny angles stay exact.
+    """
+    x, y, z = float(rotvec[0]), float(rotvec[1]), float(rotvec[2])
+    a2 = x * x + y * y + z * z
+    if a2 < 1e-8:
+        s = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
+        c = 0.5 - a2 / 24.0 + a2 * a2 / 720.0
+    else:
+        a = math.sqrt(a2)
+        s = math.sin(a) / a
+        c = (1.0 - math.cos(a)) / a2
+    return np.array(
+        [
+            [1.0 - c * (y * y + z * z), c * x * y - s * z, c * x * z + s * y],
+            [c * x * y + s * z, 1.0 - c * (x * x + z * z), c * y * z - s * x],
+            [c * x * z - s * y, c * y * z + s * x, 1.0 - c * (x * x + y * y)],
+        ]
+    )
+
+
+def rotation_vector_from_dcm(C: np.ndarray) -> np.ndarray:
+    """Rotation vector ``v`` [rad], |v| ≤ π, with ``exp(skew(v)) = C``; (3, 3) -> (3,).
+
+    Exact inverse of :func:`dcm_from_rotation_vector` (the matrix logarithm), computed
+    through the quaternion so it stays accurate near 0 and near π.
+    """
+    q = dcm_to_quat(C)
+    vec_norm = math.sqrt(float(q[0] ** 2 + q[1] ** 2 + q[2] ** 2))
+    if vec_norm < 1e-300:
+        return np.zeros(3)
+    angle = 2.0 * math.atan2(vec_norm, q[3])
+    return q[:3] * (angle / vec_norm)

@@ -13,14 +13,20 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+from rclpy.exceptions import (
+    InvalidParameterTypeException, InvalidParameterValueException, ParameterUninitializedException,
+)
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 
 @dataclass(frozen=True)
 class Param:
     """One parameter: name, default (its type is the parameter's type), description with
-    units, and for numbers an inclusive range [low, high]; for strings a set of choices."""
+    units, and for numbers an inclusive range [low, high]; for strings a set of choices.
+
+    An empty-list default cannot carry its element type, so it needs ``array_type``
+    (e.g. ``Parameter.Type.STRING_ARRAY``); unset, such a parameter reads as ``[]``."""
 
     name: str
     default: Any
@@ -28,6 +34,14 @@ class Param:
     low: float | None = None
     high: float | None = None
     choices: tuple[str, ...] = ()
+    array_type: Parameter.Type | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.default, list) and not self.default and self.array_type is None:
+            raise ValueError(f"Param {self.name!r}: an empty-list default needs array_type")
+
+    def declared_value(self) -> Any:
+        return self.array_type if self.array_type is not None and not self.default else self.default
 
     def descriptor(self) -> ParameterDescriptor:
         desc = ParameterDescriptor(description=self.description)
@@ -57,10 +71,15 @@ def declare_and_read(node: Node, params: Sequence[Param]) -> dict[str, Any]:
     type) or one outside its choices.
     """
     try:
-        node.declare_parameters("", [(p.name, p.default, p.descriptor()) for p in params])
+        node.declare_parameters("", [(p.name, p.declared_value(), p.descriptor()) for p in params])
     except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
         raise ParameterError(str(exc)) from exc
-    values = {p.name: node.get_parameter(p.name).value for p in params}
+    values = {}
+    for p in params:
+        try:
+            values[p.name] = node.get_parameter(p.name).value
+        except ParameterUninitializedException:
+            values[p.name] = []
     for p in params:
         if p.choices and values[p.name] not in p.choices:
             raise ParameterError(f"parameter {p.name!r} = {values[p.name]!r} is not one of {list(p.choices)}")

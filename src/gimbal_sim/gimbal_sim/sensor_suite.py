@@ -1,0 +1,198 @@
+"""Sensor suite core: turns the vehicle's truth into measurements (no rclpy).
+
+Each enabled sensor runs at its own rate, an integer divisor of the simulation rate, and
+takes its own random stream: ``numpy.random.default_rng([seed, crc32(sensor name)])``, so
+enabling or re-rating one sensor never changes another's noise. Sensors:
+
+* ``ins``: host INS attitude and body rates with paper 1's errors (:mod:`.sensors.ins`);
+* ``gimbal_gyro``: two-axis rate gyro on the inner gimbal (q_m, r_m only);
+* ``encoders``: turret, gimbal azimuth and elevation encoders (angle and pulse-rate);
+* ``lgu``: the two ring-laser-gyro units of paper 5 with the ship flexure between them;
+  LGU increments are accumulated at the simulation rate and published at ``lgu_rate_hz``;
+* ``platform_imu``: accelerometer and gyro triads on the paper 3 stable element.
+"""
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from .sensors import (
+    PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,
+    AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
+    GyroParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
+)
+from .vehicle import VehicleTruth
+
+#: Sensor name -> the config field holding its output rate [Hz].
+SENSOR_RATES = {"ins": "ins_rate_hz", "gimbal_gyro": "gimbal_gyro_rate_hz", "encoders": "encoder_rate_hz",
+                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz"}
+SENSORS = tuple(SENSOR_RATES)
+
+
+@dataclass(frozen=True)
+class SensorSuiteConfig:
+    """Which sensors run, at what rates [Hz], with which error parameters."""
+
+    sensors: tuple[str, ...] = ("ins", "gimbal_gyro", "encoders")
+    sim_rate_hz: float = 1000.0
+    seed: int = 0
+    ins_rate_hz: float = 100.0
+    gimbal_gyro_rate_hz: float = 1000.0
+    encoder_rate_hz: float = 1000.0
+    lgu_rate_hz: float = 100.0
+    platform_imu_rate_hz: float = 100.0
+    ins: InsParams = field(default_factory=InsParams)
+    gimbal_gyro: GyroParams = PAPER1_GIMBAL_GYRO
+    encoder: EncoderParams = PAPER1_ENCODER
+    flexure: FlexureParams = field(default_factory=FlexureParams)
+    lgu1: GyroParams = LGU1_GYRO
+    lgu2: GyroParams = LGU2_GYRO
+    platform_gyro: GyroParams = PAPER3_GYRO
+    platform_accel: AccelerometerParams = PAPER3_ACCELEROMETER
+
+    def __post_init__(self) -> None:
+        unknown = [s for s in self.sensors if s not in SENSORS]
+        if unknown:
+            raise ValueError(f"sensors: unknown {unknown}; known: {list(SENSORS)}")
+        if not (math.isfinite(self.sim_rate_hz) and self.sim_rate_hz > 0.0):
+            raise ValueError(f"sim_rate_hz must be > 0, got {self.sim_rate_hz}")
+        for sensor in self.sensors:
+            self.decimation(SENSOR_RATES[sensor])
+
+    def decimation(self, rate_name: str) -> int:
+        """Simulation steps per sample of the rate ``rate_name``; raises ``ValueError``
+        naming it when it does not divide the simulation rate."""
+        rate = getattr(self, rate_name)
+        if not (math.isfinite(rate) and rate > 0.0):
+            raise ValueError(f"{rate_name} must be > 0 Hz, got {rate}")
+        ratio = self.sim_rate_hz / rate
+        n = int(round(ratio))
+        if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+            raise ValueError(f"{rate_name} = {rate} Hz does not divide sim_rate_hz = {self.sim_rate_hz} Hz")
+        return n
+
+
+class InsSample(NamedTuple):
+    t: float
+    euler: tuple[float, float, float]
+    omega_b: tuple[float, float, float]
+    true_gyro_bias: tuple[float, float, float]
+
+
+class GimbalGyroSample(NamedTuple):
+    t: float
+    q_m: float
+    r_m: float
+    true_bias: tuple[float, float]
+
+
+class EncoderSample(NamedTuple):
+    t: float
+    names: tuple[str, ...]
+    angles: tuple[float, ...]
+    rates: tuple[float, ...]
+
+
+class LguSample(NamedTuple):
+    """Increments [rad] accumulated over ``dt`` [s] ending at ``t``; flexure truth [rad]."""
+
+    t: float
+    dt: float
+    dalpha1: tuple[float, float, float]
+    dalpha2: tuple[float, float, float]
+    flexure: tuple[float, float, float]
+    flexure_quasi_static: tuple[float, float, float]
+
+
+class PlatformImuSample(NamedTuple):
+    t: float
+    specific_force: tuple[float, float, float]
+    omega: tuple[float, float, float]
+    true_accel_bias: tuple[float, float, float]
+    true_gyro_bias: tuple[float, float, float]
+
+
+def sensor_rng(seed: int, sensor: str) -> np.random.Generator:
+    """The sensor's own stream, independent of which other sensors are enabled."""
+    return np.random.default_rng([int(seed) & 0xFFFFFFFF, zlib.crc32(sensor.encode())])
+
+
+def _floats(values: Sequence[float]) -> tuple[float, ...]:
+    return tuple(float(v) for v in values)
+
+
+class SensorSuite:
+    """Feed :meth:`update` every simulation step's truth, in order; it returns the samples
+    due at that step. Sample types: the ``*Sample`` named tuples of this module."""
+
+    def __init__(self, config: SensorSuiteConfig) -> None:
+        self.config = config
+        dt = 1.0 / config.sim_rate_hz
+        self._dt = dt
+        on = set(config.sensors)
+        self._dec = {SENSOR_RATES[s]: config.decimation(SENSOR_RATES[s]) for s in config.sensors}
+        rng = lambda name: sensor_rng(config.seed, name)  # noqa: E731
+        self.ins = InsModel(config.ins, rng("ins"), dt * self._dec["ins_rate_hz"]) if "ins" in on else None
+        self.gimbal_gyro = (GyroModel(config.gimbal_gyro, 2, rng("gimbal_gyro"), dt * self._dec["gimbal_gyro_rate_hz"])
+                            if "gimbal_gyro" in on else None)
+        self.encoders = (EncoderModel(config.encoder, 3, rng("encoders"), dt * self._dec["encoder_rate_hz"])
+                         if "encoders" in on else None)
+        self.lgu = None
+        if "lgu" in on:
+            flexure = ShipFlexureTruth(config.flexure, rng("flexure"), dt)
+            self.lgu = LguPair(flexure, rng("lgu"), dt, config.lgu1, config.lgu2)
+            self._lgu_acc = [np.zeros(3), np.zeros(3)]
+        self.platform_accel = self.platform_gyro = None
+        if "platform_imu" in on:
+            pdt = dt * self._dec["platform_imu_rate_hz"]
+            self.platform_accel = AccelerometerModel(config.platform_accel, 3, rng("platform_accel"), pdt)
+            self.platform_gyro = GyroModel(config.platform_gyro, 3, rng("platform_gyro"), pdt)
+        self._last_k: int | None = None
+        #: Steps that never arrived (the models bridge them with their nominal step).
+        self.missed_steps = 0
+
+    def update(self, truth: VehicleTruth) -> list[NamedTuple]:
+        """Samples due at ``truth.k``. Steps must rise; a skipped step is counted in
+        ``missed_steps``, and a step at or before the last one raises ``ValueError``."""
+        k = truth.k
+        if self._last_k is not None and k <= self._last_k:
+            raise ValueError(f"truth step {k} out of order (last was {self._last_k})")
+        self.missed_steps += k - (0 if self._last_k is None else self._last_k + 1)
+        self._last_k = k
+        out: list[NamedTuple] = []
+        if self.lgu is not None and k > 0:
+            d1, d2 = self.lgu.step(truth.delta_angle_b, self._dt)
+            self._lgu_acc[0] += d1
+            self._lgu_acc[1] += d2
+        due = lambda name: k % self._dec[name] == 0  # noqa: E731
+        if self.ins is not None and due("ins_rate_hz"):
+            euler, omega = self.ins.step(truth.euler, truth.omega_ib_b)
+            out.append(InsSample(truth.t, _floats(euler), _floats(omega), _floats(self.ins.true_gyro_bias)))
+        if self.gimbal_gyro is not None and due("gimbal_gyro_rate_hz"):
+            if truth.omega_im_m is None:
+                raise ValueError("gimbal_gyro needs the two_axis_gimbal plant")
+            q_m, r_m = self.gimbal_gyro.step_rate(truth.omega_im_m[1:])
+            out.append(GimbalGyroSample(truth.t, float(q_m), float(r_m), _floats(self.gimbal_gyro.true_bias)))
+        if self.encoders is not None and due("encoder_rate_hz"):
+            if len(truth.joint_position) != 3:
+                raise ValueError("encoders need the two_axis_gimbal plant")
+            angles, rates = self.encoders.step(truth.joint_position)
+            out.append(EncoderSample(truth.t, truth.joint_names, _floats(angles), _floats(rates)))
+        if self.lgu is not None and k > 0 and due("lgu_rate_hz"):
+            flex = self.lgu.flexure
+            out.append(LguSample(truth.t, self._dt * self._dec["lgu_rate_hz"], _floats(self._lgu_acc[0]),
+                                 _floats(self._lgu_acc[1]), _floats(flex.angle),
+                                 _floats(flex.quasi_static_angle(flex.t))))
+            self._lgu_acc = [np.zeros(3), np.zeros(3)]
+        if self.platform_accel is not None and due("platform_imu_rate_hz"):
+            if truth.specific_force_m is None or len(truth.joint_position) != 4:
+                raise ValueError("platform_imu needs the four_gimbal_platform plant")
+            f = self.platform_accel.step(truth.specific_force_m)
+            w = self.platform_gyro.step_rate(truth.omega_im_m)
+            out.append(PlatformImuSample(truth.t, _floats(f), _floats(w), _floats(self.platform_accel.true_bias),
+                                         _floats(self.platform_gyro.true_bias)))
+        return out

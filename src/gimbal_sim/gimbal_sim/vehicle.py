@@ -1,0 +1,236 @@
+"""Vehicle dynamics core: host motion profile + plant, stepped in lockstep (no rclpy).
+
+One ``VehicleCore`` owns the simulation clock (step index k, t = k·dt) and integrates the
+host (analytic profile) and one plant:
+
+* ``two_axis_gimbal``: the paper 1 sighting system (:mod:`.plant.gimbal_dynamics`),
+  commanded by joint torques (τ_a, τ_e) [N·m];
+* ``four_gimbal_platform``: the paper 3 platform as four single-axis DC-motor loops
+  (:mod:`.plant.platform_loops`), commanded by motor voltages [V] in the order
+  azimuth a, inner roll q, pitch p, outer roll r;
+* ``host_only``: no plant (e.g. the ship carrying the LGUs of paper 5).
+
+Platform model: each loop's angle is the stable element's angle about that axis relative to
+the local-level frame n (its rate likewise), so the platform attitude is
+``C_sn = rot1(θ_q) rot2(θ_p) rot3(θ_a)``; the earth rate is constant about each axis, so the
+loop dynamics are the same in n as in inertial space. The outer-roll loop is simulated and
+reported but does not enter the stable-element attitude (it only keeps the inner roll
+gimbal at null).
+
+:meth:`VehicleCore.truth` returns the exact state at t_k; :meth:`VehicleCore.step` advances
+to t_{k+1} with the command held over the step (zero-order hold).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, NamedTuple, Sequence
+
+import numpy as np
+
+from gimbal_kinematics.rotations import (
+    dcm_from_rotation_vector, dcm_to_quat, euler321_to_dcm, rot1, rot2, rot3, rotation_vector_from_dcm,
+)
+from gimbal_kinematics.sighting_chain import dcm_nm, omega_m_m
+
+from .plant.gimbal_dynamics import GimbalSimulator
+from .plant.gimbal_params import GimbalParams
+from .plant.host_state import HostState, inertial_rates_scalar
+from .plant.motion_profiles import PROFILE_NAMES, make_profile
+from .plant.platform_loops import PlatformAxis, paper3_axis_params
+from .plant.turret_base import site_environment
+
+PLANTS = ("two_axis_gimbal", "four_gimbal_platform", "host_only")
+GIMBAL_JOINTS = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
+GIMBAL_COMMAND_JOINTS = ("gimbal_azimuth", "gimbal_elevation")
+PLATFORM_JOINTS = ("platform_azimuth", "platform_inner_roll", "platform_pitch", "platform_outer_roll")
+_PLATFORM_AXES = ("a", "q", "p", "r")
+ARCSEC = math.radians(1.0 / 3600.0)
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    """Parameters of the vehicle core; angles at this edge in degrees (unit in the name).
+
+    ``profile_params`` is the mapping :func:`.plant.motion_profiles.make_profile` takes.
+    ``initial_joints_deg``: (ψm, θm) for the gimbal; (θ_a, θ_q, θ_p, θ_r) for the platform.
+    ``platform_substeps``: RK4 substeps per simulation step of the DC-motor loops (their
+    electrical time constant is about 1 ms).
+    """
+
+    profile: str = "paper1_land_vehicle"
+    profile_params: Mapping[str, Any] = field(default_factory=dict)
+    plant: str = "two_axis_gimbal"
+    sim_rate_hz: float = 1000.0
+    duration_s: float = 120.0
+    earth_rate: bool = True
+    initial_joints_deg: tuple[float, ...] = ()
+    platform_substeps: int = 4
+
+    def __post_init__(self) -> None:
+        if self.profile not in PROFILE_NAMES:
+            raise ValueError(f"profile {self.profile!r} is unknown; known: {sorted(PROFILE_NAMES)}")
+        if self.plant not in PLANTS:
+            raise ValueError(f"plant {self.plant!r} is unknown; known: {list(PLANTS)}")
+        if not (math.isfinite(self.sim_rate_hz) and self.sim_rate_hz > 0.0):
+            raise ValueError(f"sim_rate_hz must be > 0, got {self.sim_rate_hz}")
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0.0):
+            raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
+        n_joints = {"two_axis_gimbal": 2, "four_gimbal_platform": 4, "host_only": 0}[self.plant]
+        if self.initial_joints_deg and len(self.initial_joints_deg) != n_joints:
+            raise ValueError(
+                f"initial_joints_deg needs {n_joints} values for plant {self.plant!r}, "
+                f"got {len(self.initial_joints_deg)}")
+        if not all(math.isfinite(v) for v in self.initial_joints_deg):
+            raise ValueError("initial_joints_deg must be finite")
+        if self.platform_substeps < 1:
+            raise ValueError(f"platform_substeps must be >= 1, got {self.platform_substeps}")
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.sim_rate_hz
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps to reach ``duration_s``."""
+        return int(round(self.duration_s * self.sim_rate_hz))
+
+    @property
+    def command_size(self) -> int:
+        return {"two_axis_gimbal": 2, "four_gimbal_platform": 4, "host_only": 0}[self.plant]
+
+
+class VehicleTruth(NamedTuple):
+    """Exact state at step ``k`` (t = k·dt) [SI units, rad].
+
+    ``quat_nb``: host attitude (x, y, z, w); ``omega_ib_b``: host inertial rate in b;
+    ``specific_force_b``: pivot acceleration minus gravity in b [m/s²];
+    ``delta_angle_b``: the exact rotation vector of b over the step ending at t, resolved
+    in b at the step's start (zeros at k = 0). ``joint_*``: per ``joint_names``.
+    ``quat_nm``/``omega_im_m``: inner gimbal (or stable element, for the platform)
+    attitude and inertial rate; ``specific_force_m``: its specific force [m/s²].
+    """
+
+    k: int
+    t: float
+    euler: tuple[float, float, float]
+    quat_nb: np.ndarray
+    omega_ib_b: tuple[float, float, float]
+    specific_force_b: tuple[float, float, float]
+    delta_angle_b: np.ndarray
+    joint_names: tuple[str, ...]
+    joint_position: tuple[float, ...]
+    joint_velocity: tuple[float, ...]
+    joint_effort: tuple[float, ...]
+    quat_nm: np.ndarray | None
+    omega_im_m: tuple[float, float, float] | None
+    specific_force_m: tuple[float, float, float] | None
+
+
+class VehicleCore:
+    """Host + plant integrated at ``config.dt``; see the module docstring."""
+
+    def __init__(self, config: VehicleConfig, gimbal_params: GimbalParams | None = None) -> None:
+        self.config = config
+        self.profile = make_profile(config.profile, dict(config.profile_params))
+        site = self.profile.site
+        self.env = site_environment(site.lat_rad, site.height_m, config.earth_rate)
+        self._earth_step = dcm_from_rotation_vector(np.asarray(self.env.omega_in_n) * config.dt)
+        self.k = 0
+        self._gimbal: GimbalSimulator | None = None
+        self._platform: list[PlatformAxis] = []
+        self._platform_x: list[tuple[float, float, float]] = []
+        self._applied: tuple[float, ...] = (0.0,) * config.command_size
+        init = [math.radians(v) for v in config.initial_joints_deg] or [0.0] * config.command_size
+        if config.plant == "two_axis_gimbal":
+            self._gimbal = GimbalSimulator(self.profile, config.dt, gimbal_params,
+                                           x0=(init[0], init[1], 0.0, 0.0), earth_rate=config.earth_rate)
+            self._host = self._gimbal.host
+        else:
+            self._host = self.profile.sample(0.0)
+        if config.plant == "four_gimbal_platform":
+            self._platform = [PlatformAxis(paper3_axis_params(axis)) for axis in _PLATFORM_AXES]
+            self._platform_x = [(angle, 0.0, 0.0) for angle in init]
+        self._C_nb = euler321_to_dcm(self._host.roll, self._host.pitch, self._host.yaw)
+        self._delta = np.zeros(3)
+
+    @property
+    def t(self) -> float:
+        return self.k * self.config.dt
+
+    @property
+    def finished(self) -> bool:
+        return self.k >= self.config.n_steps
+
+    def saturate(self, command: Sequence[float]) -> tuple[float, ...]:
+        """The command the plant actually applies (torque or voltage limits)."""
+        if self._gimbal is not None:
+            return self._gimbal.dynamics.saturate(command)
+        return tuple(axis.saturate(v) for axis, v in zip(self._platform, command))
+
+    def step(self, command: Sequence[float] = ()) -> None:
+        """Advance from t_k to t_{k+1} holding ``command`` (length ``config.command_size``)."""
+        if len(command) != self.config.command_size:
+            raise ValueError(f"command needs {self.config.command_size} values, got {len(command)}")
+        dt = self.config.dt
+        if self._gimbal is not None:
+            self._gimbal.step(command)
+            self._applied = self._gimbal.applied_torque
+            host1 = self._gimbal.host
+        else:
+            host1 = self.profile.sample((self.k + 1) * dt)
+        if self._platform:
+            self._applied = self.saturate(command)
+            self._platform_x = [
+                axis.step(x, v, dt, substeps=self.config.platform_substeps)
+                for axis, x, v in zip(self._platform, self._platform_x, self._applied)
+            ]
+        C_nb1 = euler321_to_dcm(host1.roll, host1.pitch, host1.yaw)
+        self._delta = rotation_vector_from_dcm(self._C_nb.T @ self._earth_step @ C_nb1)
+        self._C_nb, self._host = C_nb1, host1
+        self.k += 1
+
+    def _specific_force_b(self, host: HostState) -> tuple[float, float, float]:
+        g_b = self._C_nb[2, :] * self.env.gravity_m_s2  # C_bn (0, 0, g)
+        return (host.accel_x - g_b[0], host.accel_y - g_b[1], host.accel_z - g_b[2])
+
+    def truth(self) -> VehicleTruth:
+        """Exact state at the current step."""
+        host = self._host
+        rates = inertial_rates_scalar(host, self.env.omega_in_n)
+        omega_b = rates[:3]
+        f_b = self._specific_force_b(host)
+        names: tuple[str, ...] = ()
+        pos: tuple[float, ...] = ()
+        vel: tuple[float, ...] = ()
+        quat_nm = omega_m = f_m = None
+        if self._gimbal is not None:
+            psi_m, theta_m, psi_m_dot, theta_m_dot = self._gimbal.x
+            names = GIMBAL_JOINTS
+            pos = (host.psi_t, psi_m, theta_m)
+            vel = (host.psi_t_dot, psi_m_dot, theta_m_dot)
+            C_nm = dcm_nm((host.roll, host.pitch, host.yaw), host.psi_t, psi_m, theta_m)
+            quat_nm = dcm_to_quat(C_nm)
+            omega_m = tuple(float(v) for v in omega_m_m(np.array(omega_b), pos, vel))
+            f_m = tuple(float(v) for v in C_nm.T @ (self._C_nb @ np.array(f_b)))
+            effort = (0.0,) + tuple(self._applied)
+        elif self._platform:
+            names = PLATFORM_JOINTS
+            pos = tuple(x[0] for x in self._platform_x)
+            vel = tuple(x[1] for x in self._platform_x)
+            theta_a, theta_q, theta_p = pos[0], pos[1], pos[2]
+            C_sn = rot1(theta_q) @ rot2(theta_p) @ rot3(theta_a)
+            quat_nm = dcm_to_quat(C_sn.T)
+            omega_rel = np.array([vel[1], vel[2], vel[0]])
+            omega_m = tuple(float(v) for v in omega_rel + C_sn @ np.asarray(self.env.omega_in_n))
+            f_m = tuple(float(v) for v in C_sn @ np.array([0.0, 0.0, -self.env.gravity_m_s2]))
+            effort = tuple(self._platform_x[j][2] * self._platform[j].params.torque_constant_nm_a for j in range(4))
+        else:
+            effort = ()
+        return VehicleTruth(
+            k=self.k, t=self.t, euler=(host.roll, host.pitch, host.yaw),
+            quat_nb=dcm_to_quat(self._C_nb), omega_ib_b=omega_b, specific_force_b=f_b,
+            delta_angle_b=self._delta.copy(), joint_names=names, joint_position=pos,
+            joint_velocity=vel, joint_effort=effort, quat_nm=quat_nm, omega_im_m=omega_m,
+            specific_force_m=f_m,
+        )

@@ -1,0 +1,269 @@
+"""``vehicle_dynamics`` node: owns ``/clock`` and steps the :class:`.vehicle.VehicleCore`.
+
+Stepping is driven by events, never by timers (except in ``realtime`` mode, whose point is
+the wall clock):
+
+* ``controlled: true``, ``mode: lockstep`` (what scenarios use): after publishing the
+  truth of step k, the node integrates k → k+1 only when the command stamped k arrives.
+  The same inputs therefore give the same outputs, however slow any node is.
+* ``controlled: false``: no controller; the node runs open loop at full speed, re-arming
+  itself through a guard condition so other callbacks interleave.
+* ``mode: realtime``: a wall-clock timer at the simulation rate; a command that is late
+  is replaced by the last one and counted.
+
+Step 0 is published once every truth topic has at least ``wait_for_subscribers`` matched
+subscriptions (and, when controlled, the command topic a publisher).
+
+Readiness and flow control (``pace_topics``): a downstream node that must see every step
+(sensor models, the recorder) publishes on a ``rosgraph_msgs/Clock`` progress topic the
+time of the next step it needs, first once its own publishers are matched ("ready", step
+0) and then as it works. The vehicle publishes step 0 only when every pace topic has
+reported, and never runs more than ``pace_window_steps`` ahead of the slowest, so no reader
+misses a step to discovery and an open-loop run at full speed loses nothing.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import yaml
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.task import Future
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, JointState
+from geometry_msgs.msg import Vector3Stamped
+
+from . import messages as m
+from .node_main import run_node
+from .qos import GRAPH_QOS
+from .plant.motion_profiles import PROFILE_NAMES
+from .ros_params import Param, ParameterError, declare_and_read
+from .vehicle import GIMBAL_COMMAND_JOINTS, PLANTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
+
+DESCRIPTION = (
+    "Simulated host vehicle and gimbal/platform dynamics. Owns /clock and publishes the "
+    "truth topics every step; in lockstep it integrates step k -> k+1 only after the "
+    "command stamped k has arrived."
+)
+
+PARAMS = (
+    Param("profile", "paper1_land_vehicle", "host motion profile", choices=PROFILE_NAMES),
+    Param("profile_params", "{}", "profile parameters as a YAML mapping, e.g. "
+          "'{site: {lat_deg: 39.9}}' (README: host motion profiles)"),
+    Param("plant", "two_axis_gimbal", "plant carried by the host", choices=PLANTS),
+    Param("sim_rate_hz", 1000.0, "simulation (lockstep) rate [Hz]", 1.0, 100000.0),
+    Param("duration_s", 120.0, "simulated duration [s]; the node stops stepping there", 1e-3, 1e7),
+    Param("earth_rate", True, "include the earth rate in inertial rates (false: NED is inertial)"),
+    Param("initial_gimbal_deg", [0.0, 0.0], "initial gimbal azimuth psi_m and elevation theta_m [deg]"),
+    Param("initial_platform_deg", [0.0, 0.0, 0.0, 0.0],
+          "initial platform loop angles azimuth, inner roll, pitch, outer roll [deg]"),
+    Param("mode", "lockstep", "lockstep: step on commands/events; realtime: pace to the wall clock",
+          choices=("lockstep", "realtime")),
+    Param("controlled", False, "a controller commands the plant (lockstep waits for its command)"),
+    Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
+    Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
+          array_type=Parameter.Type.STRING_ARRAY),
+    Param("pace_topics", [], "rosgraph_msgs/Clock progress topics (time of the next step the reader "
+          "needs) of readers to wait for and not outrun",
+          array_type=Parameter.Type.STRING_ARRAY),
+    Param("pace_window_steps", 50, "steps the vehicle may run ahead of the slowest pace topic", 1, 10**6),
+    Param("exit_at_end", False, "exit the process after the last step"),
+)
+
+
+
+def config_from_params(values: dict) -> VehicleConfig:
+    """The core's frozen config from the node's parameter values (raises naming the parameter)."""
+    try:
+        profile_params = yaml.safe_load(values["profile_params"]) or {}
+    except yaml.YAMLError as exc:
+        raise ParameterError(f"parameter 'profile_params' is not valid YAML: {exc}") from exc
+    if not isinstance(profile_params, dict):
+        raise ParameterError("parameter 'profile_params' must be a YAML mapping")
+    initial = {"two_axis_gimbal": values["initial_gimbal_deg"], "four_gimbal_platform": values["initial_platform_deg"],
+               "host_only": []}[values["plant"]]
+    try:
+        return VehicleConfig(profile=values["profile"], profile_params=profile_params, plant=values["plant"],
+                             sim_rate_hz=values["sim_rate_hz"], duration_s=values["duration_s"],
+                             earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial))
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from exc
+
+
+class VehicleDynamicsNode(Node):
+    def __init__(self) -> None:
+        super().__init__("vehicle_dynamics")
+        values = declare_and_read(self, PARAMS)
+        self.config = config_from_params(values)
+        self.core = VehicleCore(self.config)
+        self.controlled = values["controlled"]
+        self.realtime = values["mode"] == "realtime"
+        self.exit_at_end = values["exit_at_end"]
+        self.wait_for_subscribers = values["wait_for_subscribers"]
+        self.done = Future()
+        plant = self.config.plant
+        self._command = (0.0,) * self.config.command_size
+        self._command_k: int | None = None
+        self._command_names = {"two_axis_gimbal": GIMBAL_COMMAND_JOINTS,
+                               "four_gimbal_platform": PLATFORM_JOINTS}.get(plant, ())
+        self.rejected_commands = 0   # NaN/inf, wrong size or names, stale or future stamps
+        self.late_commands = 0       # realtime mode: step taken with the held command
+        self._started = False
+        self._free_running = False
+
+        self.pub_clock = self.create_publisher(Clock, "/clock", GRAPH_QOS)
+        self.pub_host = self.create_publisher(Imu, "/truth/host/imu", GRAPH_QOS)
+        self.pub_delta = self.create_publisher(Vector3Stamped, "/truth/host/delta_angle", GRAPH_QOS)
+        self._truth_pubs = [self.pub_clock, self.pub_host, self.pub_delta]
+        self.pub_joints = self.pub_plant_imu = None
+        if plant != "host_only":
+            prefix = "/truth/gimbal" if plant == "two_axis_gimbal" else "/truth/platform"
+            self.pub_joints = self.create_publisher(JointState, f"{prefix}/joint_states", GRAPH_QOS)
+            self.pub_plant_imu = self.create_publisher(Imu, f"{prefix}/imu", GRAPH_QOS)
+            self._truth_pubs += [self.pub_joints, self.pub_plant_imu]
+        self.pace_window = values["pace_window_steps"]
+        self._next_needed: dict[str, int | None] = {topic: None for topic in values["pace_topics"]}
+        self._pace_subs = [self.create_subscription(Clock, topic, lambda msg, t=topic: self._on_progress(t, msg),
+                                                    GRAPH_QOS) for topic in self._next_needed]
+        self.sub_cmd = None
+        if plant != "host_only" and (self.controlled or self.realtime):
+            topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
+            self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, GRAPH_QOS)
+        self._needed = self._subscriber_counts(values["subscriber_counts"])
+        self._rearm = self.create_guard_condition(self._free_run_step)
+        self._startup_timer = self.create_timer(0.02, self._try_start)
+        self._plant_frame = "gimbal_inner_frd" if plant == "two_axis_gimbal" else "platform_frd"
+
+    # --- start-up handshake -------------------------------------------------------------
+    def _subscriber_counts(self, entries: list[str]) -> dict:
+        """Publisher -> matched subscriptions it needs before step 0."""
+        by_topic = {p.topic_name: p for p in self._truth_pubs}
+        needed = {p: self.wait_for_subscribers for p in self._truth_pubs}
+        for entry in entries:
+            topic, _, count = entry.partition("=")
+            if topic not in by_topic or not count.strip().isdigit():
+                raise ParameterError(f"parameter 'subscriber_counts': entry {entry!r} is not 'topic=count' "
+                                     f"with topic one of {sorted(by_topic)}")
+            needed[by_topic[topic]] = int(count)
+        return needed
+
+    def _try_start(self) -> None:
+        if any(p.get_subscription_count() < n for p, n in self._needed.items()):
+            return
+        if self.sub_cmd is not None and self.controlled and self.sub_cmd.get_publisher_count() < 1:
+            return
+        if any(step is None for step in self._next_needed.values()):
+            return
+        self._startup_timer.cancel()
+        self.destroy_timer(self._startup_timer)
+        self._started = True
+        self.get_logger().info(
+            f"starting: {self.config.profile}/{self.config.plant} at {self.config.sim_rate_hz:g} Hz "
+            f"for {self.config.duration_s:g} s ({'controlled' if self.controlled else 'open loop'}, "
+            f"{'realtime' if self.realtime else 'lockstep'})")
+        self._publish_truth(self.core.truth())
+        if self.realtime:
+            self.create_timer(self.config.dt, self._realtime_step)
+        elif not self.controlled:
+            self._rearm.trigger()
+
+    # --- commands --------------------------------------------------------------------------
+    def _on_command(self, msg: JointState) -> None:
+        k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.config.sim_rate_hz)
+        if not self._started or k != self.core.k:
+            self.rejected_commands += 1
+            self.get_logger().warning(
+                f"command stamped for step {k} while at step {self.core.k}: ignored "
+                f"({self.rejected_commands} rejected)", throttle_duration_sec=1.0)
+            return
+        self._command_k = k
+        values = self._command_values(msg)
+        if values is not None:
+            self._command = values
+        if not self.realtime:
+            self._advance()
+
+    def _on_progress(self, topic: str, msg: Clock) -> None:
+        step = m.step_of_stamp(m.stamp_ns(msg.clock), self.config.sim_rate_hz)
+        self._next_needed[topic] = max(step, self._next_needed[topic] or 0)
+        if self._started and not self.realtime:
+            if self.controlled:
+                self._advance()
+            elif not self._free_running:
+                self._free_run_step()
+
+    def _command_values(self, msg: JointState) -> tuple[float, ...] | None:
+        """The command in plant order, or None (counted, logged) if it must not be used."""
+        effort = list(msg.effort)
+        if msg.name:
+            if set(msg.name) != set(self._command_names) or len(msg.name) != len(effort):
+                problem = f"joint names {list(msg.name)} != {list(self._command_names)}"
+            else:
+                order = {name: i for i, name in enumerate(msg.name)}
+                effort = [effort[order[name]] for name in self._command_names]
+                problem = ""
+        else:
+            problem = "" if len(effort) == len(self._command_names) else f"{len(effort)} efforts"
+        if not problem and not all(math.isfinite(v) for v in effort):
+            problem = f"non-finite effort {effort}"
+        if problem:
+            self.rejected_commands += 1
+            self.get_logger().warning(f"bad command ({problem}): holding the last good one "
+                                      f"({self.rejected_commands} rejected)", throttle_duration_sec=1.0)
+            return None
+        return tuple(effort)
+
+    # --- stepping --------------------------------------------------------------------------
+    def _paced(self) -> bool:
+        """True when publishing step k+1 would put it a window ahead of a pace reader."""
+        return bool(self._next_needed) and min(self._next_needed.values()) + self.pace_window <= self.core.k + 1
+
+    def _advance(self) -> bool:
+        """Take step k -> k+1 if its command is in and no reader would be outrun."""
+        if self.core.finished or self._paced():
+            return False
+        if self.controlled and not self.realtime and self._command_k != self.core.k:
+            return False
+        self.core.step(self._command)
+        self._publish_truth(self.core.truth())
+        if self.core.finished:
+            self.get_logger().info(f"reached {self.core.t:g} s after {self.core.k} steps; "
+                                   f"{self.rejected_commands} commands rejected, {self.late_commands} late")
+            if self.exit_at_end:
+                self.done.set_result(True)
+        return True
+
+    def _free_run_step(self) -> None:
+        # Re-arming through the guard condition lets other callbacks run between steps;
+        # when paced, the next progress message restarts the loop instead.
+        self._free_running = self._advance() and not self.core.finished
+        if self._free_running:
+            self._rearm.trigger()
+
+    def _realtime_step(self) -> None:
+        if self.sub_cmd is not None and self._command_k != self.core.k:
+            self.late_commands += 1
+        self._advance()
+
+    def _publish_truth(self, truth: VehicleTruth) -> None:
+        t_ns = m.step_stamp_ns(truth.k, self.config.sim_rate_hz)
+        self.pub_host.publish(m.imu_msg(t_ns, "base_link_frd", orientation=truth.quat_nb,
+                                        angular_velocity=truth.omega_ib_b,
+                                        linear_acceleration=truth.specific_force_b))
+        self.pub_delta.publish(m.vector3_msg(t_ns, "base_link_frd", truth.delta_angle_b))
+        if self.pub_joints is not None:
+            self.pub_joints.publish(m.joint_state_msg(t_ns, truth.joint_names, truth.joint_position,
+                                                      truth.joint_velocity, truth.joint_effort))
+            self.pub_plant_imu.publish(m.imu_msg(t_ns, self._plant_frame, orientation=truth.quat_nm,
+                                                 angular_velocity=truth.omega_im_m,
+                                                 linear_acceleration=truth.specific_force_m))
+        self.pub_clock.publish(m.clock_msg(t_ns))
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(VehicleDynamicsNode, "vehicle_dynamics", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
