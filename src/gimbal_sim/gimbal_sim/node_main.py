@@ -28,7 +28,12 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
     """Parse ``--help``, start rclpy, build the node and spin it; returns the exit code."""
     argv = list(sys.argv if argv is None else argv)
     parser = argparse.ArgumentParser(prog=prog, description=description, epilog=ROS_ARGS_EPILOG)
-    parser.parse_args(remove_ros_args(argv)[1:])
+    try:
+        non_ros_args = remove_ros_args(argv)
+    except RuntimeError as exc:  # rcl's RCLInvalidROSArgsError
+        print(f"{prog}: refused to start: malformed --ros-args: {exc}", file=sys.stderr)
+        return 2
+    parser.parse_args(non_ros_args[1:])
     localhost_env()
     rclpy.init(args=argv)
     try:

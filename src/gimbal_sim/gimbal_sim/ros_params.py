@@ -84,3 +84,17 @@ def declare_and_read(node: Node, params: Sequence[Param]) -> dict[str, Any]:
         if p.choices and values[p.name] not in p.choices:
             raise ParameterError(f"parameter {p.name!r} = {values[p.name]!r} is not one of {list(p.choices)}")
     return values
+
+
+def params_yaml(node_name: str, params: Sequence[Param]) -> str:
+    """The node's default ``--params-file`` YAML (``ros__parameters``), descriptions as
+    comments. An empty-list parameter is written commented out: rcl cannot type ``[]``."""
+    import yaml
+
+    lines = [f"# Default parameters of the {node_name} node (units in the names).",
+             f"# Use: ros2 run <package> {node_name} --ros-args --params-file {node_name}.yaml",
+             f"{node_name}:", "  ros__parameters:"]
+    for p in params:
+        value = yaml.safe_dump(p.default, default_flow_style=True, width=1000).strip().removesuffix("\n...")
+        lines += [f"    # {p.description}", f"    {'# ' if p.default == [] else ''}{p.name}: {value}"]
+    return "\n".join(lines) + "\n"

@@ -50,7 +50,7 @@ DESCRIPTION = (
 PARAMS = (
     Param("profile", "paper1_land_vehicle", "host motion profile", choices=PROFILE_NAMES),
     Param("profile_params", "{}", "profile parameters as a YAML mapping, e.g. "
-          "'{site: {lat_deg: 39.9}}' (README: host motion profiles)"),
+          "'{lat_deg: 39.9}' (README: host motion profiles)"),
     Param("plant", "two_axis_gimbal", "plant carried by the host", choices=PLANTS),
     Param("sim_rate_hz", 1000.0, "simulation (lockstep) rate [Hz]", 1.0, 100000.0),
     Param("duration_s", 120.0, "simulated duration [s]; the node stops stepping there", 1e-3, 1e7),

@@ -1,0 +1,61 @@
+"""Open loop: the ship (paper 5) with its two LGUs, vehicle free-running at full speed.
+
+No controller gates the steps, so only the readiness/pacing protocol keeps sensor_models
+and the test's reader from missing any. Every LGU message must arrive, in order, equal to
+the sensor suite run in-process on the same truth.
+"""
+from __future__ import annotations
+
+import pytest
+from geometry_msgs.msg import Vector3Stamped
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu
+
+from gimbal_sim import messages as m
+from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.sensor_models_node import truth_from_group
+from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
+from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from ros_harness import harness_node, node_processes, spin_until
+
+pytestmark = pytest.mark.ros
+
+RATE_HZ, LGU_HZ, DURATION_S, SEED = 200.0, 50.0, 6.0, 77
+STEPS = int(RATE_HZ * DURATION_S)
+LGU_COUNT = int(DURATION_S * LGU_HZ)  # no sample at k = 0: an increment needs an interval
+TOPICS = {"/ship/lgu1/imu": Imu, "/ship/lgu2/imu": Imu, "/truth/ship/flexure": Vector3Stamped,
+          "/truth/ship/flexure_quasi_static": Vector3Stamped, "/clock": Clock}
+
+
+def test_open_loop_ship_delivers_every_lgu_sample(ros_domain_env, tmp_path):
+    vehicle = {"profile": "paper5_ship", "plant": "host_only", "sim_rate_hz": RATE_HZ, "duration_s": DURATION_S,
+               "pace_topics": ["/sensor_models/progress"], "pace_window_steps": 20, "wait_for_subscribers": 0}
+    sensors = {"sensors": ["lgu"], "sim_rate_hz": RATE_HZ, "lgu_rate_hz": LGU_HZ, "seed": SEED,
+               "wait_for_subscribers": 1}
+    got = {t: [] for t in TOPICS}
+    with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"])) as (node, executor):
+        for topic, typ in TOPICS.items():
+            node.create_subscription(typ, topic, lambda msg, t=topic: got[t].append(msg), GRAPH_QOS)
+        with node_processes([("sensor_models", sensors), ("vehicle_dynamics", vehicle)], ros_domain_env, tmp_path):
+            counts = {t: LGU_COUNT for t in TOPICS} | {"/clock": STEPS + 1}
+            assert spin_until(executor, lambda: all(len(got[t]) >= n for t, n in counts.items()), timeout_s=120.0), \
+                {t: len(v) for t, v in got.items()}
+    assert {t: len(v) for t, v in got.items()} == counts
+
+    core = VehicleCore(VehicleConfig(profile="paper5_ship", plant="host_only", sim_rate_hz=RATE_HZ,
+                                     duration_s=DURATION_S))
+    suite = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=RATE_HZ, lgu_rate_hz=LGU_HZ, seed=SEED))
+    expected = []
+    for k in range(STEPS + 1):
+        truth = core.truth()
+        delta = m.vector3_msg(m.step_stamp_ns(k, RATE_HZ), "base_link_frd", truth.delta_angle_b)
+        expected += suite.update(truth_from_group(k, k / RATE_HZ, {"/truth/host/delta_angle": delta}))
+        if k < STEPS:
+            core.step(())
+    assert len(expected) == LGU_COUNT
+    for msg1, msg2, flex, want in zip(got["/ship/lgu1/imu"], got["/ship/lgu2/imu"], got["/truth/ship/flexure"],
+                                      expected, strict=True):
+        assert m.stamp_ns(msg1.header.stamp) == m.step_stamp_ns(round(want.t * RATE_HZ), RATE_HZ)
+        assert m.vec_of(msg1.angular_velocity) == tuple(d / want.dt for d in want.dalpha1)
+        assert m.vec_of(msg2.angular_velocity) == tuple(d / want.dt for d in want.dalpha2)
+        assert m.vec_of(flex.vector) == want.flexure
