@@ -25,6 +25,7 @@ setup(
             "gimbal-run = gimbal_sim.run_cli:main",
             "vehicle_dynamics = gimbal_sim.vehicle_dynamics_node:main",
             "sensor_models = gimbal_sim.sensor_models_node:main",
+            "bag_recorder = gimbal_sim.bag.recorder_node:main",
         ],
     },
 )

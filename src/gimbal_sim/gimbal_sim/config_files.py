@@ -14,6 +14,7 @@ from .ros_params import params_yaml
 NODE_MODULES = {
     "vehicle_dynamics": ("gimbal_sim", "gimbal_sim.vehicle_dynamics_node"),
     "sensor_models": ("gimbal_sim", "gimbal_sim.sensor_models_node"),
+    "bag_recorder": ("gimbal_sim", "gimbal_sim.bag.recorder_node"),
 }
 
 

@@ -159,8 +159,8 @@ def truth_from_group(k: int, t: float, group: dict) -> VehicleTruth:
 
 
 class SensorModelsNode(Node):
-    def __init__(self) -> None:
-        super().__init__("sensor_models")
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("sensor_models", **node_kwargs)
         values = declare_and_read(self, PARAMS)
         self.config = config_from_params(values)
         self.suite = SensorSuite(self.config)

@@ -92,8 +92,8 @@ def config_from_params(values: dict) -> VehicleConfig:
 
 
 class VehicleDynamicsNode(Node):
-    def __init__(self) -> None:
-        super().__init__("vehicle_dynamics")
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("vehicle_dynamics", **node_kwargs)
         values = declare_and_read(self, PARAMS)
         self.config = config_from_params(values)
         self.core = VehicleCore(self.config)

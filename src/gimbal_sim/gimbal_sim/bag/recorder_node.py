@@ -1,0 +1,180 @@
+"""``bag_recorder`` node: record a run's topics, raw, into a rosbag2-style MCAP bag.
+
+Messages are taken serialized (``raw=True``) and written as they came: no re-encoding.
+Log and publish times are the message's own header stamp (sim time) or, for a type without
+one, the latest ``/clock``; a run therefore records identically however fast it ran.
+
+Completeness: the recorder subscribes with the publishers' offered QoS (our graph's is
+reliable, transient-local, depth 100), reports ready on ``~/progress`` only when every
+wanted topic has a matched publisher, and then reports the next step it needs after each
+``/clock``, so ``vehicle_dynamics`` never outruns it. Loss it can detect is counted: the
+middleware's message-lost events and per-topic stamps that go backwards.
+"""
+from __future__ import annotations
+
+import struct
+import sys
+
+from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+
+from .. import messages as m
+from ..node_main import run_node
+from ..qos import GRAPH_QOS
+from ..ros_params import Param, ParameterError, declare_and_read
+from .qos_yaml import qos_to_dict
+from .schemas import message_class, msg_text, split_type
+from .writer import BagWriter
+
+DESCRIPTION = (
+    "Record topics, serialized and unchanged, into a rosbag2-style bag (metadata.yaml + MCAP, "
+    "profile ros2, ros2msg schemas, cdr) logged in sim time. Takes part in the run's readiness "
+    "and pacing so that no step is missed."
+)
+PARAMS = (
+    Param("output_dir", "", "bag directory to create (must not exist or be empty)"),
+    Param("topics", [], "topics to record; empty: every topic discovered", array_type=Parameter.Type.STRING_ARRAY),
+    Param("exclude_topics", ["/rosout", "/parameter_events"], "topics never recorded"),
+    Param("wait_for_nodes", [], "with topics empty: node names whose publishers must all be subscribed "
+          "before ready", array_type=Parameter.Type.STRING_ARRAY),
+    Param("sim_rate_hz", 1000.0, "simulation rate [Hz], to turn /clock into step numbers", 1.0, 100000.0),
+    Param("progress_every_steps", 10, "report the next step needed on ~/progress every N steps", 1, 10**6),
+    Param("chunk_duration_s", 0.5, "finish and flush an MCAP chunk at least every this much log time [s]",
+          1e-3, 60.0),
+)
+_STAMP = struct.Struct("<iI")
+
+
+def stamp_first(type_name: str) -> bool:
+    """True when the type's first field is a std_msgs/Header or builtin_interfaces/Time, so
+    its CDR payload starts (after the 4-byte encapsulation) with sec:int32, nanosec:uint32."""
+    for line in msg_text(*split_type(type_name)).splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            return line.split()[0] in ("std_msgs/Header", "Header", "builtin_interfaces/Time")
+    return False
+
+
+def subscription_qos(offered: list[QoSProfile]) -> QoSProfile:
+    """The strongest QoS every offering publisher is compatible with."""
+    reliable = offered and all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
+    transient = offered and all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
+    depth = max([GRAPH_QOS.depth] + [q.depth for q in offered if q.history == HistoryPolicy.KEEP_LAST])
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                      reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
+
+
+class BagRecorderNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("bag_recorder", **node_kwargs)
+        values = declare_and_read(self, PARAMS)
+        if not values["output_dir"]:
+            raise ParameterError("parameter 'output_dir' is required")
+        try:
+            self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9))
+        except FileExistsError as exc:
+            raise ParameterError(f"parameter 'output_dir': {exc}") from exc
+        self.wanted = list(values["topics"])
+        self.exclude = set(values["exclude_topics"]) | {self.resolve_topic_name("~/progress")}
+        self.wait_for_nodes = list(values["wait_for_nodes"])
+        self.rate = values["sim_rate_hz"]
+        self.progress_every = values["progress_every_steps"]
+        self.subs: dict[str, object] = {}
+        self._stamped: dict[str, bool] = {}
+        self._last_stamp: dict[str, int] = {}
+        self.clock_ns = 0
+        self.lost = 0           # middleware message-lost events
+        self.out_of_order = 0   # stamps going backwards within a topic
+        self.ready = False
+        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        self._discovery = self.create_timer(0.05, self._discover)
+
+    # --- discovery (wall timer: graph polling, not stepping) -----------------------------
+    def _candidate_topics(self) -> dict[str, str]:
+        types = {name: types[0] for name, types in self.get_topic_names_and_types() if types}
+        if self.wanted:
+            return {t: types[t] for t in self.wanted if t in types}
+        return {t: ty for t, ty in types.items() if t not in self.exclude}
+
+    def _discover(self) -> None:
+        for topic, type_name in self._candidate_topics().items():
+            if topic not in self.subs:
+                self._subscribe(topic, type_name)
+        if not self.ready and self._all_matched():
+            self.ready = True
+            self.get_logger().info(f"recording {len(self.subs)} topics to {self.writer.directory}")
+            self.pub_progress.publish(m.clock_msg(0))
+
+    def _all_matched(self) -> bool:
+        if self.wanted and set(self.wanted) - set(self.subs):
+            return False
+        if not self.wanted:
+            names = {n for n, _ in self.get_node_names_and_namespaces()}
+            if set(self.wait_for_nodes) - names:
+                return False
+            for node in self.wait_for_nodes:
+                ns = dict(self.get_node_names_and_namespaces())[node]
+                published = {t for t, _ in self.get_publisher_names_and_types_by_node(node, ns)}
+                if (published - self.exclude) - set(self.subs):
+                    return False
+        return all(sub.get_publisher_count() > 0 for sub in self.subs.values())
+
+    def _subscribe(self, topic: str, type_name: str) -> None:
+        offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
+        self.writer.add_topic(topic, type_name, [qos_to_dict(q) for q in offered] or [qos_to_dict(GRAPH_QOS)])
+        self._stamped[topic] = stamp_first(type_name)
+        events = SubscriptionEventCallbacks(message_lost=lambda status, t=topic: self._on_lost(t, status))
+        self.subs[topic] = self.create_subscription(
+            message_class(type_name), topic, lambda data, t=topic: self._on_message(t, data),
+            subscription_qos(offered), raw=True, event_callbacks=events)
+
+    # --- recording -----------------------------------------------------------------------
+    def _on_lost(self, topic: str, status) -> None:
+        self.lost += status.total_count_change
+        self.get_logger().error(f"{topic}: {status.total_count_change} messages lost by the middleware")
+
+    def _on_message(self, topic: str, data: bytes) -> None:
+        stamp = self._stamp_of(topic, data)
+        last = self._last_stamp.get(topic)
+        if last is not None and stamp < last:
+            self.out_of_order += 1
+        self._last_stamp[topic] = stamp
+        self.writer.write(topic, data, stamp)
+        if topic == "/clock":
+            self.clock_ns = stamp
+            step = m.step_of_stamp(stamp, self.rate)
+            if self.ready and (step + 1) % self.progress_every == 0:
+                self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(step + 1, self.rate)))
+
+    def _stamp_of(self, topic: str, data: bytes) -> int:
+        if self._stamped[topic] and len(data) >= 12 and data[1] == 1:  # CDR little-endian
+            sec, nanosec = _STAMP.unpack_from(data, 4)
+            return sec * 1_000_000_000 + nanosec
+        return self.clock_ns
+
+    def close(self) -> None:
+        """Finish the bag (idempotent); records the loss counters in the log."""
+        if not self.writer.closed:
+            self.writer.close()
+            text = (f"bag closed: {self.writer.message_count} messages on {len(self.writer.topics)} topics, "
+                    f"{self.lost} lost, {self.out_of_order} out of order")
+            if self.context.ok():
+                self.get_logger().info(text)
+            else:  # after Ctrl-C the context is gone and /rosout with it
+                print(f"[bag_recorder] {text}", file=sys.stderr)
+
+    def destroy_node(self) -> None:
+        self.close()
+        super().destroy_node()
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(BagRecorderNode, "bag_recorder", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
