@@ -9,6 +9,7 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test"]),
+    package_data={package_name: ["scenarios/*.yaml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
@@ -26,6 +27,8 @@ setup(
             "vehicle_dynamics = gimbal_sim.vehicle_dynamics_node:main",
             "sensor_models = gimbal_sim.sensor_models_node:main",
             "bag_recorder = gimbal_sim.bag.recorder_node:main",
+            "gimbal-report = gimbal_sim.report:main",
+            "gimbal-bag = gimbal_sim.bag.cli:main",
         ],
     },
 )

@@ -11,8 +11,8 @@ plant linearised at rest, base at rest):
 * plant: (A_l, B_l, C_l) from :func:`.linearize.linearize_gimbal`, ZOH-discretised with
   ``scipy.signal.cont2discrete`` at T = 1/rate: x_{k+1} = Φ x_k + Γ u_k;
 * measurement used at step k: m_k = x_{k−d} (``delay_samples`` = d);
-* controller: e_k = −C_l m_k (rate command 0), I_k = I_{k−1} + T e_k (backward Euler),
-  v_k = k_p e_k + k_i I_k, u_k = B′⁻¹ (v_k − A′ m_k).
+* controller: e_k = −C_l m_k (rate command 0), I_k = I_{k−1} + T (e_k + e_{k−1})/2
+  (trapezoidal), v_k = k_p e_k + k_i I_k, u_k = B′⁻¹ (v_k − A′ m_k).
 
 ``delay_samples``: whole samples *in addition to* the ZOH plant's own step (u_k acts from
 t_k, so it first shows in x_{k+1}). d = 0 is our lockstep graph exactly (the command
@@ -85,7 +85,7 @@ def controller_loop(plant_A: np.ndarray, plant_B: np.ndarray, plant_C: np.ndarra
 
     ``B_prime_inv``/``A_prime`` default to (C B)⁻¹ and C A (the paper's inversion); pass
     zeros for ``A_prime`` and an identity for ``B_prime_inv`` to analyse a bare PI.
-    Returns the p-input, p-output loop; state (x_k, x_{k−1} … x_{k−d}, I_{k−1}).
+    Returns the p-input, p-output loop; state (x_k, x_{k−1} … x_{k−d}, I_{k−1}, e_{k−1}).
     """
     if not (math.isfinite(rate_hz) and rate_hz > 0.0):
         raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
@@ -100,7 +100,7 @@ def controller_loop(plant_A: np.ndarray, plant_B: np.ndarray, plant_C: np.ndarra
     Ap = C @ A if A_prime is None else np.asarray(A_prime, dtype=float)
     Bpi = np.linalg.inv(C @ B) if B_prime_inv is None else np.asarray(B_prime_inv, dtype=float)
     Phi, Gam, _, _, _ = cont2discrete((A, B, C, np.zeros((p, p))), T, method="zoh")
-    nz = n * (d + 1) + p
+    nz = n * (d + 1) + 2 * p
     Az = np.zeros((nz, nz))
     Bz = np.zeros((nz, p))
     Az[:n, :n] = Phi
@@ -108,13 +108,19 @@ def controller_loop(plant_A: np.ndarray, plant_B: np.ndarray, plant_C: np.ndarra
     for j in range(d):  # shift register of past states
         Az[n * (j + 1):n * (j + 2), n * j:n * (j + 1)] = np.eye(n)
     m0 = n * d  # where x_{k−d} sits
-    iz = n * (d + 1)
-    # I_k = I_{k−1} − T C m_k ; u_k = B′⁻¹(−(k_p + k_i T) C m_k + k_i I_{k−1} − A′ m_k)
-    Az[iz:, m0:m0 + n] = -T * C
-    Az[iz:, iz:] = np.eye(p)
+    iz = n * (d + 1)  # I_{k−1}
+    ez = iz + p  # e_{k−1}
+    h = 0.5 * T
+    # e_k = −C m_k;  I_k = I_{k−1} + h (e_k + e_{k−1})
+    Az[iz:ez, m0:m0 + n] = -h * C
+    Az[iz:ez, iz:ez] = np.eye(p)
+    Az[iz:ez, ez:] = h * np.eye(p)
+    Az[ez:, m0:m0 + n] = -C
+    # u_k = B′⁻¹((k_p + k_i h) e_k + k_i I_{k−1} + k_i h e_{k−1} − A′ m_k)
     Cu = np.zeros((p, nz))
-    Cu[:, m0:m0 + n] = Bpi @ (-(kp + ki * T) * C - Ap)
-    Cu[:, iz:] = ki * Bpi
+    Cu[:, m0:m0 + n] = Bpi @ (-(kp + ki * h) * C - Ap)
+    Cu[:, iz:ez] = ki * Bpi
+    Cu[:, ez:] = ki * h * Bpi
     return StateSpaceLoop(Az, Bz, Cu, T)
 
 
@@ -142,6 +148,20 @@ def closed_loop_matrix(loop: StateSpaceLoop, gain: float = 1.0) -> np.ndarray:
     return loop.A + gain * loop.B @ loop.C
 
 
+#: |λ − 1| below which a closed-loop eigenvalue is one of the neutral angle modes.
+NEUTRAL_MODE_TOL = 1e-9
+
+
+def is_stable(A_closed: np.ndarray) -> bool:
+    """Every closed-loop eigenvalue inside the unit circle, except the neutral modes at
+    exactly z = 1. A rate loop does not hold the joint angles: with the inversion
+    cancelling the gravity stiffness, every (ψm, θm) with zero rates and zero integrator
+    is an equilibrium, which shows as eigenvalues at exactly 1 (one per axis, to rounding)."""
+    ev = np.linalg.eigvals(A_closed)
+    moving = ev[np.abs(ev - 1.0) > NEUTRAL_MODE_TOL]
+    return bool(moving.size == 0 or np.max(np.abs(moving)) < 1.0)
+
+
 def loop_response(loop: StateSpaceLoop, omega_rad_s: np.ndarray | float) -> np.ndarray:
     """L(e^{jωT}) of a SISO loop (shape of ``omega_rad_s``), complex."""
     w = np.atleast_1d(np.asarray(omega_rad_s, dtype=float))
@@ -160,7 +180,7 @@ def siso_margins(loop: StateSpaceLoop, n_grid: int = 4000, w_min_rad_s: float | 
     w_lo = w_min_rad_s if w_min_rad_s is not None else w_nyq * 1e-6
     w = np.geomspace(w_lo, w_nyq * (1.0 - 1e-9), n_grid)
     L = loop_response(loop, w)
-    stable = bool(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(loop)))) < 1.0)
+    stable = is_stable(closed_loop_matrix(loop))
 
     def logmag(x: float) -> float:
         return math.log(abs(loop_response(loop, x)))
@@ -197,7 +217,7 @@ def loop_margins(loop: StateSpaceLoop, n_grid: int = 4000) -> Margins:
     p = loop.B.shape[1]
     per = [siso_margins(close_other_channels(loop, i), n_grid) for i in range(p)]
     worst_pm = min(per, key=lambda m: m.phase_margin_deg)
-    stable = bool(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(loop)))) < 1.0)
+    stable = is_stable(closed_loop_matrix(loop))
     return Margins(min(m.gain_margin_db for m in per), worst_pm.phase_margin_deg, worst_pm.crossover_hz, stable)
 
 
@@ -243,7 +263,9 @@ def max_omega_n_hz(rate_hz: float, min_phase_margin_deg: float = 45.0, zeta: flo
         m = margins_full(rate_hz, f_hz, zeta, delay_samples, plant_params)
         return (m.phase_margin_deg if m.stable else -180.0) - min_phase_margin_deg
 
-    lo, hi = rate_hz * 1e-5, rate_hz * 0.5 / (1.0 + 2.0 * delay_samples)
+    # Below ~1 Hz the PI is slower than the inner frame's gravity pendulum (0.27 Hz) and the
+    # margin at the plant input is set by the inversion's stiffness cancellation instead.
+    lo, hi = 1.0, rate_hz * 0.5 / (1.0 + 2.0 * delay_samples)
     if excess(lo) < 0.0:
         raise ValueError(f"no ω_n reaches {min_phase_margin_deg}° phase margin at {rate_hz} Hz")
     while excess(hi) >= 0.0:

@@ -35,13 +35,15 @@ DESCRIPTION = (
     "and pacing so that no step is missed."
 )
 PARAMS = (
-    Param("output_dir", "", "bag directory to create (must not exist or be empty)"),
+    Param("output_dir", "", "bag directory to write (refused if it already holds a bag)"),
     Param("topics", [], "topics to record; empty: every topic discovered", array_type=Parameter.Type.STRING_ARRAY),
     Param("exclude_topics", ["/rosout", "/parameter_events"], "topics never recorded"),
     Param("wait_for_nodes", [], "with topics empty: node names whose publishers must all be subscribed "
           "before ready", array_type=Parameter.Type.STRING_ARRAY),
     Param("sim_rate_hz", 1000.0, "simulation rate [Hz], to turn /clock into step numbers", 1.0, 100000.0),
     Param("progress_every_steps", 10, "report the next step needed on ~/progress every N steps", 1, 10**6),
+    Param("end_time_s", 0.0, "sim time of the run's last step [s]: reaching it on /clock is reported on "
+          "~/progress at once (0: unknown)", 0.0, 1e9),
     Param("chunk_duration_s", 0.5, "finish and flush an MCAP chunk at least every this much log time [s]",
           1e-3, 60.0),
 )
@@ -83,6 +85,7 @@ class BagRecorderNode(Node):
         self.wait_for_nodes = list(values["wait_for_nodes"])
         self.rate = values["sim_rate_hz"]
         self.progress_every = values["progress_every_steps"]
+        self.end_ns = int(round(values["end_time_s"] * 1e9))
         self.subs: dict[str, object] = {}
         self._stamped: dict[str, bool] = {}
         self._last_stamp: dict[str, int] = {}
@@ -147,7 +150,7 @@ class BagRecorderNode(Node):
         if topic == "/clock":
             self.clock_ns = stamp
             step = m.step_of_stamp(stamp, self.rate)
-            if self.ready and (step + 1) % self.progress_every == 0:
+            if self.ready and ((step + 1) % self.progress_every == 0 or (self.end_ns and stamp >= self.end_ns)):
                 self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(step + 1, self.rate)))
 
     def _stamp_of(self, topic: str, data: bytes) -> int:

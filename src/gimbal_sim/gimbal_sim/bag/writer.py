@@ -48,8 +48,9 @@ class BagWriter:
 
     def __post_init__(self) -> None:
         self.directory = Path(self.directory)
-        if self.directory.exists() and any(self.directory.iterdir()):
-            raise FileExistsError(f"output directory {self.directory} exists and is not empty")
+        existing = [p.name for p in self.directory.glob("*") if p.name == "metadata.yaml" or p.suffix == ".mcap"]
+        if existing:
+            raise FileExistsError(f"{self.directory} already holds a bag ({', '.join(existing)}); not overwriting it")
         self.directory.mkdir(parents=True, exist_ok=True)
         self.name = self.name or self.directory.name
         self.mcap_path = self.directory / f"{self.name}_0.mcap"

@@ -1,0 +1,156 @@
+"""Paper 1 closed loop without ROS: VehicleCore + gyro + LosRateController in one loop.
+
+Used by the acceptance figure of issue 5 (LOS pointing error over 120 s, ideal gyro and
+paper 1's gyro noise), by the tests at a shorter span, and by the benchmark's "limit"
+measurement (cores stepped in one Python loop, no middleware).
+
+Measurements: the gyro reads the truth's inertial rate of m about y, z at t_k
+(``'ideal'``), plus paper 1's ARW (``'noise'``: ``PAPER1_GIMBAL_GYRO`` without its
+fixed bias and Gauss-Markov terms), or the full paper 1 gyro (``'paper1'``: bias too; with
+no estimator fed back the LOS drifts, SPEC §3.1). Encoders and INS body rates are ideal
+(truth). Timing follows the lockstep graph: the command computed from the samples of
+t_k is held over [t_k, t_{k+1}]; ``delay_samples`` > 0 applies it that many steps later.
+
+Pointing error: the angle between the LOS and its initial *inertial* direction. The truth
+is resolved in NED, which turns with the earth (``earth_rate=True``), so the LOS is
+carried to the inertial frame (NED at t = 0) with C_{n0 n}(t) = exp([ω_ie^n ×] t)
+(constant ω_ie^n: the profiles do not translate), the same rotation the vehicle core uses
+for its delta angles.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from gimbal_sim.sensors import PAPER1_GIMBAL_GYRO, GyroModel
+from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+
+from .los_rate_controller import DEFAULT_OMEGA_N_HZ, DEFAULT_RATE_HZ, PAPER_ZETA, LosRateController, LosRateControllerParams
+
+GYRO_MODES = ("ideal", "noise", "paper1")
+
+#: Paper 1's gimbal gyro with only its angle random walk (no fixed bias, no bias instability).
+PAPER1_GYRO_ARW_ONLY = dataclasses.replace(PAPER1_GIMBAL_GYRO, bias_deg_h=0.0, bias_sigma_deg_h=0.0,
+                                           bias_instability_deg_h=0.0, rrw_deg_h_rt_h=0.0)
+
+
+def inertial_los(los_n: np.ndarray, t: np.ndarray, omega_in_n: np.ndarray) -> np.ndarray:
+    """LOS unit vectors (N, 3) resolved in n(t) → in n(0), the inertial frame [Rodrigues
+    with the rotation vector ω_in^n t]."""
+    w = np.asarray(omega_in_n, dtype=float)
+    rate = float(np.linalg.norm(w))
+    if rate == 0.0:
+        return np.array(los_n, dtype=float)
+    k = w / rate
+    ang = rate * np.asarray(t, dtype=float)[:, None]
+    kxv = np.cross(k, los_n)
+    kdv = los_n @ k
+    return los_n * np.cos(ang) + kxv * np.sin(ang) + np.outer(kdv, k) * (1.0 - np.cos(ang))
+
+
+def pointing_error(los_i: np.ndarray) -> np.ndarray:
+    """Angle [rad] between each LOS (N, 3) and the first one."""
+    ref = los_i[0]
+    cross = np.linalg.norm(np.cross(los_i, ref), axis=1)
+    return np.arctan2(cross, los_i @ ref)
+
+
+def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
+                    omega_n_hz: float = DEFAULT_OMEGA_N_HZ, gyro: str = "ideal", seed: int = 0,
+                    zeta: float = PAPER_ZETA, delay_samples: int = 0, earth_rate: bool = True,
+                    profile: str = "paper1_land_vehicle", settle_s: float = 1.0,
+                    record_every: int = 1) -> dict[str, Any]:
+    """Run the paper 1 rate loop for ``duration_s`` [s] at ``rate_hz`` [Hz].
+
+    Returns ``{"metrics": {...}, "t": (N,), "pointing_error_rad": (N,), "los_i": (N, 3),
+    "tau": (N, 2), "rate_error": (N, 2)}`` (series every ``record_every`` steps). Metrics:
+    ``pointing_rms_urad`` (whole run), ``pointing_rms_after_settle_urad`` (t ≥ settle_s),
+    ``pointing_max_urad``, ``final_error_urad``, ``steps``, ``wall_s``, ``steps_per_s``
+    (whole loop incl. bookkeeping), ``controller_us_per_step``, ``saturated_steps``,
+    ``rejected_inputs``, ``torque_rms_nm`` (2,).
+    """
+    if gyro not in GYRO_MODES:
+        raise ValueError(f"gyro must be one of {GYRO_MODES}, got {gyro!r}")
+    if int(delay_samples) != delay_samples or delay_samples < 0:
+        raise ValueError(f"delay_samples must be an int >= 0, got {delay_samples!r}")
+    if int(record_every) != record_every or record_every < 1:
+        raise ValueError(f"record_every must be an int >= 1, got {record_every!r}")
+    core = VehicleCore(VehicleConfig(profile=profile, sim_rate_hz=rate_hz, duration_s=duration_s,
+                                     earth_rate=earth_rate))
+    dt = core.config.dt
+    ctrl = LosRateController(LosRateControllerParams(rate_hz=rate_hz, omega_n_hz=omega_n_hz, zeta=zeta,
+                                                     feedback=False, gravity_m_s2=core.env.gravity_m_s2))
+    model = None
+    if gyro != "ideal":
+        gp = PAPER1_GYRO_ARW_ONLY if gyro == "noise" else PAPER1_GIMBAL_GYRO
+        model = GyroModel(gp, 2, np.random.default_rng(seed), dt)
+    n = core.config.n_steps
+    n_rec = (n + record_every - 1) // record_every
+    t_rec = np.empty(n_rec)
+    los_rec = np.empty((n_rec, 3))
+    tau_rec = np.empty((n_rec, 2))
+    err_rec = np.empty((n_rec, 2))
+    queue: deque = deque([(0.0, 0.0)] * delay_samples)
+    ctrl_s = 0.0
+    sum_tau2 = [0.0, 0.0]
+    clock = time.perf_counter
+    wall0 = clock()
+    j = 0
+    for k in range(n):
+        tr = core.truth()
+        wm = tr.omega_im_m
+        if model is None:
+            qr = (wm[1], wm[2])
+        else:
+            qr = model.step_rate((wm[1], wm[2]))
+        c0 = clock()
+        tau = ctrl.step(tr.t, qr, tr.joint_position, tr.joint_velocity, tr.omega_ib_b)
+        ctrl_s += clock() - c0
+        if delay_samples:
+            queue.append(tau)
+            tau = queue.popleft()
+        if k % record_every == 0:
+            x, y, z, w = tr.quat_nm  # first column of C_nm: the LOS in n
+            t_rec[j] = tr.t
+            los_rec[j] = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w))
+            tau_rec[j] = tau
+            err_rec[j] = ctrl.rate_error
+            j += 1
+        sum_tau2[0] += tau[0] * tau[0]
+        sum_tau2[1] += tau[1] * tau[1]
+        core.step(tau)
+    wall = clock() - wall0
+    los_i = inertial_los(los_rec, t_rec, np.asarray(core.env.omega_in_n))
+    err = pointing_error(los_i)
+    after = err[t_rec >= settle_s]
+    metrics = dict(
+        duration_s=duration_s, rate_hz=rate_hz, omega_n_hz=omega_n_hz, zeta=zeta, gyro=gyro, seed=seed,
+        delay_samples=delay_samples, earth_rate=earth_rate,
+        pointing_rms_urad=float(np.sqrt(np.mean(err ** 2)) * 1e6),
+        pointing_rms_after_settle_urad=float(np.sqrt(np.mean(after ** 2)) * 1e6) if after.size else math.nan,
+        pointing_max_urad=float(np.max(err) * 1e6),
+        final_error_urad=float(err[-1] * 1e6),
+        steps=n, wall_s=wall, steps_per_s=n / wall if wall > 0 else math.inf,
+        controller_us_per_step=ctrl_s / n * 1e6,
+        saturated_steps=ctrl.saturated_steps, rejected_inputs=ctrl.rejected_inputs,
+        torque_rms_nm=(math.sqrt(sum_tau2[0] / n), math.sqrt(sum_tau2[1] / n)),
+    )
+    return dict(metrics=metrics, t=t_rec, pointing_error_rad=err, los_i=los_i, tau=tau_rec, rate_error=err_rec)
+
+
+if __name__ == "__main__":  # python -m gimbal_control.closed_loop [duration] [rate] [omega_n] [gyro] [delay]
+    import sys
+
+    args = sys.argv[1:]
+    out = run_closed_loop(duration_s=float(args[0]) if args else 10.0,
+                          rate_hz=float(args[1]) if len(args) > 1 else DEFAULT_RATE_HZ,
+                          omega_n_hz=float(args[2]) if len(args) > 2 else DEFAULT_OMEGA_N_HZ,
+                          gyro=args[3] if len(args) > 3 else "ideal",
+                          delay_samples=int(args[4]) if len(args) > 4 else 0)
+    for key, value in out["metrics"].items():
+        print(f"{key}: {value}")

@@ -1,0 +1,347 @@
+"""Paper 1 LOS rate stabilization: dynamic inversion + PI on the inertial LOS rate (§5).
+
+Plant model (:mod:`.linearize`): at rest ẏ = ẏ₀ + A′x + B′u with x = (ψm, θm, ψ̇m, θ̇m),
+y = (ψ̇m, θ̇m), u = (τ_a, τ_e). Inverting it for commanded joint accelerations ÿ_c,
+
+    τ_c = B′⁻¹ (ÿ_c − A′x − ẏ₀)                                        (paper 1 eq. 30)
+
+(the ẏ₀ term is the gravity trim of our imbalanced gimbal, −B′⁻¹ẏ₀ = u₀; ``trim=False``
+drops it and leaves it to the integrator, as in the paper). x comes from the encoders.
+
+Error (paper 1 §5, "task frame to joint frame"): the gyro on the inner gimbal measures the
+inertial LOS rates (q_m, r_m); the commanded ones are (q_md, r_md) = 0 to hold the LOS
+inertially still (an outer loop may command others). Both are mapped to joint rates with
+the chain kinematics (``sighting_chain.task_to_joint_rates``): with w the turret's inertial
+rate in the outer frame a (INS body rates, ψt, ψ̇t, ψm) and c, s = cos θm, sin θm,
+
+    ψ̇ = (r − s w₁)/c − w₃,   θ̇ = q − w₂,
+
+and e = (ψ̇md − ψ̇m, θ̇md − θ̇m) = ((r_md − r_m)/c, q_md − q_m). The INS terms cancel in the
+difference, so the loop is purely inertial; they set the individual joint rates
+(``joint_rate_command``), which the LOS-hold outer loop and telemetry use.
+
+PI (paper 1 eq. 31): ÿ_c = K_p e + K_i ∫e dt, K_p = 2ξω_n I, K_i = ω_n² I. With exact
+inversion the inertial rate error obeys ë + k_p ė + k_i e = 0 per axis. No feed-forward
+of the desired joint acceleration: the base drives the joints' relative motion itself
+(a frictionless balanced gimbal stays inertially still under turret motion with zero
+torque); adding d/dt ψ̇md would count the base motion twice.
+
+Discrete implementation at T = 1/rate_hz: trapezoidal (Tustin) integrator I_k = I_{k−1} +
+Δt (e_k + e_{k−1})/2 (Δt the stamp difference clipped to ``max_dt_factor``·T; nothing is
+integrated at the first sample), v_k = k_p e_k + k_i I_k. I is the LOS angle memory: a
+rectangle rule would book e_0 Δt/2 too much when the loop starts with a rate error (the
+turret already turns at t = 0: 0.12 rad/s × 1 ms / 2 = 60 µrad of permanent offset). The
+loop rate and ω_n come from :mod:`.loop_design` (≥ 45° phase margin with one sample of
+extra delay); paper 1's ω_n = 100 Hz needs ≥ 3.6 kHz, so the default is the highest ω_n
+a 1 kHz loop allows with margin: see ``DEFAULT_RATE_HZ``.
+
+Saturation and anti-windup: the command is clipped to the torque limits (the plant's by
+default). The integrator here is the LOS angle memory (∫ of the inertial rate error), so
+the default anti-windup is *clamping*: each integrator is limited to |k_i I_i| ≤
+τ_max,i / B′⁻¹_ii, the acceleration its own torque limit can deliver. It cannot run away
+while the torque is saturated, and it keeps the angle swept during a short saturation
+(e.g. the first steps, when the turret is already turning at t = 0). ``"conditional"``
+integration (no integration on a saturated axis whose error pushes further out; B′⁻¹ =
+M(0) is diagonally dominant with a positive diagonal) stops sooner but forgets that angle:
+one saturated start-up step leaves a permanent ~60 µrad offset in the paper 1 scenario.
+
+Bad input: a non-finite measurement or rate command, or a stamp that is not after the last
+accepted one, is rejected: the last command is returned, the event counted
+(``rejected_inputs`` / ``rejected_stamps``), nothing is integrated. A stamp going back by
+more than ``reset_backjump_s`` (a bag loop) resets the integrator and records the reason.
+
+Gyro bias: :meth:`LosRateController.set_bias_estimate` stores the EKF's 3-axis bias
+estimate (m frame, rad/s); with ``feedback`` its y, z components are subtracted from q_m,
+r_m.
+
+Hot path: scalar maths only (no numpy per step).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from gimbal_sim.plant import GimbalParams
+
+from .linearize import STANDARD_GRAVITY, linearize_gimbal
+
+#: Default loop rate [Hz]: the lockstep simulation rate of the paper 1 scenario.
+DEFAULT_RATE_HZ = 1000.0
+#: Default ω_n [Hz] at 1 kHz: below :func:`.loop_design.max_omega_n_hz(1000)` = 27.8 Hz
+#: (45° with one extra sample of delay); 49° PM with that delay, 65° in the lockstep graph.
+DEFAULT_OMEGA_N_HZ = 25.0
+PAPER_OMEGA_N_HZ = 100.0
+PAPER_ZETA = 0.8
+ANTI_WINDUP_MODES = ("clamp", "conditional", "none")
+
+
+def _finite_positive(name: str, value: float) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class LosRateControllerParams:
+    """Controller parameters (validated, immutable).
+
+    Attributes:
+        rate_hz: loop rate [Hz] (nominal Δt of the integrator).
+        omega_n_hz: closed-loop natural frequency ω_n [Hz]; must be < rate_hz / 4.
+        zeta: damping ratio ξ (> 0).
+        feedback: subtract the gyro-bias estimate from (q_m, r_m).
+        azimuth_torque_limit_nm, elevation_torque_limit_nm: output limits [N·m]; None
+            takes the plant's (``GimbalParams``).
+        anti_windup: ``"clamp"`` (default: |k_i I| limited to what the axis' torque limit
+            can deliver), ``"conditional"`` (no integration on a saturated axis pushing
+            outwards) or ``"none"`` (comparisons only); module docstring.
+        trim: feed forward the gravity trim torque of the linearisation point.
+        gravity_m_s2: gravity of the linearisation [m/s²].
+        min_cos_elevation: |cos θm| floor in the 1/c of the azimuth error (gimbal lock at
+            θm = ±90°); below it the gain is limited and ``singular_steps`` counts.
+        max_dt_factor: largest integration step as a multiple of 1/rate_hz (a gap in
+            the stamps does not make one huge integrator step).
+        reset_backjump_s: a stamp more than this [s] before the last one (a bag loop)
+            resets the integrator; a smaller step back is rejected as out of order.
+    """
+
+    rate_hz: float = DEFAULT_RATE_HZ
+    omega_n_hz: float = DEFAULT_OMEGA_N_HZ
+    zeta: float = PAPER_ZETA
+    feedback: bool = True
+    azimuth_torque_limit_nm: float | None = None
+    elevation_torque_limit_nm: float | None = None
+    anti_windup: str = "clamp"
+    trim: bool = True
+    gravity_m_s2: float = STANDARD_GRAVITY
+    min_cos_elevation: float = 0.05
+    max_dt_factor: float = 2.0
+    reset_backjump_s: float = 0.5
+
+    def __post_init__(self) -> None:
+        _finite_positive("rate_hz", self.rate_hz)
+        _finite_positive("omega_n_hz", self.omega_n_hz)
+        if self.omega_n_hz >= self.rate_hz / 4.0:
+            raise ValueError(f"omega_n_hz must be < rate_hz / 4 = {self.rate_hz / 4.0} Hz (the loop crosses over "
+                             f"at ~1.7 ω_n), got {self.omega_n_hz}")
+        _finite_positive("zeta", self.zeta)
+        if self.anti_windup not in ANTI_WINDUP_MODES:
+            raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_MODES}, got {self.anti_windup!r}")
+        for name in ("feedback", "trim"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
+        for name in ("azimuth_torque_limit_nm", "elevation_torque_limit_nm"):
+            value = getattr(self, name)
+            if value is not None:
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value) or value <= 0.0:
+                    raise ValueError(f"{name} must be > 0 (inf for no limit) or None, got {value!r}")
+        if isinstance(self.gravity_m_s2, bool) or not math.isfinite(self.gravity_m_s2) or self.gravity_m_s2 < 0.0:
+            raise ValueError(f"gravity_m_s2 must be finite and >= 0, got {self.gravity_m_s2!r}")
+        if not (0.0 < self.min_cos_elevation < 1.0):
+            raise ValueError(f"min_cos_elevation must be in (0, 1), got {self.min_cos_elevation!r}")
+        if not (math.isfinite(self.max_dt_factor) and self.max_dt_factor >= 1.0):
+            raise ValueError(f"max_dt_factor must be >= 1, got {self.max_dt_factor!r}")
+        if not (math.isfinite(self.reset_backjump_s) and self.reset_backjump_s >= 0.0):
+            raise ValueError(f"reset_backjump_s must be >= 0, got {self.reset_backjump_s!r}")
+
+    @property
+    def gains(self) -> tuple[float, float]:
+        """(k_p, k_i) = (2ξω_n [1/s], ω_n² [1/s²]), ω_n in rad/s."""
+        w = 2.0 * math.pi * self.omega_n_hz
+        return 2.0 * self.zeta * w, w * w
+
+
+class LosRateController:
+    """Inverse-dynamics PI LOS rate controller (module docstring); one :meth:`step` per
+    gyro sample. Pure Python, no ROS; time is the measurement stamp [s]."""
+
+    def __init__(self, params: LosRateControllerParams | None = None,
+                 plant_params: GimbalParams | None = None) -> None:
+        self.params = params if params is not None else LosRateControllerParams()
+        self.plant_params = plant_params if plant_params is not None else GimbalParams()
+        p = self.params
+        self.model = linearize_gimbal(self.plant_params, p.gravity_m_s2)
+        self.kp, self.ki = p.gains
+        self.dt_nominal = 1.0 / p.rate_hz
+        self._dt_max = p.max_dt_factor * self.dt_nominal
+        lim_a = p.azimuth_torque_limit_nm if p.azimuth_torque_limit_nm is not None else self.plant_params.azimuth_torque_limit_nm
+        lim_e = p.elevation_torque_limit_nm if p.elevation_torque_limit_nm is not None else self.plant_params.elevation_torque_limit_nm
+        self.torque_limits = (float(lim_a), float(lim_e))
+        # Scalars of B′⁻¹ (2×2), A′ (2×4) and the trim for the hot path.
+        Bi = self.model.B_prime_inv
+        Ap = self.model.A_prime
+        (self._b00, self._b01), (self._b10, self._b11) = ((float(v) for v in row) for row in Bi)
+        self._a = tuple(tuple(float(v) for v in row) for row in Ap)
+        ut = self.model.u_trim if p.trim else (0.0, 0.0)
+        self._trim = (float(ut[0]), float(ut[1]))
+        self._aw_mode = ANTI_WINDUP_MODES.index(p.anti_windup) + 1 if p.anti_windup != "none" else 0
+        # Clamp bounds [rad]: k_i I_i B′⁻¹_ii reaches the axis' torque limit.
+        self._i_max = (lim_a / (self.ki * self._b00), lim_e / (self.ki * self._b11))
+        # counters
+        self.rejected_inputs = 0
+        self.rejected_stamps = 0
+        self.rejected_bias = 0
+        self.singular_steps = 0
+        self.saturated_steps = 0
+        self.resets = 0
+        self.last_reset_reason = ""
+        self._bias_qr = (0.0, 0.0)
+        self._bias_t: float | None = None
+        self._rate_cmd = (0.0, 0.0)
+        self.reset()
+
+    # ----------------------------------------------------------------------- state
+    def reset(self, reason: str = "") -> None:
+        """Zero the integrators and forget the last stamp and command."""
+        self.integrator = [0.0, 0.0]
+        self.last_t: float | None = None
+        self.command: tuple[float, float] = (0.0, 0.0)
+        self.unsaturated_command: tuple[float, float] = (0.0, 0.0)
+        self.rate_error: tuple[float, float] = (0.0, 0.0)
+        self._e_prev = (0.0, 0.0)
+        self.joint_rate_command: tuple[float, float] = (0.0, 0.0)
+        if reason:
+            self.resets += 1
+            self.last_reset_reason = reason
+
+    @property
+    def bias_estimate_qr(self) -> tuple[float, float]:
+        """Gyro bias (y, z components) [rad/s] currently subtracted when ``feedback``."""
+        return self._bias_qr
+
+    def set_bias_estimate(self, t: float, bias_xyz: Sequence[float]) -> bool:
+        """Store the EKF's gyro bias estimate (m frame, (3,) rad/s) stamped ``t`` [s];
+        only y, z are used. Non-finite values are rejected (counted); returns acceptance."""
+        try:
+            by, bz = float(bias_xyz[1]), float(bias_xyz[2])
+            bx = float(bias_xyz[0])
+        except (TypeError, IndexError, ValueError):
+            self.rejected_bias += 1
+            return False
+        if not all(math.isfinite(v) for v in (t, bx, by, bz)):
+            self.rejected_bias += 1
+            return False
+        self._bias_qr = (by, bz)
+        self._bias_t = float(t)
+        return True
+
+    def set_rate_command(self, q_md: float, r_md: float) -> bool:
+        """Inertial LOS rate command (q_md, r_md) [rad/s] for an outer (LOS-hold/slew) loop;
+        (0, 0) holds the LOS still. Non-finite is rejected (counted)."""
+        if not (math.isfinite(q_md) and math.isfinite(r_md)):
+            self.rejected_inputs += 1
+            return False
+        self._rate_cmd = (float(q_md), float(r_md))
+        return True
+
+    # ----------------------------------------------------------------------- hot path
+    def step(self, t: float, gyro_qr: Sequence[float], joint_angles: Sequence[float],
+             joint_rates: Sequence[float], omega_b_b: Sequence[float],
+             rate_command_qr: Sequence[float] | None = None) -> tuple[float, float]:
+        """One control step; returns the saturated torque command (τ_a, τ_e) [N·m].
+
+        Args:
+            t: measurement stamp [s].
+            gyro_qr: gimbal gyro (q_m, r_m) [rad/s], inertial rate of m about its y, z.
+            joint_angles: encoders (ψt, ψm, θm) [rad].
+            joint_rates: (ψ̇t, ψ̇m, θ̇m) [rad/s].
+            omega_b_b: INS body rates (p, q, r) [rad/s].
+            rate_command_qr: (q_md, r_md) [rad/s] for this step; None uses
+                :meth:`set_rate_command`'s (default 0, 0).
+        """
+        q_g, r_g = gyro_qr[0], gyro_qr[1]
+        psi_t, psi_m, th = joint_angles[0], joint_angles[1], joint_angles[2]
+        psi_t_d, psi_m_d, th_d = joint_rates[0], joint_rates[1], joint_rates[2]
+        wp, wq, wr = omega_b_b[0], omega_b_b[1], omega_b_b[2]
+        q_md, r_md = self._rate_cmd if rate_command_qr is None else (rate_command_qr[0], rate_command_qr[1])
+        # A sum is finite only if every term is (inf − inf is nan): one test for eleven.
+        total = q_g + r_g + psi_t + psi_m + th + psi_t_d + psi_m_d + th_d + wp + wq + wr + q_md + r_md + t
+        if total - total != 0.0:
+            self.rejected_inputs += 1
+            return self.command
+        last = self.last_t
+        if last is not None and t <= last:
+            if last - t > self.params.reset_backjump_s:
+                self.reset(f"time jumped back from {last:.6f} s to {t:.6f} s")
+                last = None
+            else:
+                self.rejected_stamps += 1
+                return self.command
+        dt = self.dt_nominal if last is None else min(t - last, self._dt_max)
+        self.last_t = t
+        if self.params.feedback:
+            q_g -= self._bias_qr[0]
+            r_g -= self._bias_qr[1]
+
+        c, s = math.cos(th), math.sin(th)
+        if -self.params.min_cos_elevation < c < self.params.min_cos_elevation:
+            self.singular_steps += 1
+            c = self.params.min_cos_elevation if c >= 0.0 else -self.params.min_cos_elevation
+        # task → joint rates (sighting_chain.task_to_joint_rates, scalar form)
+        ct, st = math.cos(psi_t), math.sin(psi_t)
+        cm, sm = math.cos(psi_m), math.sin(psi_m)
+        u1 = ct * wp + st * wq
+        u2 = -st * wp + ct * wq
+        w1 = cm * u1 + sm * u2
+        w2 = -sm * u1 + cm * u2
+        w3 = wr + psi_t_d
+        psi_md = (r_md - s * w1) / c - w3
+        th_md = q_md - w2
+        self.joint_rate_command = (psi_md, th_md)
+        e_a = psi_md - ((r_g - s * w1) / c - w3)
+        e_e = th_md - (q_g - w2)
+        self.rate_error = (e_a, e_e)
+
+        i_a_old, i_e_old = self.integrator
+        if last is None:  # first sample: nothing swept yet
+            i_a, i_e = i_a_old, i_e_old
+        else:
+            h = 0.5 * dt
+            i_a = i_a_old + h * (e_a + self._e_prev[0])
+            i_e = i_e_old + h * (e_e + self._e_prev[1])
+        self._e_prev = (e_a, e_e)
+        lim_a, lim_e = self.torque_limits
+        mode = self._aw_mode
+        if mode == 1:
+            # Clamp: the integral term alone may not ask for more than the torque limit.
+            ia_max, ie_max = self._i_max
+            if i_a > ia_max or i_a < -ia_max:
+                i_a = ia_max if i_a > 0.0 else -ia_max
+            if i_e > ie_max or i_e < -ie_max:
+                i_e = ie_max if i_e > 0.0 else -ie_max
+        else:
+            ia_max = ie_max = 0.0
+        kp, ki = self.kp, self.ki
+        a0, a1 = self._a
+        # ÿ_c − A′x (the trim absorbs ẏ₀)
+        ra = kp * e_a + ki * i_a - (a0[0] * psi_m + a0[1] * th + a0[2] * psi_m_d + a0[3] * th_d)
+        re = kp * e_e + ki * i_e - (a1[0] * psi_m + a1[1] * th + a1[2] * psi_m_d + a1[3] * th_d)
+        tau_a = self._trim[0] + self._b00 * ra + self._b01 * re
+        tau_e = self._trim[1] + self._b10 * ra + self._b11 * re
+        sat_a = tau_a > lim_a or tau_a < -lim_a
+        sat_e = tau_e > lim_e or tau_e < -lim_e
+        if mode == 2 and (sat_a or sat_e):
+            # Conditional integration: undo the integrator step of an axis pushing its
+            # torque further out.
+            undo_a = sat_a and e_a * tau_a > 0.0
+            undo_e = sat_e and e_e * tau_e > 0.0
+            if undo_a or undo_e:
+                da = -(i_a - i_a_old) * ki if undo_a else 0.0
+                de = -(i_e - i_e_old) * ki if undo_e else 0.0
+                if undo_a:
+                    i_a = i_a_old
+                if undo_e:
+                    i_e = i_e_old
+                tau_a += self._b00 * da + self._b01 * de
+                tau_e += self._b10 * da + self._b11 * de
+                sat_a = tau_a > lim_a or tau_a < -lim_a
+                sat_e = tau_e > lim_e or tau_e < -lim_e
+        self.integrator[0] = i_a
+        self.integrator[1] = i_e
+        self.unsaturated_command = (tau_a, tau_e)
+        if sat_a or sat_e:
+            self.saturated_steps += 1
+            tau_a = lim_a if tau_a > lim_a else -lim_a if tau_a < -lim_a else tau_a
+            tau_e = lim_e if tau_e > lim_e else -lim_e if tau_e < -lim_e else tau_e
+        self.command = (tau_a, tau_e)
+        return self.command

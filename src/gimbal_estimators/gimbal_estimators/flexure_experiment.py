@@ -1,0 +1,229 @@
+"""Paper 5 flexure experiment: the ship simulation (gimbal_sim cores, no ROS) feeding
+:class:`~gimbal_estimators.flexure_kf.FlexureKf`, one filter per quasi-static model on the
+same LGU samples, scored against the simulator's flexure truth.
+
+Command line (prints the metrics of both models)::
+
+    python -m gimbal_estimators.flexure_experiment --duration 7200 --seed 0
+
+Errors are estimate − truth; statistics use the filter epochs after ``convergence_s``.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from gimbal_sim.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
+from gimbal_sim.sensors import FlexureParams, GyroParams
+from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+
+from .flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
+
+_ARCSEC = math.pi / 180.0 / 3600.0
+_DEG_H = math.pi / 180.0 / 3600.0
+
+#: Per-epoch series kept (each (n, 3) except ``t`` and ``d2``).
+SERIES = ("t", "truth_flexure", "truth_quasi_static", "truth_bias_diff", "flexure", "flexure_sigma",
+          "quasi_static", "quasi_static_sigma", "bias_diff", "bias_diff_sigma", "d2")
+
+
+@dataclass
+class FlexureExperimentResult:
+    """Outcome for one filter (``label``: the key it was run under; ``model``: its
+    quasi-static model).
+
+    ``metrics``: figures after convergence (keys documented in :func:`flexure_metrics`);
+    ``series``: the :data:`SERIES` arrays [rad, rad/s, s] thinned to ``record_period_s``;
+    ``counters``: the filter's counters; ``wall_s``: wall time of the whole run (shared
+    simulation included); ``filter_us_per_pair``: filter cost per LGU pair [µs].
+    """
+
+    label: str
+    model: str
+    metrics: dict[str, Any]
+    series: dict[str, np.ndarray]
+    counters: dict[str, int]
+    reset_reasons: list[str]
+    wall_s: float
+    filter_us_per_pair: float
+    config: dict[str, Any] = field(default_factory=dict)
+
+
+def flexure_metrics(s: dict[str, np.ndarray], convergence_s: float) -> dict[str, Any]:
+    """Scores from full-rate series ``s`` (the :data:`SERIES` keys).
+
+    Keys (per axis roll, pitch, yaw unless noted): ``total_rms_arcsec``, ``total_max_arcsec``
+    (total-flexure error); ``qs_rms_arcsec``, ``qs_max_arcsec`` (quasi-static error);
+    ``qs_variation_pp_arcsec`` (peak-to-peak of the true quasi-static flexure over the run)
+    and ``qs_variation_rms_arcsec`` (its RMS about its mean after convergence);
+    ``qs_max_over_variation_pp`` (the paper's "about half the variation" figure);
+    ``bias_diff_err_final_deg_h``, ``bias_diff_err_max_deg_h``, ``bias_diff_err_rms_deg_h``;
+    ``total_within_3sigma`` (fraction of epochs with every axis inside ±3σ);
+    ``total_nees_mean`` (Σ (e/σ)² over the axes with the diagonal σ; about 3 if consistent);
+    ``n_epochs`` (scalar).
+    """
+    t = s["t"]
+    sel = t >= convergence_s
+    if not np.any(sel):
+        raise ValueError(f"no filter epochs after convergence_s = {convergence_s} s")
+    e_tot = (s["flexure"] - s["truth_flexure"])[sel]
+    e_qs = (s["quasi_static"] - s["truth_quasi_static"])[sel]
+    e_eps = (s["bias_diff"] - s["truth_bias_diff"])[sel]
+    qs_true = s["truth_quasi_static"]
+    rms = lambda e: np.sqrt(np.mean(e * e, axis=0))  # noqa: E731
+    sig = s["flexure_sigma"][sel]
+    return {
+        "total_rms_arcsec": rms(e_tot) / _ARCSEC,
+        "total_max_arcsec": np.max(np.abs(e_tot), axis=0) / _ARCSEC,
+        "qs_rms_arcsec": rms(e_qs) / _ARCSEC,
+        "qs_max_arcsec": np.max(np.abs(e_qs), axis=0) / _ARCSEC,
+        "qs_variation_pp_arcsec": np.ptp(qs_true, axis=0) / _ARCSEC,
+        "qs_variation_rms_arcsec": np.std(qs_true[sel], axis=0) / _ARCSEC,
+        "qs_max_over_variation_pp": np.max(np.abs(e_qs), axis=0) / np.ptp(qs_true, axis=0),
+        "bias_diff_err_final_deg_h": e_eps[-1] / _DEG_H,
+        "bias_diff_err_max_deg_h": np.max(np.abs(e_eps), axis=0) / _DEG_H,
+        "bias_diff_err_rms_deg_h": rms(e_eps) / _DEG_H,
+        "total_within_3sigma": float(np.mean(np.all(np.abs(e_tot) <= 3.0 * sig, axis=1))),
+        "total_nees_mean": float(np.mean(np.sum((e_tot / np.maximum(sig, 1e-300)) ** 2, axis=1))),
+        "n_epochs": int(np.count_nonzero(sel)),
+    }
+
+
+def run_flexure_comparison(
+    duration_s: float = 7200.0,
+    seed: int = 0,
+    *,
+    models: tuple[str, ...] | Mapping[str, FlexureKfParams] = QS_MODELS,
+    sim_rate_hz: float = 50.0,
+    lgu_rate_hz: float = 10.0,
+    convergence_s: float = 600.0,
+    params: FlexureKfParams | None = None,
+    flexure: FlexureParams | None = None,
+    lgu1: GyroParams | None = None,
+    lgu2: GyroParams | None = None,
+    profile_params: dict[str, Any] | None = None,
+    record_period_s: float = 1.0,
+) -> dict[str, FlexureExperimentResult]:
+    """Run one ship simulation (paper 5 profile, host only, LGUs only) for ``duration_s``
+    [s] with ``seed`` and one filter per entry of ``models`` on the same LGU samples.
+
+    ``params`` is the base filter configuration (its ``quasi_static_model`` is replaced
+    per model); ``models`` may instead map labels to complete parameter sets (tuning runs).
+    ``flexure``/``lgu1``/``lgu2`` override the simulator's truth parameters.
+    Returns ``{label: FlexureExperimentResult}``.
+    """
+    base = FlexureKfParams() if params is None else params
+    if isinstance(models, Mapping):
+        filters = {label: FlexureKf(p) for label, p in models.items()}
+    else:
+        filters = {m: FlexureKf(replace(base, quasi_static_model=m)) for m in models}
+    vehicle = VehicleCore(VehicleConfig(profile="paper5_ship", profile_params=dict(profile_params or {}),
+                                        plant="host_only", sim_rate_hz=sim_rate_hz, duration_s=duration_s))
+    kw: dict[str, Any] = {}
+    if flexure is not None:
+        kw["flexure"] = flexure
+    if lgu1 is not None:
+        kw["lgu1"] = lgu1
+    if lgu2 is not None:
+        kw["lgu2"] = lgu2
+    suite = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=sim_rate_hz, lgu_rate_hz=lgu_rate_hz,
+                                          seed=seed, **kw))
+    rows: dict[str, dict[str, list]] = {m: {k: [] for k in SERIES} for m in models}
+    filter_s = dict.fromkeys(models, 0.0)
+    pairs = 0
+    wall0 = time.perf_counter()
+    clock = time.perf_counter
+    while True:
+        for sample in suite.update(vehicle.truth()):
+            if not isinstance(sample, LguSample):
+                continue
+            pairs += 1
+            truth_eps = None
+            for m, kf in filters.items():
+                c0 = clock()
+                kf.on_lgu1(sample.t, sample.dalpha1, sample.dt)
+                est = kf.on_lgu2(sample.t, sample.dalpha2, sample.dt)
+                filter_s[m] += clock() - c0
+                if est is None:
+                    continue
+                if truth_eps is None:
+                    truth_eps = suite.lgu.lgu1.true_bias - suite.lgu.lgu2.true_bias
+                r = rows[m]
+                r["t"].append(est.t)
+                r["truth_flexure"].append(sample.flexure)
+                r["truth_quasi_static"].append(sample.flexure_quasi_static)
+                r["truth_bias_diff"].append(truth_eps)
+                r["flexure"].append(est.flexure)
+                r["flexure_sigma"].append(est.flexure_sigma)
+                r["quasi_static"].append(est.quasi_static)
+                r["quasi_static_sigma"].append(est.quasi_static_sigma)
+                r["bias_diff"].append(est.bias_diff)
+                r["bias_diff_sigma"].append(est.bias_diff_sigma)
+                r["d2"].append(est.d2)
+        if vehicle.finished:
+            break
+        vehicle.step()
+    wall = time.perf_counter() - wall0
+    out: dict[str, FlexureExperimentResult] = {}
+    for m, kf in filters.items():
+        full = {k: np.asarray(v, dtype=float) for k, v in rows[m].items()}
+        metrics = flexure_metrics(full, convergence_s)
+        # Thin to one row per record period for plots and reports.
+        t = full["t"]
+        keep = np.ones(t.shape, bool)
+        if record_period_s > 0.0 and t.size:
+            bins = np.floor((t - t[0]) / record_period_s + 1e-9)
+            keep = np.r_[True, bins[1:] != bins[:-1]]
+        out[m] = FlexureExperimentResult(
+            label=m, model=kf.params.quasi_static_model if isinstance(models, Mapping) else m, metrics=metrics, series={k: v[keep] for k, v in full.items()},
+            counters=dict(kf.counters), reset_reasons=list(kf.reset_reasons), wall_s=wall,
+            filter_us_per_pair=1e6 * filter_s[m] / max(pairs, 1),
+            config={"duration_s": duration_s, "seed": seed, "sim_rate_hz": sim_rate_hz,
+                    "lgu_rate_hz": lgu_rate_hz, "convergence_s": convergence_s, "params": kf.params},
+        )
+    return out
+
+
+def run_flexure_experiment(model: str = "random_walk_rate", duration_s: float = 7200.0, seed: int = 0,
+                           **kwargs: Any) -> FlexureExperimentResult:
+    """One model's :class:`FlexureExperimentResult` (keywords as :func:`run_flexure_comparison`)."""
+    return run_flexure_comparison(duration_s, seed, models=(model,), **kwargs)[model]
+
+
+def format_metrics(result: FlexureExperimentResult) -> str:
+    """Human-readable summary of one result."""
+    m = result.metrics
+    f = lambda v, d=1: "(" + ", ".join(f"{x:.{d}f}" for x in v) + ")"  # noqa: E731
+    return "\n".join([
+        f"[{result.label}] epochs={m['n_epochs']} wall={result.wall_s:.1f} s filter={result.filter_us_per_pair:.1f} us/pair",
+        f"  total flexure error RMS {f(m['total_rms_arcsec'])}″  max {f(m['total_max_arcsec'])}″"
+        f"  within ±3σ {100 * m['total_within_3sigma']:.1f} %  NEES {m['total_nees_mean']:.2f}",
+        f"  quasi-static error RMS {f(m['qs_rms_arcsec'])}″  max {f(m['qs_max_arcsec'])}″"
+        f"  variation p-p {f(m['qs_variation_pp_arcsec'])}″  max/p-p {f(m['qs_max_over_variation_pp'], 2)}",
+        f"  bias diff error final {f(m['bias_diff_err_final_deg_h'], 4)} °/h  max {f(m['bias_diff_err_max_deg_h'], 4)}"
+        f"  RMS {f(m['bias_diff_err_rms_deg_h'], 4)} °/h",
+        f"  counters {result.counters}",
+    ])
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--duration", type=float, default=7200.0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--sim-rate", type=float, default=50.0)
+    ap.add_argument("--lgu-rate", type=float, default=10.0)
+    ap.add_argument("--convergence", type=float, default=600.0)
+    a = ap.parse_args(argv)
+    res = run_flexure_comparison(a.duration, a.seed, sim_rate_hz=a.sim_rate, lgu_rate_hz=a.lgu_rate,
+                                 convergence_s=a.convergence)
+    for r in res.values():
+        print(format_metrics(r))
+
+
+if __name__ == "__main__":
+    main()

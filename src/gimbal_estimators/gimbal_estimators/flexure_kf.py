@@ -1,0 +1,574 @@
+"""Ship angular-flexure Kalman filter from two ring-laser-gyro units (paper 5, SPEC §3.5).
+
+Frames and attitude integration
+-------------------------------
+LGU1 (body frame b1) sits by the master INS, LGU2 (b2) at the peripheral device. Each unit's
+attitude is integrated from its own incremental angles relative to its own initial body frame,
+i1 = b1(t0) and i2 = b2(t0), both non-rotating, with both initial DCMs equal to I:
+``Ĉ_i·b· ← Ĉ_i·b· exp([Δα×])`` (exact for a rotation vector Δα over the sample).
+
+Observation (paper 5 eqs. 3-6, re-derived)
+------------------------------------------
+The flexure φ is the small rotation from b1 to b2, ``C_b1b2 = exp([φ×]) ≈ I + [φ×]``. A gyro
+bias ε makes the integrated attitude depart as ``Ĉ_ib = (I + [e×]) C_ib`` with
+``ė = C_ib ε`` (e resolved in the i-frame). Because i1 and i2 differ by the initial flexure
+φ0 (``C_i2i1 ≈ I − [φ0×]``) and the product of the two integrated DCMs treats them as one
+frame,
+
+    M = Ĉ_i1b1ᵀ Ĉ_i2b2 ≈ I + [(φ − A θ_d)×],    A = Ĉ_i1b1ᵀ (= C_b1i1),
+    θ_d = φ0 + e1 − e2,    θ̇_d = Ĉ_i1b1 (ε1 − ε2),    θ_d(t0) = φ(t0),
+
+so ``Z = small_angles(M) = φ − A θ_d`` (eq. 5): the flexure plus the 'relative attitude'
+θ_d of the estimated i1 with respect to i2, which starts at the initial flexure and is
+driven by the bias *difference* only (eq. 6), rotated into the i-frame. Writing
+φ = Φ + θ (quasi-static + dynamic), ``H = [I 0 I 0 −A 0]`` (eq. 17). The neglected
+terms are second order (|φ|·|Aθ_d|/2 and the like, about 1″ at 0.5° of flexure).
+The i-frame is inertial, so A carries the ship's rocking and the earth's rotation; that
+modulation is what separates θ_d (and hence the absolute flexure) from Φ + θ.
+
+State (18) and dynamics, one nominal step T = ``filter_period_s``
+-----------------------------------------------------------------
+``X = [Φ_k, Φ_{k−1}, θ_k, θ_{k−1}, θ_d, ε1−ε2]``, 3 each (roll, pitch, yaw; ε in b1 axes).
+
+* quasi-static, ``random_constant``: ``Φ_k = Φ_{k−1} + w``, Var w = q_c T (q_c from
+  ``qs_rw_arcsec_rt_s``, kept tiny so the model is the conventional random constant);
+  ``random_walk_rate`` (eq. 10): ``Φ_k = 2Φ_{k−1} − Φ_{k−2} + e``: the sampled form of
+  Φ̈ = w with PSD q_r (``qs_rate_rw_arcsec_s_rt_s``²); Var e = q_r T³ matches the exact
+  second difference's low-frequency spectrum (its variance is ⅔ q_r T³, lag-1 ⅙ q_r T³).
+* dynamic (eq. 12): the second-order Gauss-Markov θ̈ + 2βθ̇ + ω0²θ = w, ω0² = β² + λ²,
+  sampled as AR(2) with the exact poles z = exp((−β ± jλ)T):
+  ``θ_k = 2r cos(λT) θ_{k−1} − r² θ_{k−2} + e``, r = e^{−βT}, and Var e chosen so the
+  stationary variance is exactly σ²: ``σ_e² = σ²(1−r²)((1−r²)² + 4r² sin²λT)/(1+r²)``.
+  Its autocorrelation then equals the continuous ``e^{−βτ}(cos λτ + (β/λ) sin λτ)`` up to
+  O(T²) in the sine coefficient.
+* relative attitude: ``θ_d,k = θ_d,k−1 + C̄ Δt (ε1−ε2) + n``, C̄ the mean of Ĉ_i1b1 over
+  the interval, Var n = (N1² + N2²) Δt from the units' angle random walk.
+* bias difference: random walk (eq. 11).
+
+Robustness
+----------
+Messages arrive per unit (:meth:`FlexureKf.on_lgu1`, :meth:`FlexureKf.on_lgu2`) and are
+paired by stamp; the filter runs when both of a stamp are in. Non-finite or malformed
+input, non-increasing stamps and duplicates are rejected and counted. A lost sample (a gap
+between one pair's start and the previous pair's end, or a sample of one unit without its
+partner) loses that sample's rotation for good, so the integrated attitudes no longer share
+an instant of truth; the filter then *re-anchors*: it propagates to the start of the next
+complete pair, restarts both attitudes at I there and sets θ_d := Φ + θ (exact, since the
+new initial frames differ by the flexure at that instant), transforming the covariance
+linearly, so what was learnt is kept. A gap longer than ``max_gap_s`` or a backward clock
+jump longer than ``clock_jump_s`` resets the filter, with the reason recorded.
+Measurements beyond the chi-square gate are not fused and counted; ``max_gate_rejections``
+in a row reset the filter (its model no longer explains the data).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize, small_angles_from_dcm
+
+from . import kalman
+
+#: Quasi-static flexure models.
+QS_MODELS = ("random_constant", "random_walk_rate")
+
+N_STATES = 18
+#: Slices of the state vector.
+PHI_K, PHI_K1, THETA_K, THETA_K1, THETA_D, EPS = (slice(3 * i, 3 * i + 3) for i in range(6))
+
+_DEG = math.pi / 180.0
+_ARCSEC = _DEG / 3600.0
+_DEG_H = _DEG / 3600.0
+_DEG_RT_H = _DEG / 60.0
+_DEG_H_RT_H = _DEG_H / 60.0
+
+
+def _per_axis(name: str, value: object) -> tuple[float, float, float]:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        vals: tuple[float, ...] = (float(value),) * 3
+    else:
+        try:
+            if isinstance(value, (str, bytes)):
+                raise TypeError
+            vals = tuple(float(v) for v in value)  # type: ignore[union-attr]
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name} must be a number or 3 numbers, got {value!r}") from exc
+        if len(vals) != 3:
+            raise ValueError(f"{name} must be a number or 3 numbers, got {len(vals)} values")
+    if not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return vals  # type: ignore[return-value]
+
+
+def _check(name: str, value: object, *, positive: bool = False, allow_zero: bool = True) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    if positive and value <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if not allow_zero and value == 0.0:
+        raise ValueError(f"{name} must not be 0")
+    if value < 0.0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class FlexureKfParams:
+    """Filter parameters (engineering units in the field names; per-axis fields take a scalar
+    or a (roll, pitch, yaw) triple). Defaults match the paper 5 simulation (SPEC §3.5).
+
+    Attributes:
+        quasi_static_model: ``"random_constant"`` or ``"random_walk_rate"`` (eq. 10).
+        filter_period_s: nominal Kalman step T [s]; attitudes integrate every LGU sample,
+            the filter steps once at least T has elapsed (LGU 10 Hz and T = 0.1 s: every pair).
+        qs_initial_sigma_deg: prior σ of the quasi-static flexure at t0 [°].
+        qs_rate_initial_sigma_deg_h: prior σ of its rate [°/h] (``random_walk_rate`` only).
+        qs_rate_rw_arcsec_s_rt_s: rate random walk of Φ [″/s/√s] (``random_walk_rate``).
+        qs_rw_arcsec_rt_s: random walk of Φ [″/√s] (``random_constant``; small = constant).
+        dynamic_rms_arcsec, dynamic_beta_per_s, dynamic_freq_rad_s: second-order Markov
+            RMS [″], decay rate β [1/s] and damped frequency λ [rad/s] (eq. 12).
+        bias_diff_initial_sigma_deg_h: prior σ of ε1 − ε2 [°/h].
+        bias_diff_rw_deg_h_rt_h: its random walk [°/h/√h].
+        lgu_arw_deg_rt_h: angle random walk of each LGU [°/√h] (drives θ_d).
+        meas_noise_arcsec: σ of the attitude-matching measurement [″] (second-order model
+            error; the LGU noise itself enters through θ_d).
+        anchor_sigma_arcsec: σ given to θ_d − (Φ + θ) at (re-)anchoring [″].
+        gate_probability: chi-square gate (3 dof) probability; None disables gating.
+        max_gate_rejections: consecutive gated measurements that reset the filter.
+        max_gap_s: a data gap longer than this resets instead of re-anchoring [s].
+        clock_jump_s: a stamp this far behind the newest one is a clock jump (reset) rather
+            than an out-of-order message [s].
+        dt_tolerance: relative tolerance on stamp spacing vs the samples' dt.
+        max_pending: unpaired samples held per unit while waiting for the partner.
+    """
+
+    quasi_static_model: str = "random_walk_rate"
+    filter_period_s: float = 0.1
+    qs_initial_sigma_deg: float | tuple[float, ...] = 0.5
+    qs_rate_initial_sigma_deg_h: float | tuple[float, ...] = 10.0
+    qs_rate_rw_arcsec_s_rt_s: float | tuple[float, ...] = 0.05
+    qs_rw_arcsec_rt_s: float | tuple[float, ...] = 0.001
+    dynamic_rms_arcsec: float | tuple[float, ...] = (20.0, 60.0, 40.0)
+    dynamic_beta_per_s: float | tuple[float, ...] = 0.1
+    dynamic_freq_rad_s: float | tuple[float, ...] = 0.5
+    bias_diff_initial_sigma_deg_h: float | tuple[float, ...] = 0.1
+    bias_diff_rw_deg_h_rt_h: float | tuple[float, ...] = 0.001
+    lgu_arw_deg_rt_h: float = 0.001
+    meas_noise_arcsec: float = 1.0
+    anchor_sigma_arcsec: float = 0.1
+    gate_probability: float | None = 0.99999
+    max_gate_rejections: int = 200
+    max_gap_s: float = 5.0
+    clock_jump_s: float = 1.0
+    dt_tolerance: float = 0.25
+    max_pending: int = 64
+
+    def __post_init__(self) -> None:
+        if self.quasi_static_model not in QS_MODELS:
+            raise ValueError(f"quasi_static_model must be one of {QS_MODELS}, got {self.quasi_static_model!r}")
+        set_ = object.__setattr__
+        for name in ("qs_initial_sigma_deg", "qs_rate_initial_sigma_deg_h", "qs_rate_rw_arcsec_s_rt_s",
+                     "qs_rw_arcsec_rt_s", "dynamic_rms_arcsec", "dynamic_beta_per_s", "dynamic_freq_rad_s",
+                     "bias_diff_initial_sigma_deg_h", "bias_diff_rw_deg_h_rt_h"):
+            vals = _per_axis(name, getattr(self, name))
+            for x in vals:
+                _check(name, x)
+            set_(self, name, vals)
+        for name in ("qs_initial_sigma_deg", "dynamic_rms_arcsec", "dynamic_beta_per_s",
+                     "bias_diff_initial_sigma_deg_h"):
+            for x in getattr(self, name):
+                _check(name, x, positive=True)
+        # The active quasi-static model needs process noise or its covariance collapses.
+        active = "qs_rate_rw_arcsec_s_rt_s" if self.quasi_static_model == "random_walk_rate" else "qs_rw_arcsec_rt_s"
+        for x in getattr(self, active):
+            _check(active, x, positive=True)
+        for name in ("filter_period_s", "meas_noise_arcsec", "anchor_sigma_arcsec", "max_gap_s",
+                     "clock_jump_s", "dt_tolerance"):
+            _check(name, getattr(self, name), positive=True)
+        _check("lgu_arw_deg_rt_h", self.lgu_arw_deg_rt_h)
+        if self.dt_tolerance >= 0.5:
+            raise ValueError(f"dt_tolerance must be < 0.5, got {self.dt_tolerance}")
+        if self.gate_probability is not None:
+            _check("gate_probability", self.gate_probability, positive=True)
+            if not self.gate_probability < 1.0:
+                raise ValueError(f"gate_probability must be in (0, 1) or None, got {self.gate_probability}")
+        for name in ("max_gate_rejections", "max_pending"):
+            val = getattr(self, name)
+            if not isinstance(val, int) or isinstance(val, bool) or val < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {val!r}")
+        if self.max_gap_s <= self.filter_period_s:
+            raise ValueError(f"max_gap_s must exceed filter_period_s ({self.filter_period_s}), got {self.max_gap_s}")
+
+
+def ar2_coefficients(beta: float, freq: float, sigma: float, dt: float) -> tuple[float, float, float]:
+    """``(a1, a2, var_e)`` of the AR(2) ``θ_k = a1 θ_{k−1} + a2 θ_{k−2} + e`` sampling the
+    second-order Gauss-Markov process (decay β [1/s] > 0, damped frequency λ [rad/s] >= 0,
+    stationary RMS σ) at step ``dt`` [s]: exact poles, exact stationary variance σ²."""
+    r2 = math.exp(-2.0 * beta * dt)
+    one_minus_r2 = -math.expm1(-2.0 * beta * dt)
+    r = math.sqrt(r2)
+    a1 = 2.0 * r * math.cos(freq * dt)
+    a2 = -r2
+    s = math.sin(freq * dt)
+    var_e = sigma * sigma * one_minus_r2 * (one_minus_r2 * one_minus_r2 + 4.0 * r2 * s * s) / (1.0 + r2)
+    return a1, a2, var_e
+
+
+def ar2_autocorrelation(a1: float, a2: float, lags: int) -> np.ndarray:
+    """Normalised autocorrelation ρ_0..ρ_lags of a stationary AR(2) (Yule-Walker recursion)."""
+    rho = np.empty(lags + 1)
+    rho[0] = 1.0
+    if lags >= 1:
+        rho[1] = a1 / (1.0 - a2)
+    for k in range(2, lags + 1):
+        rho[k] = a1 * rho[k - 1] + a2 * rho[k - 2]
+    return rho
+
+
+class FlexureEstimate(NamedTuple):
+    """One filter output at stamp ``t`` [s]. Angles [rad], rates [rad/s], each (3,)
+    (roll, pitch, yaw), with 1σ companions. ``flexure`` = quasi-static + dynamic;
+    ``relative_attitude`` θ_d; ``innovation`` (3,) [rad]; ``d2`` its squared Mahalanobis
+    distance; ``accepted`` whether the gate let it in."""
+
+    t: float
+    flexure: np.ndarray
+    flexure_sigma: np.ndarray
+    quasi_static: np.ndarray
+    quasi_static_sigma: np.ndarray
+    dynamic: np.ndarray
+    dynamic_sigma: np.ndarray
+    bias_diff: np.ndarray
+    bias_diff_sigma: np.ndarray
+    relative_attitude: np.ndarray
+    innovation: np.ndarray
+    d2: float
+    accepted: bool
+
+
+#: Counter names on :attr:`FlexureKf.counters`.
+COUNTERS = ("samples", "pairs", "updates", "gated", "nonfinite", "malformed", "bad_dt", "out_of_order",
+            "duplicates", "unpaired", "gaps", "reanchors", "resets")
+
+
+class FlexureKf:
+    """Message-driven 18-state flexure filter (module docstring). No clock of its own: time
+    is the messages' stamps [s].
+
+    Args:
+        params: filter parameters.
+    """
+
+    def __init__(self, params: FlexureKfParams | None = None) -> None:
+        params = FlexureKfParams() if params is None else params
+        if not isinstance(params, FlexureKfParams):
+            raise TypeError(f"params must be FlexureKfParams, got {type(params).__name__}")
+        self.params = params
+        p = params
+        self._q_rw = np.array([(x * _ARCSEC) ** 2 for x in p.qs_rw_arcsec_rt_s])  # type: ignore[union-attr]
+        self._q_rate = np.array([(x * _ARCSEC) ** 2 for x in p.qs_rate_rw_arcsec_s_rt_s])  # type: ignore[union-attr]
+        self._q_arw = 2.0 * (p.lgu_arw_deg_rt_h * _DEG_RT_H) ** 2
+        self._q_eps = np.array([(x * _DEG_H_RT_H) ** 2 for x in p.bias_diff_rw_deg_h_rt_h])  # type: ignore[union-attr]
+        self._dyn = list(zip(p.dynamic_beta_per_s, p.dynamic_freq_rad_s,  # type: ignore[arg-type]
+                             [x * _ARCSEC for x in p.dynamic_rms_arcsec]))  # type: ignore[union-attr]
+        self._R = np.eye(3) * (p.meas_noise_arcsec * _ARCSEC) ** 2
+        self._gate = math.inf if p.gate_probability is None else kalman.chi2_gate(3, p.gate_probability)
+        self._H = np.zeros((3, N_STATES))
+        self._H[:, PHI_K] = np.eye(3)
+        self._H[:, THETA_K] = np.eye(3)
+        # θ_d := Φ_k + θ_k, identity elsewhere: the (re-)anchoring map.
+        self._anchor_map = np.eye(N_STATES)
+        self._anchor_map[THETA_D, THETA_D] = 0.0
+        self._anchor_map[THETA_D, PHI_K] = np.eye(3)
+        self._anchor_map[THETA_D, THETA_K] = np.eye(3)
+        self._model_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.counters: dict[str, int] = dict.fromkeys(COUNTERS, 0)
+        #: Reasons of the resets so far (newest last, at most 20 kept).
+        self.reset_reasons: list[str] = []
+        self._pending: tuple[dict[int, tuple], dict[int, tuple]] = ({}, {})
+        self._t_newest: float | None = None
+        self._clear()
+
+    # ------------------------------------------------------------------ public API
+    def on_lgu1(self, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
+        """LGU1 incremental angle ``dalpha`` [rad] (3,) over ``dt`` [s] ending at stamp ``t``
+        [s]. Returns the estimate when this completes a pair that ends a filter step."""
+        return self._on_sample(0, t, dalpha, dt)
+
+    def on_lgu2(self, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
+        """LGU2 counterpart of :meth:`on_lgu1`."""
+        return self._on_sample(1, t, dalpha, dt)
+
+    def reset(self, reason: str) -> None:
+        """Forget everything (state, attitudes, pending samples); record ``reason``."""
+        self.counters["resets"] += 1
+        self.reset_reasons.append(reason)
+        del self.reset_reasons[:-20]
+        self._clear()
+
+    @property
+    def last_reset_reason(self) -> str | None:
+        return self.reset_reasons[-1] if self.reset_reasons else None
+
+    @property
+    def initialized(self) -> bool:
+        return self._x is not None
+
+    @property
+    def state(self) -> np.ndarray | None:
+        """State X (18,) (copy), or None before the first pair."""
+        return None if self._x is None else self._x.copy()
+
+    @property
+    def covariance(self) -> np.ndarray | None:
+        """Covariance (18, 18) (copy), or None before the first pair."""
+        return None if self._P is None else self._P.copy()
+
+    @property
+    def attitudes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Integrated ``(Ĉ_i1b1, Ĉ_i2b2)`` (copies), each (3, 3)."""
+        return self._C1.copy(), self._C2.copy()
+
+    def estimate(self) -> FlexureEstimate | None:
+        """The current estimate (no innovation: zeros, d2 = nan), or None before the first pair."""
+        if self._x is None:
+            return None
+        return self._output(self._t_kf, np.zeros(3), math.nan, False)
+
+    # ------------------------------------------------------------------ model
+    def discrete_model(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(F, Q)`` (18, 18) of one step ``dt`` [s] with the θ_d–ε coupling left at zero
+        (it depends on the attitude; the filter fills ``F[θ_d, ε] = C̄ dt``). Cached copies
+        are reused internally; the returned arrays are copies."""
+        F, Q = self._model(dt)
+        F = F.copy()
+        F[THETA_D, EPS] = 0.0
+        return F, Q.copy()
+
+    def _model(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        key = round(dt * 1e9)
+        cached = self._model_cache.get(key)
+        if cached is not None:
+            return cached
+        F = np.zeros((N_STATES, N_STATES))
+        Q = np.zeros((N_STATES, N_STATES))
+        I3 = np.eye(3)
+        if self.params.quasi_static_model == "random_walk_rate":
+            F[PHI_K, PHI_K] = 2.0 * I3
+            F[PHI_K, PHI_K1] = -I3
+            Q[PHI_K, PHI_K] = np.diag(self._q_rate * dt ** 3)
+        else:
+            F[PHI_K, PHI_K] = I3
+            Q[PHI_K, PHI_K] = np.diag(self._q_rw * dt)
+        F[PHI_K1, PHI_K] = I3
+        for i, (beta, freq, sigma) in enumerate(self._dyn):
+            a1, a2, var_e = ar2_coefficients(beta, freq, sigma, dt)
+            F[6 + i, 6 + i] = a1
+            F[6 + i, 9 + i] = a2
+            Q[6 + i, 6 + i] = var_e
+        F[THETA_K1, THETA_K] = I3
+        F[THETA_D, THETA_D] = I3
+        Q[THETA_D, THETA_D] = self._q_arw * dt * I3
+        F[EPS, EPS] = I3
+        Q[EPS, EPS] = np.diag(self._q_eps * dt)
+        if len(self._model_cache) > 16:
+            self._model_cache.clear()
+        self._model_cache[key] = (F, Q)
+        return F, Q
+
+    def _initial(self) -> tuple[np.ndarray, np.ndarray]:
+        p = self.params
+        T = p.filter_period_s
+        P = np.zeros((N_STATES, N_STATES))
+        for i in range(3):
+            s0 = (p.qs_initial_sigma_deg[i] * _DEG) ** 2  # type: ignore[index]
+            if p.quasi_static_model == "random_walk_rate":
+                extra = (p.qs_rate_initial_sigma_deg_h[i] * _DEG_H * T) ** 2  # type: ignore[index]
+            else:
+                extra = self._q_rw[i] * T
+            P[i, i] = s0
+            P[i, 3 + i] = P[3 + i, i] = s0
+            P[3 + i, 3 + i] = s0 + extra
+            beta, freq, sigma = self._dyn[i]
+            a1, a2, _ = ar2_coefficients(beta, freq, sigma, T)
+            rho1 = a1 / (1.0 - a2)
+            P[6 + i, 6 + i] = P[9 + i, 9 + i] = sigma * sigma
+            P[6 + i, 9 + i] = P[9 + i, 6 + i] = rho1 * sigma * sigma
+            P[15 + i, 15 + i] = (p.bias_diff_initial_sigma_deg_h[i] * _DEG_H) ** 2  # type: ignore[index]
+        x = np.zeros(N_STATES)
+        x, P = self._anchor(x, P)
+        return kalman.check_state(x, P, "FlexureKf")
+
+    def _anchor(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """θ_d := Φ_k + θ_k (new initial frames at the current body frames)."""
+        T = self._anchor_map
+        P = T @ P @ T.T
+        P[THETA_D, THETA_D] += np.eye(3) * (self.params.anchor_sigma_arcsec * _ARCSEC) ** 2
+        return T @ x, kalman.symmetrize(P)
+
+    # ------------------------------------------------------------------ message handling
+    def _clear(self) -> None:
+        self._x: np.ndarray | None = None
+        self._P: np.ndarray | None = None
+        self._C1 = np.eye(3)
+        self._C2 = np.eye(3)
+        self._C1_kf = np.eye(3)
+        self._t_kf = math.nan  # time of the filter state
+        self._t_att = math.nan  # time of the integrated attitudes (end of the last pair)
+        self._n_att = 0
+        self._rejections = 0
+        self._pending[0].clear()
+        self._pending[1].clear()
+        self._t_newest = None
+
+    def _on_sample(self, unit: int, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
+        c = self.counters
+        c["samples"] += 1
+        try:
+            t = float(t)
+            dt = float(dt)
+            if len(dalpha) != 3:
+                raise ValueError
+            d = (float(dalpha[0]), float(dalpha[1]), float(dalpha[2]))
+        except (TypeError, ValueError):
+            c["malformed"] += 1
+            return None
+        if not (math.isfinite(t) and math.isfinite(dt) and math.isfinite(d[0] + d[1] + d[2])):
+            c["nonfinite"] += 1
+            return None
+        if not 0.0 < dt <= self.params.max_gap_s or d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.0:
+            # A rotation over 1 rad in one sample is not a ship's.
+            c["bad_dt" if not 0.0 < dt <= self.params.max_gap_s else "malformed"] += 1
+            return None
+        if self._t_newest is not None and t < self._t_newest - self.params.clock_jump_s:
+            self.reset(f"backward clock jump from {self._t_newest:.6f} s to {t:.6f} s")
+        elif not math.isnan(self._t_att) and t <= self._t_att:
+            c["out_of_order"] += 1
+            return None
+        key = round(t * 1e9)
+        mine, other = self._pending[unit], self._pending[1 - unit]
+        if key in mine:
+            c["duplicates"] += 1
+            return None
+        if self._t_newest is None or t > self._t_newest:
+            self._t_newest = t
+        partner = other.pop(key, None)
+        if partner is None:
+            mine[key] = (t, d, dt)
+            if len(mine) > self.params.max_pending:
+                del mine[min(mine)]
+                c["unpaired"] += 1
+            return None
+        # Samples older than a complete pair will never pair: their rotation is lost.
+        for dct in self._pending:
+            stale = [k for k in dct if k < key]
+            for k in stale:
+                del dct[k]
+            c["unpaired"] += len(stale)
+        if unit == 0:
+            return self._on_pair(t, d, partner[1], dt, partner[2])
+        return self._on_pair(t, partner[1], d, partner[2], dt)
+
+    def _on_pair(self, t: float, d1: tuple, d2: tuple, dt1: float, dt2: float) -> FlexureEstimate | None:
+        p = self.params
+        c = self.counters
+        c["pairs"] += 1
+        tol = p.dt_tolerance * dt1
+        if abs(dt1 - dt2) > tol:
+            c["bad_dt"] += 1
+            return None
+        t_start = t - dt1
+        if self._x is None:
+            self._x, self._P = self._initial()
+            self._t_kf = self._t_att = t_start
+        else:
+            gap = t_start - self._t_att
+            if gap < -tol:
+                # Overlapping intervals: the stamps contradict the samples' dt.
+                c["bad_dt"] += 1
+                return None
+            if gap > tol:
+                c["gaps"] += 1
+                if t_start - self._t_kf > p.max_gap_s:
+                    self.reset(f"data gap of {gap:.3f} s exceeds max_gap_s")
+                    self._t_newest = t
+                    self._x, self._P = self._initial()
+                    self._t_kf = self._t_att = t_start
+                else:
+                    self._propagate(t_start)
+                    self._x, self._P = self._anchor(self._x, self._P)
+                    self._C1 = np.eye(3)
+                    self._C2 = np.eye(3)
+                    self._C1_kf = self._C1
+                    self._t_att = t_start
+                    c["reanchors"] += 1
+        self._C1 = self._C1 @ dcm_from_rotation_vector(d1)
+        self._C2 = self._C2 @ dcm_from_rotation_vector(d2)
+        self._t_att = t
+        self._n_att += 1
+        if self._n_att % 1000 == 0:
+            # Rounding drift of the products is ~1e-16 per step; renormalise well before it matters.
+            self._C1 = orthonormalize(self._C1)
+            self._C2 = orthonormalize(self._C2)
+        if t - self._t_kf < p.filter_period_s - tol:
+            return None
+        return self._epoch(t)
+
+    def _propagate(self, t: float) -> None:
+        """Time update from the filter time to ``t`` in whole nominal steps."""
+        T = self.params.filter_period_s
+        span = t - self._t_kf
+        if span <= 0.0:
+            return
+        m = max(1, int(round(span / T)))
+        h = span / m
+        F, Q = self._model(h)
+        # Mean attitude over the interval for θ̇_d = Ĉ_i1b1 (ε1 − ε2).
+        F[THETA_D, EPS] = (0.5 * h) * (self._C1_kf + self._C1)
+        x, P = self._x, self._P
+        for _ in range(m):
+            x, P = kalman.predict(x, P, F, Q)
+        self._x, self._P = x, P
+        self._t_kf = t
+        self._C1_kf = self._C1
+
+    def _epoch(self, t: float) -> FlexureEstimate | None:
+        self._propagate(t)
+        try:
+            z = small_angles_from_dcm(self._C1.T @ self._C2)
+        except ValueError as exc:
+            self.reset(f"attitude matching failed: {exc}")
+            return None
+        H = self._H
+        H[:, THETA_D] = -self._C1.T
+        up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate)
+        c = self.counters
+        if up.accepted:
+            self._x, self._P = up.x, up.P
+            c["updates"] += 1
+            self._rejections = 0
+        else:
+            c["gated"] += 1
+            self._rejections += 1
+            if self._rejections >= self.params.max_gate_rejections:
+                self.reset(f"{self._rejections} consecutive measurements beyond the gate (last d2 = {up.d2:.3g})")
+                return None
+        return self._output(t, up.y, up.d2, up.accepted)
+
+    def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
+        x, P = self._x, self._P
+        dg = np.diag(P)
+        qs = x[PHI_K]
+        dyn = x[THETA_K]
+        var_qs = dg[PHI_K]
+        var_dyn = dg[THETA_K]
+        cross = np.array([P[i, 6 + i] for i in range(3)])
+        var_tot = np.maximum(var_qs + var_dyn + 2.0 * cross, 0.0)
+        return FlexureEstimate(
+            t=t, flexure=qs + dyn, flexure_sigma=np.sqrt(var_tot), quasi_static=qs.copy(),
+            quasi_static_sigma=np.sqrt(var_qs), dynamic=dyn.copy(), dynamic_sigma=np.sqrt(var_dyn),
+            bias_diff=x[EPS].copy(), bias_diff_sigma=np.sqrt(dg[EPS]), relative_attitude=x[THETA_D].copy(),
+            innovation=np.asarray(y, dtype=float), d2=float(d2), accepted=bool(accepted),
+        )

@@ -1,0 +1,693 @@
+"""Rotation-modulated fine alignment of a platform INS on a static base (paper 3, SPEC §3.3).
+
+The platform (stable element ``s``) is held level by its servo and turned back and forth
+about the local vertical; the 8-state recursive least squares (RLS) of paper 3 estimates
+its initial misalignment, the north drift and the level accelerometer biases and gyro drifts
+from the level accelerometers and the azimuth gimbal angle.
+
+Conventions (re-derived; the paper's OCR'd equations are not copied)
+-------------------------------------------------------------------
+* Navigation frame n = NED. The platform azimuth ψ is the azimuth joint angle θ_a of
+  ``gimbal_kinematics.four_gimbal``: ``C_sn,ideal = rot3(ψ)``, ψ about NED *down*. Paper 3's
+  φz is about ENU *up*, so **φz(paper) = −ψ**. The platform axes x, y, z are the sim's
+  (x = north, y = east, z = down at ψ = 0; paper 3's x is east): ∇x, ∇y, ε_x, ε_y below are
+  resolved in these axes.
+* Misalignment φ: the rotation vector that takes the ideal platform to the true one,
+  ``C_ns,true = exp([φ×]) C_ns,ideal``. Its components are reported in ENU,
+  (δφE, δφN, δφU) = (φ_2, φ_1, −φ_3) of the NED components — the paper's state order.
+  δφU > 0 is a counter-clockwise (seen from above) azimuth error.
+* Units: rad, rad/s, m/s², s; g is WGS-84 normal gravity at the latitude unless given;
+  Ω = 7.292115e-5 rad/s, ω_N = Ω cos L, ω_U = Ω sin L.
+
+Model (paper eqs. 5–17)
+-----------------------
+Platform error dynamics (psi-angle form, static base; the platform precesses at its commanded
+rate plus the gyro drift ε_s, and the NED frame turns at ω_ie): φ̇ = −ω_ie × φ + ε_n with
+ε_n = C_ns ε_s + ε_nav. In ENU components that is paper eq. 5:
+
+    δφ̇E = ω_U δφN − ω_N δφU + εE,   δφ̇N = −ω_U δφE + εN,   δφ̇U = ω_N δφE + εU.
+
+Over an alignment of T ≪ 1/Ω (paper eq. 7) it integrates to first order (eq. 8, 12):
+
+    δφE(t) = δφE0 + (ω_U δφN0 − ω_N δφU0) t + ∫εE dt
+    δφN(t) = δφN0 − ω_U δφE0 t + ∫εN dt
+
+The platform gyro drifts ε_x, ε_y are fixed in s and are *modulated* by the rotation:
+ε_n = rot3(ψ)ᵀ ε_s gives εN = cos ψ ε_x − sin ψ ε_y, εE = sin ψ ε_x + cos ψ ε_y (eq. 11), so
+∫εN dt = I_c ε_x − I_s ε_y and ∫εE dt = I_s ε_x + I_c ε_y with I_c = ∫cos ψ dt,
+I_s = ∫sin ψ dt. For ψ = ω_r t these are paper eq. 12's sin φz/ω_r and (1 − cos φz)/ω_r
+terms; this implementation integrates the *measured* ψ(t) instead, which stays exact for the
+bidirectional schedule (whose return leg has ψ̇ = −ω_r) and for reversal transients. The
+part of the drift that is fixed in n (torquer and command errors) is the north drift ε_N
+state; its east counterpart is unobservable (it is indistinguishable from ω_N δφU0, the
+classical gyrocompass limit δφU error = −εE/ω_N) and is not a state.
+
+Accelerometers (eq. 9, 17): with f_n = (0, 0, −g) at rest, f_s = C_sn,ideal (I − [φ×]) f_n +
+∇_s, so the level specific force resolved into the ideal level frame,
+f_h = rot3(ψ)ᵀ f_s, is f_N = g δφE + ∇N and f_E = −g δφN + ∇E, with ∇N = cos ψ ∇x − sin ψ ∇y
+and ∇E = sin ψ ∇x + cos ψ ∇y. The measurement Z = (f_N/g, −f_E/g) = (δφE + ∇N/g,
+δφN − ∇E/g). At fixed ψ the bias is a constant indistinguishable from the initial tilt
+(eq. 9); the rotation modulates it and separates the two (eq. 10).
+
+Hence Z = H X with X = [δφE0, δφN0, δφU0, ε_N, ∇x, ∇y, ε_x, ε_y] (eq. 15) and (eq. 16)
+
+    H = [[ 1 − Ω²t²/2,  ω_U t,            −ω_N t,        ω_U t²/2,  cos ψ/g, −sin ψ/g, I_s,  I_c],
+         [−ω_U t,        1 − ω_U² t²/2,   ω_N ω_U t²/2,  t,        −sin ψ/g, −cos ψ/g, I_c, −I_s]]
+
+with t measured from the alignment start (the first accepted accelerometer sample). The
+t² entries are the second-order terms ½ ω×(ω×φ0) t² − ½ ω×ε t² of the exact solution
+(paper eq. 6) that the paper's eq. 8 drops; ω_N ω_U δφU0 t²/2 is 0.5″ after 10 min with
+δφU0 = 17′ and would bias ε_N by ≈0.0016°/h if left out. Still neglected: (Ωt)³ terms,
+the unmodelled azimuth drift ε_U (it adds −ω_N ε_U t²/2 to δφE and biases δφU0 by about
+ε_U T/2, ≈9″ for 0.03°/h over T = 600 s) and products φ·ε of the modulated drifts.
+
+Estimator and scaling
+---------------------
+Paper eq. 18 is the RLS P⁺ = P − P Hᵀ (I + H P Hᵀ)⁻¹ H P with X0 = 0 and P0 = I: a Kalman
+update with unit measurement noise and unit prior. Taken literally in SI units that prior is
+1 rad, 1 rad/s and 1 m/s², and the unit measurement weight makes the prior worth as much as
+one sample — over 10 min the prior then shrinks δφU0 toward zero (its column ω_N t is only
+~0.03). So the filter runs in *normalised* coordinates where eq. 18 holds exactly:
+ξ = X / s with per-state scales s (``*_scale_*`` fields: a generous a-priori size of each
+error) so that P0 = I means "each error is about its scale", and the measurement is whitened
+by its noise σ_z so that R = I. The update is ``kalman.joseph_update``. Accelerometer samples
+(any rate) are averaged over blocks of ``block_s``: Z and H are both linear in the samples, so
+mean(Z) = mean(H) X + mean(V) exactly, with var(mean V) = (N_a/g)² Σ(1/Δt_k)/n² for white
+noise of density N_a; one 2-row update per block keeps the cost per raw sample to a few µs.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
+
+from .kalman import check_state, joseph_update, symmetrize
+
+#: State order (paper eq. 15).
+STATE_NAMES = ("dphi_E0", "dphi_N0", "dphi_U0", "eps_N", "bias_x", "bias_y", "eps_x", "eps_y")
+N_STATES = 8
+
+_ARCSEC = math.pi / (180.0 * 3600.0)
+_ARCMIN = math.pi / (180.0 * 60.0)
+_DEG_H = math.pi / (180.0 * 3600.0)
+_UG = 9.80665e-6
+
+
+def _check_finite(name: str, value: object) -> float:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _check_positive(name: str, value: object) -> float:
+    v = _check_finite(name, value)
+    if v <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class RotationAlignmentParams:
+    """Alignment filter parameters (validated, immutable).
+
+    Attributes:
+        lat_deg: latitude of the static base [deg], |lat| < 90 (ω_N = 0 at the poles).
+        gravity_m_s2: local gravity [m/s²]; None = WGS-84 normal gravity at ``lat_deg``.
+        accel_noise_ug_rt_hz: accelerometer white-noise density [µg/√Hz], sets R.
+        block_s: averaging block [s] per RLS update.
+        tilt_scale_arcsec, azimuth_scale_deg, north_drift_scale_deg_h, accel_bias_scale_ug,
+            gyro_drift_scale_deg_h: normalisation scales s of the states (P0 = I in X/s):
+            the a-priori size of each error. Generous values only weaken the prior.
+        max_joint_age_s: largest |t_accel − t_joint| [s] bridged by extrapolating the azimuth
+            with its rate; older joint data rejects the accelerometer sample.
+        converged_tilt_arcsec, converged_azimuth_arcmin: σ of δφE0/δφN0 and of δφU0 below
+            which the estimate is flagged converged.
+        reset_backjump_s: a timestamp this far [s] before the last one resets the filter
+            (bag loop); smaller reversals are rejected and counted.
+        rank_rel_tol: eigenvalues of the information matrix below this fraction of the
+            largest count as unobservable directions.
+    """
+
+    lat_deg: float
+    gravity_m_s2: float | None = None
+    accel_noise_ug_rt_hz: float = 50.0
+    block_s: float = 1.0
+    tilt_scale_arcsec: float = 600.0
+    azimuth_scale_deg: float = 2.0
+    north_drift_scale_deg_h: float = 0.1
+    accel_bias_scale_ug: float = 1000.0
+    gyro_drift_scale_deg_h: float = 0.1
+    max_joint_age_s: float = 0.1
+    converged_tilt_arcsec: float = 5.0
+    converged_azimuth_arcmin: float = 2.0
+    reset_backjump_s: float = 1.0
+    rank_rel_tol: float = 1e-9
+    omega_ie_rad_s: float = OMEGA_IE
+
+    def __post_init__(self) -> None:
+        lat = _check_finite("lat_deg", self.lat_deg)
+        if abs(lat) >= 90.0:
+            raise ValueError(f"lat_deg must be in (-90, 90) (azimuth is unobservable at the poles), got {lat}")
+        if self.gravity_m_s2 is not None:
+            _check_positive("gravity_m_s2", self.gravity_m_s2)
+        for name in ("accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
+                     "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h",
+                     "max_joint_age_s", "converged_tilt_arcsec", "converged_azimuth_arcmin",
+                     "reset_backjump_s", "rank_rel_tol", "omega_ie_rad_s"):
+            _check_positive(name, getattr(self, name))
+        if self.rank_rel_tol >= 1.0:
+            raise ValueError(f"rank_rel_tol must be < 1, got {self.rank_rel_tol}")
+
+    @property
+    def lat_rad(self) -> float:
+        return math.radians(self.lat_deg)
+
+    @property
+    def gravity(self) -> float:
+        """Gravity [m/s²] used to turn specific force into tilt."""
+        return normal_gravity(self.lat_rad) if self.gravity_m_s2 is None else float(self.gravity_m_s2)
+
+    def state_scales(self) -> np.ndarray:
+        """Normalisation scales s (8,) in SI units (rad, rad/s, m/s²)."""
+        tilt = self.tilt_scale_arcsec * _ARCSEC
+        return np.array([
+            tilt, tilt, math.radians(self.azimuth_scale_deg), self.north_drift_scale_deg_h * _DEG_H,
+            self.accel_bias_scale_ug * _UG, self.accel_bias_scale_ug * _UG,
+            self.gyro_drift_scale_deg_h * _DEG_H, self.gyro_drift_scale_deg_h * _DEG_H,
+        ])
+
+
+class AlignmentEstimate(NamedTuple):
+    """Alignment result at time ``t`` [s].
+
+    ``x`` (8,) in :data:`STATE_NAMES` order, SI (rad, rad/s, m/s²); ``P`` (8, 8) its
+    covariance; ``sigma`` (8,) = √diag P. ``misalignment0_enu`` (3,) = the initial
+    misalignment (δφE0, δφN0, δφU0) [rad] and ``misalignment0_sigma_enu`` its σ;
+    ``misalignment_enu``/``misalignment_sigma_enu`` (3,) the misalignment propagated to ``t``
+    (what the platform must be torqued back by). ``north_drift`` ε_N [rad/s] ± σ;
+    ``gyro_drift_xy`` (2,) [rad/s] and ``accel_bias_xy`` (2,) [m/s²] in platform axes.
+    ``age_s``: t − alignment start; ``n_updates``: RLS updates so far; ``converged``: the
+    misalignment σ are under the configured thresholds.
+    """
+
+    t: float
+    age_s: float
+    n_updates: int
+    x: np.ndarray
+    P: np.ndarray
+    sigma: np.ndarray
+    misalignment0_enu: np.ndarray
+    misalignment0_sigma_enu: np.ndarray
+    misalignment_enu: np.ndarray
+    misalignment_sigma_enu: np.ndarray
+    north_drift: float
+    north_drift_sigma: float
+    gyro_drift_xy: np.ndarray
+    gyro_drift_sigma_xy: np.ndarray
+    accel_bias_xy: np.ndarray
+    accel_bias_sigma_xy: np.ndarray
+    converged: bool
+
+
+class ObservabilityReport(NamedTuple):
+    """Information content of the data so far, in the normalised states X/s.
+
+    ``information`` (8, 8) = Σ Hᵀ R⁻¹ H (data only, no prior); ``eigenvalues`` (8,) ascending;
+    ``rank``: eigenvalues above ``rank_rel_tol`` × the largest; ``condition`` = λmax/λmin
+    (inf when singular); ``weakest_direction`` (8,) the unit eigenvector of λmin (which
+    states the data cannot tell apart); ``correlation`` (8, 8) of the posterior.
+    """
+
+    information: np.ndarray
+    eigenvalues: np.ndarray
+    rank: int
+    condition: float
+    weakest_direction: np.ndarray
+    correlation: np.ndarray
+
+
+@dataclass
+class _Counters:
+    accepted: int = 0
+    rejected_nonfinite: int = 0
+    rejected_out_of_order: int = 0
+    rejected_no_joint: int = 0
+    rejected_stale_joint: int = 0
+    joint_rejected_nonfinite: int = 0
+    joint_rejected_out_of_order: int = 0
+    resets: int = 0
+    reset_reasons: list[str] = field(default_factory=list)
+
+
+class RotationAlignmentRls:
+    """8-state RLS alignment core (module docstring), message-driven and ROS-free.
+
+    Feed :meth:`on_joint_state` with the platform azimuth joint (θ_a [rad], its rate
+    [rad/s]) and :meth:`on_accel` with the platform specific force f_s (3,) [m/s²] in the
+    stable-element frame (``PlatformImuSample.specific_force`` / Imu linear_acceleration).
+    Each accelerometer sample that completes an averaging block returns the new
+    :class:`AlignmentEstimate`; others return None. Non-finite input and non-increasing
+    timestamps are rejected and counted in :attr:`counters`; a jump back by more than
+    ``reset_backjump_s`` restarts the alignment (reason in ``counters.reset_reasons``).
+    """
+
+    def __init__(self, params: RotationAlignmentParams) -> None:
+        if not isinstance(params, RotationAlignmentParams):
+            raise TypeError(f"params must be RotationAlignmentParams, got {type(params).__name__}")
+        self.params = params
+        lat = params.lat_rad
+        self._wN = params.omega_ie_rad_s * math.cos(lat)
+        self._wU = params.omega_ie_rad_s * math.sin(lat)
+        self._g = params.gravity
+        self._inv_g = 1.0 / self._g
+        self._scales = params.state_scales()
+        # white noise of one tilt sample: (N_a / g)² per unit of 1/Δt
+        self._tilt_var_density = (params.accel_noise_ug_rt_hz * _UG / self._g) ** 2
+        self.counters = _Counters()
+        self._joint: tuple[float, float, float | None] | None = None  # (t, θ_a, rate)
+        self._joint_prev: tuple[float, float] | None = None
+        self._restart()
+
+    # -- state handling ------------------------------------------------------------------
+    def _restart(self) -> None:
+        self._xi, self._P = check_state(np.zeros(N_STATES), np.eye(N_STATES), "RotationAlignmentRls")
+        self._info = np.zeros((N_STATES, N_STATES))
+        self._t0: float | None = None
+        self._t_last: float | None = None
+        self._psi_last = 0.0
+        self._ic = self._is = 0.0
+        self._n_updates = 0
+        self._t_update: float | None = None
+        self._clear_block()
+
+    def _clear_block(self) -> None:
+        # sums over the block of: t, cos ψ, sin ψ, I_s, I_c, Z_E, Z_N, 1/Δt, t²; sample count
+        self._b = [0.0] * 9
+        self._bn = 0
+        self._b_start = self._t_last
+
+    def reset(self, reason: str) -> None:
+        """Restart the alignment from X0 = 0, P0 = I (normalised); ``reason`` is recorded."""
+        self.counters.resets += 1
+        self.counters.reset_reasons.append(str(reason))
+        self._joint = None
+        self._joint_prev = None
+        self._restart()
+
+    # -- inputs --------------------------------------------------------------------------
+    def on_joint_state(self, t: float, theta_a: float, theta_a_rate: float | None = None) -> None:
+        """Platform azimuth joint at time ``t`` [s]: θ_a [rad] about NED down (= −φz of the
+        paper) and optionally its rate [rad/s] (else differenced from the previous sample)."""
+        try:
+            t, theta_a = float(t), float(theta_a)
+            rate = None if theta_a_rate is None else float(theta_a_rate)
+        except (TypeError, ValueError):
+            self.counters.joint_rejected_nonfinite += 1
+            return
+        if not (math.isfinite(t) and math.isfinite(theta_a) and (rate is None or math.isfinite(rate))):
+            self.counters.joint_rejected_nonfinite += 1
+            return
+        if self._joint is not None and t <= self._joint[0]:
+            if self._joint[0] - t > self.params.reset_backjump_s:
+                self.reset(f"joint state time jumped back by {self._joint[0] - t:.3f} s")
+            else:
+                self.counters.joint_rejected_out_of_order += 1
+                return
+        if rate is None and self._joint is not None:
+            t_p, a_p = self._joint[0], self._joint[1]
+            rate = math.remainder(theta_a - a_p, math.tau) / (t - t_p)
+        self._joint = (t, theta_a, rate)
+
+    def _azimuth_at(self, t: float) -> float | None:
+        j = self._joint
+        if j is None:
+            self.counters.rejected_no_joint += 1
+            return None
+        age = t - j[0]
+        if abs(age) > self.params.max_joint_age_s:
+            self.counters.rejected_stale_joint += 1
+            return None
+        return j[1] + (j[2] * age if j[2] is not None else 0.0)
+
+    def on_accel(self, t: float, f_s: Sequence[float]) -> AlignmentEstimate | None:
+        """Platform specific force ``f_s`` (3,) [m/s²] in the stable-element frame at ``t``
+        [s]. Returns the estimate when this sample completes an averaging block."""
+        try:
+            t = float(t)
+            fx, fy = float(f_s[0]), float(f_s[1])
+        except (TypeError, ValueError, IndexError):
+            self.counters.rejected_nonfinite += 1
+            return None
+        if not (math.isfinite(t) and math.isfinite(fx) and math.isfinite(fy)):
+            self.counters.rejected_nonfinite += 1
+            return None
+        t_last = self._t_last
+        if t_last is not None and t <= t_last:
+            if t_last - t > self.params.reset_backjump_s:
+                joint = self._joint
+                self.reset(f"accelerometer time jumped back by {t_last - t:.3f} s")
+                if joint is not None and joint[0] <= t:
+                    self._joint = joint  # the joint stream already restarted
+            else:
+                self.counters.rejected_out_of_order += 1
+                return None
+        psi = self._azimuth_at(t)
+        if psi is None:
+            return None
+        self.counters.accepted += 1
+        c, s = math.cos(psi), math.sin(psi)
+        if self._t0 is None:
+            # first sample: fixes the alignment epoch and the start of the ψ integrals
+            self._t0, self._t_last, self._psi_last = t, t, psi
+            self._b_start = t
+            return None
+        dt = t - self._t_last
+        cp, sp = math.cos(self._psi_last), math.sin(self._psi_last)
+        self._ic += 0.5 * (cp + c) * dt
+        self._is += 0.5 * (sp + s) * dt
+        self._t_last, self._psi_last = t, psi
+        inv_g = self._inv_g
+        b = self._b
+        tau = t - self._t0
+        b[0] += tau
+        b[8] += tau * tau
+        b[1] += c
+        b[2] += s
+        b[3] += self._is
+        b[4] += self._ic
+        b[5] += (c * fx - s * fy) * inv_g  # Z_E = f_N / g
+        b[6] -= (s * fx + c * fy) * inv_g  # Z_N = −f_E / g
+        b[7] += 1.0 / dt
+        self._bn += 1
+        if t - self._b_start < self.params.block_s:
+            return None
+        self._update_block()
+        return self.estimate()
+
+    # -- RLS update ----------------------------------------------------------------------
+    def _update_block(self) -> None:
+        n = self._bn
+        b = [v / n for v in self._b]
+        var = self._tilt_var_density * b[7] / n
+        H = self._rows(b[0], b[8], b[1], b[2], b[3], b[4], with_bias=True)
+        w = 1.0 / math.sqrt(var)
+        Hw = (H * self._scales) * w  # normalised states, whitened rows: R = I
+        zw = np.array([b[5], b[6]]) * w
+        upd = joseph_update(self._xi, self._P, zw, Hw, np.eye(2))
+        self._xi, self._P = upd.x, upd.P
+        self._info += Hw.T @ Hw
+        self._n_updates += 1
+        self._t_update = self._t_last
+        self._clear_block()
+
+    def _rows(self, t: float, t2: float, c: float, s: float, i_s: float, i_c: float,
+              with_bias: bool) -> np.ndarray:
+        """The two rows of H (module docstring) for (block means of) t, t², cos ψ, sin ψ,
+        I_s, I_c; without the accelerometer columns they map X to the misalignment."""
+        wN, wU = self._wN, self._wU
+        w2 = wN * wN + wU * wU
+        h2 = 0.5 * t2
+        gc, gs = (c * self._inv_g, s * self._inv_g) if with_bias else (0.0, 0.0)
+        return np.array([
+            [1.0 - w2 * h2, wU * t, -wN * t, wU * h2, gc, -gs, i_s, i_c],
+            [-wU * t, 1.0 - wU * wU * h2, wN * wU * h2, t, -gs, -gc, i_c, -i_s],
+        ])
+
+    # -- outputs -------------------------------------------------------------------------
+    @property
+    def started(self) -> bool:
+        return self._t0 is not None
+
+    @property
+    def n_updates(self) -> int:
+        return self._n_updates
+
+    def estimate(self) -> AlignmentEstimate:
+        """Current estimate (module docstring for the state meaning)."""
+        sc = self._scales
+        x = self._xi * sc
+        P = symmetrize(self._P * np.outer(sc, sc))
+        sigma = np.sqrt(np.clip(np.diag(P), 0.0, None))
+        t = self._t_update if self._t_update is not None else (self._t_last or 0.0)
+        tau = t - (self._t0 if self._t0 is not None else t)
+        # φ(t) = G X: the rows of H without the accelerometer terms, plus
+        # δφU(t) = δφU0 + ω_N δφE0 t (ε_U is not a state)
+        G = np.vstack((
+            self._rows(tau, tau * tau, 1.0, 0.0, self._is, self._ic, with_bias=False),
+            [self._wN * tau, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        ))
+        Pg = G @ P @ G.T
+        p = self.params
+        converged = bool(
+            self._n_updates > 0
+            and max(sigma[0], sigma[1]) < p.converged_tilt_arcsec * _ARCSEC
+            and sigma[2] < p.converged_azimuth_arcmin * _ARCMIN
+        )
+        return AlignmentEstimate(
+            t=t, age_s=tau, n_updates=self._n_updates, x=x, P=P, sigma=sigma,
+            misalignment0_enu=x[:3].copy(), misalignment0_sigma_enu=sigma[:3].copy(),
+            misalignment_enu=G @ x, misalignment_sigma_enu=np.sqrt(np.clip(np.diag(Pg), 0.0, None)),
+            north_drift=float(x[3]), north_drift_sigma=float(sigma[3]),
+            gyro_drift_xy=x[6:8].copy(), gyro_drift_sigma_xy=sigma[6:8].copy(),
+            accel_bias_xy=x[4:6].copy(), accel_bias_sigma_xy=sigma[4:6].copy(),
+            converged=converged,
+        )
+
+    def observability(self) -> ObservabilityReport:
+        """Rank/conditioning of the data information and posterior correlations."""
+        info = symmetrize(self._info)
+        eig, vec = np.linalg.eigh(info)
+        lam_max = float(eig[-1])
+        rank = int(np.sum(eig > self.params.rank_rel_tol * lam_max)) if lam_max > 0.0 else 0
+        cond = lam_max / float(eig[0]) if eig[0] > 0.0 else math.inf
+        d = np.sqrt(np.diag(self._P))
+        return ObservabilityReport(
+            information=info, eigenvalues=eig, rank=rank, condition=cond,
+            weakest_direction=vec[:, 0], correlation=self._P / np.outer(d, d),
+        )
+
+
+# =============================================================================================
+# Experiment harness: kinematic platform truth + paper 3 Table 2 style runs
+#
+# The truth is built from rotation matrices, not from the H above: the platform attitude in
+# inertial space is integrated from its commanded rate (four_gimbal.command_rate_s: level,
+# earth-rate compensated, turning by ψ(t)) plus the gyro drift, the NED frame is turned with
+# the earth (free_gyro.dcm_ni), and the accelerometers sense C_sn,true (0, 0, −g) through the
+# simulator's AccelerometerModel. Only the experiment imports gimbal_sim (lazily), so the
+# core above has no simulator dependency.
+# =============================================================================================
+
+class KinematicPlatformTruth:
+    """Platform held level by an ideal servo that follows its drifting gyro reference.
+
+    Args:
+        lat: latitude [rad].
+        misalignment0_enu: initial misalignment (δφE0, δφN0, δφU0) [rad] (module convention).
+        gyro_drift_s: platform gyro drift (3,) [rad/s] in platform axes (rotates with ψ).
+        nav_drift_n: drift fixed in NED (3,) [rad/s] (torquer/command errors; its north
+            component is paper 3's ε_N state).
+        rotation: ψ(t) schedule (``BidirectionalRotation``) or None for a fixed azimuth.
+        psi0: azimuth offset [rad] added to the schedule (the fixed azimuth when None).
+        gravity: |g| [m/s²].
+    """
+
+    def __init__(self, lat: float, misalignment0_enu: Sequence[float], gyro_drift_s: Sequence[float],
+                 nav_drift_n: Sequence[float] = (0.0, 0.0, 0.0), rotation=None, psi0: float = 0.0,
+                 gravity: float | None = None, omega_ie: float = OMEGA_IE) -> None:
+        from gimbal_kinematics.free_gyro import dcm_ni
+        from gimbal_kinematics.rotations import dcm_from_rotation_vector, rot3
+
+        self._dcm_ni = dcm_ni
+        self._exp = dcm_from_rotation_vector
+        self.lat = float(lat)
+        self.omega_ie = float(omega_ie)
+        self.g = normal_gravity(self.lat) if gravity is None else float(gravity)
+        self.rotation = rotation
+        self.psi0 = float(psi0)
+        self.gyro_drift_s = np.asarray(gyro_drift_s, dtype=float).reshape(3)
+        self.nav_drift_n = np.asarray(nav_drift_n, dtype=float).reshape(3)
+        e, n, u = (float(v) for v in misalignment0_enu)
+        phi_ned = np.array([n, e, -u])
+        self.t = 0.0
+        C_ns = dcm_from_rotation_vector(phi_ned) @ rot3(self.psi()).T
+        self.C_is = dcm_ni(self.lat, 0.0, 0.0).T @ C_ns
+        self._w_ie_n = (self.omega_ie * math.cos(self.lat), 0.0, -self.omega_ie * math.sin(self.lat))
+
+    def psi_state(self, t: float) -> tuple[float, float]:
+        """Believed (ideal) platform azimuth ψ [rad] and its rate [rad/s] at ``t``."""
+        if self.rotation is None:
+            return self.psi0, 0.0
+        ang, rate, _ = self.rotation.state(t)
+        return self.psi0 + ang, rate
+
+    def psi(self, t: float | None = None) -> float:
+        return self.psi_state(self.t if t is None else t)[0]
+
+    def C_ns(self) -> np.ndarray:
+        """True platform attitude ``C_ns`` at the current time; (3, 3)."""
+        return self._dcm_ni(self.lat, 0.0, self.t) @ self.C_is
+
+    def step(self, dt: float) -> None:
+        """Advance by ``dt`` [s]: C_is ← C_is exp([ω_is^s dt ×]) with the commanded rate
+        rot3(ψ) ω_ie^n + ψ̇ e3 (exact ψ increment, mid-step azimuth) plus the drifts."""
+        t0, t1 = self.t, self.t + dt
+        psi_a, psi_b, psi_m = self.psi(t0), self.psi(t1), self.psi(0.5 * (t0 + t1))
+        c, s = math.cos(psi_m), math.sin(psi_m)
+        wn, we, wd = self._w_ie_n
+        rotvec = np.array([(c * wn + s * we) * dt, (-s * wn + c * we) * dt, wd * dt + (psi_b - psi_a)])
+        rotvec += self.gyro_drift_s * dt
+        if np.any(self.nav_drift_n):
+            rotvec += self.C_ns().T @ self.nav_drift_n * dt
+        self.C_is = self.C_is @ self._exp(rotvec)
+        self.t = t1
+
+    def specific_force_s(self) -> np.ndarray:
+        """True specific force in platform axes [m/s²] on the static base; (3,)."""
+        return self.C_ns().T @ np.array([0.0, 0.0, -self.g])
+
+    def misalignment_enu(self) -> np.ndarray:
+        """True misalignment (δφE, δφN, δφU) [rad] relative to the ideal level frame at ψ."""
+        from gimbal_kinematics.rotations import rot3, rotation_vector_from_dcm
+
+        v = rotation_vector_from_dcm(self.C_ns() @ rot3(self.psi()))
+        return np.array([v[1], v[0], -v[2]])
+
+
+class AlignmentMetrics(NamedTuple):
+    """One alignment run against its truth (units in the field names; errors = est − truth).
+
+    ``truth``/``estimate``/``sigma`` (8,) in :data:`STATE_NAMES` order, SI. ``rank`` and
+    ``condition`` of the data information (normalised states); ``corr_tilt_bias`` the
+    posterior correlations of (δφE0, ∇ along north) and (δφN0, ∇ along east) at the start
+    azimuth — near ±1 when bias and tilt are confounded.
+    """
+
+    seed: int
+    rotate: bool
+    duration_s: float
+    truth: np.ndarray
+    estimate: np.ndarray
+    sigma: np.ndarray
+    tilt_error_arcsec: np.ndarray
+    tilt_sigma_arcsec: np.ndarray
+    azimuth_error_arcmin: float
+    azimuth_sigma_arcmin: float
+    north_drift_error_deg_h: float
+    north_drift_sigma_deg_h: float
+    gyro_drift_error_deg_h: np.ndarray
+    accel_bias_error_ug: np.ndarray
+    converged: bool
+    rank: int
+    condition: float
+    corr_tilt_bias: np.ndarray
+    n_updates: int
+
+
+#: Paper 3 Table 2 mean initial misalignment (δφE0, δφN0, δφU0) [arcsec].
+PAPER3_MISALIGNMENT_ARCSEC = (-25.0, -36.0, 17.0 * 60.0)
+
+
+def run_alignment_experiment(
+    seed: int,
+    rotate: bool = True,
+    duration_s: float = 600.0,
+    *,
+    lat_deg: float = 40.0,
+    imu_rate_hz: float = 100.0,
+    misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC,
+    gyro_drift_sigma_deg_h: float = 0.03,
+    north_drift_sigma_deg_h: float = 0.01,
+    east_nav_drift_deg_h: float = 0.0,
+    fixed_psi_deg: float = 30.0,
+    accel_params=None,
+    params: RotationAlignmentParams | None = None,
+) -> AlignmentMetrics:
+    """Kinematic-truth alignment run (paper 3 §2.2 / Table 2), returns its metrics.
+
+    ``rotate``: bidirectional 1.2°/s through 360° and back (600 s = one cycle, paper 3's
+    "rotates bi-directionally ... in one circle"), else the platform is held at
+    ``fixed_psi_deg``. Platform gyro drift per axis ~ N(0, ``gyro_drift_sigma_deg_h``²); the
+    n-fixed north drift ~ N(0, ``north_drift_sigma_deg_h``²); an n-fixed east drift
+    ``east_nav_drift_deg_h`` (unobservable, biases azimuth by −εE/ω_N). Accelerometers:
+    ``accel_params`` (default ``PAPER3_ACCELEROMETER``: 100 µg bias σ, 50 µg/√Hz) sampled at
+    ``imu_rate_hz``; the filter's noise density follows it unless ``params`` is given.
+    """
+    from gimbal_kinematics.four_gimbal import BidirectionalRotation
+    from gimbal_sim.sensors import PAPER3_ACCELEROMETER, AccelerometerModel
+
+    accel_params = PAPER3_ACCELEROMETER if accel_params is None else accel_params
+    if params is None:
+        params = RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=max(accel_params.noise_ug_rt_hz, 1e-3))
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 3])
+    gyro_drift = rng.normal(0.0, gyro_drift_sigma_deg_h, 3) * _DEG_H
+    north_drift = float(rng.normal(0.0, north_drift_sigma_deg_h)) * _DEG_H
+    nav_drift = np.array([north_drift, east_nav_drift_deg_h * _DEG_H, 0.0])
+    rotation = BidirectionalRotation() if rotate else None
+    lat = math.radians(lat_deg)
+    truth = KinematicPlatformTruth(
+        lat, np.asarray(misalignment0_arcsec, dtype=float) * _ARCSEC, gyro_drift, nav_drift,
+        rotation=rotation, psi0=0.0 if rotate else math.radians(fixed_psi_deg), gravity=params.gravity,
+    )
+    dt = 1.0 / imu_rate_hz
+    accel = AccelerometerModel(accel_params, 3, np.random.default_rng([int(seed) & 0xFFFFFFFF, 4]), dt)
+    core = RotationAlignmentRls(params)
+    phi0 = truth.misalignment_enu()
+    n_steps = int(round(duration_s * imu_rate_hz))
+    for k in range(n_steps + 1):
+        if k:
+            truth.step(dt)
+        psi, psi_dot = truth.psi_state(truth.t)
+        core.on_joint_state(truth.t, psi, psi_dot)
+        core.on_accel(truth.t, accel.step(truth.specific_force_s()))
+    est = core.estimate()
+    bias = accel.fixed_bias
+    truth_x = np.array([phi0[0], phi0[1], phi0[2], north_drift, bias[0], bias[1], gyro_drift[0], gyro_drift[1]])
+    err = est.x - truth_x
+    obs = core.observability()
+    corr = obs.correlation
+    # ∇ along north / east at the start azimuth ψ0: ∇N = c ∇x − s ∇y, ∇E = s ∇x + c ∇y
+    psi0 = truth.psi(0.0)
+    c0, s0 = math.cos(psi0), math.sin(psi0)
+    a_n = np.zeros(N_STATES); a_n[4], a_n[5] = c0, -s0
+    a_e = np.zeros(N_STATES); a_e[4], a_e[5] = s0, c0
+    P = core._P
+
+    def _corr(i: int, a: np.ndarray) -> float:
+        return float((P[i] @ a) / math.sqrt(P[i, i] * (a @ P @ a)))
+
+    return AlignmentMetrics(
+        seed=int(seed), rotate=bool(rotate), duration_s=float(duration_s), truth=truth_x, estimate=est.x,
+        sigma=est.sigma, tilt_error_arcsec=err[:2] / _ARCSEC, tilt_sigma_arcsec=est.sigma[:2] / _ARCSEC,
+        azimuth_error_arcmin=float(err[2] / _ARCMIN), azimuth_sigma_arcmin=float(est.sigma[2] / _ARCMIN),
+        north_drift_error_deg_h=float(err[3] / _DEG_H), north_drift_sigma_deg_h=float(est.sigma[3] / _DEG_H),
+        gyro_drift_error_deg_h=err[6:8] / _DEG_H, accel_bias_error_ug=err[4:6] / _UG,
+        converged=est.converged, rank=obs.rank, condition=obs.condition,
+        corr_tilt_bias=np.array([_corr(0, a_n), _corr(1, a_e)]), n_updates=est.n_updates,
+    )
+
+
+def summarize_alignment(runs: Sequence[AlignmentMetrics]) -> dict[str, dict[str, float]]:
+    """Mean, std (ddof=1, as Table 2), RMS and max |·| over runs of the headline errors."""
+    cols = {
+        "east_tilt_error_arcsec": [r.tilt_error_arcsec[0] for r in runs],
+        "north_tilt_error_arcsec": [r.tilt_error_arcsec[1] for r in runs],
+        "azimuth_error_arcmin": [r.azimuth_error_arcmin for r in runs],
+        "north_drift_error_deg_h": [r.north_drift_error_deg_h for r in runs],
+        "gyro_drift_x_error_deg_h": [r.gyro_drift_error_deg_h[0] for r in runs],
+        "gyro_drift_y_error_deg_h": [r.gyro_drift_error_deg_h[1] for r in runs],
+        "accel_bias_x_error_ug": [r.accel_bias_error_ug[0] for r in runs],
+        "accel_bias_y_error_ug": [r.accel_bias_error_ug[1] for r in runs],
+    }
+    out = {}
+    for name, vals in cols.items():
+        a = np.asarray(vals, dtype=float)
+        out[name] = {
+            "mean": float(a.mean()), "std": float(a.std(ddof=1)) if a.size > 1 else 0.0,
+            "rms": float(math.sqrt(np.mean(a * a))), "max_abs": float(np.max(np.abs(a))),
+        }
+    return out

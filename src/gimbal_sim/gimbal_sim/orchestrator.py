@@ -1,0 +1,314 @@
+"""Run a scenario: start its nodes and the recorder, wire readiness and pacing, watch the
+run to its end, stop everything cleanly and leave a complete bag plus its report.
+
+Modes: ``processes`` runs each node as its own OS process through the same executables
+``ros2 run`` uses; ``container`` runs all nodes in this process on one executor. Both get
+the same ``--ros-args`` (node name, generated params file, remaps), so a run is the same
+run in either mode.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .ros_domain import claim_domain_id, localhost_env
+from .scenario import NODE_TYPES, Scenario
+
+STOP_GRACE_S = 10.0      # how long a node may take to exit after SIGINT
+DRAIN_QUIET_S = 0.3      # quiet time after the recorder reached the end before stopping
+RECORDER = "bag_recorder"
+
+
+class RunError(RuntimeError):
+    """The run failed; the message names the node and why."""
+
+
+@dataclass
+class PlannedNode:
+    name: str
+    executable: str
+    params: dict[str, Any]
+    remap: dict[str, str]
+    params_file: Path | None = None
+
+    def ros_args(self) -> list[str]:
+        args = ["--ros-args", "-r", f"__node:={self.name}", "--params-file", str(self.params_file)]
+        for old, new in self.remap.items():
+            args += ["-r", f"{old}:={new}"]
+        return args
+
+
+@dataclass
+class RunResult:
+    out_dir: Path
+    wall_s: float
+    sim_s: float
+    logs: dict[str, Path] = field(default_factory=dict)
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
+
+
+def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
+    """Every node with its final parameters: the scenario's, plus what the orchestrator
+    owns (rate, seed, duration, readiness and pacing wiring, the recorder's output)."""
+    paced = [n for n, s in scenario.nodes.items()
+             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params()}]
+    planned = []
+    for name, spec in scenario.nodes.items():
+        declared = {p.name for p in NODE_TYPES[spec["executable"]].params()}
+        params = dict(spec["params"])
+        if "sim_rate_hz" in declared:
+            params["sim_rate_hz"] = scenario.sim_rate_hz
+        if "seed" in declared:
+            params["seed"] = scenario.seed
+        if spec["executable"] == "vehicle_dynamics":
+            params["duration_s"] = scenario.duration_s
+            params["pace_topics"] = [f"/{n}/progress" for n in paced + [RECORDER]]
+        elif "wait_for_subscribers" in declared:
+            params["wait_for_subscribers"] = 1  # the recorder reads every output
+        planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
+    recorder = {"output_dir": str(out_dir), "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
+                "topics": [] if scenario.record == "all" else list(scenario.record),
+                "wait_for_nodes": list(scenario.nodes)}
+    # the recorder starts first so that it is listening before anyone publishes
+    return [PlannedNode(RECORDER, RECORDER, recorder, {})] + planned
+
+
+def write_run_files(scenario: Scenario, nodes: list[PlannedNode], out_dir: Path) -> None:
+    (out_dir / "params").mkdir(parents=True)
+    (out_dir / "logs").mkdir()
+    (out_dir / "scenario.yaml").write_text(scenario.to_yaml())
+    for node in nodes:
+        node.params_file = out_dir / "params" / f"{node.name}.yaml"
+        node.params_file.write_text(yaml.safe_dump({node.name: {"ros__parameters": node.params}}, sort_keys=False))
+
+
+def _tail(path: Path, lines: int = 15) -> str:
+    try:
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+    except OSError:
+        return "(no log)"
+
+
+class Monitor:
+    """The orchestrator's own node: follows /clock and the recorder's progress."""
+
+    def __init__(self, context, scenario: Scenario) -> None:
+        from rclpy.node import Node
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+
+        from . import messages as m
+
+        self.node = Node("gimbal_run_monitor", context=context)
+        self.sim_ns = 0
+        self.recorded_ns = 0
+        self.end_ns = int(round(scenario.duration_s * 1e9))
+        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+        def on_clock(msg):
+            self.sim_ns = max(self.sim_ns, m.stamp_ns(msg.clock))
+
+        def on_recorded(msg):
+            self.recorded_ns = max(self.recorded_ns, m.stamp_ns(msg.clock))
+
+        self.node.create_subscription(Clock, "/clock", on_clock, qos)
+        self.node.create_subscription(Clock, f"/{RECORDER}/progress", on_recorded, qos)
+
+    @property
+    def finished(self) -> bool:
+        """The recorder has the run's last step (its progress passed the end time)."""
+        return self.recorded_ns >= self.end_ns
+
+
+class Progress:
+    """Sim time against duration and the real-time factor, on stderr."""
+
+    def __init__(self, duration_s: float, enabled: bool = True) -> None:
+        from tqdm import tqdm
+
+        # disable=None: tqdm stays quiet when stderr is not a terminal (CI logs, pipes)
+        self.bar = tqdm(total=round(duration_s, 3), unit="sim s", disable=None if enabled else True,
+                        file=sys.stderr,
+                        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}{postfix}]")
+        self.t0 = time.monotonic()
+        self._last_draw = 0.0
+
+    def update(self, sim_s: float) -> None:
+        now = time.monotonic()
+        if now - self._last_draw < 0.25 and sim_s < self.bar.total:
+            return
+        self._last_draw = now
+        self.bar.n = round(min(sim_s, self.bar.total), 3)
+        wall = now - self.t0
+        self.bar.set_postfix_str(f"RTF {sim_s / wall:.2f}" if wall > 0 else "", refresh=False)
+        self.bar.refresh()
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _ros_env() -> tuple[dict[str, str], Any]:
+    """Environment for the run: loopback discovery and a domain of its own unless the user chose."""
+    localhost_env()
+    claim = None
+    if not os.environ.get("ROS_DOMAIN_ID"):
+        claim = claim_domain_id()
+        os.environ["ROS_DOMAIN_ID"] = str(claim.domain_id)
+    return dict(os.environ), claim
+
+
+def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bool = True,
+        stall_timeout_s: float = 60.0) -> RunResult:
+    """Run ``scenario`` into ``out_dir`` (which must not exist); raises :class:`RunError`."""
+    out_dir = Path(out_dir)
+    if out_dir.exists():
+        raise FileExistsError(f"output directory {out_dir} already exists; not overwriting it")
+    nodes = plan_nodes(scenario, out_dir)
+    write_run_files(scenario, nodes, out_dir)
+    env, claim = _ros_env()
+    try:
+        runner = _run_processes if mode == "processes" else _run_container
+        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s)
+    finally:
+        if claim is not None:
+            claim.release()
+
+
+def _watch(scenario: Scenario, monitor: Monitor, spin_once, bar: Progress, stall_timeout_s: float,
+           check_nodes) -> float:
+    """Spin until the recorder has the last step; returns the wall time [s]."""
+    t0 = time.monotonic()
+    last_change, last_state = t0, None
+    while not monitor.finished:
+        spin_once()
+        check_nodes()
+        bar.update(monitor.sim_ns / 1e9)
+        state, now = (monitor.sim_ns, monitor.recorded_ns), time.monotonic()
+        if state != last_state:
+            last_change, last_state = now, state
+        elif now - last_change > stall_timeout_s:
+            raise RunError(f"no progress for {stall_timeout_s:g} s (sim time {monitor.sim_ns / 1e9:g} s, "
+                           f"recorded {monitor.recorded_ns / 1e9:g} s): a node is stuck or never became ready")
+    return time.monotonic() - t0
+
+
+def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    bin_dir = Path(sys.executable).parent
+    procs: dict[str, subprocess.Popen] = {}
+    logs = {n.name: out_dir / "logs" / f"{n.name}.log" for n in nodes}
+    context = Context()
+    rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
+    monitor = Monitor(context, scenario)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(monitor.node)
+    bar = Progress(scenario.duration_s, progress)
+
+    def check_nodes() -> None:
+        for name, proc in procs.items():
+            code = proc.poll()
+            if code is not None:
+                raise RunError(f"node {name!r} exited with code {code} during the run; its last log lines:\n"
+                               f"{_tail(logs[name])}")
+
+    try:
+        for node in nodes:
+            exe = bin_dir / node.executable
+            if not exe.exists():
+                raise RunError(f"executable {node.executable} not found in {bin_dir}; run `make venv`")
+            with open(logs[node.name], "w") as log:
+                procs[node.name] = subprocess.Popen([str(exe), *node.ros_args()], env=env, stdout=log,
+                                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        wall = _watch(scenario, monitor, lambda: executor.spin_once(timeout_sec=0.05), bar, stall_timeout_s,
+                      check_nodes)
+        quiet_until = time.monotonic() + DRAIN_QUIET_S
+        while time.monotonic() < quiet_until:
+            executor.spin_once(timeout_sec=0.05)
+            check_nodes()
+        return RunResult(out_dir, wall, monitor.sim_ns / 1e9, logs)
+    finally:
+        bar.close()
+        _stop(procs, first=[n.name for n in nodes if n.name != RECORDER], last=[RECORDER])
+        executor.shutdown()
+        monitor.node.destroy_node()
+        rclpy.shutdown(context=context)
+
+
+def _stop(procs: dict[str, subprocess.Popen], first: list[str], last: list[str]) -> None:
+    """SIGINT each process by PID (the recorder last, so it closes the bag after the rest
+    are gone); SIGKILL any that outlives the grace period."""
+    for group in (first, last):
+        for name in group:
+            proc = procs.get(name)
+            if proc is not None and proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + STOP_GRACE_S
+        for name in group:
+            proc = procs.get(name)
+            if proc is None:
+                continue
+            try:
+                proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
+    executor = SingleThreadedExecutor(context=context)
+    monitor = Monitor(context, scenario)
+    executor.add_node(monitor.node)
+    bar = Progress(scenario.duration_s, progress)
+    built = {}
+    try:
+        for node in nodes:
+            cls = NODE_TYPES[node.executable].node_class()
+            try:
+                built[node.name] = cls(context=context, cli_args=node.ros_args(), use_global_arguments=False)
+            except ValueError as exc:
+                raise RunError(f"node {node.name!r} refused to start: {exc}") from exc
+            executor.add_node(built[node.name])
+
+        def spin_once() -> None:
+            try:
+                executor.spin_once(timeout_sec=0.05)
+            except Exception as exc:  # noqa: BLE001 - any node's failure ends the run, named
+                raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
+
+        wall = _watch(scenario, monitor, spin_once, bar, stall_timeout_s, lambda: None)
+        quiet_until = time.monotonic() + DRAIN_QUIET_S
+        while time.monotonic() < quiet_until:
+            spin_once()
+        return RunResult(out_dir, wall, monitor.sim_ns / 1e9)
+    finally:
+        bar.close()
+        recorder = built.pop(RECORDER, None)
+        for node in built.values():
+            executor.remove_node(node)
+            node.destroy_node()
+        if recorder is not None:
+            recorder.close()
+            recorder.destroy_node()
+        executor.shutdown()
+        monitor.node.destroy_node()
+        rclpy.shutdown(context=context)

@@ -1,0 +1,204 @@
+"""Scenarios: which nodes run with which parameters, for how long, with which seed.
+
+A scenario is a YAML mapping (``yaml.safe_load``), built in (``gimbal_sim/scenarios/``) or
+the user's own file::
+
+    name: sim_open_loop
+    description: one line for --list
+    duration_s: 10.0
+    sim_rate_hz: 1000.0
+    seed: 0
+    record: all            # or a list of topics
+    report: generic        # which report gimbal-report writes
+    nodes:
+      vehicle_dynamics:    # node name
+        executable: vehicle_dynamics
+        params: {profile: paper1_land_vehicle}
+        remap: {}          # topic remappings, from: to
+
+Everything is validated before anything starts: unknown keys, executables or parameters,
+and values of the wrong type are refused with a message naming them.
+"""
+from __future__ import annotations
+
+import copy
+import importlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .ros_params import Param
+
+BUILTIN_DIR = Path(__file__).parent / "scenarios"
+
+
+@dataclass(frozen=True)
+class NodeType:
+    """A node executable the orchestrator can run: its package and class."""
+
+    package: str
+    module: str
+    cls: str
+
+    def params(self) -> tuple[Param, ...]:
+        return importlib.import_module(self.module).PARAMS
+
+    def node_class(self) -> type:
+        return getattr(importlib.import_module(self.module), self.cls)
+
+
+#: executable -> NodeType; scenario nodes must use one of these.
+NODE_TYPES: dict[str, NodeType] = {
+    "vehicle_dynamics": NodeType("gimbal_sim", "gimbal_sim.vehicle_dynamics_node", "VehicleDynamicsNode"),
+    "sensor_models": NodeType("gimbal_sim", "gimbal_sim.sensor_models_node", "SensorModelsNode"),
+    "bag_recorder": NodeType("gimbal_sim", "gimbal_sim.bag.recorder_node", "BagRecorderNode"),
+}
+
+_TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes"}
+_NODE_KEYS = {"executable", "params", "remap"}
+
+
+class ScenarioError(ValueError):
+    """A scenario, or an override of it, is invalid; the message says what and where."""
+
+
+@dataclass
+class Scenario:
+    name: str
+    description: str
+    duration_s: float
+    sim_rate_hz: float
+    seed: int
+    record: str | list[str]
+    report: str
+    nodes: dict[str, dict[str, Any]]
+
+    def to_yaml(self) -> str:
+        return yaml.safe_dump({"name": self.name, "description": self.description, "duration_s": self.duration_s,
+                               "sim_rate_hz": self.sim_rate_hz, "seed": self.seed, "record": self.record,
+                               "report": self.report, "nodes": self.nodes}, sort_keys=False)
+
+
+def builtin_scenarios() -> dict[str, Path]:
+    return {p.stem: p for p in sorted(BUILTIN_DIR.glob("*.yaml"))}
+
+
+def describe_builtins() -> list[tuple[str, str]]:
+    return [(name, str(yaml.safe_load(path.read_text()).get("description", ""))) for name, path in
+            builtin_scenarios().items()]
+
+
+def load(spec: str) -> Scenario:
+    """A built-in scenario by name, or a scenario YAML file by path; validated."""
+    path = builtin_scenarios().get(spec)
+    if path is None:
+        path = Path(spec)
+        if not (path.suffix in (".yaml", ".yml") and path.is_file()):
+            known = ", ".join(builtin_scenarios()) or "none"
+            raise ScenarioError(f"unknown scenario {spec!r}: not built in ({known}) and not a YAML file")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{path}: not valid YAML: {exc}") from exc
+    return validate(data, str(path))
+
+
+def _number(where: str, value: Any, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(f"{where}: expected a number, got {value!r}")
+    if positive and not value > 0:
+        raise ScenarioError(f"{where}: must be > 0, got {value!r}")
+    return float(value)
+
+
+def check_param(node: str, executable: str, name: str, value: Any) -> Any:
+    """Validate one node parameter against its declaration; returns the value typed as
+    declared (an int is accepted for a float parameter)."""
+    table = {p.name: p for p in NODE_TYPES[executable].params()}
+    if name not in table:
+        raise ScenarioError(f"node {node!r} ({executable}) has no parameter {name!r}; "
+                            f"known: {', '.join(sorted(table))}")
+    default = table[name].default
+    if isinstance(default, bool):
+        ok = isinstance(value, bool)
+    elif isinstance(default, float):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        value = float(value) if ok else value
+    elif isinstance(default, int):
+        ok = isinstance(value, int) and not isinstance(value, bool)
+    elif isinstance(default, str):
+        ok = isinstance(value, str)
+    else:
+        ok = isinstance(value, list)
+        if ok and default:
+            kind = type(default[0])
+            ok = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value) if kind is float \
+                else all(isinstance(v, kind) for v in value)
+            value = [float(v) for v in value] if ok and kind is float else value
+        elif ok:
+            ok = all(isinstance(v, str) for v in value)
+    if not ok:
+        raise ScenarioError(f"node {node!r}: parameter {name!r} = {value!r} should be like {default!r}")
+    return value
+
+
+def validate(data: Any, where: str = "scenario") -> Scenario:
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{where}: a scenario is a YAML mapping")
+    unknown = set(data) - _TOP_KEYS
+    if unknown:
+        raise ScenarioError(f"{where}: unknown keys {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}")
+    for key in ("name", "nodes", "duration_s"):
+        if key not in data:
+            raise ScenarioError(f"{where}: missing {key!r}")
+    nodes = data["nodes"]
+    if not isinstance(nodes, dict) or not nodes:
+        raise ScenarioError(f"{where}: 'nodes' must map node names to their settings")
+    checked: dict[str, dict[str, Any]] = {}
+    for node, spec in nodes.items():
+        spec = spec or {}
+        if not isinstance(spec, dict) or set(spec) - _NODE_KEYS:
+            raise ScenarioError(f"{where}: node {node!r}: settings must be a mapping with keys {sorted(_NODE_KEYS)}")
+        executable = spec.get("executable", node)
+        if executable not in NODE_TYPES:
+            raise ScenarioError(f"{where}: node {node!r}: unknown executable {executable!r}; "
+                                f"known: {', '.join(sorted(NODE_TYPES))}")
+        params = spec.get("params") or {}
+        remap = spec.get("remap") or {}
+        if not isinstance(params, dict) or not isinstance(remap, dict):
+            raise ScenarioError(f"{where}: node {node!r}: 'params' and 'remap' must be mappings")
+        checked[node] = {"executable": executable,
+                         "params": {k: check_param(node, executable, k, v) for k, v in params.items()},
+                         "remap": {str(k): str(v) for k, v in remap.items()}}
+    if "bag_recorder" in {s["executable"] for s in checked.values()}:
+        raise ScenarioError(f"{where}: the orchestrator adds the recorder itself; remove it from 'nodes'")
+    record = data.get("record", "all")
+    if record != "all" and not (isinstance(record, list) and all(isinstance(t, str) for t in record)):
+        raise ScenarioError(f"{where}: 'record' must be 'all' or a list of topics")
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ScenarioError(f"{where}: 'seed' must be an integer >= 0")
+    return Scenario(name=str(data["name"]), description=str(data.get("description", "")),
+                    duration_s=_number(f"{where}: duration_s", data["duration_s"]),
+                    sim_rate_hz=_number(f"{where}: sim_rate_hz", data.get("sim_rate_hz", 1000.0)),
+                    seed=seed, record=record, report=str(data.get("report", "generic")), nodes=checked)
+
+
+def apply_set(scenario: Scenario, assignment: str) -> Scenario:
+    """``--set node.param=value`` (value parsed as YAML); returns a new scenario."""
+    target, sep, text = assignment.partition("=")
+    node, dot, param = target.partition(".")
+    if not sep or not dot or not node or not param:
+        raise ScenarioError(f"--set {assignment!r}: expected node.param=value")
+    if node not in scenario.nodes:
+        raise ScenarioError(f"--set {assignment!r}: no node {node!r} in scenario (nodes: {', '.join(scenario.nodes)})")
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"--set {assignment!r}: value is not valid YAML: {exc}") from exc
+    new = copy.deepcopy(scenario)
+    spec = new.nodes[node]
+    spec["params"][param] = check_param(node, spec["executable"], param, value)
+    return new
