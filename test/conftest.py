@@ -23,12 +23,25 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
 
 
-@pytest.fixture
-def ros_domain_env() -> dict[str, str]:
-    """Environment for a child process: loopback discovery and a domain id of its own."""
+def _claimed_env():
     claim = claim_domain_id()
     env = dict(os.environ)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     env["ROS_DOMAIN_ID"] = str(claim.domain_id)
+    return env, claim
+
+
+@pytest.fixture
+def ros_domain_env() -> dict[str, str]:
+    """Environment for a child process: loopback discovery and a domain id of its own."""
+    env, claim = _claimed_env()
+    yield env
+    claim.release()
+
+
+@pytest.fixture(scope="module")
+def module_ros_domain_env() -> dict[str, str]:
+    """Like ``ros_domain_env``, shared by the tests of one module (e.g. one recorded run)."""
+    env, claim = _claimed_env()
     yield env
     claim.release()

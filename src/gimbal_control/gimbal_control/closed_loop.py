@@ -64,7 +64,8 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
                     omega_n_hz: float = DEFAULT_OMEGA_N_HZ, gyro: str = "ideal", seed: int = 0,
                     zeta: float = PAPER_ZETA, delay_samples: int = 0, earth_rate: bool = True,
                     profile: str = "paper1_land_vehicle", settle_s: float = 1.0,
-                    record_every: int = 1) -> dict[str, Any]:
+                    record_every: int = 1, anti_windup: str = "clamp",
+                    integrator_limit_factor: float = 4.0) -> dict[str, Any]:
     """Run the paper 1 rate loop for ``duration_s`` [s] at ``rate_hz`` [Hz].
 
     Returns ``{"metrics": {...}, "t": (N,), "pointing_error_rad": (N,), "los_i": (N, 3),
@@ -84,7 +85,9 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
                                      earth_rate=earth_rate))
     dt = core.config.dt
     ctrl = LosRateController(LosRateControllerParams(rate_hz=rate_hz, omega_n_hz=omega_n_hz, zeta=zeta,
-                                                     feedback=False, gravity_m_s2=core.env.gravity_m_s2))
+                                                     feedback=False, gravity_m_s2=core.env.gravity_m_s2,
+                                                     anti_windup=anti_windup,
+                                                     integrator_limit_factor=integrator_limit_factor))
     model = None
     if gyro != "ideal":
         gp = PAPER1_GYRO_ARW_ONLY if gyro == "noise" else PAPER1_GIMBAL_GYRO

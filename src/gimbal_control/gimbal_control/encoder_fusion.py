@@ -176,16 +176,15 @@ class EncoderFusionController:
         self.encoder_rates = (0.0, 0.0)
         self.feedback = (0.0, 0.0)
         self._restart_gate()
-        self._gyro_avg_prev: tuple[float, float] | None = None
 
     def _restart_gate(self) -> None:
         self._gate_t0 = None  # stamp of the encoder angles that open the gate
         self._gate_psi0 = self._gate_theta0 = 0.0
         self._gate_cos0 = 1.0
-        self._int_gq = self._int_gr = 0.0  # ∫ gyro q, r
-        self._int_bq = self._int_br = 0.0  # ∫ base part q, r
+        self._int_gq = self._int_gr = 0.0  # ∫ raw gyro q, r over the gate (Δψ_g)
         self._int_t = 0.0
-        self._prev_tick_vals: tuple[float, float, float, float] | None = None
+        self._disc_q = self._disc_r = 0.0  # ψ_enc − ψ̂ since the gate restarted
+        self._prev_tick_vals: tuple | None = None
 
     def reset(self, reason: str) -> None:
         """Reset filter, PIDs and gate; ``reason`` is recorded in ``reset_reasons``."""
@@ -201,8 +200,8 @@ class EncoderFusionController:
 
     @property
     def corrections(self) -> tuple[float, float]:
-        """Accumulated velocity corrections c (q, r) [rad/s] (≈ −gyro bias when converged)."""
-        return self.kf_q.correction, self.kf_r.correction
+        """Accumulated drift corrections E (q, r) [rad/s] (≈ −gyro bias when converged)."""
+        return self.kf_q.drift_correction, self.kf_r.drift_correction
 
     # ------------------------------------------------------------------ time checks
     def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
@@ -271,16 +270,17 @@ class EncoderFusionController:
         bq = -spsi * wx + cpsi * wy
         br = sth * (cpsi * wx + spsi * wy) + cth * wz
 
-        self._accumulate_gate(t, dt, q_m, r_m, bq, br, cth)
-
         mode = self.params.mode
         if mode == "gyro":
             fq, fr = q_m, r_m
         elif mode == "fused":
-            fq, fr = q_m + self.kf_q.correction, r_m + self.kf_r.correction
+            tg = self.params.encoder_gate_s
+            fq = self.kf_q.corrected_rate(q_m, tg)
+            fr = self.kf_r.corrected_rate(r_m, tg)
         else:
             fq = bq + self.encoder_rates[1]
             fr = br + cth * self.encoder_rates[0]
+        self._accumulate_gate(dt, q_m, r_m, bq, br, cth, fq, fr)
         self.feedback = (fq, fr)
         if dt <= 0.0:
             dt = 1e-3  # first tick: any positive dt, the PID has no history yet
@@ -291,48 +291,43 @@ class EncoderFusionController:
         return FusionCommand(t, tau_a, uq, fq, fr, False)
 
     # ------------------------------------------------------------------ gate + filter
-    def _accumulate_gate(self, t: float, dt: float, q: float, r: float, bq: float, br: float,
-                         cth: float) -> None:
+    def _accumulate_gate(self, dt: float, q: float, r: float, bq: float, br: float, cth: float,
+                         fq: float, fr: float) -> None:
+        """Trapezoid integrals over the gate; closes it when the encoder stamp has moved on
+        by T_g (the encoder angle difference then spans exactly the integrated ticks)."""
+        vals = (q, r, bq, br, cth, fq, fr, self._psi, self._theta)
         if self._gate_t0 is None:
-            self._open_gate(q, r, bq, br, cth)
+            self._open_gate(vals)
             return
-        pq, pr, pbq, pbr = self._prev_tick_vals
+        pq, pr, pbq, pbr, pcth, pfq, pfr, ppsi, ptheta = self._prev_tick_vals
         h = 0.5 * dt
         self._int_gq += h * (pq + q)
         self._int_gr += h * (pr + r)
-        self._int_bq += h * (pbq + bq)
-        self._int_br += h * (pbr + br)
+        # running discrepancy ψ_enc − ψ̂ (encoder-derived minus fed-back angle)
+        self._disc_q += h * (pbq + bq) + (self._theta - ptheta) - h * (pfq + fq)
+        self._disc_r += h * (pbr + br) + 0.5 * (pcth + cth) * (self._psi - ppsi) - h * (pfr + fr)
         self._int_t += dt
-        self._prev_tick_vals = (q, r, bq, br)
-        # close on the encoder stamp: the angle difference then spans the gyro integrals
+        self._prev_tick_vals = vals
         if self._t_enc - self._gate_t0 >= self.params.encoder_gate_s - 1e-9:
-            self._close_gate(cth)
-            self._open_gate(q, r, bq, br, cth)
+            self._close_gate()
+            self._open_gate(vals)
 
-    def _open_gate(self, q: float, r: float, bq: float, br: float, cth: float) -> None:
+    def _open_gate(self, vals: tuple) -> None:
         self._gate_t0 = self._t_enc
-        self._gate_psi0, self._gate_theta0, self._gate_cos0 = self._psi, self._theta, cth
-        self._int_gq = self._int_gr = self._int_bq = self._int_br = self._int_t = 0.0
-        self._prev_tick_vals = (q, r, bq, br)
+        self._gate_psi0, self._gate_theta0 = self._psi, self._theta
+        self._int_gq = self._int_gr = self._int_t = 0.0
+        self._prev_tick_vals = vals
 
-    def _close_gate(self, cth: float) -> None:
+    def _close_gate(self) -> None:
         T = self._t_enc - self._gate_t0
-        d_psi = self._psi - self._gate_psi0
-        d_theta = self._theta - self._gate_theta0
-        self.encoder_rates = (d_psi / T, d_theta / T)  # paper 2 eq. 1 in rad/s
+        self.encoder_rates = ((self._psi - self._gate_psi0) / T, (self._theta - self._gate_theta0) / T)
         if self.params.mode != "fused" or self._int_t <= 0.0:
             return
         Ti = self._int_t
-        # encoder-derived inertial rates averaged over the gate
-        enc_q = (self._int_bq + d_theta) / Ti
-        enc_r = (self._int_br + 0.5 * (self._gate_cos0 + cth) * d_psi) / Ti
-        gq, gr = self._int_gq / Ti, self._int_gr / Ti
-        prev = self._gyro_avg_prev
-        dq, dr = (0.0, 0.0) if prev is None else (gq - prev[0], gr - prev[1])
-        self._gyro_avg_prev = (gq, gr)
-        for kf, enc, g, dpsi in ((self.kf_q, enc_q, gq, dq), (self.kf_r, enc_r, gr, dr)):
-            kf.predict(Ti, dpsi)
-            kf.update(enc - (g + kf.correction))
+        self.kf_q.predict(Ti, self._int_gq)
+        self.kf_q.update(self._disc_q)
+        self.kf_r.predict(Ti, self._int_gr)
+        self.kf_r.update(self._disc_r)
 
 
 # ============================================================================ experiment

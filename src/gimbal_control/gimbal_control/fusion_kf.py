@@ -2,40 +2,49 @@
 
 Re-derived state meaning
 ------------------------
-The gyro measures ω_g = (1 + s) ω + b + n (scale-factor error s, bias b, noise n); the
-encoder-derived velocity measures ω_e = ω + v (pulse-count quantisation, paper 2 eq. 1).
-The loop feeds back the *corrected* gyro velocity ω̂ = ω_g + c, where c is the correction
-accumulated by the error updater. The filter state is::
+Paper 2 eq. 4 gives Φ = [[1, Δψ_g, T], [0, 1, 0], [0, 0, 1]] and H = [1 0 0], with Δψ_g
+"a change ... between kT and (k−1)T, from gyroscope". Row 1 adds Δψ_g·x2 and T·x3 to x1.
+It is dimensionally consistent when x1 is an angle, Δψ_g the gyro's *angle increment*
+over the step (ψ is an angle) with x2 its scale-factor error, and x3 a rate, the gyro drift,
+multiplied by the step T. (Read as a velocity error, x3 would have to be a drift
+*acceleration*, and the filter could only estimate velocity: it would leave a permanent
+LOS offset equal to the bias integrated while it converged. The prototype measured
+about 5 mrad RMS that way, against about 0.5 mrad for this form.)
 
-    x1 = ω − ω̂        velocity error of the corrected gyro [rad/s]
-    x2 = −s            gyro scale-factor correction [-]
-    x3 = −ḃ            gyro bias drift-rate correction [rad/s²]
+The gyro measures ω_g = (1 + s) ω + b + n (scale-factor error s, bias/drift b, noise n).
+The loop feeds back the corrected velocity
 
-From one sample to the next x1 changes by −s Δω − Δb ≈ x2 Δψ_g + x3 T, where Δψ_g is the
-change of the gyro velocity between the samples (paper 2: "a change of angular velocity
-between kT and (k−1)T, from gyroscope") and T the sample period, hence paper 2's eq. 4,
+    ω̂ = ω_g (1 + S) + E + A,
 
-    Φ = [[1, Δψ_g, T], [0, 1, 0], [0, 0, 1]],     z = ω_e − ω̂ = x1 + v,   H = [1 0 0].
+where S and E are the scale and drift corrections accumulated by the error updater, and A
+spreads the latest angle correction over the next step. ψ̂ = ∫ω̂ dt is the angle the loop
+holds: the PID integrates the velocity error. The state is::
 
-Closed loop (paper 2 eq. 2, x(k+1) = Φ x(k) + w − δx̂(k)): after every update the velocity
-estimate x̂1 is handed to the error updater, which accumulates it into c (c ← c + x̂1), and
-is removed from the state (δx̂ = [x̂1, 0, 0]). The scale and drift-rate estimates stay in the
-state; through Φ they keep adding Δψ_g x̂2 + T x̂3 to x1, which the next update feeds into c.
-A constant gyro bias b therefore ends up in c (c → −b): "the accumulated error estimate"
-that corrects the feedback velocity. Feedback does not change the estimation-error
-covariance, so P is propagated and updated as in the open-loop filter (Joseph form,
-:func:`gimbal_estimators.kalman.joseph_update`).
+    x1 = ψ − ψ̂              angle error of the integrated, corrected gyro rate [rad]
+    x2 = −(s + S)           residual scale-factor correction [-]
+    x3 = −(b + E)           residual drift correction [rad/s]
 
-Process noise. Continuous white noises drive x1 (bias random walk, density q1), x2
-(scale random walk, q2) and x3 (drift-rate random walk, q3); over a step T, with x3
-integrated into x1 (the Δψ_g coupling of q2 is neglected, it is second order)::
+so x1 grows by x2 Δψ_g + x3 T per step, which is paper 2's Φ. The measurement is the
+encoder rate minus the corrected gyro rate, integrated: z = ψ_enc − ψ̂ = x1 + v, with H = [1 0 0].
+Here ψ_enc is the encoder-derived angle (pulse counts plus the base motion about the axis),
+so v is the angle quantisation, uniform of width δ, with σ_v = δ/√12.
+
+Closed loop, paper 2 eqs. 2 and 6 (x(k+1) = Φ x(k) + w − δx̂(k)). After every update the
+whole estimate goes to the error updater: S += x̂2, E += x̂3, and x̂1 is applied as the rate
+A = x̂1/T over the next step. Over that step these corrections remove exactly Φ x̂ from
+the error, so δx̂ = Φ x̂ and the predicted state is zero. That is the usual feedback
+filter: each measurement is the residual error accumulated since the last correction.
+Feeding back known quantities does not change the estimation-error covariance, so P is
+propagated and updated as in the open-loop filter, with the Joseph update
+:func:`gimbal_estimators.kalman.joseph_update`. The accumulated drift correction E is
+"the accumulated error estimate" that corrects the feedback velocity. With a constant
+bias b, E → −b: the bias no longer shows in ω̂.
+
+Process noise: continuous white noises drive x1 (gyro angle random walk, density q1),
+x2 (scale random walk, q2) and x3 (bias random walk, q3). Over a step T, with x3
+integrated into x1 and the Δψ_g coupling of q2 neglected (it is second order)::
 
     Q = [[q1 T + q3 T³/3, 0, q3 T²/2], [0, q2 T, 0], [q3 T²/2, 0, q3 T]]
-
-Measurement noise R: the pulse-count velocity error over a gate T_g is the difference of
-two angle quantisation errors (uniform, width δ), σ_v = δ / (T_g √6). Consecutive gates
-share an end point, so the noise is negatively correlated (MA(1)); the filter treats it as
-white, which only makes it slightly conservative (the counts telescope, see the tests).
 """
 from __future__ import annotations
 
@@ -51,7 +60,7 @@ _H = np.array([[1.0, 0.0, 0.0]])
 _H.flags.writeable = False
 
 
-def _positive(name: str, value: float, allow_zero: bool = False) -> None:
+def _number(name: str, value: float, allow_zero: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     if value < 0.0 or (value == 0.0 and not allow_zero):
@@ -62,53 +71,58 @@ def _positive(name: str, value: float, allow_zero: bool = False) -> None:
 class FusionKfParams:
     """Q, R and the initial covariance of the complementary filter (units in the names).
 
+    Defaults suit the MEMS gyro and 1024-line encoders of the paper 2 experiment.
+
     Attributes:
-        q_velocity_deg_s_rt_s: bias random-walk density driving x1 [°/s/√s].
+        q_angle_deg_rt_s: gyro angle-random-walk density driving x1 [°/√s]
+            (0.2 °/√h = 3.3e-3 °/√s).
         q_scale_rt_s: scale-factor random-walk density driving x2 [1/√s].
-        q_drift_deg_s2_rt_s: drift-rate random-walk density driving x3 [°/s²/√s].
-        r_deg_s: σ of the encoder-minus-gyro velocity measurement [°/s].
-        p0_velocity_deg_s: initial σ of x1 (the unknown gyro bias) [°/s].
+        q_drift_deg_s_rt_s: bias random-walk density driving x3 [°/s/√s] (a Gauss-Markov
+            bias of σ over τ is about σ √(2/τ): 0.02 °/s over 60 s -> 3.7e-3).
+        r_deg: σ of z, the encoder-minus-gyro angle [°] (δ/√12 = 0.101° for 1024 lines).
+        p0_angle_deg: initial σ of x1 [°].
         p0_scale: initial σ of x2 [-].
-        p0_drift_deg_s2: initial σ of x3 [°/s²].
+        p0_drift_deg_s: initial σ of x3, the unknown turn-on bias [°/s].
         gate_sigma: innovations beyond this many σ are rejected (inf = no gate).
     """
 
-    q_velocity_deg_s_rt_s: float = 2e-3
+    q_angle_deg_rt_s: float = 3.3e-3
     q_scale_rt_s: float = 1e-5
-    q_drift_deg_s2_rt_s: float = 1e-5
-    r_deg_s: float = 0.72
-    p0_velocity_deg_s: float = 0.5
+    q_drift_deg_s_rt_s: float = 4e-3
+    r_deg: float = 0.101
+    p0_angle_deg: float = 0.1
     p0_scale: float = 0.01
-    p0_drift_deg_s2: float = 1e-3
+    p0_drift_deg_s: float = 0.3
     gate_sigma: float = math.inf
 
     def __post_init__(self) -> None:
-        for name in ("q_velocity_deg_s_rt_s", "q_scale_rt_s", "q_drift_deg_s2_rt_s"):
-            _positive(name, getattr(self, name), allow_zero=True)
-        for name in ("r_deg_s", "p0_velocity_deg_s", "p0_scale", "p0_drift_deg_s2"):
-            _positive(name, getattr(self, name))
+        for name in ("q_angle_deg_rt_s", "q_scale_rt_s", "q_drift_deg_s_rt_s"):
+            _number(name, getattr(self, name), allow_zero=True)
+        for name in ("r_deg", "p0_angle_deg", "p0_scale", "p0_drift_deg_s"):
+            _number(name, getattr(self, name))
         g = self.gate_sigma
         if isinstance(g, bool) or not isinstance(g, (int, float)) or math.isnan(g) or g <= 0.0:
             raise ValueError(f"gate_sigma must be > 0 (inf for no gate), got {g!r}")
 
     @property
     def q_density(self) -> tuple[float, float, float]:
-        """(q1, q2, q3) power spectral densities in SI: rad²/s³, 1/s, rad²/s⁵."""
-        return ((self.q_velocity_deg_s_rt_s * _DEG) ** 2, self.q_scale_rt_s ** 2,
-                (self.q_drift_deg_s2_rt_s * _DEG) ** 2)
+        """(q1, q2, q3) power spectral densities in SI: rad²/s, 1/s, rad²/s³."""
+        return ((self.q_angle_deg_rt_s * _DEG) ** 2, self.q_scale_rt_s ** 2,
+                (self.q_drift_deg_s_rt_s * _DEG) ** 2)
 
     @property
-    def r_rad2_s2(self) -> float:
-        return (self.r_deg_s * _DEG) ** 2
+    def r_rad2(self) -> float:
+        """R [rad²]."""
+        return (self.r_deg * _DEG) ** 2
 
     def initial_covariance(self) -> np.ndarray:
-        """P0, shape (3, 3), diagonal [rad²/s², -, rad²/s⁴]."""
-        return np.diag([(self.p0_velocity_deg_s * _DEG) ** 2, self.p0_scale ** 2,
-                        (self.p0_drift_deg_s2 * _DEG) ** 2])
+        """P0, shape (3, 3), diagonal [rad², -, rad²/s²]."""
+        return np.diag([(self.p0_angle_deg * _DEG) ** 2, self.p0_scale ** 2,
+                        (self.p0_drift_deg_s * _DEG) ** 2])
 
 
 def transition(T: float, dpsi_g: float) -> np.ndarray:
-    """Φ of paper 2 eq. 4 for a step ``T`` [s] and gyro velocity change ``dpsi_g`` [rad/s]."""
+    """Φ of paper 2 eq. 4, shape (3, 3): step ``T`` [s], gyro angle increment ``dpsi_g`` [rad]."""
     return np.array([[1.0, dpsi_g, T], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 
 
@@ -121,10 +135,13 @@ def process_noise(T: float, q: tuple[float, float, float]) -> np.ndarray:
 
 
 class ClosedLoopComplementaryKf:
-    """One axis of paper 2's filter plus its error updater (module docstring).
+    """One axis of paper 2's filter with its error updater (module docstring).
 
-    ``x`` (3,), ``P`` (3, 3); ``correction`` c [rad/s] is what the loop adds to the gyro
-    velocity. Call :meth:`predict` then :meth:`update` once per encoder velocity sample.
+    ``x`` (3,) and ``P`` (3, 3) are the residual state and its covariance. The error
+    updater holds ``scale_correction`` S [-], ``drift_correction`` E [rad/s] and
+    ``pending_angle`` [rad], the angle still to be applied over the next step. Per
+    measurement step: :meth:`predict` (T, Δψ_g of the step just ended), then
+    :meth:`update` (z); between the updates the loop uses :meth:`corrected_rate`.
     """
 
     def __init__(self, params: FusionKfParams | None = None, name: str = "fusion_kf") -> None:
@@ -133,38 +150,38 @@ class ClosedLoopComplementaryKf:
             raise ValueError("params must be a FusionKfParams")
         self.name = name
         self._q = self.params.q_density
-        self._R = np.array([[self.params.r_rad2_s2]])
+        self._R = np.array([[self.params.r_rad2]])
         self._gate_d2 = self.params.gate_sigma ** 2
         self.reset()
 
-    def reset(self, correction: float = 0.0) -> None:
-        """Back to the prior: x = 0, P = P0; the accumulated correction is set to
-        ``correction`` [rad/s]."""
+    def reset(self) -> None:
+        """Back to the prior: x = 0, P = P0, no corrections."""
         self.x, self.P = check_state(np.zeros(3), self.params.initial_covariance(), self.name)
-        self.correction = float(correction)
+        self._fed = np.zeros(3)  # δx̂ handed to the error updater at the last update
+        self.scale_correction = 0.0
+        self.drift_correction = 0.0
+        self.pending_angle = 0.0
         self.updates = 0
         self.rejected = 0
         self.last_innovation = 0.0
 
-    @property
-    def scale_correction(self) -> float:
-        """x̂2 = −(gyro scale-factor error) [-]."""
-        return float(self.x[1])
-
-    @property
-    def drift_rate_correction(self) -> float:
-        """x̂3 = −(gyro bias drift rate) [rad/s²]."""
-        return float(self.x[2])
+    def corrected_rate(self, omega_g: float, step_s: float) -> float:
+        """ω̂ = ω_g (1 + S) + E + pending_angle / ``step_s`` [rad/s]. ``step_s`` is the
+        length of the step the pending angle is spread over [s]."""
+        return omega_g * (1.0 + self.scale_correction) + self.drift_correction + self.pending_angle / step_s
 
     def predict(self, T: float, dpsi_g: float) -> None:
-        """x ← Φ x, P ← Φ P Φᵀ + Q over ``T`` [s] with gyro velocity change ``dpsi_g`` [rad/s]."""
+        """x ← Φ x − δx̂, P ← Φ P Φᵀ + Q over the step just ended: ``T`` [s], raw gyro angle
+        increment ``dpsi_g`` [rad]. δx̂ = Φ x̂_fed, what the corrections removed."""
         F = transition(T, dpsi_g)
-        self.x = F @ self.x
+        self.x = F @ (self.x - self._fed)
         self.P = F @ self.P @ F.T + process_noise(T, self._q)
         self.P = 0.5 * (self.P + self.P.T)
+        self._fed = np.zeros(3)
+        self.pending_angle = 0.0
 
     def update(self, z: float) -> bool:
-        """Fuse z = ω_e − ω̂ [rad/s] (Joseph form), then feed x̂1 back into the correction.
+        """Fuse z = ψ_enc − ψ̂ [rad] (Joseph form), then hand x̂ to the error updater.
         Returns False (state untouched, counted) when the innovation gate rejects z."""
         up = joseph_update(self.x, self.P, np.array([z]), _H, self._R, self._gate_d2)
         self.last_innovation = float(up.y[0])
@@ -173,9 +190,11 @@ class ClosedLoopComplementaryKf:
             return False
         self.x, self.P = up.x, up.P
         self.updates += 1
-        # error updater: δx̂ = [x̂1, 0, 0] goes into c and out of the state
-        self.correction += float(self.x[0])
-        self.x[0] = 0.0
+        x1, x2, x3 = (float(v) for v in self.x)
+        self.scale_correction += x2
+        self.drift_correction += x3
+        self.pending_angle = x1
+        self._fed = self.x.copy()
         return True
 
     def kalman_gain(self, T: float, dpsi_g: float = 0.0) -> np.ndarray:

@@ -95,6 +95,8 @@ class LosRateControllerParams:
         anti_windup: ``"clamp"`` (default: |k_i I| limited to what the axis' torque limit
             can deliver), ``"conditional"`` (no integration on a saturated axis pushing
             outwards) or ``"none"`` (comparisons only); module docstring.
+        integrator_limit_factor: ``"clamp"`` bound, as a multiple of the torque limit that
+            the integral term alone may ask for (> 0).
         trim: feed forward the gravity trim torque of the linearisation point.
         gravity_m_s2: gravity of the linearisation [m/s²].
         min_cos_elevation: |cos θm| floor in the 1/c of the azimuth error (gimbal lock at
@@ -112,6 +114,7 @@ class LosRateControllerParams:
     azimuth_torque_limit_nm: float | None = None
     elevation_torque_limit_nm: float | None = None
     anti_windup: str = "clamp"
+    integrator_limit_factor: float = 4.0
     trim: bool = True
     gravity_m_s2: float = STANDARD_GRAVITY
     min_cos_elevation: float = 0.05
@@ -125,6 +128,7 @@ class LosRateControllerParams:
             raise ValueError(f"omega_n_hz must be < rate_hz / 4 = {self.rate_hz / 4.0} Hz (the loop crosses over "
                              f"at ~1.7 ω_n), got {self.omega_n_hz}")
         _finite_positive("zeta", self.zeta)
+        _finite_positive("integrator_limit_factor", self.integrator_limit_factor)
         if self.anti_windup not in ANTI_WINDUP_MODES:
             raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_MODES}, got {self.anti_windup!r}")
         for name in ("feedback", "trim"):
@@ -175,8 +179,9 @@ class LosRateController:
         ut = self.model.u_trim if p.trim else (0.0, 0.0)
         self._trim = (float(ut[0]), float(ut[1]))
         self._aw_mode = ANTI_WINDUP_MODES.index(p.anti_windup) + 1 if p.anti_windup != "none" else 0
-        # Clamp bounds [rad]: k_i I_i B′⁻¹_ii reaches the axis' torque limit.
-        self._i_max = (lim_a / (self.ki * self._b00), lim_e / (self.ki * self._b11))
+        # Clamp bounds [rad]: k_i I_i B′⁻¹_ii reaches integrator_limit_factor × the limit.
+        f = p.integrator_limit_factor
+        self._i_max = (f * lim_a / (self.ki * self._b00), f * lim_e / (self.ki * self._b11))
         # counters
         self.rejected_inputs = 0
         self.rejected_stamps = 0

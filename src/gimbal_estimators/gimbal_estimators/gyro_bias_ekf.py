@@ -190,11 +190,13 @@ class GyroBiasEkfParams:
     ins_attitude_tau_s: float = 300.0
     ins_error_states: bool = True
     encoder_noise_deg: float = 0.05
+    attitude_noise_floor_deg: float = 0.003
     gate_probability: float = 0.9999
     max_consecutive_gated: int = 100
     clock_jump_s: float = 0.5
     max_gyro_gap_s: float = 0.1
     covariance_period_s: float = 0.01
+    max_sync_wait_s: float = 0.05
 
     def __post_init__(self) -> None:
         _finite("lat_deg", self.lat_deg)
@@ -212,7 +214,8 @@ class GyroBiasEkfParams:
                      "roll_bias_instability_deg_h", "ins_roll_pitch_rms_deg", "ins_heading_rms_deg"):
             _nonneg(name, getattr(self, name))
         for name in ("gyro_bias_sigma_deg_h", "roll_bias_sigma_deg_h", "encoder_noise_deg",
-                     "clock_jump_s", "max_gyro_gap_s", "covariance_period_s"):
+                     "attitude_noise_floor_deg", "clock_jump_s", "max_gyro_gap_s", "covariance_period_s",
+                     "max_sync_wait_s"):
             _positive(name, getattr(self, name))
         for name in ("gyro_bias_tau_s", "roll_bias_tau_s", "ins_attitude_tau_s"):
             _positive(name, getattr(self, name), allow_inf=True)
@@ -329,6 +332,7 @@ class GyroBiasEkf:
         rp, hd = p.ins_roll_pitch_rms_deg * _DEG, p.ins_heading_rms_deg * _DEG
         self._Pe = np.diag([rp * rp, rp * rp, hd * hd])
         self._enc_var = (p.encoder_noise_deg * _DEG) ** 2
+        self._R_floor = np.eye(3) * (p.attitude_noise_floor_deg * _DEG) ** 2
         self.counters = Counters(0, 0, 0, 0, 0, 0, 0)
         #: (t, reason) of the latest resets and re-alignments, newest last.
         self.reset_log: deque[tuple[float, str]] = deque(maxlen=100)
@@ -340,15 +344,14 @@ class GyroBiasEkf:
         self._b = [0.0, 0.0, 0.0]
         self._e = np.zeros(3)
         self.P: np.ndarray | None = None
-        self._last_t = {"gyro": None, "encoders": None, "ins": None}
-        self._t_gyro: float | None = None
+        self._last_t: dict[str, float | None] = {"gyro": None, "encoders": None, "ins": None}
+        self._t_newest = -math.inf
+        self._t_gyro: float | None = None  # stamp of the last integrated gyro sample
         self._w_prev: tuple[float, float, float] | None = None
-        self._raw_prev: tuple[float, float] | None = None
-        self._gyro_queue: tuple[float, float, float] | None = None
-        self._enc: tuple[float, tuple[float, float, float]] | None = None
-        self._enc_prev: tuple[float, tuple[float, float, float]] | None = None
-        self._enc_trig = (1.0, 0.0, 1.0, 0.0)  # cos, sin (ψt+ψm); cos, sin θm
-        self._ins_rates: tuple[float, float, float] | None = None
+        self._gyro_q: deque[tuple[float, float, float]] = deque()
+        self._enc_hist: deque[tuple[float, float, float, float]] = deque()
+        self._ins_hist: deque[tuple[float, float, float, float]] = deque()
+        self._trig = (1.0, 0.0, 1.0, 0.0)  # cos, sin (ψt+ψm); cos, sin θm at t_gyro
         self._pending: tuple[float, tuple[float, float, float]] | None = None
         self._t_cov: float | None = None
         self._A_cov: np.ndarray | None = None
@@ -360,7 +363,7 @@ class GyroBiasEkf:
         self.counters = self.counters._replace(**{k: getattr(self.counters, k) + v for k, v in inc.items()})
 
     def reset(self, reason: str, t: float = math.nan) -> None:
-        """Forget everything (attitude, biases, covariance, stream stamps); log ``reason``."""
+        """Forget everything (attitude, biases, covariance, buffers, stream stamps); log ``reason``."""
         self._count(resets=1)
         self.reset_log.append((t, reason))
         self._clear()
@@ -369,9 +372,8 @@ class GyroBiasEkf:
         """Re-align the attitude from the next measurement, keeping the bias estimate."""
         self._count(realignments=1)
         self.reset_log.append((t, "realign: " + reason))
-        P_bb = None if self.P is None else self.P[3:6, 3:6].copy()
+        self._P_bb_keep = None if self.P is None else self.P[3:6, 3:6].copy()
         self._q = None
-        self._P_bb_keep = P_bb
         self._t_cov = None
         self._consecutive_gated = 0
 
@@ -388,8 +390,7 @@ class GyroBiasEkf:
     @property
     def bias_sigma(self) -> np.ndarray:
         """1σ of the bias estimate [rad/s], (3,) (prior σ before alignment)."""
-        P = self.P if self.P is not None else None
-        return np.sqrt(np.diag(P[3:6, 3:6] if P is not None else self._Pb0))
+        return np.sqrt(np.diag(self.P[3:6, 3:6] if self.P is not None else self._Pb0))
 
     @property
     def ins_error(self) -> np.ndarray:
@@ -398,20 +399,20 @@ class GyroBiasEkf:
 
     @property
     def quat_nm(self) -> np.ndarray | None:
-        """Estimated C(n,m) as (x, y, z, w), or None before alignment."""
+        """Estimated C(n,m) as (x, y, z, w) at :attr:`time`, or None before alignment."""
         return None if self._q is None else np.array(self._q)
 
     @property
     def C_nm(self) -> np.ndarray | None:
-        """Estimated C(n,m) (3, 3), or None before alignment."""
+        """Estimated C(n,m) (3, 3) at :attr:`time`, or None before alignment."""
         return None if self._q is None else quat_to_dcm(np.array(self._q))
 
     @property
     def time(self) -> float | None:
-        """Stamp the attitude estimate refers to (last gyro sample) [s]."""
+        """Stamp of the last integrated gyro sample, which the attitude refers to [s]."""
         return self._t_gyro
 
-    # ------------------------------------------------------------------ input checks
+    # ------------------------------------------------------------------ message handlers
     def _accept_stamp(self, stream: str, t: float) -> bool:
         last = self._last_t[stream]
         if last is not None and t <= last:
@@ -421,16 +422,12 @@ class GyroBiasEkf:
                 self._count(rejected_out_of_order=1)
                 return False
         self._last_t[stream] = t
+        if t > self._t_newest:
+            self._t_newest = t
         return True
 
-    # ------------------------------------------------------------------ message handlers
     def on_gyro(self, t: float, q_m: float, r_m: float) -> EkfOutput | None:
-        """Gimbal gyro sample at stamp ``t`` [s]: rates q_m, r_m [rad/s] about m-y, m-z.
-
-        The sample is integrated as soon as an encoder sample stamped ≥ t is in (so eq. 4
-        uses the angles of the same instant in lockstep) or when the next gyro sample
-        arrives, whichever comes first.
-        """
+        """Gimbal gyro sample at stamp ``t`` [s]: rates q_m, r_m [rad/s] about m-y, m-z."""
         try:
             t, q_m, r_m = float(t), float(q_m), float(r_m)
         except (TypeError, ValueError):
@@ -441,55 +438,14 @@ class GyroBiasEkf:
             return None
         if not self._accept_stamp("gyro", t):
             return None
-        if self._gyro_queue is not None:
-            self._integrate(*self._gyro_queue)
-        self._gyro_queue = (t, q_m, r_m)
-        if self._enc is not None and self._enc[0] >= t:
-            self._integrate(t, q_m, r_m)
-            self._gyro_queue = None
+        self._gyro_q.append((t, q_m, r_m))
+        self._drain()
         return self._try_update()
-
-    def _omega(self, q_m: float, r_m: float) -> tuple[float, float, float] | None:
-        """Bias-corrected ω_im^m (p̂_m by eq. 4) with the latest encoders and INS rates."""
-        rates = self._ins_rates
-        if self._enc is None or rates is None:
-            return None
-        ca, sa, ct, st = self._enc_trig
-        b = self._b
-        q = q_m - b[1]
-        r = r_m - b[2]
-        if abs(ct) < _SINGULAR_COS:
-            self._count(singular_elevation=1)
-            p = self._p_m_last
-        else:
-            p = (ca * rates[0] + sa * rates[1] - b[0] - st * r) / ct
-        self._p_m_last = p
-        return (p, q, r)
-
-    def _integrate(self, t: float, q_m: float, r_m: float) -> None:
-        """Mechanize from the previous gyro sample to this one (trapezoid in ω)."""
-        w = self._omega(q_m, r_m)
-        t_prev = self._t_gyro
-        self._t_gyro = t
-        w0 = self._w_prev
-        if w0 is None and self._raw_prev is not None:
-            w0 = self._omega(*self._raw_prev)
-        self._w_prev = w
-        self._raw_prev = (q_m, r_m)
-        if w is None or self._q is None or t_prev is None:
-            return
-        dt = t - t_prev
-        if dt > self.params.max_gyro_gap_s:
-            self._realign(f"gyro gap of {dt:.4f} s", t)
-            return
-        self._mechanize(w0 if w0 is not None else w, w, dt)
-        if t - self._t_cov >= self.params.covariance_period_s:
-            self._propagate_covariance()
 
     def on_encoders(self, t: float, angles: Sequence[float],
                     rates: Sequence[float] | None = None) -> EkfOutput | None:
         """Encoder sample at ``t`` [s]: angles (ψt, ψm, θm) [rad]; ``rates`` [rad/s] are
-        accepted for interface symmetry but unused (eq. 4 needs no joint rate)."""
+        checked but unused (eq. 4 needs no joint rate once r_m is measured)."""
         try:
             t = float(t)
             a = (float(angles[0]), float(angles[1]), float(angles[2]))
@@ -503,14 +459,8 @@ class GyroBiasEkf:
             return None
         if not self._accept_stamp("encoders", t):
             return None
-        self._enc_prev = self._enc
-        self._enc = (t, a)
-        az = a[0] + a[1]
-        self._enc_trig = (math.cos(az), math.sin(az), math.cos(a[2]), math.sin(a[2]))
-        queued = self._gyro_queue
-        if queued is not None and queued[0] <= t:
-            self._gyro_queue = None
-            self._integrate(*queued)
+        self._enc_hist.append((t,) + a)
+        self._drain()
         return self._try_update()
 
     def on_ins(self, t: float, euler: Sequence[float] | None, omega_b: Sequence[float]) -> EkfOutput | None:
@@ -532,10 +482,77 @@ class GyroBiasEkf:
             return None
         if not self._accept_stamp("ins", t):
             return None
-        self._ins_rates = w
+        self._ins_hist.append((t,) + w)
         if e is not None:
             self._pending = (t, e)
+        self._drain()
         return self._try_update()
+
+    # ------------------------------------------------------------------ synchronisation
+    def _drain(self) -> None:
+        """Integrate the queued gyro samples whose encoder and INS-rate data are in (or
+        that waited longer than ``max_sync_wait_s``)."""
+        gq = self._gyro_q
+        enc, ins = self._enc_hist, self._ins_hist
+        wait = self.params.max_sync_wait_s
+        while gq:
+            t = gq[0][0]
+            if (not enc or enc[-1][0] < t or not ins or ins[-1][0] < t) and self._t_newest - t <= wait:
+                return
+            self._integrate(*gq.popleft())
+
+    @staticmethod
+    def _interp(hist: deque, t: float) -> tuple[float, float, float] | None:
+        """Linear interpolation of a (t, a, b, c) history at ``t`` (held beyond its ends);
+        drops the entries no longer needed for later times."""
+        if not hist:
+            return None
+        while len(hist) > 1 and hist[1][0] <= t:
+            hist.popleft()
+        h0 = hist[0]
+        if len(hist) == 1 or t <= h0[0]:
+            return h0[1], h0[2], h0[3]
+        h1 = hist[1]
+        f = (t - h0[0]) / (h1[0] - h0[0])
+        return (h0[1] + f * (h1[1] - h0[1]), h0[2] + f * (h1[2] - h0[2]), h0[3] + f * (h1[3] - h0[3]))
+
+    def _omega(self, q_m: float, r_m: float, rates: tuple[float, float, float]) -> tuple[float, float, float]:
+        """Bias-corrected ω_im^m, p̂_m by eq. 4, with the trig of the current joint angles."""
+        ca, sa, ct, st = self._trig
+        b = self._b
+        q = q_m - b[1]
+        r = r_m - b[2]
+        if abs(ct) < _SINGULAR_COS:
+            self._count(singular_elevation=1)
+            p = self._p_m_last
+        else:
+            p = (ca * rates[0] + sa * rates[1] - b[0] - st * r) / ct
+        self._p_m_last = p
+        return (p, q, r)
+
+    def _integrate(self, t: float, q_m: float, r_m: float) -> None:
+        """Mechanize from the previous gyro sample to this one (trapezoid in ω)."""
+        angles = self._interp(self._enc_hist, t)
+        rates = self._interp(self._ins_hist, t)
+        t_prev = self._t_gyro
+        self._t_gyro = t
+        if angles is None or rates is None:
+            self._w_prev = None
+            return
+        az = angles[0] + angles[1]
+        self._trig = (math.cos(az), math.sin(az), math.cos(angles[2]), math.sin(angles[2]))
+        w = self._omega(q_m, r_m, rates)
+        w0 = self._w_prev
+        self._w_prev = w
+        if self._q is None or t_prev is None:
+            return
+        dt = t - t_prev
+        if dt > self.params.max_gyro_gap_s:
+            self._realign(f"gyro gap of {dt:.4f} s", t)
+            return
+        self._mechanize(w0 if w0 is not None else w, w, dt)
+        if t - self._t_cov >= self.params.covariance_period_s:
+            self._propagate_covariance()
 
     # ------------------------------------------------------------------ mechanization
     def _mechanize(self, w0: Sequence[float], w1: Sequence[float], dt: float) -> None:
@@ -564,7 +581,7 @@ class GyroBiasEkf:
 
     def _A_now(self) -> np.ndarray:
         """C_nm M (3, 3) at the current estimate and elevation."""
-        _, _, ct, st = self._enc_trig
+        _, _, ct, st = self._trig
         ct = ct if abs(ct) >= _SINGULAR_COS else math.copysign(_SINGULAR_COS, ct)
         C = quat_to_dcm(np.array(self._q))
         A = C.copy()
@@ -601,28 +618,20 @@ class GyroBiasEkf:
         self._A_cov = A1
 
     # ------------------------------------------------------------------ measurement
-    def _encoder_for(self, t_ins: float) -> tuple[float, float, float]:
-        best = self._enc
-        prev = self._enc_prev
-        if prev is not None and abs(prev[0] - t_ins) < abs(best[0] - t_ins):
-            best = prev
-        return best[1]
-
     def _try_update(self) -> EkfOutput | None:
         pend = self._pending
-        if pend is None or self._t_gyro is None or self._enc is None:
-            return None
-        t_ins, euler = pend
-        if self._t_gyro < t_ins or self._enc[0] < t_ins:
+        if pend is None or self._t_gyro is None or self._t_gyro < pend[0]:
             return None
         self._pending = None
-        angles = self._encoder_for(t_ins)
+        t_ins, euler = pend
+        angles = self._interp(self._enc_hist, t_ins)
+        if angles is None:
+            return None
         C_nb = dcm_nb(*euler)
         C_meas = C_nb @ dcm_bm(*angles)
         Je = ins_error_jacobian(euler)
         Jenc = encoder_error_jacobian(C_nb, C_meas)
-        R = self._enc_var * np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-        R = Jenc @ R @ Jenc.T
+        R = self._enc_var * (Jenc @ Jenc.T) + self._R_floor
         if self.n_states == 6:
             R = R + Je @ self._Pe @ Je.T
         if self._q is None:
@@ -650,7 +659,7 @@ class GyroBiasEkf:
                 self._e = dx[6:].copy()
             if self._w_prev is not None:
                 # The next trapezoid starts from this sample: correct it with the new biases.
-                _, _, ct, st = self._enc_trig
+                _, _, ct, st = self._trig
                 ct = ct if abs(ct) >= _SINGULAR_COS else math.copysign(_SINGULAR_COS, ct)
                 p, q, r = self._w_prev
                 self._w_prev = (p - (db[0] - st * db[2]) / ct, q - db[1], r - db[2])

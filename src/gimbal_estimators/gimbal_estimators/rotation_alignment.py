@@ -217,14 +217,18 @@ class ObservabilityReport(NamedTuple):
     """Information content of the data so far, in the normalised states X/s.
 
     ``information`` (8, 8) = Σ Hᵀ R⁻¹ H (data only, no prior); ``eigenvalues`` (8,) ascending;
-    ``rank``: eigenvalues above ``rank_rel_tol`` × the largest; ``condition`` = λmax/λmin
-    (inf when singular); ``weakest_direction`` (8,) the unit eigenvector of λmin (which
-    states the data cannot tell apart); ``correlation`` (8, 8) of the posterior.
+    ``rank``: eigenvalues above ``rank_rel_tol`` × the largest (numerical rank; the
+    second-order earth-rate terms lift some directions just above round-off);
+    ``informative_rank``: eigenvalues above 1, i.e. directions the data determine better
+    than the P0 = I prior; ``condition`` = λmax/λmin (inf when singular);
+    ``weakest_direction`` (8,) the unit eigenvector of λmin (which states the data cannot
+    tell apart); ``correlation`` (8, 8) of the posterior.
     """
 
     information: np.ndarray
     eigenvalues: np.ndarray
     rank: int
+    informative_rank: int
     condition: float
     weakest_direction: np.ndarray
     correlation: np.ndarray
@@ -466,7 +470,7 @@ class RotationAlignmentRls:
         cond = lam_max / float(eig[0]) if eig[0] > 0.0 else math.inf
         d = np.sqrt(np.diag(self._P))
         return ObservabilityReport(
-            information=info, eigenvalues=eig, rank=rank, condition=cond,
+            information=info, eigenvalues=eig, rank=rank, informative_rank=int(np.sum(eig > 1.0)), condition=cond,
             weakest_direction=vec[:, 0], correlation=self._P / np.outer(d, d),
         )
 
@@ -561,8 +565,9 @@ class KinematicPlatformTruth:
 class AlignmentMetrics(NamedTuple):
     """One alignment run against its truth (units in the field names; errors = est − truth).
 
-    ``truth``/``estimate``/``sigma`` (8,) in :data:`STATE_NAMES` order, SI. ``rank`` and
-    ``condition`` of the data information (normalised states); ``corr_tilt_bias`` the
+    ``truth``/``estimate``/``sigma`` (8,) in :data:`STATE_NAMES` order, SI. ``rank``,
+    ``informative_rank`` and ``condition`` of the data information (normalised states,
+    :class:`ObservabilityReport`); ``corr_tilt_bias`` the
     posterior correlations of (δφE0, ∇ along north) and (δφN0, ∇ along east) at the start
     azimuth — near ±1 when bias and tilt are confounded.
     """
@@ -583,6 +588,7 @@ class AlignmentMetrics(NamedTuple):
     accel_bias_error_ug: np.ndarray
     converged: bool
     rank: int
+    informative_rank: int
     condition: float
     corr_tilt_bias: np.ndarray
     n_updates: int
@@ -666,7 +672,7 @@ def run_alignment_experiment(
         azimuth_error_arcmin=float(err[2] / _ARCMIN), azimuth_sigma_arcmin=float(est.sigma[2] / _ARCMIN),
         north_drift_error_deg_h=float(err[3] / _DEG_H), north_drift_sigma_deg_h=float(est.sigma[3] / _DEG_H),
         gyro_drift_error_deg_h=err[6:8] / _DEG_H, accel_bias_error_ug=err[4:6] / _UG,
-        converged=est.converged, rank=obs.rank, condition=obs.condition,
+        converged=est.converged, rank=obs.rank, informative_rank=obs.informative_rank, condition=obs.condition,
         corr_tilt_bias=np.array([_corr(0, a_n), _corr(1, a_e)]), n_updates=est.n_updates,
     )
 

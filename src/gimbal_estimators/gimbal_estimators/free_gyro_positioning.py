@@ -1,0 +1,663 @@
+"""Free-gyro positioning and heading (paper 4, SPEC §3.4): message-driven core.
+
+Inputs (each with its message time stamp t [s]):
+
+* :meth:`FreeGyroPositioning.on_level` — roll, pitch [rad] of the vertical reference;
+* :meth:`FreeGyroPositioning.on_spin_axes` — the two free-gyro spin axes read out in the
+  body FRD frame (unit vectors, the pickoffs of ``gimbal_sim.sensors.free_gyro_sensor``);
+* :meth:`FreeGyroPositioning.on_body_rates` — body gyro triad ω_ib^b [rad/s] (step average);
+* :meth:`FreeGyroPositioning.on_velocity` — optional NED ground velocity [m/s] (transport
+  rate removal for the earth-rate heading; default at rest).
+
+Mechanisation (paper 4 Figs. 3–4, re-derived)
+---------------------------------------------
+Levelling: l is the heading-only frame, u_l = rot2(pitch)ᵀ rot1(roll)ᵀ u_b. In l the nadir
+angle is θ = atan2(√(u_lx² + u_ly²), u_lz) — heading-free, so the fix needs no heading —
+and the azimuth of the gyro vector from the ship's head is ζ = atan2(u_ly, u_lx) (Fig. 4).
+
+Nadir-angle integration (Fig. 4, θ = ∫ω_θ dt): an inertially fixed spin axis tilts relative
+to the local vertical at ω_θ = ω_in,N sin α − ω_in,E cos α (Ω cos φ sin α at rest; paper
+eq. 6). Over a fix window of ``fix_interval_s`` the core integrates every sample into a
+least-squares line θ(t) = θ̄ + ω_θ (t − t̄) per gyro: θ̄ at the window's mean time t̄ has
+σ_θ = σ_pickoff/√n and is uncorrelated with the slope, and the slope is the measured
+tilting rate ω_θ of Fig. 4 (reported, and a consistency check of the fix against eq. 6).
+With angle pickoffs the integral of the measured motion telescopes to the read-out angle,
+so integrating is the same as fitting the read-outs; the line absorbs the ≤ 15″/min drift of
+θ within the window without any knowledge of the position.
+
+Fix (eq. 1): ``gimbal_kinematics.free_gyro.position_fix`` at t̄ with the two integrated
+nadir angles; the mirror-image branch is chosen by the sense of Δα = α_b − α_a, which the
+ship measures as ζ_b − ζ_a (heading cancels). Geometry (eq. 31–38):
+``fix_geometry`` gives FDOP = √2/|sin Δα| and the covariance FDOP-scaled by σ_θ in north/
+east metres (``FixGeometry.covariance_ne_m``). The fix is withheld, with ``status =
+'degenerate'`` and a reason, when the gyro vectors are (anti)parallel, the nadir circles are
+tangent or do not intersect, a gyro vector is vertical, or FDOP exceeds ``max_fdop``.
+
+Heading, two ways:
+
+* free-gyro heading (Fig. 4): ψ = α − ζ with α from eq. 2 at the fix and ζ̄ the window's
+  circular mean, both gyros combined with weights sin²θ (ζ noise is σ/sin θ); this is the
+  window-mean heading. Its σ counts the pickoff noise only (the fix error moves α by a
+  further O(FDOP σ_θ tan φ)).
+* earth-rate heading (Fig. 3, eq. 3–4): over ``heading_window_s`` the levelled triad
+  rate is averaged after removing the ship's level rotation rates, whose levelled
+  components are (cos θ φ̇, θ̇) for 3-2-1 angles (exact; they telescope into the roll and
+  pitch changes over the window, so oscillation cancels) and the transport rate
+  rot3(ψ) ω_en^n. What is left is rot3(ψ) ω_ie^n: ψ = atan2(−ω_ly, ω_lx)
+  (``heading_from_earth_rate``), σ_ψ = (N_triad/√T)/(Ω cos φ) — paper eq. 29 for white
+  triad noise. Yaw oscillation within the window averages to the mean heading.
+
+All angles rad, rates rad/s, times s, distances m. Non-finite inputs, non-unit spin axes and
+non-increasing stamps are rejected and counted; a stamp more than ``reset_backjump_s``
+behind the stream's last one resets the core (reason recorded).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, prime_vertical_radius, transport_rate_n
+from gimbal_kinematics.free_gyro import (
+    FixTolerances,
+    fix_geometry,
+    gyro_azimuth,
+    heading_from_earth_rate,
+    position_fix,
+)
+
+_ARCSEC = math.pi / (180.0 * 3600.0)
+_DEG_RT_H = math.pi / 180.0 / 60.0
+_NAN = float("nan")
+
+
+def _finite(name: str, value: object) -> float:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _positive(name: str, value: object) -> float:
+    v = _finite(name, value)
+    if v <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return v
+
+
+def _unit_param(name: str, value: object) -> tuple[float, float, float]:
+    try:
+        x, y, z = (float(c) for c in value)  # type: ignore[union-attr]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from exc
+    n = math.sqrt(x * x + y * y + z * z)
+    if not math.isfinite(n) or abs(n - 1.0) > 1e-6:
+        raise ValueError(f"{name} must be a unit vector, got norm {n!r}")
+    return x / n, y / n, z / n
+
+
+@dataclass(frozen=True)
+class FreeGyroPositioningParams:
+    """Parameters of the free-gyro positioning core (validated, immutable).
+
+    Attributes:
+        u_a_i, u_b_i: the gyros' inertial spin axes (unit, not parallel), inertial frame of
+            ``gimbal_kinematics.free_gyro`` (x to Greenwich at t = 0, z the earth's axis).
+        nadir_noise_arcsec: σ of one read-out nadir angle [″] (pickoff noise), for the fix σ.
+        fix_interval_s: nadir integration window per fix [s].
+        min_samples: fewest read-outs in a window for a fix (≥ 3: a line and its residual).
+        heading_window_s: earth-rate heading averaging window [s].
+        triad_arw_deg_rt_h: triad angle random walk [°/√h], for the earth-rate heading σ.
+        max_fdop: FDOP above which the geometry is reported degenerate and no fix is given.
+        min_sin_gyro_separation, min_sin_crossing_angle: ``FixTolerances`` of the fix.
+        height_m: height used for the metric covariance [m].
+        max_level_age_s: oldest vertical-reference sample [s] used to level a read-out.
+        reset_backjump_s: a stamp this far [s] behind its stream's last resets the core.
+    """
+
+    u_a_i: tuple[float, float, float]
+    u_b_i: tuple[float, float, float]
+    nadir_noise_arcsec: float = 5.0
+    fix_interval_s: float = 10.0
+    min_samples: int = 5
+    heading_window_s: float = 60.0
+    triad_arw_deg_rt_h: float = 0.002
+    max_fdop: float = 20.0
+    min_sin_gyro_separation: float = 1e-6
+    min_sin_crossing_angle: float = 1e-6
+    height_m: float = 0.0
+    max_level_age_s: float = 0.2
+    reset_backjump_s: float = 1.0
+    omega_ie_rad_s: float = OMEGA_IE
+
+    def __post_init__(self) -> None:
+        a = _unit_param("u_a_i", self.u_a_i)
+        b = _unit_param("u_b_i", self.u_b_i)
+        object.__setattr__(self, "u_a_i", a)
+        object.__setattr__(self, "u_b_i", b)
+        for name in ("nadir_noise_arcsec", "fix_interval_s", "heading_window_s", "triad_arw_deg_rt_h",
+                     "max_level_age_s", "reset_backjump_s", "omega_ie_rad_s"):
+            _positive(name, getattr(self, name))
+        if _positive("max_fdop", self.max_fdop) < math.sqrt(2.0):
+            raise ValueError(f"max_fdop must be >= √2 (the best two-gyro FDOP), got {self.max_fdop}")
+        if not isinstance(self.min_samples, int) or isinstance(self.min_samples, bool) or self.min_samples < 3:
+            raise ValueError(f"min_samples must be an int >= 3, got {self.min_samples!r}")
+        for name in ("min_sin_gyro_separation", "min_sin_crossing_angle"):
+            v = _finite(name, getattr(self, name))
+            if not 0.0 < v < 1.0:
+                raise ValueError(f"{name} must be in (0, 1), got {v}")
+        _finite("height_m", self.height_m)
+        cx = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        if math.sqrt(sum(c * c for c in cx)) < self.min_sin_gyro_separation:
+            raise ValueError("u_b_i must not be parallel or antiparallel to u_a_i (the nadir circles "
+                             "would be concentric: no fix anywhere)")
+
+    @property
+    def tolerances(self) -> FixTolerances:
+        return FixTolerances(self.min_sin_gyro_separation, self.min_sin_crossing_angle)
+
+
+class FreeGyroFix(NamedTuple):
+    """One fix window's result, stamped at the window's mean time ``t`` [s].
+
+    ``status``: 'ok' or 'degenerate' (then ``lat``, ``lon``, ``heading``, ``cov_ne_m`` are
+    NaN and ``reason`` says why). ``lat``, ``lon`` [rad]; ``cov_ne_m`` (2, 2) north/east
+    covariance [m²] = FDOP-scaled σ_θ²; ``fdop`` (NaN if not computable); ``nadir`` (2,)
+    integrated nadir angles (θ_a, θ_b) [rad], ``nadir_sigma`` [rad]; ``tilt_rate`` (2,) the
+    measured dθ/dt [rad/s] (Fig. 4's ω_θ); ``crossing_angle`` Δα = ζ_b − ζ_a [rad];
+    ``heading`` free-gyro window-mean heading [rad] ± ``heading_sigma``;
+    ``heading_earth_rate`` [rad] ± ``heading_earth_rate_sigma`` from the latest completed
+    earth-rate window, stamped ``heading_earth_rate_t`` (NaN until one completes);
+    ``n_samples`` read-outs integrated.
+    """
+
+    t: float
+    status: str
+    reason: str
+    lat: float
+    lon: float
+    cov_ne_m: np.ndarray
+    fdop: float
+    nadir: np.ndarray
+    nadir_sigma: float
+    tilt_rate: np.ndarray
+    crossing_angle: float
+    heading: float
+    heading_sigma: float
+    heading_earth_rate: float
+    heading_earth_rate_sigma: float
+    heading_earth_rate_t: float
+    n_samples: int
+
+    @property
+    def valid(self) -> bool:
+        return self.status == "ok"
+
+
+def navsat_covariance_enu(cov_ne_m: np.ndarray, vertical_variance_m2: float) -> tuple[float, ...]:
+    """``sensor_msgs/NavSatFix.position_covariance`` (9, row-major, ENU [m²]) from the
+    north/east covariance (2, 2) [m²]; the free gyros do not observe height, so the caller
+    supplies its variance (e.g. from the height source)."""
+    c = np.asarray(cov_ne_m, dtype=float)
+    if c.shape != (2, 2):
+        raise ValueError(f"cov_ne_m must have shape (2, 2), got {c.shape}")
+    nn, ne, ee = float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
+    vv = float(vertical_variance_m2)
+    return (ee, ne, 0.0, ne, nn, 0.0, 0.0, 0.0, vv)
+
+
+def _level(x: float, y: float, z: float, cr: float, sr: float, cp: float, sp: float) -> tuple[float, float, float]:
+    """rot2(pitch)ᵀ rot1(roll)ᵀ v: body FRD vector in the heading-only frame."""
+    vy = cr * y - sr * z
+    vz = sr * y + cr * z
+    return cp * x + sp * vz, vy, -sp * x + cp * vz
+
+
+@dataclass
+class _Counters:
+    spin_accepted: int = 0
+    rates_accepted: int = 0
+    rejected_nonfinite: int = 0
+    rejected_not_unit: int = 0
+    rejected_out_of_order: int = 0
+    rejected_no_level: int = 0
+    rejected_stale_level: int = 0
+    fixes: int = 0
+    degenerate: int = 0
+    resets: int = 0
+    reset_reasons: list[str] = field(default_factory=list)
+
+
+class FreeGyroPositioning:
+    """Free-gyro fix and heading core (module docstring). ROS-free, message-driven."""
+
+    def __init__(self, params: FreeGyroPositioningParams) -> None:
+        if not isinstance(params, FreeGyroPositioningParams):
+            raise TypeError(f"params must be FreeGyroPositioningParams, got {type(params).__name__}")
+        self.params = params
+        self._sigma_pick = params.nadir_noise_arcsec * _ARCSEC
+        self._triad_arw = params.triad_arw_deg_rt_h * _DEG_RT_H
+        self.counters = _Counters()
+        self.last_fix: FreeGyroFix | None = None
+        self._restart()
+
+    # -- state ---------------------------------------------------------------------------
+    def _restart(self) -> None:
+        self._t_last: dict[str, float] = {}
+        self._level_sample: tuple[float, float, float] | None = None  # (t, roll, pitch)
+        self._v_n: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._lat: float | None = None
+        self._heading_prev: float | None = None
+        self._er = (_NAN, _NAN, _NAN)  # (heading, σ, t) of the latest earth-rate window
+        self._clear_window()
+        self._clear_heading_window()
+
+    def _clear_window(self) -> None:
+        self._w_t0: float | None = None
+        self._w_n = 0
+        # Σ τ, Σ τ², Σθa, Σθb, Σ τθa, Σ τθb, Σ cos ζa, Σ sin ζa, Σ cos ζb, Σ sin ζb, Σ cos Δζ, Σ sin Δζ
+        self._w = [0.0] * 12
+
+    def _clear_heading_window(self) -> None:
+        self._h_prev: tuple[float, float, float] | None = None  # (t, roll, pitch) at last rate
+        self._h = [0.0, 0.0, 0.0, 0.0, 0.0]  # Σ lx dt, Σ ly dt, Σ cosθ dφ, Σ dθ, T
+
+    def reset(self, reason: str) -> None:
+        """Drop all windows and inputs; ``reason`` is recorded."""
+        self.counters.resets += 1
+        self.counters.reset_reasons.append(str(reason))
+        self._restart()
+
+    def _stamp(self, stream: str, t: object) -> float | None:
+        """Checked, increasing time stamp for ``stream``; None (counted) if rejected."""
+        try:
+            t = float(t)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            self.counters.rejected_nonfinite += 1
+            return None
+        if not math.isfinite(t):
+            self.counters.rejected_nonfinite += 1
+            return None
+        last = self._t_last.get(stream)
+        if last is not None and t <= last:
+            if last - t > self.params.reset_backjump_s:
+                self.reset(f"{stream} time jumped back by {last - t:.3f} s")
+            else:
+                self.counters.rejected_out_of_order += 1
+                return None
+        return t
+
+    def _level_at(self, t: float) -> tuple[float, float] | None:
+        lv = self._level_sample
+        if lv is None:
+            self.counters.rejected_no_level += 1
+            return None
+        if abs(t - lv[0]) > self.params.max_level_age_s:
+            self.counters.rejected_stale_level += 1
+            return None
+        return lv[1], lv[2]
+
+    # -- inputs --------------------------------------------------------------------------
+    def on_level(self, t: float, roll: float, pitch: float) -> None:
+        """Vertical reference: roll, pitch [rad] (3-2-1 Euler angles of the body)."""
+        try:
+            roll, pitch = float(roll), float(pitch)
+        except (TypeError, ValueError):
+            self.counters.rejected_nonfinite += 1
+            return
+        if not (math.isfinite(roll) and math.isfinite(pitch)):
+            self.counters.rejected_nonfinite += 1
+            return
+        ts = self._stamp("level", t)
+        if ts is None:
+            return
+        self._t_last["level"] = ts
+        self._level_sample = (ts, roll, pitch)
+
+    def on_velocity(self, t: float, v_n: Sequence[float]) -> None:
+        """NED ground velocity [m/s] (3,), for the transport rate of the earth-rate heading."""
+        try:
+            v = (float(v_n[0]), float(v_n[1]), float(v_n[2]))
+        except (TypeError, ValueError, IndexError):
+            self.counters.rejected_nonfinite += 1
+            return
+        if not all(math.isfinite(c) for c in v):
+            self.counters.rejected_nonfinite += 1
+            return
+        ts = self._stamp("velocity", t)
+        if ts is None:
+            return
+        self._t_last["velocity"] = ts
+        self._v_n = v
+
+    def on_body_rates(self, t: float, omega_ib_b: Sequence[float]) -> None:
+        """Body triad step-average rate ω_ib^b (3,) [rad/s] over the interval ending at t."""
+        try:
+            wx, wy, wz = float(omega_ib_b[0]), float(omega_ib_b[1]), float(omega_ib_b[2])
+        except (TypeError, ValueError, IndexError):
+            self.counters.rejected_nonfinite += 1
+            return
+        if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
+            self.counters.rejected_nonfinite += 1
+            return
+        ts = self._stamp("rates", t)
+        if ts is None:
+            return
+        lv = self._level_at(ts)
+        if lv is None:
+            return
+        self._t_last["rates"] = ts
+        self.counters.rates_accepted += 1
+        roll, pitch = lv
+        prev = self._h_prev
+        self._h_prev = (ts, roll, pitch)
+        if prev is None:
+            return  # opens the window: the rate covers an interval before it
+        dt = ts - prev[0]
+        rm, pm = 0.5 * (roll + prev[1]), 0.5 * (pitch + prev[2])
+        lx, ly, _ = _level(wx, wy, wz, math.cos(rm), math.sin(rm), math.cos(pm), math.sin(pm))
+        h = self._h
+        h[0] += lx * dt
+        h[1] += ly * dt
+        h[2] += math.cos(pm) * (roll - prev[1])
+        h[3] += pitch - prev[2]
+        h[4] += dt
+        if h[4] >= self.params.heading_window_s:
+            self._close_heading_window(ts)
+
+    def _close_heading_window(self, t: float) -> None:
+        sx, sy, sphi, stheta, T = self._h
+        wx, wy = (sx - sphi) / T, (sy - stheta) / T
+        if self._lat is not None and self._heading_prev is not None and any(self._v_n):
+            # transport rate rot3(ψ) ω_en^n, with the latest fix and heading
+            w_en = transport_rate_n(self._lat, self.params.height_m, np.array(self._v_n))
+            c, s = math.cos(self._heading_prev), math.sin(self._heading_prev)
+            wx -= c * w_en[0] + s * w_en[1]
+            wy -= -s * w_en[0] + c * w_en[1]
+        try:
+            psi = heading_from_earth_rate((wx, wy, 0.0))
+            sigma = self._triad_arw / math.sqrt(T) / math.hypot(wx, wy)
+        except ValueError:
+            psi, sigma = _NAN, _NAN
+        self._er = (psi, sigma, t - 0.5 * T)
+        if math.isfinite(psi):
+            self._heading_prev = psi
+        self._clear_heading_window()
+        self._h_prev = (t, *self._level_sample[1:]) if self._level_sample is not None else None
+
+    def on_spin_axes(self, t: float, spin_a_b: Sequence[float], spin_b_b: Sequence[float]) -> FreeGyroFix | None:
+        """Read-out of both spin axes in body FRD (unit (3,) each) at ``t`` [s]. Returns the
+        :class:`FreeGyroFix` when this sample completes a fix window, else None."""
+        try:
+            ax, ay, az = float(spin_a_b[0]), float(spin_a_b[1]), float(spin_a_b[2])
+            bx, by, bz = float(spin_b_b[0]), float(spin_b_b[1]), float(spin_b_b[2])
+        except (TypeError, ValueError, IndexError):
+            self.counters.rejected_nonfinite += 1
+            return None
+        vals = (ax, ay, az, bx, by, bz)
+        if not all(math.isfinite(c) for c in vals):
+            self.counters.rejected_nonfinite += 1
+            return None
+        na, nb = math.sqrt(ax * ax + ay * ay + az * az), math.sqrt(bx * bx + by * by + bz * bz)
+        if abs(na - 1.0) > 1e-3 or abs(nb - 1.0) > 1e-3:
+            self.counters.rejected_not_unit += 1
+            return None
+        ts = self._stamp("spin", t)
+        if ts is None:
+            return None
+        lv = self._level_at(ts)
+        if lv is None:
+            return None
+        self._t_last["spin"] = ts
+        self.counters.spin_accepted += 1
+        cr, sr, cp, sp = math.cos(lv[0]), math.sin(lv[0]), math.cos(lv[1]), math.sin(lv[1])
+        lax, lay, laz = _level(ax / na, ay / na, az / na, cr, sr, cp, sp)
+        lbx, lby, lbz = _level(bx / nb, by / nb, bz / nb, cr, sr, cp, sp)
+        ha, hb = math.hypot(lax, lay), math.hypot(lbx, lby)
+        th_a, th_b = math.atan2(ha, laz), math.atan2(hb, lbz)
+        if self._w_t0 is None:
+            self._w_t0 = ts
+        tau = ts - self._w_t0
+        w = self._w
+        w[0] += tau
+        w[1] += tau * tau
+        w[2] += th_a
+        w[3] += th_b
+        w[4] += tau * th_a
+        w[5] += tau * th_b
+        if ha > 0.0:
+            w[6] += lax / ha
+            w[7] += lay / ha
+        if hb > 0.0:
+            w[8] += lbx / hb
+            w[9] += lby / hb
+        if ha > 0.0 and hb > 0.0:
+            # Δζ = ζb − ζa through its cosine and sine (no branch cut)
+            w[10] += (lax * lbx + lay * lby) / (ha * hb)
+            w[11] += (lax * lby - lay * lbx) / (ha * hb)
+        self._w_n += 1
+        if tau < self.params.fix_interval_s or self._w_n < self.params.min_samples:
+            return None
+        fix = self._close_window()
+        self._clear_window()
+        return fix
+
+    # -- fix -----------------------------------------------------------------------------
+    def _close_window(self) -> FreeGyroFix:
+        p = self.params
+        n = self._w_n
+        w = self._w
+        tbar = w[0] / n
+        stt = w[1] - n * tbar * tbar
+        nadir = np.array([w[2] / n, w[3] / n])
+        slope = np.array([(w[4] - tbar * w[2]) / stt, (w[5] - tbar * w[3]) / stt]) if stt > 0.0 else np.full(2, _NAN)
+        t_fix = self._w_t0 + tbar
+        sigma_theta = self._sigma_pick / math.sqrt(n)
+        crossing = math.atan2(w[11], w[10])
+        zeta = (math.atan2(w[7], w[6]), math.atan2(w[9], w[8]))
+        er_psi, er_sigma, er_t = self._er
+        nan2 = np.full((2, 2), _NAN)
+
+        def degenerate(reason: str, fdop: float = _NAN) -> FreeGyroFix:
+            self.counters.degenerate += 1
+            return FreeGyroFix(t_fix, "degenerate", reason, _NAN, _NAN, nan2, fdop, nadir, sigma_theta, slope,
+                               crossing, _NAN, _NAN, er_psi, er_sigma, er_t, n)
+
+        sense = math.sin(crossing)
+        if sense == 0.0:
+            fix = degenerate("nadir circles are tangent: the gyro azimuths coincide or are opposite")
+        else:
+            try:
+                lat, lon = position_fix(p.u_a_i, p.u_b_i, float(nadir[0]), float(nadir[1]), t_fix,
+                                        azimuth_sense=sense, tolerances=p.tolerances, omega_ie=p.omega_ie_rad_s)
+                geom = fix_geometry(p.u_a_i, p.u_b_i, lat, lon, t_fix, p.tolerances, p.omega_ie_rad_s)
+            except ValueError as exc:
+                fix = degenerate(str(exc))
+            else:
+                if geom.fdop > p.max_fdop:
+                    fix = degenerate(f"FDOP {geom.fdop:.3g} exceeds max_fdop {p.max_fdop:g} "
+                                     "(nadir circles nearly tangent)", geom.fdop)
+                else:
+                    psi, psi_sigma = self._free_gyro_heading(lat, lon, t_fix, nadir, zeta, n)
+                    self._lat = lat
+                    if self._heading_prev is None:
+                        self._heading_prev = psi
+                    self.counters.fixes += 1
+                    fix = FreeGyroFix(t_fix, "ok", "", lat, lon, geom.covariance_ne_m(sigma_theta, p.height_m),
+                                      geom.fdop, nadir, sigma_theta, slope, crossing, psi, psi_sigma,
+                                      er_psi, er_sigma, er_t, n)
+        self.last_fix = fix
+        return fix
+
+    def _free_gyro_heading(self, lat: float, lon: float, t: float, nadir: np.ndarray,
+                           zeta: tuple[float, float], n: int) -> tuple[float, float]:
+        """ψ = α − ζ̄ per gyro, combined with weights sin²θ (Fig. 4); σ from pickoff noise."""
+        p = self.params
+        sx = sy = info = 0.0
+        for u, th, z in ((p.u_a_i, nadir[0], zeta[0]), (p.u_b_i, nadir[1], zeta[1])):
+            s2 = math.sin(th) ** 2
+            if s2 < 1e-12:
+                continue
+            psi_k = gyro_azimuth(u, lat, lon, t, p.omega_ie_rad_s) - z
+            sx += s2 * math.cos(psi_k)
+            sy += s2 * math.sin(psi_k)
+            info += s2
+        if info == 0.0:
+            return _NAN, _NAN
+        return math.atan2(sy, sx), self._sigma_pick / math.sqrt(n * info)
+
+
+# =============================================================================================
+# Experiment harness (simulated ship + free-gyro sensor; imports gimbal_sim lazily)
+# =============================================================================================
+
+class FreeGyroRun(NamedTuple):
+    """Fixes of one simulated run and their errors against truth.
+
+    ``fixes``: the valid :class:`FreeGyroFix` list; ``errors_ne_m`` (k, 2) north/east errors
+    [m]; ``cov_ne_m`` (k, 2, 2) the fixes' covariances; ``nees`` (k,); ``heading_errors``
+    (k,) free-gyro heading minus the true window-mean heading [rad];
+    ``heading_er_errors`` (k,) earth-rate heading errors [rad] (NaN before the first
+    earth-rate window); ``degenerate`` count of withheld fixes and their ``reasons``.
+    """
+
+    fixes: list
+    errors_ne_m: np.ndarray
+    cov_ne_m: np.ndarray
+    nees: np.ndarray
+    heading_errors: np.ndarray
+    heading_er_errors: np.ndarray
+    degenerate: int
+    reasons: list
+
+
+def make_spin_axes(lat_deg: float, lon_deg: float, t: float = 0.0,
+                   nadir_deg: tuple[float, float] = (60.0, 50.0),
+                   azimuth_deg: tuple[float, float] = (-40.0, 50.0)) -> tuple[tuple, tuple]:
+    """Inertial spin axes (u_a_i, u_b_i) with the given nadir angles and azimuths [deg] at
+    the site and time t [s] (default: a well-conditioned pair, Δα = 90°, FDOP = √2)."""
+    from gimbal_sim.sensors.free_gyro_sensor import spin_axis_for_site
+
+    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+    return tuple(spin_axis_for_site(lat, lon, t, math.radians(nd), math.radians(az))  # type: ignore[return-value]
+                 for nd, az in zip(nadir_deg, azimuth_deg))
+
+
+def simulate_truth(profile: str = "paper5_ship", lat_deg: float = 35.0, lon_deg: float = 129.0,
+                   duration_s: float = 60.0, rate_hz: float = 10.0, profile_params: dict | None = None) -> list:
+    """``VehicleTruth`` list from ``gimbal_sim``'s host-only vehicle at a fixed site."""
+    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+
+    pp = {"lat_deg": lat_deg, "lon_deg": lon_deg}
+    pp.update(profile_params or {})
+    core = VehicleCore(VehicleConfig(profile=profile, profile_params=pp, plant="host_only",
+                                     sim_rate_hz=rate_hz, duration_s=duration_s))
+    out = [core.truth()]
+    while not core.finished:
+        core.step(())
+        out.append(core.truth())
+    return out
+
+
+def run_free_gyro_experiment(seed: int, truth: Sequence, lat_deg: float, lon_deg: float, sensor_params,
+                             core_params: FreeGyroPositioningParams | None = None) -> FreeGyroRun:
+    """Feed a truth sequence through ``FreeGyroSensor`` (seeded) into the core; compare the
+    fixes with the true site (the host-only vehicle stays at (lat, lon))."""
+    from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor
+
+    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+    dt = truth[1].t - truth[0].t
+    sensor = FreeGyroSensor(sensor_params, np.random.default_rng([int(seed) & 0xFFFFFFFF, 8]), dt)
+    if core_params is None:
+        core_params = FreeGyroPositioningParams(
+            sensor_params.u_a_i, sensor_params.u_b_i, nadir_noise_arcsec=max(sensor_params.pickoff_noise_arcsec, 1e-6),
+            triad_arw_deg_rt_h=max(sensor_params.triad.arw_deg_rt_h, 1e-9))
+    core = FreeGyroPositioning(core_params)
+    rm = meridian_radius(lat) + core_params.height_m
+    rn = (prime_vertical_radius(lat) + core_params.height_m) * math.cos(lat)
+    fixes, errs, covs, nees, hd, hd_er, reasons = [], [], [], [], [], [], []
+    yaw_hist: list[tuple[float, float]] = []
+    for tr in truth:
+        s = sensor.update_from_truth(tr, lat, lon, dt)
+        yaw_hist.append((tr.t, tr.euler[2]))
+        core.on_level(s.t, s.roll, s.pitch)
+        core.on_body_rates(s.t, s.omega_ib_b)
+        fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b)
+        if fix is None:
+            continue
+        if not fix.valid:
+            reasons.append(fix.reason)
+            continue
+        e = np.array([(fix.lat - lat) * rm, math.remainder(fix.lon - lon, math.tau) * rn])
+        fixes.append(fix)
+        errs.append(e)
+        covs.append(fix.cov_ne_m)
+        nees.append(float(e @ np.linalg.solve(fix.cov_ne_m, e)))
+        # true window-mean heading: circular mean of the yaw over the fix window
+        t0 = fix.t - core_params.fix_interval_s / 2 - 1e-9
+        ys = [y for (tt, y) in yaw_hist if tt >= t0 - 0.5 * dt and tt <= s.t]
+        mean_yaw = math.atan2(sum(math.sin(y) for y in ys), sum(math.cos(y) for y in ys))
+        hd.append(math.remainder(fix.heading - mean_yaw, math.tau))
+        if math.isfinite(fix.heading_earth_rate):
+            T = core_params.heading_window_s
+            ys = [y for (tt, y) in yaw_hist if fix.heading_earth_rate_t - T / 2 <= tt <= fix.heading_earth_rate_t + T / 2]
+            mean_yaw = math.atan2(sum(math.sin(y) for y in ys), sum(math.cos(y) for y in ys))
+            hd_er.append(math.remainder(fix.heading_earth_rate - mean_yaw, math.tau))
+        else:
+            hd_er.append(_NAN)
+    return FreeGyroRun(fixes, np.array(errs).reshape(-1, 2), np.array(covs).reshape(-1, 2, 2), np.array(nees),
+                       np.array(hd), np.array(hd_er), len(reasons), reasons)
+
+
+class FdopMonteCarlo(NamedTuple):
+    """Pooled Monte Carlo of fix errors: ``empirical_cov_ne_m`` vs ``predicted_cov_ne_m``
+    (mean of the fixes' FDOP²σ² covariances) [m²], ``trace_ratio`` = empirical/predicted
+    drms², ``variance_ratios`` (north, east), ``mean_nees`` (2 if consistent), the predicted
+    ``fdop``, ``n_runs`` and ``n_fixes``; ``heading_error_std`` / ``heading_sigma_mean``
+    [rad] for the free-gyro heading."""
+
+    empirical_cov_ne_m: np.ndarray
+    predicted_cov_ne_m: np.ndarray
+    trace_ratio: float
+    variance_ratios: np.ndarray
+    mean_nees: float
+    fdop: float
+    n_runs: int
+    n_fixes: int
+    heading_error_std: float
+    heading_sigma_mean: float
+
+
+def run_fdop_monte_carlo(n_runs: int = 200, *, fixes_per_run: int = 1, lat_deg: float = 35.0,
+                         lon_deg: float = 129.0, profile: str = "paper5_ship", rate_hz: float = 10.0,
+                         fix_interval_s: float = 10.0, nadir_deg: tuple[float, float] = (60.0, 50.0),
+                         azimuth_deg: tuple[float, float] = (-40.0, 50.0), pickoff_noise_arcsec: float = 5.0,
+                         first_seed: int = 1) -> FdopMonteCarlo:
+    """``n_runs`` seeded runs (the same ship truth, new sensor noise each) of
+    ``fixes_per_run`` fix windows each; pooled error statistics against FDOP²σ²."""
+    from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensorParams
+
+    u_a, u_b = make_spin_axes(lat_deg, lon_deg, 0.0, nadir_deg, azimuth_deg)
+    duration = fixes_per_run * fix_interval_s + 1.0 / rate_hz
+    truth = simulate_truth(profile, lat_deg, lon_deg, duration, rate_hz)
+    sp = FreeGyroSensorParams(u_a, u_b, pickoff_noise_arcsec=pickoff_noise_arcsec)
+    cp = FreeGyroPositioningParams(u_a, u_b, nadir_noise_arcsec=pickoff_noise_arcsec, fix_interval_s=fix_interval_s,
+                                   heading_window_s=max(60.0, duration))
+    errs, covs, nees, fdops, hd, hs = [], [], [], [], [], []
+    for k in range(n_runs):
+        run = run_free_gyro_experiment(first_seed + k, truth, lat_deg, lon_deg, sp, cp)
+        errs.append(run.errors_ne_m)
+        covs.append(run.cov_ne_m)
+        nees.extend(run.nees)
+        fdops.extend(f.fdop for f in run.fixes)
+        hd.extend(run.heading_errors)
+        hs.extend(f.heading_sigma for f in run.fixes)
+    e = np.vstack(errs)
+    emp = e.T @ e / len(e)  # zero-mean errors by construction: no mean is estimated
+    pred = np.mean(np.concatenate(covs), axis=0)
+    return FdopMonteCarlo(
+        empirical_cov_ne_m=emp, predicted_cov_ne_m=pred, trace_ratio=float(np.trace(emp) / np.trace(pred)),
+        variance_ratios=np.diag(emp) / np.diag(pred), mean_nees=float(np.mean(nees)), fdop=float(np.mean(fdops)),
+        n_runs=n_runs, n_fixes=len(e), heading_error_std=float(np.std(hd)), heading_sigma_mean=float(np.mean(hs)),
+    )

@@ -1,0 +1,225 @@
+"""Free gyros of the free-gyro positioning and directional system (paper 4, SPEC §3.4).
+
+What is simulated (paper 4 §2.3, Figs. 3–4): two free gyros whose spin axes u_a, u_b keep a
+fixed direction in inertial space, read out in the ship's body frame by their pickoffs, a
+body gyro triad (earth rate + ship rate), and the vertical reference that levels them.
+
+* Inertial frame ``i`` as in :mod:`gimbal_kinematics.free_gyro`: x_i toward Greenwich at
+  t = 0, z_i along the earth's axis; t is the simulation time [s].
+* Spin axis in the body: ``u_b = C_bn(roll, pitch, yaw) · C_ni(lat, lon, t) · u_i(t)``, with
+  u_i(t) = exp([d t ×]) u_i(0): an optional random-constant drift d ⊥ u_i (the spin axis
+  wander the paper's conclusion mentions; default 0, i.e. an ideal free gyro).
+* Pickoff noise: white per sample, isotropic in the plane ⊥ u_b with σ =
+  ``pickoff_noise_arcsec`` per axis (the read-out direction is renormalised). Its component
+  in the vertical plane through u is the nadir-angle error (σ), its horizontal component
+  the gyro-azimuth error (σ / sin θ).
+* Body triad: :class:`GyroModel` (``triad`` parameters, 3 axes) fed the step-average
+  inertial body rate ω_ib^b [rad/s] (``VehicleTruth.delta_angle_b / Δt``).
+* Vertical reference: roll and pitch with a fixed bias and white noise (arcsec). A levelling
+  error is common to both gyros, so it correlates their nadir-angle errors — outside paper 4's
+  i.i.d. FDOP model; the default is an exact vertical.
+
+Everything is seeded from the caller's ``numpy.random.Generator``; angles rad, rates rad/s.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from gimbal_kinematics.earth import OMEGA_IE
+from gimbal_kinematics.free_gyro import dcm_ni, gyro_vector_n
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
+
+from . import _validate as v
+from ._normals import NormalStream
+from .gyro import GyroModel, GyroParams
+from .units import ARCSEC, DEG_H
+
+#: Body triad default: a navigation-grade triad (ARW 0.002 °/√h); the paper gives no figure.
+FREE_GYRO_TRIAD = GyroParams(arw_deg_rt_h=0.002)
+
+_UNIT_TOL = 1e-6
+
+
+def _unit3(name: str, value: object) -> tuple[float, float, float]:
+    try:
+        x, y, z = (float(c) for c in value)  # type: ignore[union-attr]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from exc
+    n = math.sqrt(x * x + y * y + z * z)
+    if not math.isfinite(n) or abs(n - 1.0) > _UNIT_TOL:
+        raise ValueError(f"{name} must be a unit vector, got norm {n!r}")
+    return x / n, y / n, z / n
+
+
+def spin_axis_for_site(lat: float, lon: float, t: float, nadir: float, azimuth: float,
+                       omega_ie: float | None = None) -> tuple[float, float, float]:
+    """Inertial spin axis u_i (unit) that has nadir angle ``nadir`` and azimuth ``azimuth``
+    [rad] (from north toward east) at (lat, lon) [rad] and time ``t`` [s]; for setting up a
+    scenario's spin-axis geometry."""
+    u_n = np.array([math.sin(nadir) * math.cos(azimuth), math.sin(nadir) * math.sin(azimuth), math.cos(nadir)])
+    C_in = dcm_ni(lat, lon, t, OMEGA_IE if omega_ie is None else omega_ie).T
+    u = C_in @ u_n
+    return float(u[0]), float(u[1]), float(u[2])
+
+
+@dataclass(frozen=True)
+class FreeGyroSensorParams:
+    """Free-gyro sensor parameters (validated, immutable).
+
+    Attributes:
+        u_a_i, u_b_i: spin axes at t = 0 in the inertial frame (unit 3-vectors, not parallel).
+        pickoff_noise_arcsec: white read-out noise σ per axis ⊥ the spin axis, per sample [″].
+        spin_drift_sigma_deg_h: σ per ⊥ axis of a random-constant spin-axis drift drawn per
+            run [°/h] (0 = ideal free gyro).
+        level_noise_arcsec: white noise σ of the vertical reference's roll and pitch [″].
+        level_bias_arcsec: fixed (roll, pitch) error of the vertical reference [″].
+        triad: body gyro triad error parameters.
+    """
+
+    u_a_i: tuple[float, float, float]
+    u_b_i: tuple[float, float, float]
+    pickoff_noise_arcsec: float = 5.0
+    spin_drift_sigma_deg_h: float = 0.0
+    level_noise_arcsec: float = 0.0
+    level_bias_arcsec: tuple[float, float] = (0.0, 0.0)
+    triad: GyroParams = field(default_factory=lambda: FREE_GYRO_TRIAD)
+
+    def __post_init__(self) -> None:
+        a = _unit3("u_a_i", self.u_a_i)
+        b = _unit3("u_b_i", self.u_b_i)
+        object.__setattr__(self, "u_a_i", a)
+        object.__setattr__(self, "u_b_i", b)
+        cx = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        if math.sqrt(sum(c * c for c in cx)) < 1e-6:
+            raise ValueError("u_b_i must not be parallel or antiparallel to u_a_i (no position fix)")
+        v.nonneg_finite("pickoff_noise_arcsec", self.pickoff_noise_arcsec)
+        v.nonneg_finite("spin_drift_sigma_deg_h", self.spin_drift_sigma_deg_h)
+        v.nonneg_finite("level_noise_arcsec", self.level_noise_arcsec)
+        object.__setattr__(self, "level_bias_arcsec", v.per_axis("level_bias_arcsec", self.level_bias_arcsec, 2))
+        if not isinstance(self.triad, GyroParams):
+            raise ValueError(f"triad must be GyroParams, got {type(self.triad).__name__}")
+
+
+class FreeGyroSample(NamedTuple):
+    """One read-out at ``t`` [s].
+
+    Measured: ``spin_a_b``, ``spin_b_b`` unit spin axes in body FRD; ``omega_ib_b`` triad
+    rate [rad/s] (step average); ``roll``, ``pitch`` vertical reference [rad].
+    Truth: ``true_spin_a_b``/``true_spin_b_b``, ``true_nadir`` (θ_a, θ_b) and
+    ``true_azimuth`` (α_a, α_b) [rad] at the true position, ``true_euler`` (roll, pitch, yaw),
+    ``true_omega_ie_b`` earth rate resolved in b [rad/s], ``true_triad_bias`` [rad/s].
+    """
+
+    t: float
+    spin_a_b: tuple[float, float, float]
+    spin_b_b: tuple[float, float, float]
+    omega_ib_b: tuple[float, float, float]
+    roll: float
+    pitch: float
+    true_spin_a_b: tuple[float, float, float]
+    true_spin_b_b: tuple[float, float, float]
+    true_nadir: tuple[float, float]
+    true_azimuth: tuple[float, float]
+    true_euler: tuple[float, float, float]
+    true_omega_ie_b: tuple[float, float, float]
+    true_triad_bias: tuple[float, float, float]
+
+
+class FreeGyroSensor:
+    """Two free gyros + body triad + vertical reference (module docstring).
+
+    Args:
+        params: sensor parameters.
+        rng: the run's seeded Generator; split into independent streams for the pickoffs,
+            the spin drift, the triad and the vertical reference.
+        dt: nominal sample interval [s] (the triad's step).
+    """
+
+    def __init__(self, params: FreeGyroSensorParams, rng: np.random.Generator, dt: float) -> None:
+        if not isinstance(params, FreeGyroSensorParams):
+            raise TypeError(f"params must be FreeGyroSensorParams, got {type(params).__name__}")
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        v.positive("dt", dt)
+        self.params = params
+        r_pick, r_drift, r_triad, r_level = rng.spawn(4)
+        self._pick = NormalStream(r_pick)
+        self._level = NormalStream(r_level)
+        self.triad = GyroModel(params.triad, 3, r_triad, dt)
+        self._u0 = (np.array(params.u_a_i), np.array(params.u_b_i))
+        self._drift = []
+        sd = params.spin_drift_sigma_deg_h * DEG_H
+        for u in self._u0:
+            d = r_drift.standard_normal(3) * sd
+            self._drift.append(d - (d @ u) * u)  # only ⊥ components move the axis
+        self._sigma = params.pickoff_noise_arcsec * ARCSEC
+        self._level_sigma = params.level_noise_arcsec * ARCSEC
+        self._level_bias = tuple(b * ARCSEC for b in params.level_bias_arcsec)  # type: ignore[union-attr]
+        self._t_last: float | None = None
+
+    @property
+    def spin_drift_i(self) -> tuple[np.ndarray, np.ndarray]:
+        """Drawn spin-axis drift rate vectors d (3,) [rad/s] in i, one per gyro."""
+        return self._drift[0].copy(), self._drift[1].copy()
+
+    def spin_axes_i(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """True spin axes u_i(t) (3,) at time ``t`` [s]."""
+        out = []
+        for u, d in zip(self._u0, self._drift):
+            out.append(dcm_from_rotation_vector(d * t) @ u if d.any() else u.copy())
+        return out[0], out[1]
+
+    def _read(self, u_b: np.ndarray) -> tuple[float, float, float]:
+        if self._sigma == 0.0:
+            return float(u_b[0]), float(u_b[1]), float(u_b[2])
+        buf, j = self._pick.take(3)
+        nx, ny, nz = buf[j] * self._sigma, buf[j + 1] * self._sigma, buf[j + 2] * self._sigma
+        ux, uy, uz = float(u_b[0]), float(u_b[1]), float(u_b[2])
+        along = nx * ux + ny * uy + nz * uz
+        x, y, z = ux + nx - along * ux, uy + ny - along * uy, uz + nz - along * uz
+        n = math.sqrt(x * x + y * y + z * z)
+        return x / n, y / n, z / n
+
+    def update(self, t: float, lat: float, lon: float, euler: Sequence[float],
+               omega_ib_b: Sequence[float], dt: float | None = None) -> FreeGyroSample:
+        """Read-out at ``t`` [s] for a ship at geodetic (lat, lon) [rad] with attitude
+        ``euler`` = (roll, pitch, yaw) [rad] and step-average inertial rate ``omega_ib_b`` (3,)
+        [rad/s] over the step ending at t. Times must increase."""
+        if self._t_last is not None and not t > self._t_last:
+            raise ValueError(f"t must increase: {t} after {self._t_last}")
+        self._t_last = t
+        roll, pitch, yaw = (float(e) for e in euler)
+        C_bn = euler321_to_dcm(roll, pitch, yaw).T
+        C_bi = C_bn @ dcm_ni(lat, lon, t)
+        u_a, u_b = self.spin_axes_i(t)
+        ua_b, ub_b = C_bi @ u_a, C_bi @ u_b
+        w = self.triad.step_rate([float(c) for c in omega_ib_b], dt)
+        lr, lp = self._level_bias
+        if self._level_sigma > 0.0:
+            buf, j = self._level.take(2)
+            lr += self._level_sigma * buf[j]
+            lp += self._level_sigma * buf[j + 1]
+        nadir, azimuth = [], []
+        for u in (u_a, u_b):
+            n_, e_, d_ = gyro_vector_n(u, lat, lon, t)
+            nadir.append(math.atan2(math.hypot(n_, e_), d_))
+            azimuth.append(math.atan2(e_, n_))
+        w_ie_b = C_bi @ np.array([0.0, 0.0, OMEGA_IE])  # ω_ie^i = Ω e3
+        return FreeGyroSample(
+            t=float(t), spin_a_b=self._read(ua_b), spin_b_b=self._read(ub_b),
+            omega_ib_b=(float(w[0]), float(w[1]), float(w[2])), roll=roll + lr, pitch=pitch + lp,
+            true_spin_a_b=tuple(float(c) for c in ua_b), true_spin_b_b=tuple(float(c) for c in ub_b),
+            true_nadir=(nadir[0], nadir[1]), true_azimuth=(azimuth[0], azimuth[1]),
+            true_euler=(roll, pitch, yaw), true_omega_ie_b=tuple(float(c) for c in w_ie_b),
+            true_triad_bias=tuple(float(c) for c in self.triad.true_bias),
+        )
+
+    def update_from_truth(self, truth, lat: float, lon: float, dt: float) -> FreeGyroSample:
+        """Read-out from a ``gimbal_sim.vehicle.VehicleTruth`` (its site at (lat, lon) [rad]);
+        the triad gets the exact step rotation ``delta_angle_b / dt``."""
+        w = np.asarray(truth.delta_angle_b, dtype=float) / dt if truth.k else np.asarray(truth.omega_ib_b)
+        return self.update(truth.t, lat, lon, truth.euler, w, dt)
