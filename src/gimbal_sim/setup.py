@@ -29,6 +29,7 @@ setup(
             "bag_recorder = gimbal_sim.bag.recorder_node:main",
             "gimbal-report = gimbal_sim.report:main",
             "gimbal-bag = gimbal_sim.bag.cli:main",
+            "gimbal-bench = gimbal_sim.bench:main",
         ],
     },
 )

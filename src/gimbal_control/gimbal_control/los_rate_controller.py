@@ -32,18 +32,21 @@ integrated at the first sample), v_k = k_p e_k + k_i I_k. I is the LOS angle mem
 rectangle rule would book e_0 Δt/2 too much when the loop starts with a rate error (the
 turret already turns at t = 0: 0.12 rad/s × 1 ms / 2 = 60 µrad of permanent offset). The
 loop rate and ω_n come from :mod:`.loop_design` (≥ 45° phase margin with one sample of
-extra delay); paper 1's ω_n = 100 Hz needs ≥ 3.6 kHz, so the default is the highest ω_n
-a 1 kHz loop allows with margin: see ``DEFAULT_RATE_HZ``.
+extra delay); paper 1's ω_n = 100 Hz needs ≥ 3.7 kHz, so the default is ω_n = 25 Hz at
+1 kHz, just under the 27.2 Hz that rate allows: see ``DEFAULT_RATE_HZ``.
 
 Saturation and anti-windup: the command is clipped to the torque limits (the plant's by
 default). The integrator here is the LOS angle memory (∫ of the inertial rate error), so
 the default anti-windup is *clamping*: each integrator is limited to |k_i I_i| ≤
-τ_max,i / B′⁻¹_ii, the acceleration its own torque limit can deliver. It cannot run away
-while the torque is saturated, and it keeps the angle swept during a short saturation
-(e.g. the first steps, when the turret is already turning at t = 0). ``"conditional"``
-integration (no integration on a saturated axis whose error pushes further out; B′⁻¹ =
-M(0) is diagonally dominant with a positive diagonal) stops sooner but forgets that angle:
-one saturated start-up step leaves a permanent ~60 µrad offset in the paper 1 scenario.
+f·τ_max,i / B′⁻¹_ii (f = ``integrator_limit_factor`` = 4: the integral term alone may ask
+for four times the axis' torque authority). It cannot run away while saturated (it sits
+at its bound and unwinds in ~(f − 1)·τ_max/(B′⁻¹_ii k_i |e|)), and it keeps the angle swept
+during an unavoidable short saturation: at t = 0 the turret already turns the LOS at
+0.12 rad/s and stopping it with 3 N·m sweeps ~270 µrad, which at ω_n = 100 Hz is more than
+a bound of f = 1 holds (198 µrad of permanent offset in the paper 1 scenario; 0.2 µrad with
+f = 4). ``"conditional"`` integration (no integration on a saturated axis whose error
+pushes further out; B′⁻¹ = M(0) is diagonally dominant with a positive diagonal) stops at
+once but forgets all of that angle (255 µrad offset at ω_n = 100 Hz, 4 kHz).
 
 Bad input: a non-finite measurement or rate command, or a stamp that is not after the last
 accepted one, is rejected: the last command is returned, the event counted
@@ -66,10 +69,12 @@ from gimbal_sim.plant import GimbalParams
 
 from .linearize import STANDARD_GRAVITY, linearize_gimbal
 
-#: Default loop rate [Hz]: the lockstep simulation rate of the paper 1 scenario.
+#: Default loop rate [Hz]: the lockstep simulation rate of the paper 1 scenario (and the
+#: rate of its sensors); 1000 steps per simulated second.
 DEFAULT_RATE_HZ = 1000.0
-#: Default ω_n [Hz] at 1 kHz: below :func:`.loop_design.max_omega_n_hz(1000)` = 27.8 Hz
-#: (45° with one extra sample of delay); 49° PM with that delay, 65° in the lockstep graph.
+#: Default ω_n [Hz] at 1 kHz, under ``loop_design.max_omega_n_hz(1000)`` = 27.2 Hz: PM
+#: 47.0°, GM 11.5 dB with one extra sample of delay; 62.4°, 18.0 dB in the lockstep graph.
+#: The paper's 100 Hz needs 4 kHz (PM 47.0° / 62.3°) at four times the steps.
 DEFAULT_OMEGA_N_HZ = 25.0
 PAPER_OMEGA_N_HZ = 100.0
 PAPER_ZETA = 0.8

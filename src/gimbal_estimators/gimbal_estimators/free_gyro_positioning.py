@@ -37,8 +37,8 @@ Heading, two ways:
 
 * free-gyro heading (Fig. 4): ψ = α − ζ with α from eq. 2 at the fix and ζ̄ the window's
   circular mean, both gyros combined with weights sin²θ (ζ noise is σ/sin θ); this is the
-  window-mean heading. Its σ counts the pickoff noise only (the fix error moves α by a
-  further O(FDOP σ_θ tan φ)).
+  window-mean heading. Its σ propagates the horizontal pickoff noise and the fix error
+  (α depends on the position through eq. 2).
 * earth-rate heading (Fig. 3, eq. 3–4): over ``heading_window_s`` the levelled triad
   rate is averaged after removing the ship's level rotation rates, whose levelled
   components are (cos θ φ̇, θ̇) for 3-2-1 angles (exact; they telescope into the roll and
@@ -437,7 +437,9 @@ class FreeGyroPositioning:
             w[10] += (lax * lbx + lay * lby) / (ha * hb)
             w[11] += (lax * lby - lay * lbx) / (ha * hb)
         self._w_n += 1
-        if tau < self.params.fix_interval_s or self._w_n < self.params.min_samples:
+        n = self._w_n
+        # n read-outs cover n sample intervals (≈ τ n/(n−1)): close when they span the interval
+        if n < self.params.min_samples or tau * n < (self.params.fix_interval_s - 1e-9) * (n - 1):
             return None
         fix = self._close_window()
         self._clear_window()
@@ -479,7 +481,8 @@ class FreeGyroPositioning:
                     fix = degenerate(f"FDOP {geom.fdop:.3g} exceeds max_fdop {p.max_fdop:g} "
                                      "(nadir circles nearly tangent)", geom.fdop)
                 else:
-                    psi, psi_sigma = self._free_gyro_heading(lat, lon, t_fix, nadir, zeta, n)
+                    psi, psi_sigma = self._free_gyro_heading(lat, lon, t_fix, nadir, zeta, n,
+                                                             geom.Q_latlon * sigma_theta**2)
                     self._lat = lat
                     if self._heading_prev is None:
                         self._heading_prev = psi
@@ -491,21 +494,37 @@ class FreeGyroPositioning:
         return fix
 
     def _free_gyro_heading(self, lat: float, lon: float, t: float, nadir: np.ndarray,
-                           zeta: tuple[float, float], n: int) -> tuple[float, float]:
-        """ψ = α − ζ̄ per gyro, combined with weights sin²θ (Fig. 4); σ from pickoff noise."""
+                           zeta: tuple[float, float], n: int, cov_latlon: np.ndarray) -> tuple[float, float]:
+        """ψ = α − ζ̄ per gyro, combined with weights w = sin²θ (Fig. 4).
+
+        σ: δψ = Σ w_k (J_k δx − δζ_k)/Σ w_k, with δx = (δφ, δλ) the fix error (covariance
+        ``cov_latlon``), J_k = ∂α_k/∂(φ, λ) (central differences of eq. 2) and δζ_k the
+        horizontal pickoff noise, σ²/(n sin²θ_k), independent of the nadir (vertical) part.
+        """
         p = self.params
-        sx = sy = info = 0.0
+        sx = sy = wsum = 0.0
+        J = np.zeros(2)
+        var_z = 0.0
+        h = 1e-6
         for u, th, z in ((p.u_a_i, nadir[0], zeta[0]), (p.u_b_i, nadir[1], zeta[1])):
             s2 = math.sin(th) ** 2
             if s2 < 1e-12:
                 continue
-            psi_k = gyro_azimuth(u, lat, lon, t, p.omega_ie_rad_s) - z
+            alpha = gyro_azimuth(u, lat, lon, t, p.omega_ie_rad_s)
+            psi_k = alpha - z
             sx += s2 * math.cos(psi_k)
             sy += s2 * math.sin(psi_k)
-            info += s2
-        if info == 0.0:
+            wsum += s2
+            lat_p, lat_m = min(lat + h, math.pi / 2), max(lat - h, -math.pi / 2)
+            J[0] += s2 * math.remainder(gyro_azimuth(u, lat_p, lon, t, p.omega_ie_rad_s)
+                                        - gyro_azimuth(u, lat_m, lon, t, p.omega_ie_rad_s), math.tau) / (lat_p - lat_m)
+            J[1] += s2 * math.remainder(gyro_azimuth(u, lat, lon + h, t, p.omega_ie_rad_s)
+                                        - gyro_azimuth(u, lat, lon - h, t, p.omega_ie_rad_s), math.tau) / (2 * h)
+            var_z += s2 * s2 * self._sigma_pick**2 / (n * s2)
+        if wsum == 0.0:
             return _NAN, _NAN
-        return math.atan2(sy, sx), self._sigma_pick / math.sqrt(n * info)
+        var = (float(J @ cov_latlon @ J) + var_z) / (wsum * wsum)
+        return math.atan2(sy, sx), math.sqrt(var)
 
 
 # =============================================================================================
@@ -594,9 +613,9 @@ def run_free_gyro_experiment(seed: int, truth: Sequence, lat_deg: float, lon_deg
         errs.append(e)
         covs.append(fix.cov_ne_m)
         nees.append(float(e @ np.linalg.solve(fix.cov_ne_m, e)))
-        # true window-mean heading: circular mean of the yaw over the fix window
-        t0 = fix.t - core_params.fix_interval_s / 2 - 1e-9
-        ys = [y for (tt, y) in yaw_hist if tt >= t0 - 0.5 * dt and tt <= s.t]
+        # true window-mean heading: circular mean of the yaw over the fix window's read-outs
+        half = 0.5 * (fix.n_samples - 1) * dt + 0.25 * dt
+        ys = [y for (tt, y) in yaw_hist[-fix.n_samples - 2:] if abs(tt - fix.t) <= half]
         mean_yaw = math.atan2(sum(math.sin(y) for y in ys), sum(math.cos(y) for y in ys))
         hd.append(math.remainder(fix.heading - mean_yaw, math.tau))
         if math.isfinite(fix.heading_earth_rate):

@@ -46,12 +46,34 @@ class PlannedNode:
         return args
 
 
+@dataclass(frozen=True)
+class ProcessStats:
+    """CPU seconds (user + system) and peak resident memory of one process."""
+
+    cpu_s: float
+    peak_rss_mb: float
+
+
+def process_stats(pid: int | str = "self") -> ProcessStats:
+    """Read from /proc: utime + stime [s] and VmHWM [MiB] (Linux)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    ticks = os.sysconf("SC_CLK_TCK")
+    cpu = (int(fields[11]) + int(fields[12])) / ticks
+    rss = 0.0
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            rss = int(line.split()[1]) / 1024.0
+    return ProcessStats(cpu, rss)
+
+
 @dataclass
 class RunResult:
     out_dir: Path
     wall_s: float
     sim_s: float
     logs: dict[str, Path] = field(default_factory=dict)
+    #: node name (or "container") -> its process's CPU time and peak RSS over the run
+    processes: dict[str, ProcessStats] = field(default_factory=dict)
 
     @property
     def real_time_factor(self) -> float:
@@ -239,7 +261,8 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
         while time.monotonic() < quiet_until:
             executor.spin_once(timeout_sec=0.05)
             check_nodes()
-        return RunResult(out_dir, wall, monitor.sim_ns / 1e9, logs)
+        stats = {name: process_stats(proc.pid) for name, proc in procs.items()}
+        return RunResult(out_dir, wall, monitor.sim_ns / 1e9, logs, stats)
     finally:
         bar.close()
         _stop(procs, first=[n.name for n in nodes if n.name != RECORDER], last=[RECORDER])
@@ -299,7 +322,7 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
             spin_once()
-        return RunResult(out_dir, wall, monitor.sim_ns / 1e9)
+        return RunResult(out_dir, wall, monitor.sim_ns / 1e9, processes={"container": process_stats()})
     finally:
         bar.close()
         recorder = built.pop(RECORDER, None)

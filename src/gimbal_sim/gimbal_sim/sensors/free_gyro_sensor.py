@@ -30,7 +30,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE
-from gimbal_kinematics.free_gyro import dcm_ni, gyro_vector_n
+from gimbal_kinematics.free_gyro import dcm_ni
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from . import _validate as v
@@ -193,27 +193,25 @@ class FreeGyroSensor:
             raise ValueError(f"t must increase: {t} after {self._t_last}")
         self._t_last = t
         roll, pitch, yaw = (float(e) for e in euler)
+        C_ni = dcm_ni(lat, lon, t)
         C_bn = euler321_to_dcm(roll, pitch, yaw).T
-        C_bi = C_bn @ dcm_ni(lat, lon, t)
         u_a, u_b = self.spin_axes_i(t)
-        ua_b, ub_b = C_bi @ u_a, C_bi @ u_b
+        un_a, un_b = C_ni @ u_a, C_ni @ u_b
+        ua_b, ub_b = C_bn @ un_a, C_bn @ un_b
         w = self.triad.step_rate([float(c) for c in omega_ib_b], dt)
         lr, lp = self._level_bias
         if self._level_sigma > 0.0:
             buf, j = self._level.take(2)
             lr += self._level_sigma * buf[j]
             lp += self._level_sigma * buf[j + 1]
-        nadir, azimuth = [], []
-        for u in (u_a, u_b):
-            n_, e_, d_ = gyro_vector_n(u, lat, lon, t)
-            nadir.append(math.atan2(math.hypot(n_, e_), d_))
-            azimuth.append(math.atan2(e_, n_))
-        w_ie_b = C_bi @ np.array([0.0, 0.0, OMEGA_IE])  # ω_ie^i = Ω e3
+        nadir = (math.atan2(math.hypot(un_a[0], un_a[1]), un_a[2]), math.atan2(math.hypot(un_b[0], un_b[1]), un_b[2]))
+        azimuth = (math.atan2(un_a[1], un_a[0]), math.atan2(un_b[1], un_b[0]))
+        w_ie_b = C_bn @ (C_ni[:, 2] * OMEGA_IE)  # ω_ie^i = Ω e3
         return FreeGyroSample(
             t=float(t), spin_a_b=self._read(ua_b), spin_b_b=self._read(ub_b),
             omega_ib_b=(float(w[0]), float(w[1]), float(w[2])), roll=roll + lr, pitch=pitch + lp,
             true_spin_a_b=tuple(float(c) for c in ua_b), true_spin_b_b=tuple(float(c) for c in ub_b),
-            true_nadir=(nadir[0], nadir[1]), true_azimuth=(azimuth[0], azimuth[1]),
+            true_nadir=(float(nadir[0]), float(nadir[1])), true_azimuth=(float(azimuth[0]), float(azimuth[1])),
             true_euler=(roll, pitch, yaw), true_omega_ie_b=tuple(float(c) for c in w_ie_b),
             true_triad_bias=tuple(float(c) for c in self.triad.true_bias),
         )
