@@ -22,7 +22,7 @@ from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 from gimbal_sim import messages as m
 
 pytestmark = pytest.mark.ros
-DURATION_S, RATE = 1.0, 1000.0
+DURATION_S, RATE = 10.0, 1000.0  # the issue: a 10 s open-loop run
 STEPS = int(DURATION_S * RATE)
 
 

@@ -30,7 +30,9 @@ import numpy as np
 from gimbal_sim.sensors import PAPER1_GIMBAL_GYRO, GyroModel
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
-from .los_rate_controller import DEFAULT_OMEGA_N_HZ, DEFAULT_RATE_HZ, PAPER_ZETA, LosRateController, LosRateControllerParams
+from .los_rate_controller import (
+    DEFAULT_OMEGA_N_HZ, DEFAULT_RATE_HZ, PAPER_ZETA, LosRateController, LosRateControllerParams,
+)
 
 GYRO_MODES = ("ideal", "noise", "paper1")
 

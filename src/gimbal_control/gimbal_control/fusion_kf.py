@@ -89,7 +89,7 @@ class FusionKfParams:
     q_angle_deg_rt_s: float = 3.3e-3
     q_scale_rt_s: float = 1e-5
     q_drift_deg_s_rt_s: float = 4e-3
-    r_deg: float = 0.101
+    r_deg: float = 0.03
     p0_angle_deg: float = 0.1
     p0_scale: float = 0.01
     p0_drift_deg_s: float = 0.3

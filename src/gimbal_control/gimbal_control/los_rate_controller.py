@@ -173,8 +173,9 @@ class LosRateController:
         self.kp, self.ki = p.gains
         self.dt_nominal = 1.0 / p.rate_hz
         self._dt_max = p.max_dt_factor * self.dt_nominal
-        lim_a = p.azimuth_torque_limit_nm if p.azimuth_torque_limit_nm is not None else self.plant_params.azimuth_torque_limit_nm
-        lim_e = p.elevation_torque_limit_nm if p.elevation_torque_limit_nm is not None else self.plant_params.elevation_torque_limit_nm
+        pp = self.plant_params
+        lim_a = pp.azimuth_torque_limit_nm if p.azimuth_torque_limit_nm is None else p.azimuth_torque_limit_nm
+        lim_e = pp.elevation_torque_limit_nm if p.elevation_torque_limit_nm is None else p.elevation_torque_limit_nm
         self.torque_limits = (float(lim_a), float(lim_e))
         # Scalars of B′⁻¹ (2×2), A′ (2×4) and the trim for the hot path.
         Bi = self.model.B_prime_inv
@@ -196,7 +197,7 @@ class LosRateController:
         self.resets = 0
         self.last_reset_reason = ""
         self._bias_qr = (0.0, 0.0)
-        self._bias_t: float | None = None
+        self.bias_stamp: float | None = None  # stamp of the bias estimate in use [s]
         self._rate_cmd = (0.0, 0.0)
         self.reset()
 
@@ -232,7 +233,7 @@ class LosRateController:
             self.rejected_bias += 1
             return False
         self._bias_qr = (by, bz)
-        self._bias_t = float(t)
+        self.bias_stamp = float(t)
         return True
 
     def set_rate_command(self, q_md: float, r_md: float) -> bool:

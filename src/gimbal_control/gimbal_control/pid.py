@@ -67,22 +67,25 @@ class PidParams:
             raise ValueError("kp, ki and kd are all 0: the controller would do nothing")
 
 
-def second_order_gains(inertia_kg_m2: float, natural_freq_hz: float, damping: float,
-                       output_limit: float = math.inf, kd: float = 0.0,
-                       derivative_tau_s: float = 0.0) -> PidParams:
-    """Gains of a PI(D) *rate* loop on an inertia J whose integral term holds the angle.
+def pole_placement_gains(inertia_kg_m2: float, bandwidth_hz: float, gain_per_torque: float = 1.0,
+                         output_limit: float = math.inf, derivative_tau_s: float = 0.0) -> PidParams:
+    """PID gains on an *angle* error for a rigid inertia, by pole placement.
 
-    With the rate error e = ω_ref − ω and torque u = k_p e + k_i ∫e (+ k_d ė), the loop
-    J θ̈ = u has the characteristic polynomial (J + k_d) s² + k_p s + k_i; the returned
-    k_p = 2ζω_n (J + k_d), k_i = ω_n² (J + k_d) place its poles at natural frequency
-    ω_n = 2π ``natural_freq_hz`` and damping ``damping``.
+    Loop: J θ̈ = g u, u = k_p e + k_i ∫e + k_d ė with e the angle error and ė its rate
+    (measured by a gyro), so the closed loop is J s³ + g (k_d s² + k_p s + k_i) = 0.
+    Placing a triple real pole at ω = 2π ``bandwidth_hz`` gives (s + ω)³:
+
+        k_d = 3 ω J / g,   k_p = 3 ω² J / g,   k_i = ω³ J / g.
+
+    ``gain_per_torque`` g converts the controller output to torque (1 for an output in
+    N·m; k_t/R_a [N·m/V] for a voltage-driven DC motor whose back-EMF is negligible).
     """
     _check("inertia_kg_m2", inertia_kg_m2, allow_zero=False)
-    _check("natural_freq_hz", natural_freq_hz, allow_zero=False)
-    _check("damping", damping, allow_zero=False)
-    wn = 2.0 * math.pi * natural_freq_hz
-    j = inertia_kg_m2 + kd
-    return PidParams(kp=2.0 * damping * wn * j, ki=wn * wn * j, kd=kd,
+    _check("bandwidth_hz", bandwidth_hz, allow_zero=False)
+    _check("gain_per_torque", gain_per_torque, allow_zero=False)
+    w = 2.0 * math.pi * bandwidth_hz
+    j = inertia_kg_m2 / gain_per_torque
+    return PidParams(kp=3.0 * w * w * j, ki=w ** 3 * j, kd=3.0 * w * j,
                      derivative_tau_s=derivative_tau_s, output_limit=output_limit)
 
 
@@ -109,6 +112,12 @@ class Pid:
         self._first = True
         self.output = 0.0
         self.saturated = False
+
+    def forget_previous(self) -> None:
+        """Drop the previous sample (after a data gap): the next step neither differences
+        nor integrates across the gap; the integrator value is kept."""
+        self._first = True
+        self._d = 0.0
 
     def preset_integral(self, value: float) -> None:
         """Set the integrator's output contribution to ``value`` (clipped to its limit)."""

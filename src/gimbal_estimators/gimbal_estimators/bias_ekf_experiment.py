@@ -118,8 +118,9 @@ class BiasEkfRun:
 
     ``within_3sigma`` (3,): fraction of samples with t ≥ ``settle_s`` whose bias error is
     within ±3σ, per axis (x, q, r). ``final_bias_error_deg_h`` (3,): estimate − truth at
-    the end [°/h]. ``mean_nees_state`` / ``mean_nees_bias``: time-averaged NEES for
-    t ≥ settle_s of the 6 paper states (6 dof) and of (b_q, b_r) (2 dof).
+    the end [°/h]. ``nees_full``: NEES of all 9 states (truth of the INS-error states from
+    the INS model; NaN for the 6-state filter). ``mean_nees_state`` / ``mean_nees_bias``:
+    time-averaged NEES for t ≥ settle_s of the 6 paper states (6 dof) and of (b_q, b_r).
     ``ekf_us_per_gyro``: EKF wall time per gyro sample (all handlers) [µs].
     """
 
@@ -134,6 +135,7 @@ class BiasEkfRun:
     att_sigma: np.ndarray
     nees_state: np.ndarray
     nees_bias: np.ndarray
+    nees_full: np.ndarray
     within_3sigma: np.ndarray
     final_bias_error_deg_h: np.ndarray
     mean_nees_state: float
@@ -207,20 +209,26 @@ def run_open_loop_ekf(
             psi = rotation_vector_from_dcm(C_true @ quat_to_dcm(out.quat_nm).T)
             e6 = np.concatenate((psi, b_true - out.bias))
             P6 = ekf.P[:6, :6]
+            if ekf.n_states == 9:
+                e_all = np.concatenate((e6, suite.ins.attitude_error - ekf.ins_error))
+                nees_all = float(e_all @ np.linalg.solve(ekf.P, e_all))
+            else:
+                nees_all = math.nan
             rec.append((out.t, out.bias, out.bias_sigma, b_true, psi, np.sqrt(np.diag(out.attitude_cov)),
                         float(e6 @ np.linalg.solve(P6, e6)),
-                        float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:]))))
+                        float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:])), nees_all))
         core.step(stab.command(truth))
     t = np.array([r[0] for r in rec])
     est, sig, tru = (np.array([r[i] for r in rec]) for i in (1, 2, 3))
     att, att_sig = np.array([r[4] for r in rec]), np.array([r[5] for r in rec])
-    nees_s, nees_b = np.array([r[6] for r in rec]), np.array([r[7] for r in rec])
+    nees_s, nees_b, nees_f = (np.array([r[i] for r in rec]) for i in (6, 7, 8))
     late = t >= settle_s
     within = (np.mean(np.abs(est[late] - tru[late]) <= 3.0 * sig[late], axis=0) if late.any()
               else np.full(3, np.nan))
     return BiasEkfRun(
         seed=seed, duration_s=duration_s, settle_s=settle_s, t=t, bias_est=est, bias_sigma=sig, bias_true=tru,
-        att_err=att, att_sigma=att_sig, nees_state=nees_s, nees_bias=nees_b, within_3sigma=within,
+        att_err=att, att_sigma=att_sig, nees_state=nees_s, nees_bias=nees_b, nees_full=nees_f,
+        within_3sigma=within,
         final_bias_error_deg_h=(est[-1] - tru[-1]) / _DEG_H,
         mean_nees_state=float(np.mean(nees_s[late])) if late.any() else math.nan,
         mean_nees_bias=float(np.mean(nees_b[late])) if late.any() else math.nan,
@@ -237,7 +245,8 @@ class MonteCarloSummary:
     (``*_interval``). Time-averaging shrinks the spread further, so this interval is the
     lenient one; ``*_fraction_in`` is the stricter check: the fraction of sample times at
     which the N-run average NEES lies inside the interval (≈ 0.95 when consistent).
-    ``within_3sigma_min`` (3,): worst run's per-axis fraction within ±3σ.
+    ``within_3sigma_min`` (3,): worst run's per-axis fraction within ±3σ. ``anees_full``:
+    the same average for all 9 states (NaN for the 6-state filter).
     """
 
     n_runs: int
@@ -247,6 +256,8 @@ class MonteCarloSummary:
     anees_bias: float
     anees_bias_interval: tuple[float, float]
     anees_bias_fraction_in: float
+    anees_full: float
+    anees_full_interval: tuple[float, float]
     within_3sigma_mean: np.ndarray
     within_3sigma_min: np.ndarray
     final_bias_error_rms_deg_h: np.ndarray
@@ -263,9 +274,11 @@ def summarize(runs: Sequence[BiasEkfRun]) -> MonteCarloSummary:
         a = np.mean([getattr(r, "nees_" + name)[:k] for r in runs], axis=0)[late]
         lo, hi = chi2.ppf([0.025, 0.975], n * dof) / n
         out[name] = (float(np.mean(a)), (float(lo), float(hi)), float(np.mean((a >= lo) & (a <= hi))))
+    full = float(np.mean(np.mean([r.nees_full[:k] for r in runs], axis=0)[late]))
+    full_iv = tuple(float(v) for v in chi2.ppf([0.025, 0.975], n * 9) / n)
     w = np.array([r.within_3sigma for r in runs])
     fe = np.array([r.final_bias_error_deg_h for r in runs])
-    return MonteCarloSummary(n, *out["state"], *out["bias"], w.mean(axis=0), w.min(axis=0),
+    return MonteCarloSummary(n, *out["state"], *out["bias"], full, full_iv, w.mean(axis=0), w.min(axis=0),
                              np.sqrt(np.mean(fe**2, axis=0)), tuple(runs))
 
 
@@ -280,6 +293,8 @@ def _print_summary(label: str, mc: MonteCarloSummary) -> None:
           f"{mc.anees_state_interval[1]:.3f}]; fraction of times inside {mc.anees_state_fraction_in:.3f}")
     print(f"  ANEES bias(q,r) {mc.anees_bias:.3f} in [{mc.anees_bias_interval[0]:.3f}, "
           f"{mc.anees_bias_interval[1]:.3f}]; fraction of times inside {mc.anees_bias_fraction_in:.3f}")
+    print(f"  ANEES all 9 states {mc.anees_full:.3f} in [{mc.anees_full_interval[0]:.3f}, "
+          f"{mc.anees_full_interval[1]:.3f}]")
     print(f"  within ±3σ after settle (x, q, r): mean {np.round(mc.within_3sigma_mean, 4)}, "
           f"worst run {np.round(mc.within_3sigma_min, 4)}")
     print(f"  final bias error RMS over runs [°/h] (x, q, r): {np.round(mc.final_bias_error_rms_deg_h, 3)}")

@@ -21,8 +21,12 @@ frame,
 so ``Z = small_angles(M) = φ − A θ_d`` (eq. 5): the flexure plus the 'relative attitude'
 θ_d of the estimated i1 with respect to i2, which starts at the initial flexure and is
 driven by the bias *difference* only (eq. 6), rotated into the i-frame. Writing
-φ = Φ + θ (quasi-static + dynamic), ``H = [I 0 I 0 −A 0]`` (eq. 17). The neglected
-terms are second order (|φ|·|Aθ_d|/2 and the like, about 1″ at 0.5° of flexure).
+φ = Φ + θ (quasi-static + dynamic), ``H = [I 0 I 0 −A 0]`` (eq. 17). Exactly,
+``M = exp(−[u×]) exp([φ×])`` with u = A θ_d, whose logarithm adds ``−½ u×φ`` (BCH):
+up to tens of arcseconds when a 0.5° flexure is not parallel to θ_d, and modulated by the
+ship's rocking like the signal itself. The filter therefore predicts Z with that term
+(:func:`predicted_observation`, an EKF innovation) and keeps the paper's H for the gain
+(its missing part is O(|φ|) ≈ 1 % of H).
 The i-frame is inertial, so A carries the ship's rocking and the earth's rotation; that
 modulation is what separates θ_d (and hence the absolute flexure) from Φ + θ.
 
@@ -51,12 +55,14 @@ Messages arrive per unit (:meth:`FlexureKf.on_lgu1`, :meth:`FlexureKf.on_lgu2`) 
 paired by stamp; the filter runs when both of a stamp are in. Non-finite or malformed
 input, non-increasing stamps and duplicates are rejected and counted. A lost sample (a gap
 between one pair's start and the previous pair's end, or a sample of one unit without its
-partner) loses that sample's rotation for good, so the integrated attitudes no longer share
-an instant of truth; the filter then *re-anchors*: it propagates to the start of the next
-complete pair, restarts both attitudes at I there and sets θ_d := Φ + θ (exact, since the
-new initial frames differ by the flexure at that instant), transforming the covariance
-linearly, so what was learnt is kept. A gap longer than ``max_gap_s`` or a backward clock
-jump longer than ``clock_jump_s`` resets the filter, with the reason recorded.
+partner, whose own sample is then dropped too) loses that interval's rotation for good in
+both units. The common part cancels in Ĉ_i1b1ᵀĈ_i2b2 (A is the filter's own attitude), but
+the flexure change over the interval would stay in θ_d as a step (tens of arcseconds for a
+second of dynamic flexure). The filter therefore *re-anchors*: it propagates to the start of
+the next complete pair, restarts both attitudes at I there and sets θ_d := Φ + θ (exact,
+since the new initial frames differ by the flexure at that instant), transforming the
+covariance linearly, so what was learnt is kept. A gap longer than ``max_gap_s`` or a
+backward clock jump longer than ``clock_jump_s`` resets the filter, with the reason recorded.
 Measurements beyond the chi-square gate are not fused and counted. Because a corrupted
 increment (a spike) stays in the integrated attitude for good, it shows as a persistent jump
 of Z rather than one outlier: after ``max_gate_rejections`` gated measurements in a row the
@@ -109,13 +115,11 @@ def _per_axis(name: str, value: object) -> tuple[float, float, float]:
     return vals  # type: ignore[return-value]
 
 
-def _check(name: str, value: object, *, positive: bool = False, allow_zero: bool = True) -> None:
+def _check(name: str, value: object, *, positive: bool = False) -> None:
     if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     if positive and value <= 0.0:
         raise ValueError(f"{name} must be > 0, got {value!r}")
-    if not allow_zero and value == 0.0:
-        raise ValueError(f"{name} must not be 0")
     if value < 0.0:
         raise ValueError(f"{name} must be >= 0, got {value!r}")
 
@@ -138,9 +142,11 @@ class FlexureKfParams:
         bias_diff_initial_sigma_deg_h: prior σ of ε1 − ε2 [°/h].
         bias_diff_rw_deg_h_rt_h: its random walk [°/h/√h].
         lgu_arw_deg_rt_h: angle random walk of each LGU [°/√h] (drives θ_d).
-        meas_noise_arcsec: σ of the attitude-matching measurement [″] (second-order model
+        meas_noise_arcsec: σ of the attitude-matching measurement [″] (residual model
             error; the LGU noise itself enters through θ_d).
         anchor_sigma_arcsec: σ given to θ_d − (Φ + θ) at (re-)anchoring [″].
+        second_order_observation: predict Z with :func:`predicted_observation` (second
+            order) instead of H X (the paper's first order); the gain uses H either way.
         gate_probability: chi-square gate (3 dof) probability; None disables gating.
         max_gate_rejections: consecutive gated measurements that trigger a re-anchor (and,
             when they go on after one, a reset).
@@ -155,7 +161,7 @@ class FlexureKfParams:
     filter_period_s: float = 0.1
     qs_initial_sigma_deg: float | tuple[float, ...] = 0.5
     qs_rate_initial_sigma_deg_h: float | tuple[float, ...] = 10.0
-    qs_rate_rw_arcsec_s_rt_s: float | tuple[float, ...] = 0.05
+    qs_rate_rw_arcsec_s_rt_s: float | tuple[float, ...] = 1.0
     qs_rw_arcsec_rt_s: float | tuple[float, ...] = 0.001
     dynamic_rms_arcsec: float | tuple[float, ...] = (20.0, 60.0, 40.0)
     dynamic_beta_per_s: float | tuple[float, ...] = 0.1
@@ -165,6 +171,7 @@ class FlexureKfParams:
     lgu_arw_deg_rt_h: float = 0.001
     meas_noise_arcsec: float = 1.0
     anchor_sigma_arcsec: float = 0.1
+    second_order_observation: bool = True
     gate_probability: float | None = 0.99999
     max_gate_rejections: int = 200
     max_gap_s: float = 5.0
@@ -250,6 +257,21 @@ def observation_matrix(C_i1b1: np.ndarray, out: np.ndarray | None = None) -> np.
         H[:, THETA_K] = np.eye(3)
     H[:, THETA_D] = -C_i1b1.T
     return H
+
+
+def predicted_observation(C_i1b1: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``h(X) = φ − u − ½ u×φ`` [rad], (3,), with φ = Φ_k + θ_k and u = A θ_d: the
+    attitude-matching observation to second order (Baker-Campbell-Hausdorff of
+    ``exp(−[u×]) exp([φ×])``); the paper's first-order form drops ``½ u×φ``, which reaches
+    several arcseconds once the flexure is a few tenths of a degree."""
+    u = C_i1b1.T @ x[THETA_D]
+    p0, p1, p2 = float(x[0] + x[6]), float(x[1] + x[7]), float(x[2] + x[8])
+    u0, u1, u2 = float(u[0]), float(u[1]), float(u[2])
+    return np.array([
+        p0 - u0 - 0.5 * (u1 * p2 - u2 * p1),
+        p1 - u1 - 0.5 * (u2 * p0 - u0 * p2),
+        p2 - u2 - 0.5 * (u0 * p1 - u1 * p0),
+    ])
 
 
 class FlexureEstimate(NamedTuple):
@@ -371,7 +393,7 @@ class FlexureKf:
         return F, Q.copy()
 
     def _model(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        key = round(dt * 1e9)
+        key = round(dt * 1e6)  # stamp differences carry float noise far below 1 µs
         cached = self._model_cache.get(key)
         if cached is not None:
             return cached
@@ -572,7 +594,8 @@ class FlexureKf:
             self.reset(f"attitude matching angle {math.sqrt(float(z @ z)):.4g} rad exceeds the small-angle limit")
             return None
         H = observation_matrix(self._C1, self._H)
-        up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate)
+        h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
+        up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
         c = self.counters
         if up.accepted:
             self._x, self._P = up.x, up.P

@@ -43,7 +43,8 @@ Heading, two ways:
   rate is averaged after removing the ship's level rotation rates, whose levelled
   components are (cos θ φ̇, θ̇) for 3-2-1 angles (exact; they telescope into the roll and
   pitch changes over the window, so oscillation cancels) and the transport rate
-  rot3(ψ) ω_en^n. What is left is rot3(ψ) ω_ie^n: ψ = atan2(−ω_ly, ω_lx)
+  rot3(ψ) ω_en^n (ψ from the latest free-gyro heading, φ from the latest fix, the velocity
+  from :meth:`on_velocity`). What is left is rot3(ψ) ω_ie^n: ψ = atan2(−ω_ly, ω_lx)
   (``heading_from_earth_rate``), σ_ψ = (N_triad/√T)/(Ω cos φ) — paper eq. 29 for white
   triad noise. Yaw oscillation within the window averages to the mean heading.
 
@@ -381,7 +382,7 @@ class FreeGyroPositioning:
         except ValueError:
             psi, sigma = _NAN, _NAN
         self._er = (psi, sigma, t - 0.5 * T)
-        if math.isfinite(psi):
+        if math.isfinite(psi) and self._heading_prev is None:
             self._heading_prev = psi
         self._clear_heading_window()
         self._h_prev = (t, *self._level_sample[1:]) if self._level_sample is not None else None
@@ -484,8 +485,8 @@ class FreeGyroPositioning:
                     psi, psi_sigma = self._free_gyro_heading(lat, lon, t_fix, nadir, zeta, n,
                                                              geom.Q_latlon * sigma_theta**2)
                     self._lat = lat
-                    if self._heading_prev is None:
-                        self._heading_prev = psi
+                    if math.isfinite(psi):
+                        self._heading_prev = psi  # arcsecond-class: resolves the transport rate
                     self.counters.fixes += 1
                     fix = FreeGyroFix(t_fix, "ok", "", lat, lon, geom.covariance_ne_m(sigma_theta, p.height_m),
                                       geom.fdop, nadir, sigma_theta, slope, crossing, psi, psi_sigma,

@@ -25,8 +25,7 @@ its third component,
 
     w1 = cos(ψt + ψm) p + sin(ψt + ψm) q,     p̂_m = (w1 − b̂_x − sin θm r̂_m) / cos θm.
 
-The INS body rates are held between INS samples (zero-order hold); on paper 1's motion
-this leaves a bounded ~1e-4 rad 16 Hz roll ripple (structural mode) and no drift.
+The INS body rates are interpolated to the gyro stamps (see "Synchronisation").
 
 State and error model
 ---------------------
@@ -52,7 +51,7 @@ sin θm), n = white rate noise (INS ARW on w1; gyro ARW on q, r), the linear err
 
 discretised once per covariance step T (each INS update, at least every
 ``covariance_period_s``) with Ā = ½(C M|_{t0} + C M|_{t1}):
-Φ_ψψ = exp(−[ω_in T ×]), Φ_ψb = −Ā T, Φ_ee = e^{−T/τ_e} I;
+Φ_ψψ = exp(−[ω_in T ×]), Φ_ψb = −(I − ½[ω_in×]T) Ā T, Φ_ee = e^{−T/τ_e} I;
 Q_ψψ = Ā N Āᵀ T + Ā Q_b Āᵀ T³/3, Q_ψb = −Ā Q_b T²/2, Q_bb = Q_b T, Q_ee = σ_e²(1 − e^{−2T/τ_e}).
 
 Lumped bias model (paper 1 eq. 17–21). The truth is a random constant (the turn-on bias)
@@ -73,7 +72,7 @@ z = log(C_meas Ĉᵀ) ≈ ψ + δα, δα the n-frame rotation error of C_meas. 
     J_e = [C_nb e1, rot3(ψ)ᵀ e2, e3],  u = C_nb e3,  v = C_nm e2,
 
 (ε_t, ε_m, ε_θ the encoder errors; turret and gimbal azimuth turn about the same axis u).
-H = [I, 0, J_e], R = σ_enc² (2 u uᵀ + v vᵀ).
+H = [I, 0, J_e], R = σ_enc² (2 u uᵀ + v vᵀ) + σ_floor² I.
 
 INS errors. Paper 1 treats the INS angles as white noise. They are not: gimbal_sim (and a
 real INS) has slowly varying errors (Gauss-Markov, τ = 300 s, 0.05°/0.05°/0.2° RMS). Fused
@@ -86,12 +85,20 @@ form: H = [I 0], R = J_e diag(σ_e²) J_eᵀ + R_enc (white).
 
 Synchronisation
 ---------------
-All streams are stamped on one clock. The filter propagates on every gyro sample with the
-latest encoder angles and INS rates. An INS attitude is fused as soon as the filter has
-propagated to its stamp (gyro stamp ≥ t_ins) and an encoder sample at or after t_ins has
-arrived, using the encoder sample nearest t_ins. In lockstep (all streams at the same
-stamps) this is exact whatever order the three messages of one stamp arrive in; otherwise
-the skew is at most one gyro period.
+All streams are stamped on one clock. Gyro samples are queued and integrated in stamp
+order once an encoder sample and an INS-rate sample stamped at or after them are in
+(or after ``max_sync_wait_s``, with the latest values held): joint angles and INS body
+rates are then linearly interpolated to each gyro stamp. So in lockstep (all streams at
+the same stamps) eq. 4 uses the angles and rates of the same instant, whatever order the
+messages of one stamp arrive in, and 100 Hz INS rates feed a 1 kHz gyro without the 5 ms
+mean lag of a hold (a hold leaves a ~2e-4 rad wander of the roll about the LOS on paper
+1's motion; interpolation a bounded ~2e-5 rad 16 Hz ripple from the 101 rad/s structural
+mode). The attitude estimate therefore lags the newest gyro sample by at most one INS
+period; measurement updates are not delayed: an INS attitude stamped t_ins is fused as
+soon as the gyro samples up to t_ins are integrated, with the encoder angles interpolated
+to t_ins. ``attitude_noise_floor_deg`` (isotropic white noise added to R) covers these
+residual ripples and sync errors; without it R has no component about the LOS (no
+encoder measures roll about it) and the filter would over-trust that axis.
 
 Robustness
 ----------
@@ -114,10 +121,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
-from gimbal_kinematics.rotations import (
-    dcm_from_rotation_vector, dcm_to_quat, quat_to_dcm, rotation_vector_from_dcm,
-)
-from gimbal_kinematics.sighting_chain import dcm_bm, dcm_nb
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_to_dcm, skew
 
 from . import kalman
 
@@ -195,7 +199,7 @@ class GyroBiasEkfParams:
     max_consecutive_gated: int = 100
     clock_jump_s: float = 0.5
     max_gyro_gap_s: float = 0.1
-    covariance_period_s: float = 0.01
+    covariance_period_s: float = 0.05
     max_sync_wait_s: float = 0.05
 
     def __post_init__(self) -> None:
@@ -284,6 +288,36 @@ def _rotvec_quat(x: float, y: float, z: float) -> tuple[float, float, float, flo
     return (s * x, s * y, s * z, c)
 
 
+def _rotvec_from_quat(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
+    """Rotation vector [rad] (|v| ≤ π) of a unit quaternion (x, y, z, w)."""
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    s = math.sqrt(x * x + y * y + z * z)
+    k = 2.0 if s < 1e-12 else 2.0 * math.atan2(s, w) / s
+    return (k * x, k * y, k * z)
+
+
+def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of C_nb = ``sighting_chain.dcm_nb(φ, θ, ψ)`` (3-2-1 Euler angles [rad])."""
+    hr, hp, hy = 0.5 * euler[0], 0.5 * euler[1], 0.5 * euler[2]
+    cr, sr = math.cos(hr), math.sin(hr)
+    cp, sp = math.cos(hp), math.sin(hp)
+    cy, sy = math.cos(hy), math.sin(hy)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+def measured_quat_nm(q_nb: Sequence[float], angles: Sequence[float]) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of C_nm = C_nb ``sighting_chain.dcm_bm(ψt, ψm, θm)``; C_bm is a turn of
+    ψt + ψm about z followed by θm about y, so q_bm = q_z(ψt + ψm) ⊗ q_y(θm)."""
+    ha, he = 0.5 * (angles[0] + angles[1]), 0.5 * angles[2]
+    ca, sa, ce, se = math.cos(ha), math.sin(ha), math.cos(he), math.sin(he)
+    bx, by, bz, bw = -sa * se, ca * se, sa * ce, ca * ce
+    ax, ay, az, aw = q_nb
+    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+
 def ins_error_jacobian(euler: Sequence[float]) -> np.ndarray:
     """J_e (3, 3): n-frame rotation δα of C_nb per Euler-angle error (δφ, δθ, δψ) [rad/rad],
     i.e. C_nb(euler + δ) ≈ (I + [J_e δ ×]) C_nb(euler)."""
@@ -303,6 +337,36 @@ def roll_rate_matrix(theta_m: float) -> np.ndarray:
     """M (3, 3): gyro-frame rate error per (δb_x, δb_q, δb_r) — see the module docstring."""
     c, s = math.cos(theta_m), math.sin(theta_m)
     return np.array([[1.0 / c, 0.0, -s / c], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def discretize_error_model(
+    A: np.ndarray, T: float, omega_in_n: np.ndarray, N: np.ndarray, Qb: np.ndarray,
+    Pe: np.ndarray | None = None, tau_e: float = math.inf,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(F, Q) of the error model over a step ``T`` [s] (module docstring), A = C_nm M held.
+
+    ``A`` (3, 3); ``omega_in_n`` (3,) [rad/s]; ``N`` (3, 3) rate white-noise PSD [rad²/s];
+    ``Qb`` (3, 3) bias random-walk PSD [rad²/s³]; ``Pe`` (3, 3) stationary covariance of
+    the INS-error states [rad²] with correlation time ``tau_e`` [s], or None for the
+    6-state filter. Shapes (n, n), n = 6 or 9. Terms of relative size (|ω_in| T)² and
+    Q's ω_in coupling (|ω_in| T ~ 1e-6 at 100 Hz) are dropped.
+    """
+    n = 6 if Pe is None else 9
+    F = np.eye(n)
+    F[:3, :3] = dcm_from_rotation_vector(-np.asarray(omega_in_n) * T)
+    # −∫ exp(−[ω_in×](T−s)) A ds, to second order in |ω_in| T (~1e-6).
+    F[:3, 3:6] = -(A - (0.5 * T) * (skew(omega_in_n) @ A)) * T
+    Q = np.zeros((n, n))
+    AQb = A @ Qb
+    Q[:3, :3] = (A @ N @ A.T) * T + (AQb @ A.T) * (T**3 / 3.0)
+    Q[:3, 3:6] = -AQb * (T * T / 2.0)
+    Q[3:6, :3] = Q[:3, 3:6].T
+    Q[3:6, 3:6] = Qb * T
+    if Pe is not None:
+        finite = not math.isinf(tau_e)
+        F[6:, 6:] *= math.exp(-T / tau_e) if finite else 1.0
+        Q[6:, 6:] = Pe * (-math.expm1(-2.0 * T / tau_e) if finite else 0.0)
+    return F, Q
 
 
 class GyroBiasEkf:
@@ -333,6 +397,8 @@ class GyroBiasEkf:
         self._Pe = np.diag([rp * rp, rp * rp, hd * hd])
         self._enc_var = (p.encoder_noise_deg * _DEG) ** 2
         self._R_floor = np.eye(3) * (p.attitude_noise_floor_deg * _DEG) ** 2
+        self._H = np.zeros((3, self.n_states))
+        self._H[:, :3] = np.eye(3)
         self.counters = Counters(0, 0, 0, 0, 0, 0, 0)
         #: (t, reason) of the latest resets and re-alignments, newest last.
         self.reset_log: deque[tuple[float, str]] = deque(maxlen=100)
@@ -408,6 +474,12 @@ class GyroBiasEkf:
         return None if self._q is None else quat_to_dcm(np.array(self._q))
 
     @property
+    def corrected_rate(self) -> np.ndarray | None:
+        """Latest bias-corrected inertial rate of the inner gimbal (p̂_m by eq. 4, q̂_m, r̂_m)
+        [rad/s], (3,), at :attr:`time`; None until encoders and INS rates are in."""
+        return None if self._w_prev is None else np.array(self._w_prev)
+
+    @property
     def time(self) -> float | None:
         """Stamp of the last integrated gyro sample, which the attitude refers to [s]."""
         return self._t_gyro
@@ -431,9 +503,9 @@ class GyroBiasEkf:
         try:
             t, q_m, r_m = float(t), float(q_m), float(r_m)
         except (TypeError, ValueError):
-            self._count(rejected_nonfinite=1)
-            return None
-        if not (math.isfinite(t) and math.isfinite(q_m) and math.isfinite(r_m)):
+            t = math.nan
+        # A sum is finite iff every term is (NaN and ±inf propagate); one call instead of three.
+        if not math.isfinite(t + q_m + r_m):
             self._count(rejected_nonfinite=1)
             return None
         if not self._accept_stamp("gyro", t):
@@ -449,9 +521,9 @@ class GyroBiasEkf:
         try:
             t = float(t)
             a = (float(angles[0]), float(angles[1]), float(angles[2]))
-            ok = len(angles) == 3 and math.isfinite(t) and all(math.isfinite(v) for v in a)
+            ok = len(angles) == 3 and math.isfinite(t + a[0] + a[1] + a[2])
             if rates is not None:
-                ok = ok and all(math.isfinite(float(v)) for v in rates)
+                ok = ok and len(rates) == 3 and math.isfinite(float(rates[0]) + float(rates[1]) + float(rates[2]))
         except (TypeError, ValueError, IndexError):
             ok = False
         if not ok:
@@ -473,8 +545,8 @@ class GyroBiasEkf:
             t = float(t)
             e = None if euler is None else (float(euler[0]), float(euler[1]), float(euler[2]))
             w = (float(omega_b[0]), float(omega_b[1]), float(omega_b[2]))
-            ok = len(omega_b) == 3 and math.isfinite(t) and all(math.isfinite(v) for v in w) \
-                and (e is None or (len(euler) == 3 and all(math.isfinite(v) for v in e)))
+            ok = len(omega_b) == 3 and math.isfinite(t + w[0] + w[1] + w[2]) \
+                and (e is None or (len(euler) == 3 and math.isfinite(e[0] + e[1] + e[2])))
         except (TypeError, ValueError, IndexError):
             ok = False
         if not ok:
@@ -583,36 +655,24 @@ class GyroBiasEkf:
         """C_nm M (3, 3) at the current estimate and elevation."""
         _, _, ct, st = self._trig
         ct = ct if abs(ct) >= _SINGULAR_COS else math.copysign(_SINGULAR_COS, ct)
-        C = quat_to_dcm(np.array(self._q))
-        A = C.copy()
-        A[:, 0] = C[:, 0] / ct
-        A[:, 2] = C[:, 2] - (st / ct) * C[:, 0]
-        return A
+        x, y, z, w = self._q
+        c00, c10, c20 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)
+        c02, c12, c22 = 2.0 * (x * z + y * w), 2.0 * (y * z - x * w), 1.0 - 2.0 * (x * x + y * y)
+        k = st / ct
+        return np.array([[c00 / ct, 2.0 * (x * y - z * w), c02 - k * c00],
+                         [c10 / ct, 1.0 - 2.0 * (x * x + z * z), c12 - k * c10],
+                         [c20 / ct, 2.0 * (y * z + x * w), c22 - k * c20]])
 
     def _propagate_covariance(self) -> None:
         """P over [t_cov, t_gyro] with the discretised error model (module docstring)."""
         T = self._t_gyro - self._t_cov
-        A1 = self._A_now()
         if T <= 0.0:
-            self._A_cov = A1
             return
-        A = 0.5 * (self._A_cov + A1)
-        n = self.n_states
-        F = np.eye(n)
-        F[:3, :3] = dcm_from_rotation_vector(-self.omega_in_n * T)
-        F[:3, 3:6] = -A * T
-        Q = np.zeros((n, n))
-        AQb = A @ self._Qb
-        Q[:3, :3] = (A @ self._N @ A.T) * T + (AQb @ A.T) * (T**3 / 3.0)
-        Q[:3, 3:6] = -AQb * (T * T / 2.0)
-        Q[3:6, :3] = Q[:3, 3:6].T
-        Q[3:6, 3:6] = self._Qb * T
-        if n == 9:
-            tau = self.params.ins_attitude_tau_s
-            phi = 1.0 if math.isinf(tau) else math.exp(-T / tau)
-            F[6:, 6:] *= phi
-            Q[6:, 6:] = self._Pe * (0.0 if math.isinf(tau) else -math.expm1(-2.0 * T / tau))
-            self._e = self._e * phi
+        A1 = self._A_now()
+        F, Q = discretize_error_model(0.5 * (self._A_cov + A1), T, self.omega_in_n, self._N, self._Qb,
+                                      self._Pe if self.n_states == 9 else None, self.params.ins_attitude_tau_s)
+        if self.n_states == 9:
+            self._e = self._e * F[6, 6]
         self.P = kalman.symmetrize(F @ self.P @ F.T + Q)
         self._t_cov = self._t_gyro
         self._A_cov = A1
@@ -627,21 +687,31 @@ class GyroBiasEkf:
         angles = self._interp(self._enc_hist, t_ins)
         if angles is None:
             return None
-        C_nb = dcm_nb(*euler)
-        C_meas = C_nb @ dcm_bm(*angles)
+        q_nb = quat_nb_from_euler(euler)
+        q_meas = measured_quat_nm(q_nb, angles)
         Je = ins_error_jacobian(euler)
-        Jenc = encoder_error_jacobian(C_nb, C_meas)
-        R = self._enc_var * (Jenc @ Jenc.T) + self._R_floor
+        # Encoder error axes: turret and gimbal azimuth about u = C_nb e3, elevation about
+        # v = C_nm e2 (columns of the quaternions' matrices).
+        bx, by, bz, bw = q_nb
+        mx, my, mz, mw = q_meas
+        u = (2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by))
+        v = (2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw))
+        R = np.array([[2.0 * u[i] * u[j] + v[i] * v[j] for j in range(3)] for i in range(3)])
+        R = self._enc_var * R + self._R_floor
         if self.n_states == 6:
             R = R + Je @ self._Pe @ Je.T
         if self._q is None:
-            return self._align(t_ins, C_meas, Je, R)
+            return self._align(t_ins, q_meas, Je, R)
         self._propagate_covariance()
         n = self.n_states
-        C_hat = quat_to_dcm(np.array(self._q))
-        z = rotation_vector_from_dcm(C_meas @ C_hat.T)
-        H = np.zeros((3, n))
-        H[:, :3] = np.eye(3)
+        hx, hy, hz, hw = self._q
+        # z = log(C_meas Ĉᵀ): rotation vector of q_meas ⊗ conj(q̂).
+        ex = -mw * hx + mx * hw - my * hz + mz * hy
+        ey = -mw * hy + mx * hz + my * hw - mz * hx
+        ez = -mw * hz - mx * hy + my * hx + mz * hw
+        ew = mw * hw + mx * hx + my * hy + mz * hz
+        z = np.array(_rotvec_from_quat(ex, ey, ez, ew))
+        H = self._H
         x = np.zeros(n)
         if n == 9:
             H[:, 6:] = Je
@@ -651,12 +721,15 @@ class GyroBiasEkf:
             self._consecutive_gated = 0
             self._count(updates=1)
             self.P = up.P
-            dx = up.x
-            self._q = list(dcm_to_quat(dcm_from_rotation_vector(dx[:3]) @ C_hat))
+            dx = up.x.tolist()
+            # Ĉ ← exp([ψ̂×]) Ĉ, then b̂ ← b̂ + δb̂ (the error state is reset to zero).
+            ax, ay, az, aw = _rotvec_quat(dx[0], dx[1], dx[2])
+            self._q = [aw * hx + ax * hw + ay * hz - az * hy, aw * hy - ax * hz + ay * hw + az * hx,
+                       aw * hz + ax * hy - ay * hx + az * hw, aw * hw - ax * hx - ay * hy - az * hz]
             db = dx[3:6]
-            self._b = [self._b[i] + float(db[i]) for i in range(3)]
+            self._b = [self._b[i] + db[i] for i in range(3)]
             if n == 9:
-                self._e = dx[6:].copy()
+                self._e = up.x[6:].copy()
             if self._w_prev is not None:
                 # The next trapezoid starts from this sample: correct it with the new biases.
                 _, _, ct, st = self._trig
@@ -672,11 +745,12 @@ class GyroBiasEkf:
                 return out
         return self._output(t_ins, up.y, up.d2, up.accepted)
 
-    def _align(self, t: float, C_meas: np.ndarray, Je: np.ndarray, R: np.ndarray) -> EkfOutput:
-        """Initial (or re-)alignment Ĉ = C_meas; ψ = −δα, so P_ψψ = J_e P_e J_eᵀ + R_enc and
+    def _align(self, t: float, q_meas: tuple[float, float, float, float], Je: np.ndarray,
+               R: np.ndarray) -> EkfOutput:
+        """Initial (or re-)alignment Ĉ = C_meas; ψ = −δα, so P_ψψ = J_e P_e J_eᵀ + R and
         P_ψe = −J_e P_e with the INS-error states."""
         n = self.n_states
-        self._q = list(dcm_to_quat(C_meas))
+        self._q = list(q_meas)
         P = np.zeros((n, n))
         keep = self._P_bb_keep
         P[3:6, 3:6] = keep if keep is not None else self._Pb0

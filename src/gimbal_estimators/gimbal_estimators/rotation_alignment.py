@@ -54,7 +54,12 @@ Hence Z = H X with X = [δφE0, δφN0, δφU0, ε_N, ∇x, ∇y, ε_x, ε_y] (e
     H = [[ 1 − Ω²t²/2,  ω_U t,            −ω_N t,        ω_U t²/2,  cos ψ/g, −sin ψ/g, I_s,  I_c],
          [−ω_U t,        1 − ω_U² t²/2,   ω_N ω_U t²/2,  t,        −sin ψ/g, −cos ψ/g, I_c, −I_s]]
 
-with t measured from the alignment start (the first accepted accelerometer sample). The
+with t measured from the alignment start (the first accepted accelerometer sample).
+Mapping to the paper: its platform axes are x_p = our y, y_p = our x (z_p = up = −z) and
+φz = −ψ; with ψ = −ω_r t our rows then reproduce paper eq. 13 term by term (e.g. row E's
+bias terms become (sin φz ∇x_p + cos φz ∇y_p)/g and its drift terms
+(sin φz ε_x_p + (cos φz − 1) ε_y_p)/ω_r). The OCR'd eq. 16 swaps the accelerometer
+columns relative to eq. 13; this implementation follows eq. 13, i.e. the physics. The
 t² entries are the second-order terms ½ ω×(ω×φ0) t² − ½ ω×ε t² of the exact solution
 (paper eq. 6) that the paper's eq. 8 drops; ω_N ω_U δφU0 t²/2 is 0.5″ after 10 min with
 δφU0 = 17′ and would bias ε_N by ≈0.0016°/h if left out. Still neglected: (Ωt)³ terms,
@@ -387,7 +392,7 @@ class RotationAlignmentRls:
         b[6] -= (s * fx + c * fy) * inv_g  # Z_N = −f_E / g
         b[7] += 1.0 / dt
         self._bn += 1
-        if t - self._b_start < self.params.block_s:
+        if t - self._b_start < self.params.block_s * (1.0 - 1e-9):  # stamps k·dt carry round-off
             return None
         self._update_block()
         return self.estimate()

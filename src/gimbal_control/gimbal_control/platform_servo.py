@@ -1,0 +1,346 @@
+"""Paper 3: four-gimbal platform servo with bidirectional rotation modulation (SPEC §3.3).
+
+Four PID loops at 1 kHz: azimuth a, inner roll q, pitch p, outer roll r. Each one outputs
+the voltage of its gimbal's DC torque motor.
+
+Gyro pickoffs. Paper 3's dynamically tuned gyros are torqued at the command rate ω_c, and
+their pickoffs read the small rotation δ of the platform s away from the gyro reference.
+This core emulates that rate-integrating behaviour from a rate-gyro triad on the platform
+(ω_meas, resolved in s). With C_sg = I − [δ×] the rate of s relative to the reference is
+ω_meas − C_sg ω_c, so to first order::
+
+    δ̇ = ω_meas − ω_c − ω_c × δ
+
+(a misalignment that is fixed in the turning reference stays constant).
+
+The command is paper 3 eq. 2 (:func:`gimbal_kinematics.four_gimbal.command_rate_s`):
+ω_c = rot3(φz) ω_ie^n + φ̇z e3 − ε̂. φz(t) is the modulation schedule
+(:class:`~gimbal_kinematics.four_gimbal.BidirectionalRotation`, ±1.2 °/s through one turn
+and back), ω_ie^n the earth rate at ``lat_deg``, and ε̂ an optional gyro-drift estimate.
+The per-tick increment of δ takes φz's change exactly, so a reversal inside a tick is not
+smeared; the rest of ω_c is integrated by trapezoids.
+
+Control signals, paper 3 eq. 1. :func:`~gimbal_kinematics.four_gimbal.inner_gimbal_control_signals`
+resolves δ through the azimuth angle θ_a (and θ_q) onto the inner-roll, pitch and azimuth
+gimbal axes, giving (Δθ_qm, Δθ_pm, Δθ_am). The outer roll keeps the inner roll at null with
+Δθ_rm = θ_q sec θ_p (:func:`~gimbal_kinematics.four_gimbal.outer_roll_control_signal`).
+The angles θ are the gimbal resolver readings.
+
+Loops. Each inner loop drives its gimbal by −Δθ through a PID: u = PID(−Δθ), with the D
+term taken from the pickoff rate −(ω_meas − ω_c) resolved the same way. The outer roll
+uses u = PID(+Δθ_rm), with a differenced and filtered D. The gains come from pole
+placement on the Table 1 plant (:func:`platform_pid_gains`); paper 3 tuned its gains by
+trial and error after pole placement.
+
+Integrator preset (paper 3 §4.1: "at the time of reversal, the initial value of integrator
+needs to be set based on the influence of friction torque"). When the commanded rotation
+rate changes sign, and at the start from rest, the azimuth integrator is preset to the
+voltage the new direction needs in steady rotation:
+
+    V = R_a/k_t · (T_c tanh(ω/ω_s) + B ω) + k_e ω
+
+where ω is the new commanded rate and (T_c, B, ω_s, k_t, R_a, k_e) are the known or
+identified bearing friction and motor constants (:class:`FrictionModel`).
+
+Message-driven API (stamps [s], SI units)::
+
+    servo.on_resolvers(t, angles)    # gimbal angles (θ_a, θ_q, θ_p, θ_r) [rad]
+    out = servo.on_gyro(t, omega_s)  # platform gyro triad (3,) [rad/s] -> ServoCommand
+
+The gyro sample is the control tick; feed the resolver sample of a stamp first. The
+schedule starts (φz = 0) at the first tick. Bad input:
+
+* NaN/inf gyro sample, or resolvers within 1° of gimbal lock (eq. 1 singular): the last
+  command is held and the event counted.
+* NaN/inf resolver sample, non-finite or non-increasing stamps: rejected and counted.
+* Backward stamp jump beyond ``backward_jump_s``: the servo resets (reason recorded).
+* Gap longer than ``max_gap_s``: the pickoff integration restarts from the held state.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
+
+from gimbal_kinematics.four_gimbal import (
+    BidirectionalRotation, command_rate_s, inner_gimbal_control_signals, outer_roll_control_signal,
+)
+
+from .pid import Pid, PidParams, pole_placement_gains
+
+_DEG = math.pi / 180.0
+_DEG_H = _DEG / 3600.0
+
+#: Paper 3 Table 1: axis -> (J [kg·m²], k_t [N·m/A], R_a [Ω]); used for the default gains.
+TABLE1 = {"a": (0.0026, 0.21, 31.2), "q": (0.0066, 0.21, 35.5), "p": (0.0093, 0.21, 28.7),
+          "r": (0.0115, 0.29, 34.3)}
+VOLTAGE_LIMIT_V = 27.0
+
+
+def platform_pid_gains(axis: str, bandwidth_hz: float, derivative_tau_s: float = 0.0) -> PidParams:
+    """Pole-placement PID [V/rad, V/(rad·s), V·s/rad] for a Table 1 axis driven in voltage.
+
+    Torque per volt is k_t/R_a (back-EMF damping k_t k_e/R_a is < 1 % of the loop gain at
+    these bandwidths); :func:`.pid.pole_placement_gains` puts a triple pole at
+    ``bandwidth_hz``.
+    """
+    if axis not in TABLE1:
+        raise ValueError(f"axis must be one of {tuple(TABLE1)}, got {axis!r}")
+    j, kt, r = TABLE1[axis]
+    return pole_placement_gains(j, bandwidth_hz, gain_per_torque=kt / r, output_limit=VOLTAGE_LIMIT_V,
+                                derivative_tau_s=derivative_tau_s)
+
+
+@dataclass(frozen=True)
+class FrictionModel:
+    """Known or identified azimuth bearing friction and motor constants for the preset.
+
+    Defaults: the Table 1 azimuth motor (k_t, R_a, k_e = k_t) and the bearing model of the
+    simulated plant (T_c = 0.01 N·m, B = 5e-4 N·m·s/rad, ω_s = 0.01 rad/s).
+    """
+
+    coulomb_nm: float = 0.01
+    viscous_nm_s_rad: float = 5e-4
+    smoothing_rad_s: float = 0.01
+    torque_constant_nm_a: float = 0.21
+    resistance_ohm: float = 31.2
+    back_emf_v_s_rad: float = 0.21
+
+    def __post_init__(self) -> None:
+        for name in ("coulomb_nm", "viscous_nm_s_rad", "back_emf_v_s_rad"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0.0:
+                raise ValueError(f"{name} must be >= 0, got {v!r}")
+        for name in ("smoothing_rad_s", "torque_constant_nm_a", "resistance_ohm"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
+                raise ValueError(f"{name} must be > 0, got {v!r}")
+
+    def voltage(self, omega: float) -> float:
+        """Steady voltage [V] that turns the gimbal at ``omega`` [rad/s] against friction."""
+        torque = self.coulomb_nm * math.tanh(omega / self.smoothing_rad_s) + self.viscous_nm_s_rad * omega
+        return self.resistance_ohm / self.torque_constant_nm_a * torque + self.back_emf_v_s_rad * omega
+
+
+@dataclass(frozen=True)
+class PlatformServoParams:
+    """Servo parameters (validated, immutable); angles and rates in the named units.
+
+    Attributes:
+        lat_deg: site latitude for the earth-rate part of the command [deg].
+        rate_deg_s, sweep_deg, reversal_time_s: the modulation schedule
+            (:class:`~gimbal_kinematics.four_gimbal.BidirectionalRotation`).
+        azimuth_pid, inner_roll_pid, pitch_pid, outer_roll_pid: loop gains (volts out).
+        preset_integrator: preset the azimuth integrator at reversals (paper 3).
+        friction: the friction model behind the preset.
+        drift_deg_h: gyro drift estimate ε̂ (x, y, z in s) subtracted from the command [°/h].
+        max_gap_s: a longer gap between ticks restarts the pickoff integration [s].
+        backward_jump_s: a stamp this far behind the last one resets the servo [s].
+    """
+
+    lat_deg: float = 45.0
+    rate_deg_s: float = 1.2
+    sweep_deg: float = 360.0
+    reversal_time_s: float = 0.0
+    azimuth_pid: PidParams = field(default_factory=lambda: platform_pid_gains("a", 12.0))
+    inner_roll_pid: PidParams = field(default_factory=lambda: platform_pid_gains("q", 12.0))
+    pitch_pid: PidParams = field(default_factory=lambda: platform_pid_gains("p", 12.0))
+    outer_roll_pid: PidParams = field(default_factory=lambda: platform_pid_gains("r", 4.0, 0.005))
+    preset_integrator: bool = True
+    friction: FrictionModel = field(default_factory=FrictionModel)
+    drift_deg_h: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    max_gap_s: float = 0.05
+    backward_jump_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if (isinstance(self.lat_deg, bool) or not isinstance(self.lat_deg, (int, float))
+                or not math.isfinite(self.lat_deg) or abs(self.lat_deg) >= 90.0):
+            raise ValueError(f"lat_deg must be within (-90, 90), got {self.lat_deg!r}")
+        try:
+            self.schedule()
+        except ValueError as exc:
+            raise ValueError(f"modulation schedule: {exc}") from None
+        for name in ("azimuth_pid", "inner_roll_pid", "pitch_pid", "outer_roll_pid"):
+            if not isinstance(getattr(self, name), PidParams):
+                raise ValueError(f"{name} must be a PidParams")
+        if not isinstance(self.preset_integrator, bool):
+            raise ValueError(f"preset_integrator must be true or false, got {self.preset_integrator!r}")
+        if not isinstance(self.friction, FrictionModel):
+            raise ValueError("friction must be a FrictionModel")
+        d = self.drift_deg_h
+        if len(d) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in d):
+            raise ValueError(f"drift_deg_h must be 3 finite numbers, got {d!r}")
+        for name in ("max_gap_s", "backward_jump_s"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
+                raise ValueError(f"{name} must be > 0, got {v!r}")
+
+    def schedule(self) -> BidirectionalRotation:
+        """The modulation schedule φz(t) (t from the first tick)."""
+        return BidirectionalRotation(rate_deg_s=self.rate_deg_s, sweep_deg=self.sweep_deg,
+                                     reversal_time_s=self.reversal_time_s)
+
+
+class ServoCommand(NamedTuple):
+    """Output of a control tick: motor voltages (a, q, p, r) [V], the control signals
+    (Δθ_am, Δθ_qm, Δθ_pm, Δθ_rm) [rad], the commanded modulation angle φz and rate φ̇z
+    [rad, rad/s], and whether the command was held (bad input)."""
+
+    t: float
+    voltages: tuple[float, float, float, float]
+    control_signals: tuple[float, float, float, float]
+    phi_z: float
+    phi_z_rate: float
+    held: bool
+
+
+class PlatformServo:
+    """The four loops of paper 3 (module docstring)."""
+
+    def __init__(self, params: PlatformServoParams | None = None) -> None:
+        self.params = params if params is not None else PlatformServoParams()
+        if not isinstance(self.params, PlatformServoParams):
+            raise ValueError("params must be a PlatformServoParams")
+        p = self.params
+        self.schedule = p.schedule()
+        self._lat = p.lat_deg * _DEG
+        self._drift = tuple(v * _DEG_H for v in p.drift_deg_h)
+        self.pid_a = Pid(p.azimuth_pid)
+        self.pid_q = Pid(p.inner_roll_pid)
+        self.pid_p = Pid(p.pitch_pid)
+        self.pid_r = Pid(p.outer_roll_pid)
+        self.rejected_nonfinite = 0
+        self.rejected_out_of_order = 0
+        self.held_commands = 0
+        self.rejected_gimbal_lock = 0
+        self.presets = 0
+        self.reset_reasons: list[str] = []
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r):
+            pid.reset()
+        self._t0: float | None = None
+        self._t_tick: float | None = None
+        self._t_res: float | None = None
+        self._angles: tuple[float, float, float, float] | None = None
+        #: emulated gyro pickoff δ (x, y, z in s) [rad]
+        self.pickoff = [0.0, 0.0, 0.0]
+        self._prev: tuple | None = None  # (ω_meas − ω_c without φ̇z, φz) of the last tick
+        self._dir = 0
+        self._volts = (0.0, 0.0, 0.0, 0.0)
+        self._signals = (0.0, 0.0, 0.0, 0.0)
+        self._dt_last = 1e-3
+
+    def reset(self, reason: str) -> None:
+        """Reset the loops and restart the schedule; ``reason`` goes to ``reset_reasons``."""
+        self.reset_reasons.append(reason)
+        self._reset_state()
+
+    def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
+        if not math.isfinite(t):
+            self.rejected_nonfinite += 1
+            return False
+        if last is not None and t <= last:
+            if last - t > self.params.backward_jump_s:
+                self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
+                return True
+            self.rejected_out_of_order += 1
+            return False
+        return True
+
+    def on_resolvers(self, t: float, angles: Sequence[float]) -> None:
+        """Gimbal resolver angles (θ_a, θ_q, θ_p, θ_r) [rad] at stamp ``t`` [s]."""
+        if not self._stamp_ok(t, self._t_res, "resolver"):
+            return
+        vals = tuple(float(v) for v in angles)
+        if len(vals) != 4:
+            raise ValueError(f"angles must have 4 elements (a, q, p, r), got {len(vals)}")
+        if not all(math.isfinite(v) for v in vals):
+            self.rejected_nonfinite += 1
+            return
+        self._t_res = t
+        self._angles = vals  # type: ignore[assignment]
+
+    def _held(self, t: float) -> ServoCommand:
+        self.held_commands += 1
+        phi, rate = self._phi(t)
+        return ServoCommand(t, self._volts, self._signals, phi, rate, True)
+
+    def _phi(self, t: float) -> tuple[float, float]:
+        if self._t0 is None:
+            return 0.0, 0.0
+        phi, rate, _ = self.schedule.state(t - self._t0)
+        return phi, rate
+
+    def on_gyro(self, t: float, omega_s: Sequence[float]) -> ServoCommand | None:
+        """Control tick on a platform gyro sample ω_meas (3,) [rad/s] resolved in s.
+
+        Returns None until resolver angles have arrived (or for a rejected stamp); a
+        non-finite sample holds the last command (``held=True``).
+        """
+        if not self._stamp_ok(t, self._t_tick, "gyro"):
+            return None
+        wx, wy, wz = (float(v) for v in omega_s)
+        if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
+            self.rejected_nonfinite += 1
+            return self._held(t)
+        if self._angles is None:
+            return None
+        if self._t0 is None:
+            self._t0 = t
+        dt = 0.0 if self._t_tick is None else t - self._t_tick
+        self._t_tick = t
+        if dt > self.params.max_gap_s:
+            self.reset_reasons.append(f"gap of {dt:.3f} s before t={t:.3f}: pickoff integration restarted")
+            self._prev = None
+            for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r):
+                pid.forget_previous()
+            dt = 0.0
+        phi, phi_rate, _ = self.schedule.state(t - self._t0)
+        wc = command_rate_s(self._lat, phi, phi_rate, drift_s=self._drift)
+        cx, cy, cz = float(wc[0]), float(wc[1]), float(wc[2])
+        # rate error without the modulation rate (its angle is taken exactly from φz)
+        ex, ey, ez0 = wx - cx, wy - cy, wz - (cz - phi_rate)
+        d = self.pickoff
+        if self._prev is not None and dt > 0.0:
+            pex, pey, pez0, pphi = self._prev
+            h = 0.5 * dt
+            # − ω_c × δ: a misalignment fixed in the turning reference stays fixed in s
+            d0, d1, d2 = d
+            d[0] = d0 + h * (pex + ex) - dt * (cy * d2 - cz * d1)
+            d[1] = d1 + h * (pey + ey) - dt * (cz * d0 - cx * d2)
+            d[2] = d2 + h * (pez0 + ez0) - (phi - pphi) - dt * (cx * d1 - cy * d0)
+        self._prev = (ex, ey, ez0, phi)
+
+        th_a, th_q, th_p, _ = self._angles
+        try:
+            sig = inner_gimbal_control_signals(d, th_a, th_q)
+            rate_sig = inner_gimbal_control_signals((ex, ey, ez0 - phi_rate), th_a, th_q)
+            sig_r = outer_roll_control_signal(th_q, th_p)
+        except ValueError:
+            # resolvers within 1° of gimbal lock (θ_q or θ_p at ±90°): eq. 1 is singular
+            self.rejected_gimbal_lock += 1
+            return self._held(t)
+
+        if dt > 0.0:
+            self._dt_last = dt
+        else:
+            dt = self._dt_last
+        self._maybe_preset(phi_rate)
+        va = self.pid_a.step(-sig.azimuth, dt, error_rate=-rate_sig.azimuth)
+        vq = self.pid_q.step(-sig.inner_roll, dt, error_rate=-rate_sig.inner_roll)
+        vp = self.pid_p.step(-sig.pitch, dt, error_rate=-rate_sig.pitch)
+        vr = self.pid_r.step(sig_r, dt)
+        self._volts = (va, vq, vp, vr)
+        self._signals = (sig.azimuth, sig.inner_roll, sig.pitch, sig_r)
+        return ServoCommand(t, self._volts, self._signals, phi, phi_rate, False)
+
+    def _maybe_preset(self, phi_rate: float) -> None:
+        direction = (phi_rate > 0.0) - (phi_rate < 0.0)
+        if direction != 0 and direction != self._dir:
+            if self.params.preset_integrator:
+                # the cruise rate of the new direction, also when the reversal is ramped
+                self.pid_a.preset_integral(self.params.friction.voltage(direction * self.schedule.rate_rad_s))
+                self.presets += 1
+            self._dir = direction
