@@ -22,6 +22,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "los_rate_controller = gimbal_control.los_rate_controller_node:main",
         ],
     },
 )

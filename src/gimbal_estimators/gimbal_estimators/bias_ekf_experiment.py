@@ -33,7 +33,7 @@ from gimbal_sim.sensor_suite import (
 from gimbal_sim.sensors import GyroParams
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
-from .gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+from .gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
 
 _DEG_H = math.pi / 180.0 / 3600.0
 
@@ -140,7 +140,7 @@ class BiasEkfRun:
     final_bias_error_deg_h: np.ndarray
     mean_nees_state: float
     mean_nees_bias: float
-    counters: tuple
+    counters: Counters
     ekf_us_per_gyro: float
 
 
@@ -232,7 +232,7 @@ def run_open_loop_ekf(
         final_bias_error_deg_h=(est[-1] - tru[-1]) / _DEG_H,
         mean_nees_state=float(np.mean(nees_s[late])) if late.any() else math.nan,
         mean_nees_bias=float(np.mean(nees_b[late])) if late.any() else math.nan,
-        counters=tuple(ekf.counters), ekf_us_per_gyro=1e6 * ekf_time / max(n_gyro, 1),
+        counters=ekf.counters, ekf_us_per_gyro=1e6 * ekf_time / max(n_gyro, 1),
     )
 
 

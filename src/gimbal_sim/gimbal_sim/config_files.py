@@ -15,6 +15,7 @@ NODE_MODULES = {
     "vehicle_dynamics": ("gimbal_sim", "gimbal_sim.vehicle_dynamics_node"),
     "sensor_models": ("gimbal_sim", "gimbal_sim.sensor_models_node"),
     "bag_recorder": ("gimbal_sim", "gimbal_sim.bag.recorder_node"),
+    "los_rate_controller": ("gimbal_control", "gimbal_control.los_rate_controller_node"),
 }
 
 

@@ -103,8 +103,67 @@ def generic_report(bag_dir: Path, out: Path) -> dict:
     return metrics
 
 
+def _vehicle_site(bag_dir: Path) -> tuple[float, bool]:
+    """(latitude [rad], earth rate on) of the run, from its scenario.yaml (defaults if absent)."""
+    scenario_file = bag_dir / "scenario.yaml"
+    params = {}
+    if scenario_file.is_file():
+        nodes = yaml.safe_load(scenario_file.read_text()).get("nodes", {})
+        params = next((n.get("params", {}) for n in nodes.values() if n.get("executable") == "vehicle_dynamics"), {})
+    profile_params = yaml.safe_load(params.get("profile_params", "{}")) or {}
+    return math.radians(float(profile_params.get("lat_deg", 0.0))), bool(params.get("earth_rate", True))
+
+
+def inertial_los(t: np.ndarray, quats: np.ndarray, lat: float, earth_rate: bool) -> np.ndarray:
+    """LOS unit vectors (N, 3) in the inertial frame that coincides with NED at t = 0.
+
+    NED turns with the earth at ω_ie^n (constant in n at a fixed site), so the direction of
+    a vector fixed in inertial space, seen from NED at t, is rotated by exp(-[ω_ie^n ×] t).
+    """
+    from scipy.spatial.transform import Rotation
+
+    from gimbal_kinematics.earth import earth_rate_n
+
+    los_n = Rotation.from_quat(quats).apply([1.0, 0.0, 0.0])
+    if not earth_rate:
+        return los_n
+    return Rotation.from_rotvec(np.outer(t, earth_rate_n(lat))).apply(los_n)
+
+
+def los_pointing_report(bag_dir: Path, out: Path) -> dict:
+    """Paper 1 stabilization figure: the angle between the LOS and its initial inertial
+    direction over the run (truth from /truth/gimbal/imu)."""
+    metrics = generic_report(bag_dir, out)
+    series, _ = load_series(bag_dir, {"/truth/gimbal/imu", "/gimbal/torque_cmd"})
+    gimbal = series.get("/truth/gimbal/imu", [])
+    if not gimbal:
+        raise BagError(f"{bag_dir}: no /truth/gimbal/imu to measure pointing from")
+    t = np.array([s for s, _ in gimbal])
+    quats = np.array([[m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w] for _, m in gimbal])
+    lat, earth_rate = _vehicle_site(bag_dir)
+    los = inertial_los(t - t[0], quats, lat, earth_rate)
+    err = np.arccos(np.clip(los @ los[0], -1.0, 1.0))
+    settled = t - t[0] >= 1.0
+    metrics["pointing_error_urad"] = {
+        "rms": float(1e6 * np.sqrt(np.mean(err**2))),
+        "rms_after_1s": float(1e6 * np.sqrt(np.mean(err[settled] ** 2))) if settled.any() else None,
+        "max": float(1e6 * err.max()),
+        "final": float(1e6 * err[-1]),
+    }
+    _plot(out / "pointing_error.png", "LOS pointing error (angle to the initial inertial LOS)", t,
+          {"pointing error": 1e6 * err}, "[µrad]")
+    metrics["plots"].append("pointing_error.png")
+    cmd = series.get("/gimbal/torque_cmd", [])
+    if cmd:
+        tc = np.array([s for s, _ in cmd])
+        tau = np.array([list(m.effort) for _, m in cmd])
+        _plot(out / "torque_command.png", "Torque command", tc, {"tau_a": tau[:, 0], "tau_e": tau[:, 1]}, "[N·m]")
+        metrics["plots"].append("torque_command.png")
+    return metrics
+
+
 #: report name -> function(bag_dir, report_dir) -> metrics
-REPORTS: dict[str, Callable[[Path, Path], dict]] = {"generic": generic_report}
+REPORTS: dict[str, Callable[[Path, Path], dict]] = {"generic": generic_report, "los_pointing": los_pointing_report}
 
 
 def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:

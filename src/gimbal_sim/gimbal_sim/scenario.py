@@ -54,6 +54,8 @@ NODE_TYPES: dict[str, NodeType] = {
     "vehicle_dynamics": NodeType("gimbal_sim", "gimbal_sim.vehicle_dynamics_node", "VehicleDynamicsNode"),
     "sensor_models": NodeType("gimbal_sim", "gimbal_sim.sensor_models_node", "SensorModelsNode"),
     "bag_recorder": NodeType("gimbal_sim", "gimbal_sim.bag.recorder_node", "BagRecorderNode"),
+    "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
+                                    "LosRateControllerNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes"}

@@ -101,7 +101,8 @@ class BagRecorderNode(Node):
         types = {name: types[0] for name, types in self.get_topic_names_and_types() if types}
         if self.wanted:
             return {t: types[t] for t in self.wanted if t in types}
-        return {t: ty for t, ty in types.items() if t not in self.exclude}
+        # a topic only subscribed to (e.g. an estimate nobody publishes in this run) has nothing to record
+        return {t: ty for t, ty in types.items() if t not in self.exclude and self.count_publishers(t) > 0}
 
     def _discover(self) -> None:
         for topic, type_name in self._candidate_topics().items():
