@@ -380,14 +380,14 @@ def test_biases_converge_on_paper_1_sensors(paper_run):
 
 @pytest.mark.parametrize("gyro", [None, GENERAL_GIMBAL_GYRO], ids=["paper", "general"])
 def test_consistency_at_reduced_size(gyro):
-    """3 runs × 45 s (gyro at 250 Hz, INS at 125 Hz), paper 1's gyro and one with 30 °/h
+    """3 runs × 45 s (gyro at 200 Hz, INS at 100 Hz), paper 1's gyro and one with 30 °/h
     bias, 10 °/h Gauss-Markov τ = 300 s: bias within ±3σ ≥ 95 % of the time after 30 s;
     the NEES averaged over runs and time (t ≥ 30 s) inside the 3-run 99 % chi-square
     interval (99 % at this size, where two statistics × two gyros are checked; the 20-run
     × 120 s figures against the 95 % interval come from
     ``python -m gimbal_estimators.bias_ekf_experiment``)."""
     sensors = SensorSuiteConfig() if gyro is None else SensorSuiteConfig(gimbal_gyro=gyro)
-    mc = run_monte_carlo((11, 12, 13), 45.0, sensors_config=sensors, sim_rate_hz=250.0, ins_rate_hz=125.0)
+    mc = run_monte_carlo((11, 12, 13), 45.0, sensors_config=sensors, sim_rate_hz=200.0, ins_rate_hz=100.0)
     assert np.all(mc.within_3sigma_mean[1:] >= 0.95)
     for value, dof in ((mc.anees_state, 6), (mc.anees_bias, 2)):
         lo, hi = chi2.ppf([0.005, 0.995], 3 * dof) / 3

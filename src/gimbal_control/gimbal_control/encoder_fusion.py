@@ -68,6 +68,8 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
+from gimbal_estimators.stamp_check import Stamp, check_stamp
+
 from .fusion_kf import ClosedLoopComplementaryKf, FusionKfParams
 from .pid import Pid, PidParams, pole_placement_gains
 
@@ -225,16 +227,15 @@ class EncoderFusionController:
 
     # ------------------------------------------------------------------ time checks
     def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
-        if not math.isfinite(t):
+        verdict = check_stamp(t, last, self.params.backward_jump_s)
+        if verdict is Stamp.NONFINITE:
             self.rejected_nonfinite += 1
-            return False
-        if last is not None and t <= last:
-            if last - t > self.params.backward_jump_s:
-                self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
-                return True
+        elif verdict is Stamp.OUT_OF_ORDER:
             self.rejected_out_of_order += 1
-            return False
-        return True
+        elif verdict is Stamp.JUMPED_BACK:
+            self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
+            return True
+        return verdict is Stamp.OK
 
     # ------------------------------------------------------------------ inputs
     def on_base_rates(self, t: float, omega_b: Sequence[float]) -> None:
