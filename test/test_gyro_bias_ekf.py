@@ -127,7 +127,8 @@ def test_measurement_error_jacobians_by_numerical_differentiation():
         euler, angles = rng.uniform(-0.8, 0.8, 3), rng.uniform(-1.2, 1.2, 3)
         C_nb = dcm_nb(*euler)
         C_nm = C_nb @ dcm_bm(*angles)
-        Je, Jenc = ins_error_jacobian(euler), encoder_error_jacobian(C_nb, C_nm)
+        q_nb = quat_nb_from_euler(euler)
+        Je, Jenc = ins_error_jacobian(euler), encoder_error_jacobian(q_nb, measured_quat_nm(q_nb, angles))
         for k in range(3):
             d = np.zeros(3)
             d[k] = h

@@ -342,10 +342,15 @@ def ins_error_jacobian(euler: Sequence[float]) -> np.ndarray:
     return np.array([[cp * cy, -sy, 0.0], [cp * sy, cy, 0.0], [-sp, 0.0, 1.0]])
 
 
-def encoder_error_jacobian(C_nb: np.ndarray, C_nm: np.ndarray) -> np.ndarray:
-    """(3, 3): n-frame rotation of C_nm per encoder error (ε_t, ε_m, ε_θ) [rad/rad]."""
-    u = C_nb[:, 2]
-    return np.column_stack((u, u, C_nm[:, 1]))
+def encoder_error_jacobian(q_nb: Sequence[float], q_nm: Sequence[float]) -> np.ndarray:
+    """(3, 3): n-frame rotation of C_nm per encoder error (ε_t, ε_m, ε_θ) [rad/rad], from the
+    (x, y, z, w) quaternions of C_nb and C_nm: turret and gimbal azimuth turn about
+    u = C_nb e3, the elevation about v = C_nm e2."""
+    bx, by, bz, bw = q_nb
+    mx, my, mz, mw = q_nm
+    u0, u1, u2 = 2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by)
+    v0, v1, v2 = 2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw)
+    return np.array([[u0, u0, v0], [u1, u1, v1], [u2, u2, v2]])
 
 
 def roll_rate_matrix(theta_m: float) -> np.ndarray:
@@ -727,14 +732,8 @@ class GyroBiasEkf:
         q_nb = quat_nb_from_euler(euler)
         q_meas = measured_quat_nm(q_nb, angles)
         Je = ins_error_jacobian(euler)
-        # Encoder error axes: turret and gimbal azimuth about u = C_nb e3, elevation about
-        # v = C_nm e2 (columns of the quaternions' matrices).
-        bx, by, bz, bw = q_nb
-        mx, my, mz, mw = q_meas
-        u = (2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by))
-        v = (2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw))
-        R = np.array([[2.0 * u[i] * u[j] + v[i] * v[j] for j in range(3)] for i in range(3)])
-        R = self._enc_var * R + self._R_floor
+        Jenc = encoder_error_jacobian(q_nb, q_meas)
+        R = self._enc_var * (Jenc @ Jenc.T) + self._R_floor
         if self.n_states == 6:
             R = R + Je @ self._Pe @ Je.T
         if self._q is None:
@@ -742,6 +741,7 @@ class GyroBiasEkf:
         self._propagate_covariance()
         n = self.n_states
         hx, hy, hz, hw = self._q
+        mx, my, mz, mw = q_meas
         # z = log(C_meas Ĉᵀ): rotation vector of q_meas ⊗ conj(q̂).
         ex = -mw * hx + mx * hw - my * hz + mz * hy
         ey = -mw * hy + mx * hz + my * hw - mz * hx
