@@ -68,7 +68,7 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_estimators.stamp_check import Stamp, check_stamp
+from gimbal_estimators.stamp_check import StampGate
 
 from .fusion_kf import ClosedLoopComplementaryKf, FusionKfParams
 from .pid import Pid, PidParams, pole_placement_gains
@@ -155,7 +155,7 @@ class FusionCommand(NamedTuple):
 
 
 # ============================================================================ the core
-class EncoderFusionController:
+class EncoderFusionController(StampGate):
     """Two-axis PID stabilizer with per-axis encoder/gyro fusion (module docstring)."""
 
     def __init__(self, params: EncoderFusionParams | None = None) -> None:
@@ -224,18 +224,6 @@ class EncoderFusionController:
     def corrections(self) -> tuple[float, float]:
         """Accumulated drift corrections E (q, r) [rad/s] (≈ −gyro bias when converged)."""
         return self.kf_q.drift_correction, self.kf_r.drift_correction
-
-    # ------------------------------------------------------------------ time checks
-    def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
-        verdict = check_stamp(t, last, self.params.backward_jump_s)
-        if verdict is Stamp.NONFINITE:
-            self.rejected_nonfinite += 1
-        elif verdict is Stamp.OUT_OF_ORDER:
-            self.rejected_out_of_order += 1
-        elif verdict is Stamp.JUMPED_BACK:
-            self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
-            return True
-        return verdict is Stamp.OK
 
     # ------------------------------------------------------------------ inputs
     def on_base_rates(self, t: float, omega_b: Sequence[float]) -> None:

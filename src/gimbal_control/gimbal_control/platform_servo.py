@@ -62,7 +62,7 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
-from gimbal_estimators.stamp_check import Stamp, check_stamp
+from gimbal_estimators.stamp_check import StampGate
 from gimbal_kinematics.four_gimbal import (
     BidirectionalRotation, command_rate_s, inner_gimbal_control_signals, outer_roll_control_signal,
 )
@@ -195,7 +195,7 @@ class ServoCommand(NamedTuple):
     held: bool
 
 
-class PlatformServo:
+class PlatformServo(StampGate):
     """The four loops of paper 3 (module docstring)."""
 
     def __init__(self, params: PlatformServoParams | None = None) -> None:
@@ -237,17 +237,6 @@ class PlatformServo:
         """Reset the loops and restart the schedule; ``reason`` goes to ``reset_reasons``."""
         self.reset_reasons.append(reason)
         self._reset_state()
-
-    def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
-        verdict = check_stamp(t, last, self.params.backward_jump_s)
-        if verdict is Stamp.NONFINITE:
-            self.rejected_nonfinite += 1
-        elif verdict is Stamp.OUT_OF_ORDER:
-            self.rejected_out_of_order += 1
-        elif verdict is Stamp.JUMPED_BACK:
-            self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
-            return True
-        return verdict is Stamp.OK
 
     def on_resolvers(self, t: float, angles: Sequence[float]) -> None:
         """Gimbal resolver angles (θ_a, θ_q, θ_p, θ_r) [rad] at stamp ``t`` [s]."""

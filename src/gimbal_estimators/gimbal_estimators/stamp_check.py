@@ -24,3 +24,20 @@ def check_stamp(t: float, last: float | None, backward_jump_s: float) -> Stamp:
     if last is not None and t <= last:
         return Stamp.JUMPED_BACK if last - t > backward_jump_s else Stamp.OUT_OF_ORDER
     return Stamp.OK
+
+
+class StampGate:
+    """Mixin for a core with ``rejected_nonfinite`` and ``rejected_out_of_order`` counters,
+    ``reset(reason)`` and ``params.backward_jump_s``: counts a rejected stamp and resets on a
+    clock jump (the stamp is then accepted as the first of a new run)."""
+
+    def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
+        verdict = check_stamp(t, last, self.params.backward_jump_s)
+        if verdict is Stamp.NONFINITE:
+            self.rejected_nonfinite += 1
+        elif verdict is Stamp.OUT_OF_ORDER:
+            self.rejected_out_of_order += 1
+        elif verdict is Stamp.JUMPED_BACK:
+            self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
+            return True
+        return verdict is Stamp.OK
