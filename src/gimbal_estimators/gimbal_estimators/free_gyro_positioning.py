@@ -67,6 +67,7 @@ from gimbal_kinematics.free_gyro import (
     gyro_azimuth,
     heading_from_earth_rate,
     position_fix,
+    unit_vector,
 )
 
 _ARCSEC = math.pi / (180.0 * 3600.0)
@@ -85,17 +86,6 @@ def _positive(name: str, value: object) -> float:
     if v <= 0.0:
         raise ValueError(f"{name} must be > 0, got {value!r}")
     return v
-
-
-def _unit_param(name: str, value: object) -> tuple[float, float, float]:
-    try:
-        x, y, z = (float(c) for c in value)  # type: ignore[union-attr]
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from exc
-    n = math.sqrt(x * x + y * y + z * z)
-    if not math.isfinite(n) or abs(n - 1.0) > 1e-6:
-        raise ValueError(f"{name} must be a unit vector, got norm {n!r}")
-    return x / n, y / n, z / n
 
 
 @dataclass(frozen=True)
@@ -133,8 +123,8 @@ class FreeGyroPositioningParams:
     omega_ie_rad_s: float = OMEGA_IE
 
     def __post_init__(self) -> None:
-        a = _unit_param("u_a_i", self.u_a_i)
-        b = _unit_param("u_b_i", self.u_b_i)
+        a = unit_vector(self.u_a_i, "u_a_i")
+        b = unit_vector(self.u_b_i, "u_b_i")
         object.__setattr__(self, "u_a_i", a)
         object.__setattr__(self, "u_b_i", b)
         for name in ("nadir_noise_arcsec", "fix_interval_s", "heading_window_s", "triad_arw_deg_rt_h",

@@ -113,11 +113,13 @@ DEFAULT_TOLERANCES = FixTolerances()
 
 
 # --- input checks --------------------------------------------------------------------------
-def _unit(u: Vector3, name: str) -> tuple[float, float, float]:
+def unit_vector(u: Vector3, name: str) -> tuple[float, float, float]:
+    """``u`` as a (re-normalised) unit 3-vector; raises ``ValueError`` naming ``name``
+    when it is not three numbers or its norm is off 1 by more than ``UNIT_TOL``."""
     try:
         x, y, z = (float(c) for c in u)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a 3-vector of floats") from exc
+        raise ValueError(f"{name} must be a 3-vector of numbers, got {u!r}") from exc
     norm = math.sqrt(x * x + y * y + z * z)
     if not math.isfinite(norm) or abs(norm - 1.0) > UNIT_TOL:
         raise ValueError(f"{name} must be a unit vector, got norm {norm:.9g}")
@@ -171,7 +173,7 @@ def gyro_vector_n(
 ) -> np.ndarray:
     """Gyro spin-axis unit vector resolved in NED, (N_p, E_p, D_p); shape (3,)."""
     _check_lat_lon_t(lat, lon, t)
-    return np.array(_ned_components(_unit(u_i, "u_i"), lat, lon, t, omega_ie))
+    return np.array(_ned_components(unit_vector(u_i, "u_i"), lat, lon, t, omega_ie))
 
 
 def nadir_angle(u_i: Vector3, lat: float, lon: float, t: float, omega_ie: float = OMEGA_IE) -> float:
@@ -180,7 +182,7 @@ def nadir_angle(u_i: Vector3, lat: float, lon: float, t: float, omega_ie: float 
     ``lat``, ``lon`` geodetic [rad], ``t`` [s] since Greenwich was on x_i.
     """
     _check_lat_lon_t(lat, lon, t)
-    north, east, down = _ned_components(_unit(u_i, "u_i"), lat, lon, t, omega_ie)
+    north, east, down = _ned_components(unit_vector(u_i, "u_i"), lat, lon, t, omega_ie)
     # atan2 keeps full precision near θ = 0 and π, where acos(cos θ) does not.
     return math.atan2(math.hypot(north, east), down)
 
@@ -191,7 +193,7 @@ def gyro_azimuth(u_i: Vector3, lat: float, lon: float, t: float, omega_ie: float
     Raises ``ValueError`` when the gyro vector is along the local vertical.
     """
     _check_lat_lon_t(lat, lon, t)
-    north, east, _ = _ned_components(_unit(u_i, "u_i"), lat, lon, t, omega_ie)
+    north, east, _ = _ned_components(unit_vector(u_i, "u_i"), lat, lon, t, omega_ie)
     if math.hypot(north, east) < VERTICAL_SIN_TOL:
         raise ValueError("gyro azimuth undefined: the gyro vector is along the local vertical")
     return math.atan2(east, north)
@@ -212,8 +214,8 @@ def _up_candidates(
     theta_b: float,
     tolerances: FixTolerances,
 ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    ax, ay, az = _unit(u_a_i, "u_a_i")
-    bx, by, bz = _unit(u_b_i, "u_b_i")
+    ax, ay, az = unit_vector(u_a_i, "u_a_i")
+    bx, by, bz = unit_vector(u_b_i, "u_b_i")
     theta_a = _check_nadir(theta_a, "theta_a")
     theta_b = _check_nadir(theta_b, "theta_b")
     g = ax * bx + ay * by + az * bz
@@ -329,7 +331,7 @@ def perturbation_matrix(
     cl = math.cos(lat)
     rows = []
     for u, name in ((u_a_i, "u_a_i"), (u_b_i, "u_b_i")):
-        north, east, _ = _ned_components(_unit(u, name), lat, lon, t, omega_ie)
+        north, east, _ = _ned_components(unit_vector(u, name), lat, lon, t, omega_ie)
         s = math.hypot(north, east)
         if s < VERTICAL_SIN_TOL:
             raise ValueError(f"{name} is along the local vertical: its nadir angle is not differentiable")

@@ -30,7 +30,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE
-from gimbal_kinematics.free_gyro import dcm_ni
+from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from . import _validate as v
@@ -41,18 +41,6 @@ from .units import ARCSEC, DEG_H
 #: Body triad default: a navigation-grade triad (ARW 0.002 °/√h); the paper gives no figure.
 FREE_GYRO_TRIAD = GyroParams(arw_deg_rt_h=0.002)
 
-_UNIT_TOL = 1e-6
-
-
-def _unit3(name: str, value: object) -> tuple[float, float, float]:
-    try:
-        x, y, z = (float(c) for c in value)  # type: ignore[union-attr]
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from exc
-    n = math.sqrt(x * x + y * y + z * z)
-    if not math.isfinite(n) or abs(n - 1.0) > _UNIT_TOL:
-        raise ValueError(f"{name} must be a unit vector, got norm {n!r}")
-    return x / n, y / n, z / n
 
 
 def spin_axis_for_site(lat: float, lon: float, t: float, nadir: float, azimuth: float,
@@ -89,8 +77,8 @@ class FreeGyroSensorParams:
     triad: GyroParams = field(default_factory=lambda: FREE_GYRO_TRIAD)
 
     def __post_init__(self) -> None:
-        a = _unit3("u_a_i", self.u_a_i)
-        b = _unit3("u_b_i", self.u_b_i)
+        a = unit_vector(self.u_a_i, "u_a_i")
+        b = unit_vector(self.u_b_i, "u_b_i")
         object.__setattr__(self, "u_a_i", a)
         object.__setattr__(self, "u_b_i", b)
         cx = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
