@@ -1,0 +1,88 @@
+"""Shared pieces of the reports: decoding a bag into series, and plotting."""
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ..bag.reader import BagContents, read_messages
+from ..bag.schemas import message_class
+
+
+def load_series(bag_dir: Path, topics: set[str] | None = None) -> tuple[dict[str, list], BagContents]:
+    """Decoded messages by topic (each a list of (t [s], message)), and the bag summary."""
+    from rclpy.serialization import deserialize_message
+
+    raw, contents = read_messages(bag_dir, topics)
+    series: dict[str, list] = defaultdict(list)
+    classes: dict[str, type] = {}
+    for msg in raw:
+        cls = classes.get(msg.type_name) or classes.setdefault(msg.type_name, message_class(msg.type_name))
+        series[msg.topic].append((msg.log_time_ns * 1e-9, deserialize_message(msg.data, cls)))
+    return series, contents
+
+
+def quat_to_los(q) -> tuple[float, float]:
+    x, y, z, w = q.x, q.y, q.z, q.w
+    lx, ly, lz = 1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w)
+    return math.atan2(ly, lx), math.atan2(-lz, math.hypot(lx, ly))
+
+
+def plot(path: Path, title: str, t: np.ndarray, curves: dict[str, np.ndarray], ylabel: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    for label, y in curves.items():
+        ax.plot(t, y, label=label, linewidth=1.0)
+    ax.set_title(title)
+    ax.set_xlabel("sim time [s]")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def times(samples: list) -> np.ndarray:
+    """Log times [s] of a topic's (t, message) list, shape (N,)."""
+    return np.array([t for t, _ in samples])
+
+
+def vectors(samples: list) -> np.ndarray:
+    """The Vector3Stamped payloads of a topic's (t, message) list, shape (N, 3)."""
+    return np.array([[m.vector.x, m.vector.y, m.vector.z] for _, m in samples]).reshape(-1, 3)
+
+
+def vehicle_site(bag_dir: Path) -> tuple[float, bool]:
+    """(latitude [rad], earth rate on) of the run, from its scenario.yaml (defaults if absent)."""
+    scenario_file = bag_dir / "scenario.yaml"
+    params = {}
+    if scenario_file.is_file():
+        nodes = yaml.safe_load(scenario_file.read_text()).get("nodes", {})
+        params = next((n.get("params", {}) for n in nodes.values() if n.get("executable") == "vehicle_dynamics"), {})
+    profile_params = yaml.safe_load(params.get("profile_params", "{}")) or {}
+    return math.radians(float(profile_params.get("lat_deg", 0.0))), bool(params.get("earth_rate", True))
+
+
+def inertial_los(t: np.ndarray, quats: np.ndarray, lat: float, earth_rate: bool) -> np.ndarray:
+    """LOS unit vectors (N, 3) in the inertial frame that coincides with NED at t = 0.
+
+    NED turns with the earth at ω_ie^n (constant in n at a fixed site), so the direction of
+    a vector fixed in inertial space, seen from NED at t, is rotated by exp(-[ω_ie^n ×] t).
+    """
+    from scipy.spatial.transform import Rotation
+
+    from gimbal_kinematics.earth import earth_rate_n
+
+    los_n = Rotation.from_quat(quats).apply([1.0, 0.0, 0.0])
+    if not earth_rate:
+        return los_n
+    return Rotation.from_rotvec(np.outer(t, earth_rate_n(lat))).apply(los_n)
+
+
