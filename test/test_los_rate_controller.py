@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from gimbal_control.closed_loop import inertial_los, pointing_error, run_closed_loop
+from gimbal_control.closed_loop import run_closed_loop
+from gimbal_kinematics.los import inertial_los, pointing_error
 from gimbal_control.linearize import linearize_gimbal
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_kinematics.rotations import dcm_from_rotation_vector

@@ -22,6 +22,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "gyro_bias_ekf = gimbal_estimators.gyro_bias_ekf_node:main",
         ],
     },
 )

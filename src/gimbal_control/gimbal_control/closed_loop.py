@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from gimbal_kinematics.los import inertial_los, pointing_error
 from gimbal_sim.sensors import PAPER1_GIMBAL_GYRO, GyroModel
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
@@ -39,27 +40,6 @@ GYRO_MODES = ("ideal", "noise", "paper1")
 #: Paper 1's gimbal gyro with only its angle random walk (no fixed bias, no bias instability).
 PAPER1_GYRO_ARW_ONLY = dataclasses.replace(PAPER1_GIMBAL_GYRO, bias_deg_h=0.0, bias_sigma_deg_h=0.0,
                                            bias_instability_deg_h=0.0, rrw_deg_h_rt_h=0.0)
-
-
-def inertial_los(los_n: np.ndarray, t: np.ndarray, omega_in_n: np.ndarray) -> np.ndarray:
-    """LOS unit vectors (N, 3) resolved in n(t) → in n(0), the inertial frame [Rodrigues
-    with the rotation vector ω_in^n t]."""
-    w = np.asarray(omega_in_n, dtype=float)
-    rate = float(np.linalg.norm(w))
-    if rate == 0.0:
-        return np.array(los_n, dtype=float)
-    k = w / rate
-    ang = rate * np.asarray(t, dtype=float)[:, None]
-    kxv = np.cross(k, los_n)
-    kdv = los_n @ k
-    return los_n * np.cos(ang) + kxv * np.sin(ang) + np.outer(kdv, k) * (1.0 - np.cos(ang))
-
-
-def pointing_error(los_i: np.ndarray) -> np.ndarray:
-    """Angle [rad] between each LOS (N, 3) and the first one."""
-    ref = los_i[0]
-    cross = np.linalg.norm(np.cross(los_i, ref), axis=1)
-    return np.arctan2(cross, los_i @ ref)
 
 
 def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,

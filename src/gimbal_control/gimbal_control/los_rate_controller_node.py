@@ -4,11 +4,17 @@ Per lockstep step k it needs the gimbal gyro (``/gimbal/imu``) and the encoders
 (``/gimbal/joint_states``) stamped k and, at the steps where the INS samples, the INS
 (``/ins/imu``) stamped k; it then publishes the torque command stamped k on
 ``/gimbal/torque_cmd``. Waiting for exactly those inputs (never "the latest that happened
-to arrive") keeps a run deterministic. The gyro-bias estimate on ``bias_topic`` is
-subtracted from the gyro when ``feedback`` is true.
+to arrive") keeps a run deterministic.
+
+With ``feedback`` the gyro-bias estimate on ``bias_topic`` is subtracted from the gyro; the
+EKF publishes one estimate per INS sample, stamped like it, so at INS steps the node also
+waits for the estimate of step k, and between them uses the newest. ``mode: los_hold``
+adds the outer LOS angle loop (:mod:`.los_hold`) on the EKF's attitude estimate
+(``attitude_topic``, also waited for at INS steps); it implies bias feedback.
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from geometry_msgs.msg import Vector3Stamped
@@ -20,6 +26,7 @@ from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
 
 from . import messages as m
+from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
 
 DESCRIPTION = (
@@ -32,8 +39,16 @@ PARAMS = (
     Param("ins_rate_hz", 100.0, "INS output rate [Hz] (the controller waits for it at its steps)", 1e-3, 100000.0),
     Param("omega_n_hz", 25.0, "closed-loop natural frequency omega_n [Hz] (< sim_rate_hz / 4)", 1e-3, 25000.0),
     Param("zeta", 0.8, "damping ratio zeta [-]", 1e-3, 10.0),
-    Param("feedback", False, "subtract the gyro-bias estimate from the gyro rates"),
+    Param("feedback", False, "subtract the gyro-bias estimate from the gyro rates (waits for it at INS steps)"),
     Param("bias_topic", "/gyro_bias_ekf/bias", "gyro-bias estimate topic (geometry_msgs/Vector3Stamped) [rad/s]"),
+    Param("mode", "rate", "rate: paper 1's LOS rate loop; los_hold: plus an outer loop holding the LOS at its "
+          "initial inertial direction on the EKF attitude estimate (implies feedback)", choices=("rate", "los_hold")),
+    Param("attitude_topic", "/gyro_bias_ekf/attitude", "EKF attitude estimate C(n,m) (sensor_msgs/Imu) for los_hold"),
+    Param("hold_gain_1_s", 0.5, "los_hold outer-loop gain (bandwidth) [1/s]", 1e-6, 1e3),
+    Param("hold_max_rate_deg_s", 1.0, "los_hold rate command limit [deg/s]", 1e-6, 1e3),
+    Param("hold_capture_s", 5.0, "los_hold: capture the initial LOS this long after the first estimate [s]", 0.0, 1e4),
+    Param("lat_deg", 0.0, "site latitude [deg] (earth rate of the los_hold inertial target)", -89.999, 89.999),
+    Param("earth_rate", True, "los_hold: the inertial target turns with the earth as seen from NED"),
     Param("anti_windup", "clamp", "integrator anti-windup", choices=("clamp", "conditional", "none")),
     Param("integrator_limit_factor", 4.0, "clamp bound of the integral term, in torque limits [-]", 1e-3, 1e3),
     Param("trim", True, "feed forward the gravity trim torque of the linearisation point"),
@@ -49,12 +64,20 @@ class LosRateControllerNode(Node):
         self.ins_every = int(round(ratio))
         if self.ins_every < 1 or abs(ratio - self.ins_every) > 1e-9 * ratio:
             raise ParameterError(f"parameter 'ins_rate_hz' = {v['ins_rate_hz']} Hz does not divide sim_rate_hz")
+        self.hold_mode = v["mode"] == "los_hold"
+        self.feedback = v["feedback"] or self.hold_mode
         try:
             self.core = LosRateController(LosRateControllerParams(
-                rate_hz=self.rate, omega_n_hz=v["omega_n_hz"], zeta=v["zeta"], feedback=v["feedback"],
+                rate_hz=self.rate, omega_n_hz=v["omega_n_hz"], zeta=v["zeta"], feedback=self.feedback,
                 anti_windup=v["anti_windup"], integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"]))
+            self.hold = LosHold(LosHoldParams(gain_1_s=v["hold_gain_1_s"], max_rate_deg_s=v["hold_max_rate_deg_s"],
+                                              capture_s=v["hold_capture_s"],
+                                              lat_deg=v["lat_deg"], earth_rate=v["earth_rate"])) \
+                if self.hold_mode else None
         except ValueError as exc:
-            raise ParameterError(str(exc)) from exc
+            raise ParameterError(f"parameter {exc}") from exc
+        # What an INS step waits for besides the sensors.
+        self._estimates = (("bias",) if self.feedback else ()) + (("att",) if self.hold_mode else ())
         self._pending: dict[int, dict[str, object]] = {}
         self._ins_rates: tuple[float, float, float] | None = None
         self.rejected = 0
@@ -62,27 +85,50 @@ class LosRateControllerNode(Node):
         self.create_subscription(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), GRAPH_QOS)
         self.create_subscription(JointState, "/gimbal/joint_states", lambda msg: self._on_input("enc", msg), GRAPH_QOS)
         self.create_subscription(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), GRAPH_QOS)
-        self.create_subscription(Vector3Stamped, v["bias_topic"], self._on_bias, GRAPH_QOS)
+        if self.feedback:
+            self.create_subscription(Vector3Stamped, v["bias_topic"], lambda msg: self._on_input("bias", msg),
+                                     GRAPH_QOS)
+        if self.hold_mode:
+            self.create_subscription(Imu, v["attitude_topic"], lambda msg: self._on_input("att", msg), GRAPH_QOS)
 
     def _warn(self, text: str) -> None:
         self.rejected += 1
         self.get_logger().warning(f"{text} ({self.rejected} rejected)", throttle_duration_sec=1.0)
 
-    def _on_bias(self, msg: Vector3Stamped) -> None:
-        if not self.core.set_bias_estimate(m.stamp_ns(msg.header.stamp) * 1e-9, m.vec_of(msg.vector)):
+    def _use_estimates(self, group: dict) -> None:
+        bias, att = group.get("bias"), group.get("att")
+        if bias is not None and not self.core.set_bias_estimate(m.stamp_ns(bias.header.stamp) * 1e-9,
+                                                                m.vec_of(bias.vector)):
             self._warn("non-finite gyro-bias estimate ignored")
+        if att is not None and self.hold is not None:
+            q = m.quat_of(att)
+            if att.orientation_covariance[0] == -1.0 or not all(map(math.isfinite, q)):
+                self._warn("attitude estimate not available; holding the LOS-hold rate command")
+            else:
+                self.core.set_rate_command(*self.hold.update(m.stamp_ns(att.header.stamp) * 1e-9, q,
+                                                             self.core.bias_estimate_qr))
+
+    def _complete(self, step: int, group: dict) -> bool:
+        if "gyro" not in group or "enc" not in group:
+            return False
+        return step % self.ins_every != 0 or all(kind in group for kind in ("ins",) + self._estimates)
 
     def _on_input(self, kind: str, msg) -> None:
         k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
+        if kind in ("bias", "att") and k % self.ins_every != 0:
+            # An estimate off the INS steps (another estimator rate): use it as it comes.
+            self._use_estimates({kind: msg})
+            return
         self._pending.setdefault(k, {})[kind] = msg
         for step in sorted(self._pending):
             group = self._pending[step]
-            if "gyro" not in group or "enc" not in group or (step % self.ins_every == 0 and "ins" not in group):
+            if not self._complete(step, group):
                 break
             del self._pending[step]
             self._control(step, group)
 
     def _control(self, k: int, group: dict) -> None:
+        self._use_estimates(group)
         if "ins" in group:
             w = group["ins"].angular_velocity
             self._ins_rates = (w.x, w.y, w.z)

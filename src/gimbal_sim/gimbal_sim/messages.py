@@ -109,3 +109,16 @@ def quat_of(msg: Imu) -> tuple[float, float, float, float]:
 def vec_of(v) -> tuple[float, float, float]:
     """(x, y, z) of a geometry_msgs Vector3."""
     return (v.x, v.y, v.z)
+
+
+GIMBAL_ENCODER_JOINTS = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
+
+
+def encoder_readings(msg: JointState) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    """(angles, rates) in the order turret, gimbal azimuth, elevation; None when the
+    message does not carry exactly those joints with positions and velocities."""
+    names = list(msg.name)
+    if sorted(names) != sorted(GIMBAL_ENCODER_JOINTS) or len(msg.position) != 3 or len(msg.velocity) != 3:
+        return None
+    idx = [names.index(j) for j in GIMBAL_ENCODER_JOINTS]
+    return tuple(msg.position[i] for i in idx), tuple(msg.velocity[i] for i in idx)

@@ -181,13 +181,16 @@ class Progress:
 
 
 def _ros_env() -> tuple[dict[str, str], Any]:
-    """Environment for the run: loopback discovery and a domain of its own unless the user chose."""
-    localhost_env()
+    """Environment for the run's processes: loopback discovery and a domain of its own unless
+    the user chose one. The discovery range is set in ``os.environ`` too (container mode
+    starts rclpy in this process); the domain id is not, so a claim released at the end of
+    this run is not inherited by the next run of the same process."""
+    env = dict(localhost_env())
     claim = None
-    if not os.environ.get("ROS_DOMAIN_ID"):
+    if not env.get("ROS_DOMAIN_ID"):
         claim = claim_domain_id()
-        os.environ["ROS_DOMAIN_ID"] = str(claim.domain_id)
-    return dict(os.environ), claim
+        env["ROS_DOMAIN_ID"] = str(claim.domain_id)
+    return env, claim
 
 
 def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bool = True,

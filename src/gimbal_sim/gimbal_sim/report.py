@@ -15,7 +15,29 @@ from pathlib import Path
 import yaml
 
 from .bag.reader import BagError
-from .reports import REPORTS, report_function
+from .reports import COMPARISONS, REPORTS, comparison_function, report_function
+
+
+def write_comparison(run_dir: Path, name: str, runs: dict[str, Path]) -> tuple[Path, dict]:
+    """Write ``<run_dir>/report/`` with the comparison ``name`` of the variant bags ``runs``."""
+    if name not in COMPARISONS:
+        raise BagError(f"unknown comparison {name!r}; known: {', '.join(sorted(COMPARISONS)) or 'none'}")
+    out = Path(run_dir) / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    metrics = comparison_function(name)({k: Path(v) for k, v in runs.items()}, out)
+    metrics["comparison"] = name
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float) + "\n")
+    return out, metrics
+
+
+def _variant_runs(run_dir: Path) -> tuple[str, dict[str, Path]] | None:
+    """(comparison, runs) when ``run_dir`` holds the variant runs of one scenario."""
+    scenario_file = run_dir / "scenario.yaml"
+    if (run_dir / "metadata.yaml").is_file() or not scenario_file.is_file():
+        return None
+    data = yaml.safe_load(scenario_file.read_text()) or {}
+    runs = {name: run_dir / name for name in data.get("variants") or {} if (run_dir / name).is_dir()}
+    return (str(data.get("comparison", "")), runs) if runs else None
 
 
 def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
@@ -41,11 +63,21 @@ def main(argv: list[str] | None = None) -> int:
         prog="gimbal-report",
         description="Write (or rewrite) the report of a recorded run: DIR/report/metrics.json and PNG plots, "
                     "computed from the bag alone.")
-    parser.add_argument("bag", help="bag directory (a gimbal-run output or any rosbag2 MCAP bag)")
+    parser.add_argument("bag", help="bag directory (a gimbal-run output or any rosbag2 MCAP bag), or the "
+                                    "directory of a run with variants (rewrites each variant's report and "
+                                    "the comparison)")
     parser.add_argument("--report", help=f"report to write (default: the run's own); one of {sorted(REPORTS)}")
     args = parser.parse_args(argv)
     try:
-        out, metrics = write_report(Path(args.bag), args.report)
+        variants = _variant_runs(Path(args.bag)) if args.report is None else None
+        if variants is not None:
+            for bag in variants[1].values():
+                write_report(bag)
+            out, metrics = write_comparison(Path(args.bag), *variants)
+            if metrics.get("table"):
+                print(metrics["table"])
+        else:
+            out, metrics = write_report(Path(args.bag), args.report)
     except BagError as exc:
         print(f"gimbal-report: {exc}", file=sys.stderr)
         return 2

@@ -1,5 +1,8 @@
 """``gimbal-run``: the launch-free scenario orchestrator's entry point.
 
+A scenario with ``variants`` runs once per variant, each into ``OUT/<variant>/`` (a complete
+bag with its own report), and then writes the comparison report into ``OUT/report/``.
+
 Exit codes: 0 success; 1 the run failed (a node died or stalled; the bag is still
 finalized); 2 bad input (unknown scenario or node, malformed --set, output exists), with
 nothing started and nothing overwritten.
@@ -8,11 +11,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
 import time
 from pathlib import Path
 
-from .scenario import ScenarioError, apply_set, describe_builtins, load
+from .scenario import Scenario, ScenarioError, apply_set, describe_builtins, load, variant
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,6 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, help="run directory (default bags/<timestamp>_<scenario>)")
     parser.add_argument("--mode", choices=("processes", "container"), default="processes",
                         help="one OS process per node, or all nodes in this process (default processes)")
+    parser.add_argument("--variant", action="append", default=[], metavar="NAME",
+                        help="run only this variant of a scenario that has variants; repeatable")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
 
@@ -73,17 +79,56 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists():
         print(f"gimbal-run: output directory {out} already exists; not overwriting it", file=sys.stderr)
         return 2
+    try:
+        names = args.variant or list(scenario.variants)
+        runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
+        if args.variant and not scenario.variants:
+            raise ScenarioError(f"scenario {scenario.name!r} has no variants; drop --variant")
+    except ScenarioError as exc:
+        print(f"gimbal-run: {exc}", file=sys.stderr)
+        return 2
 
-    from .orchestrator import RunError, run
+    from .orchestrator import RunError
+    from .report import write_comparison
+
+    rows, ok = [], True
+    for i, (name, single) in enumerate(runs):
+        bag = out / name if name else out
+        if name:
+            print(f"== variant {name} ({i + 1}/{len(runs)})", file=sys.stderr)
+        try:
+            metrics, row = _run_one(single, bag, args)
+        except RunError as exc:
+            print(f"gimbal-run: run failed: {exc}\nThe bag so far is in {bag}.", file=sys.stderr)
+            return 1
+        ok = ok and metrics["closed_cleanly"]
+        rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
+    if scenario.variants:
+        (out / "scenario.yaml").write_text(scenario.to_yaml())
+        report_dir, comparison = write_comparison(out, scenario.comparison, {n: out / n for n, _ in runs})
+        rows.append(("comparison", f"{report_dir}/metrics.json + {len(comparison.get('plots', []))} plots"))
+        if comparison.get("table"):
+            print(comparison["table"])
+    print(summary_table(rows))
+    return 0 if ok else 1
+
+
+def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
+    """Run one scenario into ``out``, write its run.json and report; returns the report's
+    metrics and the summary rows."""
+    from .orchestrator import run
     from .report import write_report
 
-    try:
-        result = run(scenario, out, args.mode, progress=not args.no_progress)
-    except RunError as exc:
-        print(f"gimbal-run: run failed: {exc}\nThe bag so far is in {out}.", file=sys.stderr)
-        return 1
+    result = run(scenario, out, args.mode, progress=not args.no_progress)
+    (out / "run.json").write_text(json.dumps({
+        "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "sim_s": result.sim_s,
+        "wall_s": result.wall_s, "real_time_factor": result.real_time_factor,
+        "steps_per_s": result.sim_s * scenario.sim_rate_hz / result.wall_s if result.wall_s > 0 else None,
+        "processes": {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v
+                      for k, v in (result.processes or {}).items()},
+    }, indent=2, default=str) + "\n")
     report_dir, metrics = write_report(out)
-    print(summary_table([
+    return metrics, [
         ("scenario", f"{scenario.name} ({args.mode} mode, seed {scenario.seed})"),
         ("simulated", f"{result.sim_s:.3f} s at {scenario.sim_rate_hz:g} Hz"),
         ("wall time", f"{result.wall_s:.2f} s (real-time factor {result.real_time_factor:.2f})"),
@@ -91,8 +136,7 @@ def main(argv: list[str] | None = None) -> int:
                      f"{'closed cleanly' if metrics['closed_cleanly'] else 'NOT closed cleanly'}"),
         ("bag", str(out)),
         ("report", f"{report_dir}/metrics.json + {len(metrics.get('plots', []))} plots"),
-    ]))
-    return 0 if metrics["closed_cleanly"] else 1
+    ]
 
 
 if __name__ == "__main__":

@@ -15,6 +15,10 @@ the user's own file::
         executable: vehicle_dynamics
         params: {profile: paper1_land_vehicle}
         remap: {}          # topic remappings, from: to
+    variants:              # optional: run the scenario once per variant ...
+      feedback_off: {los_rate_controller.feedback: false}
+      feedback_on:  {los_rate_controller.feedback: true, seed: 3}
+    comparison: bias_feedback   # ... and compare the runs with this report
 
 Everything is validated before anything starts: unknown keys, executables or parameters,
 and values of the wrong type are refused with a message naming them.
@@ -23,7 +27,7 @@ from __future__ import annotations
 
 import copy
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -56,9 +60,11 @@ NODE_TYPES: dict[str, NodeType] = {
     "bag_recorder": NodeType("gimbal_sim", "gimbal_sim.bag.recorder_node", "BagRecorderNode"),
     "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
                                     "LosRateControllerNode"),
+    "gyro_bias_ekf": NodeType("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node", "GyroBiasEkfNode"),
 }
 
-_TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes"}
+_TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",
+             "comparison"}
 _NODE_KEYS = {"executable", "params", "remap"}
 
 
@@ -76,11 +82,17 @@ class Scenario:
     record: str | list[str]
     report: str
     nodes: dict[str, dict[str, Any]]
+    #: variant name -> overrides ("node.param" or "seed" -> value), in run order
+    variants: dict[str, dict[str, Any]] = field(default_factory=dict)
+    comparison: str = ""
 
     def to_yaml(self) -> str:
-        return yaml.safe_dump({"name": self.name, "description": self.description, "duration_s": self.duration_s,
-                               "sim_rate_hz": self.sim_rate_hz, "seed": self.seed, "record": self.record,
-                               "report": self.report, "nodes": self.nodes}, sort_keys=False)
+        data = {"name": self.name, "description": self.description, "duration_s": self.duration_s,
+                "sim_rate_hz": self.sim_rate_hz, "seed": self.seed, "record": self.record,
+                "report": self.report, "nodes": self.nodes}
+        if self.variants:
+            data.update(variants=self.variants, comparison=self.comparison)
+        return yaml.safe_dump(data, sort_keys=False)
 
 
 def builtin_scenarios() -> dict[str, Path]:
@@ -182,10 +194,49 @@ def validate(data: Any, where: str = "scenario") -> Scenario:
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ScenarioError(f"{where}: 'seed' must be an integer >= 0")
-    return Scenario(name=str(data["name"]), description=str(data.get("description", "")),
-                    duration_s=_number(f"{where}: duration_s", data["duration_s"]),
-                    sim_rate_hz=_number(f"{where}: sim_rate_hz", data.get("sim_rate_hz", 1000.0)),
-                    seed=seed, record=record, report=str(data.get("report", "generic")), nodes=checked)
+    scenario = Scenario(name=str(data["name"]), description=str(data.get("description", "")),
+                        duration_s=_number(f"{where}: duration_s", data["duration_s"]),
+                        sim_rate_hz=_number(f"{where}: sim_rate_hz", data.get("sim_rate_hz", 1000.0)),
+                        seed=seed, record=record, report=str(data.get("report", "generic")), nodes=checked)
+    variants = data.get("variants") or {}
+    if not isinstance(variants, dict) or not all(isinstance(v, dict) for v in variants.values()):
+        raise ScenarioError(f"{where}: 'variants' must map variant names to mappings of overrides")
+    for name, overrides in variants.items():
+        if not str(name).replace("_", "").replace("-", "").isalnum():
+            raise ScenarioError(f"{where}: variant name {name!r} must be letters, digits, '_' or '-'")
+        for key, value in overrides.items():
+            _override(scenario, key, value, f"{where}: variant {name!r}")
+    comparison = str(data.get("comparison", ""))
+    if variants and not comparison:
+        raise ScenarioError(f"{where}: a scenario with 'variants' needs a 'comparison' report")
+    return replace(scenario, variants={str(k): dict(v) for k, v in variants.items()}, comparison=comparison)
+
+
+def _override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
+    """``scenario`` with one override applied: ``seed`` or ``node.param``."""
+    if key == "seed":
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ScenarioError(f"{where}: 'seed' must be an integer >= 0, got {value!r}")
+        return replace(scenario, seed=value)
+    node, dot, param = str(key).partition(".")
+    if not dot or node not in scenario.nodes:
+        raise ScenarioError(f"{where}: override {key!r} is not 'seed' or 'node.param' of a node in the scenario "
+                            f"(nodes: {', '.join(scenario.nodes)})")
+    new = copy.deepcopy(scenario)
+    spec = new.nodes[node]
+    spec["params"][param] = check_param(node, spec["executable"], param, value)
+    return new
+
+
+def variant(scenario: Scenario, name: str) -> Scenario:
+    """The single-run scenario of variant ``name`` (named ``<scenario>:<variant>``)."""
+    if name not in scenario.variants:
+        raise ScenarioError(f"scenario {scenario.name!r} has no variant {name!r}; "
+                            f"variants: {', '.join(scenario.variants) or 'none'}")
+    single = replace(scenario, variants={}, comparison="")
+    for key, value in scenario.variants[name].items():
+        single = _override(single, key, value, f"variant {name!r}")
+    return replace(single, name=f"{scenario.name}:{name}")
 
 
 def apply_set(scenario: Scenario, assignment: str) -> Scenario:
@@ -200,7 +251,4 @@ def apply_set(scenario: Scenario, assignment: str) -> Scenario:
         value = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ScenarioError(f"--set {assignment!r}: value is not valid YAML: {exc}") from exc
-    new = copy.deepcopy(scenario)
-    spec = new.nodes[node]
-    spec["params"][param] = check_param(node, spec["executable"], param, value)
-    return new
+    return _override(scenario, target, value, f"--set {assignment!r}")

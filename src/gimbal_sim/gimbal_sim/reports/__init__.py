@@ -1,7 +1,10 @@
 """Scenario reports, computed from recorded bags alone.
 
 Each report is a function ``(bag_dir, report_dir) -> metrics`` in a module of its own; a
-scenario names its report in its YAML (``report:``). The registry holds import paths so a
+scenario names its report in its YAML (``report:``). A scenario with variants also names a
+comparison (``comparison:``), a function ``(runs, report_dir) -> metrics`` over the
+variants' bags (``runs``: variant name -> bag directory, in run order); a ``table`` entry
+in its metrics (text) is printed at the end of the run. The registry holds import paths so a
 report's own dependencies load only when it runs.
 """
 from __future__ import annotations
@@ -14,10 +17,25 @@ from typing import Callable
 REPORTS: dict[str, str] = {
     "generic": "generic:generic_report",
     "los_pointing": "los_pointing:los_pointing_report",
+    "sighting": "sighting:sighting_report",
 }
+
+#: comparison name -> "module:function"
+COMPARISONS: dict[str, str] = {
+    "sighting": "sighting:sighting_comparison",
+}
+
+
+def _load(path: str) -> Callable:
+    module, _, func = path.partition(":")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), func)
 
 
 def report_function(name: str) -> Callable[[Path, Path], dict]:
     """The report called ``name``; ``KeyError`` if there is none."""
-    module, _, func = REPORTS[name].partition(":")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), func)
+    return _load(REPORTS[name])
+
+
+def comparison_function(name: str) -> Callable[[dict[str, Path], Path], dict]:
+    """The comparison called ``name``; ``KeyError`` if there is none."""
+    return _load(COMPARISONS[name])

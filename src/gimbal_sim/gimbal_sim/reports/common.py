@@ -71,18 +71,9 @@ def vehicle_site(bag_dir: Path) -> tuple[float, bool]:
 
 
 def inertial_los(t: np.ndarray, quats: np.ndarray, lat: float, earth_rate: bool) -> np.ndarray:
-    """LOS unit vectors (N, 3) in the inertial frame that coincides with NED at t = 0.
-
-    NED turns with the earth at ω_ie^n (constant in n at a fixed site), so the direction of
-    a vector fixed in inertial space, seen from NED at t, is rotated by exp(-[ω_ie^n ×] t).
-    """
-    from scipy.spatial.transform import Rotation
-
+    """LOS unit vectors (N, 3) in the inertial frame that coincides with NED at t = 0, from
+    C(n,m) quaternions (N, 4) at times ``t`` [s] from the start, at latitude ``lat`` [rad]."""
     from gimbal_kinematics.earth import earth_rate_n
+    from gimbal_kinematics.los import inertial_los as carry, los_from_quat
 
-    los_n = Rotation.from_quat(quats).apply([1.0, 0.0, 0.0])
-    if not earth_rate:
-        return los_n
-    return Rotation.from_rotvec(np.outer(t, earth_rate_n(lat))).apply(los_n)
-
-
+    return carry(los_from_quat(quats), t, earth_rate_n(lat) if earth_rate else np.zeros(3))

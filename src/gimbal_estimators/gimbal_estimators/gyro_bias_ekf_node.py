@@ -1,0 +1,205 @@
+"""``gyro_bias_ekf`` node: paper 1's gyro-bias EKF (:class:`.gyro_bias_ekf.GyroBiasEkf`).
+
+Inputs: the gimbal gyro (``/gimbal/imu``, q_m and r_m), the encoders
+(``/gimbal/joint_states``) and the INS (``/ins/imu``, orientation and body rates). Remap
+them to run against other topics, e.g. a bag played back under other names.
+
+Outputs, one of each per INS sample (stamped like it), so a controller can wait for the
+estimate of its step:
+
+* ``~/bias`` and ``~/bias_sigma`` (Vector3Stamped, rad/s, frame ``gimbal_inner_frd``): the
+  bias estimate (x: roll channel, i.e. the INS-rate part of paper 1 eq. 4; y, z: the
+  gimbal gyro's q, r) and its 1σ;
+* ``~/attitude`` (Imu): the estimated C(n,m) as orientation, with the 3×3 covariance of
+  the attitude error resolved in the navigation frame (``map_ned``, the frame the small
+  rotation is about), and the bias-corrected inertial rate of the inner gimbal;
+* ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): the health counters (updates,
+  gated, rejected, resets, re-alignments) once per simulated second and after each reset.
+
+An INS sample whose estimate cannot be produced (non-finite, or before alignment) still
+gets an output: the current estimate with that stamp, so a waiting controller never
+stalls. The node reports on ``~/progress`` (rosgraph_msgs/Clock) the next gyro step it
+needs, so the vehicle or the bag player does not outrun it.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, JointState
+
+from gimbal_sim.node_main import run_node
+from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+
+from . import messages as m
+from .gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+
+DESCRIPTION = (
+    "Paper 1 gyro-bias EKF: propagates the inner-gimbal attitude C(n,m) with the two-axis gimbal "
+    "gyro (roll rate reconstructed from the INS and encoders, earth and transport rate included) and "
+    "fuses the attitude built from the INS Euler angles and the encoders. Publishes the gyro-bias "
+    "estimate and its 1-sigma (~/bias, ~/bias_sigma), the attitude estimate (~/attitude) and health "
+    "(/diagnostics)."
+)
+
+_EKF_DEFAULTS = GyroBiasEkfParams()
+PARAMS = (
+    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]: maps gyro stamps to steps for ~/progress", 1.0, 100000.0),
+    Param("progress_every_steps", 10, "report the next step needed on ~/progress every N gyro steps", 1, 10**6),
+    Param("diagnostics_period_s", 1.0, "health on /diagnostics every this much sim time [s]", 1e-3, 1e6),
+    Param("lat_deg", _EKF_DEFAULTS.lat_deg, "site latitude [deg] (earth rate, transport rate)", -89.999, 89.999),
+    Param("height_m", _EKF_DEFAULTS.height_m, "site height [m]", -1e4, 1e5),
+    Param("velocity_n_m_s", list(_EKF_DEFAULTS.velocity_n_m_s), "NED velocity [m/s] for the transport rate"),
+    Param("gyro_arw_deg_rt_h", _EKF_DEFAULTS.gyro_arw_deg_rt_h, "gimbal gyro angle random walk [deg/sqrt(h)]", 0.0, 1e4),
+    Param("gyro_bias_sigma_deg_h", _EKF_DEFAULTS.gyro_bias_sigma_deg_h,
+          "prior 1-sigma of the lumped gimbal gyro bias [deg/h]", 1e-6, 1e6),
+    Param("gyro_bias_instability_deg_h", _EKF_DEFAULTS.gyro_bias_instability_deg_h,
+          "gimbal gyro Gauss-Markov bias instability RMS [deg/h] (sets the bias random walk)", 0.0, 1e6),
+    Param("gyro_bias_tau_s", _EKF_DEFAULTS.gyro_bias_tau_s, "gimbal gyro bias correlation time [s]", 1e-3, 1e9),
+    Param("roll_arw_deg_rt_h", _EKF_DEFAULTS.roll_arw_deg_rt_h, "INS gyro angle random walk [deg/sqrt(h)]", 0.0, 1e4),
+    Param("roll_bias_sigma_deg_h", _EKF_DEFAULTS.roll_bias_sigma_deg_h,
+          "prior 1-sigma of the roll-channel (INS gyro) bias [deg/h]", 1e-6, 1e6),
+    Param("roll_bias_instability_deg_h", _EKF_DEFAULTS.roll_bias_instability_deg_h,
+          "INS gyro Gauss-Markov bias instability RMS [deg/h]", 0.0, 1e6),
+    Param("roll_bias_tau_s", _EKF_DEFAULTS.roll_bias_tau_s, "INS gyro bias correlation time [s]", 1e-3, 1e9),
+    Param("ins_roll_pitch_rms_deg", _EKF_DEFAULTS.ins_roll_pitch_rms_deg, "INS roll/pitch error RMS [deg]", 0.0, 90.0),
+    Param("ins_heading_rms_deg", _EKF_DEFAULTS.ins_heading_rms_deg, "INS heading error RMS [deg]", 0.0, 180.0),
+    Param("ins_attitude_tau_s", _EKF_DEFAULTS.ins_attitude_tau_s,
+          "INS attitude error correlation time [s] (with ins_error_states)", 1e-6, 1e9),
+    Param("ins_error_states", _EKF_DEFAULTS.ins_error_states,
+          "model the INS attitude errors as Gauss-Markov states (false: paper 1's white measurement noise)"),
+    Param("encoder_noise_deg", _EKF_DEFAULTS.encoder_noise_deg, "encoder noise 1-sigma [deg]", 1e-9, 10.0),
+    Param("attitude_noise_floor_deg", _EKF_DEFAULTS.attitude_noise_floor_deg,
+          "isotropic white attitude noise added to R for unmodelled residuals [deg]", 1e-9, 10.0),
+    Param("gate_probability", _EKF_DEFAULTS.gate_probability,
+          "chi-square innovation gate probability (3 dof) [-]", 1e-6, 0.999999999),
+    Param("max_consecutive_gated", _EKF_DEFAULTS.max_consecutive_gated,
+          "gated updates in a row before the attitude is re-aligned", 1, 10**9),
+    Param("clock_jump_s", _EKF_DEFAULTS.clock_jump_s, "a stamp this far [s] behind resets the filter (bag loop)",
+          1e-9, 1e9),
+    Param("max_gyro_gap_s", _EKF_DEFAULTS.max_gyro_gap_s, "gyro gap [s] that forces a re-alignment", 1e-6, 1e6),
+    Param("covariance_period_s", _EKF_DEFAULTS.covariance_period_s,
+          "longest interval between covariance propagations [s]", 1e-6, 1e6),
+    Param("max_sync_wait_s", _EKF_DEFAULTS.max_sync_wait_s,
+          "longest a gyro sample waits for its encoder and INS-rate samples [s]", 1e-6, 1e6),
+)
+_CORE_FIELDS = GyroBiasEkfParams.field_names()
+
+
+def params_from_values(values: dict) -> GyroBiasEkfParams:
+    """The core's parameters from the node's values (``ParameterError`` names the culprit)."""
+    kw = {name: values[name] for name in _CORE_FIELDS}
+    kw["velocity_n_m_s"] = tuple(values["velocity_n_m_s"])
+    try:
+        return GyroBiasEkfParams(**kw)
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc
+
+
+class GyroBiasEkfNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("gyro_bias_ekf", **node_kwargs)
+        values = declare_and_read(self, PARAMS)
+        self.core = GyroBiasEkf(params_from_values(values))
+        self.rate = values["sim_rate_hz"]
+        self.progress_every = values["progress_every_steps"]
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        self._resets_seen = 0
+        self._warned = 0
+        self.pub_bias = self.create_publisher(m.Vector3Stamped, "~/bias", GRAPH_QOS)
+        self.pub_sigma = self.create_publisher(m.Vector3Stamped, "~/bias_sigma", GRAPH_QOS)
+        self.pub_attitude = self.create_publisher(Imu, "~/attitude", GRAPH_QOS)
+        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", GRAPH_QOS)
+        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        self.subs = [
+            self.create_subscription(Imu, "/gimbal/imu", self._on_gyro, GRAPH_QOS),
+            self.create_subscription(JointState, "/gimbal/joint_states", self._on_encoders, GRAPH_QOS),
+            self.create_subscription(Imu, "/ins/imu", self._on_ins, GRAPH_QOS),
+        ]
+        self._ready_timer = self.create_timer(0.02, self._announce_ready)
+
+    def _announce_ready(self) -> None:
+        """Report ready (next step needed: 0) once every input has a publisher."""
+        if any(s.get_publisher_count() < 1 for s in self.subs):
+            return
+        self._ready_timer.cancel()
+        self.destroy_timer(self._ready_timer)
+        self.pub_progress.publish(m.clock_msg(0))
+
+    # ----------------------------------------------------------------- inputs
+    def _on_gyro(self, msg: Imu) -> None:
+        t_ns = m.stamp_ns(msg.header.stamp)
+        w = msg.angular_velocity
+        self._after(self.core.on_gyro(t_ns * 1e-9, w.y, w.z))
+        k = m.step_of_stamp(t_ns, self.rate)
+        if (k + 1) % self.progress_every == 0:
+            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + 1, self.rate)))
+
+    def _on_encoders(self, msg: JointState) -> None:
+        readings = m.encoder_readings(msg)
+        if readings is None:
+            self._warn("encoder message without the three gimbal joints ignored")
+            return
+        self._after(self.core.on_encoders(m.stamp_ns(msg.header.stamp) * 1e-9, *readings))
+
+    def _on_ins(self, msg: Imu) -> None:
+        t_ns = m.stamp_ns(msg.header.stamp)
+        euler = m.euler_of_imu(msg)
+        before = self.core.counters
+        out = self.core.on_ins(t_ns * 1e-9, euler, m.vec_of(msg.angular_velocity))
+        after = self.core.counters
+        if out is not None:
+            self._after(out)
+        elif after.rejected_nonfinite > before.rejected_nonfinite or after.rejected_out_of_order > \
+                before.rejected_out_of_order or not self.core.aligned:
+            # Nothing will come for this stamp: publish the current estimate so a controller
+            # waiting for it carries on.
+            self._warn(f"INS sample at {t_ns * 1e-9:.3f} s rejected or filter not aligned; "
+                       "publishing the current estimate")
+            self._publish_current(t_ns)
+
+    # ----------------------------------------------------------------- outputs
+    def _warn(self, text: str) -> None:
+        self._warned += 1
+        self.get_logger().warning(f"{text} ({self._warned} warnings)", throttle_duration_sec=1.0)
+
+    def _after(self, out: EkfOutput | None) -> None:
+        c = self.core.counters
+        if c.resets + c.realignments > self._resets_seen:
+            self._resets_seen = c.resets + c.realignments
+            t, reason = self.core.reset_log[-1]
+            self.get_logger().warning(f"filter reset at {t:.3f} s: {reason}")
+            self._next_diag_ns = 0
+        if out is None:
+            return
+        t_ns = int(round(out.t * 1e9))
+        self._publish(t_ns, out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
+
+    def _publish_current(self, t_ns: int) -> None:
+        core = self.core
+        if core.aligned:
+            self._publish(t_ns, core.bias, core.bias_sigma, core.quat_nm, core.P[:3, :3])
+        else:
+            self._publish(t_ns, core.bias, core.bias_sigma, None, None)
+
+    def _publish(self, t_ns: int, bias, sigma, quat, att_cov) -> None:
+        self.pub_bias.publish(m.vector3_msg(t_ns, m.GIMBAL_FRAME, bias))
+        self.pub_sigma.publish(m.vector3_msg(t_ns, m.GIMBAL_FRAME, sigma))
+        rate = self.core.corrected_rate
+        self.pub_attitude.publish(m.attitude_msg(t_ns, quat, att_cov, rate))
+        if t_ns >= self._next_diag_ns:
+            self._next_diag_ns = t_ns + self.diag_period_ns
+            self.pub_diag.publish(m.health_msg(t_ns, self.get_name(), self.core.counters, self.core.aligned))
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(GyroBiasEkfNode, "gyro_bias_ekf", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

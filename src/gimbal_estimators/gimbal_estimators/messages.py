@@ -1,0 +1,61 @@
+"""Message conversion for gimbal_estimators (the package's one module that reads or builds
+ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_sim.messages`."""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped  # noqa: F401
+from sensor_msgs.msg import Imu
+
+from gimbal_kinematics.rotations import quat_to_euler321
+from gimbal_sim.messages import (  # noqa: F401
+    NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, imu_msg, stamp_ns, step_of_stamp, step_stamp_ns,
+    time_msg, vec_of, vector3_msg,
+)
+
+#: Frame of the inner gimbal m (FRD), in which the gimbal gyro biases are resolved.
+GIMBAL_FRAME = "gimbal_inner_frd"
+
+
+def euler_of_imu(msg: Imu) -> tuple[float, float, float] | None:
+    """(roll, pitch, yaw) [rad] of an Imu orientation; None when it is marked not provided
+    (REP 145: covariance element 0 = -1); NaNs when it is not a valid quaternion, for the
+    estimator to reject and count."""
+    if msg.orientation_covariance[0] == -1.0:
+        return None
+    o = msg.orientation
+    q = (o.x, o.y, o.z, o.w)
+    if not (math.isfinite(sum(q)) and sum(v * v for v in q) > 0.0):
+        return (math.nan, math.nan, math.nan)
+    return quat_to_euler321(q)
+
+
+def attitude_msg(t_ns: int, quat_nm: Sequence[float] | None, cov_n: Sequence[Sequence[float]] | None,
+                 rate_m: Sequence[float] | None) -> Imu:
+    """Estimated C(n,m) as an Imu message in the navigation frame: orientation (x, y, z, w)
+    with the covariance [rad²] of the attitude error about the n axes; angular velocity the
+    bias-corrected inertial rate of m [rad/s] (variance not stated: zeros); no linear
+    acceleration. A field that is None is marked not provided."""
+    cov = NOT_PROVIDED if cov_n is None else tuple(float(cov_n[i][j]) for i in range(3) for j in range(3))
+    return imu_msg(t_ns, NAV_FRAME, orientation=quat_nm, orientation_cov=cov, angular_velocity=rate_m)
+
+
+def health_msg(t_ns: int, name: str, counters, aligned: bool) -> DiagnosticArray:
+    """One DiagnosticStatus with an estimator's counters (a NamedTuple of ints): OK when
+    aligned with no resets, WARN after resets/re-alignments or gated updates, STALE before
+    alignment."""
+    status = DiagnosticStatus(name=f"{name}: health", hardware_id=name)
+    fields = counters._asdict()
+    if not aligned:
+        status.level, status.message = DiagnosticStatus.STALE, "not aligned"
+    elif any(fields.get(k, 0) for k in ("resets", "realignments", "gated", "rejected_nonfinite",
+                                         "rejected_out_of_order")):
+        status.level, status.message = DiagnosticStatus.WARN, "running; inputs rejected or filter reset (see values)"
+    else:
+        status.level, status.message = DiagnosticStatus.OK, "running"
+    status.values = [KeyValue(key=k, value=str(v)) for k, v in fields.items()]
+    arr = DiagnosticArray(status=[status])
+    arr.header.stamp = time_msg(t_ns)
+    return arr

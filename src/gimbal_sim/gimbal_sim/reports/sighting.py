@@ -1,0 +1,199 @@
+"""Paper 1's headline figures (scenario ``sighting_land_vehicle``): LOS drift without and
+with the gyro-bias EKF fed back, and the bias estimates against the truth.
+
+Per run (``sighting_report``), from the bag:
+
+* LOS drift (truth, ``/truth/gimbal/imu``): azimuth (cross-elevation) and elevation change
+  of the inertial LOS from its initial direction (:func:`gimbal_kinematics.los.los_drift`);
+  at the end, and as a mean rate over the last ``LAST_SPAN_S``;
+* the drift the true gyro bias alone would cause, −∫b dt (``/truth/gimbal/gyro_bias``:
+  r for azimuth, q for elevation), and the ratio of the two;
+* bias estimates (``/gyro_bias_ekf/bias``, ``bias_sigma``) against the truth: final error,
+  the fraction of samples after ``SETTLE_S`` within ±3σ, the time-averaged NEES of (b_q, b_r).
+
+The comparison (``sighting_comparison``) tabulates the variants side by side with each
+run's real-time factor (``run.json``) and plots the drift of all of them and the bias
+estimates of the feedback run with ±3σ.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..bag.reader import BagError
+from .common import inertial_los, load_series, times, vectors, vehicle_site
+from .generic import generic_report
+
+SETTLE_S = 30.0
+LAST_SPAN_S = 60.0
+TRUTH_LOS = "/truth/gimbal/imu"
+TRUTH_BIAS = "/truth/gimbal/gyro_bias"
+EKF_BIAS = "/gyro_bias_ekf/bias"
+EKF_SIGMA = "/gyro_bias_ekf/bias_sigma"
+_DEG_H = math.degrees(1.0) * 3600.0  # rad/s -> deg/h
+
+
+def _interp_columns(t: np.ndarray, tp: np.ndarray, y: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(t, tp, y[:, i]) for i in range(y.shape[1])])
+
+
+def analyse(bag_dir: Path) -> dict:
+    """The run's series and figures (SI units; see the module docstring)."""
+    from gimbal_kinematics.los import los_drift
+
+    series, _ = load_series(bag_dir, {TRUTH_LOS, TRUTH_BIAS, EKF_BIAS, EKF_SIGMA})
+    if not series.get(TRUTH_LOS) or not series.get(TRUTH_BIAS):
+        raise BagError(f"{bag_dir}: needs {TRUTH_LOS} and {TRUTH_BIAS} (record the truth topics)")
+    truth = series[TRUTH_LOS]
+    t = times(truth)
+    t = t - t[0]
+    quats = np.array([[m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w] for _, m in truth])
+    lat, earth_rate = vehicle_site(bag_dir)
+    drift = los_drift(inertial_los(t, quats, lat, earth_rate))
+    tb = times(series[TRUTH_BIAS]) - times(truth)[0]
+    b_true = vectors(series[TRUTH_BIAS])
+    # −∫b dt by trapezoids on the bias samples (az from r = z, el from q = y)
+    integral = np.zeros((len(tb), 2))
+    if len(tb) > 1:
+        dt = np.diff(tb)[:, None]
+        integral[1:] = -np.cumsum(0.5 * dt * (b_true[1:, [2, 1]] + b_true[:-1, [2, 1]]), axis=0)
+    integral = _interp_columns(t, tb, integral)
+    i_last = int(np.searchsorted(t, t[-1] - LAST_SPAN_S))
+    span = t[-1] - t[i_last]
+    out = {"t": t, "drift": drift, "bias_integral": integral,
+           "final_drift_deg": np.degrees(drift[-1]), "bias_integral_deg": np.degrees(integral[-1]),
+           "drift_rate_last_deg_h": np.degrees(drift[-1] - drift[i_last]) / span * 3600.0 if span > 0 else
+           np.full(2, np.nan), "bias_rate_last_deg_h": np.degrees(integral[-1] - integral[i_last]) / span * 3600.0
+           if span > 0 else np.full(2, np.nan)}
+    if series.get(EKF_BIAS) and series.get(EKF_SIGMA):
+        te = times(series[EKF_BIAS]) - times(truth)[0]
+        est, sig = vectors(series[EKF_BIAS]), vectors(series[EKF_SIGMA])
+        tru = _interp_columns(te, tb, b_true)
+        err = est[:, 1:] - tru[:, 1:]
+        late = te >= SETTLE_S
+        nees = np.sum((err / sig[:, 1:]) ** 2, axis=1)
+        out.update(t_ekf=te, bias_est=est, bias_sigma=sig, bias_true=tru,
+                   final_bias_error_deg_h=err[-1] * _DEG_H,
+                   within_3sigma=np.mean(np.abs(err[late]) <= 3.0 * sig[late, 1:], axis=0) if late.any()
+                   else np.full(2, np.nan),
+                   mean_nees_bias=float(np.mean(nees[late])) if late.any() else math.nan)
+    return out
+
+
+def _figures(a: dict) -> dict:
+    fig = {
+        "final_drift_deg": {"azimuth": float(a["final_drift_deg"][0]), "elevation": float(a["final_drift_deg"][1])},
+        "true_bias_drift_deg": {"azimuth": float(a["bias_integral_deg"][0]),
+                                "elevation": float(a["bias_integral_deg"][1])},
+        "drift_over_bias_drift": {k: float(a["final_drift_deg"][i] / a["bias_integral_deg"][i])
+                                  if a["bias_integral_deg"][i] else None for i, k in enumerate(("azimuth", "elevation"))},
+        "drift_rate_last_60s_deg_h": {"azimuth": float(a["drift_rate_last_deg_h"][0]),
+                                      "elevation": float(a["drift_rate_last_deg_h"][1])},
+        "bias_drift_rate_last_60s_deg_h": {"azimuth": float(a["bias_rate_last_deg_h"][0]),
+                                           "elevation": float(a["bias_rate_last_deg_h"][1])},
+    }
+    if "bias_est" in a:
+        fig["final_bias_error_deg_h"] = {"q": float(a["final_bias_error_deg_h"][0]),
+                                         "r": float(a["final_bias_error_deg_h"][1])}
+        fig["bias_within_3sigma_after_30s"] = {"q": float(a["within_3sigma"][0]), "r": float(a["within_3sigma"][1])}
+        fig["bias_nees_mean_after_30s"] = a["mean_nees_bias"]
+    return fig
+
+
+def _plot_drift(path: Path, runs: dict[str, dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
+    for j, (axis_name, ax) in enumerate(zip(("azimuth (cross-elevation)", "elevation"), axes)):
+        for name, a in runs.items():
+            line, = ax.plot(a["t"], np.degrees(a["drift"][:, j]), label=f"{name}: LOS drift", linewidth=1.2)
+        first = next(iter(runs.values()))
+        ax.plot(first["t"], np.degrees(first["bias_integral"][:, j]), "k--", linewidth=0.8,
+                label="−∫ true gyro bias dt")
+        ax.set_ylabel(f"{axis_name} [deg]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    axes[0].set_title("LOS drift from the initial inertial direction (truth)")
+    axes[-1].set_xlabel("sim time [s]")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_bias(path: Path, a: dict, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
+    te = a["t_ekf"]
+    for j, (axis_name, ax) in enumerate(zip(("q (elevation gyro)", "r (azimuth gyro)"), axes)):
+        est, sig, tru = a["bias_est"][:, j + 1] * _DEG_H, a["bias_sigma"][:, j + 1] * _DEG_H, a["bias_true"][:, j + 1] * _DEG_H
+        ax.fill_between(te, est - 3 * sig, est + 3 * sig, color="C0", alpha=0.2, label="estimate ±3σ")
+        ax.plot(te, est, color="C0", linewidth=1.0, label="EKF estimate")
+        ax.plot(te, tru, "k", linewidth=1.0, label="truth")
+        ax.set_ylabel(f"bias {axis_name} [deg/h]")
+        ax.grid(True, alpha=0.3)
+        lo, hi = np.percentile(tru, [0, 100])
+        pad = max(30.0, 0.5 * (hi - lo))
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.legend(loc="best", fontsize=8)
+    axes[0].set_title(title)
+    axes[-1].set_xlabel("sim time [s]")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def sighting_report(bag_dir: Path, out: Path) -> dict:
+    """One run: drift and bias figures and plots (module docstring)."""
+    metrics = generic_report(bag_dir, out)
+    a = analyse(bag_dir)
+    metrics["sighting"] = _figures(a)
+    _plot_drift(out / "los_drift.png", {"this run": a})
+    metrics["plots"].append("los_drift.png")
+    if "bias_est" in a:
+        _plot_bias(out / "bias_estimates.png", a, "Gyro-bias EKF estimates against the truth")
+        metrics["plots"].append("bias_estimates.png")
+    return metrics
+
+
+def _rtf(bag_dir: Path) -> float | None:
+    run = bag_dir / "run.json"
+    return json.loads(run.read_text()).get("real_time_factor") if run.is_file() else None
+
+
+def sighting_comparison(runs: dict[str, Path], out: Path) -> dict:
+    """Variants side by side: table, drift plot of all, bias plot of each run that fed back."""
+    analysed = {name: analyse(bag) for name, bag in runs.items()}
+    rows = [("case", "az drift [deg]", "el drift [deg]", "az/el rate last 60 s [deg/h]",
+             "final bias err q/r [deg/h]", "RTF")]
+    cases = {}
+    for name, a in analysed.items():
+        fig = _figures(a)
+        fig["real_time_factor"] = _rtf(runs[name])
+        cases[name] = fig
+        d, r = a["final_drift_deg"], a["drift_rate_last_deg_h"]
+        berr = a.get("final_bias_error_deg_h")
+        rows.append((name, f"{d[0]:+.4f}", f"{d[1]:+.4f}", f"{r[0]:+.2f} / {r[1]:+.2f}",
+                     "-" if berr is None else f"{berr[0]:+.2f} / {berr[1]:+.2f}",
+                     "-" if fig["real_time_factor"] is None else f"{fig['real_time_factor']:.2f}"))
+    first = next(iter(analysed.values()))
+    rows.append(("−∫ true bias", f"{first['bias_integral_deg'][0]:+.4f}", f"{first['bias_integral_deg'][1]:+.4f}",
+                 f"{first['bias_rate_last_deg_h'][0]:+.2f} / {first['bias_rate_last_deg_h'][1]:+.2f}", "", ""))
+    widths = [max(len(str(r[i])) for r in rows) for i in range(len(rows[0]))]
+    table = "\n".join("  ".join(str(c).rjust(w) if i else str(c).ljust(w) for i, (c, w) in
+                                enumerate(zip(r, widths))) for r in rows)
+    _plot_drift(out / "los_drift.png", analysed)
+    plots = ["los_drift.png"]
+    for name, a in analysed.items():
+        if "bias_est" in a:
+            _plot_bias(out / f"bias_estimates_{name}.png", a, f"Gyro-bias EKF estimates against the truth ({name})")
+            plots.append(f"bias_estimates_{name}.png")
+    return {"cases": cases, "table": "LOS drift at the end of the run (paper 1):\n" + table, "plots": plots,
+            "runs": {k: str(v) for k, v in runs.items()}}
