@@ -22,6 +22,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "free_gyro_positioning = gimbal_estimators.free_gyro_positioning_node:main",
         ],
     },
 )

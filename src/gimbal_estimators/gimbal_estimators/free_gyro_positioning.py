@@ -547,11 +547,9 @@ def make_spin_axes(lat_deg: float, lon_deg: float, t: float = 0.0,
                    azimuth_deg: tuple[float, float] = (-40.0, 50.0)) -> tuple[tuple, tuple]:
     """Inertial spin axes (u_a_i, u_b_i) with the given nadir angles and azimuths [deg] at
     the site and time t [s] (default: a well-conditioned pair, Δα = 90°, FDOP = √2)."""
-    from gimbal_sim.sensors.free_gyro_sensor import spin_axis_for_site
+    from gimbal_sim.sensors.free_gyro_sensor import spin_axes_for_site_deg
 
-    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
-    return tuple(spin_axis_for_site(lat, lon, t, math.radians(nd), math.radians(az))  # type: ignore[return-value]
-                 for nd, az in zip(nadir_deg, azimuth_deg))
+    return spin_axes_for_site_deg(lat_deg, lon_deg, nadir_deg, azimuth_deg, t)
 
 
 def simulate_truth(profile: str = "paper5_ship", lat_deg: float = 35.0, lon_deg: float = 129.0,

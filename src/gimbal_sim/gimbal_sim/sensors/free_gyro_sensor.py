@@ -42,7 +42,6 @@ from .units import ARCSEC, DEG_H
 FREE_GYRO_TRIAD = GyroParams(arw_deg_rt_h=0.002)
 
 
-
 def spin_axis_for_site(lat: float, lon: float, t: float, nadir: float, azimuth: float,
                        omega_ie: float | None = None) -> tuple[float, float, float]:
     """Inertial spin axis u_i (unit) that has nadir angle ``nadir`` and azimuth ``azimuth``
@@ -52,6 +51,18 @@ def spin_axis_for_site(lat: float, lon: float, t: float, nadir: float, azimuth: 
     C_in = dcm_ni(lat, lon, t, OMEGA_IE if omega_ie is None else omega_ie).T
     u = C_in @ u_n
     return float(u[0]), float(u[1]), float(u[2])
+
+
+def spin_axes_for_site_deg(lat_deg: float, lon_deg: float, nadir_deg: Sequence[float],
+                           azimuth_deg: Sequence[float], t: float = 0.0) -> tuple[tuple, tuple]:
+    """Inertial spin axes (u_a_i, u_b_i) of two gyros set at site (lat_deg, lon_deg) [deg] at
+    time ``t`` [s] to nadir angles ``nadir_deg`` and azimuths ``azimuth_deg`` [deg] (each
+    (gyro a, gyro b)): the degree-unit edge of :func:`spin_axis_for_site`."""
+    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+    if len(nadir_deg) != 2 or len(azimuth_deg) != 2:
+        raise ValueError("nadir_deg and azimuth_deg need two values each (gyro a, gyro b)")
+    return tuple(spin_axis_for_site(lat, lon, t, math.radians(nd), math.radians(az))  # type: ignore[return-value]
+                 for nd, az in zip(nadir_deg, azimuth_deg))
 
 
 @dataclass(frozen=True)
