@@ -42,10 +42,11 @@ from sensor_msgs.msg import Imu, NavSatFix
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_sim.sensors.free_gyro_sensor import spin_axes_for_site_deg
 from gimbal_sim.stamp_sync import StampSync
 
 from . import messages as m
-from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams, make_spin_axes
+from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams
 from .stamp_check import Stamp, check_stamp
 
 DESCRIPTION = (
@@ -93,13 +94,9 @@ PARAMS = (
 
 def core_params_from(v: dict) -> FreeGyroPositioningParams:
     """The core's parameters; ``ValueError`` naming the parameter at fault."""
-    for name in ("spin_nadir_deg", "spin_azimuth_deg"):
-        if len(v[name]) != 2 or not all(math.isfinite(x) for x in v[name]):
-            raise ValueError(f"parameter '{name}' needs two finite values (gyro a, gyro b), got {list(v[name])}")
-    if not all(0.0 < x < 180.0 for x in v["spin_nadir_deg"]):
-        raise ValueError(f"parameter 'spin_nadir_deg' must be in (0, 180) deg, got {list(v['spin_nadir_deg'])}")
-    u_a, u_b = make_spin_axes(v["spin_reference_lat_deg"], v["spin_reference_lon_deg"], v["spin_reference_time_s"],
-                              tuple(v["spin_nadir_deg"]), tuple(v["spin_azimuth_deg"]))
+    u_a, u_b = spin_axes_for_site_deg(v["spin_reference_lat_deg"], v["spin_reference_lon_deg"], v["spin_nadir_deg"],
+                                      v["spin_azimuth_deg"], v["spin_reference_time_s"],
+                                      names=("spin_nadir_deg", "spin_azimuth_deg"))
     try:
         return FreeGyroPositioningParams(
             u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],

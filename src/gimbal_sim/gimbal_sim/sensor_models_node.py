@@ -95,28 +95,32 @@ PARAMS = (
     Param("free_gyro_level_noise_arcsec", 0.0, "vertical reference roll/pitch white noise [arcsec]", 0.0, INF),
     Param("free_gyro_level_bias_arcsec", [0.0, 0.0], "vertical reference fixed (roll, pitch) error [arcsec]"),
     Param("free_gyro_triad_arw_deg_rt_h", 0.002, "body gyro triad angle random walk [deg/sqrt(h)]", 0.0, INF),
+    Param("free_gyro_triad_bias_deg_h", [0.0, 0.0, 0.0], "body gyro triad fixed bias (x, y, z) [deg/h]"),
     Param("free_gyro_triad_bias_sigma_deg_h", 0.0, "body gyro triad run-to-run bias 1-sigma [deg/h]", 0.0, INF),
 )
 
 
 def free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
     """The free-gyro sensor parameters; ``ValueError`` naming the parameter at fault."""
-    for name in ("free_gyro_nadir_deg", "free_gyro_azimuth_deg", "free_gyro_level_bias_arcsec"):
-        if len(v[name]) != 2 or not all(math.isfinite(x) for x in v[name]):
-            raise ValueError(f"parameter '{name}' needs two finite values (gyro a, gyro b), got {list(v[name])}")
-    if not all(0.0 < x < 180.0 for x in v["free_gyro_nadir_deg"]):
-        raise ValueError(f"parameter 'free_gyro_nadir_deg' must be in (0, 180) deg, got {list(v['free_gyro_nadir_deg'])}")
     u_a, u_b = spin_axes_for_site_deg(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"],
-                                      v["free_gyro_nadir_deg"], v["free_gyro_azimuth_deg"])
+                                      v["free_gyro_nadir_deg"], v["free_gyro_azimuth_deg"],
+                                      names=("free_gyro_nadir_deg", "free_gyro_azimuth_deg"))
+    level_bias = v["free_gyro_level_bias_arcsec"]
+    if len(level_bias) != 2 or not all(math.isfinite(x) for x in level_bias):
+        raise ValueError(f"parameter 'free_gyro_level_bias_arcsec' needs two finite values (roll, pitch), "
+                         f"got {list(level_bias)}")
+    try:
+        triad = GyroParams(bias_deg_h=tuple(v["free_gyro_triad_bias_deg_h"]),
+                           arw_deg_rt_h=v["free_gyro_triad_arw_deg_rt_h"],
+                           bias_sigma_deg_h=v["free_gyro_triad_bias_sigma_deg_h"])
+    except ValueError as exc:
+        raise ValueError(f"parameter 'free_gyro_triad_bias_deg_h': {exc}") from exc
     try:
         return FreeGyroSensorParams(
             u_a, u_b, pickoff_noise_arcsec=v["free_gyro_pickoff_noise_arcsec"],
             spin_drift_sigma_deg_h=v["free_gyro_spin_drift_sigma_deg_h"],
-            level_noise_arcsec=v["free_gyro_level_noise_arcsec"],
-            level_bias_arcsec=tuple(v["free_gyro_level_bias_arcsec"]),
-            triad=GyroParams(arw_deg_rt_h=v["free_gyro_triad_arw_deg_rt_h"],
-                             bias_sigma_deg_h=v["free_gyro_triad_bias_sigma_deg_h"]))
-    except ValueError as exc:
+            level_noise_arcsec=v["free_gyro_level_noise_arcsec"], level_bias_arcsec=tuple(level_bias), triad=triad)
+    except ValueError as exc:  # what is left to refuse is the pair of spin axes (parallel)
         raise ValueError(f"parameters 'free_gyro_nadir_deg', 'free_gyro_azimuth_deg': {exc}") from exc
 
 

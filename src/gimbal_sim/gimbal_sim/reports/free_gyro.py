@@ -15,7 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
+from gimbal_kinematics.earth import earth_rate_n, meridian_radius, prime_vertical_radius
+from gimbal_kinematics.free_gyro import heading_error
+from gimbal_kinematics.rotations import quat_to_dcm, quat_to_euler321
 
 from ..bag.reader import BagError
 from .common import load_series, plot
@@ -23,7 +25,7 @@ from .generic import generic_report
 
 NODE = "/free_gyro_positioning"
 TOPICS = {f"{NODE}/fix", f"{NODE}/heading", f"{NODE}/heading_earth_rate", f"{NODE}/geometry",
-          "/truth/free_gyro/position", "/truth/host/imu"}
+          "/truth/free_gyro/position", "/truth/free_gyro/triad_bias", "/truth/host/imu"}
 ARCSEC = math.pi / (180.0 * 3600.0)
 
 
@@ -75,6 +77,28 @@ def heading_errors(estimates: list, attitude: list) -> tuple[np.ndarray, np.ndar
     return np.array(t), np.array(err), np.array(sig)
 
 
+def eq29_heading_errors(estimates: list, attitude: list, triad_bias: list, lat: float) -> np.ndarray:
+    """First-order earth-rate heading error [rad] that paper 4's eq. 29 predicts for each
+    heading message (x = ψ, z = window length [s]) from the true triad bias: the window mean
+    of δψ = (ω_ly δω_lx − ω_lx δω_ly)/(ω_lx² + ω_ly²) over the true attitudes in it, with ω
+    the earth rate at latitude ``lat`` [rad] in the body and δω the bias levelled alike."""
+    ta = np.array([_stamp(m) for m in attitude])
+    tb = np.array([_stamp(m) for m in triad_bias])
+    w_n = earth_rate_n(lat)
+    out = []
+    for msg in estimates:
+        tc, span = _stamp(msg), msg.vector.z
+        bias = triad_bias[int(np.argmin(np.abs(tb - tc)))].vector
+        terms = []
+        for i in np.flatnonzero(np.abs(ta - tc) <= 0.5 * span + 1e-6):
+            q = attitude[i].orientation
+            quat = (q.x, q.y, q.z, q.w)
+            roll, pitch, _ = quat_to_euler321(quat)
+            terms.append(heading_error(quat_to_dcm(quat).T @ w_n, (bias.x, bias.y, bias.z), roll, pitch))
+        out.append(float(np.mean(terms)) if terms else math.nan)
+    return np.array(out)
+
+
 def covariance_consistency(errors: np.ndarray, covs: np.ndarray) -> dict:
     """Empirical north/east error covariance (zero-mean: the fix is unbiased) against the mean
     claimed covariance, and the NEES (2 on average when consistent)."""
@@ -103,14 +127,17 @@ def _pyplot():
 
 
 def _band_plot(path: Path, title: str, t: np.ndarray, panels: list[tuple[str, np.ndarray, np.ndarray]],
-               ylabel: str) -> None:
-    """One panel per (label, error, σ): the error against the ±1σ band the node claimed."""
+               ylabel: str, reference: tuple[str, np.ndarray] | None = None) -> None:
+    """One panel per (label, error, σ): the error against the ±1σ band the node claimed;
+    ``reference`` (label, values) adds a predicted error to the first panel."""
     plt = _pyplot()
     fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.2 + 2.3 * len(panels)), sharex=True,
                              constrained_layout=True, squeeze=False)
     for ax, (label, err, sig) in zip(axes[:, 0], panels):
         ax.fill_between(t, -sig, sig, color="C1", alpha=0.25, label="±1σ claimed")
         ax.plot(t, err, ".-", linewidth=0.8, markersize=4, label=f"{label} error")
+        if reference is not None and ax is axes[0, 0]:
+            ax.plot(t, reference[1], "x--", color="C3", linewidth=0.8, label=reference[0])
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize=8)
@@ -181,8 +208,18 @@ def free_gyro_report(bag_dir: Path, out: Path) -> dict:
                        "mean_error_arcsec": float(np.mean(err) / ARCSEC),
                        "mean_sigma_arcsec": float(np.mean(sig) / ARCSEC),
                        "mean_normalised_error_squared": float(np.mean((err / sig) ** 2))}
+        reference = None
+        if key == "heading_earth_rate" and msgs["/truth/free_gyro/triad_bias"]:
+            # the estimates that heading_errors kept (finite, with truth in their window)
+            kept = [msg for msg in msgs[topic] if any(abs(_stamp(msg) - tk) < 1e-9 for tk in t)]
+            pred = eq29_heading_errors(kept, attitude, msgs["/truth/free_gyro/triad_bias"],
+                                       math.radians(truth[0].latitude))
+            result[key]["errors_arcsec"] = (err / ARCSEC).tolist()
+            result[key]["eq29_predicted_arcsec"] = (pred / ARCSEC).tolist()
+            result[key]["eq29_residual_rms_arcsec"] = float(np.sqrt(np.mean((err - pred) ** 2)) / ARCSEC)
+            reference = ("eq. 29 from the true triad bias", pred / ARCSEC)
         _band_plot(out / f"{key}_error.png", f"{title}: error vs the true window-mean heading", t,
-                   [("heading", err / ARCSEC, sig / ARCSEC)], "[arcsec]")
+                   [("heading", err / ARCSEC, sig / ARCSEC)], "[arcsec]", reference)
         metrics["plots"].append(f"{key}_error.png")
     metrics["free_gyro"] = result
     return metrics
