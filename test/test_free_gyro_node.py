@@ -34,7 +34,6 @@ from gimbal_kinematics.rotations import euler321_to_quat, quat_to_euler321
 from gimbal_sim import messages as m
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.scenario import BUILTIN_DIR
-from gimbal_sim.sensors import GyroParams
 from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ros_harness import harness_node, spin_until
 
