@@ -23,6 +23,7 @@ setup(
     entry_points={
         "console_scripts": [
             "gyro_bias_ekf = gimbal_estimators.gyro_bias_ekf_node:main",
+            "free_gyro_positioning = gimbal_estimators.free_gyro_positioning_node:main",
         ],
     },
 )

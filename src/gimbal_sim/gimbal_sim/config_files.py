@@ -17,6 +17,7 @@ NODE_MODULES = {
     "bag_recorder": ("gimbal_sim", "gimbal_sim.bag.recorder_node"),
     "los_rate_controller": ("gimbal_control", "gimbal_control.los_rate_controller_node"),
     "gyro_bias_ekf": ("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node"),
+    "free_gyro_positioning": ("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node"),
 }
 
 

@@ -11,12 +11,13 @@ i.e. element 0 (the x-x variance) marks exactly the unmeasured roll axis.
 """
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
 #: Covariance marking a field as not provided (REP 145).
 NOT_PROVIDED = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -122,3 +123,24 @@ def encoder_readings(msg: JointState) -> tuple[tuple[float, ...], tuple[float, .
         return None
     idx = [names.index(j) for j in GIMBAL_ENCODER_JOINTS]
     return tuple(msg.position[i] for i in idx), tuple(msg.velocity[i] for i in idx)
+
+
+def navsat_fix_msg(t_ns: int, frame_id: str, lat: float, lon: float, altitude_m: float,
+                   covariance_enu_m2: Sequence[float] | None = None) -> NavSatFix:
+    """A NavSatFix at geodetic ``lat``, ``lon`` [rad] (written in degrees, as the message
+    wants) and ``altitude_m`` [m]. ``covariance_enu_m2``: 9 row-major ENU [m²]
+    (``COVARIANCE_TYPE_KNOWN``); None: unknown. ``status.service`` is 0: not a GNSS."""
+    msg = NavSatFix()
+    msg.header.stamp = time_msg(t_ns)
+    msg.header.frame_id = frame_id
+    msg.status.status = NavSatStatus.STATUS_FIX
+    msg.status.service = 0
+    msg.latitude = math.degrees(lat)
+    msg.longitude = math.degrees(lon)
+    msg.altitude = float(altitude_m)
+    if covariance_enu_m2 is None:
+        msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+    else:
+        msg.position_covariance = [float(v) for v in covariance_enu_m2]
+        msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
+    return msg

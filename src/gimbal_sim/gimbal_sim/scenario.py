@@ -61,6 +61,8 @@ NODE_TYPES: dict[str, NodeType] = {
     "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
                                     "LosRateControllerNode"),
     "gyro_bias_ekf": NodeType("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node", "GyroBiasEkfNode"),
+    "free_gyro_positioning": NodeType("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node",
+                                      "FreeGyroPositioningNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",

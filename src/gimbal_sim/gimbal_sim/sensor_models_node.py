@@ -12,7 +12,7 @@ from gimbal_kinematics.rotations import euler321_to_quat, quat_to_euler321
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, NavSatFix
 
 from . import messages as m
 from .node_main import run_node
@@ -23,13 +23,15 @@ from .sensor_suite import (
     SensorSuiteConfig,
 )
 from .sensors import AccelerometerParams, EncoderParams, FlexureParams, GyroParams, InsParams
+from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensorParams, spin_axes_for_site_deg
 from .stamp_sync import StampSync
 from .vehicle import VehicleTruth
 
 DESCRIPTION = (
     "Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the "
-    "two-axis gimbal gyro, the encoders, the paper 5 LGUs and the paper 3 platform IMU, each "
-    "at its own rate with the papers' error models, plus the error truth (biases, flexure)."
+    "two-axis gimbal gyro, the encoders, the paper 5 LGUs, the paper 3 platform IMU and the paper 4 "
+    "free gyros, each at its own rate with the papers' error models, plus the error truth (biases, "
+    "flexure, the ship's position)."
 )
 INF = math.inf
 
@@ -76,7 +78,50 @@ PARAMS = (
     Param("platform_gyro_arw_deg_rt_h", 0.003, "platform gyro angle random walk [deg/sqrt(h)]", 0.0, INF),
     Param("platform_accel_bias_sigma_ug", 100.0, "platform accelerometer bias 1-sigma [micro-g]", 0.0, INF),
     Param("platform_accel_noise_ug_rt_hz", 50.0, "platform accelerometer noise density [micro-g/sqrt(Hz)]", 0.0, INF),
+    Param("free_gyro_rate_hz", 10.0, "free-gyro read-out rate (spin axes, triad, vertical reference) [Hz]",
+          1e-3, 100000.0),
+    Param("free_gyro_site_lat_deg", 35.0, "ship's true geodetic latitude [deg]; must equal vehicle_dynamics' "
+          "profile_params lat_deg (the vehicle does not publish its position)", -90.0, 90.0),
+    Param("free_gyro_site_lon_deg", 129.0, "ship's true longitude [deg]; must equal vehicle_dynamics' "
+          "profile_params lon_deg", -180.0, 180.0),
+    Param("free_gyro_nadir_deg", [60.0, 50.0], "nadir angles (gyro a, gyro b) the spin axes are set to at the "
+          "ship's site at t = 0 [deg], each in (0, 180)"),
+    Param("free_gyro_azimuth_deg", [-40.0, 50.0], "azimuths from north toward east (gyro a, gyro b) of the spin "
+          "axes at the site at t = 0 [deg]; fix geometry FDOP = sqrt(2)/|sin(difference)|"),
+    Param("free_gyro_pickoff_noise_arcsec", 5.0, "spin-axis pickoff white noise per axis, per sample [arcsec]",
+          0.0, INF),
+    Param("free_gyro_spin_drift_sigma_deg_h", 0.0, "spin-axis random-constant drift 1-sigma per axis [deg/h] "
+          "(0: ideal free gyro)", 0.0, INF),
+    Param("free_gyro_level_noise_arcsec", 0.0, "vertical reference roll/pitch white noise [arcsec]", 0.0, INF),
+    Param("free_gyro_level_bias_arcsec", [0.0, 0.0], "vertical reference fixed (roll, pitch) error [arcsec]"),
+    Param("free_gyro_triad_arw_deg_rt_h", 0.002, "body gyro triad angle random walk [deg/sqrt(h)]", 0.0, INF),
+    Param("free_gyro_triad_bias_deg_h", [0.0, 0.0, 0.0], "body gyro triad fixed bias (x, y, z) [deg/h]"),
+    Param("free_gyro_triad_bias_sigma_deg_h", 0.0, "body gyro triad run-to-run bias 1-sigma [deg/h]", 0.0, INF),
 )
+
+
+def free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
+    """The free-gyro sensor parameters; ``ValueError`` naming the parameter at fault."""
+    u_a, u_b = spin_axes_for_site_deg(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"],
+                                      v["free_gyro_nadir_deg"], v["free_gyro_azimuth_deg"],
+                                      names=("free_gyro_nadir_deg", "free_gyro_azimuth_deg"))
+    level_bias = v["free_gyro_level_bias_arcsec"]
+    if len(level_bias) != 2 or not all(math.isfinite(x) for x in level_bias):
+        raise ValueError(f"parameter 'free_gyro_level_bias_arcsec' needs two finite values (roll, pitch), "
+                         f"got {list(level_bias)}")
+    try:
+        triad = GyroParams(bias_deg_h=tuple(v["free_gyro_triad_bias_deg_h"]),
+                           arw_deg_rt_h=v["free_gyro_triad_arw_deg_rt_h"],
+                           bias_sigma_deg_h=v["free_gyro_triad_bias_sigma_deg_h"])
+    except ValueError as exc:
+        raise ValueError(f"parameter 'free_gyro_triad_bias_deg_h': {exc}") from exc
+    try:
+        return FreeGyroSensorParams(
+            u_a, u_b, pickoff_noise_arcsec=v["free_gyro_pickoff_noise_arcsec"],
+            spin_drift_sigma_deg_h=v["free_gyro_spin_drift_sigma_deg_h"],
+            level_noise_arcsec=v["free_gyro_level_noise_arcsec"], level_bias_arcsec=tuple(level_bias), triad=triad)
+    except ValueError as exc:  # what is left to refuse is the pair of spin axes (parallel)
+        raise ValueError(f"parameters 'free_gyro_nadir_deg', 'free_gyro_azimuth_deg': {exc}") from exc
 
 
 def config_from_params(v: dict) -> SensorSuiteConfig:
@@ -113,6 +158,9 @@ def config_from_params(v: dict) -> SensorSuiteConfig:
                                      arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"]),
             platform_accel=AccelerometerParams(bias_sigma_ug=v["platform_accel_bias_sigma_ug"],
                                                noise_ug_rt_hz=v["platform_accel_noise_ug_rt_hz"]),
+            free_gyro_rate_hz=v["free_gyro_rate_hz"],
+            free_gyro_site_deg=(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"]),
+            free_gyro=free_gyro_params_from(v),
         )
     except ValueError as exc:
         raise ParameterError(str(exc)) from exc
@@ -132,6 +180,7 @@ NEEDS = {
     "encoders": ("/truth/gimbal/joint_states",),
     "lgu": ("/truth/host/delta_angle",),
     "platform_imu": ("/truth/platform/imu",),
+    "free_gyro": ("/truth/host/imu", "/truth/host/delta_angle"),
 }
 
 
@@ -186,6 +235,11 @@ class SensorModelsNode(Node):
         if "platform_imu" in on:
             self.pubs["platform_imu"] = (pub(Imu, "/platform/imu"), pub(Vector3Stamped, "/truth/platform/accel_bias"),
                                          pub(Vector3Stamped, "/truth/platform/gyro_bias"))
+        if "free_gyro" in on:
+            self.pubs["free_gyro"] = (pub(Vector3Stamped, "/free_gyro/spin_axis_a"),
+                                      pub(Vector3Stamped, "/free_gyro/spin_axis_b"), pub(Imu, "/free_gyro/imu"),
+                                      pub(NavSatFix, "/truth/free_gyro/position"),
+                                      pub(Vector3Stamped, "/truth/free_gyro/triad_bias"))
         self._noise_cov = self._white_noise_covariances()
         self.progress_every = values["progress_every_steps"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
@@ -214,6 +268,10 @@ class SensorModelsNode(Node):
             "lgu": m.diag_cov([arw(c.lgu1.arw_deg_rt_h, c.lgu_rate_hz)] * 3),
             "p_gyro": m.diag_cov([arw(c.platform_gyro.arw_deg_rt_h, c.platform_imu_rate_hz)] * 3),
             "p_accel": m.diag_cov([(c.platform_accel.noise_ug_rt_hz * 9.80665e-6) ** 2 * c.platform_imu_rate_hz] * 3),
+            "fg_rate": m.diag_cov([arw(c.free_gyro.triad.arw_deg_rt_h, c.free_gyro_rate_hz)] * 3),
+            # roll, pitch from the vertical reference; the heading is not measured: its variance
+            # is that of a heading uniform on (−π, π], π²/3
+            "fg_level": m.diag_cov([(c.free_gyro.level_noise_arcsec * deg / 3600.0) ** 2] * 2 + [math.pi**2 / 3.0]),
         }
 
     def _on_truth(self, topic: str, msg) -> None:
@@ -264,6 +322,17 @@ class SensorModelsNode(Node):
                                   linear_acceleration=s.specific_force, linear_acceleration_cov=cov["p_accel"]))
             accel_bias.publish(m.vector3_msg(t_ns, "platform_frd", s.true_accel_bias))
             gyro_bias.publish(m.vector3_msg(t_ns, "platform_frd", s.true_gyro_bias))
+        elif isinstance(s, FreeGyroSample):
+            spin_a, spin_b, imu, position, bias = self.pubs["free_gyro"]
+            spin_a.publish(m.vector3_msg(t_ns, "base_link_frd", s.spin_a_b))
+            spin_b.publish(m.vector3_msg(t_ns, "base_link_frd", s.spin_b_b))
+            # orientation = the vertical reference: roll and pitch, heading 0 (not measured)
+            imu.publish(m.imu_msg(t_ns, "base_link_frd", orientation=euler321_to_quat(s.roll, s.pitch, 0.0),
+                                  orientation_cov=cov["fg_level"], angular_velocity=s.omega_ib_b,
+                                  angular_velocity_cov=cov["fg_rate"]))
+            lat, lon = (math.radians(x) for x in self.config.free_gyro_site_deg)
+            position.publish(m.navsat_fix_msg(t_ns, "base_link_frd", lat, lon, 0.0, m.ZERO_COV))
+            bias.publish(m.vector3_msg(t_ns, "base_link_frd", s.true_triad_bias))
 
 
 def main(argv: list[str] | None = None) -> int:

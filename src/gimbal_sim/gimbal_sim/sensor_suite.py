@@ -9,7 +9,11 @@ enabling or re-rating one sensor never changes another's noise. Sensors:
 * ``encoders``: turret, gimbal azimuth and elevation encoders (angle and pulse-rate);
 * ``lgu``: the two ring-laser-gyro units of paper 5 with the ship flexure between them;
   LGU increments are accumulated at the simulation rate and published at ``lgu_rate_hz``;
-* ``platform_imu``: accelerometer and gyro triads on the paper 3 stable element.
+* ``platform_imu``: accelerometer and gyro triads on the paper 3 stable element;
+* ``free_gyro``: paper 4's two free gyros (inertially fixed spin axes read out in the ship's
+  body), its body gyro triad and vertical reference, for a ship at ``free_gyro_site_deg``
+  (the vehicle stays at its profile's site, which it does not publish, so the two must
+  agree); the triad gets the exact rotation over each sample interval divided by it.
 """
 from __future__ import annotations
 
@@ -20,17 +24,28 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
+
 from .sensors import (
     PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,
     AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
     GyroParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
 )
+from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensor, FreeGyroSensorParams, spin_axes_for_site_deg
 from .vehicle import VehicleTruth
 
 #: Sensor name -> the config field holding its output rate [Hz].
 SENSOR_RATES = {"ins": "ins_rate_hz", "gimbal_gyro": "gimbal_gyro_rate_hz", "encoders": "encoder_rate_hz",
-                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz"}
+                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz", "free_gyro": "free_gyro_rate_hz"}
 SENSORS = tuple(SENSOR_RATES)
+
+#: Default free-gyro ship site (off Busan, paper 4's authors) [deg], and spin axes set there at
+#: t = 0 to nadir angles (60°, 50°) and azimuths (−40°, 50°): Δα = 90°, FDOP = √2.
+FREE_GYRO_SITE_DEG = (35.0, 129.0)
+
+
+def _default_free_gyro() -> FreeGyroSensorParams:
+    return FreeGyroSensorParams(*spin_axes_for_site_deg(*FREE_GYRO_SITE_DEG, (60.0, 50.0), (-40.0, 50.0)))
 
 
 @dataclass(frozen=True)
@@ -45,6 +60,7 @@ class SensorSuiteConfig:
     encoder_rate_hz: float = 1000.0
     lgu_rate_hz: float = 100.0
     platform_imu_rate_hz: float = 100.0
+    free_gyro_rate_hz: float = 10.0
     ins: InsParams = field(default_factory=InsParams)
     gimbal_gyro: GyroParams = PAPER1_GIMBAL_GYRO
     encoder: EncoderParams = PAPER1_ENCODER
@@ -53,6 +69,8 @@ class SensorSuiteConfig:
     lgu2: GyroParams = LGU2_GYRO
     platform_gyro: GyroParams = PAPER3_GYRO
     platform_accel: AccelerometerParams = PAPER3_ACCELEROMETER
+    free_gyro_site_deg: tuple[float, float] = FREE_GYRO_SITE_DEG
+    free_gyro: FreeGyroSensorParams = field(default_factory=_default_free_gyro)
 
     def __post_init__(self) -> None:
         unknown = [s for s in self.sensors if s not in SENSORS]
@@ -62,6 +80,10 @@ class SensorSuiteConfig:
             raise ValueError(f"sim_rate_hz must be > 0, got {self.sim_rate_hz}")
         for sensor in self.sensors:
             self.decimation(SENSOR_RATES[sensor])
+        lat, lon = (float(v) for v in self.free_gyro_site_deg)
+        if not (abs(lat) <= 90.0 and abs(lon) <= 360.0):
+            raise ValueError(f"free_gyro_site_deg must be (lat in [-90, 90], lon in [-360, 360]) deg, "
+                             f"got {self.free_gyro_site_deg}")
 
     def decimation(self, rate_name: str) -> int:
         """Simulation steps per sample of the rate ``rate_name``; raises ``ValueError``
@@ -151,6 +173,11 @@ class SensorSuite:
             pdt = dt * self._dec["platform_imu_rate_hz"]
             self.platform_accel = AccelerometerModel(config.platform_accel, 3, rng("platform_accel"), pdt)
             self.platform_gyro = GyroModel(config.platform_gyro, 3, rng("platform_gyro"), pdt)
+        self.free_gyro = None
+        if "free_gyro" in on:
+            self.free_gyro = FreeGyroSensor(config.free_gyro, rng("free_gyro"), dt * self._dec["free_gyro_rate_hz"])
+            self._fg_site = tuple(math.radians(float(v)) for v in config.free_gyro_site_deg)
+            self._fg_C = np.eye(3)  # body rotation since the last free-gyro sample
         self._last_k: int | None = None
         #: Steps that never arrived (the models bridge them with their nominal step).
         self.missed_steps = 0
@@ -195,4 +222,22 @@ class SensorSuite:
             w = self.platform_gyro.step_rate(truth.omega_im_m)
             out.append(PlatformImuSample(truth.t, _floats(f), _floats(w), _floats(self.platform_accel.true_bias),
                                          _floats(self.platform_gyro.true_bias)))
+        if self.free_gyro is not None:
+            out.extend(self._free_gyro_update(truth, due("free_gyro_rate_hz")))
         return out
+
+    def _free_gyro_update(self, truth: VehicleTruth, due: bool) -> list[FreeGyroSample]:
+        """Accumulate the body rotation every step; at a sample, the triad gets its rotation
+        vector over the interval divided by the interval (the step-average rate; at k = 0,
+        with no interval behind it, the instantaneous rate)."""
+        if truth.delta_angle_b is None or truth.omega_ib_b is None:
+            raise ValueError("free_gyro needs /truth/host/imu and /truth/host/delta_angle")
+        if truth.k > 0:
+            self._fg_C = self._fg_C @ dcm_from_rotation_vector(np.asarray(truth.delta_angle_b, dtype=float))
+        if not due:
+            return []
+        interval = self._dt * self._dec["free_gyro_rate_hz"]
+        rate = rotation_vector_from_dcm(self._fg_C) / interval if truth.k > 0 else np.asarray(truth.omega_ib_b)
+        self._fg_C = np.eye(3)
+        lat, lon = self._fg_site
+        return [self.free_gyro.update(truth.t, lat, lon, truth.euler, rate, interval)]

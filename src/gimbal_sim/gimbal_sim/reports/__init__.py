@@ -18,6 +18,7 @@ REPORTS: dict[str, str] = {
     "generic": "generic:generic_report",
     "los_pointing": "los_pointing:los_pointing_report",
     "sighting": "sighting:sighting_report",
+    "free_gyro": "free_gyro:free_gyro_report",
 }
 
 #: comparison name -> "module:function"

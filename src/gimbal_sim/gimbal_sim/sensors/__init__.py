@@ -6,6 +6,14 @@ dataclasses with unit-suffixed fields, converted to SI once at construction.
 from .accelerometer import PAPER3_ACCELEROMETER, AccelerometerModel, AccelerometerParams
 from .encoder import PAPER1_ENCODER, PAPER2_ENCODER, EncoderModel, EncoderParams
 from .flexure import FlexureParams, ShipFlexureTruth
+from .free_gyro_sensor import (
+    FREE_GYRO_TRIAD,
+    FreeGyroSample,
+    FreeGyroSensor,
+    FreeGyroSensorParams,
+    spin_axes_for_site_deg,
+    spin_axis_for_site,
+)
 from .gyro import (
     LGU1_GYRO,
     LGU2_GYRO,
@@ -28,6 +36,10 @@ __all__ = [
     "ErrorSpecSI",
     "FirstOrderGaussMarkov",
     "FlexureParams",
+    "FREE_GYRO_TRIAD",
+    "FreeGyroSample",
+    "FreeGyroSensor",
+    "FreeGyroSensorParams",
     "GyroModel",
     "GyroParams",
     "InertialErrorCore",
@@ -47,4 +59,6 @@ __all__ = [
     "gm1_coefficients",
     "gm2_discrete",
     "lgu2_rate",
+    "spin_axes_for_site_deg",
+    "spin_axis_for_site",
 ]

@@ -1,0 +1,247 @@
+"""``free_gyro_positioning`` node: paper 4's free-gyro position fix and heading.
+
+A thin wrapper around :class:`.free_gyro_positioning.FreeGyroPositioning`. Inputs, all
+stamped with the read-out time and grouped by exact stamp (one group per read-out):
+
+* ``/free_gyro/spin_axis_a``, ``/free_gyro/spin_axis_b`` (geometry_msgs/Vector3Stamped):
+  the two spin axes read out in the body FRD frame (unit vectors);
+* ``/free_gyro/imu`` (sensor_msgs/Imu): the body triad ω_ib^b (``angular_velocity``, the
+  average over the interval ending at the stamp) and the vertical reference (roll and pitch
+  of ``orientation``; its heading is ignored).
+
+Every read-out is integrated into the current fix window; when a window closes the node
+publishes (topics under ``/free_gyro_positioning/``):
+
+* ``fix`` (sensor_msgs/NavSatFix) at the window's mean time: latitude/longitude and the
+  ENU covariance FDOP-scaled by the window's nadir-angle σ — only for a valid fix;
+* ``heading`` (Vector3Stamped): x = window-mean heading ψ = α − ζ [rad] (paper Fig. 4),
+  y = its 1σ [rad], z = the window's span [s] (valid fixes only);
+* ``geometry`` (Vector3Stamped): x = FDOP (NaN when not computable), y = crossing angle
+  Δα = ζ_b − ζ_a [rad], z = status: 0 fix published, 1 degenerate geometry (no fix);
+* ``nadir`` (Vector3Stamped): x, y = integrated nadir angles θ_a, θ_b [rad], z = their σ [rad];
+* ``heading_earth_rate`` (Vector3Stamped), each time an earth-rate window completes (Fig. 3,
+  eq. 3–4): x = ψ [rad], y = 1σ [rad], z = the window length [s], stamped at its centre.
+
+Degenerate geometry (parallel spin axes, tangent or non-intersecting nadir circles, FDOP
+above ``max_fdop``) is counted, warned about at most once a second, reported on
+``geometry`` with status 1, and no fix is published. Out-of-order stamps and non-finite or
+non-unit inputs are rejected and counted; a stamp more than ``reset_backjump_s`` behind the
+last read-out (a bag looping) resets the node. The node must see every read-out, so it
+reports the next step it needs on ``~/progress`` (the lockstep pacing protocol).
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, NavSatFix
+
+from gimbal_sim.node_main import run_node
+from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_sim.sensors.free_gyro_sensor import spin_axes_for_site_deg
+from gimbal_sim.stamp_sync import StampSync
+
+from . import messages as m
+from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams
+from .stamp_check import Stamp, check_stamp
+
+DESCRIPTION = (
+    "Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free "
+    "gyros over each fix window, fixes latitude/longitude from them (eq. 1) with an FDOP-scaled "
+    "covariance, and the heading from the gyro azimuths (Fig. 4) and from the earth rate (eq. 3-4). "
+    "Publishes sensor_msgs/NavSatFix on /free_gyro_positioning/fix; no fix for degenerate geometry."
+)
+INF = math.inf
+SPIN_A, SPIN_B, IMU = "/free_gyro/spin_axis_a", "/free_gyro/spin_axis_b", "/free_gyro/imu"
+FRAME_ID = "base_link_frd"
+STATUS_FIX, STATUS_DEGENERATE = 0.0, 1.0
+
+PARAMS = (
+    Param("sim_rate_hz", 10.0, "simulation rate [Hz], to turn read-out stamps into lockstep steps", 1.0, 100000.0),
+    Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
+          "vehicle_dynamics waits for and paces on it", 1, 10**6),
+    Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
+          0, 1000),
+    Param("spin_nadir_deg", [60.0, 50.0], "nadir angles (gyro a, gyro b) of the spin axes at the reference "
+          "position and time [deg], each in (0, 180); with the azimuths they define the inertial spin axes"),
+    Param("spin_azimuth_deg", [-40.0, 50.0], "azimuths from north toward east (gyro a, gyro b) of the spin axes "
+          "at the reference position and time [deg]"),
+    Param("spin_reference_lat_deg", 35.0, "latitude where the spin axes had those angles [deg] (e.g. where "
+          "the gyros were set; the fix does not use it)", -90.0, 90.0),
+    Param("spin_reference_lon_deg", 129.0, "longitude of that reference [deg]", -180.0, 180.0),
+    Param("spin_reference_time_s", 0.0, "sim time of that reference [s] (inertial frame: Greenwich on x_i "
+          "at t = 0)", -1e9, 1e9),
+    Param("nadir_noise_arcsec", 5.0, "1-sigma of one read-out nadir angle [arcsec] (pickoff noise)", 1e-9, INF),
+    Param("fix_interval_s", 10.0, "nadir integration window per fix [s]", 1e-6, INF),
+    Param("min_samples", 5, "fewest read-outs in a window for a fix", 3, 10**9),
+    Param("heading_window_s", 60.0, "earth-rate heading averaging window [s]", 1e-6, INF),
+    Param("triad_arw_deg_rt_h", 0.002, "body triad angle random walk [deg/sqrt(h)], for the earth-rate heading "
+          "sigma", 1e-12, INF),
+    Param("max_fdop", 20.0, "FDOP above which the geometry counts as degenerate and no fix is published [-] "
+          "(>= sqrt(2))", 1.0, INF),
+    Param("height_m", 0.0, "height above the ellipsoid reported as altitude and used for the metric covariance "
+          "[m] (free gyros do not observe it)", -1e4, 1e5),
+    Param("height_sigma_m", 100.0, "1-sigma of that height [m] (the vertical element of the NavSatFix "
+          "covariance)", 0.0, INF),
+    Param("reset_backjump_s", 1.0, "a read-out stamp this far [s] behind the last one resets the node "
+          "(bag loop)", 1e-9, INF),
+)
+
+
+def core_params_from(v: dict) -> FreeGyroPositioningParams:
+    """The core's parameters; ``ValueError`` naming the parameter at fault."""
+    u_a, u_b = spin_axes_for_site_deg(v["spin_reference_lat_deg"], v["spin_reference_lon_deg"], v["spin_nadir_deg"],
+                                      v["spin_azimuth_deg"], v["spin_reference_time_s"],
+                                      names=("spin_nadir_deg", "spin_azimuth_deg"))
+    try:
+        return FreeGyroPositioningParams(
+            u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],
+            min_samples=v["min_samples"], heading_window_s=v["heading_window_s"],
+            triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"],
+            reset_backjump_s=v["reset_backjump_s"])
+    except ValueError as exc:
+        text = str(exc)
+        if "u_a_i" in text or "u_b_i" in text:
+            text = f"parameters 'spin_nadir_deg', 'spin_azimuth_deg': {text}"
+        raise ValueError(text) from exc
+
+
+class FreeGyroPositioningNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("free_gyro_positioning", **node_kwargs)
+        v = declare_and_read(self, PARAMS)
+        try:
+            self.core = FreeGyroPositioning(core_params_from(v))
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
+        self.rate = v["sim_rate_hz"]
+        self.height_m = v["height_m"]
+        self.height_sigma_m = v["height_sigma_m"]
+        self.backjump_ns = int(round(v["reset_backjump_s"] * 1e9))
+        self.progress_every = v["progress_every_steps"]
+        self.wait_for_subscribers = v["wait_for_subscribers"]
+        self.sync = StampSync((SPIN_A, SPIN_B, IMU))
+        self.rejected_stamps = 0   # out-of-order / duplicate stamps of earlier sync objects
+        self.degenerate = 0
+        self.resets = 0
+        self._rejected_seen = 0
+        self._last_ns: int | None = None      # stamp of the last completed read-out
+        self._last_step: int | None = None
+        self._interval_steps = 1               # steps between read-outs (learned from the stamps)
+        self._report_at = 0                    # next step at which ~/progress reports
+        self._er_t: float | None = None        # stamp of the last earth-rate heading published
+        pub = lambda typ, name: self.create_publisher(typ, f"~/{name}", GRAPH_QOS)  # noqa: E731
+        self.pub_fix = pub(NavSatFix, "fix")
+        self.pub_heading = pub(Vector3Stamped, "heading")
+        self.pub_geometry = pub(Vector3Stamped, "geometry")
+        self.pub_nadir = pub(Vector3Stamped, "nadir")
+        self.pub_heading_er = pub(Vector3Stamped, "heading_earth_rate")
+        self.outputs = (self.pub_fix, self.pub_heading, self.pub_geometry, self.pub_nadir, self.pub_heading_er)
+        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        self.subs = [
+            self.create_subscription(Vector3Stamped, SPIN_A, lambda msg: self._on_input(SPIN_A, msg), GRAPH_QOS),
+            self.create_subscription(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), GRAPH_QOS),
+            self.create_subscription(Imu, IMU, lambda msg: self._on_input(IMU, msg), GRAPH_QOS),
+        ]
+        self._ready_timer = self.create_timer(0.02, self._announce_ready)
+
+    # -- readiness and bookkeeping ---------------------------------------------------------
+    def _announce_ready(self) -> None:
+        """Report ready (next step needed: 0) once every output has its readers matched."""
+        if any(p.get_subscription_count() < self.wait_for_subscribers for p in self.outputs):
+            return
+        self._ready_timer.cancel()
+        self.destroy_timer(self._ready_timer)
+        self.pub_progress.publish(m.clock_msg(0))
+
+    @property
+    def rejected(self) -> int:
+        """Inputs rejected so far: stamps out of order and non-finite/non-unit/unlevelled data."""
+        c = self.core.counters
+        return (self.rejected_stamps + self.sync.rejected + c.rejected_nonfinite + c.rejected_not_unit
+                + c.rejected_out_of_order + c.rejected_no_level + c.rejected_stale_level)
+
+    def _warn_rejected(self) -> None:
+        n = self.rejected
+        if n > self._rejected_seen:
+            self._rejected_seen = n
+            self.get_logger().warning(f"input rejected (non-finite, non-unit or out of order): {n} so far",
+                                      throttle_duration_sec=1.0)
+
+    def _reset(self, reason: str) -> None:
+        self.resets += 1
+        self.rejected_stamps += self.sync.rejected
+        self.sync = StampSync((SPIN_A, SPIN_B, IMU))
+        self.core.reset(reason)
+        self._last_ns = self._last_step = self._er_t = None
+        self._interval_steps = 1
+        self._report_at = 0
+        self.get_logger().info(f"reset: {reason}")
+
+    # -- inputs ----------------------------------------------------------------------------
+    def _on_input(self, topic: str, msg) -> None:
+        t_ns = m.stamp_ns(msg.header.stamp)
+        if self._last_ns is not None and check_stamp(t_ns * 1e-9, self._last_ns * 1e-9,
+                                                     self.backjump_ns * 1e-9) is Stamp.JUMPED_BACK:
+            self._reset(f"read-out stamp jumped back {(self._last_ns - t_ns) * 1e-9:.3f} s (clock reset or bag loop)")
+        group = self.sync.add(topic, t_ns, msg)
+        if group is None:
+            self._warn_rejected()
+            return
+        self._process(t_ns, group)
+        self._warn_rejected()
+
+    def _process(self, t_ns: int, group: dict) -> None:
+        t = t_ns * 1e-9
+        imu = group[IMU]
+        roll, pitch = m.level_of(imu)
+        self.core.on_level(t, roll, pitch)
+        self.core.on_body_rates(t, m.vec_of(imu.angular_velocity))
+        fix = self.core.on_spin_axes(t, m.vec_of(group[SPIN_A].vector), m.vec_of(group[SPIN_B].vector))
+        self._last_ns = t_ns
+        if fix is not None:
+            self._publish_fix(fix, t)
+        self._progress(m.step_of_stamp(t_ns, self.rate))
+
+    def _progress(self, k: int) -> None:
+        """Report the next step needed: the next read-out's, one learned interval ahead."""
+        if self._last_step is not None and k > self._last_step:
+            self._interval_steps = k - self._last_step
+        self._last_step = k
+        if k >= self._report_at:
+            self._report_at = k + self.progress_every
+            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + self._interval_steps, self.rate)))
+
+    # -- outputs ---------------------------------------------------------------------------
+    def _publish_fix(self, fix: FreeGyroFix, t_close: float) -> None:
+        stamp = m.seconds_ns(fix.t)
+        status = STATUS_FIX if fix.valid else STATUS_DEGENERATE
+        self.pub_geometry.publish(m.vector3_msg(stamp, FRAME_ID, (fix.fdop, fix.crossing_angle, status)))
+        self.pub_nadir.publish(m.vector3_msg(stamp, FRAME_ID, (fix.nadir[0], fix.nadir[1], fix.nadir_sigma)))
+        if fix.valid:
+            self.pub_fix.publish(m.free_gyro_fix_msg(fix, FRAME_ID, self.height_m, self.height_sigma_m))
+            # uniform read-outs: the window is symmetric about its mean time
+            span = 2.0 * (t_close - fix.t)
+            self.pub_heading.publish(m.vector3_msg(stamp, FRAME_ID, (fix.heading, fix.heading_sigma, span)))
+        else:
+            self.degenerate += 1
+            self.get_logger().warning(f"degenerate fix geometry, no fix published: {fix.reason} "
+                                      f"({self.degenerate} windows so far)", throttle_duration_sec=1.0)
+        t_er = fix.heading_earth_rate_t
+        if math.isfinite(fix.heading_earth_rate) and (self._er_t is None or t_er > self._er_t):
+            self._er_t = t_er
+            self.pub_heading_er.publish(m.vector3_msg(
+                m.seconds_ns(t_er), FRAME_ID,
+                (fix.heading_earth_rate, fix.heading_earth_rate_sigma, self.core.params.heading_window_s)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(FreeGyroPositioningNode, "free_gyro_positioning", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
