@@ -14,6 +14,13 @@ from typing import Callable
 REPORTS: dict[str, str] = {
     "generic": "generic:generic_report",
     "los_pointing": "los_pointing:los_pointing_report",
+    "encoder_fusion": "encoder_fusion:encoder_fusion_report",
+}
+
+#: comparison name -> "module:function" ``(runs: dict[str, Path], out: Path) -> metrics``
+#: over the bags of a scenario's variants
+COMPARISONS: dict[str, str] = {
+    "encoder_fusion": "encoder_fusion:encoder_fusion_comparison",
 }
 
 
