@@ -23,6 +23,7 @@ setup(
     entry_points={
         "console_scripts": [
             "los_rate_controller = gimbal_control.los_rate_controller_node:main",
+            "encoder_fusion_controller = gimbal_control.encoder_fusion_controller_node:main",
         ],
     },
 )

@@ -48,12 +48,14 @@ Message-driven API (times are message stamps [s]; SI units; no wall clock)::
     ctl.on_base_rates(t, omega_b)      # UAV body inertial rates (3,) [rad/s], in b
     ctl.on_encoders(t, psi_m, theta_m) # joint angles [rad] (quantised counts)
     out = ctl.on_gyro(t, q_m, r_m)     # gimbal gyro [rad/s] -> FusionCommand (torques)
+    out = ctl.step(t, omega_b, psi_m, theta_m, q_m, r_m)  # the three at once (the node)
 
 Feed the encoder and base samples of a stamp before the gyro sample of the same stamp,
 as the lockstep graph orders them; the gyro sample is the control tick. Bad input:
 
 * NaN/inf inputs and non-increasing stamps are rejected and counted. A bad gyro sample
-  returns the last command with ``held`` set.
+  returns the last command with ``held`` set; so does :meth:`~EncoderFusionController.step`
+  for a bad value in any of its inputs.
 * A backward stamp jump larger than ``backward_jump_s`` (a bag loop) resets the
   controller and records the reason.
 * A gap longer than ``max_gap_s`` restarts the gate without integrating across it.
@@ -69,6 +71,8 @@ from typing import Any, NamedTuple, Sequence
 import numpy as np
 
 from gimbal_estimators.stamp_check import StampGate
+from gimbal_sim.plant.gimbal_params import UAV_SMALL_GIMBAL
+from gimbal_sim.sensors import PAPER2_ENCODER, EncoderParams, GyroParams
 
 from .fusion_kf import ClosedLoopComplementaryKf, FusionKfParams
 from .pid import Pid, PidParams, pole_placement_gains
@@ -84,17 +88,18 @@ UAV_ELEVATION_INERTIA_KG_M2 = 8.0e-4
 
 #: Fused/gyro loops: triple pole at 8 Hz; at 1 kHz (ZOH) the loop crosses over at ≈ 24 Hz
 #: with ≈ 67° phase margin.
-_FAST_HZ = 8.0
+LOOP_BANDWIDTH_HZ = 8.0
 #: Encoder loop: the pulse-count velocity is held for T_g = 0.2 s and lags about T_g, so
 #: the loop must stay far slower. 0.3 Hz was the best of a sweep in the UAV experiment
 #: (12 s, seed 1: 0.15/0.2/0.3/0.4 Hz gave 83/54/51/190 mrad RMS; 0.5 Hz and faster go
 #: unstable on the gate delay).
-_SLOW_HZ = 0.3
-_TORQUE_LIMIT_NM = 0.5
+ENCODER_LOOP_BANDWIDTH_HZ = 0.3
+#: PID output clip [N·m]: the UAV gimbal's motor torque limit.
+TORQUE_LIMIT_NM = UAV_SMALL_GIMBAL.azimuth_torque_limit_nm
 
 
 def _gains(inertia: float, hz: float) -> PidParams:
-    return pole_placement_gains(inertia, hz, output_limit=_TORQUE_LIMIT_NM)
+    return pole_placement_gains(inertia, hz, output_limit=TORQUE_LIMIT_NM)
 
 
 @dataclass(frozen=True)
@@ -116,10 +121,10 @@ class EncoderFusionParams:
 
     mode: str = "fused"
     encoder_gate_s: float = 0.2
-    elevation_pid: PidParams = field(default_factory=lambda: _gains(UAV_ELEVATION_INERTIA_KG_M2, _FAST_HZ))
-    azimuth_pid: PidParams = field(default_factory=lambda: _gains(UAV_AZIMUTH_INERTIA_KG_M2, _FAST_HZ))
-    encoder_elevation_pid: PidParams = field(default_factory=lambda: _gains(UAV_ELEVATION_INERTIA_KG_M2, _SLOW_HZ))
-    encoder_azimuth_pid: PidParams = field(default_factory=lambda: _gains(UAV_AZIMUTH_INERTIA_KG_M2, _SLOW_HZ))
+    elevation_pid: PidParams = field(default_factory=lambda: _gains(UAV_ELEVATION_INERTIA_KG_M2, LOOP_BANDWIDTH_HZ))
+    azimuth_pid: PidParams = field(default_factory=lambda: _gains(UAV_AZIMUTH_INERTIA_KG_M2, LOOP_BANDWIDTH_HZ))
+    encoder_elevation_pid: PidParams = field(default_factory=lambda: _gains(UAV_ELEVATION_INERTIA_KG_M2, ENCODER_LOOP_BANDWIDTH_HZ))
+    encoder_azimuth_pid: PidParams = field(default_factory=lambda: _gains(UAV_AZIMUTH_INERTIA_KG_M2, ENCODER_LOOP_BANDWIDTH_HZ))
     kf: FusionKfParams = field(default_factory=FusionKfParams)
     min_cos_elevation: float = 0.2
     max_gap_s: float = 0.05
@@ -309,6 +314,25 @@ class EncoderFusionController(StampGate):
         self._cmd = (tau_a, uq)
         return FusionCommand(t, tau_a, uq, fq, fr, False)
 
+    def step(self, t: float, omega_b: Sequence[float], psi_m: float, theta_m: float,
+             q_m: float, r_m: float) -> FusionCommand | None:
+        """One lockstep tick with all three inputs stamped ``t`` [s]: base rates (3,)
+        [rad/s], encoder angles [rad], gyro rates [rad/s]. A non-finite value in any of
+        them holds the last command (``held``, counted in ``held_commands``) without
+        ticking the loop, so no stale angle or rate enters the gate or the PID."""
+        bad_before = self.rejected_nonfinite
+        self.on_base_rates(t, omega_b)
+        self.on_encoders(t, psi_m, theta_m)
+        if self.rejected_nonfinite > bad_before:
+            self.held_commands += 1
+            return FusionCommand(t, self._cmd[0], self._cmd[1], self.feedback[0], self.feedback[1], True)
+        return self.on_gyro(t, q_m, r_m)
+
+    @property
+    def command(self) -> tuple[float, float]:
+        """The last command (τ_a, τ_e) [N·m]."""
+        return self._cmd
+
     # ------------------------------------------------------------------ gate + filter
     def _accumulate_gate(self, dt: float, q: float, r: float, bq: float, br: float, cth: float) -> None:
         """Trapezoid integrals over the gate; closes it when the encoder stamp has moved on
@@ -368,26 +392,9 @@ class EncoderFusionController(StampGate):
                     self._disc_r -= kf.pending_angle
 
 # ============================================================================ experiment
-# Imported lazily-light: gimbal_sim is a pure-Python package as well (no rclpy).
-from gimbal_sim.plant import GimbalParams  # noqa: E402
-from gimbal_sim.sensors import PAPER2_ENCODER, EncoderParams, GyroParams  # noqa: E402
-
-#: Small UAV gimbal, ~1 kg (paper 2: "a small weight gimbal (up to 2 kg)"): a 0.35 kg
-#: azimuth yoke with its motor and a 0.65 kg camera ball on the elevation axis, ~6 cm
-#: across; CG offsets of about 1 mm (a hand-balanced camera); bearing friction and torque
-#: limits of a small direct-drive brushless gimbal motor.
-UAV_GIMBAL = GimbalParams(
-    outer_mass_kg=0.35,
-    outer_inertia_kg_m2=(8e-4, 6e-4, 5e-4, 1e-5, -1e-5, 5e-6),
-    outer_cg_m=(0.0005, 0.0005, -0.001),
-    inner_mass_kg=0.65,
-    inner_inertia_kg_m2=(6e-4, 8e-4, 9e-4, 1e-5, -2e-5, 1e-5),
-    inner_cg_m=(0.0005, -0.0003, 0.001),
-    azimuth_friction_nm_s_rad=1e-3,
-    elevation_friction_nm_s_rad=8e-4,
-    azimuth_torque_limit_nm=_TORQUE_LIMIT_NM,
-    elevation_torque_limit_nm=_TORQUE_LIMIT_NM,
-)
+#: The simulated plant is gimbal_sim's ``uav_small`` preset (the ``gimbal_model`` of the
+#: vehicle node); this name stays for the experiment and the tests.
+UAV_GIMBAL = UAV_SMALL_GIMBAL
 
 #: MEMS gyro (consumer/industrial grade, e.g. a BMI088/ADXRS-class part): a turn-on bias of
 #: 0.1 °/s and −0.07 °/s (360 and −250 °/h, given so every run shows the same drift), in-run
@@ -495,10 +502,13 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
         truth = core.truth()
         los[k] = _los_n(truth.quat_nm)
         ctl.on_base_rates(truth.t, truth.omega_ib_b)
-        for s in suite.update(truth):
+        samples = suite.update(truth)
+        # the encoders of this step before its gyro tick, as the lockstep node feeds them
+        for s in samples:
             if isinstance(s, EncoderSample):
                 ctl.on_encoders(s.t, s.angles[1], s.angles[2])
-            elif isinstance(s, GimbalGyroSample):
+        for s in samples:
+            if isinstance(s, GimbalGyroSample):
                 out = ctl.on_gyro(s.t, s.q_m, s.r_m)
                 if out is not None:
                     cmd = (out.torque_azimuth, out.torque_elevation)

@@ -18,6 +18,7 @@ NODE_MODULES = {
     "los_rate_controller": ("gimbal_control", "gimbal_control.los_rate_controller_node"),
     "gyro_bias_ekf": ("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node"),
     "free_gyro_positioning": ("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node"),
+    "encoder_fusion_controller": ("gimbal_control", "gimbal_control.encoder_fusion_controller_node"),
 }
 
 

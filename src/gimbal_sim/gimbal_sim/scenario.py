@@ -63,6 +63,8 @@ NODE_TYPES: dict[str, NodeType] = {
     "gyro_bias_ekf": NodeType("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node", "GyroBiasEkfNode"),
     "free_gyro_positioning": NodeType("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node",
                                       "FreeGyroPositioningNode"),
+    "encoder_fusion_controller": NodeType("gimbal_control", "gimbal_control.encoder_fusion_controller_node",
+                                          "EncoderFusionControllerNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",

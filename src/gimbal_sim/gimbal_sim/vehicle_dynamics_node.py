@@ -37,6 +37,7 @@ from geometry_msgs.msg import Vector3Stamped
 from . import messages as m
 from .node_main import run_node
 from .qos import GRAPH_QOS
+from .plant.gimbal_params import GIMBAL_MODELS
 from .plant.motion_profiles import PROFILE_NAMES
 from .ros_params import Param, ParameterError, declare_and_read
 from .vehicle import GIMBAL_COMMAND_JOINTS, PLANTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
@@ -52,6 +53,8 @@ PARAMS = (
     Param("profile_params", "{}", "profile parameters as a YAML mapping, e.g. "
           "'{lat_deg: 39.9}' (README: host motion profiles)"),
     Param("plant", "two_axis_gimbal", "plant carried by the host", choices=PLANTS),
+    Param("gimbal_model", "paper1", "two-axis gimbal mass properties, friction and torque limits: paper1 "
+          "(~10 kg payload) or uav_small (paper 2's ~1 kg UAV gimbal)", choices=tuple(GIMBAL_MODELS)),
     Param("sim_rate_hz", 1000.0, "simulation (lockstep) rate [Hz]", 1.0, 100000.0),
     Param("duration_s", 120.0, "simulated duration [s]; the node stops stepping there", 1e-3, 1e7),
     Param("earth_rate", True, "include the earth rate in inertial rates (false: NED is inertial)"),
@@ -96,7 +99,7 @@ class VehicleDynamicsNode(Node):
         super().__init__("vehicle_dynamics", **node_kwargs)
         values = declare_and_read(self, PARAMS)
         self.config = config_from_params(values)
-        self.core = VehicleCore(self.config)
+        self.core = VehicleCore(self.config, GIMBAL_MODELS[values["gimbal_model"]])
         self.controlled = values["controlled"]
         self.realtime = values["mode"] == "realtime"
         self.exit_at_end = values["exit_at_end"]

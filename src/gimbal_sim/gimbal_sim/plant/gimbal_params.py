@@ -99,3 +99,25 @@ class GimbalParams:
             value = getattr(self, name)
             if math.isnan(value) or value <= 0.0:
                 raise ValueError(f"{name} must be > 0 (inf for no limit), got {value}")
+
+
+#: Paper 2's small UAV gimbal, ~1 kg ("a small weight gimbal (up to 2 kg)"): a 0.35 kg
+#: azimuth yoke with its motor and a 0.65 kg camera ball on the elevation axis, ~6 cm
+#: across; CG offsets of about 1 mm (a hand-balanced camera); bearing friction and torque
+#: limits (0.5 N·m) of a small direct-drive brushless gimbal motor.
+UAV_SMALL_GIMBAL = GimbalParams(
+    outer_mass_kg=0.35,
+    outer_inertia_kg_m2=(8e-4, 6e-4, 5e-4, 1e-5, -1e-5, 5e-6),
+    outer_cg_m=(0.0005, 0.0005, -0.001),
+    inner_mass_kg=0.65,
+    inner_inertia_kg_m2=(6e-4, 8e-4, 9e-4, 1e-5, -2e-5, 1e-5),
+    inner_cg_m=(0.0005, -0.0003, 0.001),
+    azimuth_friction_nm_s_rad=1e-3,
+    elevation_friction_nm_s_rad=8e-4,
+    azimuth_torque_limit_nm=0.5,
+    elevation_torque_limit_nm=0.5,
+)
+
+#: Named gimbal presets (the ``gimbal_model`` parameter of ``vehicle_dynamics``):
+#: ``paper1`` is the ~10 kg payload of the table above, ``uav_small`` paper 2's UAV gimbal.
+GIMBAL_MODELS: dict[str, GimbalParams] = {"paper1": GimbalParams(), "uav_small": UAV_SMALL_GIMBAL}

@@ -19,11 +19,13 @@ REPORTS: dict[str, str] = {
     "los_pointing": "los_pointing:los_pointing_report",
     "sighting": "sighting:sighting_report",
     "free_gyro": "free_gyro:free_gyro_report",
+    "encoder_fusion": "encoder_fusion:encoder_fusion_report",
 }
 
 #: comparison name -> "module:function"
 COMPARISONS: dict[str, str] = {
     "sighting": "sighting:sighting_comparison",
+    "encoder_fusion": "encoder_fusion:encoder_fusion_comparison",
 }
 
 
