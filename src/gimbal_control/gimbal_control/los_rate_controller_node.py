@@ -79,6 +79,7 @@ class LosRateControllerNode(Node):
         # What an INS step waits for besides the sensors.
         self._estimates = (("bias",) if self.feedback else ()) + (("att",) if self.hold_mode else ())
         self._pending: dict[int, dict[str, object]] = {}
+        self._done_step: int | None = None
         self._ins_rates: tuple[float, float, float] | None = None
         self.rejected = 0
         self.pub = self.create_publisher(JointState, "/gimbal/torque_cmd", GRAPH_QOS)
@@ -115,6 +116,16 @@ class LosRateControllerNode(Node):
 
     def _on_input(self, kind: str, msg) -> None:
         k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
+        if self._done_step is not None and k <= self._done_step:
+            if (self._done_step - k) / self.rate > self.core.params.reset_backjump_s:
+                # Time went back (a bag loop): start over; the core resets on the stamp.
+                self._pending.clear()
+                self._done_step = None
+            else:
+                # Late or repeated input for a step already commanded: it cannot change that
+                # command and must not block the steps after it.
+                self._warn(f"{kind} input for step {k} after step {self._done_step} was commanded; ignored")
+                return
         if kind in ("bias", "att") and k % self.ins_every != 0:
             # An estimate off the INS steps (another estimator rate): use it as it comes.
             self._use_estimates({kind: msg})
@@ -126,6 +137,7 @@ class LosRateControllerNode(Node):
                 break
             del self._pending[step]
             self._control(step, group)
+            self._done_step = step
 
     def _control(self, k: int, group: dict) -> None:
         self._use_estimates(group)

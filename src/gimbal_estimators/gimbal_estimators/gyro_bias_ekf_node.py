@@ -155,11 +155,12 @@ class GyroBiasEkfNode(Node):
         after = self.core.counters
         if out is not None:
             self._after(out)
-        elif after.rejected_nonfinite > before.rejected_nonfinite or after.rejected_out_of_order > \
-                before.rejected_out_of_order or not self.core.aligned:
-            # Nothing will come for this stamp: publish the current estimate so a controller
-            # waiting for it carries on.
-            self._warn(f"INS sample at {t_ns * 1e-9:.3f} s rejected or filter not aligned; "
+        elif euler is None or after.rejected_nonfinite > before.rejected_nonfinite \
+                or after.rejected_out_of_order > before.rejected_out_of_order:
+            # No update will come for this stamp: publish the current estimate so a controller
+            # waiting for it carries on. (An accepted sample whose gyro has not arrived yet
+            # is answered by the update, when it does.)
+            self._warn(f"INS sample at {t_ns * 1e-9:.3f} s rejected or without attitude; "
                        "publishing the current estimate")
             self._publish_current(t_ns)
 

@@ -1,11 +1,20 @@
 """Play a bag back onto ROS topics, serialized bytes as recorded.
 
-Delivery is reliable at any rate: publishers are reliable KEEP_ALL, so the middleware
-applies back-pressure to a slow reader, and a publish that times out under that pressure
-is retried, never dropped. Readers with a bounded history (our nodes) can also be paced:
-the player never runs more than ``pace_window_s`` of bag time ahead of the time each
-``pace_topics`` reader reports on its progress topic (``rosgraph_msgs/Clock``, the time of
-the next step it needs).
+Each topic is offered with the durability it was recorded with (``offered_qos_profiles``,
+as ``ros2 bag play`` does), so the subscriptions of the nodes that wrote or read it match:
+a transient-local subscription (our graph's QoS) refuses a volatile publisher.
+
+* Volatile topics: reliable KEEP_ALL, so the middleware applies back-pressure to a slow
+  reader, and a publish that times out under that pressure is retried, never dropped.
+* Transient-local topics: reliable KEEP_LAST with a deep history (``TRANSIENT_DEPTH``); a
+  transient-local KEEP_ALL writer would keep the whole bag in memory for late joiners.
+  Such a writer does not block, so a reader that falls more than that far behind loses
+  samples: pace it.
+
+Pacing: the player never runs more than ``pace_window_s`` of bag time ahead of the time
+each ``pace_topics`` reader reports on its progress topic (``rosgraph_msgs/Clock``, the
+time of the next step it needs). Our nodes all report one, so ``--pace`` makes replay into
+them lossless at any rate.
 """
 from __future__ import annotations
 
@@ -23,6 +32,15 @@ from .schemas import message_class
 
 PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
+TRANSIENT_DEPTH = 1000
+TRANSIENT_PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=TRANSIENT_DEPTH,
+                                reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def play_qos(offered: list[dict]) -> QoSProfile:
+    """The profile to play a topic with, from its recorded ``offered_qos_profiles``."""
+    durable = any(str(o.get("durability", "")).lower() == "transient_local" for o in offered or [])
+    return TRANSIENT_PLAY_QOS if durable else PLAY_QOS
 PUBLISH_RETRY_LIMIT = 1000
 
 
@@ -79,7 +97,7 @@ class BagPlayer(Node):
         for topic in sorted({x.topic for x in self.messages}):
             record = contents.topics[topic]
             self.pubs[topic] = self.create_publisher(message_class(record.type_name),
-                                                     options.remap.get(topic, topic), PLAY_QOS)
+                                                     options.remap.get(topic, topic), play_qos(record.qos_profiles))
         self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock else None
         self._paced = {t: None for t in options.pace_topics}
         for topic in options.pace_topics:
