@@ -22,6 +22,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "flexure_estimator = gimbal_estimators.flexure_estimator_node:main",
         ],
     },
 )

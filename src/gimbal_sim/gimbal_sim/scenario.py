@@ -56,6 +56,8 @@ NODE_TYPES: dict[str, NodeType] = {
     "bag_recorder": NodeType("gimbal_sim", "gimbal_sim.bag.recorder_node", "BagRecorderNode"),
     "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
                                     "LosRateControllerNode"),
+    "flexure_estimator": NodeType("gimbal_estimators", "gimbal_estimators.flexure_estimator_node",
+                                  "FlexureEstimatorNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes"}
