@@ -167,16 +167,11 @@ class FlexureEstimatorNode(Node):
     # ------------------------------------------------------------------ input
     def _on_lgu(self, unit: int, msg: Imu) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
-        c = self.core.counters
-        before = dict(c)
+        before = dict(self.core.counters)
         dalpha = m.lgu_increment(msg, self.dt)
-        if dalpha is None:
-            c["samples"] += 1
-            c["malformed"] += 1
-            est = None
-        else:
-            feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
-            est = feed(t_ns * 1e-9, dalpha, self.dt)
+        feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
+        # rates marked not provided go in as an empty increment, which the core counts as malformed
+        est = feed(t_ns * 1e-9, () if dalpha is None else dalpha, self.dt)
         self._log_events(unit, t_ns, before)
         if est is not None:
             self._publish(t_ns, est)

@@ -9,7 +9,7 @@ their defaults; the LGU model has no other bias term). Estimates: every
 ``~/bias_diff`` and their ``_sigma`` companions, matched to the truth by header stamp.
 Errors are estimate − truth; metrics use the epochs after ``convergence_s``.
 
-Figures (paper 5 → here): Fig. 2 → ``flexure_truth.png``; Figs. 3, 4 and 6 →
+Figures (paper 5 → here): Fig. 2 → ``flexure_truth_fig2.png``; Figs. 3, 4 and 6 →
 ``<node>_errors.png`` (quasi-static, dynamic and total error with ±3σ); Fig. 7 →
 ``<node>_estimates.png``; Figs. 5 and 8 → ``<node>_bias_diff.png``; the paper's contrast
 in one plot → ``quasi_static_error_comparison.png``.
@@ -25,6 +25,7 @@ import yaml
 
 from ..bag.reader import BagError
 from .common import load_series
+from .generic import generic_report
 
 _ARCSEC = math.pi / 180.0 / 3600.0
 _DEG_H = math.pi / 180.0 / 3600.0
@@ -197,9 +198,12 @@ def load_flexure_runs(bag_dir: Path) -> tuple[dict[str, dict[str, np.ndarray]], 
 
 
 # ---------------------------------------------------------------------------- plots
-def _axes_figure(path: Path, title: str, t: np.ndarray, rows: list[tuple[str, dict[str, np.ndarray], Any]]) -> None:
+def _axes_figure(path: Path, title: str, t: np.ndarray, rows: list[tuple[str, dict[str, np.ndarray], Any]],
+                 zoom_from_s: float | None = None) -> None:
     """One column per axis (roll, pitch, yaw), one row per ``(ylabel, {label: (N, 3)},
-    3σ (N, 3) or None)``; a 3σ array is drawn as a ±3σ band about zero."""
+    3σ (N, 3) or None)``; a 3σ array is drawn as a ±3σ band about zero. ``zoom_from_s``:
+    scale the y axes to the data from that time on (the start-up transient is hundreds
+    of times larger than the converged errors)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -214,6 +218,14 @@ def _axes_figure(path: Path, title: str, t: np.ndarray, rows: list[tuple[str, di
                 ax.fill_between(t, -sig3[:, a], sig3[:, a], color="0.85", label="±3σ (filter)")
             for label, y in curves.items():
                 ax.plot(t, y[:, a], linewidth=0.8, label=label)
+            if zoom_from_s is not None and np.any(t >= zoom_from_s):
+                sel = t >= zoom_from_s
+                shown = [y[sel, a] for y in curves.values()]
+                if sig3 is not None:
+                    shown += [sig3[sel, a], -sig3[sel, a]]
+                lo, hi = min(float(np.min(v)) for v in shown), max(float(np.max(v)) for v in shown)
+                pad = 0.05 * (hi - lo) + 1e-12
+                ax.set_ylim(lo - pad, hi + pad)
             ax.grid(True, alpha=0.3)
             if r == 0:
                 ax.set_title(AXES[a])
@@ -242,14 +254,16 @@ def flexure_report(bag_dir: Path, out: Path, convergence_s: float = 600.0) -> di
         raise BagError(f"{bag_dir}: the flexure estimators published nothing")
     # A run shorter than twice the convergence time (a smoke test) is scored on its second half.
     convergence_s = min(convergence_s, 0.5 * float(t[-1]))
-    metrics: dict[str, Any] = {"bag": str(bag_dir), "convergence_s": convergence_s, **settings, "estimators": {}}
-    plots = []
-    _axes_figure(out / "flexure_truth.png", "Simulated ship flexure LGU1 → LGU2 (truth; paper 5 Fig. 2)", t, [
+    metrics = generic_report(bag_dir, out)  # bag summary (topics, counts, closed cleanly) and its truth plot
+    metrics.update({"convergence_s": convergence_s, **settings, "estimators": {}})
+    plots = metrics["plots"]
+    zoom = 0.5 * convergence_s  # error plots are scaled to the data from here on
+    _axes_figure(out / "flexure_truth_fig2.png", "Simulated ship flexure LGU1 → LGU2 (truth; paper 5 Fig. 2)", t, [
         ("quasi-static variation [″]", {"Φ(t) − Φ(0)": _as(first["truth_quasi_static"] - first["truth_quasi_static"][0])},
          None),
         ("total flexure [″]", {"Φ + θ": _as(first["truth_flexure"])}, None),
     ])
-    plots.append("flexure_truth.png")
+    plots.append("flexure_truth_fig2.png")
     for node, s in runs.items():
         model = models[node]
         m = flexure_metrics(s, convergence_s, helm_period_s=settings["helm_period_s"])
@@ -267,13 +281,13 @@ def flexure_report(bag_dir: Path, out: Path, convergence_s: float = 600.0) -> di
             ("dynamic error [″]", {"error": _as(s["dynamic"] - s["truth_dynamic"])}, 3.0 * _as(s["dynamic_sigma"])),
             ("total flexure error [″]", {"error": _as(s["flexure"] - s["truth_flexure"])},
              3.0 * _as(s["flexure_sigma"])),
-        ])
+        ], zoom_from_s=zoom)
         _axes_figure(out / f"{node}_bias_diff.png", f"{node} ({model}): bias difference ε1 − ε2 (paper 5 Figs. 5, 8)",
                      t, [
             ("ε1 − ε2 [°/h]", {"truth": s["truth_bias_diff"] / _DEG_H, "estimate": s["bias_diff"] / _DEG_H}, None),
             ("error [°/h]", {"error": (s["bias_diff"] - s["truth_bias_diff"]) / _DEG_H},
              3.0 * s["bias_diff_sigma"] / _DEG_H),
-        ])
+        ], zoom_from_s=zoom)
         plots += [f"{node}_estimates.png", f"{node}_errors.png", f"{node}_bias_diff.png"]
     t = first["t"]
     _axes_figure(out / "quasi_static_error_comparison.png", "Quasi-static flexure error of each model", t, [
@@ -282,9 +296,8 @@ def flexure_report(bag_dir: Path, out: Path, convergence_s: float = 600.0) -> di
           for n, s in runs.items()}, None),
         ("quasi-static truth variation [″]",
          {"Φ(t) − Φ(0)": _as(first["truth_quasi_static"] - first["truth_quasi_static"][0])}, None),
-    ])
+    ], zoom_from_s=zoom)
     plots.append("quasi_static_error_comparison.png")
-    metrics["plots"] = plots
     return metrics
 
 
