@@ -133,8 +133,8 @@ def estimator_nodes(bag_dir: Path, topics: set[str]) -> dict[str, str]:
     (from scenario.yaml; without it, every ``/<node>/flexure_sigma`` topic, model unknown)."""
     nodes = _run_config(bag_dir)
     if nodes:
-        return {name: (spec.get("params") or {}).get("quasi_static_model") or _param({}, ESTIMATOR,
-                                                                                     "quasi_static_model")
+        default = _param({}, ESTIMATOR, "quasi_static_model")
+        return {name: (spec.get("params") or {}).get("quasi_static_model", default)
                 for name, spec in nodes.items() if spec.get("executable") == ESTIMATOR}
     return {t.split("/")[1]: "unknown" for t in sorted(topics) if t.count("/") == 2 and t.endswith("/flexure_sigma")}
 
