@@ -24,6 +24,7 @@ setup(
         "console_scripts": [
             "gyro_bias_ekf = gimbal_estimators.gyro_bias_ekf_node:main",
             "free_gyro_positioning = gimbal_estimators.free_gyro_positioning_node:main",
+            "flexure_estimator = gimbal_estimators.flexure_estimator_node:main",
         ],
     },
 )

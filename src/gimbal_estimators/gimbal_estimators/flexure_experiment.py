@@ -6,26 +6,25 @@ Command line (prints the metrics of both models)::
 
     python -m gimbal_estimators.flexure_experiment --duration 7200 --seed 0
 
-Errors are estimate − truth; statistics use the filter epochs after ``convergence_s``.
+Errors are estimate − truth; statistics use the filter epochs after ``convergence_s``
+(:func:`gimbal_sim.reports.flexure.flexure_metrics`, the same scoring as the bag report).
 """
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from dataclasses import dataclass, field, replace
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from gimbal_sim.reports.flexure import flexure_metrics
 from gimbal_sim.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
 from gimbal_sim.sensors import FlexureParams, GyroParams
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
 from .flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
 
-_ARCSEC = math.pi / 180.0 / 3600.0
-_DEG_H = math.pi / 180.0 / 3600.0
 
 #: Per-epoch series kept (each (n, 3) except ``t`` and ``d2``).
 SERIES = ("t", "truth_flexure", "truth_quasi_static", "truth_bias_diff", "flexure", "flexure_sigma",
@@ -52,57 +51,6 @@ class FlexureExperimentResult:
     wall_s: float
     filter_us_per_pair: float
     config: dict[str, Any] = field(default_factory=dict)
-
-
-def flexure_metrics(s: dict[str, np.ndarray], convergence_s: float, settle_deg_h: float = 0.01) -> dict[str, Any]:
-    """Scores from full-rate series ``s`` (the :data:`SERIES` keys).
-
-    Keys (per axis roll, pitch, yaw unless noted): ``total_rms_arcsec``, ``total_max_arcsec``
-    (total-flexure error), ``total_sigma_rms_arcsec`` (RMS of the filter's own 1σ: the
-    error it expects, set by how observable θ_d is); ``qs_rms_arcsec``, ``qs_max_arcsec``
-    (quasi-static error);
-    ``qs_variation_pp_arcsec`` (peak-to-peak of the true quasi-static flexure over the run)
-    and ``qs_variation_rms_arcsec`` (its RMS about its mean after convergence);
-    ``qs_max_over_variation_pp`` (the paper's "about half the variation" figure);
-    ``bias_diff_err_final_deg_h``, ``bias_diff_err_max_deg_h``, ``bias_diff_err_rms_deg_h``;
-    ``total_within_3sigma`` (fraction of epochs with every axis inside ±3σ);
-    ``total_nees_mean`` (Σ (e/σ)² over the axes with the diagonal σ; about 3 if consistent);
-    ``bias_diff_settle_s`` (scalar): time after which every axis's bias-difference error
-    stays within ``settle_deg_h`` (nan if it ends outside); ``n_epochs`` (scalar).
-    """
-    t = s["t"]
-    sel = t >= convergence_s
-    if not np.any(sel):
-        raise ValueError(f"no filter epochs after convergence_s = {convergence_s} s")
-    e_tot = (s["flexure"] - s["truth_flexure"])[sel]
-    e_qs = (s["quasi_static"] - s["truth_quasi_static"])[sel]
-    e_eps = (s["bias_diff"] - s["truth_bias_diff"])[sel]
-    qs_true = s["truth_quasi_static"]
-    rms = lambda e: np.sqrt(np.mean(e * e, axis=0))  # noqa: E731
-    sig = s["flexure_sigma"][sel]
-    outside = np.any(np.abs(s["bias_diff"] - s["truth_bias_diff"]) > settle_deg_h * _DEG_H, axis=1)
-    if outside[-1]:
-        settle = math.nan
-    else:
-        idx = np.flatnonzero(outside)
-        settle = float(t[idx[-1] + 1]) if idx.size else float(t[0])
-    return {
-        "total_rms_arcsec": rms(e_tot) / _ARCSEC,
-        "total_max_arcsec": np.max(np.abs(e_tot), axis=0) / _ARCSEC,
-        "total_sigma_rms_arcsec": rms(sig) / _ARCSEC,
-        "qs_rms_arcsec": rms(e_qs) / _ARCSEC,
-        "qs_max_arcsec": np.max(np.abs(e_qs), axis=0) / _ARCSEC,
-        "qs_variation_pp_arcsec": np.ptp(qs_true, axis=0) / _ARCSEC,
-        "qs_variation_rms_arcsec": np.std(qs_true[sel], axis=0) / _ARCSEC,
-        "qs_max_over_variation_pp": np.max(np.abs(e_qs), axis=0) / np.ptp(qs_true, axis=0),
-        "bias_diff_err_final_deg_h": e_eps[-1] / _DEG_H,
-        "bias_diff_err_max_deg_h": np.max(np.abs(e_eps), axis=0) / _DEG_H,
-        "bias_diff_err_rms_deg_h": rms(e_eps) / _DEG_H,
-        "total_within_3sigma": float(np.mean(np.all(np.abs(e_tot) <= 3.0 * sig, axis=1))),
-        "total_nees_mean": float(np.mean(np.sum((e_tot / np.maximum(sig, 1e-300)) ** 2, axis=1))),
-        "bias_diff_settle_s": settle,
-        "n_epochs": int(np.count_nonzero(sel)),
-    }
 
 
 def run_flexure_comparison(
@@ -193,7 +141,7 @@ def run_flexure_comparison(
     out: dict[str, FlexureExperimentResult] = {}
     for m, kf in filters.items():
         full = {k: np.asarray(v, dtype=float) for k, v in rows[m].items()}
-        metrics = flexure_metrics(full, convergence_s)
+        metrics = flexure_metrics(full, convergence_s, helm_period_s=suite.config.flexure.helm_period_s[0])
         # Thin to one row per record period for plots and reports.
         t = full["t"]
         keep = np.ones(t.shape, bool)

@@ -88,3 +88,16 @@ def free_gyro_fix_msg(fix: FreeGyroFix, frame_id: str, height_m: float, height_s
         raise ValueError(f"no NavSatFix for a {fix.status} fix ({fix.reason})")
     cov = navsat_covariance_enu(fix.cov_ne_m, height_sigma_m**2)
     return navsat_fix_msg(seconds_ns(fix.t), frame_id, fix.lat, fix.lon, height_m, cov)
+
+
+def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:
+    """Incremental angle Δα [rad] (3,) of an LGU message over its sample interval ``dt``
+    [s]: the sensor publishes Δα/Δt in ``angular_velocity`` (README topic table), so this
+    is exact for the interval the rate was formed over. None when the message marks its
+    rates as not provided (REP 145: ``angular_velocity_covariance[0] == -1``). Non-finite
+    values pass through; the filter core rejects and counts them."""
+    if msg.angular_velocity_covariance[0] == -1.0:
+        return None
+    w = msg.angular_velocity
+    return (w.x * dt, w.y * dt, w.z * dt)
+

@@ -19,6 +19,7 @@ NODE_MODULES = {
     "gyro_bias_ekf": ("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node"),
     "free_gyro_positioning": ("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node"),
     "encoder_fusion_controller": ("gimbal_control", "gimbal_control.encoder_fusion_controller_node"),
+    "flexure_estimator": ("gimbal_estimators", "gimbal_estimators.flexure_estimator_node"),
 }
 
 

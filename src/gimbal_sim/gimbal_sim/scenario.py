@@ -65,6 +65,8 @@ NODE_TYPES: dict[str, NodeType] = {
                                       "FreeGyroPositioningNode"),
     "encoder_fusion_controller": NodeType("gimbal_control", "gimbal_control.encoder_fusion_controller_node",
                                           "EncoderFusionControllerNode"),
+    "flexure_estimator": NodeType("gimbal_estimators", "gimbal_estimators.flexure_estimator_node",
+                                  "FlexureEstimatorNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",

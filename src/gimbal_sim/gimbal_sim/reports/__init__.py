@@ -16,6 +16,7 @@ from typing import Callable
 #: report name -> "module:function" (module relative to this package)
 REPORTS: dict[str, str] = {
     "generic": "generic:generic_report",
+    "flexure": "flexure:flexure_report",
     "los_pointing": "los_pointing:los_pointing_report",
     "sighting": "sighting:sighting_report",
     "free_gyro": "free_gyro:free_gyro_report",

@@ -1,0 +1,220 @@
+"""``flexure_estimator`` node: paper 5's ship angular-flexure Kalman filter
+(:class:`~gimbal_estimators.flexure_kf.FlexureKf`) on the two LGUs.
+
+Inputs: ``/ship/lgu1/imu`` and ``/ship/lgu2/imu`` (sensor_msgs/Imu whose
+``angular_velocity`` is the incremental angle over the sample divided by the sample
+interval Δt = 1/``lgu_rate_hz``). Outputs, all geometry_msgs/Vector3Stamped in LGU1 axes
+(roll, pitch, yaw), stamped with the LGU sample that completed the filter step, on private
+topics so that several instances (one per quasi-static model) run side by side:
+
+* ``~/flexure``, ``~/flexure_sigma``: total flexure Φ + θ and its 1σ [rad];
+* ``~/quasi_static``, ``~/quasi_static_sigma``: Φ and its 1σ [rad];
+* ``~/dynamic``, ``~/dynamic_sigma``: θ and its 1σ [rad];
+* ``~/bias_diff``, ``~/bias_diff_sigma``: ε1 − ε2 and its 1σ [rad/s];
+* ``~/progress`` (rosgraph_msgs/Clock): the time of the next LGU sample the node needs,
+  for the vehicle's pacing (the node must see every sample, see below).
+
+Bad input is never fused. The core rejects and counts non-finite or malformed samples,
+out-of-order and duplicate stamps; a chi-square gate keeps outliers out; a backward clock
+jump (a bag looping) resets it. A lost sample (a gap in either unit's stream, or one
+unit's sample without its partner) loses that interval's rotation in the integrated
+attitudes, so the filter does not fuse across it: it re-anchors both attitudes at the next
+complete pair (θ_d := Φ + θ, covariance carried over) and the node logs it; a gap longer
+than ``max_gap_s`` resets. Every reset is logged with its reason.
+"""
+from __future__ import annotations
+
+import sys
+
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu
+
+from gimbal_sim.node_main import run_node
+from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+
+from . import messages as m
+from .flexure_kf import QS_MODELS, FlexureEstimate, FlexureKf, FlexureKfParams
+
+DESCRIPTION = (
+    "Paper 5 ship angular-flexure Kalman filter: integrates the two LGUs' attitudes from "
+    "their incremental angles, matches them (Z = phi - A theta_d) in an 18-state filter "
+    "with a random-constant or random-walk-rate quasi-static model, second-order Markov "
+    "dynamic flexure and the bias difference; publishes the total flexure, its quasi-static "
+    "and dynamic parts and the bias difference with 1-sigma companions on private topics."
+)
+INF = float("inf")
+
+PARAMS = (
+    Param("quasi_static_model", "random_walk_rate", "quasi-static flexure model: random_constant (conventional) "
+          "or random_walk_rate (paper 5 eq. 10)", choices=QS_MODELS),
+    Param("lgu_rate_hz", 10.0, "LGU sample rate [Hz]; each sample's interval is 1/lgu_rate_hz", 1e-3, 100000.0),
+    Param("sim_rate_hz", 1000.0, "simulation (lockstep) rate [Hz], for ~/progress; a multiple of lgu_rate_hz",
+          1.0, 100000.0),
+    Param("progress_every_steps", 10, "report on ~/progress (time of the next sample needed) when it has moved "
+          "this many simulation steps; vehicle_dynamics paces on it", 1, 10**6),
+    Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
+          0, 1000),
+    Param("publish_period_s", 0.0, "publish the estimate at most once per this period of stamps [s] "
+          "(0: every filter step)", 0.0, 1e6),
+    Param("filter_period_s", 0.1, "nominal Kalman step [s]; the filter steps once at least this has elapsed",
+          1e-4, 100.0),
+    Param("qs_initial_sigma_deg", 0.5, "prior 1-sigma of the quasi-static flexure [deg]", 1e-9, 90.0),
+    Param("qs_rate_initial_sigma_deg_h", 10.0, "prior 1-sigma of its rate [deg/h] (random_walk_rate)", 0.0, INF),
+    Param("qs_rate_rw_arcsec_s_rt_s", 1.0, "random walk of the quasi-static flexure rate [arcsec/s/sqrt(s)] "
+          "(random_walk_rate)", 0.0, INF),
+    Param("qs_rw_arcsec_rt_s", 0.001, "random walk of the quasi-static flexure [arcsec/sqrt(s)] "
+          "(random_constant; small = constant)", 0.0, INF),
+    Param("dynamic_rms_arcsec", [20.0, 60.0, 40.0], "dynamic flexure RMS (roll, pitch, yaw) [arcsec]"),
+    Param("dynamic_beta_per_s", [0.1, 0.1, 0.1], "dynamic flexure decay rate beta (roll, pitch, yaw) [1/s]"),
+    Param("dynamic_freq_rad_s", [0.5, 0.5, 0.5], "dynamic flexure damped frequency lambda (roll, pitch, yaw) "
+          "[rad/s]"),
+    Param("bias_diff_initial_sigma_deg_h", 0.1, "prior 1-sigma of the bias difference [deg/h]", 1e-12, INF),
+    Param("bias_diff_rw_deg_h_rt_h", 0.001, "bias difference random walk [deg/h/sqrt(h)]", 0.0, INF),
+    Param("lgu_arw_deg_rt_h", 0.001, "angle random walk of each LGU [deg/sqrt(h)]", 0.0, INF),
+    Param("meas_noise_arcsec", 1.0, "1-sigma of the attitude-matching measurement [arcsec]", 1e-9, INF),
+    Param("second_order_observation", True, "predict Z to second order (BCH term) instead of the paper's H x"),
+    Param("gate_probability", 0.99999, "chi-square gate probability (3 dof); 0 disables the gate", 0.0, 1.0),
+    Param("max_gate_rejections", 200, "gated measurements in a row that re-anchor (then reset)", 1, 10**9),
+    Param("max_gap_s", 5.0, "a data gap longer than this resets instead of re-anchoring [s]", 1e-3, 1e6),
+    Param("clock_jump_s", 1.0, "a stamp this far behind the newest is a clock jump (reset) [s]", 1e-6, 1e9),
+)
+
+#: Output topic stems, each published with a ``_sigma`` companion.
+OUTPUTS = ("flexure", "quasi_static", "dynamic", "bias_diff")
+#: Counters whose increase means a sample was rejected, with the log text.
+_REJECTIONS = {"nonfinite": "non-finite value", "malformed": "malformed (rates not provided or > 1 rad)",
+               "bad_dt": "interval inconsistent with lgu_rate_hz or its partner",
+               "out_of_order": "stamp not after the last fused pair", "duplicates": "duplicate stamp"}
+
+
+def core_params(v: dict) -> FlexureKfParams:
+    """The core's frozen parameters from the node's values; raises naming the parameter."""
+    try:
+        return FlexureKfParams(
+            quasi_static_model=v["quasi_static_model"], filter_period_s=v["filter_period_s"],
+            qs_initial_sigma_deg=v["qs_initial_sigma_deg"],
+            qs_rate_initial_sigma_deg_h=v["qs_rate_initial_sigma_deg_h"],
+            qs_rate_rw_arcsec_s_rt_s=v["qs_rate_rw_arcsec_s_rt_s"], qs_rw_arcsec_rt_s=v["qs_rw_arcsec_rt_s"],
+            dynamic_rms_arcsec=tuple(v["dynamic_rms_arcsec"]), dynamic_beta_per_s=tuple(v["dynamic_beta_per_s"]),
+            dynamic_freq_rad_s=tuple(v["dynamic_freq_rad_s"]),
+            bias_diff_initial_sigma_deg_h=v["bias_diff_initial_sigma_deg_h"],
+            bias_diff_rw_deg_h_rt_h=v["bias_diff_rw_deg_h_rt_h"], lgu_arw_deg_rt_h=v["lgu_arw_deg_rt_h"],
+            meas_noise_arcsec=v["meas_noise_arcsec"], second_order_observation=v["second_order_observation"],
+            gate_probability=v["gate_probability"] or None, max_gate_rejections=v["max_gate_rejections"],
+            max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"],
+        )
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc
+
+
+class FlexureEstimatorNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("flexure_estimator", **node_kwargs)
+        v = declare_and_read(self, PARAMS)
+        self.rate = v["sim_rate_hz"]
+        ratio = self.rate / v["lgu_rate_hz"]
+        self.steps_per_sample = int(round(ratio))
+        if self.steps_per_sample < 1 or abs(ratio - self.steps_per_sample) > 1e-9 * ratio:
+            raise ParameterError(f"parameter 'lgu_rate_hz' = {v['lgu_rate_hz']} Hz does not divide "
+                                 f"sim_rate_hz = {self.rate} Hz")
+        if v["filter_period_s"] * v["lgu_rate_hz"] < 1.0 - 1e-9:
+            raise ParameterError(f"parameter 'filter_period_s' = {v['filter_period_s']} s is shorter than one "
+                                 f"LGU sample (1/lgu_rate_hz = {1.0 / v['lgu_rate_hz']:g} s)")
+        self.dt = 1.0 / v["lgu_rate_hz"]
+        self.core = FlexureKf(core_params(v))
+        self.publish_period_ns = int(round(v["publish_period_s"] * 1e9))
+        self._last_bin: int | None = None
+        self.progress_every = v["progress_every_steps"]
+        self.wait_for_subscribers = v["wait_for_subscribers"]
+        # Newest stamp [ns] seen per unit (for ~/progress) and the step last reported.
+        self._newest: list[int | None] = [None, None]
+        self._reported = 0
+        self.pubs = {}
+        for name in OUTPUTS:
+            for topic in (name, f"{name}_sigma"):
+                self.pubs[topic] = self.create_publisher(Vector3Stamped, f"~/{topic}", GRAPH_QOS)
+        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        self.subs = [self.create_subscription(Imu, f"/ship/lgu{u + 1}/imu", lambda msg, u=u: self._on_lgu(u, msg),
+                                             GRAPH_QOS) for u in (0, 1)]
+        self._ready_timer = self.create_timer(0.02, self._announce_ready)
+
+    # ------------------------------------------------------------------ readiness and pacing
+    def _announce_ready(self) -> None:
+        """Report ready (next step needed: 0) once both LGU streams have a publisher and
+        every output its readers, so no sample and no estimate is lost to discovery."""
+        if any(s.get_publisher_count() < 1 for s in self.subs):
+            return
+        if any(p.get_subscription_count() < self.wait_for_subscribers for p in self.pubs.values()):
+            return
+        self._ready_timer.cancel()
+        self.destroy_timer(self._ready_timer)
+        self.pub_progress.publish(m.clock_msg(0))
+
+    def _report_progress(self, unit: int, t_ns: int) -> None:
+        """The next step needed is one sample after the older of the two units' newest."""
+        if self._newest[unit] is None or t_ns > self._newest[unit]:
+            self._newest[unit] = t_ns
+        if None in self._newest:
+            return
+        step = m.step_of_stamp(min(self._newest), self.rate) + self.steps_per_sample  # type: ignore[type-var]
+        if step >= self._reported + self.progress_every:
+            self._reported = step
+            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(step, self.rate)))
+
+    # ------------------------------------------------------------------ input
+    def _on_lgu(self, unit: int, msg: Imu) -> None:
+        t_ns = m.stamp_ns(msg.header.stamp)
+        before = dict(self.core.counters)
+        dalpha = m.lgu_increment(msg, self.dt)
+        feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
+        # rates marked not provided go in as an empty increment, which the core counts as malformed
+        est = feed(t_ns * 1e-9, () if dalpha is None else dalpha, self.dt)
+        self._log_events(unit, t_ns, before)
+        if est is not None:
+            self._publish(t_ns, est)
+        self._report_progress(unit, t_ns)
+
+    def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
+        c = self.core.counters
+        log = self.get_logger()
+        t = t_ns * 1e-9
+        for key, text in _REJECTIONS.items():
+            if c[key] > before[key]:
+                log.warning(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)",
+                            throttle_duration_sec=1.0)
+        if c["resets"] > before["resets"]:
+            log.warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} ({c['resets']} resets)")
+        elif c["reanchors"] > before["reanchors"]:
+            cause = "gated measurements in a row" if c["gaps"] == before["gaps"] else "lost LGU sample(s)"
+            log.warning(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, "
+                        f"covariance kept; {c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, "
+                        f"{c['reanchors']} re-anchors)", throttle_duration_sec=1.0)
+        if c["gated"] > before["gated"]:
+            log.warning(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)",
+                        throttle_duration_sec=1.0)
+
+    # ------------------------------------------------------------------ output
+    def _publish(self, t_ns: int, est: FlexureEstimate) -> None:
+        if self.publish_period_ns > 0:
+            b = t_ns // self.publish_period_ns
+            if b == self._last_bin:
+                return
+            self._last_bin = b
+        frame = "lgu1_frd"
+        values = {"flexure": est.flexure, "flexure_sigma": est.flexure_sigma,
+                  "quasi_static": est.quasi_static, "quasi_static_sigma": est.quasi_static_sigma,
+                  "dynamic": est.dynamic, "dynamic_sigma": est.dynamic_sigma,
+                  "bias_diff": est.bias_diff, "bias_diff_sigma": est.bias_diff_sigma}
+        for topic, vec in values.items():
+            self.pubs[topic].publish(m.vector3_msg(t_ns, frame, vec))
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(FlexureEstimatorNode, "flexure_estimator", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
