@@ -1,0 +1,51 @@
+"""Scenario variants: validation of the overrides and the single-run scenarios they give."""
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from gimbal_sim.scenario import ScenarioError, builtin_scenarios, load, validate, variant
+
+
+def _base() -> dict:
+    return yaml.safe_load(builtin_scenarios()["sighting_land_vehicle"].read_text())
+
+
+def test_builtin_variants_differ_only_in_their_overrides():
+    s = load("sighting_land_vehicle")
+    assert list(s.variants) == ["ekf_off", "ekf_on"] and s.comparison == "sighting"
+    off, on = variant(s, "ekf_off"), variant(s, "ekf_on")
+    assert off.nodes["los_rate_controller"]["params"]["feedback"] is False
+    assert on.nodes["los_rate_controller"]["params"]["feedback"] is True
+    assert off.seed == on.seed == s.seed and not off.variants and on.name == "sighting_land_vehicle:ekf_on"
+    for name in s.nodes:
+        if name != "los_rate_controller":
+            assert off.nodes[name] == on.nodes[name] == s.nodes[name]
+
+
+def test_a_variant_may_change_the_seed_and_nothing_else_leaks():
+    data = _base()
+    data["variants"] = {"a": {"seed": 7}, "b": {"los_rate_controller.zeta": 1}}
+    s = validate(data)
+    assert variant(s, "a").seed == 7 and variant(s, "b").seed == data["seed"]
+    assert variant(s, "b").nodes["los_rate_controller"]["params"]["zeta"] == 1.0  # int accepted for a float
+
+
+@pytest.mark.parametrize("variants, comparison, message", [
+    ({"x": {"los_rate_controller.no_such": 1}}, "sighting", "no_such"),
+    ({"x": {"ghost.feedback": True}}, "sighting", "ghost.feedback"),
+    ({"x": {"seed": -1}}, "sighting", "seed"),
+    ({"x": {"los_rate_controller.feedback": "yes"}}, "sighting", "feedback"),
+    ({"x y": {}}, "sighting", "variant name"),
+    ({"x": {"seed": 1}}, "", "comparison"),
+])
+def test_bad_variants_are_refused_naming_the_culprit(variants, comparison, message):
+    data = _base()
+    data["variants"], data["comparison"] = variants, comparison
+    with pytest.raises(ScenarioError, match=message):
+        validate(data)
+
+
+def test_unknown_variant_is_refused():
+    with pytest.raises(ScenarioError, match="no variant 'nope'"):
+        variant(load("sighting_land_vehicle"), "nope")
