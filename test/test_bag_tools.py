@@ -60,7 +60,8 @@ def test_replay_delivers_every_sensor_message_in_order(bag, rate, ros_domain_env
 def test_recorder_killed_mid_run_loses_at_most_a_second(ros_domain_env, tmp_path):
     out = tmp_path / "bag"
     rate = 1000.0
-    vehicle = {"sim_rate_hz": rate, "duration_s": 60.0, "pace_topics": ["/sensor_models/progress"]}
+    # paced on the recorder too: unpaced, a loaded machine may drop /clock steps before the kill
+    vehicle = {"sim_rate_hz": rate, "duration_s": 60.0, "pace_topics": ["/sensor_models/progress", "/bag_recorder/progress"]}
     sensors = {"sim_rate_hz": rate, "wait_for_subscribers": 1}
     recorder = {"output_dir": str(out), "sim_rate_hz": rate, "wait_for_nodes": ["vehicle_dynamics", "sensor_models"]}
     clock = []

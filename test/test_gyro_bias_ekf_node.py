@@ -67,12 +67,14 @@ def test_node_rejects_nan_and_out_of_order_and_resets_on_a_clock_jump(ros_domain
             assert spin_until(executor, lambda: ekf.pub_bias.get_subscription_count() > 0
                               and pub_g.get_subscription_count() > 0, 30.0)
 
-            def send(k, gyro_q=None):
+            def send(k, gyro_q=None, ins_nan=False):
                 gyro, enc, ins = _static_inputs(k)
                 if gyro_q is not None:
                     gyro.angular_velocity.y = gyro_q
                 pub_e.publish(enc)
                 if ins is not None:
+                    if ins_nan:
+                        ins.orientation.x = math.nan
                     pub_i.publish(ins)
                 pub_g.publish(gyro)
                 spin_until(executor, lambda: False, 0.002)
@@ -86,9 +88,8 @@ def test_node_rejects_nan_and_out_of_order_and_resets_on_a_clock_jump(ros_domain
             assert before.rejected_nonfinite == 1 and before.resets == 0
             # an INS sample with NaN angles: rejected, counted, and still answered with the
             # current estimate so a waiting controller carries on
-            _, _, ins = _static_inputs(50)
-            ins.orientation.x = math.nan
-            pub_i.publish(ins)
+            for k in range(41, 51):
+                send(k, ins_nan=k == 50)
             ok = spin_until(executor, lambda: 5 * 10**7 in stamps, 30.0)
             assert ok, (ekf.core.counters, stamps[-3:])
             assert ekf.core.counters.rejected_nonfinite == 2

@@ -16,6 +16,10 @@ estimate of its step:
 * ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): the health counters (updates,
   gated, rejected, resets, re-alignments) once per simulated second and after each reset.
 
+The three streams are fed to the filter in stamp order (:mod:`.stamp_order`), the encoders
+and INS of a stamp before its gyro sample, whatever order the middleware delivers them in;
+so a replay at any speed computes exactly what the run computed.
+
 An INS sample whose estimate cannot be produced (non-finite, or before alignment) still
 gets an output: the current estimate with that stamp, so a waiting controller never
 stalls. The node reports on ``~/progress`` (rosgraph_msgs/Clock) the next gyro step it
@@ -37,6 +41,7 @@ from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
 
 from . import messages as m
 from .gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+from .stamp_order import StampOrder
 
 DESCRIPTION = (
     "Paper 1 gyro-bias EKF: propagates the inner-gimbal attitude C(n,m) with the two-axis gimbal "
@@ -116,10 +121,14 @@ class GyroBiasEkfNode(Node):
         self.pub_attitude = self.create_publisher(Imu, "~/attitude", GRAPH_QOS)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", GRAPH_QOS)
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        # Encoders and INS before the gyro of the same stamp: the gyro sample completes a step.
+        self._handlers = {"encoders": self._on_encoders, "ins": self._on_ins, "gyro": self._on_gyro}
+        self.order = StampOrder(tuple(self._handlers), int(round(values["max_sync_wait_s"] * 1e9)))
         self.subs = [
-            self.create_subscription(Imu, "/gimbal/imu", self._on_gyro, GRAPH_QOS),
-            self.create_subscription(JointState, "/gimbal/joint_states", self._on_encoders, GRAPH_QOS),
-            self.create_subscription(Imu, "/ins/imu", self._on_ins, GRAPH_QOS),
+            self.create_subscription(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), GRAPH_QOS),
+            self.create_subscription(JointState, "/gimbal/joint_states", lambda msg: self._on_input("encoders", msg),
+                                     GRAPH_QOS),
+            self.create_subscription(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), GRAPH_QOS),
         ]
         self._ready_timer = self.create_timer(0.02, self._announce_ready)
 
@@ -132,6 +141,10 @@ class GyroBiasEkfNode(Node):
         self.pub_progress.publish(m.clock_msg(0))
 
     # ----------------------------------------------------------------- inputs
+    def _on_input(self, stream: str, msg) -> None:
+        for kind, item in self.order.add(stream, m.stamp_ns(msg.header.stamp), msg):
+            self._handlers[kind](item)
+
     def _on_gyro(self, msg: Imu) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
         w = msg.angular_velocity

@@ -62,7 +62,7 @@ def cmd_play(args: argparse.Namespace) -> int:
                           start_offset_s=args.start_offset, loop=args.loop,
                           wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace)
     localhost_env()
-    rclpy.init()
+    rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
     player = None
     try:
         player = BagPlayer(Path(args.bag), options)

@@ -27,6 +27,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosgraph_msgs.msg import Clock
 
 from .. import messages as m
+from ..qos import GRAPH_QOS
 from .reader import BagContents, BagError, RawMessage, read_messages
 from .schemas import message_class
 
@@ -101,8 +102,9 @@ class BagPlayer(Node):
         self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock else None
         self._paced = {t: None for t in options.pace_topics}
         for topic in options.pace_topics:
-            self.create_subscription(Clock, topic, lambda msg, t=topic: self._on_progress(t, msg),
-                                     QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+            # transient-local, as the nodes offer it: a reader's "ready" (step 0) may have
+            # been published before the player started
+            self.create_subscription(Clock, topic, lambda msg, t=topic: self._on_progress(t, msg), GRAPH_QOS)
         self.published = 0
         self.retries = 0
 
