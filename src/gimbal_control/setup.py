@@ -23,6 +23,7 @@ setup(
     entry_points={
         "console_scripts": [
             "los_rate_controller = gimbal_control.los_rate_controller_node:main",
+            "platform_servo = gimbal_control.platform_servo_node:main",
         ],
     },
 )

@@ -16,6 +16,7 @@ NODE_MODULES = {
     "sensor_models": ("gimbal_sim", "gimbal_sim.sensor_models_node"),
     "bag_recorder": ("gimbal_sim", "gimbal_sim.bag.recorder_node"),
     "los_rate_controller": ("gimbal_control", "gimbal_control.los_rate_controller_node"),
+    "platform_servo": ("gimbal_control", "gimbal_control.platform_servo_node"),
 }
 
 

@@ -56,6 +56,7 @@ NODE_TYPES: dict[str, NodeType] = {
     "bag_recorder": NodeType("gimbal_sim", "gimbal_sim.bag.recorder_node", "BagRecorderNode"),
     "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
                                     "LosRateControllerNode"),
+    "platform_servo": NodeType("gimbal_control", "gimbal_control.platform_servo_node", "PlatformServoNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes"}

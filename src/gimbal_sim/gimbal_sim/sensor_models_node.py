@@ -19,8 +19,8 @@ from .node_main import run_node
 from .qos import GRAPH_QOS
 from .ros_params import Param, ParameterError, declare_and_read
 from .sensor_suite import (
-    SENSORS, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, SensorSuite,
-    SensorSuiteConfig,
+    SENSORS, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample,
+    SensorSuite, SensorSuiteConfig,
 )
 from .sensors import AccelerometerParams, EncoderParams, FlexureParams, GyroParams, InsParams
 from .stamp_sync import StampSync
@@ -28,8 +28,8 @@ from .vehicle import VehicleTruth
 
 DESCRIPTION = (
     "Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the "
-    "two-axis gimbal gyro, the encoders, the paper 5 LGUs and the paper 3 platform IMU, each "
-    "at its own rate with the papers' error models, plus the error truth (biases, flexure)."
+    "two-axis gimbal gyro, the encoders, the paper 5 LGUs, the paper 3 platform IMU and "
+    "gimbal resolvers, each at its own rate with the papers' error models, plus the error truth (biases, flexure)."
 )
 INF = math.inf
 
@@ -76,6 +76,10 @@ PARAMS = (
     Param("platform_gyro_arw_deg_rt_h", 0.003, "platform gyro angle random walk [deg/sqrt(h)]", 0.0, INF),
     Param("platform_accel_bias_sigma_ug", 100.0, "platform accelerometer bias 1-sigma [micro-g]", 0.0, INF),
     Param("platform_accel_noise_ug_rt_hz", 50.0, "platform accelerometer noise density [micro-g/sqrt(Hz)]", 0.0, INF),
+    Param("resolver_rate_hz", 1000.0, "platform gimbal resolver output rate [Hz]", 1e-3, 100000.0),
+    Param("resolver_bits", 19, "resolver-to-digital converter resolution [bits per turn] (0: unquantised)", 0, 30),
+    Param("resolver_noise_arcsec", 0.0, "resolver white readout noise RMS [arcsec]", 0.0, INF),
+    Param("resolver_velocity_gate_s", 0.01, "gate of the resolver count-difference velocity [s]", 1e-9, INF),
 )
 
 
@@ -113,6 +117,10 @@ def config_from_params(v: dict) -> SensorSuiteConfig:
                                      arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"]),
             platform_accel=AccelerometerParams(bias_sigma_ug=v["platform_accel_bias_sigma_ug"],
                                                noise_ug_rt_hz=v["platform_accel_noise_ug_rt_hz"]),
+            resolver_rate_hz=v["resolver_rate_hz"],
+            resolver=EncoderParams(noise_deg=v["resolver_noise_arcsec"] / 3600.0,
+                                   lines_per_rev=2 ** v["resolver_bits"] if v["resolver_bits"] else 0,
+                                   velocity_gate_s=v["resolver_velocity_gate_s"]),
         )
     except ValueError as exc:
         raise ParameterError(str(exc)) from exc
@@ -125,6 +133,7 @@ TRUTH_TOPICS = {
     "/truth/gimbal/imu": Imu,
     "/truth/gimbal/joint_states": JointState,
     "/truth/platform/imu": Imu,
+    "/truth/platform/joint_states": JointState,
 }
 NEEDS = {
     "ins": ("/truth/host/imu",),
@@ -132,6 +141,7 @@ NEEDS = {
     "encoders": ("/truth/gimbal/joint_states",),
     "lgu": ("/truth/host/delta_angle",),
     "platform_imu": ("/truth/platform/imu",),
+    "resolvers": ("/truth/platform/joint_states", "/truth/host/imu"),
 }
 
 
@@ -139,7 +149,7 @@ def truth_from_group(k: int, t: float, group: dict) -> VehicleTruth:
     """A :class:`VehicleTruth` holding what the subscribed truth topics carry."""
     host = group.get("/truth/host/imu")
     plant = group.get("/truth/gimbal/imu") or group.get("/truth/platform/imu")
-    joints = group.get("/truth/gimbal/joint_states")
+    joints = group.get("/truth/gimbal/joint_states") or group.get("/truth/platform/joint_states")
     delta = group.get("/truth/host/delta_angle")
     return VehicleTruth(
         k=k, t=t,
@@ -186,6 +196,8 @@ class SensorModelsNode(Node):
         if "platform_imu" in on:
             self.pubs["platform_imu"] = (pub(Imu, "/platform/imu"), pub(Vector3Stamped, "/truth/platform/accel_bias"),
                                          pub(Vector3Stamped, "/truth/platform/gyro_bias"))
+        if "resolvers" in on:
+            self.pubs["resolvers"] = (pub(JointState, "/platform/resolvers"),)
         self._noise_cov = self._white_noise_covariances()
         self.progress_every = values["progress_every_steps"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
@@ -258,6 +270,8 @@ class SensorModelsNode(Node):
                                    angular_velocity_cov=cov["lgu"]))
             flex.publish(m.vector3_msg(t_ns, "lgu1_frd", s.flexure))
             flex_qs.publish(m.vector3_msg(t_ns, "lgu1_frd", s.flexure_quasi_static))
+        elif isinstance(s, ResolverSample):
+            self.pubs["resolvers"][0].publish(m.joint_state_msg(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, PlatformImuSample):
             imu, accel_bias, gyro_bias = self.pubs["platform_imu"]
             imu.publish(m.imu_msg(t_ns, "platform_frd", angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],

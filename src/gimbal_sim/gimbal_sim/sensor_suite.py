@@ -9,7 +9,10 @@ enabling or re-rating one sensor never changes another's noise. Sensors:
 * ``encoders``: turret, gimbal azimuth and elevation encoders (angle and pulse-rate);
 * ``lgu``: the two ring-laser-gyro units of paper 5 with the ship flexure between them;
   LGU increments are accumulated at the simulation rate and published at ``lgu_rate_hz``;
-* ``platform_imu``: accelerometer and gyro triads on the paper 3 stable element.
+* ``platform_imu``: accelerometer and gyro triads on the paper 3 stable element;
+* ``resolvers``: the paper 3 gimbal resolvers (θ_a, θ_q, θ_p, θ_r), quantised like its 19-bit
+  resolver-to-digital converters, with their tracking velocity; the true gimbal angles come
+  from the plant's attitude on the base (:func:`.plant.platform_gimbals.gimbal_angles`).
 """
 from __future__ import annotations
 
@@ -20,6 +23,9 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from gimbal_kinematics.rotations import quat_to_dcm
+
+from .plant.platform_gimbals import gimbal_angles
 from .sensors import (
     PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,
     AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
@@ -29,8 +35,13 @@ from .vehicle import VehicleTruth
 
 #: Sensor name -> the config field holding its output rate [Hz].
 SENSOR_RATES = {"ins": "ins_rate_hz", "gimbal_gyro": "gimbal_gyro_rate_hz", "encoders": "encoder_rate_hz",
-                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz"}
+                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz",
+                "resolvers": "resolver_rate_hz"}
 SENSORS = tuple(SENSOR_RATES)
+
+#: Paper 3 §3: 19-bit tracking resolver-to-digital converters (2π/2¹⁹ ≈ 2.5″ per count);
+#: the tracking velocity is taken as counts over a 10 ms gate.
+PAPER3_RESOLVER = EncoderParams(lines_per_rev=2 ** 19, quadrature=1, velocity_gate_s=0.01)
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,7 @@ class SensorSuiteConfig:
     encoder_rate_hz: float = 1000.0
     lgu_rate_hz: float = 100.0
     platform_imu_rate_hz: float = 100.0
+    resolver_rate_hz: float = 1000.0
     ins: InsParams = field(default_factory=InsParams)
     gimbal_gyro: GyroParams = PAPER1_GIMBAL_GYRO
     encoder: EncoderParams = PAPER1_ENCODER
@@ -53,6 +65,7 @@ class SensorSuiteConfig:
     lgu2: GyroParams = LGU2_GYRO
     platform_gyro: GyroParams = PAPER3_GYRO
     platform_accel: AccelerometerParams = PAPER3_ACCELEROMETER
+    resolver: EncoderParams = PAPER3_RESOLVER
 
     def __post_init__(self) -> None:
         unknown = [s for s in self.sensors if s not in SENSORS]
@@ -108,6 +121,15 @@ class LguSample(NamedTuple):
     flexure_quasi_static: tuple[float, float, float]
 
 
+class ResolverSample(NamedTuple):
+    """Gimbal resolver angles [rad] (multi-turn azimuth) and tracking rates [rad/s]."""
+
+    t: float
+    names: tuple[str, ...]
+    angles: tuple[float, ...]
+    rates: tuple[float, ...]
+
+
 class PlatformImuSample(NamedTuple):
     t: float
     specific_force: tuple[float, float, float]
@@ -151,6 +173,8 @@ class SensorSuite:
             pdt = dt * self._dec["platform_imu_rate_hz"]
             self.platform_accel = AccelerometerModel(config.platform_accel, 3, rng("platform_accel"), pdt)
             self.platform_gyro = GyroModel(config.platform_gyro, 3, rng("platform_gyro"), pdt)
+        self.resolvers = (EncoderModel(config.resolver, 4, rng("resolvers"), dt * self._dec["resolver_rate_hz"])
+                          if "resolvers" in on else None)
         self._last_k: int | None = None
         #: Steps that never arrived (the models bridge them with their nominal step).
         self.missed_steps = 0
@@ -188,6 +212,11 @@ class SensorSuite:
                                  _floats(self._lgu_acc[1]), _floats(flex.angle),
                                  _floats(flex.quasi_static_angle(flex.t))))
             self._lgu_acc = [np.zeros(3), np.zeros(3)]
+        if self.resolvers is not None and due("resolver_rate_hz"):  # before the IMU: servos read angles first
+            if truth.quat_nb is None or len(truth.joint_position) != 4:
+                raise ValueError("resolvers need the four_gimbal_platform plant and the host attitude")
+            angles, rates = self.resolvers.step(gimbal_angles(truth.joint_position, quat_to_dcm(truth.quat_nb)))
+            out.append(ResolverSample(truth.t, truth.joint_names, _floats(angles), _floats(rates)))
         if self.platform_accel is not None and due("platform_imu_rate_hz"):
             if truth.specific_force_m is None or len(truth.joint_position) != 4:
                 raise ValueError("platform_imu needs the four_gimbal_platform plant")

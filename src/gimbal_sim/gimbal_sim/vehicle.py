@@ -6,8 +6,9 @@ host (analytic profile) and one plant:
 * ``two_axis_gimbal``: the paper 1 sighting system (:mod:`.plant.gimbal_dynamics`),
   commanded by joint torques (τ_a, τ_e) [N·m];
 * ``four_gimbal_platform``: the paper 3 platform as four single-axis DC-motor loops
-  (:mod:`.plant.platform_loops`), commanded by motor voltages [V] in the order
-  azimuth a, inner roll q, pitch p, outer roll r;
+  (:mod:`.plant.platform_loops`), commanded by the four gimbal motor voltages [V] in the
+  order azimuth a, inner roll q, pitch p, outer roll r; the motor torques are resolved onto
+  the loops through the gimbal angles (:mod:`.plant.platform_gimbals`);
 * ``host_only``: no plant (e.g. the ship carrying the LGUs of paper 5).
 
 Platform model: each loop's angle is the stable element's angle about that axis relative to
@@ -38,6 +39,7 @@ from .plant.gimbal_params import GimbalParams
 from .plant.host_state import HostState, inertial_rates_scalar
 from .plant.motion_profiles import PROFILE_NAMES, make_profile
 from .plant.platform_loops import PlatformAxis, paper3_axis_params
+from .plant.platform_gimbals import gimbal_angles, loop_voltages
 from .plant.turret_base import site_environment
 
 PLANTS = ("two_axis_gimbal", "four_gimbal_platform", "host_only")
@@ -151,6 +153,8 @@ class VehicleCore:
         if config.plant == "four_gimbal_platform":
             self._platform = [PlatformAxis(paper3_axis_params(axis)) for axis in _PLATFORM_AXES]
             self._platform_x = [(angle, 0.0, 0.0) for angle in init]
+            self._platform_kpv = tuple(ax.params.torque_constant_nm_a / ax.params.resistance_ohm
+                                       for ax in self._platform)
         self._C_nb = euler321_to_dcm(self._host.roll, self._host.pitch, self._host.yaw)
         self._delta = np.zeros(3)
 
@@ -180,10 +184,13 @@ class VehicleCore:
         else:
             host1 = self.profile.sample((self.k + 1) * dt)
         if self._platform:
-            self._applied = self.saturate(command)
+            self._applied = self.saturate(command)  # the gimbal motors' voltage limits
+            # the motors act about the gimbal axes at the angles of the step's start
+            angles = gimbal_angles([x[0] for x in self._platform_x], self._C_nb)
+            loop_v = loop_voltages(self._applied, angles, self._platform_kpv)
             self._platform_x = [
                 axis.step(x, v, dt, substeps=self.config.platform_substeps)
-                for axis, x, v in zip(self._platform, self._platform_x, self._applied)
+                for axis, x, v in zip(self._platform, self._platform_x, loop_v)
             ]
         C_nb1 = euler321_to_dcm(host1.roll, host1.pitch, host1.yaw)
         self._delta = rotation_vector_from_dcm(self._C_nb.T @ self._earth_step @ C_nb1)

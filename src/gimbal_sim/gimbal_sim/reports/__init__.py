@@ -14,6 +14,7 @@ from typing import Callable
 REPORTS: dict[str, str] = {
     "generic": "generic:generic_report",
     "los_pointing": "los_pointing:los_pointing_report",
+    "platform_servo": "platform_servo:platform_servo_report",
 }
 
 
