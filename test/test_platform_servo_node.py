@@ -16,7 +16,6 @@ import rclpy
 from rclpy.context import Context
 
 from conftest import VENV_BIN
-from gimbal_control import messages as cm
 from gimbal_control.platform_experiment import run_platform_servo
 from gimbal_control.platform_servo import PlatformServoParams
 from gimbal_control.platform_servo_node import PlatformServoNode
@@ -24,7 +23,7 @@ from gimbal_sim import messages as m
 from gimbal_sim.plant.platform_gimbals import gimbal_angles
 from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
 from gimbal_sim.vehicle import PLATFORM_JOINTS, VehicleConfig, VehicleCore
-from ros_harness import ros_args
+from ros_harness import ros_args, start_refused
 
 pytestmark = pytest.mark.ros
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -41,8 +40,7 @@ RATE = 1000.0
     ({"reversal_time_s": 700.0}, "reversal_time_s"),
 ])
 def test_bad_parameters_are_refused_naming_them(args, named, ros_domain_env):
-    result = subprocess.run([str(VENV_BIN / "platform_servo"), *ros_args(args)], env=ros_domain_env,
-                            capture_output=True, text=True, timeout=60)
+    result = start_refused("platform_servo", args, ros_domain_env)
     assert result.returncode == 2 and named in result.stderr, result.stderr
 
 
@@ -97,7 +95,7 @@ def test_one_command_per_step_whatever_the_arrival_order_and_nan_holds(ros_domai
             volts = [_volts(c) for c in sent["cmd"]]
             assert volts[5] == volts[4] and volts[6] != volts[5]
             assert node.core.held_commands == 1 and node.core.rejected_nonfinite == 1
-            assert node.rejected_stamps == 1
+            assert node.sync.rejected == 1
             # diagnostics every tick (the held one repeats its signals); φz starts at 0, +1.2 °/s
             assert len(sent["error"]) == len(sent["mod"]) == 8
             assert sent["error"][5].position == sent["error"][4].position
@@ -143,7 +141,7 @@ def test_slower_gyro_holds_the_command_on_clock_ticks_and_a_loop_restarts(ros_do
         node._on_input("res", res)
         node._on_input("imu", imu)
         node._on_input("clock", m.clock_msg(0))
-        assert node.rejected_stamps == 0 and len(sent["cmd"]) == 7
+        assert node.sync.rejected == 0 and len(sent["cmd"]) == 7
         assert any("jumped back" in r for r in node.core.reset_reasons)
 
 
@@ -202,7 +200,7 @@ def test_graph_run_reproduces_the_closed_loop_and_meets_the_figures(graph_run):
     # the node is a thin wrapper: the same core on the same plant and sensors (same seed)
     ref = run_platform_servo(DURATION_S, seed=0, params=PlatformServoParams(lat_deg=45.0, sweep_deg=SWEEP_DEG),
                              record_every=1)
-    volts = np.array([list(msg.effort) for _, msg in cmds[:steps]])
+    volts = np.array([list(msg.effort) for _, msg in cmds])
     np.testing.assert_allclose(volts, ref["series"]["voltages_v"], rtol=1e-6, atol=1e-9)
     # issue 5 figures, recomputed here from the bag: azimuth truth vs the commanded φz
     mod = np.array([(msg.position[0], msg.velocity[0]) for _, msg in series["/platform_servo/modulation"]])

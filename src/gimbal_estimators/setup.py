@@ -22,6 +22,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "platform_alignment = gimbal_estimators.platform_alignment_node:main",
         ],
     },
 )

@@ -1,5 +1,13 @@
-"""Closed-loop paper 3 experiment: :class:`.platform_servo.PlatformServo` on gimbal_sim's
-four-gimbal platform on a static base (SPEC §3.3; scenario ``rotational_platform_servo``).
+"""Closed-loop paper 3 experiments in one process: :class:`.platform_servo.PlatformServo` on
+gimbal_sim's four-gimbal platform on a static base (SPEC §3.3), alone (scenario
+``rotational_platform_servo``) and carrying the rotation-modulated alignment
+(:class:`gimbal_estimators.rotation_alignment.RotationAlignmentRls`, scenario
+``rotational_ins_alignment``). The graph runs the same cores through ROS messages and gives
+the same numbers (test_platform_servo_node, test_platform_alignment_node); this module is
+the quick way to campaign over seeds::
+
+    python -m gimbal_control.platform_experiment alignment --seeds 1 2 3 4 5 6
+    python -m gimbal_control.platform_experiment servo --duration 320
 
 Plant and sensors. gimbal_sim's platform (``VehicleConfig(plant='four_gimbal_platform')``)
 takes the four gimbal motor voltages and resolves their torques onto its loops through the
@@ -25,13 +33,64 @@ Torque current: the azimuth motor armature current, effort/k_t.
 from __future__ import annotations
 
 import math
-from typing import Any
+import argparse
+import sys
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 
-from .platform_servo import PlatformServo, PlatformServoParams
+from gimbal_estimators.rotation_alignment import (
+    PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, RotationAlignmentParams, RotationAlignmentRls, alignment_metrics,
+    summarize_alignment,
+)
+
+from .platform_servo import PlatformServo, PlatformServoParams, ServoCommand
 
 ARCSEC = math.pi / (180.0 * 3600.0)
+
+
+RATE_HZ = 1000.0  # paper 3's loop rate, also the simulation and sensor rate here
+
+
+def closed_loop(core, suite, servo: PlatformServo) -> Iterator[tuple[Any, list, ServoCommand | None]]:
+    """Step ``core`` (VehicleCore, four_gimbal_platform) under ``servo`` with ``suite``'s
+    platform IMU and resolvers, as the lockstep graph does: per step k, yields (truth_k,
+    the sensor samples of step k, the servo's output or None); the command is applied over
+    k → k+1. The last step's truth is yielded too (the graph publishes it)."""
+    from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample
+
+    cmd = (0.0, 0.0, 0.0, 0.0)
+    while True:
+        truth = core.truth()
+        samples = suite.update(truth)
+        out = None
+        for s in samples:  # the suite delivers a step's resolvers before its IMU
+            if isinstance(s, ResolverSample):
+                servo.on_resolvers(s.t, s.angles)
+            elif isinstance(s, PlatformImuSample):
+                out = servo.on_gyro(s.t, s.omega)
+                if out is not None:
+                    cmd = out.voltages
+        yield truth, samples, out
+        if core.finished:
+            return
+        core.step(cmd)
+
+
+def _platform_sim(duration_s: float, seed: int, profile_params: dict, initial_joints_deg: tuple = (),
+                  resolver=None):
+    """(VehicleCore, SensorSuite) of the static-base platform at RATE_HZ with the paper 3
+    sensors (platform IMU and resolvers at RATE_HZ, defaults as in sensor_models)."""
+    from gimbal_sim.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
+    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+
+    core = VehicleCore(VehicleConfig(profile="static", profile_params=profile_params, plant="four_gimbal_platform",
+                                     sim_rate_hz=RATE_HZ, duration_s=duration_s,
+                                     initial_joints_deg=tuple(initial_joints_deg)))
+    suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=RATE_HZ, seed=seed,
+                                          platform_imu_rate_hz=RATE_HZ, resolver_rate_hz=RATE_HZ,
+                                          resolver=PAPER3_RESOLVER if resolver is None else resolver))
+    return core, suite
 
 
 def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: PlatformServoParams | None = None,
@@ -41,52 +100,33 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
 
     Returns metrics (radians, amperes, volts; see the module docstring) and ``series``
     (every ``record_every``-th tick: t, φz, e_a, level errors, pickoffs, azimuth current,
-    voltages). Figures in arc-seconds are added as ``*_arcsec``. ``resolver``: the resolver
-    ``EncoderParams`` (default ``gimbal_sim.sensor_suite.PAPER3_RESOLVER``).
+    voltages), one entry per step 0..N. Figures in arc-seconds are added as ``*_arcsec``.
+    ``resolver``: the resolver ``EncoderParams`` (default ``PAPER3_RESOLVER``).
     """
     from gimbal_sim.plant import paper3_axis_params
-    from gimbal_sim.sensor_suite import (
-        PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig,
-    )
-    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
     params = params if params is not None else PlatformServoParams()
-    rate = 1000.0
-    core = VehicleCore(VehicleConfig(profile="static", profile_params={"lat_deg": params.lat_deg},
-                                     plant="four_gimbal_platform", sim_rate_hz=rate, duration_s=duration_s))
-    suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=rate, seed=seed,
-                                          platform_imu_rate_hz=rate, resolver_rate_hz=rate,
-                                          resolver=PAPER3_RESOLVER if resolver is None else resolver))
+    core, suite = _platform_sim(duration_s, seed, {"lat_deg": params.lat_deg}, resolver=resolver)
     kt_a = paper3_axis_params("a").torque_constant_nm_a  # the plant's azimuth motor
     servo = PlatformServo(params)
-    n = core.config.n_steps
-    t = np.arange(n) / rate
+    n = core.config.n_steps + 1
+    t = np.arange(n) / RATE_HZ
     phi = np.zeros(n)
     e_a = np.zeros(n)
     level = np.zeros((n, 2))
     pickoff = np.zeros((n, 3))
     current_a = np.zeros(n)
     volts = np.zeros((n, 4))
-    cmd = (0.0, 0.0, 0.0, 0.0)
-    k = 0
-    while not core.finished:
-        truth = core.truth()
-        for s in suite.update(truth):  # the suite delivers a step's resolvers before its IMU
-            if isinstance(s, ResolverSample):
-                servo.on_resolvers(s.t, s.angles)
-            elif isinstance(s, PlatformImuSample):
-                out = servo.on_gyro(s.t, s.omega)
-                if out is not None:
-                    cmd = out.voltages
-                    phi[k] = out.phi_z
-                    volts[k] = out.voltages
+    for truth, _, out in closed_loop(core, suite, servo):
+        k = truth.k
+        if out is not None:
+            phi[k] = out.phi_z
+            volts[k] = out.voltages
         th_a, th_q, th_p, _ = truth.joint_position
         e_a[k] = th_a - phi[k]
         level[k] = th_q, th_p
         pickoff[k] = servo.pickoff
         current_a[k] = truth.joint_effort[0] / kt_a
-        core.step(cmd)
-        k += 1
 
     reversals = servo.schedule.reversal_times(duration_s)
     in_window = np.zeros(n, dtype=bool)
@@ -112,10 +152,120 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
         "rejected_nonfinite": servo.rejected_nonfinite,
         "held_commands": servo.held_commands,
     }
-    for key in [k for k in metrics if k.endswith("_rad")]:
+    for key in [key for key in metrics if key.endswith("_rad")]:
         metrics[key[:-4] + "_arcsec"] = metrics[key] / ARCSEC
     sl = slice(None, None, max(1, int(record_every)))
     metrics["series"] = {"t": t[sl], "phi_z_rad": phi[sl], "azimuth_error_rad": e_a[sl],
                          "level_error_rad": level[sl], "pickoff_rad": pickoff[sl],
                          "azimuth_current_a": current_a[sl], "voltages_v": volts[sl]}
     return metrics
+
+
+def alignment_setup(misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC
+                    ) -> tuple[float, tuple[float, float, float, float]]:
+    """(base heading [deg], initial platform loop angles (a, q, p, r) [deg]) that give the
+    initial misalignment (δφE0, δφN0, δφU0) [arcsec] to the alignment (scenario
+    ``rotational_ins_alignment``): the platform starts level within (δφE0, δφN0) and at the
+    base's zero azimuth, and the base's true heading −δφU0 is unknown to the filter, which
+    takes it as 0 (an azimuth error δφU0 left by coarse alignment). First order in the
+    angles; the truth is measured, not assumed."""
+    e, n, u = (float(v) / 3600.0 for v in misalignment0_arcsec)
+    return -u, (-u, n, e, 0.0)
+
+
+def run_platform_alignment(seed: int, rotate: bool = True, duration_s: float = 600.0, *, lat_deg: float = 40.0,
+                           misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC,
+                           params: RotationAlignmentParams | None = None,
+                           servo_params: PlatformServoParams | None = None,
+                           progress: bool = False) -> AlignmentMetrics:
+    """Scenario ``rotational_ins_alignment`` in one process: the servo turns the platform
+    (``rotate``: ±1.2°/s through 360° and back; else held) while the RLS aligns it from the
+    accelerometers and the azimuth resolver, as the ``platform_alignment`` node does.
+
+    Truth: the initial misalignment is the platform attitude at step 0 measured against the
+    believed frame (the resolver azimuth); biases and drifts are the sensors' true values; the
+    simulated platform has no drift fixed in the level frame, so ε_N is 0.
+    """
+    from gimbal_kinematics.four_gimbal import platform_misalignment_enu
+    from gimbal_kinematics.rotations import quat_to_dcm
+    from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample
+
+    heading_deg, joints_deg = alignment_setup(misalignment0_arcsec)
+    core, suite = _platform_sim(duration_s, seed, {"lat_deg": lat_deg, "yaw_deg": heading_deg}, joints_deg)
+    servo = PlatformServo(servo_params if servo_params is not None else PlatformServoParams(lat_deg=lat_deg,
+                                                                                             rotate=rotate))
+    rls = RotationAlignmentRls(params if params is not None else RotationAlignmentParams(lat_deg=lat_deg))
+    start = None  # (C_ns, ψ, accelerometer bias, gyro bias) at the first step
+    steps = core.config.n_steps + 1
+    bar = _progress_bar(steps, f"seed {seed} rotation {'on' if rotate else 'off'}", progress)
+    for truth, samples, _ in closed_loop(core, suite, servo):
+        for s in samples:
+            if isinstance(s, ResolverSample):
+                rls.on_joint_state(s.t, s.angles[0], s.rates[0])
+                psi = s.angles[0]
+            elif isinstance(s, PlatformImuSample):
+                rls.on_accel(s.t, s.specific_force)
+                if start is None:
+                    start = (quat_to_dcm(truth.quat_nm), psi, s.true_accel_bias, s.true_gyro_bias)
+        bar.update(1)
+    bar.close()
+    C_ns0, psi0, accel_bias, gyro_bias = start
+    phi0 = platform_misalignment_enu(C_ns0, psi0)
+    truth_x = np.array([phi0[0], phi0[1], phi0[2], 0.0, accel_bias[0], accel_bias[1], gyro_bias[0], gyro_bias[1]])
+    return alignment_metrics(rls, truth_x, seed=seed, rotate=rotate, duration_s=duration_s, psi0=psi0)
+
+
+def _progress_bar(total: int, desc: str, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="step", unit_scale=True, disable=None if enabled else True,
+                file=sys.stderr, mininterval=1.0)
+
+
+def _alignment_table(runs: list[AlignmentMetrics]) -> str:
+    rows = [f"{'seed':>4} {'dphiE0 err':>11} {'dphiN0 err':>11} {'dphiU0 err':>11} {'epsN err':>10} "
+            f"{'sigma E/N/U':>22}",
+            f"{'':>4} {'[arcsec]':>11} {'[arcsec]':>11} {'[arcmin]':>11} {'[deg/h]':>10}"]
+    for r in runs:
+        rows.append(f"{r.seed:>4} {r.tilt_error_arcsec[0]:>11.2f} {r.tilt_error_arcsec[1]:>11.2f} "
+                    f"{r.azimuth_error_arcmin:>11.3f} {r.north_drift_error_deg_h:>10.5f} "
+                    f"{r.tilt_sigma_arcsec[0]:>7.2f}″{r.tilt_sigma_arcsec[1]:>6.2f}″{r.azimuth_sigma_arcmin:>6.2f}′")
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m gimbal_control.platform_experiment",
+        description="Paper 3 closed-loop experiments in one process (the graph's cores without ROS): the "
+                    "platform servo figures, or a Table 2 style alignment campaign over seeds.")
+    sub = parser.add_subparsers(dest="what", required=True)
+    servo = sub.add_parser("servo", help="servo figures: control error, reversal transient, torque current")
+    servo.add_argument("--duration", type=float, default=320.0, help="simulated seconds (default 320: one reversal)")
+    servo.add_argument("--seed", type=int, default=0)
+    align = sub.add_parser("alignment", help="alignment errors over seeds, mean and std as paper 3 Table 2")
+    align.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
+    align.add_argument("--duration", type=float, default=600.0, help="simulated seconds (default 600: 360° and back)")
+    align.add_argument("--lat", type=float, default=40.0, help="latitude [deg]")
+    align.add_argument("--no-rotation", action="store_true", help="hold the platform (paper 3 eq. 9 case)")
+    args = parser.parse_args(argv)
+    if args.what == "servo":
+        m = run_platform_servo(args.duration, args.seed)
+        for key in ("steady_rms_error_arcsec", "steady_max_error_arcsec", "reversal_max_error_arcsec",
+                    "steady_max_level_error_arcsec", "steady_mean_abs_current_a", "peak_current_a"):
+            print(f"{key:32s} {m[key]:.4g}")
+        return 0
+    runs = []
+    for seed in args.seeds:
+        runs.append(run_platform_alignment(seed, not args.no_rotation, args.duration, lat_deg=args.lat,
+                                           progress=True))
+        print(_alignment_table(runs[-1:]).splitlines()[-1], flush=True)
+    print(_alignment_table(runs))
+    summary = summarize_alignment(runs)
+    print(f"{'':>4} {'mean':>11} {'std':>11}   (ddof=1, as paper 3 Table 2)")
+    for key, stats in summary.items():
+        print(f"{key:28s} mean {stats['mean']:+.4g}  std {stats['std']:.4g}  rms {stats['rms']:.4g}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -28,9 +28,10 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
+from gimbal_estimators.step_sync import StepGroups
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
 
 from . import messages as m
 from .platform_servo import FrictionModel, PlatformServo, PlatformServoParams, platform_pid_gains
@@ -72,15 +73,6 @@ PARAMS = (
 )
 
 
-def _divisor(values: dict, name: str) -> int:
-    """Steps per sample of the rate ``name``; raises naming it unless it divides sim_rate_hz."""
-    ratio = values["sim_rate_hz"] / values[name]
-    n = int(round(ratio))
-    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
-        raise ParameterError(f"parameter {name!r} = {values[name]} Hz does not divide sim_rate_hz")
-    return n
-
-
 def params_from_values(v: dict) -> PlatformServoParams:
     """The core's parameters from the node's values; raises naming the parameter."""
     control_hz = v["imu_rate_hz"]
@@ -112,15 +104,12 @@ class PlatformServoNode(Node):
         super().__init__("platform_servo", **node_kwargs)
         v = declare_and_read(self, PARAMS)
         self.rate = v["sim_rate_hz"]
-        self.imu_every = _divisor(v, "imu_rate_hz")
-        self.res_every = _divisor(v, "resolver_rate_hz")
+        self.imu_every = steps_per_sample(v, "imu_rate_hz")
+        self.res_every = steps_per_sample(v, "resolver_rate_hz")
         self.core = PlatformServo(params_from_values(v))
         self.diag_every = v["diagnostics_every_steps"]
-        self.backward_jump_steps = v["backward_jump_s"] * self.rate
-        self._pending: dict[int, dict[str, object]] = {}
-        self._last_k: int | None = None
+        self.sync = StepGroups(self._needs, v["backward_jump_s"] * self.rate)
         self._ticks = 0
-        self.rejected_stamps = 0
         self.rejected_resolvers = 0
         self._seen = (0, 0, 0)  # core counters already warned about
         self.pub = self.create_publisher(JointState, "/platform/voltage_cmd", GRAPH_QOS)
@@ -143,27 +132,11 @@ class PlatformServoNode(Node):
         k = m.step_of_stamp(m.stamp_ns(stamp), self.rate)
         if kind == "clock" and kind not in self._needs(k):
             return  # a step with a gyro sample ticks on the gyro
-        if self._last_k is not None and k <= self._last_k:
-            if self._last_k - k > self.backward_jump_steps:
-                # a replayed bag looped: start over; the core resets on the stamp itself
-                self.get_logger().info(f"inputs jumped back from step {self._last_k} to {k}: restarting")
-                self._pending.clear()
-                self._last_k = None
-            else:
-                self.rejected_stamps += 1
-                self._warn(f"{kind} stamped for step {k}, already past step {self._last_k}: ignored "
-                           f"({self.rejected_stamps} rejected)")
-                return
-        self._pending.setdefault(k, {})[kind] = msg
-        for step in sorted(self._pending):
-            group = self._pending[step]
-            if not all(need in group for need in self._needs(step)):
-                break
-            del self._pending[step]
+        groups = self.sync.add(kind, k, msg, self.get_logger())
+        for step, group in groups:
             self._control(step, group)
 
     def _control(self, k: int, group: dict) -> None:
-        self._last_k = k
         t = k / self.rate
         core = self.core
         if "res" in group:

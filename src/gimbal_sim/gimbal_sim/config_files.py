@@ -17,6 +17,7 @@ NODE_MODULES = {
     "bag_recorder": ("gimbal_sim", "gimbal_sim.bag.recorder_node"),
     "los_rate_controller": ("gimbal_control", "gimbal_control.los_rate_controller_node"),
     "platform_servo": ("gimbal_control", "gimbal_control.platform_servo_node"),
+    "platform_alignment": ("gimbal_estimators", "gimbal_estimators.platform_alignment_node"),
 }
 
 

@@ -57,6 +57,8 @@ NODE_TYPES: dict[str, NodeType] = {
     "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
                                     "LosRateControllerNode"),
     "platform_servo": NodeType("gimbal_control", "gimbal_control.platform_servo_node", "PlatformServoNode"),
+    "platform_alignment": NodeType("gimbal_estimators", "gimbal_estimators.platform_alignment_node",
+                                   "PlatformAlignmentNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes"}

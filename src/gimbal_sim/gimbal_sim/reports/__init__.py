@@ -15,6 +15,13 @@ REPORTS: dict[str, str] = {
     "generic": "generic:generic_report",
     "los_pointing": "los_pointing:los_pointing_report",
     "platform_servo": "platform_servo:platform_servo_report",
+    "alignment": "alignment:alignment_report",
+}
+
+#: comparison name -> "module:function" ``f(runs: dict[variant, bag dir], out) -> metrics``
+COMPARISONS: dict[str, str] = {
+    "alignment_rotation": "alignment:rotation_comparison",
+    "alignment_campaign": "alignment:alignment_campaign",
 }
 
 
