@@ -19,6 +19,7 @@ from conftest import VENV_BIN
 from gimbal_control.platform_experiment import run_platform_alignment
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
 from gimbal_estimators.rotation_alignment import KinematicPlatformTruth, RotationAlignmentParams
+from gimbal_estimators.step_sync import StepGroups
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_sim import messages as m
 from ros_harness import ros_args, start_refused
@@ -42,6 +43,24 @@ IMU_HZ = 10.0  # the in-process tests feed 10 Hz samples: 600 s of alignment in 
 def test_bad_parameters_are_refused_naming_them(args, named, ros_domain_env):
     result = start_refused("platform_alignment", args, ros_domain_env)
     assert result.returncode == 2 and named in result.stderr, result.stderr
+
+
+def test_step_groups_release_complete_steps_in_order_whatever_the_arrival():
+    """Inputs due at different steps (a every step, b every 2nd): a step is released once its
+    due inputs are in, in step order; stale input is rejected; a far jump back restarts."""
+    needs = lambda k: ("a", "b") if k % 2 == 0 else ("a",)  # noqa: E731
+    sync = StepGroups(needs, backjump_steps=5)
+    assert sync.add("a", 0, "a0") == []
+    assert sync.add("a", 1, "a1") == []          # step 1 is complete but waits behind step 0
+    assert sync.add("b", 0, "b0") == [(0, {"a": "a0", "b": "b0"}), (1, {"a": "a1"})]
+    assert sync.add("b", 2, "b2") == [] and sync.add("a", 2, "a2") == [(2, {"b": "b2", "a": "a2"})]
+    assert sync.add("a", 1, "late") == [] and sync.rejected == 1
+    for k in range(3, 10):
+        sync.add("a", k, k)
+        if k % 2 == 0:
+            sync.add("b", k, k)
+    assert sync.rejected == 1 and sync.last_step == 9 and sync.add("a", 0, "again") == [] and sync.restarts == 1
+    assert sync.add("b", 0, "b") == [(0, {"a": "again", "b": "b"})]
 
 
 @contextmanager
