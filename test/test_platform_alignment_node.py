@@ -16,12 +16,13 @@ import rclpy
 from rclpy.context import Context
 
 from conftest import VENV_BIN
-from gimbal_control.platform_experiment import run_platform_alignment
+from gimbal_control.platform_experiment import alignment_setup, run_platform_alignment
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
 from gimbal_estimators.rotation_alignment import KinematicPlatformTruth, RotationAlignmentParams
 from gimbal_estimators.step_sync import StepGroups
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_sim import messages as m
+from gimbal_sim.scenario import load
 from ros_harness import ros_args, start_refused
 
 pytestmark = pytest.mark.ros
@@ -159,6 +160,21 @@ def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
         _feed(node, 0, 0.0, 0.0, (0.0, 0.0, -g))
         assert node.sync.restarts == 1 and core.counters.resets == 1
         assert core.started and core.n_updates == 0
+
+
+def test_scenario_starts_the_platform_where_the_one_process_run_does():
+    """rotational_ins_alignment's base heading and gimbal angles are alignment_setup()'s, and
+    the three latitudes agree."""
+    import yaml
+
+    nodes = load("rotational_ins_alignment").nodes
+    vehicle = nodes["vehicle_dynamics"]["params"]
+    profile = yaml.safe_load(vehicle["profile_params"])
+    heading, joints = alignment_setup()
+    assert profile["yaw_deg"] == pytest.approx(heading, abs=1e-12)
+    assert vehicle["initial_platform_deg"] == pytest.approx(list(joints), abs=1e-15)
+    assert profile["lat_deg"] == nodes["platform_servo"]["params"]["lat_deg"] == \
+        nodes["platform_alignment"]["params"]["lat_deg"] == LAT_DEG
 
 
 # ------------------------------------------------------------------------------- graph run

@@ -10,10 +10,10 @@ the quick way to campaign over seeds::
     python -m gimbal_control.platform_experiment servo --duration 320
 
 Plant and sensors. gimbal_sim's platform (``VehicleConfig(plant='four_gimbal_platform')``)
-takes the four gimbal motor voltages and resolves their torques onto its loops through the
-gimbal geometry (:mod:`gimbal_sim.plant.platform_gimbals`); the servo reads the gimbal angles
-from the ``resolvers`` sensor (19-bit converters, paper 3 §3). The graph runs the same pieces:
-``vehicle_dynamics`` + ``sensor_models`` + the ``platform_servo`` node.
+is the four-gimbal chain, one DC-motor loop per joint, driven by the four gimbal motor
+voltages; the servo reads the joint angles from the ``resolvers`` sensor (19-bit
+converters, paper 3 §3). The graph runs the same pieces: ``vehicle_dynamics`` +
+``sensor_models`` + the ``platform_servo`` node.
 
 Sensors: the platform gyro triad of gimbal_sim's SensorSuite (``platform_imu``, paper 3
 DTG grade: 0.03 °/h run-to-run bias, 0.003 °/√h ARW) at 1 kHz, with no drift
@@ -21,9 +21,9 @@ compensation.
 
 Control errors (truth, radians):
 
-* ``azimuth``: e_a = θ_a − φz(t), the platform azimuth (loop angle relative to n) minus
-  the commanded modulation angle schedule;
-* ``level``: the tilts θ_q and θ_p of the stable element relative to level;
+* ``azimuth``: e_a = θ_a − φz(t), the azimuth gimbal angle (the platform azimuth on the
+  level base at heading 0) minus the commanded modulation angle schedule;
+* ``level``: the inner-roll and pitch gimbal angles θ_q and θ_p (the platform's tilts);
 * the sensed error (the pickoff angles) is reported too.
 
 Steady rotation means t >= ``settle_s`` and outside [t_k, t_k + ``transient_window_s``]
@@ -163,14 +163,20 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
 
 def alignment_setup(misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC
                     ) -> tuple[float, tuple[float, float, float, float]]:
-    """(base heading [deg], initial platform loop angles (a, q, p, r) [deg]) that give the
-    initial misalignment (δφE0, δφN0, δφU0) [arcsec] to the alignment (scenario
-    ``rotational_ins_alignment``): the platform starts level within (δφE0, δφN0) and at the
-    base's zero azimuth, and the base's true heading −δφU0 is unknown to the filter, which
-    takes it as 0 (an azimuth error δφU0 left by coarse alignment). First order in the
-    angles; the truth is measured, not assumed."""
-    e, n, u = (float(v) / 3600.0 for v in misalignment0_arcsec)
-    return -u, (-u, n, e, 0.0)
+    """(base heading [deg], initial gimbal angles (θ_a, θ_q, θ_p, θ_r) [deg]) that give the
+    alignment (scenario ``rotational_ins_alignment``) the initial misalignment
+    (δφE0, δφN0, δφU0) [arcsec]: the filter takes the base heading as 0, so with the
+    azimuth gimbal at 0 it believes the platform at φz = 0 (where the servo starts it), while
+    the base's true heading is −δφU0 and the platform is tilted by (δφE0, δφN0); the outer
+    roll takes the roll tilt so the inner roll starts at null."""
+    from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
+    from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
+
+    e, n, u = (float(v) * ARCSEC for v in misalignment0_arcsec)
+    C_ns = dcm_from_rotation_vector(np.array([n, e, -u]))  # exp([φ×]) times the believed frame (I)
+    C_nb = euler321_to_dcm(0.0, 0.0, -u)  # the base heading the filter does not know
+    joints = gimbal_angles_from_dcm(C_ns.T @ C_nb)
+    return -math.degrees(u), tuple(float(math.degrees(v)) for v in joints)  # type: ignore[return-value]
 
 
 def run_platform_alignment(seed: int, rotate: bool = True, duration_s: float = 600.0, *, lat_deg: float = 40.0,

@@ -141,7 +141,7 @@ NEEDS = {
     "encoders": ("/truth/gimbal/joint_states",),
     "lgu": ("/truth/host/delta_angle",),
     "platform_imu": ("/truth/platform/imu",),
-    "resolvers": ("/truth/platform/joint_states", "/truth/host/imu"),
+    "resolvers": ("/truth/platform/joint_states",),
 }
 
 

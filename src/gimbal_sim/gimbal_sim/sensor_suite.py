@@ -10,9 +10,8 @@ enabling or re-rating one sensor never changes another's noise. Sensors:
 * ``lgu``: the two ring-laser-gyro units of paper 5 with the ship flexure between them;
   LGU increments are accumulated at the simulation rate and published at ``lgu_rate_hz``;
 * ``platform_imu``: accelerometer and gyro triads on the paper 3 stable element;
-* ``resolvers``: the paper 3 gimbal resolvers (θ_a, θ_q, θ_p, θ_r), quantised like its 19-bit
-  resolver-to-digital converters, with their tracking velocity; the true gimbal angles come
-  from the plant's attitude on the base (:func:`.plant.platform_gimbals.gimbal_angles`).
+* ``resolvers``: the paper 3 gimbal resolvers (θ_a, θ_q, θ_p, θ_r; the azimuth multi-turn),
+  quantised like its 19-bit resolver-to-digital converters, with their tracking velocity.
 """
 from __future__ import annotations
 
@@ -23,9 +22,6 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.rotations import quat_to_dcm
-
-from .plant.platform_gimbals import gimbal_angles
 from .sensors import (
     PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,
     AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
@@ -213,9 +209,9 @@ class SensorSuite:
                                  _floats(flex.quasi_static_angle(flex.t))))
             self._lgu_acc = [np.zeros(3), np.zeros(3)]
         if self.resolvers is not None and due("resolver_rate_hz"):  # before the IMU: servos read angles first
-            if truth.quat_nb is None or len(truth.joint_position) != 4:
-                raise ValueError("resolvers need the four_gimbal_platform plant and the host attitude")
-            angles, rates = self.resolvers.step(gimbal_angles(truth.joint_position, quat_to_dcm(truth.quat_nb)))
+            if len(truth.joint_position) != 4:
+                raise ValueError("resolvers need the four_gimbal_platform plant")
+            angles, rates = self.resolvers.step(truth.joint_position)
             out.append(ResolverSample(truth.t, truth.joint_names, _floats(angles), _floats(rates)))
         if self.platform_accel is not None and due("platform_imu_rate_hz"):
             if truth.specific_force_m is None or len(truth.joint_position) != 4:

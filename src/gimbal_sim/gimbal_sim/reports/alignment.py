@@ -4,12 +4,11 @@
 Truth, from the bag (and the run's scenario.yaml for the static base's attitude and the
 heading the filter assumes):
 
-* misalignment: the platform attitude C_ns (from the loop angles of
-  ``/truth/platform/joint_states``, C_sn = rot1(q) rot2(p) rot3(a)) measured against the frame
-  the filter believes in, the level frame turned by ψ = θ_a + ``base_heading_deg``, with θ_a
-  the azimuth gimbal angle the resolvers read (:func:`gimbal_sim.plant.platform_gimbals
-  .gimbal_angles`, exact; the resolver's ±1.2″ quantisation is below the figures);
-  the initial misalignment is taken at the alignment start t₀ = stamp − age of ``~/status``;
+* misalignment: the platform attitude C_ns = C_nb C_bs(θ_a, θ_q, θ_p, θ_r) (the true gimbal
+  angles of ``/truth/platform/joint_states`` on the static base) measured against the frame
+  the filter believes in, the level frame turned by ψ = θ_a + ``base_heading_deg`` (the
+  resolver's ±1.2″ quantisation of θ_a is below the figures); the initial misalignment is
+  taken at the alignment start t₀ = stamp − age of ``~/status``;
 * level gyro drifts and accelerometer biases: ``/truth/platform/{gyro,accel}_bias``;
 * north drift ε_N: 0 — the simulated platform has no drift fixed in the level frame (its gyro
   biases are fixed in the platform and turn with it).
@@ -28,11 +27,10 @@ import numpy as np
 import yaml
 
 from gimbal_kinematics.earth import normal_gravity
-from gimbal_kinematics.four_gimbal import platform_misalignment_enu
-from gimbal_kinematics.rotations import euler321_to_dcm, rot1, rot2, rot3
+from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
+from gimbal_kinematics.rotations import euler321_to_dcm
 
 from ..bag.reader import BagError
-from ..plant.platform_gimbals import gimbal_angles
 from .platform_servo import bag_summary, stream_columns
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -71,13 +69,10 @@ def _run_setup(bag_dir: Path) -> tuple[np.ndarray, float, float]:
     return C_nb, heading, math.radians(float(pp.get("lat_deg", 0.0)))
 
 
-def _truth_misalignment(loop: np.ndarray, C_nb: np.ndarray, heading: float) -> np.ndarray:
-    """Misalignment (δφE, δφN, δφU) [rad] of the platform with loop angles ``loop`` (a, q, p, r)
-    against the frame the filter believes in (module docstring)."""
-    a, q, p = loop[0], loop[1], loop[2]
-    C_ns = (rot1(q) @ rot2(p) @ rot3(a)).T
-    psi = gimbal_angles(loop, C_nb)[0] + heading
-    return platform_misalignment_enu(C_ns, psi)
+def _truth_misalignment(joints: np.ndarray, C_nb: np.ndarray, heading: float) -> np.ndarray:
+    """Misalignment (δφE, δφN, δφU) [rad] of the platform with gimbal angles ``joints``
+    (a, q, p, r) against the frame the filter believes in (module docstring)."""
+    return platform_misalignment_enu(C_nb @ dcm_bs(joints), joints[0] + heading)
 
 
 def alignment_series(bag_dir: Path) -> dict:
@@ -97,20 +92,20 @@ def alignment_series(bag_dir: Path) -> dict:
     for name, (tn, _) in ((n, cols[f"{NODE}/{n}"]) for n in VECTORS):
         if not np.array_equal(tn, t):
             raise BagError(f"{bag_dir}: {NODE}/{name} is not stamped like {NODE}/status")
-    tj, loops = cols[TRUTH_JOINTS]
+    tj, joints = cols[TRUTH_JOINTS]
     if len(tj) < 1 or len(cols["/truth/platform/accel_bias"][0]) < 1:
         raise BagError(f"{bag_dir}: no platform truth recorded")
     C_nb, heading, lat = _run_setup(bag_dir)
     t0 = float(t[-1] - status[-1, 0])
 
-    def loop_at(tt: float) -> np.ndarray:
+    def joints_at(tt: float) -> np.ndarray:
         i = int(np.argmin(np.abs(tj - tt)))
         if abs(tj[i] - tt) > 1e-6:
             raise BagError(f"{bag_dir}: no truth at t = {tt:.6f} s")
-        return loops[i]
+        return joints[i]
 
-    phi0 = _truth_misalignment(loop_at(t0), C_nb, heading)
-    phi_now = np.array([_truth_misalignment(loop_at(tt), C_nb, heading) for tt in t])
+    phi0 = _truth_misalignment(joints_at(t0), C_nb, heading)
+    phi_now = np.array([_truth_misalignment(joints_at(tt), C_nb, heading) for tt in t])
     accel_bias = cols["/truth/platform/accel_bias"][1][0]
     gyro_bias = cols["/truth/platform/gyro_bias"][1][0]
     return {
@@ -125,7 +120,7 @@ def alignment_series(bag_dir: Path) -> dict:
         "accel_bias": est["accel_bias"][:, :2], "accel_bias_sigma": est["accel_bias_sigma"][:, :2],
         "truth_initial": phi0, "truth_current": phi_now, "truth_north_drift": 0.0,
         "truth_gyro_drift": gyro_bias[:2], "truth_accel_bias": accel_bias[:2],
-        "start_azimuth": float(gimbal_angles(loop_at(t0), C_nb)[0] + heading),
+        "start_azimuth": float(joints_at(t0)[0] + heading),
     }
 
 
