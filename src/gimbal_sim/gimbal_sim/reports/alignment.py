@@ -52,9 +52,9 @@ def _ned_to_enu(v: np.ndarray, sigma: bool = False) -> np.ndarray:
     return np.column_stack((v[:, 1], v[:, 0], v[:, 2] if sigma else -v[:, 2]))
 
 
-def _run_setup(bag_dir: Path) -> tuple[np.ndarray, float, float]:
-    """(C_nb of the static base, heading the filter assumes [rad], latitude [rad]) from the
-    run's scenario.yaml."""
+def _run_setup(bag_dir: Path) -> tuple[np.ndarray, float, float, str]:
+    """(C_nb of the static base, heading the filter assumes [rad], latitude [rad], the
+    servo's rotation mode) from the run's scenario.yaml."""
     path = bag_dir / "scenario.yaml"
     if not path.is_file():
         raise BagError(f"{bag_dir}: no scenario.yaml (the alignment report needs the base attitude)")
@@ -66,7 +66,8 @@ def _run_setup(bag_dir: Path) -> tuple[np.ndarray, float, float]:
     pp = yaml.safe_load(vehicle.get("profile_params", "{}")) or {}
     C_nb = euler321_to_dcm(*(math.radians(float(pp.get(k, 0.0))) for k in ("roll_deg", "pitch_deg", "yaw_deg")))
     heading = math.radians(float(by_exe.get("platform_alignment", {}).get("base_heading_deg", 0.0)))
-    return C_nb, heading, math.radians(float(pp.get("lat_deg", 0.0)))
+    rotation = str(by_exe.get("platform_servo", {}).get("rotation", "bidirectional"))
+    return C_nb, heading, math.radians(float(pp.get("lat_deg", 0.0))), rotation
 
 
 def _truth_misalignment(joints: np.ndarray, C_nb: np.ndarray, heading: float) -> np.ndarray:
@@ -95,7 +96,7 @@ def alignment_series(bag_dir: Path) -> dict:
     tj, joints = cols[TRUTH_JOINTS]
     if len(tj) < 1 or len(cols["/truth/platform/accel_bias"][0]) < 1:
         raise BagError(f"{bag_dir}: no platform truth recorded")
-    C_nb, heading, lat = _run_setup(bag_dir)
+    C_nb, heading, lat, rotation = _run_setup(bag_dir)
     t0 = float(t[-1] - status[-1, 0])
 
     def joints_at(tt: float) -> np.ndarray:
@@ -110,7 +111,7 @@ def alignment_series(bag_dir: Path) -> dict:
     gyro_bias = cols["/truth/platform/gyro_bias"][1][0]
     return {
         "bag": bag_dir, "contents": contents, "t": t, "t0": t0, "age_s": status[:, 0], "updates": status[:, 1],
-        "converged": status[:, 2] > 0.5, "lat": lat,
+        "converged": status[:, 2] > 0.5, "lat": lat, "rotation": rotation,
         "initial": _ned_to_enu(est["initial_misalignment"]),
         "initial_sigma": _ned_to_enu(est["initial_misalignment_sigma"], sigma=True),
         "current": _ned_to_enu(est["misalignment"]),
@@ -190,7 +191,14 @@ def alignment_report(bag_dir: Path, out: Path) -> dict:
     """One alignment run: final errors and σ against the truth, convergence, plots."""
     s = alignment_series(bag_dir)
     metrics = bag_summary(Path(bag_dir), s["contents"])
-    metrics["alignment"] = final_errors(s)
+    f = final_errors(s)
+    metrics["rotation"] = s["rotation"]
+    metrics["alignment"] = f
+    metrics["within_issue8_accuracy"] = {
+        "tilt": max(abs(v) for v in f["tilt_error_arcsec"].values()) < LIMITS["tilt_arcsec"],
+        "azimuth": abs(f["azimuth_error_arcmin"]) < LIMITS["azimuth_arcmin"],
+        "north_drift": abs(f["north_drift_error_deg_h"]) < LIMITS["north_drift_deg_h"],
+    }
     _figure(out / "alignment_errors.png", "Alignment estimate errors", {"estimate": s})
     metrics["plots"] = ["alignment_errors.png"]
     return metrics
@@ -205,6 +213,7 @@ def rotation_comparison(runs: dict[str, Path], out: Path) -> dict:
     for name, f in table.items():
         tilt_sigma = max(f["tilt_sigma_arcsec"].values())
         separated[name] = {
+            "rotation": series[name]["rotation"],
             "tilt_sigma_arcsec": tilt_sigma,
             "accel_bias_sigma_ug": max(f["accel_bias_sigma_ug"]),
             # the data pin down each tilt on its own (σ well under the bias-equivalent 100 µg ≈ 20″)
