@@ -16,7 +16,9 @@ import rclpy
 from rclpy.context import Context
 
 from conftest import VENV_BIN
-from gimbal_control.platform_experiment import alignment_setup, run_platform_alignment
+from gimbal_control.platform_experiment import (
+    ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup, run_platform_alignment,
+)
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
 from gimbal_estimators.rotation_alignment import KinematicPlatformTruth, RotationAlignmentParams
 from gimbal_estimators.step_sync import StepGroups
@@ -163,8 +165,8 @@ def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
 
 
 def test_scenario_starts_the_platform_where_the_one_process_run_does():
-    """rotational_ins_alignment's base heading and gimbal angles are alignment_setup()'s, and
-    the three latitudes agree."""
+    """rotational_ins_alignment's base heading, gimbal angles and sensor noise are the
+    one-process run's, and the three latitudes agree."""
     import yaml
 
     nodes = load("rotational_ins_alignment").nodes
@@ -175,6 +177,10 @@ def test_scenario_starts_the_platform_where_the_one_process_run_does():
     assert vehicle["initial_platform_deg"] == pytest.approx(list(joints), abs=1e-15)
     assert profile["lat_deg"] == nodes["platform_servo"]["params"]["lat_deg"] == \
         nodes["platform_alignment"]["params"]["lat_deg"] == LAT_DEG
+    sensors = nodes["sensor_models"]["params"]
+    assert sensors["platform_gyro_arw_deg_rt_h"] == ALIGNMENT_GYRO_ARW_DEG_RT_H
+    assert sensors["platform_accel_noise_ug_rt_hz"] == ALIGNMENT_ACCEL_NOISE_UG_RT_HZ == \
+        nodes["platform_alignment"]["params"]["accel_noise_ug_rt_hz"]
 
 
 # ------------------------------------------------------------------------------- graph run

@@ -17,7 +17,7 @@ from rclpy.context import Context
 
 from conftest import VENV_BIN
 from gimbal_control.platform_experiment import run_platform_servo
-from gimbal_control.platform_servo import PlatformServoParams
+from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_control.platform_servo_node import PlatformServoNode
 from gimbal_sim import messages as m
 from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
@@ -161,6 +161,29 @@ def test_resolver_sensor_reads_quantised_gimbal_angles_before_the_imu():
         assert all(abs(round(a / quantum) * quantum - a) < 1e-12 for a in samples[0].angles)
         core.step((20.0, 0.0, 0.0, 0.0))
     assert samples[0].angles[0] > 2 * math.pi  # turned past 360°, not wrapped
+
+
+def test_drift_compensation_takes_the_platform_drift_which_is_minus_the_gyro_bias():
+    """Gyros with rate bias b on a platform that moves exactly as commanded: with
+    drift_deg_h = −b (the drift platform_alignment estimates) the pickoffs stay null, so the
+    servo leaves the platform on its command; uncompensated they integrate b."""
+    from gimbal_kinematics.earth import earth_rate_n
+    from gimbal_kinematics.rotations import rot3
+
+    b = np.array([0.02, -0.03, 0.01])  # [deg/h]
+    w_ie = earth_rate_n(math.radians(40.0))
+    picks = []
+    for drift in (tuple(-b), (0.0, 0.0, 0.0)):
+        params = PlatformServoParams(lat_deg=40.0, drift_deg_h=drift)
+        servo, sched = PlatformServo(params), params.schedule()
+        for k in range(2000):
+            phi, rate, _ = sched.state(k * 1e-3)
+            omega = rot3(phi) @ w_ie + np.array([0.0, 0.0, rate]) + np.radians(b) / 3600.0
+            servo.on_resolvers(k * 1e-3, (phi, 0.0, 0.0, 0.0))
+            servo.on_gyro(k * 1e-3, omega)
+        picks.append(np.array(servo.pickoff) / ARCSEC)
+    assert np.max(np.abs(picks[0])) < 1e-6
+    assert np.max(np.abs(picks[1])) > 0.005  # 0.03 °/h over 2 s = 0.06″, spread over the turning axes
 
 
 # ------------------------------------------------------------------------------- graph run

@@ -66,7 +66,8 @@ PARAMS = (
     Param("friction_coulomb_nm", 0.01, "azimuth bearing Coulomb friction for the preset [N*m]", 0.0, INF),
     Param("friction_viscous_nm_s_rad", 5e-4, "azimuth bearing viscous friction for the preset [N*m*s/rad]", 0.0, INF),
     Param("friction_smoothing_rad_s", 0.01, "rate scale of the Coulomb tanh for the preset [rad/s]", 1e-9, INF),
-    Param("drift_deg_h", [0.0, 0.0, 0.0], "gyro drift estimate subtracted from the command, platform x, y, z [deg/h]"),
+    Param("drift_deg_h", [0.0, 0.0, 0.0], "platform drift estimate (the negative of the gyro rate bias, as "
+          "platform_alignment's ~/gyro_drift) subtracted from the command, platform x, y, z [deg/h]"),
     Param("max_gap_s", 0.05, "a longer gap between gyro samples restarts the pickoff integration [s]", 1e-6, INF),
     Param("backward_jump_s", 1.0, "a stamp this far before the last one restarts the servo (bag loop) [s]", 1e-6, INF),
     Param("diagnostics_every_steps", 1, "publish ~/control_error and ~/modulation every N control ticks", 1, 10**6),

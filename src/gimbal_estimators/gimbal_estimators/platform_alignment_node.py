@@ -19,9 +19,10 @@ frame the filter believes to the true one, NED components, frame ``map_ned``):
   (δφE0, δφN0, δφU0) as NED components;
 * ``~/north_drift`` (+ ``_sigma``): the n-fixed north gyro drift ε_N [rad/s] as an NED vector
   (east and down are not estimated: 0, σ = −1);
-* ``~/gyro_drift`` and ``~/accel_bias`` (+ ``_sigma``): the level platform gyro drifts
-  (ε_x, ε_y) [rad/s] and accelerometer biases (∇x, ∇y) [m/s²], frame ``platform_frd``
-  (z not estimated: 0, σ = −1);
+* ``~/gyro_drift`` and ``~/accel_bias`` (+ ``_sigma``): the level platform drifts
+  (ε_x, ε_y) [rad/s] — the rates the gyro-stabilized platform drifts at, i.e. the negative
+  of the gyros' rate biases, as platform_servo's ``drift_deg_h`` takes them — and the
+  accelerometer biases (∇x, ∇y) [m/s²], frame ``platform_frd`` (z not estimated: 0, σ = −1);
 * ``~/status`` (Vector3Stamped): x = estimate age [s] since the alignment start, y = RLS
   updates so far, z = 1 when converged (misalignment σ under the thresholds) else 0.
 

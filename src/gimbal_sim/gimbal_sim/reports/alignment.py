@@ -9,7 +9,9 @@ heading the filter assumes):
   the filter believes in, the level frame turned by ψ = θ_a + ``base_heading_deg`` (the
   resolver's ±1.2″ quantisation of θ_a is below the figures); the initial misalignment is
   taken at the alignment start t₀ = stamp − age of ``~/status``;
-* level gyro drifts and accelerometer biases: ``/truth/platform/{gyro,accel}_bias``;
+* level accelerometer biases: ``/truth/platform/accel_bias``; level platform drifts: the
+  negative of ``/truth/platform/gyro_bias`` (the gyros' rate bias b makes the servo, which
+  holds the measured rate at the command, turn the platform at −b);
 * north drift ε_N: 0 — the simulated platform has no drift fixed in the level frame (its gyro
   biases are fixed in the platform and turn with it).
 
@@ -120,7 +122,7 @@ def alignment_series(bag_dir: Path) -> dict:
         "gyro_drift": est["gyro_drift"][:, :2], "gyro_drift_sigma": est["gyro_drift_sigma"][:, :2],
         "accel_bias": est["accel_bias"][:, :2], "accel_bias_sigma": est["accel_bias_sigma"][:, :2],
         "truth_initial": phi0, "truth_current": phi_now, "truth_north_drift": 0.0,
-        "truth_gyro_drift": gyro_bias[:2], "truth_accel_bias": accel_bias[:2],
+        "truth_gyro_drift": -gyro_bias[:2], "truth_accel_bias": accel_bias[:2],
         "start_azimuth": float(joints_at(t0)[0] + heading),
     }
 
