@@ -103,7 +103,7 @@ def params_from_values(v: dict) -> RotationAlignmentParams:
         raise ParameterError(str(exc)) from exc
 
 
-#: Output topic -> what it carries (see the module docstring).
+#: Output topics, under the node's namespace (module docstring).
 OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initial_misalignment_sigma",
            "north_drift", "north_drift_sigma", "gyro_drift", "gyro_drift_sigma", "accel_bias", "accel_bias_sigma",
            "status")
