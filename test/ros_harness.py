@@ -84,3 +84,10 @@ def spin_until(executor, predicate, timeout_s: float) -> bool:
             return False
         executor.spin_once(timeout_sec=0.05)
     return True
+
+
+def start_refused(exe: str, params: dict, env: dict) -> subprocess.CompletedProcess:
+    """Start node executable ``exe`` with ``params`` expecting it to refuse them; returns the
+    finished process (a node that does start is killed after 60 s by the timeout)."""
+    return subprocess.run([str(VENV_BIN / exe), *ros_args(params)], env=env, capture_output=True, text=True,
+                          timeout=60)

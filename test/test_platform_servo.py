@@ -1,6 +1,5 @@
 """Paper 3 platform servo: friction preset against the simulated bearing, pickoff emulation,
-plant adapter geometry, loop margins from the linearised Table 1 axes (scipy), and the
-closed loop on gimbal_sim's platform with a shortened sweep (two starts of rotation and
+loop margins from the linearised Table 1 axes (scipy), and the closed loop on gimbal_sim's platform with a shortened sweep (two starts of rotation and
 one reversal); the full figures come from run_platform_servo."""
 import math
 
@@ -9,13 +8,12 @@ import pytest
 from scipy import signal
 
 from gimbal_control.pid import PidParams
-from gimbal_control.platform_experiment import ARCSEC, plant_voltages, resolver_angles, run_platform_servo
+from gimbal_control.platform_experiment import ARCSEC, run_platform_servo
 from gimbal_control.platform_servo import (
     TABLE1, FrictionModel, PlatformServo, PlatformServoParams, platform_pid_gains,
 )
 from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.four_gimbal import dcm_bs, inner_gimbal_control_signals
-from gimbal_kinematics.rotations import euler321_to_dcm, rot1, rot2, rot3
+from gimbal_kinematics.rotations import rot3
 from gimbal_sim.plant import PlatformAxis, paper3_axis_params
 
 DEG = math.pi / 180.0
@@ -84,33 +82,6 @@ def test_pickoff_integrates_a_rate_error_and_rotates_with_the_reference():
     w = sched.rate_rad_s
     assert servo.pickoff[0] == pytest.approx(eps * math.sin(w * t) / w, rel=1e-4)
     assert servo.pickoff[1] == pytest.approx(-eps * (1 - math.cos(w * t)) / w, rel=1e-3)
-
-
-def test_resolver_angles_realise_the_plant_attitude():
-    """The adapter's gimbal angles rebuild C_bs = C_bn C_ns of the plant exactly."""
-    C_nb = euler321_to_dcm(0.02, -0.01, 0.3)
-    loop = (2.5, 1e-3, -2e-3, 0.004)
-    ga = resolver_angles(loop, C_nb, quantum_rad=0.0)
-    C_sn = rot1(loop[1]) @ rot2(loop[2]) @ rot3(loop[0])
-    np.testing.assert_allclose(dcm_bs(ga), (C_sn @ C_nb).T, atol=1e-12)
-    assert ga[3] == loop[3]
-    q = resolver_angles(loop, C_nb)
-    assert max(abs(a - b) for a, b in zip(q, ga)) <= math.pi / 2 ** 19 + 1e-15
-
-
-def test_adapter_resolves_the_gimbal_torques_back_onto_the_pickoff_axes():
-    """Eq. 1 resolution, per-axis gains, then the adapter: a pickoff δ in s produces plant
-    torques −k δ along the same s axes, whatever θ_a (here with equal k for all loops)."""
-    rng = np.random.default_rng(0)
-    kpv = tuple(TABLE1[a][1] / TABLE1[a][2] for a in "aqpr")
-    for _ in range(20):
-        th_a, th_q = rng.uniform(-math.pi, math.pi), rng.uniform(-0.3, 0.3)
-        delta = rng.normal(size=3)
-        sig = inner_gimbal_control_signals(delta, th_a, th_q)
-        volts = (-sig.azimuth / kpv[0], -sig.inner_roll / kpv[1], -sig.pitch / kpv[2], 0.0)
-        va, vq, vp, _ = plant_voltages(volts, (th_a, th_q, 0.0, 0.0), kpv)
-        torque_s = np.array([vq * kpv[1], vp * kpv[2], va * kpv[0]])
-        np.testing.assert_allclose(torque_s, -delta, atol=1e-12)
 
 
 def _loop_matrix(axis, bw, friction_slope):

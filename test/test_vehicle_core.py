@@ -61,21 +61,65 @@ def test_specific_force_of_a_static_tilted_host_is_minus_gravity_in_body():
     np.testing.assert_allclose(truth.specific_force_b, _R_nb(truth.euler).inv().apply([0, 0, -g]), atol=1e-12)
 
 
-def test_platform_attitude_follows_its_loops():
-    cfg = VehicleConfig(profile="static", profile_params={"lat_deg": 30.0}, plant="four_gimbal_platform",
-                        initial_joints_deg=(10.0, 0.01, -0.02, 0.0), duration_s=1.0)
+def _C_bs(joints):
+    """Platform to base through the gimbal chain b → r (x) → p (y) → q (x) → s (z)."""
+    a, q, p, r = joints
+    return (Rotation.from_rotvec([r, 0, 0]) * Rotation.from_rotvec([0, p, 0]) * Rotation.from_rotvec([q, 0, 0])
+            * Rotation.from_rotvec([0, 0, a]))
+
+
+def test_platform_attitude_follows_its_gimbals():
+    cfg = VehicleConfig(profile="static", profile_params={"lat_deg": 30.0, "yaw_deg": 25.0},
+                        plant="four_gimbal_platform", initial_joints_deg=(10.0, 0.01, -0.02, 0.5), duration_s=1.0)
     core = VehicleCore(cfg)
     for _ in range(500):
         core.step((2.0, 0.0, 0.0, 0.0))
     truth = core.truth()
-    theta_a, theta_q, theta_p = truth.joint_position[:3]
-    assert theta_a > math.radians(10.0) and truth.joint_velocity[0] > 0.0  # the azimuth motor turned it
-    C_sn = Rotation.from_euler("ZYX", [theta_a, theta_p, theta_q]).inv()
+    assert truth.joint_position[0] > math.radians(10.0) and truth.joint_velocity[0] > 0.0  # the azimuth motor turned it
+    C_ns = _R_nb(truth.euler) * _C_bs(truth.joint_position)
     g = normal_gravity(math.radians(30.0))
-    np.testing.assert_allclose(truth.specific_force_m, C_sn.apply([0, 0, -g]), atol=1e-12)
-    np.testing.assert_allclose(Rotation.from_quat(truth.quat_nm).as_matrix(), C_sn.inv().as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(truth.specific_force_m, C_ns.inv().apply([0, 0, -g]), atol=1e-12)
+    np.testing.assert_allclose(Rotation.from_quat(truth.quat_nm).as_matrix(), C_ns.as_matrix(), atol=1e-12)
     # its torque is the motor's k_t times its current
     assert truth.joint_effort[0] == pytest.approx(0.21 * core._platform_x[0][2])
+
+
+def test_platform_rate_is_the_derivative_of_its_attitude():
+    """The platform gyros' truth is the inertial rate of the attitude the plant reports: a
+    turning, tilted platform (azimuth 0.1 rad/s, pitch and outer roll moving) against the
+    numerical derivative of C_is = C_in C_ns; and a tilt stays put in n while it turns."""
+    lat = math.radians(30.0)
+    cfg = VehicleConfig(profile="static", profile_params={"lat_deg": 30.0}, plant="four_gimbal_platform",
+                        initial_joints_deg=(0.0, 0.0, 0.3, -0.2), duration_s=10.0)
+    core = VehicleCore(cfg)
+    w_n = earth_rate_n(lat)
+    quats, rates = [], []
+    for _ in range(3000):
+        core.step((3.0, 0.0, 0.2, -0.3))
+        truth = core.truth()
+        # inertial attitude: NED turns at w_n relative to inertial space
+        C_is = Rotation.from_rotvec(w_n * truth.t) * Rotation.from_quat(truth.quat_nm)
+        quats.append(C_is)
+        rates.append(truth.omega_im_m)
+    dt = cfg.dt
+    for k in range(1000, 2990, 97):
+        rel = (quats[k - 1].inv() * quats[k + 1]).as_rotvec() / (2 * dt)
+        np.testing.assert_allclose(rel, rates[k], atol=2e-6 * max(1.0, np.linalg.norm(rates[k])))
+    assert abs(truth.joint_velocity[0]) > 0.05
+
+
+def test_a_tilted_platform_turns_about_its_own_axis():
+    """Only the azimuth motor drives: the platform's z axis (the azimuth gimbal axis) stays
+    where the pitch and outer-roll gimbals tilted it, in n, while it turns through 90°."""
+    cfg = VehicleConfig(profile="static", profile_params={"lat_deg": 30.0, "yaw_deg": 40.0},
+                        plant="four_gimbal_platform", initial_joints_deg=(0.0, 0.0, 0.3, -0.2), duration_s=20.0)
+    core = VehicleCore(cfg)
+    axis0 = Rotation.from_quat(core.truth().quat_nm).apply([0.0, 0.0, 1.0])
+    while core.truth().joint_position[0] < math.pi / 2:
+        core.step((20.0, 0.0, 0.0, 0.0))
+    truth = core.truth()
+    np.testing.assert_allclose(Rotation.from_quat(truth.quat_nm).apply([0.0, 0.0, 1.0]), axis0, atol=1e-12)
+    assert truth.joint_position[1:] == pytest.approx((0.0, math.radians(0.3), math.radians(-0.2)), abs=1e-15)
 
 
 @pytest.mark.parametrize("kwargs,named", [

@@ -24,6 +24,7 @@ setup(
         "console_scripts": [
             "los_rate_controller = gimbal_control.los_rate_controller_node:main",
             "encoder_fusion_controller = gimbal_control.encoder_fusion_controller_node:main",
+            "platform_servo = gimbal_control.platform_servo_node:main",
         ],
     },
 )

@@ -25,6 +25,7 @@ setup(
             "gyro_bias_ekf = gimbal_estimators.gyro_bias_ekf_node:main",
             "free_gyro_positioning = gimbal_estimators.free_gyro_positioning_node:main",
             "flexure_estimator = gimbal_estimators.flexure_estimator_node:main",
+            "platform_alignment = gimbal_estimators.platform_alignment_node:main",
         ],
     },
 )

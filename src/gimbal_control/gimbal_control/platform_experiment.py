@@ -1,21 +1,19 @@
-"""Closed-loop paper 3 experiment: :class:`.platform_servo.PlatformServo` on gimbal_sim's
-four-gimbal platform on a static base (SPEC §3.3; scenario ``rotational_platform_servo``).
+"""Closed-loop paper 3 experiments in one process: :class:`.platform_servo.PlatformServo` on
+gimbal_sim's four-gimbal platform on a static base (SPEC §3.3), alone (scenario
+``rotational_platform_servo``) and carrying the rotation-modulated alignment
+(:class:`gimbal_estimators.rotation_alignment.RotationAlignmentRls`, scenario
+``rotational_ins_alignment``). The graph runs the same cores through ROS messages and gives
+the same numbers (test_platform_servo_node, test_platform_alignment_node); this module is
+the quick way to campaign over seeds::
 
-Plant adapter. gimbal_sim's platform (``VehicleConfig(plant='four_gimbal_platform')``) is
-four decoupled DC-motor loops. The loop angles a, q, p are the stable element's angles
-relative to the level frame n, C_sn = rot1(θ_q) rot2(θ_p) rot3(θ_a), and the q and p loops
-turn the platform about its *own* x and y axes. In the real gimbal set of paper 3 (and in
-eq. 1) the inner-roll and pitch motors sit on gimbal axes that do not turn with the
-azimuth. The servo is written for the real gimbal, so this adapter does two things:
+    python -m gimbal_control.platform_experiment alignment --seeds 1 2 3 4 5 6
+    python -m gimbal_control.platform_experiment servo --duration 320
 
-* Resolver readings: the gimbal angles that realise the plant's attitude with the
-  simulated outer-roll angle θ_r. They come from
-  :func:`gimbal_kinematics.four_gimbal.gimbal_angles_from_dcm` on C_sb = C_sn C_nb,
-  quantised like a 19-bit resolver-to-digital converter (2.5″; paper 3 §3).
-* Motor torques: each gimbal motor's torque (k_t/R_a)·V is resolved onto the stable
-  element's axes, τ_s = τ_a e3 + C_sq (τ_q e1 + τ_p C_qp e2), and converted back to the
-  voltages of the plant loops. The outer-roll voltage goes straight to the outer-roll loop;
-  that loop does not move the stable element in this plant.
+Plant and sensors. gimbal_sim's platform (``VehicleConfig(plant='four_gimbal_platform')``)
+is the four-gimbal chain, one DC-motor loop per joint, driven by the four gimbal motor
+voltages; the servo reads the joint angles from the ``resolvers`` sensor (19-bit
+converters, paper 3 §3). The graph runs the same pieces: ``vehicle_dynamics`` +
+``sensor_models`` + the ``platform_servo`` node.
 
 Sensors: the platform gyro triad of gimbal_sim's SensorSuite (``platform_imu``, paper 3
 DTG grade: 0.03 °/h run-to-run bias, 0.003 °/√h ARW) at 1 kHz, with no drift
@@ -23,9 +21,9 @@ compensation.
 
 Control errors (truth, radians):
 
-* ``azimuth``: e_a = θ_a − φz(t), the platform azimuth (loop angle relative to n) minus
-  the commanded modulation angle schedule;
-* ``level``: the tilts θ_q and θ_p of the stable element relative to level;
+* ``azimuth``: e_a = θ_a − φz(t), the azimuth gimbal angle (the platform azimuth on the
+  level base at heading 0) minus the commanded modulation angle schedule;
+* ``level``: the inner-roll and pitch gimbal angles θ_q and θ_p (the platform's tilts);
 * the sensed error (the pickoff angles) is reported too.
 
 Steady rotation means t >= ``settle_s`` and outside [t_k, t_k + ``transient_window_s``]
@@ -35,109 +33,102 @@ Torque current: the azimuth motor armature current, effort/k_t.
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+import argparse
+import sys
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
-from gimbal_kinematics.rotations import quat_to_dcm, rot1, rot2, rot3
+from gimbal_estimators.rotation_alignment import (
+    PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, RotationAlignmentParams, RotationAlignmentRls, alignment_metrics,
+    summarize_alignment,
+)
 
-from .platform_servo import PlatformServo, PlatformServoParams
+from .platform_servo import PlatformServo, PlatformServoParams, ServoCommand
 
 ARCSEC = math.pi / (180.0 * 3600.0)
-#: 19-bit resolver-to-digital converter quantum [rad] (paper 3 §3: 19XSZ1411, ±10″ accuracy).
-RESOLVER_QUANTUM_RAD = 2.0 * math.pi / 2 ** 19
 
 
-def resolver_angles(loop_angles: Sequence[float], C_nb: np.ndarray, quantum_rad: float = RESOLVER_QUANTUM_RAD
-                    ) -> tuple[float, float, float, float]:
-    """Gimbal angles (θ_a, θ_q, θ_p, θ_r) [rad] read by the resolvers for the plant state.
-
-    ``loop_angles``: the plant's (a, q, p, r) loop angles [rad]; ``C_nb`` (3, 3): base to
-    NED; ``quantum_rad``: resolver quantum (0 = exact).
-    """
-    a, q, p, r = (float(v) for v in loop_angles)
-    C_sb = rot1(q) @ rot2(p) @ rot3(a) @ C_nb
-    ga, gq, gp, gr = (float(v) for v in gimbal_angles_from_dcm(C_sb, r))
-    if quantum_rad > 0.0:
-        ga, gq, gp, gr = (quantum_rad * math.floor(v / quantum_rad + 0.5) for v in (ga, gq, gp, gr))
-    return ga, gq, gp, gr
+RATE_HZ = 1000.0  # paper 3's loop rate, also the simulation and sensor rate here
 
 
-def plant_voltages(gimbal_volts: Sequence[float], angles: Sequence[float],
-                   torque_per_volt: Sequence[float]) -> tuple[float, float, float, float]:
-    """Plant loop voltages (a, q, p, r) [V] for gimbal motor voltages (a, q, p, r) [V].
+def closed_loop(core, suite, servo: PlatformServo) -> Iterator[tuple[Any, list, ServoCommand | None]]:
+    """Step ``core`` (VehicleCore, four_gimbal_platform) under ``servo`` with ``suite``'s
+    platform IMU and resolvers, as the lockstep graph does: per step k, yields (truth_k,
+    the sensor samples of step k, the servo's output or None); the command is applied over
+    k → k+1. The last step's truth is yielded too (the graph publishes it)."""
+    from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample
 
-    ``angles``: resolver angles (θ_a, θ_q, ...) [rad]; ``torque_per_volt``: k_t/R_a of the
-    loops (a, q, p, r) [N·m/V], the same motors on both sides. The gimbal torques are
-    resolved on the stable element's axes (module docstring).
-    """
-    va, vq, vp, vr = gimbal_volts
-    ka, kq, kp, _ = torque_per_volt
-    ta, tq, tp = ka * va, kq * vq, kp * vp
-    ca, sa = math.cos(angles[0]), math.sin(angles[0])
-    cq, sq = math.cos(angles[1]), math.sin(angles[1])
-    # in q: τ_q e1 + τ_p (0, cos θq, −sin θq); C_sq = rot3(θa) maps q to s
-    x, y, z = tq, tp * cq, -tp * sq
-    tx, ty, tz = ca * x + sa * y, -sa * x + ca * y, z + ta
-    return tz / ka, tx / kq, ty / kp, vr
+    cmd = (0.0, 0.0, 0.0, 0.0)
+    while True:
+        truth = core.truth()
+        samples = suite.update(truth)
+        out = None
+        for s in samples:  # the suite delivers a step's resolvers before its IMU
+            if isinstance(s, ResolverSample):
+                servo.on_resolvers(s.t, s.angles)
+            elif isinstance(s, PlatformImuSample):
+                out = servo.on_gyro(s.t, s.omega)
+                if out is not None:
+                    cmd = out.voltages
+        yield truth, samples, out
+        if core.finished:
+            return
+        core.step(cmd)
+
+
+def _platform_sim(duration_s: float, seed: int, profile_params: dict, initial_joints_deg: tuple = (),
+                  resolver=None, **sensors):
+    """(VehicleCore, SensorSuite) of the static-base platform at RATE_HZ with the paper 3
+    sensors (platform IMU and resolvers at RATE_HZ, defaults as in sensor_models;
+    ``sensors`` overrides SensorSuiteConfig fields, e.g. ``platform_gyro``)."""
+    from gimbal_sim.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
+    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+
+    core = VehicleCore(VehicleConfig(profile="static", profile_params=profile_params, plant="four_gimbal_platform",
+                                     sim_rate_hz=RATE_HZ, duration_s=duration_s,
+                                     initial_joints_deg=tuple(initial_joints_deg)))
+    suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=RATE_HZ, seed=seed,
+                                          platform_imu_rate_hz=RATE_HZ, resolver_rate_hz=RATE_HZ,
+                                          resolver=PAPER3_RESOLVER if resolver is None else resolver,
+                                          **sensors))
+    return core, suite
 
 
 def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: PlatformServoParams | None = None,
                        settle_s: float = 2.0, transient_window_s: float = 2.0,
-                       resolver_quantum_rad: float = RESOLVER_QUANTUM_RAD,
-                       record_every: int = 10) -> dict[str, Any]:
+                       resolver=None, record_every: int = 10) -> dict[str, Any]:
     """Run the servo on the simulated platform (static base at ``params.lat_deg``).
 
     Returns metrics (radians, amperes, volts; see the module docstring) and ``series``
     (every ``record_every``-th tick: t, φz, e_a, level errors, pickoffs, azimuth current,
-    voltages). Figures in arc-seconds are added as ``*_arcsec``.
+    voltages), one entry per step 0..N. Figures in arc-seconds are added as ``*_arcsec``.
+    ``resolver``: the resolver ``EncoderParams`` (default ``PAPER3_RESOLVER``).
     """
     from gimbal_sim.plant import paper3_axis_params
-    from gimbal_sim.sensor_suite import PlatformImuSample, SensorSuite, SensorSuiteConfig
-    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
     params = params if params is not None else PlatformServoParams()
-    rate = 1000.0
-    core = VehicleCore(VehicleConfig(profile="static", profile_params={"lat_deg": params.lat_deg},
-                                     plant="four_gimbal_platform", sim_rate_hz=rate, duration_s=duration_s))
-    suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu",), sim_rate_hz=rate, seed=seed,
-                                          platform_imu_rate_hz=rate))
-    axes = [paper3_axis_params(a) for a in ("a", "q", "p", "r")]  # as VehicleCore builds them
-    kpv = tuple(ax.torque_constant_nm_a / ax.resistance_ohm for ax in axes)
-    kt_a = axes[0].torque_constant_nm_a
+    core, suite = _platform_sim(duration_s, seed, {"lat_deg": params.lat_deg}, resolver=resolver)
+    kt_a = paper3_axis_params("a").torque_constant_nm_a  # the plant's azimuth motor
     servo = PlatformServo(params)
-    n = core.config.n_steps
-    t = np.arange(n) / rate
+    n = core.config.n_steps + 1
+    t = np.arange(n) / RATE_HZ
     phi = np.zeros(n)
     e_a = np.zeros(n)
     level = np.zeros((n, 2))
     pickoff = np.zeros((n, 3))
     current_a = np.zeros(n)
     volts = np.zeros((n, 4))
-    cmd = (0.0, 0.0, 0.0, 0.0)
-    C_nb = None
-    k = 0
-    while not core.finished:
-        truth = core.truth()
-        if C_nb is None:
-            C_nb = quat_to_dcm(truth.quat_nb)  # static base: constant
-        angles = resolver_angles(truth.joint_position, C_nb, resolver_quantum_rad)
-        servo.on_resolvers(truth.t, angles)
-        for s in suite.update(truth):
-            if isinstance(s, PlatformImuSample):
-                out = servo.on_gyro(s.t, s.omega)
-                if out is not None:
-                    cmd = plant_voltages(out.voltages, angles, kpv)
-                    phi[k] = out.phi_z
-                    volts[k] = out.voltages
+    for truth, _, out in closed_loop(core, suite, servo):
+        k = truth.k
+        if out is not None:
+            phi[k] = out.phi_z
+            volts[k] = out.voltages
         th_a, th_q, th_p, _ = truth.joint_position
         e_a[k] = th_a - phi[k]
         level[k] = th_q, th_p
         pickoff[k] = servo.pickoff
         current_a[k] = truth.joint_effort[0] / kt_a
-        core.step(cmd)
-        k += 1
 
     reversals = servo.schedule.reversal_times(duration_s)
     in_window = np.zeros(n, dtype=bool)
@@ -163,10 +154,153 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
         "rejected_nonfinite": servo.rejected_nonfinite,
         "held_commands": servo.held_commands,
     }
-    for key in [k for k in metrics if k.endswith("_rad")]:
+    for key in [key for key in metrics if key.endswith("_rad")]:
         metrics[key[:-4] + "_arcsec"] = metrics[key] / ARCSEC
     sl = slice(None, None, max(1, int(record_every)))
     metrics["series"] = {"t": t[sl], "phi_z_rad": phi[sl], "azimuth_error_rad": e_a[sl],
                          "level_error_rad": level[sl], "pickoff_rad": pickoff[sl],
                          "azimuth_current_a": current_a[sl], "voltages_v": volts[sl]}
     return metrics
+
+
+#: Sensor noise of the alignment scenario (paper 3 gives only the bias grades, 0.03 °/h and
+#: 100 µg). Its Table 2 accuracy bounds the rest: fitting 600 s of tilt, a gyro angle random
+#: walk N leaves a slope error N·√(6/5T), which reads as azimuth error /ω_N and as north
+#: drift; 0.003 °/√h (sensor_models' default) would alone give 2.4′ and 0.008 °/h (1σ at
+#: 40° N), above the paper's 1.5′ and 0.006 °/h. A high-grade DTG's 0.001 °/√h and a quartz
+#: accelerometer's 20 µg/√Hz fit the paper's figures (README: alignment noise budget).
+ALIGNMENT_GYRO_ARW_DEG_RT_H = 0.001
+ALIGNMENT_ACCEL_NOISE_UG_RT_HZ = 20.0
+
+
+def alignment_setup(misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC
+                    ) -> tuple[float, tuple[float, float, float, float]]:
+    """(base heading [deg], initial gimbal angles (θ_a, θ_q, θ_p, θ_r) [deg]) that give the
+    alignment (scenario ``rotational_ins_alignment``) the initial misalignment
+    (δφE0, δφN0, δφU0) [arcsec]: the filter takes the base heading as 0, so with the
+    azimuth gimbal at 0 it believes the platform at φz = 0 (where the servo starts it), while
+    the base's true heading is −δφU0 and the platform is tilted by (δφE0, δφN0); the outer
+    roll takes the roll tilt so the inner roll starts at null."""
+    from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
+    from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
+
+    e, n, u = (float(v) * ARCSEC for v in misalignment0_arcsec)
+    C_ns = dcm_from_rotation_vector(np.array([n, e, -u]))  # exp([φ×]) times the believed frame (I)
+    C_nb = euler321_to_dcm(0.0, 0.0, -u)  # the base heading the filter does not know
+    joints = gimbal_angles_from_dcm(C_ns.T @ C_nb)
+    return -math.degrees(u), tuple(float(math.degrees(v)) for v in joints)  # type: ignore[return-value]
+
+
+def run_platform_alignment(seed: int, rotate: bool = True, duration_s: float = 600.0, *, lat_deg: float = 40.0,
+                           misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC,
+                           params: RotationAlignmentParams | None = None,
+                           servo_params: PlatformServoParams | None = None,
+                           gyro_arw_deg_rt_h: float = ALIGNMENT_GYRO_ARW_DEG_RT_H,
+                           accel_noise_ug_rt_hz: float = ALIGNMENT_ACCEL_NOISE_UG_RT_HZ,
+                           progress: bool = False) -> AlignmentMetrics:
+    """Scenario ``rotational_ins_alignment`` in one process: the servo turns the platform
+    (``rotate``: ±1.2°/s through 360° and back; else held) while the RLS aligns it from the
+    accelerometers and the azimuth resolver, as the ``platform_alignment`` node does. Sensors:
+    gyro bias 0.03 °/h and accelerometer bias 100 µg (1σ per run, paper 3) with the given
+    white noise; the filter's noise density follows the accelerometers'.
+
+    Truth: the initial misalignment is the platform attitude at step 0 measured against the
+    believed frame (the resolver azimuth); the accelerometer biases are the sensors' true
+    values; the platform drifts (ε_x, ε_y) are the negative of the gyros' rate biases (the
+    servo holds the measured rate at the command); the simulated platform has no drift fixed
+    in the level frame, so ε_N is 0.
+    """
+    from gimbal_kinematics.four_gimbal import platform_misalignment_enu
+    from gimbal_kinematics.rotations import quat_to_dcm
+    from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample
+    from gimbal_sim.sensors import AccelerometerParams, GyroParams
+
+    heading_deg, joints_deg = alignment_setup(misalignment0_arcsec)
+    core, suite = _platform_sim(
+        duration_s, seed, {"lat_deg": lat_deg, "yaw_deg": heading_deg}, joints_deg,
+        platform_gyro=GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=gyro_arw_deg_rt_h),
+        platform_accel=AccelerometerParams(bias_sigma_ug=100.0, noise_ug_rt_hz=accel_noise_ug_rt_hz))
+    servo = PlatformServo(servo_params if servo_params is not None else PlatformServoParams(lat_deg=lat_deg,
+                                                                                             rotate=rotate))
+    rls = RotationAlignmentRls(params if params is not None else RotationAlignmentParams(
+        lat_deg=lat_deg, accel_noise_ug_rt_hz=accel_noise_ug_rt_hz))
+    start = None  # (C_ns, ψ, accelerometer bias, gyro bias) at the first step
+    steps = core.config.n_steps + 1
+    bar = _progress_bar(steps, f"seed {seed} rotation {'on' if rotate else 'off'}", progress)
+    for truth, samples, _ in closed_loop(core, suite, servo):
+        for s in samples:
+            if isinstance(s, ResolverSample):
+                rls.on_joint_state(s.t, s.angles[0], s.rates[0])
+                psi = s.angles[0]
+            elif isinstance(s, PlatformImuSample):
+                rls.on_accel(s.t, s.specific_force)
+                if start is None:
+                    start = (quat_to_dcm(truth.quat_nm), psi, s.true_accel_bias, s.true_gyro_bias)
+        bar.update(1)
+    bar.close()
+    C_ns0, psi0, accel_bias, gyro_bias = start
+    phi0 = platform_misalignment_enu(C_ns0, psi0)
+    # the platform drifts at the negative of its gyros' rate bias (the servo nulls the measured rate)
+    truth_x = np.array([phi0[0], phi0[1], phi0[2], 0.0, accel_bias[0], accel_bias[1], -gyro_bias[0], -gyro_bias[1]])
+    return alignment_metrics(rls, truth_x, seed=seed, rotate=rotate, duration_s=duration_s, psi0=psi0)
+
+
+def _progress_bar(total: int, desc: str, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="step", unit_scale=True, disable=None if enabled else True,
+                file=sys.stderr, mininterval=1.0)
+
+
+def _alignment_table(runs: list[AlignmentMetrics]) -> str:
+    rows = [f"{'seed':>4} {'dphiE0 err':>11} {'dphiN0 err':>11} {'dphiU0 err':>11} {'epsN err':>10} "
+            f"{'sigma E/N/U':>22}",
+            f"{'':>4} {'[arcsec]':>11} {'[arcsec]':>11} {'[arcmin]':>11} {'[deg/h]':>10}"]
+    for r in runs:
+        rows.append(f"{r.seed:>4} {r.tilt_error_arcsec[0]:>11.2f} {r.tilt_error_arcsec[1]:>11.2f} "
+                    f"{r.azimuth_error_arcmin:>11.3f} {r.north_drift_error_deg_h:>10.5f} "
+                    f"{r.tilt_sigma_arcsec[0]:>7.2f}″{r.tilt_sigma_arcsec[1]:>6.2f}″{r.azimuth_sigma_arcmin:>6.2f}′")
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m gimbal_control.platform_experiment",
+        description="Paper 3 closed-loop experiments in one process (the graph's cores without ROS): the "
+                    "platform servo figures, or a Table 2 style alignment campaign over seeds.")
+    sub = parser.add_subparsers(dest="what", required=True)
+    servo = sub.add_parser("servo", help="servo figures: control error, reversal transient, torque current")
+    servo.add_argument("--duration", type=float, default=320.0, help="simulated seconds (default 320: one reversal)")
+    servo.add_argument("--seed", type=int, default=0)
+    align = sub.add_parser("alignment", help="alignment errors over seeds, mean and std as paper 3 Table 2")
+    align.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
+    align.add_argument("--duration", type=float, default=600.0, help="simulated seconds (default 600: 360° and back)")
+    align.add_argument("--lat", type=float, default=40.0, help="latitude [deg]")
+    align.add_argument("--no-rotation", action="store_true", help="hold the platform (paper 3 eq. 9 case)")
+    align.add_argument("--gyro-arw", type=float, default=ALIGNMENT_GYRO_ARW_DEG_RT_H,
+                       help="platform gyro angle random walk [deg/sqrt(h)]")
+    align.add_argument("--accel-noise", type=float, default=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ,
+                       help="platform accelerometer noise density [micro-g/sqrt(Hz)]")
+    args = parser.parse_args(argv)
+    if args.what == "servo":
+        m = run_platform_servo(args.duration, args.seed)
+        for key in ("steady_rms_error_arcsec", "steady_max_error_arcsec", "reversal_max_error_arcsec",
+                    "steady_max_level_error_arcsec", "steady_mean_abs_current_a", "peak_current_a"):
+            print(f"{key:32s} {m[key]:.4g}")
+        return 0
+    runs = []
+    for seed in args.seeds:
+        runs.append(run_platform_alignment(seed, not args.no_rotation, args.duration, lat_deg=args.lat,
+                                           gyro_arw_deg_rt_h=args.gyro_arw, accel_noise_ug_rt_hz=args.accel_noise,
+                                           progress=True))
+        print(_alignment_table(runs[-1:]).splitlines()[-1], flush=True)
+    print(_alignment_table(runs))
+    summary = summarize_alignment(runs)
+    print(f"{'':>4} {'mean':>11} {'std':>11}   (ddof=1, as paper 3 Table 2)")
+    for key, stats in summary.items():
+        print(f"{key:28s} mean {stats['mean']:+.4g}  std {stats['std']:.4g}  rms {stats['rms']:.4g}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -131,6 +131,8 @@ class PlatformServoParams:
         lat_deg: site latitude for the earth-rate part of the command [deg].
         rate_deg_s, sweep_deg, reversal_time_s: the modulation schedule
             (:class:`~gimbal_kinematics.four_gimbal.BidirectionalRotation`).
+        rotate: run the modulation schedule; False holds the platform at φz = 0 (the
+            non-rotating case of paper 3 eq. 9).
         azimuth_pid, inner_roll_pid, pitch_pid, outer_roll_pid: loop gains (volts out).
         preset_integrator: preset the azimuth integrator at reversals (paper 3).
         friction: the friction model behind the preset.
@@ -143,6 +145,7 @@ class PlatformServoParams:
     rate_deg_s: float = 1.2
     sweep_deg: float = 360.0
     reversal_time_s: float = 0.0
+    rotate: bool = True
     azimuth_pid: PidParams = field(default_factory=lambda: platform_pid_gains("a", 12.0))
     inner_roll_pid: PidParams = field(default_factory=lambda: platform_pid_gains("q", 12.0))
     pitch_pid: PidParams = field(default_factory=lambda: platform_pid_gains("p", 12.0))
@@ -164,6 +167,8 @@ class PlatformServoParams:
         for name in ("azimuth_pid", "inner_roll_pid", "pitch_pid", "outer_roll_pid"):
             if not isinstance(getattr(self, name), PidParams):
                 raise ValueError(f"{name} must be a PidParams")
+        if not isinstance(self.rotate, bool):
+            raise ValueError(f"rotate must be true or false, got {self.rotate!r}")
         if not isinstance(self.preset_integrator, bool):
             raise ValueError(f"preset_integrator must be true or false, got {self.preset_integrator!r}")
         if not isinstance(self.friction, FrictionModel):
@@ -233,6 +238,11 @@ class PlatformServo(StampGate):
         self._signals = (0.0, 0.0, 0.0, 0.0)
         self._dt_last = 1e-3
 
+    @property
+    def command_voltages(self) -> tuple[float, float, float, float]:
+        """The last commanded motor voltages (a, q, p, r) [V] (zeros before the first tick)."""
+        return self._volts
+
     def reset(self, reason: str) -> None:
         """Reset the loops and restart the schedule; ``reason`` goes to ``reset_reasons``."""
         self.reset_reasons.append(reason)
@@ -257,7 +267,9 @@ class PlatformServo(StampGate):
         return ServoCommand(t, self._volts, self._signals, phi, rate, True)
 
     def _phi(self, t: float) -> tuple[float, float]:
-        if self._t0 is None:
+        """Commanded (φz [rad], φ̇z [rad/s]) at ``t``: the schedule from the first tick, or
+        rest when the schedule has not started or rotation is off."""
+        if self._t0 is None or not self.params.rotate:
             return 0.0, 0.0
         phi, rate, _ = self.schedule.state(t - self._t0)
         return phi, rate
@@ -286,7 +298,7 @@ class PlatformServo(StampGate):
             for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r):
                 pid.forget_previous()
             dt = 0.0
-        phi, phi_rate, _ = self.schedule.state(t - self._t0)
+        phi, phi_rate = self._phi(t)
         wc = command_rate_s(self._lat, phi, phi_rate, drift_s=self._drift)
         cx, cy, cz = float(wc[0]), float(wc[1]), float(wc[2])
         # rate error without the modulation rate (its angle is taken exactly from φz)

@@ -561,10 +561,9 @@ class KinematicPlatformTruth:
 
     def misalignment_enu(self) -> np.ndarray:
         """True misalignment (δφE, δφN, δφU) [rad] relative to the ideal level frame at ψ."""
-        from gimbal_kinematics.rotations import rot3, rotation_vector_from_dcm
+        from gimbal_kinematics.four_gimbal import platform_misalignment_enu
 
-        v = rotation_vector_from_dcm(self.C_ns() @ rot3(self.psi()))
-        return np.array([v[1], v[0], -v[2]])
+        return platform_misalignment_enu(self.C_ns(), self.psi())
 
 
 class AlignmentMetrics(NamedTuple):
@@ -655,14 +654,20 @@ def run_alignment_experiment(
         psi, psi_dot = truth.psi_state(truth.t)
         core.on_joint_state(truth.t, psi, psi_dot)
         core.on_accel(truth.t, accel.step(truth.specific_force_s()))
-    est = core.estimate()
     bias = accel.fixed_bias
     truth_x = np.array([phi0[0], phi0[1], phi0[2], north_drift, bias[0], bias[1], gyro_drift[0], gyro_drift[1]])
+    return alignment_metrics(core, truth_x, seed=seed, rotate=rotate, duration_s=duration_s, psi0=truth.psi(0.0))
+
+
+def alignment_metrics(core: RotationAlignmentRls, truth_x: np.ndarray, *, seed: int, rotate: bool,
+                      duration_s: float, psi0: float) -> AlignmentMetrics:
+    """The metrics of a finished alignment run against its truth ``truth_x`` (8,) (state
+    order, SI); ``psi0`` [rad] is the platform azimuth at the start (for the tilt/bias
+    correlations)."""
+    est = core.estimate()
     err = est.x - truth_x
     obs = core.observability()
-    corr = obs.correlation
     # ∇ along north / east at the start azimuth ψ0: ∇N = c ∇x − s ∇y, ∇E = s ∇x + c ∇y
-    psi0 = truth.psi(0.0)
     c0, s0 = math.cos(psi0), math.sin(psi0)
     a_n = np.zeros(N_STATES); a_n[4], a_n[5] = c0, -s0
     a_e = np.zeros(N_STATES); a_e[4], a_e[5] = s0, c0

@@ -74,7 +74,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from .earth import earth_rate_n, transport_rate_n
-from .rotations import dcm_to_euler321, rot1, rot2, rot3
+from .rotations import dcm_to_euler321, rot1, rot2, rot3, rotation_vector_from_dcm
 
 #: Order of the (4,) angle/rate vectors: azimuth a, inner roll q, pitch p, outer roll r
 #: (the paper's inner-to-outer order).
@@ -197,6 +197,18 @@ def dcm_sb(angles: Sequence[float]) -> np.ndarray:
 def dcm_ns_level(phi_z: float) -> np.ndarray:
     """``C_ns`` of a level platform turned by φz [rad] about NED down; shape (3, 3)."""
     return rot3(phi_z).T
+
+
+def platform_misalignment_enu(C_ns: np.ndarray, phi_z: float) -> np.ndarray:
+    """Misalignment (δφE, δφN, δφU) [rad] of the platform ``C_ns`` (3, 3) from the level frame
+    turned by ``phi_z`` [rad] about NED down (where it is believed to be); shape (3,).
+
+    The rotation vector φ with ``C_ns = exp([φ×]) dcm_ns_level(φz)`` (it takes the believed
+    frame to the true one), in paper 3's ENU component order; δφU > 0 is a counter-clockwise
+    (seen from above) azimuth error.
+    """
+    v = rotation_vector_from_dcm(np.asarray(C_ns, dtype=float) @ rot3(phi_z))
+    return np.array([v[1], v[0], -v[2]])
 
 
 def gimbal_angles_from_dcm(C_sb: np.ndarray, theta_r: float | None = None) -> np.ndarray:

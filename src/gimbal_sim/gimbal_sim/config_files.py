@@ -20,6 +20,8 @@ NODE_MODULES = {
     "free_gyro_positioning": ("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node"),
     "encoder_fusion_controller": ("gimbal_control", "gimbal_control.encoder_fusion_controller_node"),
     "flexure_estimator": ("gimbal_estimators", "gimbal_estimators.flexure_estimator_node"),
+    "platform_servo": ("gimbal_control", "gimbal_control.platform_servo_node"),
+    "platform_alignment": ("gimbal_estimators", "gimbal_estimators.platform_alignment_node"),
 }
 
 

@@ -98,3 +98,13 @@ def params_yaml(node_name: str, params: Sequence[Param]) -> str:
         value = yaml.safe_dump(p.default, default_flow_style=True, width=1000).strip().removesuffix("\n...")
         lines += [f"    # {p.description}", f"    {'# ' if p.default == [] else ''}{p.name}: {value}"]
     return "\n".join(lines) + "\n"
+
+
+def steps_per_sample(values: dict[str, Any], rate_name: str, base_name: str = "sim_rate_hz") -> int:
+    """Lockstep steps per sample of the rate parameter ``rate_name`` [Hz]; raises
+    :class:`ParameterError` naming it unless it divides ``base_name``."""
+    ratio = values[base_name] / values[rate_name]
+    n = int(round(ratio))
+    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+        raise ParameterError(f"parameter {rate_name!r} = {values[rate_name]} Hz does not divide {base_name}")
+    return n

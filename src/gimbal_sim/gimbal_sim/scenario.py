@@ -67,6 +67,9 @@ NODE_TYPES: dict[str, NodeType] = {
                                           "EncoderFusionControllerNode"),
     "flexure_estimator": NodeType("gimbal_estimators", "gimbal_estimators.flexure_estimator_node",
                                   "FlexureEstimatorNode"),
+    "platform_servo": NodeType("gimbal_control", "gimbal_control.platform_servo_node", "PlatformServoNode"),
+    "platform_alignment": NodeType("gimbal_estimators", "gimbal_estimators.platform_alignment_node",
+                                   "PlatformAlignmentNode"),
 }
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",

@@ -19,8 +19,8 @@ from .node_main import run_node
 from .qos import GRAPH_QOS
 from .ros_params import Param, ParameterError, declare_and_read
 from .sensor_suite import (
-    SENSORS, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, SensorSuite,
-    SensorSuiteConfig,
+    SENSORS, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample,
+    SensorSuite, SensorSuiteConfig,
 )
 from .sensors import AccelerometerParams, EncoderParams, FlexureParams, GyroParams, InsParams
 from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensorParams, spin_axes_for_site_deg
@@ -29,8 +29,8 @@ from .vehicle import VehicleTruth
 
 DESCRIPTION = (
     "Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the "
-    "two-axis gimbal gyro, the encoders, the paper 5 LGUs, the paper 3 platform IMU and the paper 4 "
-    "free gyros, each at its own rate with the papers' error models, plus the error truth (biases, "
+    "two-axis gimbal gyro, the encoders, the paper 5 LGUs, the paper 3 platform IMU and gimbal resolvers and "
+    "the paper 4 free gyros, each at its own rate with the papers' error models, plus the error truth (biases, "
     "flexure, the ship's position)."
 )
 INF = math.inf
@@ -99,6 +99,10 @@ PARAMS = (
     Param("free_gyro_triad_arw_deg_rt_h", 0.002, "body gyro triad angle random walk [deg/sqrt(h)]", 0.0, INF),
     Param("free_gyro_triad_bias_deg_h", [0.0, 0.0, 0.0], "body gyro triad fixed bias (x, y, z) [deg/h]"),
     Param("free_gyro_triad_bias_sigma_deg_h", 0.0, "body gyro triad run-to-run bias 1-sigma [deg/h]", 0.0, INF),
+    Param("resolver_rate_hz", 1000.0, "platform gimbal resolver output rate [Hz]", 1e-3, 100000.0),
+    Param("resolver_bits", 19, "resolver-to-digital converter resolution [bits per turn] (0: unquantised)", 0, 30),
+    Param("resolver_noise_arcsec", 0.0, "resolver white readout noise RMS [arcsec]", 0.0, INF),
+    Param("resolver_velocity_gate_s", 0.01, "gate of the resolver count-difference velocity [s]", 1e-9, INF),
 )
 
 
@@ -165,6 +169,10 @@ def config_from_params(v: dict) -> SensorSuiteConfig:
             free_gyro_rate_hz=v["free_gyro_rate_hz"],
             free_gyro_site_deg=(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"]),
             free_gyro=free_gyro_params_from(v),
+            resolver_rate_hz=v["resolver_rate_hz"],
+            resolver=EncoderParams(noise_deg=v["resolver_noise_arcsec"] / 3600.0,
+                                   lines_per_rev=2 ** v["resolver_bits"] if v["resolver_bits"] else 0,
+                                   velocity_gate_s=v["resolver_velocity_gate_s"]),
         )
     except ValueError as exc:
         raise ParameterError(str(exc)) from exc
@@ -177,6 +185,7 @@ TRUTH_TOPICS = {
     "/truth/gimbal/imu": Imu,
     "/truth/gimbal/joint_states": JointState,
     "/truth/platform/imu": Imu,
+    "/truth/platform/joint_states": JointState,
 }
 NEEDS = {
     "ins": ("/truth/host/imu",),
@@ -185,6 +194,7 @@ NEEDS = {
     "lgu": ("/truth/host/delta_angle",),
     "platform_imu": ("/truth/platform/imu",),
     "free_gyro": ("/truth/host/imu", "/truth/host/delta_angle"),
+    "resolvers": ("/truth/platform/joint_states",),
 }
 
 
@@ -192,7 +202,7 @@ def truth_from_group(k: int, t: float, group: dict) -> VehicleTruth:
     """A :class:`VehicleTruth` holding what the subscribed truth topics carry."""
     host = group.get("/truth/host/imu")
     plant = group.get("/truth/gimbal/imu") or group.get("/truth/platform/imu")
-    joints = group.get("/truth/gimbal/joint_states")
+    joints = group.get("/truth/gimbal/joint_states") or group.get("/truth/platform/joint_states")
     delta = group.get("/truth/host/delta_angle")
     return VehicleTruth(
         k=k, t=t,
@@ -244,6 +254,8 @@ class SensorModelsNode(Node):
                                       pub(Vector3Stamped, "/free_gyro/spin_axis_b"), pub(Imu, "/free_gyro/imu"),
                                       pub(NavSatFix, "/truth/free_gyro/position"),
                                       pub(Vector3Stamped, "/truth/free_gyro/triad_bias"))
+        if "resolvers" in on:
+            self.pubs["resolvers"] = (pub(JointState, "/platform/resolvers"),)
         self._noise_cov = self._white_noise_covariances()
         self.progress_every = values["progress_every_steps"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
@@ -320,6 +332,8 @@ class SensorModelsNode(Node):
                                    angular_velocity_cov=cov["lgu"]))
             flex.publish(m.vector3_msg(t_ns, "lgu1_frd", s.flexure))
             flex_qs.publish(m.vector3_msg(t_ns, "lgu1_frd", s.flexure_quasi_static))
+        elif isinstance(s, ResolverSample):
+            self.pubs["resolvers"][0].publish(m.joint_state_msg(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, PlatformImuSample):
             imu, accel_bias, gyro_bias = self.pubs["platform_imu"]
             imu.publish(m.imu_msg(t_ns, "platform_frd", angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],

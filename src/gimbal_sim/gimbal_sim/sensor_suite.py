@@ -14,6 +14,8 @@ enabling or re-rating one sensor never changes another's noise. Sensors:
   body), its body gyro triad and vertical reference, for a ship at ``free_gyro_site_deg``
   (the vehicle stays at its profile's site, which it does not publish, so the two must
   agree); the triad gets the exact rotation over each sample interval divided by it.
+* ``resolvers``: the paper 3 gimbal resolvers (θ_a, θ_q, θ_p, θ_r; the azimuth multi-turn),
+  quantised like its 19-bit resolver-to-digital converters, with their tracking velocity.
 """
 from __future__ import annotations
 
@@ -36,7 +38,8 @@ from .vehicle import VehicleTruth
 
 #: Sensor name -> the config field holding its output rate [Hz].
 SENSOR_RATES = {"ins": "ins_rate_hz", "gimbal_gyro": "gimbal_gyro_rate_hz", "encoders": "encoder_rate_hz",
-                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz", "free_gyro": "free_gyro_rate_hz"}
+                "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz", "free_gyro": "free_gyro_rate_hz",
+                "resolvers": "resolver_rate_hz"}
 SENSORS = tuple(SENSOR_RATES)
 
 #: Default free-gyro ship site (off Busan, paper 4's authors) [deg], and spin axes set there at
@@ -46,6 +49,11 @@ FREE_GYRO_SITE_DEG = (35.0, 129.0)
 
 def _default_free_gyro() -> FreeGyroSensorParams:
     return FreeGyroSensorParams(*spin_axes_for_site_deg(*FREE_GYRO_SITE_DEG, (60.0, 50.0), (-40.0, 50.0)))
+
+
+#: Paper 3 §3: 19-bit tracking resolver-to-digital converters (2π/2¹⁹ ≈ 2.5″ per count);
+#: the tracking velocity is taken as counts over a 10 ms gate.
+PAPER3_RESOLVER = EncoderParams(lines_per_rev=2 ** 19, quadrature=1, velocity_gate_s=0.01)
 
 
 @dataclass(frozen=True)
@@ -61,6 +69,7 @@ class SensorSuiteConfig:
     lgu_rate_hz: float = 100.0
     platform_imu_rate_hz: float = 100.0
     free_gyro_rate_hz: float = 10.0
+    resolver_rate_hz: float = 1000.0
     ins: InsParams = field(default_factory=InsParams)
     gimbal_gyro: GyroParams = PAPER1_GIMBAL_GYRO
     encoder: EncoderParams = PAPER1_ENCODER
@@ -71,6 +80,7 @@ class SensorSuiteConfig:
     platform_accel: AccelerometerParams = PAPER3_ACCELEROMETER
     free_gyro_site_deg: tuple[float, float] = FREE_GYRO_SITE_DEG
     free_gyro: FreeGyroSensorParams = field(default_factory=_default_free_gyro)
+    resolver: EncoderParams = PAPER3_RESOLVER
 
     def __post_init__(self) -> None:
         unknown = [s for s in self.sensors if s not in SENSORS]
@@ -130,6 +140,15 @@ class LguSample(NamedTuple):
     flexure_quasi_static: tuple[float, float, float]
 
 
+class ResolverSample(NamedTuple):
+    """Gimbal resolver angles [rad] (multi-turn azimuth) and tracking rates [rad/s]."""
+
+    t: float
+    names: tuple[str, ...]
+    angles: tuple[float, ...]
+    rates: tuple[float, ...]
+
+
 class PlatformImuSample(NamedTuple):
     t: float
     specific_force: tuple[float, float, float]
@@ -178,6 +197,8 @@ class SensorSuite:
             self.free_gyro = FreeGyroSensor(config.free_gyro, rng("free_gyro"), dt * self._dec["free_gyro_rate_hz"])
             self._fg_site = tuple(math.radians(float(v)) for v in config.free_gyro_site_deg)
             self._fg_C = np.eye(3)  # body rotation since the last free-gyro sample
+        self.resolvers = (EncoderModel(config.resolver, 4, rng("resolvers"), dt * self._dec["resolver_rate_hz"])
+                          if "resolvers" in on else None)
         self._last_k: int | None = None
         #: Steps that never arrived (the models bridge them with their nominal step).
         self.missed_steps = 0
@@ -215,6 +236,11 @@ class SensorSuite:
                                  _floats(self._lgu_acc[1]), _floats(flex.angle),
                                  _floats(flex.quasi_static_angle(flex.t))))
             self._lgu_acc = [np.zeros(3), np.zeros(3)]
+        if self.resolvers is not None and due("resolver_rate_hz"):  # before the IMU: servos read angles first
+            if len(truth.joint_position) != 4:
+                raise ValueError("resolvers need the four_gimbal_platform plant")
+            angles, rates = self.resolvers.step(truth.joint_position)
+            out.append(ResolverSample(truth.t, truth.joint_names, _floats(angles), _floats(rates)))
         if self.platform_accel is not None and due("platform_imu_rate_hz"):
             if truth.specific_force_m is None or len(truth.joint_position) != 4:
                 raise ValueError("platform_imu needs the four_gimbal_platform plant")

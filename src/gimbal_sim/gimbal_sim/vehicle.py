@@ -5,17 +5,19 @@ host (analytic profile) and one plant:
 
 * ``two_axis_gimbal``: the paper 1 sighting system (:mod:`.plant.gimbal_dynamics`),
   commanded by joint torques (τ_a, τ_e) [N·m];
-* ``four_gimbal_platform``: the paper 3 platform as four single-axis DC-motor loops
-  (:mod:`.plant.platform_loops`), commanded by motor voltages [V] in the order
-  azimuth a, inner roll q, pitch p, outer roll r;
+* ``four_gimbal_platform``: the paper 3 four-gimbal platform, one single-axis DC-motor
+  loop per gimbal joint (:mod:`.plant.platform_loops`), commanded by the gimbal motor
+  voltages [V] in the order azimuth a, inner roll q, pitch p, outer roll r;
 * ``host_only``: no plant (e.g. the ship carrying the LGUs of paper 5).
 
-Platform model: each loop's angle is the stable element's angle about that axis relative to
-the local-level frame n (its rate likewise), so the platform attitude is
-``C_sn = rot1(θ_q) rot2(θ_p) rot3(θ_a)``; the earth rate is constant about each axis, so the
-loop dynamics are the same in n as in inertial space. The outer-roll loop is simulated and
-reported but does not enter the stable-element attitude (it only keeps the inner roll
-gimbal at null).
+Platform model: each loop is a gimbal joint of the chain base → outer roll r → pitch p →
+inner roll q → azimuth a (:mod:`gimbal_kinematics.four_gimbal`): its angle and rate are the
+joint's, relative to the outer member, driven by that joint's motor. The stable element's
+attitude is ``C_sn = C_sb(θ_a, θ_q, θ_p, θ_r) C_bn`` and its inertial rate the chain's
+(``four_gimbal.platform_rate_s``), so the azimuth turns the platform about its own axis and
+a tilt stays fixed in n while it turns. The joints are decoupled and see no base motion:
+the host must be at rest relative to the earth (paper 3's experiments), whose constant rate
+does not enter the relative joint dynamics.
 
 :meth:`VehicleCore.truth` returns the exact state at t_k; :meth:`VehicleCore.step` advances
 to t_{k+1} with the command held over the step (zero-order hold).
@@ -29,8 +31,9 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.rotations import (
-    dcm_from_rotation_vector, dcm_to_quat, euler321_to_dcm, rot1, rot2, rot3, rotation_vector_from_dcm,
+    dcm_from_rotation_vector, dcm_to_quat, euler321_to_dcm, rotation_vector_from_dcm,
 )
+from gimbal_kinematics.four_gimbal import dcm_sb, platform_rate_s
 from gimbal_kinematics.sighting_chain import dcm_nm, omega_m_m
 
 from .plant.gimbal_dynamics import GimbalSimulator
@@ -218,12 +221,10 @@ class VehicleCore:
             names = PLATFORM_JOINTS
             pos = tuple(x[0] for x in self._platform_x)
             vel = tuple(x[1] for x in self._platform_x)
-            theta_a, theta_q, theta_p = pos[0], pos[1], pos[2]
-            C_sn = rot1(theta_q) @ rot2(theta_p) @ rot3(theta_a)
-            quat_nm = dcm_to_quat(C_sn.T)
-            omega_rel = np.array([vel[1], vel[2], vel[0]])
-            omega_m = tuple(float(v) for v in omega_rel + C_sn @ np.asarray(self.env.omega_in_n))
-            f_m = tuple(float(v) for v in C_sn @ np.array([0.0, 0.0, -self.env.gravity_m_s2]))
+            C_sb = dcm_sb(pos)
+            quat_nm = dcm_to_quat(self._C_nb @ C_sb.T)
+            omega_m = tuple(float(v) for v in platform_rate_s(omega_b, pos, vel))
+            f_m = tuple(float(v) for v in C_sb @ np.array(f_b))
             effort = tuple(self._platform_x[j][2] * self._platform[j].params.torque_constant_nm_a for j in range(4))
         else:
             effort = ()

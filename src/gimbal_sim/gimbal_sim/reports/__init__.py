@@ -21,12 +21,16 @@ REPORTS: dict[str, str] = {
     "sighting": "sighting:sighting_report",
     "free_gyro": "free_gyro:free_gyro_report",
     "encoder_fusion": "encoder_fusion:encoder_fusion_report",
+    "platform_servo": "platform_servo:platform_servo_report",
+    "alignment": "alignment:alignment_report",
 }
 
 #: comparison name -> "module:function"
 COMPARISONS: dict[str, str] = {
     "sighting": "sighting:sighting_comparison",
     "encoder_fusion": "encoder_fusion:encoder_fusion_comparison",
+    "alignment_rotation": "alignment:rotation_comparison",
+    "alignment_campaign": "alignment:alignment_campaign",
 }
 
 
