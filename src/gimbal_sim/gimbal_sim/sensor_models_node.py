@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import sys
 
-from gimbal_kinematics.rotations import euler321_to_quat, quat_to_euler321
+from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -143,7 +143,7 @@ def truth_from_group(k: int, t: float, group: dict) -> VehicleTruth:
     delta = group.get("/truth/host/delta_angle")
     return VehicleTruth(
         k=k, t=t,
-        euler=quat_to_euler321(m.quat_of(host)) if host is not None else (0.0, 0.0, 0.0),
+        euler=euler321_from_quat(m.quat_of(host)) if host is not None else (0.0, 0.0, 0.0),
         quat_nb=m.quat_of(host) if host is not None else None,
         omega_ib_b=m.vec_of(host.angular_velocity) if host is not None else None,
         specific_force_b=m.vec_of(host.linear_acceleration) if host is not None else None,
@@ -245,7 +245,7 @@ class SensorModelsNode(Node):
             self.pubs["encoders"][0].publish(m.joint_state_msg(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, InsSample):
             imu, bias = self.pubs["ins"]
-            imu.publish(m.imu_msg(t_ns, "base_link_frd", orientation=euler321_to_quat(*s.euler),
+            imu.publish(m.imu_msg(t_ns, "base_link_frd", orientation=quat_canonical(quat_from_euler321(*s.euler)),
                                   orientation_cov=cov["ins_att"], angular_velocity=s.omega_b,
                                   angular_velocity_cov=cov["ins_rate"]))
             bias.publish(m.vector3_msg(t_ns, "base_link_frd", s.true_gyro_bias))
