@@ -131,7 +131,7 @@ class VehicleDynamicsNode(Node):
             topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
             self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, GRAPH_QOS)
         self._needed = self._subscriber_counts(values["subscriber_counts"])
-        self._rearm = self.create_guard_condition(self._free_run_step)
+        self._rearm = None  # open loop: zero-period timer that re-runs _free_run_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
         self._plant_frame = "gimbal_inner_frd" if plant == "two_axis_gimbal" else "platform_frd"
 
@@ -166,7 +166,7 @@ class VehicleDynamicsNode(Node):
         if self.realtime:
             self.create_timer(self.config.dt, self._realtime_step)
         elif not self.controlled:
-            self._rearm.trigger()
+            self._rearm = self.create_timer(0.0, self._free_run_step)
 
     # --- commands --------------------------------------------------------------------------
     def _on_command(self, msg: JointState) -> None:
@@ -235,11 +235,16 @@ class VehicleDynamicsNode(Node):
         return True
 
     def _free_run_step(self) -> None:
-        # Re-arming through the guard condition lets other callbacks run between steps;
-        # when paced, the next progress message restarts the loop instead.
+        # One step per callback of a zero-period timer ("again as soon as the executor is
+        # idle", not a clock: what is computed never depends on when), so other callbacks
+        # run between steps. When paced the timer stops and the next progress message
+        # restarts it. (A guard condition would do, but the EventsExecutor has none.)
         self._free_running = self._advance() and not self.core.finished
         if self._free_running:
-            self._rearm.trigger()
+            if self._rearm.is_canceled():
+                self._rearm.reset()
+        elif not self._rearm.is_canceled():
+            self._rearm.cancel()
 
     def _realtime_step(self) -> None:
         if self.sub_cmd is not None and self._command_k != self.core.k:
