@@ -40,6 +40,16 @@ PARAMS = (
 )
 
 
+def core_params(v: dict) -> LosRateControllerParams:
+    """The core's frozen parameters from the node's parameter values (raises naming the parameter)."""
+    try:
+        return LosRateControllerParams(
+            rate_hz=v["sim_rate_hz"], omega_n_hz=v["omega_n_hz"], zeta=v["zeta"], feedback=v["feedback"],
+            anti_windup=v["anti_windup"], integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"])
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from exc
+
+
 class LosRateControllerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("los_rate_controller", **node_kwargs)
@@ -49,12 +59,7 @@ class LosRateControllerNode(Node):
         self.ins_every = int(round(ratio))
         if self.ins_every < 1 or abs(ratio - self.ins_every) > 1e-9 * ratio:
             raise ParameterError(f"parameter 'ins_rate_hz' = {v['ins_rate_hz']} Hz does not divide sim_rate_hz")
-        try:
-            self.core = LosRateController(LosRateControllerParams(
-                rate_hz=self.rate, omega_n_hz=v["omega_n_hz"], zeta=v["zeta"], feedback=v["feedback"],
-                anti_windup=v["anti_windup"], integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"]))
-        except ValueError as exc:
-            raise ParameterError(str(exc)) from exc
+        self.core = LosRateController(core_params(v))
         self._pending: dict[int, dict[str, object]] = {}
         self._ins_rates: tuple[float, float, float] | None = None
         self.rejected = 0
