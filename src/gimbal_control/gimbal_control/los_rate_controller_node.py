@@ -15,6 +15,7 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
+from gimbal_sim.cdr import CdrError
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
@@ -64,21 +65,35 @@ class LosRateControllerNode(Node):
         self._ins_rates: tuple[float, float, float] | None = None
         self.rejected = 0
         self.pub = self.create_publisher(JointState, "/gimbal/torque_cmd", GRAPH_QOS)
-        self.create_subscription(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), GRAPH_QOS)
-        self.create_subscription(JointState, "/gimbal/joint_states", lambda msg: self._on_input("enc", msg), GRAPH_QOS)
-        self.create_subscription(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), GRAPH_QOS)
-        self.create_subscription(Vector3Stamped, v["bias_topic"], self._on_bias, GRAPH_QOS)
+        # taken serialized and decoded here (messages.*_from_cdr): no message objects per step
+        imu, joints = m.imu_from_cdr, m.joint_state_from_cdr
+        self.create_subscription(Imu, "/gimbal/imu", lambda data: self._on_input("gyro", data, imu), GRAPH_QOS,
+                                 raw=True)
+        self.create_subscription(JointState, "/gimbal/joint_states",
+                                 lambda data: self._on_input("enc", data, joints), GRAPH_QOS, raw=True)
+        self.create_subscription(Imu, "/ins/imu", lambda data: self._on_input("ins", data, imu), GRAPH_QOS, raw=True)
+        self.create_subscription(Vector3Stamped, v["bias_topic"], self._on_bias, GRAPH_QOS, raw=True)
 
     def _warn(self, text: str) -> None:
         self.rejected += 1
         self.get_logger().warning(f"{text} ({self.rejected} rejected)", throttle_duration_sec=1.0)
 
-    def _on_bias(self, msg: Vector3Stamped) -> None:
-        if not self.core.set_bias_estimate(m.stamp_ns(msg.header.stamp) * 1e-9, m.vec_of(msg.vector)):
+    def _on_bias(self, data: bytes) -> None:
+        try:
+            msg = m.vector3_stamped_from_cdr(data)
+        except CdrError as exc:
+            self._warn(f"malformed gyro-bias estimate ignored: {exc}")
+            return
+        if not self.core.set_bias_estimate(msg.stamp_ns * 1e-9, msg.vector):
             self._warn("non-finite gyro-bias estimate ignored")
 
-    def _on_input(self, kind: str, msg) -> None:
-        k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
+    def _on_input(self, kind: str, data: bytes, decode) -> None:
+        try:
+            msg = decode(data)
+        except CdrError as exc:
+            self._warn(f"malformed {kind} message ignored: {exc}")
+            return
+        k = m.step_of_stamp(msg.stamp_ns, self.rate)
         self._pending.setdefault(k, {})[kind] = msg
         for step in sorted(self._pending):
             group = self._pending[step]
@@ -89,8 +104,7 @@ class LosRateControllerNode(Node):
 
     def _control(self, k: int, group: dict) -> None:
         if "ins" in group:
-            w = group["ins"].angular_velocity
-            self._ins_rates = (w.x, w.y, w.z)
+            self._ins_rates = group["ins"].angular_velocity
         readings = m.encoder_readings(group["enc"])
         if readings is None or self._ins_rates is None:
             self._warn(f"step {k}: encoder joints or INS rates missing; holding the last command")
@@ -98,10 +112,10 @@ class LosRateControllerNode(Node):
         else:
             gyro = group["gyro"].angular_velocity
             before = self.core.rejected_inputs
-            tau = self.core.step(k / self.rate, (gyro.y, gyro.z), readings[0], readings[1], self._ins_rates)
+            tau = self.core.step(k / self.rate, gyro[1:], readings[0], readings[1], self._ins_rates)
             if self.core.rejected_inputs > before:
                 self._warn(f"step {k}: non-finite measurement; holding the last command")
-        self.pub.publish(m.torque_command_msg(m.step_stamp_ns(k, self.rate), tau))
+        self.pub.publish(m.torque_command_cdr(m.step_stamp_ns(k, self.rate), tau))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from sensor_msgs.msg import JointState
 
-from gimbal_sim.messages import joint_state_msg, stamp_ns, step_of_stamp, step_stamp_ns, vec_of  # noqa: F401
+from gimbal_sim.messages import (  # noqa: F401
+    imu_from_cdr, joint_state_cdr, joint_state_from_cdr, joint_state_msg, stamp_ns, step_of_stamp, step_stamp_ns,
+    vec_of, vector3_stamped_from_cdr,
+)
 
 GIMBAL_ENCODER_JOINTS = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
 GIMBAL_COMMAND_JOINTS = ("gimbal_azimuth", "gimbal_elevation")
@@ -22,3 +25,8 @@ def encoder_readings(msg: JointState) -> tuple[tuple[float, ...], tuple[float, .
 
 def torque_command_msg(t_ns: int, tau: tuple[float, float]) -> JointState:
     return joint_state_msg(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
+
+
+def torque_command_cdr(t_ns: int, tau: tuple[float, float]) -> bytes:
+    """:func:`torque_command_msg`, serialized."""
+    return joint_state_cdr(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
