@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib
 import json
 import sys
 import time
@@ -52,7 +53,10 @@ def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
 
 
 class _Bus:
-    """What one step's messages carry, as the nodes would read them (step k, time t)."""
+    """What one step's messages carry, as the nodes would read them: step k, its stamp t
+    [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
+    Euler angles as a reader of its quaternion gets them, the command and the bias
+    estimate (None when not produced this step)."""
 
     __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias")
 
@@ -61,7 +65,7 @@ class _Bus:
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
 
 
-def _sensor_stage(values: dict) -> Callable[[_Bus], None]:
+def sensor_stage(values: dict) -> Callable[[_Bus], None]:
     from .sensor_models_node import config_from_params
     from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite
 
@@ -84,55 +88,19 @@ def _sensor_stage(values: dict) -> Callable[[_Bus], None]:
     return stage
 
 
-def _controller_stage(values: dict) -> Callable[[_Bus], None]:
-    from gimbal_control.los_rate_controller import LosRateController
-    from gimbal_control.los_rate_controller_node import core_params
-
-    core = LosRateController(core_params(values))
-    rate = values["sim_rate_hz"]
-    ins_rates: list[tuple[float, float, float] | None] = [None]
-
-    def stage(bus: _Bus) -> None:
-        if bus.ins is not None:
-            ins_rates[0] = bus.ins.omega_b
-        if bus.bias is not None:
-            core.set_bias_estimate(bus.t, bus.bias)
-        enc = bus.encoders
-        if bus.gyro is None or enc is None or ins_rates[0] is None:
-            bus.command = core.command
-            return
-        bus.command = core.step(bus.k / rate, (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
-    return stage
-
-
-def _ekf_stage(values: dict) -> Callable[[_Bus], None]:
-    # Hook for the gyro_bias_ekf node: its core from the node's parameters of the same
-    # names (GyroBiasEkfParams fields), fed what its subscriptions carry.
-    from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
-
-    fields = {f.name for f in dataclasses.fields(GyroBiasEkfParams)}
-    kwargs = {k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items() if k in fields}
-    ekf = GyroBiasEkf(GyroBiasEkfParams(**kwargs))
-
-    def stage(bus: _Bus) -> None:
-        t = bus.t
-        out = None
-        if bus.ins is not None:
-            out = ekf.on_ins(t, bus.ins_euler, bus.ins.omega_b) or out
-        if bus.gyro is not None:
-            out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
-        if bus.encoders is not None:
-            out = ekf.on_encoders(t, bus.encoders.angles, bus.encoders.rates) or out
-        bus.bias = None if out is None else tuple(out.bias.tolist())
-    return stage
-
-
-#: executable -> stage factory, in lockstep order (vehicle_dynamics is the loop itself).
-STAGES: dict[str, Callable[[dict], Callable[[_Bus], None]]] = {
-    "sensor_models": _sensor_stage,
-    "gyro_bias_ekf": _ekf_stage,
-    "los_rate_controller": _controller_stage,
+#: executable -> "module:function" making its stage from the node's parameter values, in
+#: lockstep order (vehicle_dynamics is the loop itself). By import path, like the node
+#: types, so gimbal_sim does not depend on the packages that depend on it.
+STAGES: dict[str, str] = {
+    "sensor_models": "gimbal_sim.core_loop:sensor_stage",
+    "gyro_bias_ekf": "gimbal_estimators.core_stages:gyro_bias_ekf_stage",
+    "los_rate_controller": "gimbal_control.core_stages:los_rate_controller_stage",
 }
+
+
+def _stage_factory(executable: str) -> Callable[[dict], Callable[[_Bus], None]]:
+    module, _, func = STAGES[executable].partition(":")
+    return getattr(importlib.import_module(module), func)
 
 
 @dataclass
@@ -162,7 +130,7 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopRe
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
     vehicle = VehicleCore(config_from_params(vehicles[0]))
     controlled = vehicles[0]["controlled"]
-    stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
+    stages = [_stage_factory(exe)(v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
     bus = _Bus()
     hold = (0.0,) * vehicle.config.command_size
     commands = [] if keep_commands else None

@@ -93,6 +93,8 @@ class RunResult:
     clock_stamp: array = field(default_factory=lambda: array("q"))
     #: process name -> [(sim time [s], resident memory [MiB])], about once a wall second
     rss_samples: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    #: process name -> CPU seconds it had used when the first step was seen (start-up cost)
+    cpu_at_start: dict[str, float] = field(default_factory=dict)
 
     @property
     def real_time_factor(self) -> float:
@@ -115,6 +117,8 @@ def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
         if spec["executable"] == "vehicle_dynamics":
             params["duration_s"] = scenario.duration_s
             params["pace_topics"] = [f"/{n}/progress" for n in paced + [RECORDER]]
+            # /clock: the recorder and the run's monitor (which times every step)
+            params.setdefault("subscriber_counts", ["/clock=2"])
         elif "wait_for_subscribers" in declared:
             params["wait_for_subscribers"] = 1  # the recorder reads every output
         planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
@@ -164,21 +168,27 @@ class Monitor:
         qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
         now = time.monotonic
 
-        def on_clock(msg):
-            t_ns = m.stamp_ns(msg.clock)
+        def on_clock(data):
+            t_ns = m.clock_from_cdr(data)
+            if not self.clock_wall:  # first step: what each process used to start up
+                self.cpu_at_start = {name: process_stats(pid).cpu_s for name, pid in self.pids.items()}
+                self.cpu_at_start["orchestrator"] = process_stats().cpu_s
             self.clock_wall.append(now())
             self.clock_stamp.append(t_ns)
             if t_ns > self.sim_ns:
                 self.sim_ns = t_ns
 
-        def on_recorded(msg):
-            self.recorded_ns = max(self.recorded_ns, m.stamp_ns(msg.clock))
+        def on_recorded(data):
+            self.recorded_ns = max(self.recorded_ns, m.clock_from_cdr(data))
             if self.recorded_ns >= self.end_ns and not self.done.done():
                 self.done.set_result(True)
 
         self.rss_samples: dict[str, list[tuple[float, float]]] = {}
-        self.node.create_subscription(Clock, "/clock", on_clock, qos)
-        self.node.create_subscription(Clock, f"/{RECORDER}/progress", on_recorded, qos)
+        self.cpu_at_start: dict[str, float] = {}
+        #: process name -> pid ("self" for this process), set by the runner
+        self.pids: dict[str, int | str] = {}
+        self.node.create_subscription(Clock, "/clock", on_clock, qos, raw=True)
+        self.node.create_subscription(Clock, f"/{RECORDER}/progress", on_recorded, qos, raw=True)
 
     @property
     def finished(self) -> bool:
@@ -251,6 +261,7 @@ def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_time
     t0 = time.monotonic()
     last_change, last_state = t0, None
     next_rss = t0
+    monitor.pids = pids
     while not monitor.finished:
         spin(0.1)
         check_nodes()
@@ -268,10 +279,22 @@ def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_time
     return time.monotonic() - t0
 
 
+def _spin_slice(executor, monitor: Monitor, timeout: float) -> None:
+    """Handle callbacks for about ``timeout`` [s] or until the run is done. One callback per
+    spin_once: the EventsExecutor ignores the timeout of spin_until_future_complete while
+    callbacks keep coming, and the run must stay watched."""
+    end = time.monotonic() + timeout
+    while not monitor.done.done():
+        left = end - time.monotonic()
+        if left <= 0.0:
+            return
+        executor.spin_once(timeout_sec=left)
+
+
 def _result(out_dir: Path, wall: float, monitor: Monitor, **kw) -> RunResult:
     return RunResult(out_dir, wall, monitor.sim_ns / 1e9, orchestrator=process_stats(),
                      clock_wall=monitor.clock_wall, clock_stamp=monitor.clock_stamp,
-                     rss_samples=monitor.rss_samples, **kw)
+                     rss_samples=monitor.rss_samples, cpu_at_start=monitor.cpu_at_start, **kw)
 
 
 def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
@@ -305,7 +328,7 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
             with open(logs[node.name], "w") as log:
                 procs[node.name] = subprocess.Popen([str(exe), *node.ros_args()], env=env, stdout=log,
                                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-        wall = _watch(scenario, monitor, lambda timeout: executor.spin_until_future_complete(monitor.done, timeout),
+        wall = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
                       bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()})
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
@@ -366,7 +389,7 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
         def spin(timeout: float, until_done: bool = True) -> None:
             try:
                 if until_done:
-                    executor.spin_until_future_complete(monitor.done, timeout)
+                    _spin_slice(executor, monitor, timeout)
                 else:
                     executor.spin_once(timeout_sec=timeout)
             except Exception as exc:  # noqa: BLE001 - any node's failure ends the run, named

@@ -6,7 +6,7 @@ records for the same seed. Two levels:
 * bytes: per topic, the same number of messages with byte-identical CDR payloads and the
   same log and publish times, in order;
 * values (what "the recorded data is identical" means): payloads that differ in bytes are
-  decoded (``mcap_ros2``) and every field must be equal, floats to the bit. CDR padding
+  decoded (rclpy's deserializer) and every field must be equal, floats to the bit. CDR padding
   and the trailing slack rmw_fastrtps adds to some messages are uninitialised memory, so
   two encodings of the same message may differ in bytes only;
 * numeric (``rel_tol`` > 0): float fields may differ by ``|a − b| <= rel_tol·max(|a|,
@@ -84,32 +84,38 @@ class BagDiff:
         return out
 
 
-def _raw(bag: Path) -> dict[str, list[tuple[int, int, bytes]]]:
+def _raw(bag: Path) -> tuple[dict[str, list[tuple[int, int, bytes]]], dict[str, str]]:
+    """Per topic, (log time, publish time, payload) in file order; and topic -> type name."""
     mcap_path, _ = find_mcap(Path(bag))
     out: dict[str, list[tuple[int, int, bytes]]] = {}
+    types: dict[str, str] = {}
     with open(mcap_path, "rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(log_time_order=False):
+        for schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
             out.setdefault(channel.topic, []).append((message.log_time, message.publish_time, message.data))
-    return out
+            if schema is not None:
+                types[channel.topic] = schema.name
+    return out, types
 
 
-def _decoded(bag: Path, topic: str) -> list[Any]:
-    from mcap_ros2.reader import read_ros2_messages
+def _decode(data: bytes, type_name: str) -> Any:
+    """The message object rclpy's own deserializer makes of a payload."""
+    from rclpy.serialization import deserialize_message
 
-    mcap_path, _ = find_mcap(Path(bag))
-    return [m.ros_msg for m in read_ros2_messages(str(mcap_path), topics=[topic])]
+    from .schemas import message_class
+
+    return deserialize_message(data, message_class(type_name.replace("/msg/", "/")))
 
 
 def _leaves(msg: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
-    """(path, value) of every primitive field of a decoded message, arrays element-wise."""
+    """(path, value) of every primitive field of a message object, arrays element-wise."""
     if isinstance(msg, (bool, int, float, str, bytes)):
         yield prefix, msg
-    elif isinstance(msg, (list, tuple)):
-        for i, v in enumerate(msg):
-            yield from _leaves(v, f"{prefix}[{i}]")
-    else:
-        for name in getattr(msg, "__slots__", None) or [k for k in vars(msg) if not k.startswith("_")]:
+    elif hasattr(msg, "get_fields_and_field_types"):
+        for name in msg.get_fields_and_field_types():
             yield from _leaves(getattr(msg, name), f"{prefix}.{name}" if prefix else name)
+    else:  # sequences: list, tuple, array.array, numpy arrays
+        for i, v in enumerate(msg):
+            yield from _leaves(v.item() if hasattr(v, "item") else v, f"{prefix}[{i}]")
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -124,7 +130,7 @@ def _same(a: Any, b: Any) -> bool:
 def compare_bags(bag_a: Path, bag_b: Path, rel_tol: float = 0.0, abs_floor: float = 1e-12) -> BagDiff:
     """Compare every topic of two bags (module docstring). ``abs_floor`` keeps values near
     zero from inflating the relative deviation."""
-    a, b = _raw(bag_a), _raw(bag_b)
+    (a, types), (b, _) = _raw(bag_a), _raw(bag_b)
     diff = BagDiff()
     for topic in sorted(set(a) | set(b)):
         ma, mb = a.get(topic, []), b.get(topic, [])
@@ -141,9 +147,9 @@ def compare_bags(bag_a: Path, bag_b: Path, rel_tol: float = 0.0, abs_floor: floa
                 t.byte_identical = False
                 differing.append(i)
         if differing:
-            da, db = _decoded(bag_a, topic), _decoded(bag_b, topic)
             for i in differing:
-                la, lb = list(_leaves(da[i])), list(_leaves(db[i]))
+                la = list(_leaves(_decode(ma[i][2], types[topic])))
+                lb = list(_leaves(_decode(mb[i][2], types[topic])))
                 if [p for p, _ in la] != [p for p, _ in lb]:
                     t.values_equal = t.within_tolerance = False
                     t.first_difference = f"message {i}: different fields or array lengths"
