@@ -35,7 +35,7 @@ from gimbal_kinematics.rotations import (
 
 from .plant.gimbal_dynamics import GimbalSimulator
 from .plant.gimbal_params import GimbalParams
-from .plant.host_state import HostState, inertial_rates_scalar
+from .plant.host_state import inertial_rates_trig
 from .plant.motion_profiles import PROFILE_NAMES, make_profile
 from .plant.platform_loops import PlatformAxis, paper3_axis_params
 from .plant.turret_base import site_environment
@@ -193,20 +193,15 @@ class VehicleCore:
         self._q_nb, self._host = q_nb1, host1
         self.k += 1
 
-    def _specific_force_b(self, host: HostState) -> tuple[float, float, float]:
-        # f_b = a_b − C_bn (0, 0, g); C_bn's third column is C_nb's third row (−sθ, sφ cθ, cφ cθ).
-        g = self.env.gravity_m_s2
-        cp = math.cos(host.pitch)
-        cr, sr = math.cos(host.roll), math.sin(host.roll)
-        return (host.accel_x - (-math.sin(host.pitch)) * g, host.accel_y - (sr * cp) * g,
-                host.accel_z - (cr * cp) * g)
-
     def truth(self) -> VehicleTruth:
         """Exact state at the current step."""
         host = self._host
-        rates = inertial_rates_scalar(host, self.env.omega_in_n)
-        omega_b = rates[:3]
-        f_b = self._specific_force_b(host)
+        cr, sr = math.cos(host.roll), math.sin(host.roll)
+        cp, sp = math.cos(host.pitch), math.sin(host.pitch)
+        omega_b = inertial_rates_trig(host, self.env.omega_in_n, cr, sr, cp, sp)[:3]
+        # f_b = a_b − C_bn (0, 0, g); C_bn's third column is C_nb's third row (−sθ, sφ cθ, cφ cθ).
+        g = self.env.gravity_m_s2
+        f_b = (host.accel_x - (-sp) * g, host.accel_y - (sr * cp) * g, host.accel_z - (cr * cp) * g)
         names: tuple[str, ...] = ()
         pos: tuple[float, ...] = ()
         vel: tuple[float, ...] = ()
