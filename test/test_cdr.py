@@ -75,3 +75,15 @@ def test_malformed_bytes_raise_cdr_error(data):
 def test_truncated_imu_raises_cdr_error():
     with pytest.raises(CdrError):
         m.imu_from_cdr(serialize_message(m.imu_msg(5, "abc"))[:40])
+
+
+def test_joint_states_of_the_same_names_and_other_lengths_decode_each_their_own():
+    names = ("gimbal_azimuth", "gimbal_elevation")
+    shapes = [((), (), (0.5, 0.25)), ((1.0,), (), (0.5, 0.25)), ((1.0, 2.0), (3.0, 4.0), ())]
+    for _ in range(2):  # the second pass decodes from the cached shapes
+        for k, (p, v, e) in enumerate(shapes):
+            data = m.joint_state_cdr(1000 + k, names, p, v, e)
+            assert m.joint_state_from_cdr(data) == (1000 + k, "", names, p, v, e)
+            assert deserialize_message(data, JointState) == m.joint_state_msg(1000 + k, names, p, v, e)
+    with pytest.raises(CdrError):
+        m.joint_state_from_cdr(m.joint_state_cdr(7, names, (1.0,), (), (0.5, 0.25))[:-4])

@@ -23,6 +23,8 @@ from functools import lru_cache
 ENCAPSULATION = b"\x00\x01\x00\x00"  # CDR_LE, no options
 _U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")
+_HEADER = struct.Struct("<iII")  # stamp sec, nanosec, frame_id length
+_DOUBLES: dict[int, struct.Struct] = {}
 
 
 class CdrError(ValueError):
@@ -234,3 +236,68 @@ def read_stamp(data: bytes) -> int:
         raise CdrError("not little-endian CDR with a leading stamp")
     sec, nsec = _TIME.unpack_from(data, 4)
     return sec * 1_000_000_000 + nsec
+
+
+def read_header_doubles(data: bytes, n: int) -> tuple[int, str, tuple[float, ...]]:
+    """(stamp [ns], frame_id, the n float64 that follow) of a message made of a
+    std_msgs/Header and n doubles (Imu: 37, Vector3Stamped: 3): three struct calls."""
+    try:
+        sec, nsec, length = _HEADER.unpack_from(data, 4)
+        end = 16 + length  # the string's bytes start at 16 (4 encapsulation + 12)
+        if data[:2] != b"\x00\x01" or length == 0 or data[end - 1] != 0:
+            raise CdrError("not a little-endian CDR message with a std_msgs/Header")
+        st = _DOUBLES.get(n)
+        if st is None:
+            st = _DOUBLES[n] = struct.Struct(f"<{n}d")
+        values = st.unpack_from(data, 4 + ((end - 4 + 7) & ~7))
+        return sec * 1_000_000_000 + nsec, data[16:end - 1].decode(), values
+    except (struct.error, IndexError, UnicodeDecodeError) as exc:
+        raise CdrError(f"malformed or truncated CDR message: {exc}") from exc
+
+
+# JointState: the bytes from the frame id's length to the end of the names are the same in
+# every message of one publisher, so a message whose prefix matches one seen before is
+# read with one struct call on its three sequences.
+_JS_SHAPES: list[tuple[bytes, tuple[str, ...], struct.Struct, tuple[int, int, int]]] = []
+_JS_SHAPES_MAX = 16
+
+
+def _seq_tail(offset: int, counts: tuple[int, int, int]) -> struct.Struct:
+    """Struct for three (uint32 count, float64[count]) sequences starting at absolute offset."""
+    fmt, pos = ["<"], offset - 4  # body offset
+    for n in counts:
+        pad = -pos % 4
+        fmt.append(f"{pad}xI" if pad else "I")
+        pos += pad + 4
+        if n:
+            pad = -pos % 8
+            fmt.append(f"{pad}x{n}d" if pad else f"{n}d")
+            pos += pad + 8 * n
+    return struct.Struct("".join(fmt))
+
+
+def read_joint_state(data: bytes) -> tuple[int, str, tuple[str, ...], tuple[float, ...], tuple[float, ...],
+                                            tuple[float, ...]]:
+    """(stamp [ns], frame_id, names, position, velocity, effort) of a sensor_msgs/JointState."""
+    for prefix, names, tail, counts in _JS_SHAPES:
+        if data.startswith(prefix, 12):
+            try:
+                v = tail.unpack_from(data, 12 + len(prefix))
+            except struct.error:
+                continue
+            n0, n1, n2 = counts
+            if (v[0], v[1 + n0], v[2 + n0 + n1]) == counts and data[:2] == b"\x00\x01":
+                sec, nsec = _TIME.unpack_from(data, 4)
+                return (sec * 1_000_000_000 + nsec, data[16:16 + _U32.unpack_from(data, 12)[0] - 1].decode(),
+                        names, v[1:1 + n0], v[2 + n0:2 + n0 + n1], v[3 + n0 + n1:])
+    stamp, frame, r = read_header(data)
+    try:
+        names = tuple(r.string() for _ in range(r.u32()))
+        names_end = r.pos
+        seqs = (r.double_seq(), r.double_seq(), r.double_seq())
+    except (struct.error, UnicodeDecodeError) as exc:
+        raise CdrError(f"malformed JointState: {exc}") from exc
+    if len(_JS_SHAPES) < _JS_SHAPES_MAX:
+        counts = (len(seqs[0]), len(seqs[1]), len(seqs[2]))
+        _JS_SHAPES.append((data[12:names_end], names, _seq_tail(names_end, counts), counts))
+    return (stamp, frame, names) + seqs

@@ -186,31 +186,16 @@ def clock_cdr(t_ns: int) -> bytes:
 
 def imu_from_cdr(data: bytes) -> ImuData:
     """Decode a serialized Imu; raises :class:`.cdr.CdrError` on malformed bytes."""
-    stamp, frame, r = cdr.read_header(data)
-    try:
-        v = r.doubles(37)
-    except Exception as exc:  # struct.error
-        raise cdr.CdrError(f"truncated Imu: {exc}") from exc
+    stamp, frame, v = cdr.read_header_doubles(data, 37)
     return ImuData(stamp, frame, v[0:4], v[4:13], v[13:16], v[16:25], v[25:28], v[28:37])
 
 
 def joint_state_from_cdr(data: bytes) -> JointStateData:
-    stamp, frame, r = cdr.read_header(data)
-    try:
-        names = tuple(r.string() for _ in range(r.u32()))
-        return JointStateData(stamp, frame, names, r.double_seq(), r.double_seq(), r.double_seq())
-    except cdr.CdrError:
-        raise
-    except Exception as exc:  # struct.error, UnicodeDecodeError
-        raise cdr.CdrError(f"malformed JointState: {exc}") from exc
+    return JointStateData(*cdr.read_joint_state(data))
 
 
 def vector3_stamped_from_cdr(data: bytes) -> Vector3StampedData:
-    stamp, frame, r = cdr.read_header(data)
-    try:
-        return Vector3StampedData(stamp, frame, r.doubles(3))
-    except Exception as exc:  # struct.error
-        raise cdr.CdrError(f"truncated Vector3Stamped: {exc}") from exc
+    return Vector3StampedData(*cdr.read_header_doubles(data, 3))
 
 
 def clock_from_cdr(data: bytes) -> int:
