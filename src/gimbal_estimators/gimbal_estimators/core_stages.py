@@ -45,16 +45,16 @@ def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Any], None]:
     return stage
 
 
-def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, int] | None:
+def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, float, int] | None:
     """Replay a bag's sensor topics into the EKF core as fast as it goes: (simulated s, wall
-    s spent decoding and filtering, updates), or None when the bag lacks a topic."""
+    s and CPU s spent decoding and filtering, updates), or None when the bag lacks a topic."""
     messages, _ = read_messages(bag, set(EKF_INPUTS))
     if {msg.topic for msg in messages} != set(EKF_INPUTS):
         return None
     messages.sort(key=lambda msg: msg.log_time_ns)
     ekf = ekf_from_values(values)
     updates = 0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for msg in messages:
         if msg.topic == "/gimbal/imu":
             d = m.imu_from_cdr(msg.data)
@@ -66,5 +66,5 @@ def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, int] | 
             d = m.imu_from_cdr(msg.data)
             out = ekf.on_ins(d.stamp_ns * 1e-9, euler321_from_quat(d.orientation), d.angular_velocity)
         updates += out is not None
-    wall = time.perf_counter() - t0
-    return (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9, wall, updates
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9, wall, cpu, updates

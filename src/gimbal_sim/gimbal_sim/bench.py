@@ -173,9 +173,9 @@ def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
 
 
 # ------------------------------------------------------------------------------ replay
-def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, int] | None:
-    """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s
-    including decoding, updates), or None when the bag lacks them."""
+def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float, int] | None:
+    """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s and
+    CPU s including decoding, updates), or None when the bag lacks them."""
     from .core_loop import node_values
 
     replay = getattr(importlib.import_module(EKF_REPLAY.partition(":")[0]), EKF_REPLAY.partition(":")[2])
@@ -277,6 +277,8 @@ def report(scenario: Scenario, results: list[ModeResult], extra: list[tuple[str,
     lines.append(row("CPU, all processes [s]", [_fmt(sum(r.cpu_s.values()), ".2f") for r in results]))
     lines.append(row("CPU per step [us]", [_fmt(1e6 * sum(r.cpu_s.values()) / max(1, r.steps), ",.0f")
                                            for r in results]))
+    lines.append(row("steps per CPU second", [_fmt(r.steps / max(1e-9, sum(r.cpu_s.values())), ",.0f")
+                                              for r in results]))
     lines.append(row("peak RSS, largest [MiB]", [_fmt(max(r.peak_rss_mb.values(), default=0.0), ".0f")
                                                  for r in results]))
     lines.append(row("messages recorded", [_fmt(r.recorded, ",d") if r.recorded is not None else "-"
@@ -401,11 +403,12 @@ def bench_run(args: argparse.Namespace) -> int:
             if rep is None:
                 extra.append(("replay into gyro_bias_ekf (core)", f"not measured: the bag lacks {list(EKF_INPUTS)}"))
             else:
-                sim, wall, updates = rep
+                sim, wall, cpu, updates = rep
                 replay_x = sim / wall
                 extra.append(("replay into gyro_bias_ekf (core)",
                               f"{replay_x:,.1f}x real time ({sim:g} s of sensor data decoded and filtered in "
-                              f"{wall:.2f} s, {updates} updates)"))
+                              f"{wall:.2f} s wall, {cpu:.2f} s CPU = {sim / cpu:,.1f}x per CPU second; "
+                              f"{updates} updates)"))
             extra.append(("replay into gyro_bias_ekf (node)", replay_ekf_node(bags[0], scenario)))
         growth = None
         if args.memory:
