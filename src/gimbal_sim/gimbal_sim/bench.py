@@ -245,6 +245,7 @@ def _replay_node_processes(bag: Path, scenario: Scenario) -> str:
                 proc.wait()
             log.close()
             if claim is not None:
+                os.environ.pop("ROS_DOMAIN_ID", None)  # released: the next run claims its own
                 claim.release()
         if not reached:
             return f"node did not report the end of the replay ({m.__name__})"

@@ -247,6 +247,8 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
         return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s)
     finally:
         if claim is not None:
+            # the id is free again: a later run in this process must claim its own
+            os.environ.pop("ROS_DOMAIN_ID", None)
             claim.release()
 
 
