@@ -21,6 +21,7 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
+from gimbal_sim.cdr import CdrError
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
@@ -55,6 +56,27 @@ PARAMS = (
 )
 
 
+def core_params(v: dict) -> LosRateControllerParams:
+    """The core's frozen parameters from the node's values (``ParameterError`` names the
+    culprit); ``mode: los_hold`` implies bias feedback."""
+    try:
+        return LosRateControllerParams(
+            rate_hz=v["sim_rate_hz"], omega_n_hz=v["omega_n_hz"], zeta=v["zeta"],
+            feedback=v["feedback"] or v["mode"] == "los_hold", anti_windup=v["anti_windup"],
+            integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"])
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc
+
+
+def hold_params(v: dict) -> LosHoldParams:
+    """The LOS-hold outer loop's parameters from the node's values."""
+    try:
+        return LosHoldParams(gain_1_s=v["hold_gain_1_s"], max_rate_deg_s=v["hold_max_rate_deg_s"],
+                             capture_s=v["hold_capture_s"], lat_deg=v["lat_deg"], earth_rate=v["earth_rate"])
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc
+
+
 class LosRateControllerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("los_rate_controller", **node_kwargs)
@@ -65,17 +87,10 @@ class LosRateControllerNode(Node):
         if self.ins_every < 1 or abs(ratio - self.ins_every) > 1e-9 * ratio:
             raise ParameterError(f"parameter 'ins_rate_hz' = {v['ins_rate_hz']} Hz does not divide sim_rate_hz")
         self.hold_mode = v["mode"] == "los_hold"
-        self.feedback = v["feedback"] or self.hold_mode
-        try:
-            self.core = LosRateController(LosRateControllerParams(
-                rate_hz=self.rate, omega_n_hz=v["omega_n_hz"], zeta=v["zeta"], feedback=self.feedback,
-                anti_windup=v["anti_windup"], integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"]))
-            self.hold = LosHold(LosHoldParams(gain_1_s=v["hold_gain_1_s"], max_rate_deg_s=v["hold_max_rate_deg_s"],
-                                              capture_s=v["hold_capture_s"],
-                                              lat_deg=v["lat_deg"], earth_rate=v["earth_rate"])) \
-                if self.hold_mode else None
-        except ValueError as exc:
-            raise ParameterError(f"parameter {exc}") from exc
+        params = core_params(v)
+        self.feedback = params.feedback
+        self.core = LosRateController(params)
+        self.hold = LosHold(hold_params(v)) if self.hold_mode else None
         # What an INS step waits for besides the sensors.
         self._estimates = (("bias",) if self.feedback else ()) + (("att",) if self.hold_mode else ())
         self._pending: dict[int, dict[str, object]] = {}
@@ -83,14 +98,19 @@ class LosRateControllerNode(Node):
         self._ins_rates: tuple[float, float, float] | None = None
         self.rejected = 0
         self.pub = self.create_publisher(JointState, "/gimbal/torque_cmd", GRAPH_QOS)
-        self.create_subscription(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), GRAPH_QOS)
-        self.create_subscription(JointState, "/gimbal/joint_states", lambda msg: self._on_input("enc", msg), GRAPH_QOS)
-        self.create_subscription(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), GRAPH_QOS)
+        # taken serialized and decoded here (messages.*_from_cdr): no message objects per step
+        imu, joints, vec = m.imu_from_cdr, m.joint_state_from_cdr, m.vector3_stamped_from_cdr
+        self.create_subscription(Imu, "/gimbal/imu", lambda data: self._on_input("gyro", data, imu), GRAPH_QOS,
+                                 raw=True)
+        self.create_subscription(JointState, "/gimbal/joint_states",
+                                 lambda data: self._on_input("enc", data, joints), GRAPH_QOS, raw=True)
+        self.create_subscription(Imu, "/ins/imu", lambda data: self._on_input("ins", data, imu), GRAPH_QOS, raw=True)
         if self.feedback:
-            self.create_subscription(Vector3Stamped, v["bias_topic"], lambda msg: self._on_input("bias", msg),
-                                     GRAPH_QOS)
+            self.create_subscription(Vector3Stamped, v["bias_topic"], lambda data: self._on_input("bias", data, vec),
+                                     GRAPH_QOS, raw=True)
         if self.hold_mode:
-            self.create_subscription(Imu, v["attitude_topic"], lambda msg: self._on_input("att", msg), GRAPH_QOS)
+            self.create_subscription(Imu, v["attitude_topic"], lambda data: self._on_input("att", data, imu),
+                                     GRAPH_QOS, raw=True)
 
     def _warn(self, text: str) -> None:
         self.rejected += 1
@@ -98,15 +118,14 @@ class LosRateControllerNode(Node):
 
     def _use_estimates(self, group: dict) -> None:
         bias, att = group.get("bias"), group.get("att")
-        if bias is not None and not self.core.set_bias_estimate(m.stamp_ns(bias.header.stamp) * 1e-9,
-                                                                m.vec_of(bias.vector)):
+        if bias is not None and not self.core.set_bias_estimate(bias.stamp_ns * 1e-9, bias.vector):
             self._warn("non-finite gyro-bias estimate ignored")
         if att is not None and self.hold is not None:
-            q = m.quat_of(att)
+            q = att.orientation
             if att.orientation_covariance[0] == -1.0 or not all(map(math.isfinite, q)):
                 self._warn("attitude estimate not available; holding the LOS-hold rate command")
             else:
-                self.core.set_rate_command(*self.hold.update(m.stamp_ns(att.header.stamp) * 1e-9, q,
+                self.core.set_rate_command(*self.hold.update(att.stamp_ns * 1e-9, q,
                                                              self.core.bias_estimate_qr))
 
     def _complete(self, step: int, group: dict) -> bool:
@@ -114,8 +133,13 @@ class LosRateControllerNode(Node):
             return False
         return step % self.ins_every != 0 or all(kind in group for kind in ("ins",) + self._estimates)
 
-    def _on_input(self, kind: str, msg) -> None:
-        k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
+    def _on_input(self, kind: str, data: bytes, decode) -> None:
+        try:
+            msg = decode(data)
+        except CdrError as exc:
+            self._warn(f"malformed {kind} message ignored: {exc}")
+            return
+        k = m.step_of_stamp(msg.stamp_ns, self.rate)
         if self._done_step is not None and k <= self._done_step:
             if (self._done_step - k) / self.rate > self.core.params.reset_backjump_s:
                 # Time went back (a bag loop): start over; the core resets on the stamp.
@@ -142,19 +166,18 @@ class LosRateControllerNode(Node):
     def _control(self, k: int, group: dict) -> None:
         self._use_estimates(group)
         if "ins" in group:
-            w = group["ins"].angular_velocity
-            self._ins_rates = (w.x, w.y, w.z)
+            self._ins_rates = group["ins"].angular_velocity
         readings = m.encoder_readings(group["enc"])
         if readings is None or self._ins_rates is None:
             self._warn(f"step {k}: encoder joints or INS rates missing; holding the last command")
             tau = self.core.command
         else:
-            gyro = group["gyro"].angular_velocity
+            gyro = group["gyro"].angular_velocity  # (x, y, z); x, the roll axis, is not measured
             before = self.core.rejected_inputs
-            tau = self.core.step(k / self.rate, (gyro.y, gyro.z), readings[0], readings[1], self._ins_rates)
+            tau = self.core.step(k / self.rate, gyro[1:], readings[0], readings[1], self._ins_rates)
             if self.core.rejected_inputs > before:
                 self._warn(f"step {k}: non-finite measurement; holding the last command")
-        self.pub.publish(m.torque_command_msg(m.step_stamp_ns(k, self.rate), tau))
+        self.pub.publish(m.torque_command_cdr(m.step_stamp_ns(k, self.rate), tau))
 
 
 def main(argv: list[str] | None = None) -> int:

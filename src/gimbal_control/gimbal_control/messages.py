@@ -5,7 +5,8 @@ from __future__ import annotations
 from sensor_msgs.msg import JointState
 
 from gimbal_sim.messages import (  # noqa: F401
-    encoder_readings, joint_state_msg, quat_of, stamp_ns, step_of_stamp, step_stamp_ns, vec_of,
+    encoder_readings, imu_from_cdr, joint_state_cdr, joint_state_from_cdr, joint_state_msg, quat_of, stamp_ns,
+    step_of_stamp, step_stamp_ns, vec_of, vector3_stamped_from_cdr,
 )
 from gimbal_sim.vehicle import PLATFORM_JOINTS  # (a, q, p, r): the platform plant's joint names
 
@@ -14,6 +15,11 @@ GIMBAL_COMMAND_JOINTS = ("gimbal_azimuth", "gimbal_elevation")
 
 def torque_command_msg(t_ns: int, tau: tuple[float, float]) -> JointState:
     return joint_state_msg(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
+
+
+def torque_command_cdr(t_ns: int, tau: tuple[float, float]) -> bytes:
+    """:func:`torque_command_msg`, serialized."""
+    return joint_state_cdr(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
 
 
 # ---------------------------------------------------------------- paper 2 (encoder fusion)

@@ -135,7 +135,10 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_to_dcm
+from gimbal_kinematics.rotations import (
+    dcm_from_rotation_vector, quat_from_euler321, quat_from_rotation_vector, quat_mul, quat_to_dcm,
+    rotation_vector_from_quat,
+)
 
 from . import kalman
 from .stamp_check import Stamp, check_stamp
@@ -295,36 +298,13 @@ class EkfOutput(NamedTuple):
     counters: Counters
 
 
-def _rotvec_quat(x: float, y: float, z: float) -> tuple[float, float, float, float]:
-    """Quaternion of exp([v×]), v = (x, y, z) [rad]; series for small angles."""
-    a2 = x * x + y * y + z * z
-    if a2 < 1e-6:
-        s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0  # sin(a/2)/a
-        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
-    else:
-        a = math.sqrt(a2)
-        s = math.sin(0.5 * a) / a
-        c = math.cos(0.5 * a)
-    return (s * x, s * y, s * z, c)
-
-
-def _rotvec_from_quat(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
-    """Rotation vector [rad] (|v| ≤ π) of a unit quaternion (x, y, z, w)."""
-    if w < 0.0:
-        x, y, z, w = -x, -y, -z, -w
-    s = math.sqrt(x * x + y * y + z * z)
-    k = 2.0 if s < 1e-12 else 2.0 * math.atan2(s, w) / s
-    return (k * x, k * y, k * z)
+_rotvec_quat = quat_from_rotation_vector
+_rotvec_from_quat = rotation_vector_from_quat
 
 
 def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, float]:
     """(x, y, z, w) of C_nb = ``sighting_chain.dcm_nb(φ, θ, ψ)`` (3-2-1 Euler angles [rad])."""
-    hr, hp, hy = 0.5 * euler[0], 0.5 * euler[1], 0.5 * euler[2]
-    cr, sr = math.cos(hr), math.sin(hr)
-    cp, sp = math.cos(hp), math.sin(hp)
-    cy, sy = math.cos(hy), math.sin(hy)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+    return quat_from_euler321(euler[0], euler[1], euler[2])
 
 
 def measured_quat_nm(q_nb: Sequence[float], angles: Sequence[float]) -> tuple[float, float, float, float]:
@@ -332,10 +312,7 @@ def measured_quat_nm(q_nb: Sequence[float], angles: Sequence[float]) -> tuple[fl
     ψt + ψm about z followed by θm about y, so q_bm = q_z(ψt + ψm) ⊗ q_y(θm)."""
     ha, he = 0.5 * (angles[0] + angles[1]), 0.5 * angles[2]
     ca, sa, ce, se = math.cos(ha), math.sin(ha), math.cos(he), math.sin(he)
-    bx, by, bz, bw = -sa * se, ca * se, sa * ce, ca * ce
-    ax, ay, az, aw = q_nb
-    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+    return quat_mul(q_nb, (-sa * se, ca * se, sa * ce, ca * ce))
 
 
 def ins_error_jacobian(euler: Sequence[float]) -> np.ndarray:
@@ -534,6 +511,11 @@ class GyroBiasEkf:
     # ------------------------------------------------------------------ message handlers
     def _accept_stamp(self, stream: str, t: float) -> bool:
         last = self._last_t[stream]
+        if last is None or t > last:  # the usual case (t is finite: checked with the payload)
+            self._last_t[stream] = t
+            if t > self._t_newest:
+                self._t_newest = t
+            return True
         verdict = check_stamp(t, last, self.params.clock_jump_s)
         if verdict is Stamp.JUMPED_BACK:
             self.reset(f"clock jumped back on {stream}: {last:.6f} s -> {t:.6f} s", t)
@@ -683,13 +665,8 @@ class GyroBiasEkf:
         phx = h * (p0 + p1) + k * (q0 * r1 - r0 * q1)
         phy = h * (q0 + q1) + k * (r0 * p1 - p0 * r1)
         phz = h * (r0 + r1) + k * (p0 * q1 - q0 * p1)
-        bx, by, bz, bw = _rotvec_quat(phx, phy, phz)
-        ax, ay, az, aw = self._q
         # right product Ĉ exp([φ×])
-        x = aw * bx + ax * bw + ay * bz - az * by
-        y = aw * by - ax * bz + ay * bw + az * bx
-        z = aw * bz + ax * by - ay * bx + az * bw
-        w = aw * bw - ax * bx - ay * by - az * bz
+        x, y, z, w = quat_mul(self._q, _rotvec_quat(phx, phy, phz))
         # left product exp(−[ω_in Δt×]) (|ω_in Δt| ~ 1e-7: first order is exact to 1e-21)
         win = self._win
         ex, ey, ez = -h * win[0], -h * win[1], -h * win[2]
@@ -765,9 +742,7 @@ class GyroBiasEkf:
             self.P = up.P
             dx = up.x.tolist()
             # Ĉ ← exp([ψ̂×]) Ĉ, then b̂ ← b̂ + δb̂ (the error state is reset to zero).
-            ax, ay, az, aw = _rotvec_quat(dx[0], dx[1], dx[2])
-            self._q = [aw * hx + ax * hw + ay * hz - az * hy, aw * hy - ax * hz + ay * hw + az * hx,
-                       aw * hz + ax * hy - ay * hx + az * hw, aw * hw - ax * hx - ay * hy - az * hz]
+            self._q = list(quat_mul(_rotvec_quat(dx[0], dx[1], dx[2]), self._q))
             db = dx[3:6]
             self._b = [self._b[i] + db[i] for i in range(3)]
             if n == 9:

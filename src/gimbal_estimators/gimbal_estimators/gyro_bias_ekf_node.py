@@ -27,7 +27,6 @@ needs, so the vehicle or the bag player does not outrun it.
 """
 from __future__ import annotations
 
-import math
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray

@@ -263,3 +263,93 @@ def rotation_vector_from_dcm(C: np.ndarray) -> np.ndarray:
         return np.zeros(3)
     angle = 2.0 * math.atan2(vec_norm, q[3])
     return q[:3] * (angle / vec_norm)
+
+
+# ----------------------------------------------------------------------------------------
+# Scalar fast paths: the same rotations on tuples of floats, for code that runs every
+# simulation step. A numpy call on a 3-vector costs about a microsecond of overhead, more
+# than the arithmetic; these cost a fraction of that. Plain float arithmetic also gives the
+# same bits on every machine, whereas a 3×3 ``@`` goes through the BLAS kernel chosen for
+# the CPU (FMA or not). Quaternions are (x, y, z, w) tuples and compose like their
+# matrices: ``quat_to_dcm(quat_mul(a, b)) == quat_to_dcm(a) @ quat_to_dcm(b)``.
+# ----------------------------------------------------------------------------------------
+
+Quat = tuple[float, float, float, float]
+
+
+def quat_from_euler321(roll: float, pitch: float, yaw: float) -> Quat:
+    """(x, y, z, w) of ``euler321_to_dcm(roll, pitch, yaw)`` from the half angles [rad];
+    w may be negative (see :func:`quat_canonical`)."""
+    hr, hp, hy = 0.5 * roll, 0.5 * pitch, 0.5 * yaw
+    cr, sr = math.cos(hr), math.sin(hr)
+    cp, sp = math.cos(hp), math.sin(hp)
+    cy, sy = math.cos(hy), math.sin(hy)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+def quat_canonical(q: Quat) -> Quat:
+    """The same rotation with w ≥ 0 (the sign :func:`dcm_to_quat` returns)."""
+    return q if q[3] >= 0.0 else (-q[0], -q[1], -q[2], -q[3])
+
+
+def quat_mul(a: Quat, b: Quat) -> Quat:
+    """Hamilton product a ⊗ b of (x, y, z, w) quaternions: the rotation matrix of a then b."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+
+def quat_conj(q: Quat) -> Quat:
+    """Conjugate: the quaternion of the transposed matrix."""
+    return (-q[0], -q[1], -q[2], q[3])
+
+
+def quat_from_rotation_vector(x: float, y: float, z: float) -> Quat:
+    """(x, y, z, w) of ``dcm_from_rotation_vector((x, y, z))`` [rad]; series for small angles."""
+    a2 = x * x + y * y + z * z
+    if a2 < 1e-6:
+        s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0  # sin(a/2)/a
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
+    else:
+        a = math.sqrt(a2)
+        s = math.sin(0.5 * a) / a
+        c = math.cos(0.5 * a)
+    return (s * x, s * y, s * z, c)
+
+
+def rotation_vector_from_quat(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
+    """Rotation vector [rad] (|v| ≤ π) of a unit quaternion (x, y, z, w)."""
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    s = math.sqrt(x * x + y * y + z * z)
+    k = 2.0 if s < 1e-12 else 2.0 * math.atan2(s, w) / s
+    return (k * x, k * y, k * z)
+
+
+def quat_rotate(q: Quat, v: tuple[float, float, float]) -> tuple[float, float, float]:
+    """``quat_to_dcm(q) @ v`` for a unit quaternion q: v + 2w (u × v) + 2 u × (u × v)."""
+    x, y, z, w = q
+    v0, v1, v2 = v
+    t0 = 2.0 * (y * v2 - z * v1)
+    t1 = 2.0 * (z * v0 - x * v2)
+    t2 = 2.0 * (x * v1 - y * v0)
+    return (v0 + w * t0 + y * t2 - z * t1, v1 + w * t1 + z * t0 - x * t2, v2 + w * t2 + x * t1 - y * t0)
+
+
+def euler321_from_quat(q: Quat) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) [rad] of a quaternion (x, y, z, w) of b relative to n, as
+    :func:`quat_to_euler321` (normalises ``q``; same ranges and the same ``ValueError`` for a
+    zero or non-finite quaternion and at pitch ±90°)."""
+    x, y, z, w = q
+    n2 = x * x + y * y + z * z + w * w
+    if not (1e-24 <= n2 < math.inf):
+        raise ValueError(f"euler321_from_quat: expected a finite non-zero (4,) quaternion, got {q}")
+    s = 2.0 / n2
+    sp = -s * (x * z - y * w)  # −C20
+    if abs(sp) > 1.0 - 1e-12:
+        raise ValueError("euler321_from_quat: pitch is ±90°, roll and yaw are not separable")
+    return (math.atan2(s * (y * z + x * w), 1.0 - s * (x * x + y * y)),
+            math.asin(sp),
+            math.atan2(s * (x * y + z * w), 1.0 - s * (y * y + z * z)))

@@ -1,21 +1,454 @@
 """``gimbal-bench``: benchmarks that print their figures (speed targets live here, not in tests).
 
-``record``: the recorder's throughput and CPU share while it records a scenario run in
-processes mode (one OS process per node), so its cost is measured apart from the rest.
+``gimbal-bench [run]`` (default): one scenario (default ``sighting_land_vehicle``, else
+``los_stabilization``) measured three ways, every speed in lockstep steps per second:
+
+* (a) the limit: the scenario's cores stepped in one Python loop, no ROS
+  (:mod:`.core_loop`, in a subprocess so its memory is its own);
+* (b) container mode: every node and the recorder in one process;
+* (c) processes mode: one OS process per node.
+
+For each: wall time of the stepping (first to last step) and real-time factor, steps/s
+and the ratio to (a), step latency p50/p99 (wall time between consecutive steps as the
+run's monitor sees ``/clock``), CPU seconds per process while stepping (start-up apart),
+peak RSS, messages recorded and lost (gaps in each topic's stamps). Then the speed of
+replaying the recorded sensor topics into the gyro-bias EKF, checks that (b) and (c)
+recorded the same data and that (a) computed the same torque commands, and, with
+``--memory``, resident memory over a run ``--memory-factor`` times longer.
+
+``record``: the recorder's throughput and CPU share on a scenario run (processes mode).
+``compare A B``: do two bags hold the same data (:mod:`.bag.compare`)?
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import importlib
+import json
+import os
+import subprocess
 import sys
 import tempfile
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from statistics import median
 
-from .scenario import ScenarioError, load
+from .scenario import ScenarioError, Scenario, builtin_scenarios, load
+
+HEADLINE = "sighting_land_vehicle"
+FALLBACK = "los_stabilization"
+EKF_EXECUTABLE = "gyro_bias_ekf"
+EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")
+#: bag -> EKF core replay, by import path (gimbal_estimators depends on gimbal_sim)
+EKF_REPLAY = "gimbal_estimators.core_stages:replay_bag"
+
+#: Targets of issue 9 (steps/s, ratios, ms, x real time, fraction of a core, fraction).
+TARGETS = {"core_steps_s": 20_000.0, "container_steps_s": 5_000.0, "container_ratio": 3.0,
+           "processes_steps_s": 2_000.0, "processes_ratio": 8.0, "p99_ms": 1.0, "replay_x": 50.0,
+           "recorder_core": 0.15, "rss_growth": 0.10}
 
 
+def _note(text: str) -> None:
+    """One progress line per phase on stderr (no bars: the run takes minutes, not hours)."""
+    print(f"gimbal-bench: {text}", file=sys.stderr, flush=True)
+
+
+def _percentile(values: list[float], q: float) -> float:
+    if not values:
+        return float("nan")
+    s = sorted(values)
+    return s[min(len(s) - 1, int(round(q * (len(s) - 1))))]
+
+
+@dataclass
+class ModeResult:
+    """One way of running the scenario (module docstring)."""
+
+    name: str
+    steps: int
+    wall_s: float                      # stepping: first to last step
+    sim_s: float
+    latency_s: list[float]             # per-step wall intervals
+    cpu_s: dict[str, float]            # process -> CPU seconds while stepping
+    startup_cpu_s: dict[str, float] = field(default_factory=dict)
+    peak_rss_mb: dict[str, float] = field(default_factory=dict)
+    total_wall_s: float = 0.0          # including start-up and shutdown
+    recorded: int | None = None
+    lost: int | None = None
+    bag: Path | None = None
+    rss_samples: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+
+    @property
+    def steps_per_s(self) -> float:
+        return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
+
+    @property
+    def rtf(self) -> float:
+        return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
+
+
+# ------------------------------------------------------------------------------ (a)
+def measure_core(scenario: Scenario) -> ModeResult:
+    """(a): :mod:`.core_loop` in a subprocess (its CPU and peak RSS are then its own)."""
+    cmd = [sys.executable, "-m", "gimbal_sim.core_loop", str(_scenario_file(scenario)), "--json"]
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"core loop failed: {proc.stderr.strip()[-2000:]}")
+    r = json.loads(proc.stdout)
+    return ModeResult("(a) cores", r["steps"], r["wall_s"], r["sim_s"], r["step_latency_s"],
+                      {"core loop": r["cpu_s"]}, peak_rss_mb={"core loop": r["peak_rss_mb"]},
+                      total_wall_s=time.monotonic() - t0)
+
+
+_SCENARIO_DIR: Path | None = None
+
+
+def _scenario_file(scenario: Scenario) -> Path:
+    """The scenario as a YAML file (what core_loop's command line takes)."""
+    global _SCENARIO_DIR
+    if _SCENARIO_DIR is None:
+        _SCENARIO_DIR = Path(tempfile.mkdtemp(prefix="gimbal-bench-scenario-"))
+    path = _SCENARIO_DIR / f"{scenario.name}.yaml"
+    path.write_text(scenario.to_yaml())
+    return path
+
+
+# ------------------------------------------------------------------------------ (b), (c)
+def count_lost(bag: Path, sim_rate_hz: float, end_ns: int) -> tuple[int, int, dict[str, int]]:
+    """(messages recorded, messages missing, per-topic missing) from each topic's stamps:
+    a topic published every N steps must have one message per N steps from its first
+    stamp to the end of the run. Topics with fewer than three messages are not judged."""
+    from .bag.reader import read_messages
+    from .cdr import CdrError, read_stamp
+
+    messages, contents = read_messages(bag)
+    stamps: dict[str, list[int]] = {}
+    for msg in messages:
+        try:
+            stamps.setdefault(msg.topic, []).append(read_stamp(msg.data))
+        except CdrError:
+            stamps.setdefault(msg.topic, []).append(msg.log_time_ns)
+    step_ns = 1e9 / sim_rate_hz
+    missing: dict[str, int] = {}
+    for topic, st in stamps.items():
+        if len(st) < 3:
+            continue
+        st.sort()
+        diffs = [b - a for a, b in zip(st, st[1:])]
+        interval = median(diffs)
+        if interval <= 0:
+            continue
+        gaps = sum(max(0, round(d / interval) - 1) for d in diffs)
+        tail = max(0, int((end_ns - st[-1] + 0.5 * step_ns) // interval))
+        missing[topic] = gaps + tail
+    return len(messages), sum(missing.values()), missing
+
+
+def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
+    """(b) or (c): the orchestrator's run, with its telemetry."""
+    from .orchestrator import run
+
+    t0 = time.monotonic()
+    r = run(scenario, out, mode, progress=False)
+    total = time.monotonic() - t0
+    step_ns = 1e9 / scenario.sim_rate_hz
+    stamps, walls = r.clock_stamp, r.clock_wall
+    latency = [walls[i + 1] - walls[i] for i in range(len(walls) - 1)
+               if abs(stamps[i + 1] - stamps[i] - step_ns) < 0.5 * step_ns]
+    steps = round((stamps[-1] - stamps[0]) / step_ns) if len(stamps) > 1 else 0
+    procs = dict(r.processes)
+    if mode == "processes":
+        procs["gimbal-run (monitor)"] = r.orchestrator
+        start = {("gimbal-run (monitor)" if k == "orchestrator" else k): v for k, v in r.cpu_at_start.items()}
+    else:
+        start = {"container": r.cpu_at_start.get("container", 0.0)}
+    cpu = {name: st.cpu_s - start.get(name, 0.0) for name, st in procs.items()}
+    recorded, lost, _ = count_lost(out, scenario.sim_rate_hz, int(round(scenario.duration_s * 1e9)))
+    label = "(b) container" if mode == "container" else "(c) processes"
+    return ModeResult(label, steps, walls[-1] - walls[0] if len(walls) > 1 else 0.0, steps / scenario.sim_rate_hz,
+                      latency, cpu, start, {n: st.peak_rss_mb for n, st in procs.items()}, total, recorded, lost, out,
+                      r.rss_samples)
+
+
+# ------------------------------------------------------------------------------ replay
+def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float, int] | None:
+    """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s and
+    CPU s including decoding, updates), or None when the bag lacks them."""
+    from .core_loop import node_values
+
+    replay = getattr(importlib.import_module(EKF_REPLAY.partition(":")[0]), EKF_REPLAY.partition(":")[2])
+    from .scenario import NODE_TYPES
+
+    values = next((v for exe, v in node_values(scenario).values() if exe == EKF_EXECUTABLE), None)
+    if values is None:  # a scenario without the EKF: replay into one with the node's defaults
+        values = {p.name: p.default for p in NODE_TYPES[EKF_EXECUTABLE].params()}
+    return replay(bag, values)
+
+
+def replay_ekf_node(bag: Path, scenario: Scenario) -> str:
+    """HOOK for the gyro_bias_ekf node: replay the recorded sensor topics into the node
+    alone (as fast as it takes them, paced on its progress topic) and time it."""
+    from .scenario import NODE_TYPES
+
+    if EKF_EXECUTABLE not in NODE_TYPES:
+        return "not measured: no gyro_bias_ekf node registered yet (scenario.NODE_TYPES)"
+    params = {p.name for p in NODE_TYPES[EKF_EXECUTABLE].params()}
+    if "progress_every_steps" not in params:
+        return "not measured: the gyro_bias_ekf node has no progress_every_steps parameter to pace a replay on"
+    return _replay_node_processes(bag, scenario)
+
+
+def _replay_node_processes(bag: Path, scenario: Scenario) -> str:
+    import rclpy
+    from rclpy.context import Context
+
+    from . import messages as m
+    from .bag.player import BagPlayer, PlayOptions
+    from .node_main import make_executor
+    from .orchestrator import _ros_env, plan_nodes
+
+    planned = next((n for n in plan_nodes(scenario, Path("/nonexistent")) if n.executable == EKF_EXECUTABLE), None)
+    if planned is None:
+        return f"not measured: scenario {scenario.name} has no gyro_bias_ekf node"
+    env, claim = _ros_env()
+    with tempfile.TemporaryDirectory(prefix="gimbal-bench-replay-") as tmp:
+        import yaml
+
+        planned.params_file = Path(tmp) / "params.yaml"
+        planned.params_file.write_text(yaml.safe_dump({planned.name: {"ros__parameters": planned.params}}))
+        log = open(Path(tmp) / "node.log", "w")
+        proc = subprocess.Popen([str(Path(sys.executable).parent / EKF_EXECUTABLE), *planned.ros_args()], env=env,
+                                stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        context = Context()
+        rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
+        try:
+            progress = f"/{planned.name}/progress"
+            player = BagPlayer(bag, PlayOptions(rate=0.0, topics=list(EKF_INPUTS), wait_for_subscribers=1,
+                                                pace_topics=[progress]), context=context)
+            executor = make_executor(context)
+            executor.add_node(player)
+            end = max(msg.log_time_ns for msg in player.messages)
+            player.wait_for_readers(executor, timeout_s=60.0)
+            t0 = time.monotonic()
+            player.play(executor)
+            deadline = time.monotonic() + 120.0
+            while (player._paced[progress] or 0) < end and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            wall = time.monotonic() - t0
+            sim = (end - min(msg.log_time_ns for msg in player.messages)) * 1e-9
+            reached = (player._paced[progress] or 0) >= end
+            executor.shutdown()
+            player.destroy_node()
+        finally:
+            rclpy.shutdown(context=context)
+            proc.send_signal(2)
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+            log.close()
+            if claim is not None:
+                os.environ.pop("ROS_DOMAIN_ID", None)  # released: the next run claims its own
+                claim.release()
+        if not reached:
+            return f"node did not report the end of the replay ({m.__name__})"
+        return f"{sim / wall:,.1f}x real time ({sim:g} s of sensor data in {wall:.2f} s, node process)"
+
+
+# ------------------------------------------------------------------------------ report
+def _fmt(v: float | None, spec: str) -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def report(scenario: Scenario, results: list[ModeResult], extra: list[tuple[str, str]], verdicts: list[tuple[str, str, bool | None]]) -> str:
+    core = next((r for r in results if r.name.startswith("(a)")), None)
+    width = 24
+    lines = [f"gimbal-bench: {scenario.name}, {scenario.duration_s:g} s simulated at {scenario.sim_rate_hz:g} Hz = "
+             f"{round(scenario.duration_s * scenario.sim_rate_hz):,} lockstep steps, seed {scenario.seed}",
+             f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the end "
+             "(other work on the machine slows every figure below)", ""]
+    cols = [r.name for r in results]
+    row = lambda label, vals: f"{label:<{width}}" + "".join(f"{v:>18}" for v in vals)  # noqa: E731
+    lines.append(row("", cols))
+    lines.append(row("wall time (stepping) [s]", [_fmt(r.wall_s, ".2f") for r in results]))
+    lines.append(row("wall time (total) [s]", [_fmt(r.total_wall_s, ".2f") for r in results]))
+    lines.append(row("real-time factor", [_fmt(r.rtf, ".2f") for r in results]))
+    lines.append(row("steps/s", [_fmt(r.steps_per_s, ",.0f") for r in results]))
+    lines.append(row("ratio to (a)", [_fmt(core.steps_per_s / r.steps_per_s if core else None, ".2f") + "x"
+                                      for r in results]))
+    lines.append(row("step latency p50 [ms]", [_fmt(1e3 * _percentile(r.latency_s, 0.5), ".3f") for r in results]))
+    lines.append(row("step latency p99 [ms]", [_fmt(1e3 * _percentile(r.latency_s, 0.99), ".3f") for r in results]))
+    lines.append(row("CPU, all processes [s]", [_fmt(sum(r.cpu_s.values()), ".2f") for r in results]))
+    lines.append(row("CPU per step [us]", [_fmt(1e6 * sum(r.cpu_s.values()) / max(1, r.steps), ",.0f")
+                                           for r in results]))
+    lines.append(row("steps per CPU second", [_fmt(r.steps / max(1e-9, sum(r.cpu_s.values())), ",.0f")
+                                              for r in results]))
+    lines.append(row("peak RSS, largest [MiB]", [_fmt(max(r.peak_rss_mb.values(), default=0.0), ".0f")
+                                                 for r in results]))
+    lines.append(row("messages recorded", [_fmt(r.recorded, ",d") if r.recorded is not None else "-"
+                                           for r in results]))
+    lines.append(row("messages lost", [_fmt(r.lost, "d") if r.lost is not None else "-" for r in results]))
+    lines += ["", "CPU seconds while stepping (start-up apart), share of one core at real time, peak RSS:"]
+    for r in results:
+        for name, cpu in r.cpu_s.items():
+            share = cpu / r.sim_s if r.sim_s else float("nan")
+            lines.append(f"  {r.name:<14} {name:<22} {cpu:8.2f} s  {100 * share:6.1f} % of a core  "
+                         f"{1e6 * cpu / max(1, r.steps):8.1f} us/step  start-up {r.startup_cpu_s.get(name, 0.0):5.2f} s"
+                         f"  peak RSS {r.peak_rss_mb.get(name, 0.0):5.0f} MiB")
+    if extra:
+        lines.append("")
+        w = max(len(k) for k, _ in extra)
+        lines += [f"{k:<{w}}  {v}" for k, v in extra]
+    if verdicts:
+        lines += ["", "targets (issue 9):"]
+        w = max(len(k) for k, _, _ in verdicts)
+        for name, value, ok in verdicts:
+            mark = "met" if ok else ("NOT MET" if ok is not None else "not measured")
+            lines.append(f"  {name:<{w}}  {value:<34} {mark}")
+    return "\n".join(lines)
+
+
+def _verdicts(results: dict[str, ModeResult], replay_x: float | None, rss_growth: float | None) -> list:
+    t = TARGETS
+    a, b, c = (r if r is not None and r.steps > 0 else None
+               for r in (results.get("core"), results.get("container"), results.get("processes")))
+    out = []
+
+    def ratio(r):
+        return a.steps_per_s / r.steps_per_s if a and r else None
+
+    if a:
+        out.append(("(a) cores >= 20,000 steps/s", f"{a.steps_per_s:,.0f} steps/s", a.steps_per_s >= t["core_steps_s"]))
+    if b:
+        out.append(("(b) container >= 5,000 steps/s", f"{b.steps_per_s:,.0f} steps/s",
+                    b.steps_per_s >= t["container_steps_s"]))
+        if a:
+            out.append(("(b) within 3x of (a)", f"{ratio(b):.1f}x", ratio(b) <= t["container_ratio"]))
+    if c:
+        out.append(("(c) processes >= 2,000 steps/s", f"{c.steps_per_s:,.0f} steps/s",
+                    c.steps_per_s >= t["processes_steps_s"]))
+        if a:
+            out.append(("(c) within 8x of (a)", f"{ratio(c):.1f}x", ratio(c) <= t["processes_ratio"]))
+        p99 = 1e3 * _percentile(c.latency_s, 0.99)
+        out.append(("(c) step latency p99 < 1 ms", f"{p99:.3f} ms", p99 < t["p99_ms"]))
+        rec = c.cpu_s.get("bag_recorder")
+        if rec is not None:
+            share = rec / c.sim_s
+            out.append(("recorder <= 15 % of a core", f"{100 * share:.1f} % at real time", share <= t["recorder_core"]))
+    lost = [r.lost for r in (b, c) if r and r.lost is not None]
+    if lost:
+        out.append(("zero messages lost", f"{sum(lost)} lost", sum(lost) == 0))
+    out.append(("replay into the EKF >= 50x real time", "-" if replay_x is None else f"{replay_x:,.1f}x (core)",
+                None if replay_x is None else replay_x >= t["replay_x"]))
+    out.append(("RSS flat over a longer run (<= 10 %)", "-" if rss_growth is None else f"{100 * rss_growth:+.1f} %",
+                None if rss_growth is None else rss_growth <= t["rss_growth"]))
+    return out
+
+
+def rss_growth(samples: dict[str, list[tuple[float, float]]], sim_s: float) -> dict[str, tuple[float, float, float]]:
+    """process -> (RSS after 10 % of the run, RSS at the end [MiB], growth fraction)."""
+    out = {}
+    for name, s in samples.items():
+        s = [x for x in s if x[1] > 0.0]
+        later = [x for x in s if x[0] >= 0.1 * sim_s]
+        if len(later) < 2:
+            continue
+        base, end = later[0][1], later[-1][1]
+        out[name] = (base, end, (end - base) / base)
+    return out
+
+
+def bench_run(args: argparse.Namespace) -> int:
+    name = args.scenario or (HEADLINE if HEADLINE in builtin_scenarios() else FALLBACK)
+    if args.scenario is None and name == FALLBACK:
+        _note(f"scenario {HEADLINE} is not built in yet; benchmarking {FALLBACK} (same graph without the EKF)")
+    scenario = load(name)
+    if args.duration is not None:
+        scenario = dataclasses.replace(scenario, duration_s=args.duration)
+    if args.seed is not None:
+        scenario = dataclasses.replace(scenario, seed=args.seed)
+    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    unknown = set(modes) - {"core", "container", "processes"}
+    if unknown:
+        raise ScenarioError(f"--modes: unknown {sorted(unknown)} (core, container, processes)")
+    keep = Path(args.keep) if args.keep else None
+    if keep is not None and keep.exists():
+        raise ScenarioError(f"--keep {keep}: already exists; not overwriting it")
+    tmp = tempfile.TemporaryDirectory(prefix="gimbal-bench-")
+    root = keep or Path(tmp.name)
+    results: dict[str, ModeResult] = {}
+    extra: list[tuple[str, str]] = []
+    try:
+        for mode in modes:
+            _note(f"{mode}: {scenario.name}, {scenario.duration_s:g} s simulated ...")
+            if mode == "core":
+                from .core_loop import NoCoreError
+                try:
+                    results[mode] = measure_core(scenario)
+                except (NoCoreError, RuntimeError) as exc:
+                    extra.append(("(a) cores", f"not measured: {exc}"))
+            else:
+                results[mode] = measure_graph(scenario, mode, root / mode)
+            if mode in results:
+                _note(f"{mode}: {results[mode].steps_per_s:,.0f} steps/s")
+        bags = [results[m].bag for m in ("processes", "container") if m in results]
+        if len(bags) == 2:
+            from .bag.compare import compare_bags
+
+            diff = compare_bags(bags[1], bags[0])
+            extra.append(("(b) and (c) recorded data", "identical (every message, stamp and field)" if diff.identical
+                          else "DIFFERENT: " + "; ".join(line for line in diff.lines() if "identical" not in line)))
+        if "core" in results and bags:
+            extra.append(("(a) against the bag", _check_commands(scenario, bags[0])))
+        replay_x = None
+        if bags:
+            _note("replaying the recorded sensor topics into the gyro-bias EKF ...")
+            rep = replay_ekf_core(bags[0], scenario)
+            if rep is None:
+                extra.append(("replay into gyro_bias_ekf (core)", f"not measured: the bag lacks {list(EKF_INPUTS)}"))
+            else:
+                sim, wall, cpu, updates = rep
+                replay_x = sim / wall
+                extra.append(("replay into gyro_bias_ekf (core)",
+                              f"{replay_x:,.1f}x real time ({sim:g} s of sensor data decoded and filtered in "
+                              f"{wall:.2f} s wall, {cpu:.2f} s CPU = {sim / cpu:,.1f}x per CPU second; "
+                              f"{updates} updates)"))
+            extra.append(("replay into gyro_bias_ekf (node)", replay_ekf_node(bags[0], scenario)))
+        growth = None
+        if args.memory:
+            long = dataclasses.replace(scenario, duration_s=scenario.duration_s * args.memory_factor)
+            _note(f"memory: processes mode over {long.duration_s:g} s simulated ...")
+            mem = measure_graph(long, "processes", root / "memory")
+            per = rss_growth(mem.rss_samples, mem.sim_s)
+            growth = max((g for _, _, g in per.values()), default=None)
+            extra.append((f"RSS over {long.duration_s:g} s ({args.memory_factor:g}x)",
+                          ", ".join(f"{n} {b:.0f} -> {e:.0f} MiB ({100 * g:+.1f} %)" for n, (b, e, g) in per.items())))
+        print(report(scenario, list(results.values()), extra, _verdicts(results, replay_x, growth)))
+    finally:
+        tmp.cleanup()
+    return 0
+
+
+def _check_commands(scenario: Scenario, bag: Path) -> str:
+    """Does the core loop compute the torque commands the graph recorded, bit for bit?"""
+    from . import messages as m
+    from .bag.reader import read_messages
+    from .core_loop import run_core_loop
+
+    recorded = [m.joint_state_from_cdr(msg.data).effort for msg in read_messages(bag, {"/gimbal/torque_cmd"})[0]]
+    if not recorded:
+        return "no /gimbal/torque_cmd in the bag (open loop): nothing to check"
+    ours = run_core_loop(scenario, keep_commands=True).commands
+    same = sum(tuple(a) == tuple(b) for a, b in zip(recorded, ours))
+    return (f"same torque commands as the graph at all {same} steps" if same == len(recorded) == len(ours) else
+            f"DIFFERENT torque commands: {same} of {len(recorded)} recorded steps equal ({len(ours)} computed)")
+
+
+# ------------------------------------------------------------------------------ record
 def bench_record(args: argparse.Namespace) -> int:
-    import dataclasses
-
     from .bag.reader import scan
     from .orchestrator import run
 
@@ -25,6 +458,7 @@ def bench_record(args: argparse.Namespace) -> int:
         result = run(scenario, out, "processes", progress=False)
         contents = scan(out)
     rec = result.processes["bag_recorder"]
+    rec_cpu = rec.cpu_s - result.cpu_at_start.get("bag_recorder", 0.0)
     rows = [
         ("scenario", f"{scenario.name}, {scenario.duration_s:g} s simulated at {scenario.sim_rate_hz:g} Hz "
                      f"(processes mode)"),
@@ -33,9 +467,9 @@ def bench_record(args: argparse.Namespace) -> int:
                               f"bag {'closed cleanly' if contents.closed_cleanly else 'NOT closed cleanly'}"),
         ("recorder throughput", f"{contents.message_count / result.wall_s:,.0f} msg/s wall, "
                                 f"{contents.message_count / result.sim_s:,.0f} msg per simulated s"),
-        ("recorder CPU", f"{rec.cpu_s:.2f} s = {100 * rec.cpu_s / result.wall_s:.1f} % of one core; "
-                         f"{1e6 * rec.cpu_s / max(1, contents.message_count):.1f} us per message"),
-        ("recorder at real time", f"{100 * rec.cpu_s / result.sim_s:.1f} % of one core to record the scenario's "
+        ("recorder CPU", f"{rec_cpu:.2f} s while stepping = {100 * rec_cpu / result.wall_s:.1f} % of one core; "
+                         f"{1e6 * rec_cpu / max(1, contents.message_count):.1f} us per message"),
+        ("recorder at real time", f"{100 * rec_cpu / result.sim_s:.1f} % of one core to record the scenario's "
                                   f"rates in real time"),
         ("recorder peak RSS", f"{rec.peak_rss_mb:.0f} MiB"),
     ]
@@ -46,13 +480,50 @@ def bench_record(args: argparse.Namespace) -> int:
     return 0
 
 
+def bench_compare(args: argparse.Namespace) -> int:
+    from .bag.compare import compare_bags
+    from .bag.reader import BagError
+
+    try:
+        diff = compare_bags(Path(args.a), Path(args.b), rel_tol=args.rel_tol)
+    except BagError as exc:
+        print(f"gimbal-bench compare: {exc}", file=sys.stderr)
+        return 2
+    print("\n".join(diff.lines()))
+    ok = diff.identical or (args.rel_tol > 0 and diff.within_tolerance)
+    print("same data" if diff.identical else ("within tolerance" if ok else "DIFFERENT data"))
+    return 0 if ok else 1
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="gimbal-bench", description="Benchmarks that print their figures.")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = argparse.ArgumentParser(prog="gimbal-bench", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog="With no command, `run` (see `gimbal-bench run --help`).")
+    sub = parser.add_subparsers(dest="command")
+    run = sub.add_parser("run", help="(a) cores, (b) container, (c) processes on one scenario, EKF replay, memory")
+    run.add_argument("--scenario", help=f"scenario to benchmark (default {HEADLINE}, or {FALLBACK} until it exists)")
+    run.add_argument("--duration", type=float, help="simulated seconds (default: the scenario's)")
+    run.add_argument("--seed", type=int, help="seed (default: the scenario's)")
+    run.add_argument("--modes", default="core,container,processes",
+                     help="comma-separated subset of core,container,processes (default all three)")
+    run.add_argument("--memory", action="store_true", help="also check that RSS stays flat over a longer run")
+    run.add_argument("--memory-factor", type=float, default=10.0,
+                     help="how many times longer the memory run is (default 10)")
+    run.add_argument("--keep", help="keep the runs' bags in this directory (must not exist)")
+    run.set_defaults(func=bench_run)
     rec = sub.add_parser("record", help="recorder throughput and CPU share on a scenario run")
     rec.add_argument("--scenario", default="sim_open_loop", help="scenario to record (default sim_open_loop)")
     rec.add_argument("--duration", type=float, default=20.0, help="simulated seconds (default 20)")
     rec.set_defaults(func=bench_record)
+    cmp_ = sub.add_parser("compare", help="do two bags hold the same data? (exit 0 yes, 1 no)")
+    cmp_.add_argument("a")
+    cmp_.add_argument("b")
+    cmp_.add_argument("--rel-tol", type=float, default=0.0,
+                      help="accept float fields within this relative tolerance (default 0: to the bit)")
+    cmp_.set_defaults(func=bench_compare)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in ("run", "record", "compare", "-h", "--help"):
+        argv = ["run", *argv]
     args = parser.parse_args(argv)
     try:
         return args.func(args)

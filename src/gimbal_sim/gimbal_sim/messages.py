@@ -12,12 +12,14 @@ i.e. element 0 (the x-x variance) marks exactly the unmeasured roll axis.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
+
+from . import cdr
 
 #: Covariance marking a field as not provided (REP 145).
 NOT_PROVIDED = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -102,14 +104,15 @@ def vector3_msg(t_ns: int, frame_id: str, vec: Sequence[float]) -> Vector3Stampe
     return msg
 
 
-def quat_of(msg: Imu) -> tuple[float, float, float, float]:
+def quat_of(msg) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of an Imu's orientation (message object or :class:`ImuData`)."""
     o = msg.orientation
-    return (o.x, o.y, o.z, o.w)
+    return o if type(o) is tuple else (o.x, o.y, o.z, o.w)
 
 
 def vec_of(v) -> tuple[float, float, float]:
-    """(x, y, z) of a geometry_msgs Vector3."""
-    return (v.x, v.y, v.z)
+    """(x, y, z) of a geometry_msgs Vector3 (or the tuple a decoded message holds)."""
+    return v if type(v) is tuple else (v.x, v.y, v.z)
 
 
 GIMBAL_ENCODER_JOINTS = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
@@ -144,3 +147,92 @@ def navsat_fix_msg(t_ns: int, frame_id: str, lat: float, lon: float, altitude_m:
         msg.position_covariance = [float(v) for v in covariance_enu_m2]
         msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
     return msg
+
+
+# ----------------------------------------------------------------------------------------
+# Serialized (CDR) forms for the lockstep hot path: the same messages as above, built and
+# read with one struct call instead of through message objects (:mod:`.cdr` says why).
+# Publish the bytes with ``publisher.publish(data)``; take them with ``raw=True``.
+# ----------------------------------------------------------------------------------------
+
+_IDENTITY_QUAT = (0.0, 0.0, 0.0, 1.0)
+_ZERO3 = (0.0, 0.0, 0.0)
+
+
+class ImuData(NamedTuple):
+    """A decoded sensor_msgs/Imu: stamp [ns], frame, and each field as a tuple."""
+
+    stamp_ns: int
+    frame_id: str
+    orientation: tuple[float, float, float, float]
+    orientation_covariance: tuple[float, ...]
+    angular_velocity: tuple[float, float, float]
+    angular_velocity_covariance: tuple[float, ...]
+    linear_acceleration: tuple[float, float, float]
+    linear_acceleration_covariance: tuple[float, ...]
+
+
+class JointStateData(NamedTuple):
+    stamp_ns: int
+    frame_id: str
+    name: tuple[str, ...]
+    position: tuple[float, ...]
+    velocity: tuple[float, ...]
+    effort: tuple[float, ...]
+
+
+class Vector3StampedData(NamedTuple):
+    stamp_ns: int
+    frame_id: str
+    vector: tuple[float, float, float]
+
+
+def imu_cdr(t_ns: int, frame_id: str, *, orientation: Sequence[float] | None = None,
+            orientation_cov: Sequence[float] = ZERO_COV, angular_velocity: Sequence[float] | None = None,
+            angular_velocity_cov: Sequence[float] = ZERO_COV, linear_acceleration: Sequence[float] | None = None,
+            linear_acceleration_cov: Sequence[float] = ZERO_COV) -> bytes:
+    """:func:`imu_msg`, serialized."""
+    return cdr.imu_layout(frame_id).pack(
+        t_ns // 1_000_000_000, t_ns % 1_000_000_000,
+        *(_IDENTITY_QUAT if orientation is None else orientation),
+        *(NOT_PROVIDED if orientation is None else orientation_cov),
+        *(_ZERO3 if angular_velocity is None else angular_velocity),
+        *(NOT_PROVIDED if angular_velocity is None else angular_velocity_cov),
+        *(_ZERO3 if linear_acceleration is None else linear_acceleration),
+        *(NOT_PROVIDED if linear_acceleration is None else linear_acceleration_cov))
+
+
+def joint_state_cdr(t_ns: int, names: Sequence[str], position: Sequence[float] = (),
+                    velocity: Sequence[float] = (), effort: Sequence[float] = ()) -> bytes:
+    """:func:`joint_state_msg`, serialized."""
+    layout = cdr.joint_state_layout("", tuple(names), len(position), len(velocity), len(effort))
+    return layout.pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000, *position, *velocity, *effort)
+
+
+def vector3_cdr(t_ns: int, frame_id: str, vec: Sequence[float]) -> bytes:
+    """:func:`vector3_msg`, serialized."""
+    return cdr.vector3_stamped_layout(frame_id).pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000, *vec)
+
+
+def clock_cdr(t_ns: int) -> bytes:
+    """:func:`clock_msg`, serialized."""
+    return cdr.clock_layout().pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+
+
+def imu_from_cdr(data: bytes) -> ImuData:
+    """Decode a serialized Imu; raises :class:`.cdr.CdrError` on malformed bytes."""
+    stamp, frame, v = cdr.read_header_doubles(data, 37)
+    return ImuData(stamp, frame, v[0:4], v[4:13], v[13:16], v[16:25], v[25:28], v[28:37])
+
+
+def joint_state_from_cdr(data: bytes) -> JointStateData:
+    return JointStateData(*cdr.read_joint_state(data))
+
+
+def vector3_stamped_from_cdr(data: bytes) -> Vector3StampedData:
+    return Vector3StampedData(*cdr.read_header_doubles(data, 3))
+
+
+def clock_from_cdr(data: bytes) -> int:
+    """Stamp [ns] of a serialized rosgraph_msgs/Clock."""
+    return cdr.read_stamp(data)

@@ -13,6 +13,7 @@ from typing import Callable
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.task import Future
 from rclpy.utilities import remove_ros_args
 
 from .ros_domain import localhost_env
@@ -22,6 +23,18 @@ ROS_ARGS_EPILOG = (
     "--ros-args --params-file config.yaml -p name:=value -r /old/topic:=/new/topic. "
     "Discovery stays on this host unless ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise."
 )
+
+
+def make_executor(context=None):
+    """The executor a node (or the container) spins on: ``GIMBAL_EXECUTOR=single`` for rclpy's
+    SingleThreadedExecutor, ``events`` (default) for the C++ EventsExecutor."""
+    import os
+
+    if os.environ.get("GIMBAL_EXECUTOR", "events") == "single":
+        return SingleThreadedExecutor(context=context)
+    from rclpy.experimental import EventsExecutor
+
+    return EventsExecutor(context=context)
 
 
 def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: list[str] | None = None) -> int:
@@ -42,14 +55,14 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
         print(f"{prog}: refused to start: {exc}", file=sys.stderr)
         rclpy.try_shutdown()
         return 2
-    executor = SingleThreadedExecutor()
+    executor = make_executor()
     executor.add_node(node)
     try:
-        done = getattr(node, "done", None)
-        if done is not None:
-            executor.spin_until_future_complete(done)
-        else:
-            executor.spin()
+        done = getattr(node, "done", None) or Future()
+        # In slices: rclpy 7.1.6's EventsExecutor never dispatches when spun without a
+        # timeout (spin(), or spin_until_future_complete(f) with none), and holds the GIL.
+        while not done.done():
+            executor.spin_until_future_complete(done, timeout_sec=1.0)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -66,6 +67,17 @@ def process_stats(pid: int | str = "self") -> ProcessStats:
     return ProcessStats(cpu, rss)
 
 
+def resident_mb(pid: int | str = "self") -> float:
+    """Current resident memory (VmRSS) of a process [MiB]; 0 when it is gone."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return 0.0
+
+
 @dataclass
 class RunResult:
     out_dir: Path
@@ -74,6 +86,15 @@ class RunResult:
     logs: dict[str, Path] = field(default_factory=dict)
     #: node name (or "container") -> its process's CPU time and peak RSS over the run
     processes: dict[str, ProcessStats] = field(default_factory=dict)
+    #: the orchestrator's own process (its monitor node; in container mode, every node)
+    orchestrator: ProcessStats | None = None
+    #: wall arrival time [s] and stamp [ns] of each /clock message the monitor received
+    clock_wall: array = field(default_factory=lambda: array("d"))
+    clock_stamp: array = field(default_factory=lambda: array("q"))
+    #: process name -> [(sim time [s], resident memory [MiB])], about once a wall second
+    rss_samples: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    #: process name -> CPU seconds it had used when the first step was seen (start-up cost)
+    cpu_at_start: dict[str, float] = field(default_factory=dict)
 
     @property
     def real_time_factor(self) -> float:
@@ -96,6 +117,8 @@ def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
         if spec["executable"] == "vehicle_dynamics":
             params["duration_s"] = scenario.duration_s
             params["pace_topics"] = [f"/{n}/progress" for n in paced + [RECORDER]]
+            # /clock: the recorder and the run's monitor (which times every step)
+            params.setdefault("subscriber_counts", ["/clock=2"])
         elif "wait_for_subscribers" in declared:
             params["wait_for_subscribers"] = 1  # the recorder reads every output
         planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
@@ -128,24 +151,47 @@ class Monitor:
     def __init__(self, context, scenario: Scenario) -> None:
         from rclpy.node import Node
         from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rclpy.task import Future
         from rosgraph_msgs.msg import Clock
 
         from . import messages as m
+        from .qos import GRAPH_QOS
 
         self.node = Node("gimbal_run_monitor", context=context)
         self.sim_ns = 0
         self.recorded_ns = 0
         self.end_ns = int(round(scenario.duration_s * 1e9))
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        #: completes when the recorder has the last step
+        self.done = Future()
+        #: wall arrival time [s, monotonic] of each /clock message and its stamp [ns]
+        self.clock_wall = array("d")
+        self.clock_stamp = array("q")
+        qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+        now = time.monotonic
 
-        def on_clock(msg):
-            self.sim_ns = max(self.sim_ns, m.stamp_ns(msg.clock))
+        def on_clock(data):
+            t_ns = m.clock_from_cdr(data)
+            if not self.clock_wall:  # first step: what each process used to start up
+                self.cpu_at_start = {name: process_stats(pid).cpu_s for name, pid in self.pids.items()}
+                self.cpu_at_start["orchestrator"] = process_stats().cpu_s
+            self.clock_wall.append(now())
+            self.clock_stamp.append(t_ns)
+            if t_ns > self.sim_ns:
+                self.sim_ns = t_ns
 
-        def on_recorded(msg):
-            self.recorded_ns = max(self.recorded_ns, m.stamp_ns(msg.clock))
+        def on_recorded(data):
+            self.recorded_ns = max(self.recorded_ns, m.clock_from_cdr(data))
+            if self.recorded_ns >= self.end_ns and not self.done.done():
+                self.done.set_result(True)
 
-        self.node.create_subscription(Clock, "/clock", on_clock, qos)
-        self.node.create_subscription(Clock, f"/{RECORDER}/progress", on_recorded, qos)
+        self.rss_samples: dict[str, list[tuple[float, float]]] = {}
+        self.cpu_at_start: dict[str, float] = {}
+        #: process name -> pid ("self" for this process), set by the runner
+        self.pids: dict[str, int | str] = {}
+        self.node.create_subscription(Clock, "/clock", on_clock, qos, raw=True)
+        # transient-local like the recorder's publisher: a short run may end before this
+        # node has discovered the recorder, and its last progress must still arrive
+        self.node.create_subscription(Clock, f"/{RECORDER}/progress", on_recorded, GRAPH_QOS, raw=True)
 
     @property
     def finished(self) -> bool:
@@ -207,19 +253,32 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
         return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s)
     finally:
         if claim is not None:
+            # the id is free again: a later run in this process must claim its own
+            os.environ.pop("ROS_DOMAIN_ID", None)
             claim.release()
 
 
-def _watch(scenario: Scenario, monitor: Monitor, spin_once, bar: Progress, stall_timeout_s: float,
-           check_nodes) -> float:
-    """Spin until the recorder has the last step; returns the wall time [s]."""
+def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_timeout_s: float,
+           check_nodes, pids: dict[str, int | str]) -> float:
+    """Spin until the recorder has the last step; returns the wall time [s].
+
+    ``spin(timeout)`` handles callbacks until the run is done or ``timeout`` [s] passed;
+    between slices the nodes are checked, the progress bar drawn and, about once a second,
+    the resident memory of each process in ``pids`` sampled.
+    """
     t0 = time.monotonic()
     last_change, last_state = t0, None
+    next_rss = t0
+    monitor.pids = pids
     while not monitor.finished:
-        spin_once()
+        spin(0.1)
         check_nodes()
         bar.update(monitor.sim_ns / 1e9)
         state, now = (monitor.sim_ns, monitor.recorded_ns), time.monotonic()
+        if now >= next_rss:
+            next_rss = now + 1.0
+            for name, pid in pids.items():
+                monitor.rss_samples.setdefault(name, []).append((monitor.sim_ns / 1e9, resident_mb(pid)))
         if state != last_state:
             last_change, last_state = now, state
         elif now - last_change > stall_timeout_s:
@@ -228,10 +287,29 @@ def _watch(scenario: Scenario, monitor: Monitor, spin_once, bar: Progress, stall
     return time.monotonic() - t0
 
 
+def _spin_slice(executor, monitor: Monitor, timeout: float) -> None:
+    """Handle callbacks for about ``timeout`` [s] or until the run is done. One callback per
+    spin_once: the EventsExecutor ignores the timeout of spin_until_future_complete while
+    callbacks keep coming, and the run must stay watched."""
+    end = time.monotonic() + timeout
+    while not monitor.done.done():
+        left = end - time.monotonic()
+        if left <= 0.0:
+            return
+        executor.spin_once(timeout_sec=left)
+
+
+def _result(out_dir: Path, wall: float, monitor: Monitor, **kw) -> RunResult:
+    return RunResult(out_dir, wall, monitor.sim_ns / 1e9, orchestrator=process_stats(),
+                     clock_wall=monitor.clock_wall, clock_stamp=monitor.clock_stamp,
+                     rss_samples=monitor.rss_samples, cpu_at_start=monitor.cpu_at_start, **kw)
+
+
 def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
     import rclpy
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
+
+    from .node_main import make_executor
 
     bin_dir = Path(sys.executable).parent
     procs: dict[str, subprocess.Popen] = {}
@@ -239,7 +317,7 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
     context = Context()
     rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
     monitor = Monitor(context, scenario)
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context)
     executor.add_node(monitor.node)
     bar = Progress(scenario.duration_s, progress)
 
@@ -258,14 +336,14 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
             with open(logs[node.name], "w") as log:
                 procs[node.name] = subprocess.Popen([str(exe), *node.ros_args()], env=env, stdout=log,
                                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-        wall = _watch(scenario, monitor, lambda: executor.spin_once(timeout_sec=0.05), bar, stall_timeout_s,
-                      check_nodes)
+        wall = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
+                      bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()})
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
             executor.spin_once(timeout_sec=0.05)
             check_nodes()
         stats = {name: process_stats(proc.pid) for name, proc in procs.items()}
-        return RunResult(out_dir, wall, monitor.sim_ns / 1e9, logs, stats)
+        return _result(out_dir, wall, monitor, logs=logs, processes=stats)
     finally:
         bar.close()
         _stop(procs, first=[n.name for n in nodes if n.name != RECORDER], last=[RECORDER])
@@ -297,11 +375,12 @@ def _stop(procs: dict[str, subprocess.Popen], first: list[str], last: list[str])
 def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
     import rclpy
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
+
+    from .node_main import make_executor
 
     context = Context()
     rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context)
     monitor = Monitor(context, scenario)
     executor.add_node(monitor.node)
     bar = Progress(scenario.duration_s, progress)
@@ -315,17 +394,20 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
                 raise RunError(f"node {node.name!r} refused to start: {exc}") from exc
             executor.add_node(built[node.name])
 
-        def spin_once() -> None:
+        def spin(timeout: float, until_done: bool = True) -> None:
             try:
-                executor.spin_once(timeout_sec=0.05)
+                if until_done:
+                    _spin_slice(executor, monitor, timeout)
+                else:
+                    executor.spin_once(timeout_sec=timeout)
             except Exception as exc:  # noqa: BLE001 - any node's failure ends the run, named
                 raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
 
-        wall = _watch(scenario, monitor, spin_once, bar, stall_timeout_s, lambda: None)
+        wall = _watch(scenario, monitor, spin, bar, stall_timeout_s, lambda: None, {"container": "self"})
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
-            spin_once()
-        return RunResult(out_dir, wall, monitor.sim_ns / 1e9, processes={"container": process_stats()})
+            spin(0.05, until_done=False)
+        return _result(out_dir, wall, monitor, processes={"container": process_stats()})
     finally:
         bar.close()
         recorder = built.pop(RECORDER, None)

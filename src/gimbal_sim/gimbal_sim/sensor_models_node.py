@@ -8,13 +8,14 @@ from __future__ import annotations
 import math
 import sys
 
-from gimbal_kinematics.rotations import euler321_to_quat, quat_to_euler321
+from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat, quat_canonical, quat_from_euler321
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
 from . import messages as m
+from .cdr import CdrError
 from .node_main import run_node
 from .qos import GRAPH_QOS
 from .ros_params import Param, ParameterError, declare_and_read
@@ -187,6 +188,7 @@ TRUTH_TOPICS = {
     "/truth/platform/imu": Imu,
     "/truth/platform/joint_states": JointState,
 }
+_DECODERS = {Imu: m.imu_from_cdr, JointState: m.joint_state_from_cdr, Vector3Stamped: m.vector3_stamped_from_cdr}
 NEEDS = {
     "ins": ("/truth/host/imu",),
     "gimbal_gyro": ("/truth/gimbal/imu",),
@@ -206,7 +208,7 @@ def truth_from_group(k: int, t: float, group: dict) -> VehicleTruth:
     delta = group.get("/truth/host/delta_angle")
     return VehicleTruth(
         k=k, t=t,
-        euler=quat_to_euler321(m.quat_of(host)) if host is not None else (0.0, 0.0, 0.0),
+        euler=euler321_from_quat(m.quat_of(host)) if host is not None else (0.0, 0.0, 0.0),
         quat_nb=m.quat_of(host) if host is not None else None,
         omega_ib_b=m.vec_of(host.angular_velocity) if host is not None else None,
         specific_force_b=m.vec_of(host.linear_acceleration) if host is not None else None,
@@ -231,8 +233,9 @@ class SensorModelsNode(Node):
         topics = sorted({t for s in self.config.sensors for t in NEEDS[s]})
         self.sync = StampSync(topics)
         self.rejected_truth = 0
-        self.subs = [self.create_subscription(TRUTH_TOPICS[t], t, lambda msg, t=t: self._on_truth(t, msg), GRAPH_QOS)
-                     for t in topics]
+        # taken serialized and decoded here (messages.*_from_cdr): no message objects per step
+        self.subs = [self.create_subscription(TRUTH_TOPICS[t], t, lambda data, t=t: self._on_truth(t, data), GRAPH_QOS,
+                                              raw=True) for t in topics]
         on = set(self.config.sensors)
         pub = lambda typ, topic: self.create_publisher(typ, topic, GRAPH_QOS)  # noqa: E731
         self.pubs = {}
@@ -290,8 +293,15 @@ class SensorModelsNode(Node):
             "fg_level": m.diag_cov([(c.free_gyro.level_noise_arcsec * deg / 3600.0) ** 2] * 2 + [math.pi**2 / 3.0]),
         }
 
-    def _on_truth(self, topic: str, msg) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
+    def _on_truth(self, topic: str, data: bytes) -> None:
+        try:
+            msg = _DECODERS[TRUTH_TOPICS[topic]](data)
+        except CdrError as exc:
+            self.rejected_truth += 1
+            self.get_logger().warning(f"malformed truth on {topic}: {exc} ({self.rejected_truth} rejected)",
+                                      throttle_duration_sec=1.0)
+            return
+        t_ns = msg.stamp_ns
         group = self.sync.add(topic, t_ns, msg)
         if group is None:
             return
@@ -306,40 +316,41 @@ class SensorModelsNode(Node):
         for sample in samples:
             self._publish(t_ns, sample)
         if (k + 1) % self.progress_every == 0:
-            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + 1, self.rate)))
+            self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(k + 1, self.rate)))
 
     def _publish(self, t_ns: int, s) -> None:
+        # serialized by hand (messages.*_cdr): the same messages, without message objects
         cov = self._noise_cov
         if isinstance(s, GimbalGyroSample):
             imu, bias = self.pubs["gimbal_gyro"]
-            imu.publish(m.imu_msg(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, s.q_m, s.r_m),
+            imu.publish(m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, s.q_m, s.r_m),
                                   angular_velocity_cov=cov["gyro"]))
-            bias.publish(m.vector3_msg(t_ns, "gimbal_inner_frd", (0.0, *s.true_bias)))
+            bias.publish(m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, *s.true_bias)))
         elif isinstance(s, EncoderSample):
-            self.pubs["encoders"][0].publish(m.joint_state_msg(t_ns, s.names, s.angles, s.rates))
+            self.pubs["encoders"][0].publish(m.joint_state_cdr(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, InsSample):
             imu, bias = self.pubs["ins"]
-            imu.publish(m.imu_msg(t_ns, "base_link_frd", orientation=euler321_to_quat(*s.euler),
+            imu.publish(m.imu_cdr(t_ns, "base_link_frd", orientation=quat_canonical(quat_from_euler321(*s.euler)),
                                   orientation_cov=cov["ins_att"], angular_velocity=s.omega_b,
                                   angular_velocity_cov=cov["ins_rate"]))
-            bias.publish(m.vector3_msg(t_ns, "base_link_frd", s.true_gyro_bias))
+            bias.publish(m.vector3_cdr(t_ns, "base_link_frd", s.true_gyro_bias))
         elif isinstance(s, LguSample):
             lgu1, lgu2, flex, flex_qs = self.pubs["lgu"]
             # angular_velocity carries the increment over the sample interval divided by it
-            lgu1.publish(m.imu_msg(t_ns, "lgu1_frd", angular_velocity=[d / s.dt for d in s.dalpha1],
+            lgu1.publish(m.imu_cdr(t_ns, "lgu1_frd", angular_velocity=[d / s.dt for d in s.dalpha1],
                                    angular_velocity_cov=cov["lgu"]))
-            lgu2.publish(m.imu_msg(t_ns, "lgu2_frd", angular_velocity=[d / s.dt for d in s.dalpha2],
+            lgu2.publish(m.imu_cdr(t_ns, "lgu2_frd", angular_velocity=[d / s.dt for d in s.dalpha2],
                                    angular_velocity_cov=cov["lgu"]))
-            flex.publish(m.vector3_msg(t_ns, "lgu1_frd", s.flexure))
-            flex_qs.publish(m.vector3_msg(t_ns, "lgu1_frd", s.flexure_quasi_static))
+            flex.publish(m.vector3_cdr(t_ns, "lgu1_frd", s.flexure))
+            flex_qs.publish(m.vector3_cdr(t_ns, "lgu1_frd", s.flexure_quasi_static))
         elif isinstance(s, ResolverSample):
-            self.pubs["resolvers"][0].publish(m.joint_state_msg(t_ns, s.names, s.angles, s.rates))
+            self.pubs["resolvers"][0].publish(m.joint_state_cdr(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, PlatformImuSample):
             imu, accel_bias, gyro_bias = self.pubs["platform_imu"]
-            imu.publish(m.imu_msg(t_ns, "platform_frd", angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],
+            imu.publish(m.imu_cdr(t_ns, "platform_frd", angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],
                                   linear_acceleration=s.specific_force, linear_acceleration_cov=cov["p_accel"]))
-            accel_bias.publish(m.vector3_msg(t_ns, "platform_frd", s.true_accel_bias))
-            gyro_bias.publish(m.vector3_msg(t_ns, "platform_frd", s.true_gyro_bias))
+            accel_bias.publish(m.vector3_cdr(t_ns, "platform_frd", s.true_accel_bias))
+            gyro_bias.publish(m.vector3_cdr(t_ns, "platform_frd", s.true_gyro_bias))
         elif isinstance(s, FreeGyroSample):
             spin_a, spin_b, imu, position, bias = self.pubs["free_gyro"]
             spin_a.publish(m.vector3_msg(t_ns, "base_link_frd", s.spin_a_b))

@@ -216,20 +216,22 @@ class SensorSuite:
             d1, d2 = self.lgu.step(truth.delta_angle_b, self._dt)
             self._lgu_acc[0] += d1
             self._lgu_acc[1] += d2
-        due = lambda name: k % self._dec[name] == 0  # noqa: E731
+        dec = self._dec
+        due = lambda name: k % dec[name] == 0  # noqa: E731
+        # The models return lists of Python floats: tuple() keeps them as they are.
         if self.ins is not None and due("ins_rate_hz"):
             euler, omega = self.ins.step(truth.euler, truth.omega_ib_b)
-            out.append(InsSample(truth.t, _floats(euler), _floats(omega), _floats(self.ins.true_gyro_bias)))
+            out.append(InsSample(truth.t, _floats(euler), _floats(omega), self.ins.true_gyro_bias_values()))
         if self.gimbal_gyro is not None and due("gimbal_gyro_rate_hz"):
             if truth.omega_im_m is None:
                 raise ValueError("gimbal_gyro needs the two_axis_gimbal plant")
             q_m, r_m = self.gimbal_gyro.step_rate(truth.omega_im_m[1:])
-            out.append(GimbalGyroSample(truth.t, float(q_m), float(r_m), _floats(self.gimbal_gyro.true_bias)))
+            out.append(GimbalGyroSample(truth.t, float(q_m), float(r_m), self.gimbal_gyro.true_bias_values()))
         if self.encoders is not None and due("encoder_rate_hz"):
             if len(truth.joint_position) != 3:
                 raise ValueError("encoders need the two_axis_gimbal plant")
             angles, rates = self.encoders.step(truth.joint_position)
-            out.append(EncoderSample(truth.t, truth.joint_names, _floats(angles), _floats(rates)))
+            out.append(EncoderSample(truth.t, truth.joint_names, tuple(angles), tuple(rates)))
         if self.lgu is not None and k > 0 and due("lgu_rate_hz"):
             flex = self.lgu.flexure
             out.append(LguSample(truth.t, self._dt * self._dec["lgu_rate_hz"], _floats(self._lgu_acc[0]),

@@ -30,15 +30,15 @@ from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.rotations import (
-    dcm_from_rotation_vector, dcm_to_quat, euler321_to_dcm, rotation_vector_from_dcm,
-)
 from gimbal_kinematics.four_gimbal import dcm_sb, platform_rate_s
-from gimbal_kinematics.sighting_chain import dcm_nm, omega_m_m
+from gimbal_kinematics.rotations import (
+    dcm_to_quat, euler321_to_dcm, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
+    quat_mul, rotation_vector_from_quat,
+)
 
 from .plant.gimbal_dynamics import GimbalSimulator
 from .plant.gimbal_params import GimbalParams
-from .plant.host_state import HostState, inertial_rates_scalar
+from .plant.host_state import inertial_rates_trig
 from .plant.motion_profiles import PROFILE_NAMES, make_profile
 from .plant.platform_loops import PlatformAxis, paper3_axis_params
 from .plant.turret_base import site_environment
@@ -138,7 +138,9 @@ class VehicleCore:
         self.profile = make_profile(config.profile, dict(config.profile_params))
         site = self.profile.site
         self.env = site_environment(site.lat_rad, site.height_m, config.earth_rate)
-        self._earth_step = dcm_from_rotation_vector(np.asarray(self.env.omega_in_n) * config.dt)
+        w = self.env.omega_in_n
+        # exp([ω_in dt ×]): n's inertial rotation over one step (constant).
+        self._q_earth = quat_from_rotation_vector(w[0] * config.dt, w[1] * config.dt, w[2] * config.dt)
         self.k = 0
         self._gimbal: GimbalSimulator | None = None
         self._platform: list[PlatformAxis] = []
@@ -154,8 +156,8 @@ class VehicleCore:
         if config.plant == "four_gimbal_platform":
             self._platform = [PlatformAxis(paper3_axis_params(axis)) for axis in _PLATFORM_AXES]
             self._platform_x = [(angle, 0.0, 0.0) for angle in init]
-        self._C_nb = euler321_to_dcm(self._host.roll, self._host.pitch, self._host.yaw)
-        self._delta = np.zeros(3)
+        self._q_nb = quat_canonical(quat_from_euler321(self._host.roll, self._host.pitch, self._host.yaw))
+        self._delta = (0.0, 0.0, 0.0)
 
     @property
     def t(self) -> float:
@@ -188,21 +190,21 @@ class VehicleCore:
                 axis.step(x, v, dt, substeps=self.config.platform_substeps)
                 for axis, x, v in zip(self._platform, self._platform_x, self._applied)
             ]
-        C_nb1 = euler321_to_dcm(host1.roll, host1.pitch, host1.yaw)
-        self._delta = rotation_vector_from_dcm(self._C_nb.T @ self._earth_step @ C_nb1)
-        self._C_nb, self._host = C_nb1, host1
+        q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
+        # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
+        self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
+        self._q_nb, self._host = q_nb1, host1
         self.k += 1
-
-    def _specific_force_b(self, host: HostState) -> tuple[float, float, float]:
-        g_b = self._C_nb[2, :] * self.env.gravity_m_s2  # C_bn (0, 0, g)
-        return (host.accel_x - g_b[0], host.accel_y - g_b[1], host.accel_z - g_b[2])
 
     def truth(self) -> VehicleTruth:
         """Exact state at the current step."""
         host = self._host
-        rates = inertial_rates_scalar(host, self.env.omega_in_n)
-        omega_b = rates[:3]
-        f_b = self._specific_force_b(host)
+        cr, sr = math.cos(host.roll), math.sin(host.roll)
+        cp, sp = math.cos(host.pitch), math.sin(host.pitch)
+        omega_b = inertial_rates_trig(host, self.env.omega_in_n, cr, sr, cp, sp)[:3]
+        # f_b = a_b − C_bn (0, 0, g); C_bn's third column is C_nb's third row (−sθ, sφ cθ, cφ cθ).
+        g = self.env.gravity_m_s2
+        f_b = (host.accel_x - (-sp) * g, host.accel_y - (sr * cp) * g, host.accel_z - (cr * cp) * g)
         names: tuple[str, ...] = ()
         pos: tuple[float, ...] = ()
         vel: tuple[float, ...] = ()
@@ -212,17 +214,15 @@ class VehicleCore:
             names = GIMBAL_JOINTS
             pos = (host.psi_t, psi_m, theta_m)
             vel = (host.psi_t_dot, psi_m_dot, theta_m_dot)
-            C_nm = dcm_nm((host.roll, host.pitch, host.yaw), host.psi_t, psi_m, theta_m)
-            quat_nm = dcm_to_quat(C_nm)
-            omega_m = tuple(float(v) for v in omega_m_m(np.array(omega_b), pos, vel))
-            f_m = tuple(float(v) for v in C_nm.T @ (self._C_nb @ np.array(f_b)))
+            quat_nm, omega_m, f_m = _inner_gimbal_truth(self._q_nb, pos, vel, omega_b, f_b)
+            quat_nm = np.array(quat_nm)
             effort = (0.0,) + tuple(self._applied)
         elif self._platform:
             names = PLATFORM_JOINTS
             pos = tuple(x[0] for x in self._platform_x)
             vel = tuple(x[1] for x in self._platform_x)
             C_sb = dcm_sb(pos)
-            quat_nm = dcm_to_quat(self._C_nb @ C_sb.T)
+            quat_nm = dcm_to_quat(euler321_to_dcm(host.roll, host.pitch, host.yaw) @ C_sb.T)
             omega_m = tuple(float(v) for v in platform_rate_s(omega_b, pos, vel))
             f_m = tuple(float(v) for v in C_sb @ np.array(f_b))
             effort = tuple(self._platform_x[j][2] * self._platform[j].params.torque_constant_nm_a for j in range(4))
@@ -230,8 +230,37 @@ class VehicleCore:
             effort = ()
         return VehicleTruth(
             k=self.k, t=self.t, euler=(host.roll, host.pitch, host.yaw),
-            quat_nb=dcm_to_quat(self._C_nb), omega_ib_b=omega_b, specific_force_b=f_b,
-            delta_angle_b=self._delta.copy(), joint_names=names, joint_position=pos,
+            quat_nb=np.array(self._q_nb), omega_ib_b=omega_b, specific_force_b=f_b,
+            delta_angle_b=np.array(self._delta), joint_names=names, joint_position=pos,
             joint_velocity=vel, joint_effort=effort, quat_nm=quat_nm, omega_im_m=omega_m,
             specific_force_m=f_m,
         )
+
+
+def _inner_gimbal_truth(q_nb, pos, vel, omega_b, f_b):
+    """(quat_nm, ω_im^m, f_m) of the inner gimbal from the host attitude quaternion, the
+    joint angles/rates (ψt, ψm, θm) and the host's ω_ib^b and f_b, in scalars.
+
+    C_bm = rot3(ψt)ᵀ rot3(ψm)ᵀ rot2(θm)ᵀ is a turn of ψa = ψt + ψm about z and then θm about
+    y, so q_nm = q_nb ⊗ q_z(ψa) ⊗ q_y(θm). The rate follows the chain
+    (``sighting_chain.omega_m_m``): rotations about z commute with adding rates about z, so
+    ω_a = rot3(ψa) ω_b + (ψ̇t + ψ̇m) e3 and ω_m = rot2(θm) ω_a + θ̇m e2; f_m = C_mb f_b.
+    """
+    psi_a = pos[0] + pos[1]
+    theta = pos[2]
+    ha, he = 0.5 * psi_a, 0.5 * theta
+    sa2, se2 = math.sin(ha), math.sin(he)
+    q_bm = (-sa2 * se2, math.cos(ha) * se2, sa2 * math.cos(he), math.cos(ha) * math.cos(he))
+    quat_nm = quat_canonical(quat_mul(q_nb, q_bm))
+    ca, sa = math.cos(psi_a), math.sin(psi_a)
+    ce, se = math.cos(theta), math.sin(theta)
+    w0, w1, w2 = omega_b
+    u0 = ca * w0 + sa * w1
+    u1 = -sa * w0 + ca * w1
+    u2 = w2 + vel[0] + vel[1]
+    omega_m = (ce * u0 - se * u2, u1 + vel[2], se * u0 + ce * u2)
+    f0, f1, f2 = f_b
+    g0 = ca * f0 + sa * f1
+    g1 = -sa * f0 + ca * f1
+    f_m = (ce * g0 - se * f2, g1, se * g0 + ce * f2)
+    return quat_nm, omega_m, f_m

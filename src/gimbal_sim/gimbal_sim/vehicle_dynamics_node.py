@@ -35,6 +35,7 @@ from sensor_msgs.msg import Imu, JointState
 from geometry_msgs.msg import Vector3Stamped
 
 from . import messages as m
+from .cdr import CdrError
 from .node_main import run_node
 from .qos import GRAPH_QOS
 from .plant.gimbal_params import GIMBAL_MODELS
@@ -127,14 +128,14 @@ class VehicleDynamicsNode(Node):
             self._truth_pubs += [self.pub_joints, self.pub_plant_imu]
         self.pace_window = values["pace_window_steps"]
         self._next_needed: dict[str, int | None] = {topic: None for topic in values["pace_topics"]}
-        self._pace_subs = [self.create_subscription(Clock, topic, lambda msg, t=topic: self._on_progress(t, msg),
-                                                    GRAPH_QOS) for topic in self._next_needed]
+        self._pace_subs = [self.create_subscription(Clock, topic, lambda data, t=topic: self._on_progress(t, data),
+                                                    GRAPH_QOS, raw=True) for topic in self._next_needed]
         self.sub_cmd = None
         if plant != "host_only" and (self.controlled or self.realtime):
             topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
-            self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, GRAPH_QOS)
+            self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, GRAPH_QOS, raw=True)
         self._needed = self._subscriber_counts(values["subscriber_counts"])
-        self._rearm = self.create_guard_condition(self._free_run_step)
+        self._rearm = None  # open loop: zero-period timer that re-runs _free_run_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
         self._plant_frame = "gimbal_inner_frd" if plant == "two_axis_gimbal" else "platform_frd"
 
@@ -169,11 +170,18 @@ class VehicleDynamicsNode(Node):
         if self.realtime:
             self.create_timer(self.config.dt, self._realtime_step)
         elif not self.controlled:
-            self._rearm.trigger()
+            self._rearm = self.create_timer(0.0, self._free_run_step)
 
     # --- commands --------------------------------------------------------------------------
-    def _on_command(self, msg: JointState) -> None:
-        k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.config.sim_rate_hz)
+    def _on_command(self, data: bytes) -> None:
+        try:
+            msg = m.joint_state_from_cdr(data)
+        except CdrError as exc:
+            self.rejected_commands += 1
+            self.get_logger().warning(f"malformed command ignored: {exc} ({self.rejected_commands} rejected)",
+                                      throttle_duration_sec=1.0)
+            return
+        k = m.step_of_stamp(msg.stamp_ns, self.config.sim_rate_hz)
         if not self._started or k != self.core.k:
             self.rejected_commands += 1
             self.get_logger().warning(
@@ -187,8 +195,8 @@ class VehicleDynamicsNode(Node):
         if not self.realtime:
             self._advance()
 
-    def _on_progress(self, topic: str, msg: Clock) -> None:
-        step = m.step_of_stamp(m.stamp_ns(msg.clock), self.config.sim_rate_hz)
+    def _on_progress(self, topic: str, data: bytes) -> None:
+        step = m.step_of_stamp(m.clock_from_cdr(data), self.config.sim_rate_hz)
         self._next_needed[topic] = max(step, self._next_needed[topic] or 0)
         if self._started and not self.realtime:
             if self.controlled:
@@ -196,7 +204,7 @@ class VehicleDynamicsNode(Node):
             elif not self._free_running:
                 self._free_run_step()
 
-    def _command_values(self, msg: JointState) -> tuple[float, ...] | None:
+    def _command_values(self, msg: m.JointStateData) -> tuple[float, ...] | None:
         """The command in plant order, or None (counted, logged) if it must not be used."""
         effort = list(msg.effort)
         if msg.name:
@@ -238,11 +246,16 @@ class VehicleDynamicsNode(Node):
         return True
 
     def _free_run_step(self) -> None:
-        # Re-arming through the guard condition lets other callbacks run between steps;
-        # when paced, the next progress message restarts the loop instead.
+        # One step per callback of a zero-period timer ("again as soon as the executor is
+        # idle", not a clock: what is computed never depends on when), so other callbacks
+        # run between steps. When paced the timer stops and the next progress message
+        # restarts it. (A guard condition would do, but the EventsExecutor has none.)
         self._free_running = self._advance() and not self.core.finished
         if self._free_running:
-            self._rearm.trigger()
+            if self._rearm.is_canceled():
+                self._rearm.reset()
+        elif not self._rearm.is_canceled():
+            self._rearm.cancel()
 
     def _realtime_step(self) -> None:
         if self.sub_cmd is not None and self._command_k != self.core.k:
@@ -250,18 +263,19 @@ class VehicleDynamicsNode(Node):
         self._advance()
 
     def _publish_truth(self, truth: VehicleTruth) -> None:
+        # serialized by hand (messages.*_cdr): the same messages, without message objects
         t_ns = m.step_stamp_ns(truth.k, self.config.sim_rate_hz)
-        self.pub_host.publish(m.imu_msg(t_ns, "base_link_frd", orientation=truth.quat_nb,
+        self.pub_host.publish(m.imu_cdr(t_ns, "base_link_frd", orientation=truth.quat_nb,
                                         angular_velocity=truth.omega_ib_b,
                                         linear_acceleration=truth.specific_force_b))
-        self.pub_delta.publish(m.vector3_msg(t_ns, "base_link_frd", truth.delta_angle_b))
+        self.pub_delta.publish(m.vector3_cdr(t_ns, "base_link_frd", truth.delta_angle_b))
         if self.pub_joints is not None:
-            self.pub_joints.publish(m.joint_state_msg(t_ns, truth.joint_names, truth.joint_position,
+            self.pub_joints.publish(m.joint_state_cdr(t_ns, truth.joint_names, truth.joint_position,
                                                       truth.joint_velocity, truth.joint_effort))
-            self.pub_plant_imu.publish(m.imu_msg(t_ns, self._plant_frame, orientation=truth.quat_nm,
+            self.pub_plant_imu.publish(m.imu_cdr(t_ns, self._plant_frame, orientation=truth.quat_nm,
                                                  angular_velocity=truth.omega_im_m,
                                                  linear_acceleration=truth.specific_force_m))
-        self.pub_clock.publish(m.clock_msg(t_ns))
+        self.pub_clock.publish(m.clock_cdr(t_ns))
 
 
 def main(argv: list[str] | None = None) -> int:

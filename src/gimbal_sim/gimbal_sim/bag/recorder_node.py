@@ -152,7 +152,7 @@ class BagRecorderNode(Node):
             self.clock_ns = stamp
             step = m.step_of_stamp(stamp, self.rate)
             if self.ready and ((step + 1) % self.progress_every == 0 or (self.end_ns and stamp >= self.end_ns)):
-                self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(step + 1, self.rate)))
+                self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(step + 1, self.rate)))
 
     def _stamp_of(self, topic: str, data: bytes) -> int:
         if self._stamped[topic] and len(data) >= 12 and data[1] == 1:  # CDR little-endian

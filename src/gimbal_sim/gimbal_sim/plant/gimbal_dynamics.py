@@ -52,21 +52,6 @@ def _inertia_about_pivot(mass: float, inertia: tuple, cg: tuple) -> tuple[float,
     return tuple(float(v) for v in (j[0, 0], j[1, 1], j[2, 2], j[0, 1], j[0, 2], j[1, 2]))
 
 
-def _pivot_moment(J: tuple, mr: tuple, w1: float, w2: float, w3: float, a1: float, a2: float,
-                  a3: float, f1: float, f2: float, f3: float) -> tuple[float, float, float]:
-    """N = Ĵ α + ω × (Ĵ ω) + m r × f for one body, in its own frame."""
-    xx, yy, zz, xy, xz, yz = J
-    mx, my, mz = mr
-    h1 = xx * w1 + xy * w2 + xz * w3
-    h2 = xy * w1 + yy * w2 + yz * w3
-    h3 = xz * w1 + yz * w2 + zz * w3
-    return (
-        xx * a1 + xy * a2 + xz * a3 + w2 * h3 - w3 * h2 + my * f3 - mz * f2,
-        xy * a1 + yy * a2 + yz * a3 + w3 * h1 - w1 * h3 + mz * f1 - mx * f3,
-        xz * a1 + yz * a2 + zz * a3 + w1 * h2 - w2 * h1 + mx * f2 - my * f1,
-    )
-
-
 class TwoAxisGimbal:
     """Forward/inverse dynamics and RK4 step of the two-axis gimbal (module docstring).
 
@@ -105,7 +90,12 @@ class TwoAxisGimbal:
 
     def _bias(self, psi: float, c: float, s: float, psid: float, thd: float,
               base: TurretBase) -> tuple[float, float]:
-        """Joint torques (h_a, h_e) needed for q̈ = 0, friction included."""
+        """Joint torques (h_a, h_e) needed for q̈ = 0, friction included.
+
+        Hot path (four times per RK4 step): the pivot moments N = Ĵ α + ω × (Ĵ ω) + m r × f
+        of the inner body (all three components) and of the outer body (its e3 component
+        only) are written out in scalars.
+        """
         wt1, wt2, wt3, at1, at2, at3, ft1, ft2, ft3 = base
         cp, sp = math.cos(psi), math.sin(psi)
         u1 = cp * wt1 + sp * wt2
@@ -117,13 +107,24 @@ class TwoAxisGimbal:
         fa2 = -sp * ft1 + cp * ft2
         wm1 = c * u1 - s * wa3
         wm3 = s * u1 + c * wa3
-        nm1, nm2, nm3 = _pivot_moment(
-            self._Jm, self._mrm,
-            wm1, u2 + thd, wm3,
-            c * aa1 - s * at3 - thd * wm3, aa2, s * aa1 + c * at3 + thd * wm1,
-            c * fa1 - s * ft3, fa2, s * fa1 + c * ft3,
-        )
-        na3 = _pivot_moment(self._Ja, self._mra, u1, u2, wa3, aa1, aa2, at3, fa1, fa2, ft3)[2]
+        # inner body m: ω, α, f in m
+        w1, w2, w3 = wm1, u2 + thd, wm3
+        a1, a2, a3 = c * aa1 - s * at3 - thd * wm3, aa2, s * aa1 + c * at3 + thd * wm1
+        f1, f2, f3 = c * fa1 - s * ft3, fa2, s * fa1 + c * ft3
+        xx, yy, zz, xy, xz, yz = self._Jm
+        mx, my, mz = self._mrm
+        h1 = xx * w1 + xy * w2 + xz * w3
+        h2 = xy * w1 + yy * w2 + yz * w3
+        h3 = xz * w1 + yz * w2 + zz * w3
+        nm1 = xx * a1 + xy * a2 + xz * a3 + w2 * h3 - w3 * h2 + my * f3 - mz * f2
+        nm2 = xy * a1 + yy * a2 + yz * a3 + w3 * h1 - w1 * h3 + mz * f1 - mx * f3
+        nm3 = xz * a1 + yz * a2 + zz * a3 + w1 * h2 - w2 * h1 + mx * f2 - my * f1
+        # outer body a: ω = (u1, u2, wa3), α = (aa1, aa2, at3), f = (fa1, fa2, ft3); e3 only
+        xx, yy, zz, xy, xz, yz = self._Ja
+        mx, my, _ = self._mra
+        h1 = xx * u1 + xy * u2 + xz * wa3
+        h2 = xy * u1 + yy * u2 + yz * wa3
+        na3 = xz * aa1 + yz * aa2 + zz * at3 + u1 * h2 - u2 * h1 + mx * fa2 - my * fa1
         return na3 - s * nm1 + c * nm3 + self._ba * psid, nm2 + self._be * thd
 
     # ------------------------------------------------------------------ public dynamics
@@ -163,20 +164,17 @@ class TwoAxisGimbal:
         tau = self.saturate(tau)
         acc = self.accelerations
         x0, x1, x2, x3 = x
-        a1, b1 = acc(x, tau, base0)
         h = 0.5 * dt
-        k1 = (x2, x3, a1, b1)
-        y = (x0 + h * k1[0], x1 + h * k1[1], x2 + h * a1, x3 + h * b1)
-        a2, b2 = acc(y, tau, base_mid)
-        k2 = (y[2], y[3], a2, b2)
-        y = (x0 + h * k2[0], x1 + h * k2[1], x2 + h * a2, x3 + h * b2)
-        a3, b3 = acc(y, tau, base_mid)
-        k3 = (y[2], y[3], a3, b3)
-        y = (x0 + dt * k3[0], x1 + dt * k3[1], x2 + dt * a3, x3 + dt * b3)
-        a4, b4 = acc(y, tau, base1)
-        k4 = (y[2], y[3], a4, b4)
+        a1, b1 = acc(x, tau, base0)
+        y0, y1, y2, y3 = x0 + h * x2, x1 + h * x3, x2 + h * a1, x3 + h * b1
+        a2, b2 = acc((y0, y1, y2, y3), tau, base_mid)
+        z0, z1, z2, z3 = x0 + h * y2, x1 + h * y3, x2 + h * a2, x3 + h * b2
+        a3, b3 = acc((z0, z1, z2, z3), tau, base_mid)
+        v0, v1, v2, v3 = x0 + dt * z2, x1 + dt * z3, x2 + dt * a3, x3 + dt * b3
+        a4, b4 = acc((v0, v1, v2, v3), tau, base1)
         w = dt / 6.0
-        return tuple(xi + w * (p + 2.0 * q + 2.0 * r + v) for xi, p, q, r, v in zip(x, k1, k2, k3, k4))
+        return (x0 + w * (x2 + 2.0 * y2 + 2.0 * z2 + v2), x1 + w * (x3 + 2.0 * y3 + 2.0 * z3 + v3),
+                x2 + w * (a1 + 2.0 * a2 + 2.0 * a3 + a4), x3 + w * (b1 + 2.0 * b2 + 2.0 * b3 + b4))
 
 
 def _check_state(x: Sequence[float]) -> tuple[float, float, float, float]:

@@ -131,20 +131,6 @@ def host_state_from_euler(
     )
 
 
-def _nav_rate_in_body(state: HostState, w_n: tuple[float, float, float]) -> tuple[float, float, float]:
-    """C_bn w_n with C_bn = rot1(φ) rot2(θ) rot3(ψ), in scalars."""
-    cf, sf = math.cos(state.roll), math.sin(state.roll)
-    ct, st = math.cos(state.pitch), math.sin(state.pitch)
-    cy, sy = math.cos(state.yaw), math.sin(state.yaw)
-    x, y, z = w_n
-    # rot3(ψ), then rot2(θ), then rot1(φ).
-    x1 = cy * x + sy * y
-    y1 = -sy * x + cy * y
-    x2 = ct * x1 - st * z
-    z2 = st * x1 + ct * z
-    return x2, cf * y1 + sf * z2, -sf * y1 + cf * z2
-
-
 def inertial_rates_scalar(
     state: HostState, omega_in_n: tuple[float, float, float]
 ) -> tuple[float, float, float, float, float, float]:
@@ -153,7 +139,25 @@ def inertial_rates_scalar(
     p, q, r = state.p, state.q, state.r
     if omega_in_n[0] == 0.0 and omega_in_n[1] == 0.0 and omega_in_n[2] == 0.0:
         return p, q, r, state.p_dot, state.q_dot, state.r_dot
-    e1, e2, e3 = _nav_rate_in_body(state, omega_in_n)
+    return inertial_rates_trig(state, omega_in_n, math.cos(state.roll), math.sin(state.roll),
+                               math.cos(state.pitch), math.sin(state.pitch))
+
+
+def inertial_rates_trig(
+    state: HostState, omega_in_n: tuple[float, float, float], cf: float, sf: float, ct: float, st: float
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`inertial_rates_scalar` for a caller that already has cos, sin of roll and pitch."""
+    p, q, r = state.p, state.q, state.r
+    x, y, z = omega_in_n
+    if x == 0.0 and y == 0.0 and z == 0.0:
+        return p, q, r, state.p_dot, state.q_dot, state.r_dot
+    # C_bn w_n with C_bn = rot1(φ) rot2(θ) rot3(ψ): rot3(ψ), then rot2(θ), then rot1(φ).
+    cy, sy = math.cos(state.yaw), math.sin(state.yaw)
+    x1 = cy * x + sy * y
+    y1 = -sy * x + cy * y
+    e1 = ct * x1 - st * z
+    z2 = st * x1 + ct * z
+    e2, e3 = cf * y1 + sf * z2, -sf * y1 + cf * z2
     return (
         p + e1, q + e2, r + e3,
         state.p_dot - (q * e3 - r * e2),

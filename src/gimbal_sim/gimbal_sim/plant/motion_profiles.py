@@ -156,6 +156,7 @@ class SinusoidProfile:
     accel_x: SinusoidChannel = _ZERO
     accel_y: SinusoidChannel = _ZERO
     accel_z: SinusoidChannel = _ZERO
+    _accels: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for label in ("roll", "pitch", "yaw", "psi_t", "accel_x", "accel_y", "accel_z"):
@@ -170,16 +171,23 @@ class SinusoidProfile:
                 f"{self.name}: pitch must stay within ±89° (no drift rate), bound is "
                 f"{math.degrees(bound):.3f}° with rate {self.pitch.rate}"
             )
+        # Acceleration channels that are identically zero (most profiles) are not evaluated:
+        # offset + rate·t with no terms is exactly 0.0 when offset and rate are.
+        object.__setattr__(self, "_accels", tuple(
+            None if not ch._terms and ch.offset == 0.0 and ch.rate == 0.0 else ch
+            for ch in (self.accel_x, self.accel_y, self.accel_z)))
 
     def sample(self, t: float) -> HostState:
         """Exact host state at time ``t`` [s]."""
         r0, r1, r2 = self.roll.evaluate(t)
         p0, p1, p2 = self.pitch.evaluate(t)
         y0, y1, y2 = self.yaw.evaluate(t)
+        ax, ay, az = self._accels
         return host_state_from_euler(
             t, (r0, p0, y0), (r1, p1, y1), (r2, p2, y2),
             self.psi_t.evaluate(t),
-            (self.accel_x.evaluate(t)[0], self.accel_y.evaluate(t)[0], self.accel_z.evaluate(t)[0]),
+            (0.0 if ax is None else ax.evaluate(t)[0], 0.0 if ay is None else ay.evaluate(t)[0],
+             0.0 if az is None else az.evaluate(t)[0]),
         )
 
 

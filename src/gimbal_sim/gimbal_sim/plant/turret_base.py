@@ -26,7 +26,7 @@ import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, normal_gravity
 
-from .host_state import HostState, inertial_rates_scalar
+from .host_state import HostState, inertial_rates_trig
 
 
 class TurretBase(NamedTuple):
@@ -75,9 +75,9 @@ def turret_base_from_host(
     ``omega_in_n``: rate of NED relative to inertial space in n [rad/s] (earth rate, or
     zeros to treat n as inertial). Hot path: scalar maths only.
     """
-    w1, w2, w3, a1, a2, a3 = inertial_rates_scalar(state, omega_in_n)
     cf, sf = math.cos(state.roll), math.sin(state.roll)
     ct, st = math.cos(state.pitch), math.sin(state.pitch)
+    w1, w2, w3, a1, a2, a3 = inertial_rates_trig(state, omega_in_n, cf, sf, ct, st)
     # f_b = a_b − C_bn (0, 0, g): the third column of C_bn is (−sθ, sφ cθ, cφ cθ).
     f1 = state.accel_x + gravity_m_s2 * st
     f2 = state.accel_y - gravity_m_s2 * sf * ct

@@ -187,7 +187,11 @@ class InertialErrorCore:
     @property
     def true_bias(self) -> np.ndarray:
         """Total bias (fixed + Gauss-Markov + random walk) applied to the latest output; (n,)."""
-        return np.array([a + b + c for a, b, c in zip(self._fixed, self._gm, self._rrw)])
+        return np.array(self.true_bias_values())
+
+    def true_bias_values(self) -> tuple[float, ...]:
+        """:attr:`true_bias` as a tuple of floats (the per-step form, no array)."""
+        return tuple([a + b + c for a, b, c in zip(self._fixed, self._gm, self._rrw)])
 
     @property
     def fixed_bias(self) -> np.ndarray:

@@ -107,3 +107,7 @@ class InsModel:
     def true_gyro_bias(self) -> np.ndarray:
         """Current total body-rate bias [rad/s], (3,)."""
         return self.gyro.true_bias
+
+    def true_gyro_bias_values(self) -> tuple[float, ...]:
+        """:attr:`true_gyro_bias` as a tuple of floats."""
+        return self.gyro.true_bias_values()

@@ -1,0 +1,191 @@
+"""A scenario's pure-Python cores stepped in one loop, with no ROS: the speed limit of its maths.
+
+Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``,
+``LosRateController``, ``GyroBiasEkf``), built from the same parameter values the
+orchestrator would give the node, and the loop passes between them exactly what the
+nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler conversions of the
+sensor node), in lockstep order: truth k → sensors k → estimator k → command k → step
+k → k+1. So for a seed the loop computes the same numbers as the graph, and its torque
+commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for bit.
+
+``python -m gimbal_sim.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
+(``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import json
+import sys
+import time
+from array import array
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
+
+from .messages import step_stamp_ns
+from .scenario import NODE_TYPES, Scenario, ScenarioError, load
+
+#: Nodes with no core to step (they only observe the run).
+PASSIVE = {"bag_recorder"}
+
+
+class NoCoreError(ScenarioError):
+    """The scenario has a node whose core this loop cannot step."""
+
+
+def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
+    """node name -> (executable, every parameter value the node would read: its declared
+    defaults, then the scenario's values, then what the orchestrator sets)."""
+    from .orchestrator import plan_nodes
+
+    out = {}
+    for planned in plan_nodes(scenario, Path("/nonexistent")):
+        if planned.executable in PASSIVE:
+            continue
+        values = {p.name: p.default for p in NODE_TYPES[planned.executable].params()}
+        values.update(planned.params)
+        out[planned.name] = (planned.executable, values)
+    return out
+
+
+class _Bus:
+    """What one step's messages carry, as the nodes would read them: step k, its stamp t
+    [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
+    Euler angles as a reader of its quaternion gets them, the command and the bias
+    estimate (None when not produced this step)."""
+
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias")
+
+    def __init__(self) -> None:
+        self.k, self.t = 0, 0.0
+        self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
+
+
+def sensor_stage(values: dict) -> Callable[[_Bus], None]:
+    from .sensor_models_node import config_from_params
+    from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite
+
+    suite = SensorSuite(config_from_params(values))
+
+    def stage(bus: _Bus) -> None:
+        truth = bus.truth
+        # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
+        truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
+        bus.gyro = bus.encoders = bus.ins = None
+        for s in suite.update(truth):
+            if type(s) is GimbalGyroSample:
+                bus.gyro = s
+            elif type(s) is EncoderSample:
+                bus.encoders = s
+            elif type(s) is InsSample:
+                bus.ins = s
+                # published as a quaternion; readers turn it back into Euler angles
+                bus.ins_euler = euler321_from_quat(quat_canonical(quat_from_euler321(*s.euler)))
+    return stage
+
+
+#: executable -> "module:function" making its stage from the node's parameter values, in
+#: lockstep order (vehicle_dynamics is the loop itself). By import path, like the node
+#: types, so gimbal_sim does not depend on the packages that depend on it.
+STAGES: dict[str, str] = {
+    "sensor_models": "gimbal_sim.core_loop:sensor_stage",
+    "gyro_bias_ekf": "gimbal_estimators.core_stages:gyro_bias_ekf_stage",
+    "los_rate_controller": "gimbal_control.core_stages:los_rate_controller_stage",
+}
+
+
+def _stage_factory(executable: str) -> Callable[[dict], Callable[[_Bus], None]]:
+    module, _, func = STAGES[executable].partition(":")
+    return getattr(importlib.import_module(module), func)
+
+
+@dataclass
+class CoreLoopResult:
+    steps: int                 # lockstep steps taken (truth k -> k+1)
+    sim_s: float
+    wall_s: float
+    cpu_s: float
+    step_latency_s: array      # wall time of each step [s]
+    commands: list | None      # torque commands per step, when recorded
+
+    @property
+    def steps_per_s(self) -> float:
+        return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
+
+
+def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopResult:
+    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`."""
+    from .vehicle import VehicleCore
+    from .vehicle_dynamics_node import config_from_params
+
+    values = node_values(scenario)
+    vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
+    unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
+    if len(vehicles) != 1 or unknown:
+        raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
+                          f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
+    vehicle = VehicleCore(config_from_params(vehicles[0]))
+    controlled = vehicles[0]["controlled"]
+    stages = [_stage_factory(exe)(v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
+    bus = _Bus()
+    hold = (0.0,) * vehicle.config.command_size
+    commands = [] if keep_commands else None
+    lat = array("d")
+    n = vehicle.config.n_steps
+    rate = vehicle.config.sim_rate_hz
+    clock = time.perf_counter
+    c0 = time.process_time()
+    t0 = prev = clock()
+    for k in range(n + 1):
+        bus.k, bus.t, bus.command = k, step_stamp_ns(k, rate) * 1e-9, None  # a node's stamp in s
+        bus.truth = vehicle.truth()
+        for stage in stages:
+            stage(bus)
+        command = bus.command if controlled and bus.command is not None else hold
+        if commands is not None:
+            commands.append(command)
+        if k < n:
+            vehicle.step(command)
+        now = clock()
+        lat.append(now - prev)
+        prev = now
+    wall = clock() - t0
+    return CoreLoopResult(n, n * vehicle.config.dt, wall, time.process_time() - c0, lat, commands)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.core_loop",
+                                     description="Step a scenario's cores in one Python loop (no ROS) and time it.")
+    parser.add_argument("scenario")
+    parser.add_argument("--duration", type=float, help="simulated seconds (default: the scenario's)")
+    parser.add_argument("--seed", type=int, help="seed (default: the scenario's)")
+    parser.add_argument("--json", action="store_true", help="print the result as JSON (with per-step latencies)")
+    args = parser.parse_args(argv)
+    try:
+        scenario = load(args.scenario)
+        if args.duration is not None:
+            scenario = dataclasses.replace(scenario, duration_s=args.duration)
+        if args.seed is not None:
+            scenario = dataclasses.replace(scenario, seed=args.seed)
+        result = run_core_loop(scenario)
+    except ScenarioError as exc:
+        print(f"core_loop: {exc}", file=sys.stderr)
+        return 2
+    from .orchestrator import process_stats
+
+    if args.json:
+        json.dump({"steps": result.steps, "sim_s": result.sim_s, "wall_s": result.wall_s, "cpu_s": result.cpu_s,
+                   "peak_rss_mb": process_stats().peak_rss_mb, "step_latency_s": result.step_latency_s.tolist()},
+                  sys.stdout)
+    else:
+        print(f"{scenario.name}: {result.steps} steps in {result.wall_s:.2f} s wall ({result.steps_per_s:,.0f} "
+              f"steps/s, {result.cpu_s:.2f} s CPU)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
