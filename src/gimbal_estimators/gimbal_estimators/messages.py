@@ -9,7 +9,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
-from gimbal_kinematics.rotations import quat_to_euler321
+from gimbal_kinematics.rotations import euler321_from_quat
 from gimbal_sim.messages import (  # noqa: F401
     NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, imu_msg, navsat_fix_msg, quat_of, stamp_ns, step_of_stamp,
     step_stamp_ns, time_msg, vec_of, vector3_msg,
@@ -31,7 +31,7 @@ def euler_of_imu(msg: Imu) -> tuple[float, float, float] | None:
     q = (o.x, o.y, o.z, o.w)
     if not (math.isfinite(sum(q)) and sum(v * v for v in q) > 0.0):
         return (math.nan, math.nan, math.nan)
-    return quat_to_euler321(q)
+    return euler321_from_quat(q)
 
 
 def attitude_msg(t_ns: int, quat_nm: Sequence[float] | None, cov_n: Sequence[Sequence[float]] | None,
@@ -74,7 +74,7 @@ def level_of(msg: Imu) -> tuple[float, float]:
     """(roll, pitch) [rad] of a vertical-reference Imu orientation (its heading is ignored);
     NaN for an orientation that is not a finite non-zero quaternion (the core counts it)."""
     try:
-        roll, pitch, _ = quat_to_euler321(quat_of(msg))
+        roll, pitch, _ = euler321_from_quat(quat_of(msg))
     except ValueError:
         return _NAN, _NAN
     return roll, pitch

@@ -1,7 +1,7 @@
 """``gimbal-bench``: benchmarks that print their figures (speed targets live here, not in tests).
 
-``gimbal-bench [run]`` (default): one scenario (default ``sighting_land_vehicle``, else
-``los_stabilization``) measured three ways, every speed in lockstep steps per second:
+``gimbal-bench [run]`` (default): one scenario (default ``sighting_land_vehicle``, variant
+``ekf_on``) measured three ways, every speed in lockstep steps per second:
 
 * (a) the limit: the scenario's cores stepped in one Python loop, no ROS
   (:mod:`.core_loop`, in a subprocess so its memory is its own);
@@ -34,10 +34,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import median
 
-from .scenario import ScenarioError, Scenario, builtin_scenarios, load
+from .scenario import ScenarioError, Scenario, load, variant
 
 HEADLINE = "sighting_land_vehicle"
-FALLBACK = "los_stabilization"
 EKF_EXECUTABLE = "gyro_bias_ekf"
 EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")
 #: bag -> EKF core replay, by import path (gimbal_estimators depends on gimbal_sim)
@@ -362,10 +361,13 @@ def rss_growth(samples: dict[str, list[tuple[float, float]]], sim_s: float) -> d
 
 
 def bench_run(args: argparse.Namespace) -> int:
-    name = args.scenario or (HEADLINE if HEADLINE in builtin_scenarios() else FALLBACK)
-    if args.scenario is None and name == FALLBACK:
-        _note(f"scenario {HEADLINE} is not built in yet; benchmarking {FALLBACK} (same graph without the EKF)")
-    scenario = load(name)
+    scenario = load(args.scenario or HEADLINE)
+    if scenario.variants:
+        # one run per mode: the named variant, or the last (the headline's ekf_on: the
+        # controller waits for the EKF at every INS step, the most synchronised graph)
+        scenario = variant(scenario, args.variant or list(scenario.variants)[-1])
+    elif args.variant:
+        raise ScenarioError(f"--variant {args.variant}: scenario {scenario.name} has no variants")
     if args.duration is not None:
         scenario = dataclasses.replace(scenario, duration_s=args.duration)
     if args.seed is not None:
@@ -501,7 +503,8 @@ def main(argv: list[str] | None = None) -> int:
                                      epilog="With no command, `run` (see `gimbal-bench run --help`).")
     sub = parser.add_subparsers(dest="command")
     run = sub.add_parser("run", help="(a) cores, (b) container, (c) processes on one scenario, EKF replay, memory")
-    run.add_argument("--scenario", help=f"scenario to benchmark (default {HEADLINE}, or {FALLBACK} until it exists)")
+    run.add_argument("--scenario", help=f"scenario to benchmark (default {HEADLINE})")
+    run.add_argument("--variant", help="variant of a scenario with variants (default its last: ekf_on for the headline)")
     run.add_argument("--duration", type=float, help="simulated seconds (default: the scenario's)")
     run.add_argument("--seed", type=int, help="seed (default: the scenario's)")
     run.add_argument("--modes", default="core,container,processes",
