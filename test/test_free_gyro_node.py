@@ -30,7 +30,7 @@ from gimbal_estimators.free_gyro_positioning import (
 )
 from gimbal_estimators.free_gyro_positioning_node import FreeGyroPositioningNode
 from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, prime_vertical_radius
-from gimbal_kinematics.rotations import euler321_to_quat, quat_to_euler321
+from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
 from gimbal_sim import messages as m
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.scenario import BUILTIN_DIR
@@ -133,7 +133,7 @@ def test_node_equals_the_core_and_rejects_nan_and_out_of_order_inputs(rig):
     fixes = []
     for k, s in enumerate(samples):
         t = m.step_stamp_ns(k, RATE) * 1e-9  # the node's stamp arithmetic
-        roll, pitch, _ = quat_to_euler321(euler321_to_quat(s.roll, s.pitch, 0.0))  # the message's round trip
+        roll, pitch, _ = euler321_from_quat(euler321_to_quat(s.roll, s.pitch, 0.0))  # the message's round trip
         core.on_level(t, roll, pitch)
         core.on_body_rates(t, s.omega_ib_b)
         spin_a = (math.nan, 0.0, 1.0) if k == 57 else s.spin_a_b
