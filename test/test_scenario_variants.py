@@ -49,3 +49,33 @@ def test_bad_variants_are_refused_naming_the_culprit(variants, comparison, messa
 def test_unknown_variant_is_refused():
     with pytest.raises(ScenarioError, match="no variant 'nope'"):
         variant(load("sighting_land_vehicle"), "nope")
+
+
+@pytest.mark.ros
+def test_concurrent_variants_record_what_sequential_ones_do(ros_domain_env, tmp_path):
+    """--jobs 2 runs each variant as a child process in a domain of its own; the bags, read
+    back with the mcap library, hold the same messages as a one-at-a-time run."""
+    import subprocess
+
+    from mcap_ros2.reader import read_ros2_messages
+
+    from conftest import VENV_BIN
+    from gimbal_sim.bag.reader import find_mcap
+
+    def run(out, jobs):
+        proc = subprocess.run([str(VENV_BIN / "gimbal-run"), "sighting_land_vehicle", "--duration", "0.3",
+                               "--mode", "container", "--jobs", str(jobs), "--out", str(out), "--no-progress"],
+                              env=ros_domain_env, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        return proc
+
+    together = run(tmp_path / "together", 2)
+    run(tmp_path / "apart", 1)
+    assert "ekf_off: recorded" in together.stdout and "ekf_on: recorded" in together.stdout
+    assert (tmp_path / "together" / "report" / "metrics.json").is_file()
+    for name in ("ekf_off", "ekf_on"):
+        bags = {}
+        for how in ("together", "apart"):
+            path, _ = find_mcap(tmp_path / how / name)
+            bags[how] = sorted((m.channel.topic, m.log_time_ns, repr(m.ros_msg)) for m in read_ros2_messages(str(path)))
+        assert len(bags["together"]) > 1000 and bags["together"] == bags["apart"], name

@@ -1,7 +1,9 @@
 """``gimbal-run``: the launch-free scenario orchestrator's entry point.
 
 A scenario with ``variants`` runs once per variant, each into ``OUT/<variant>/`` (a complete
-bag with its own report), and then writes the comparison report into ``OUT/report/``.
+bag with its own report), and then writes the comparison report into ``OUT/report/``. With
+``--jobs N`` up to N variants run at once, each as a child ``gimbal-run`` of the single
+variant with a ROS domain id of its own (claimed here, so concurrent runs never meet).
 
 Exit codes: 0 success; 1 the run failed (a node died or stalled; the bag is still
 finalized); 2 bad input (unknown scenario or node, malformed --set, output exists), with
@@ -12,6 +14,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -38,6 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="one OS process per node, or all nodes in this process (default processes)")
     parser.add_argument("--variant", action="append", default=[], metavar="NAME",
                         help="run only this variant of a scenario that has variants; repeatable")
+    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+                        help="run up to N variants at once, each in its own process and ROS domain (default 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
 
@@ -84,6 +90,8 @@ def main(argv: list[str] | None = None) -> int:
         runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
         if args.variant and not scenario.variants:
             raise ScenarioError(f"scenario {scenario.name!r} has no variants; drop --variant")
+        if args.jobs < 1:
+            raise ScenarioError(f"--jobs must be >= 1, got {args.jobs}")
     except ScenarioError as exc:
         print(f"gimbal-run: {exc}", file=sys.stderr)
         return 2
@@ -92,17 +100,21 @@ def main(argv: list[str] | None = None) -> int:
     from .report import write_comparison
 
     rows, ok = [], True
-    for i, (name, single) in enumerate(runs):
-        bag = out / name if name else out
-        if name:
-            print(f"== variant {name} ({i + 1}/{len(runs)})", file=sys.stderr)
-        try:
-            metrics, row = _run_one(single, bag, args)
-        except RunError as exc:
-            print(f"gimbal-run: run failed: {exc}\nThe bag so far is in {bag}.", file=sys.stderr)
+    if args.jobs > 1 and len(runs) > 1:
+        if not _run_concurrently(runs, out, args, rows):
             return 1
-        ok = ok and metrics["closed_cleanly"]
-        rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
+    else:
+        for i, (name, single) in enumerate(runs):
+            bag = out / name if name else out
+            if name:
+                print(f"== variant {name} ({i + 1}/{len(runs)})", file=sys.stderr)
+            try:
+                metrics, row = _run_one(single, bag, args)
+            except RunError as exc:
+                print(f"gimbal-run: run failed: {exc}\nThe bag so far is in {bag}.", file=sys.stderr)
+                return 1
+            ok = ok and metrics["closed_cleanly"]
+            rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
     if scenario.variants:
         (out / "scenario.yaml").write_text(scenario.to_yaml())
         report_dir, comparison = write_comparison(out, scenario.comparison, {n: out / n for n, _ in runs})
@@ -111,6 +123,53 @@ def main(argv: list[str] | None = None) -> int:
             print(comparison["table"])
     print(summary_table(rows))
     return 0 if ok else 1
+
+
+def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argparse.Namespace,
+                      rows: list[tuple[str, str]]) -> bool:
+    """Each variant as a child ``gimbal-run`` of its single scenario into ``out/<name>``, up to
+    ``args.jobs`` at a time, each in a ROS domain claimed here; appends the children's summary
+    rows to ``rows``. False when a child failed (its log is printed)."""
+    from .ros_domain import claim_domain_id, localhost_env
+
+    out.mkdir(parents=True)
+    pending, active, failed, done = list(runs), [], [], {}
+    while pending or active:
+        while pending and len(active) < args.jobs:
+            name, single = pending.pop(0)
+            spec = out / f".{name}.scenario.yaml"  # the variant as a plain scenario for the child
+            spec.write_text(single.to_yaml())
+            claim = claim_domain_id()
+            env = dict(localhost_env(dict(os.environ)), ROS_DOMAIN_ID=str(claim.domain_id))
+            log_path = out / f".{name}.log"
+            with open(log_path, "w") as log:  # the child keeps its own handle
+                proc = subprocess.Popen([sys.executable, "-m", "gimbal_sim.run_cli", str(spec), "--out",
+                                         str(out / name), "--mode", args.mode, "--no-progress"],
+                                        env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+            print(f"== variant {name}: started (ROS domain {claim.domain_id}, log {log_path})", file=sys.stderr)
+            active.append((name, proc, claim, log_path, spec))
+        time.sleep(0.2)
+        for item in [a for a in active if a[1].poll() is not None]:
+            name, proc, claim, log_path, spec = item
+            active.remove(item)
+            claim.release()
+            text = log_path.read_text()
+            if proc.returncode != 0:
+                failed.append(name)
+                print(f"gimbal-run: variant {name} failed (exit {proc.returncode}):\n{text[-3000:]}", file=sys.stderr)
+                continue
+            log_path.unlink()
+            spec.unlink()
+            print(f"== variant {name}: done", file=sys.stderr)
+            # the child's summary table: "  key  value" lines
+            done[name] = [(f"{name}: {k.strip()}", v.strip()) for k, _, v in
+                          (line.strip().partition("  ") for line in text.splitlines() if line.startswith("  "))]
+    if failed:
+        print(f"gimbal-run: variant(s) {', '.join(failed)} failed; the bags so far are in {out}", file=sys.stderr)
+        return False
+    for name, _ in runs:
+        rows += done[name]
+    return True
 
 
 def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
