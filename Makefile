@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 # `make run` is the main job: paper 1's headline experiment (README); ARGS="--list" etc. for others
-ARGS   ?= sighting_land_vehicle
+ARGS   ?= sighting_land_vehicle --mode container --jobs 2
 PKGS   := gimbal_kinematics gimbal_sim gimbal_control gimbal_estimators
 SETUPS := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
 

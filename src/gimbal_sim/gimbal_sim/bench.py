@@ -22,10 +22,12 @@ recorded the same data and that (a) computed the same torque commands, and, with
 from __future__ import annotations
 
 import argparse
+import atexit
 import dataclasses
 import importlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -109,6 +111,7 @@ def _scenario_file(scenario: Scenario) -> Path:
     global _SCENARIO_DIR
     if _SCENARIO_DIR is None:
         _SCENARIO_DIR = Path(tempfile.mkdtemp(prefix="gimbal-bench-scenario-"))
+        atexit.register(shutil.rmtree, _SCENARIO_DIR, True)
     path = _SCENARIO_DIR / f"{scenario.name}.yaml"
     path.write_text(scenario.to_yaml())
     return path

@@ -8,9 +8,14 @@ import numpy as np
 from .common import load_series, plot, quat_to_los
 
 
+#: The truth topics this report plots (the summary counts every topic).
+PLOTTED = ("/truth/gimbal/imu", "/truth/gimbal/joint_states", "/truth/platform/joint_states",
+           "/truth/gimbal/gyro_bias", "/truth/ship/flexure")
+
+
 def generic_report(bag_dir: Path, out: Path) -> dict:
     """Counts and span of every topic; plots of the truth the run carries."""
-    series, contents = load_series(bag_dir)
+    series, contents = load_series(bag_dir, set(PLOTTED))
     metrics: dict = {
         "bag": str(bag_dir), "closed_cleanly": contents.closed_cleanly, "read_error": contents.error,
         "message_count": contents.message_count,
