@@ -33,3 +33,45 @@ def test_bad_controller_parameters_are_refused(ros_domain_env):
         result = subprocess.run([str(VENV_BIN / "los_rate_controller"), "--ros-args", *args], env=ros_domain_env,
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == 2 and named in result.stderr, result.stderr
+
+
+def test_nan_holds_the_command_malformed_bytes_are_counted_and_each_step_waits(ros_domain_env):
+    """In-process node fed serialized inputs as its raw subscriptions deliver them: a step's
+    command waits for its gyro and encoders (and the INS at INS steps); a NaN gyro holds the
+    last command and is counted; bytes that are not the message are ignored and counted."""
+    import math
+
+    import rclpy
+    from rclpy.context import Context
+
+    from gimbal_control.los_rate_controller_node import LosRateControllerNode
+    from gimbal_sim import messages as m
+    from ros_harness import ros_args
+
+    rate = 1000.0
+    enc_names = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
+    imu, joints = m.imu_from_cdr, m.joint_state_from_cdr
+    context = Context()
+    rclpy.init(context=context, domain_id=int(ros_domain_env["ROS_DOMAIN_ID"]))
+    node = LosRateControllerNode(context=context, cli_args=ros_args({}), use_global_arguments=False)
+    sent = []
+    node.pub.publish = sent.append
+    try:
+        for k in range(6):
+            t_ns = m.step_stamp_ns(k, rate)
+            q = math.nan if k == 3 else 1e-3 * k
+            node._on_input("enc", m.joint_state_cdr(t_ns, enc_names, (0.0, 0.1, 0.2), (0.0, 0.0, 0.0)), joints)
+            if k == 0:
+                assert sent == []  # step 0 is an INS step: it waits for the INS too
+                node._on_input("ins", m.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
+                                                angular_velocity=(0.0, 0.0, 0.0)), imu)
+            assert len(sent) == k  # the gyro of step k is still missing
+            node._on_input("gyro", m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, q, -q)), imu)
+        node._on_input("gyro", b"\x00\x01\x00\x00garbage", imu)
+        commands = [joints(data) for data in sent]
+        assert [m.step_of_stamp(c.stamp_ns, rate) for c in commands] == list(range(6))
+        assert commands[3].effort == commands[2].effort and commands[4].effort != commands[3].effort
+        assert node.core.rejected_inputs == 1 and node.rejected == 2
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)

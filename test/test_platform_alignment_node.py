@@ -190,11 +190,11 @@ DURATION_S = 10.0
 @pytest.fixture(scope="module")
 def graph_run(module_ros_domain_env, tmp_path_factory):
     out = tmp_path_factory.mktemp("alignment") / "run"
-    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "rotational_ins_alignment", "--duration", str(DURATION_S),
-                             "--out", str(out), "--mode", "container", "--no-progress"], env=module_ros_domain_env,
-                            capture_output=True, text=True, timeout=1800)
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "rotational_ins_alignment", "--variant", "rotation_on",
+                             "--duration", str(DURATION_S), "--out", str(out), "--mode", "container", "--no-progress"],
+                            env=module_ros_domain_env, capture_output=True, text=True, timeout=1800)
     assert result.returncode == 0, result.stdout + result.stderr
-    return out
+    return out / "rotation_on"
 
 
 @pytest.mark.slow
