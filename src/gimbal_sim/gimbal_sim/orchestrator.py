@@ -199,11 +199,19 @@ class Monitor:
         return self.recorded_ns >= self.end_ns
 
 
+#: A file the run keeps its sim time [s] in, for a parent (``gimbal-run --jobs``) drawing the bar.
+PROGRESS_FILE_ENV = "GIMBAL_RUN_PROGRESS_FILE"
+
+
 class Progress:
-    """Sim time against duration and the real-time factor, on stderr."""
+    """Sim time against duration and the real-time factor, on stderr (and, when
+    ``$GIMBAL_RUN_PROGRESS_FILE`` is set, the sim time in that file)."""
 
     def __init__(self, duration_s: float, enabled: bool = True) -> None:
         from tqdm import tqdm
+
+        path = os.environ.get(PROGRESS_FILE_ENV)
+        self.file = Path(path) if path else None
 
         # disable=None: tqdm stays quiet when stderr is not a terminal (CI logs, pipes)
         self.bar = tqdm(total=round(duration_s, 3), unit="sim s", disable=None if enabled else True,
@@ -217,6 +225,8 @@ class Progress:
         if now - self._last_draw < 0.25 and sim_s < self.bar.total:
             return
         self._last_draw = now
+        if self.file is not None:
+            self.file.write_text(f"{sim_s:.3f}\n")
         self.bar.n = round(min(sim_s, self.bar.total), 3)
         wall = now - self.t0
         self.bar.set_postfix_str(f"RTF {sim_s / wall:.2f}" if wall > 0 else "", refresh=False)

@@ -130,10 +130,18 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
     """Each variant as a child ``gimbal-run`` of its single scenario into ``out/<name>``, up to
     ``args.jobs`` at a time, each in a ROS domain claimed here; appends the children's summary
     rows to ``rows``. False when a child failed (its log is printed)."""
+    from tqdm import tqdm
+
+    from .orchestrator import PROGRESS_FILE_ENV
     from .ros_domain import claim_domain_id, localhost_env
 
     out.mkdir(parents=True)
     pending, active, failed, done = list(runs), [], [], {}
+    # one bar per variant, fed from the sim time each child keeps in a file
+    bars = {name: tqdm(total=round(single.duration_s, 3), desc=name, position=i, unit="sim s", file=sys.stderr,
+                       disable=None if not args.no_progress else True, leave=True,
+                       bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+            for i, (name, single) in enumerate(runs)}
     while pending or active:
         while pending and len(active) < args.jobs:
             name, single = pending.pop(0)
@@ -141,29 +149,41 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
             spec.write_text(single.to_yaml())
             claim = claim_domain_id()
             env = dict(localhost_env(dict(os.environ)), ROS_DOMAIN_ID=str(claim.domain_id))
+            env[PROGRESS_FILE_ENV] = str(out / f".{name}.progress")
             log_path = out / f".{name}.log"
             with open(log_path, "w") as log:  # the child keeps its own handle
                 proc = subprocess.Popen([sys.executable, "-m", "gimbal_sim.run_cli", str(spec), "--out",
                                          str(out / name), "--mode", args.mode, "--no-progress"],
                                         env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-            print(f"== variant {name}: started (ROS domain {claim.domain_id}, log {log_path})", file=sys.stderr)
+            tqdm.write(f"== variant {name}: started (ROS domain {claim.domain_id}, log {log_path})", file=sys.stderr)
             active.append((name, proc, claim, log_path, spec))
         time.sleep(0.2)
+        for name, *_ in active:
+            try:
+                bars[name].n = min(float((out / f".{name}.progress").read_text()), bars[name].total)
+                bars[name].refresh()
+            except (OSError, ValueError):  # not written yet, or caught mid-write
+                pass
         for item in [a for a in active if a[1].poll() is not None]:
             name, proc, claim, log_path, spec = item
             active.remove(item)
             claim.release()
             text = log_path.read_text()
+            (out / f".{name}.progress").unlink(missing_ok=True)
             if proc.returncode != 0:
                 failed.append(name)
                 print(f"gimbal-run: variant {name} failed (exit {proc.returncode}):\n{text[-3000:]}", file=sys.stderr)
                 continue
             log_path.unlink()
             spec.unlink()
-            print(f"== variant {name}: done", file=sys.stderr)
+            bars[name].n = bars[name].total
+            bars[name].refresh()
+            tqdm.write(f"== variant {name}: done", file=sys.stderr)
             # the child's summary table: "  key  value" lines
             done[name] = [(f"{name}: {k.strip()}", v.strip()) for k, _, v in
                           (line.strip().partition("  ") for line in text.splitlines() if line.startswith("  "))]
+    for bar in bars.values():
+        bar.close()
     if failed:
         print(f"gimbal-run: variant(s) {', '.join(failed)} failed; the bags so far are in {out}", file=sys.stderr)
         return False
