@@ -33,6 +33,7 @@ from sensor_msgs.msg import Imu
 
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.readiness import announce_when_connected
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
 
 from . import messages as m
@@ -139,20 +140,10 @@ class FlexureEstimatorNode(Node):
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
         self.subs = [self.create_subscription(Imu, f"/ship/lgu{u + 1}/imu", lambda msg, u=u: self._on_lgu(u, msg),
                                              GRAPH_QOS) for u in (0, 1)]
-        self._ready_timer = self.create_timer(0.02, self._announce_ready)
+        # ready once both LGU streams have a publisher and every output its readers
+        announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
 
     # ------------------------------------------------------------------ readiness and pacing
-    def _announce_ready(self) -> None:
-        """Report ready (next step needed: 0) once both LGU streams have a publisher and
-        every output its readers, so no sample and no estimate is lost to discovery."""
-        if any(s.get_publisher_count() < 1 for s in self.subs):
-            return
-        if any(p.get_subscription_count() < self.wait_for_subscribers for p in self.pubs.values()):
-            return
-        self._ready_timer.cancel()
-        self.destroy_timer(self._ready_timer)
-        self.pub_progress.publish(m.clock_msg(0))
-
     def _report_progress(self, unit: int, t_ns: int) -> None:
         """The next step needed is one sample after the older of the two units' newest."""
         if self._newest[unit] is None or t_ns > self._newest[unit]:

@@ -41,6 +41,7 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.readiness import announce_when_connected
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
 from gimbal_sim.sensors.free_gyro_sensor import spin_axes_for_site_deg
 from gimbal_sim.stamp_sync import StampSync
@@ -147,17 +148,9 @@ class FreeGyroPositioningNode(Node):
             self.create_subscription(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), GRAPH_QOS),
             self.create_subscription(Imu, IMU, lambda msg: self._on_input(IMU, msg), GRAPH_QOS),
         ]
-        self._ready_timer = self.create_timer(0.02, self._announce_ready)
+        announce_when_connected(self, self.pub_progress, outputs=self.outputs, readers=self.wait_for_subscribers)
 
     # -- readiness and bookkeeping ---------------------------------------------------------
-    def _announce_ready(self) -> None:
-        """Report ready (next step needed: 0) once every output has its readers matched."""
-        if any(p.get_subscription_count() < self.wait_for_subscribers for p in self.outputs):
-            return
-        self._ready_timer.cancel()
-        self.destroy_timer(self._ready_timer)
-        self.pub_progress.publish(m.clock_msg(0))
-
     @property
     def rejected(self) -> int:
         """Inputs rejected so far: stamps out of order and non-finite/non-unit/unlevelled data."""

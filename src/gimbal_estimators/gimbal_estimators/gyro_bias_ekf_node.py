@@ -36,6 +36,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.readiness import announce_when_connected
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
 
 from . import messages as m
@@ -129,15 +130,7 @@ class GyroBiasEkfNode(Node):
                                      GRAPH_QOS),
             self.create_subscription(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), GRAPH_QOS),
         ]
-        self._ready_timer = self.create_timer(0.02, self._announce_ready)
-
-    def _announce_ready(self) -> None:
-        """Report ready (next step needed: 0) once every input has a publisher."""
-        if any(s.get_publisher_count() < 1 for s in self.subs):
-            return
-        self._ready_timer.cancel()
-        self.destroy_timer(self._ready_timer)
-        self.pub_progress.publish(m.clock_msg(0))
+        announce_when_connected(self, self.pub_progress, inputs=self.subs)
 
     # ----------------------------------------------------------------- inputs
     def _on_input(self, stream: str, msg) -> None:

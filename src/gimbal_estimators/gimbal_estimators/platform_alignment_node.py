@@ -43,6 +43,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
+from gimbal_sim.readiness import announce_when_connected
 from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
 
 from . import messages as m
@@ -132,20 +133,9 @@ class PlatformAlignmentNode(Node):
             self.create_subscription(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg),
                                      GRAPH_QOS),
         ]
-        self._ready_timer = self.create_timer(0.02, self._announce_ready)
+        announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
 
     # --- readiness and pacing ------------------------------------------------------------
-    def _announce_ready(self) -> None:
-        """Report ready (next step needed: 0) once the inputs have publishers and every
-        output its readers (wall-clock timer: discovery, not stepping)."""
-        if any(s.get_publisher_count() < 1 for s in self.subs):
-            return
-        if any(p.get_subscription_count() < self.wait_for_subscribers for p in self.pubs.values()):
-            return
-        self._ready_timer.cancel()
-        self.destroy_timer(self._ready_timer)
-        self.pub_progress.publish(m.clock_msg(0))
-
     def _needs(self, k: int) -> tuple[str, ...]:
         return (("joint",) if k % self.joint_every == 0 else ()) + (("imu",) if k % self.imu_every == 0 else ())
 

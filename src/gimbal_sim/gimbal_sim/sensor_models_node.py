@@ -18,6 +18,7 @@ from . import messages as m
 from .cdr import CdrError
 from .node_main import run_node
 from .qos import GRAPH_QOS
+from .readiness import announce_when_connected
 from .ros_params import Param, ParameterError, declare_and_read
 from .sensor_suite import (
     SENSORS, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample,
@@ -269,15 +270,8 @@ class SensorModelsNode(Node):
         self.progress_every = values["progress_every_steps"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
-        self._ready_timer = self.create_timer(0.02, self._announce_ready)
-
-    def _announce_ready(self) -> None:
-        """Report ready (next step needed: 0) once every output has its readers matched."""
-        if any(p.get_subscription_count() < self.wait_for_subscribers for group in self.pubs.values() for p in group):
-            return
-        self._ready_timer.cancel()
-        self.destroy_timer(self._ready_timer)
-        self.pub_progress.publish(m.clock_msg(0))
+        announce_when_connected(self, self.pub_progress, outputs=(p for group in self.pubs.values() for p in group),
+                                readers=self.wait_for_subscribers)
 
     def _white_noise_covariances(self) -> dict:
         """Per-sample variances of the white noise each measurement carries (for the
