@@ -1,7 +1,8 @@
 """Open loop: the ship (paper 5) with its two LGUs, vehicle free-running at full speed.
 
 No controller gates the steps, so only the readiness/pacing protocol keeps sensor_models
-and the test's reader from missing any. Every LGU message must arrive, in order, equal to
+and the test's reader from missing any: the reader paces the vehicle too, as a recorder
+would (a reader that falls more than its history depth behind loses the oldest samples). Every LGU message must arrive, in order, equal to
 the sensor suite run in-process on the same truth.
 """
 from __future__ import annotations
@@ -29,17 +30,29 @@ TOPICS = {"/ship/lgu1/imu": Imu, "/ship/lgu2/imu": Imu, "/truth/ship/flexure": V
 
 def test_open_loop_ship_delivers_every_lgu_sample(ros_domain_env, tmp_path):
     vehicle = {"profile": "paper5_ship", "plant": "host_only", "sim_rate_hz": RATE_HZ, "duration_s": DURATION_S,
-               "pace_topics": ["/sensor_models/progress"], "pace_window_steps": 20, "wait_for_subscribers": 0}
+               "pace_topics": ["/sensor_models/progress", "/test_reader/progress"], "pace_window_steps": 20,
+               "wait_for_subscribers": 0}
     sensors = {"sensors": ["lgu"], "sim_rate_hz": RATE_HZ, "lgu_rate_hz": LGU_HZ, "seed": SEED,
                "wait_for_subscribers": 1}
     got = {t: [] for t in TOPICS}
+    lgu_topics = [t for t in TOPICS if t != "/clock"]
     with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"])) as (node, executor):
+        progress = node.create_publisher(Clock, "/test_reader/progress", GRAPH_QOS)
+        progress.publish(m.clock_msg(0))
+
+        def on_message(topic, msg):
+            got[topic].append(msg)
+            if topic != "/clock":  # next step needed: one after the oldest of the newest LGU samples
+                newest = [m.step_of_stamp(m.stamp_ns(got[t][-1].header.stamp), RATE_HZ) if got[t] else -1
+                          for t in lgu_topics]
+                progress.publish(m.clock_msg(m.step_stamp_ns(min(newest) + 1, RATE_HZ)))
+
         for topic, typ in TOPICS.items():
-            node.create_subscription(typ, topic, lambda msg, t=topic: got[t].append(msg), GRAPH_QOS)
+            node.create_subscription(typ, topic, lambda msg, t=topic: on_message(t, msg), GRAPH_QOS)
         with node_processes([("sensor_models", sensors), ("vehicle_dynamics", vehicle)], ros_domain_env, tmp_path):
-            # /clock has no paced reader here (only sensor_models paces the vehicle): this
-            # test's reader may miss clock steps, never the run's end or an LGU sample
-            counts = {t: LGU_COUNT for t in TOPICS if t != "/clock"}
+            # the reader paces on the LGU samples only: it may miss /clock steps in between
+            # (keep-last history), never the run's end or an LGU sample
+            counts = {t: LGU_COUNT for t in lgu_topics}
             end_ns = m.step_stamp_ns(STEPS, RATE_HZ)
             assert spin_until(executor, lambda: all(len(got[t]) >= n for t, n in counts.items())
                               and got["/clock"] and m.stamp_ns(got["/clock"][-1].clock) == end_ns,
