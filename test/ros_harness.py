@@ -6,7 +6,6 @@ stopped by its PID.
 """
 from __future__ import annotations
 
-import signal
 import subprocess
 import time
 from contextlib import contextmanager
@@ -18,6 +17,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from conftest import VENV_BIN
+from gimbal_sim.orchestrator import stop_processes
 
 
 def ros_args(params: dict) -> list[str]:
@@ -47,16 +47,7 @@ def node_processes(specs: list[tuple[str, dict]], env: dict, log_dir: Path):
                                           stdout=log, stderr=subprocess.STDOUT))
         yield procs
     finally:
-        for proc in procs:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + 10.0
-        for proc in procs:
-            try:
-                proc.wait(timeout=max(0.1, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        stop_processes(procs)
 
 
 @contextmanager

@@ -10,6 +10,7 @@ import pytest
 from mcap_ros2.reader import read_ros2_messages
 
 from conftest import VENV_BIN
+from gimbal_sim.orchestrator import stop_processes
 from ros_harness import harness_node, spin_until
 
 pytestmark = pytest.mark.ros
@@ -172,14 +173,7 @@ def test_replaying_the_sensors_into_a_fresh_node_reproduces_the_estimates(headli
             done = spin_until(executor, lambda: len(got) >= len(recorded), 300.0)
             assert done, (len(got), len(recorded), (tmp_path / "replay.log").read_text()[-2000:])
     finally:
-        for proc in (player, ekf):
-            if proc is not None and proc.poll() is None:
-                proc.send_signal(2)
-                try:
-                    proc.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
+        stop_processes([player, ekf])
         log.close()
     replayed = np.array(got[:len(recorded)])
     np.testing.assert_array_equal(replayed[:, 0], recorded[:, 0])

@@ -209,7 +209,7 @@ def _replay_node_processes(bag: Path, scenario: Scenario) -> str:
     from . import messages as m
     from .bag.player import BagPlayer, PlayOptions
     from .node_main import make_executor
-    from .orchestrator import _ros_env, plan_nodes
+    from .orchestrator import _ros_env, plan_nodes, stop_processes
 
     planned = next((n for n in plan_nodes(scenario, Path("/nonexistent")) if n.executable == EKF_EXECUTABLE), None)
     if planned is None:
@@ -245,15 +245,9 @@ def _replay_node_processes(bag: Path, scenario: Scenario) -> str:
             player.destroy_node()
         finally:
             rclpy.shutdown(context=context)
-            proc.send_signal(2)
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+            stop_processes([proc])
             log.close()
             if claim is not None:
-                os.environ.pop("ROS_DOMAIN_ID", None)  # released: the next run claims its own
                 claim.release()
         if not reached:
             return f"node did not report the end of the replay ({m.__name__})"

@@ -16,7 +16,7 @@ import time
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 import yaml
 
@@ -362,24 +362,25 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
         rclpy.shutdown(context=context)
 
 
+def stop_processes(procs: Iterable[subprocess.Popen], grace_s: float = STOP_GRACE_S) -> None:
+    """SIGINT each process still running, by PID; SIGKILL any that outlives ``grace_s`` [s]."""
+    procs = [p for p in procs if p is not None]
+    for proc in procs:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + grace_s
+    for proc in procs:
+        try:
+            proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
 def _stop(procs: dict[str, subprocess.Popen], first: list[str], last: list[str]) -> None:
-    """SIGINT each process by PID (the recorder last, so it closes the bag after the rest
-    are gone); SIGKILL any that outlives the grace period."""
+    """Stop the run's processes, the recorder last, so it closes the bag after the rest are gone."""
     for group in (first, last):
-        for name in group:
-            proc = procs.get(name)
-            if proc is not None and proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + STOP_GRACE_S
-        for name in group:
-            proc = procs.get(name)
-            if proc is None:
-                continue
-            try:
-                proc.wait(timeout=max(0.1, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        stop_processes(procs.get(name) for name in group)
 
 
 def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
