@@ -11,6 +11,7 @@ from gimbal_estimators import flexure_kf as fk
 from gimbal_estimators.flexure_experiment import run_flexure_comparison
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, small_angles_from_dcm
+from gimbal_sim.sensors import FlexureParams
 
 AS = math.pi / 180.0 / 3600.0
 DEG = math.pi / 180.0
@@ -74,6 +75,11 @@ def reference(synthetic):
     return feed(kf, synthetic), kf
 
 
+#: A filter whose dynamic-flexure band (peaked at 0.5 rad/s) covers the wobble's 0.5 and
+#: 0.7 rad/s; the default critically damped 10 s band would gate it as a model mismatch.
+WOBBLE_BAND = FlexureKfParams(dynamic_beta_per_s=0.1, dynamic_freq_rad_s=0.5)
+
+
 @pytest.fixture(scope="module")
 def wobbly():
     """Flexure moving at up to 100″/s, so a lost sample also loses a flexure change."""
@@ -82,7 +88,7 @@ def wobbly():
 
 @pytest.fixture(scope="module")
 def wobbly_reference(wobbly):
-    return feed(FlexureKf(), wobbly)
+    return feed(FlexureKf(WOBBLE_BAND), wobbly)
 
 
 # ---------------------------------------------------------------- models
@@ -128,7 +134,8 @@ def test_ar2_matches_second_order_markov(beta, lam, dt):
 
 def test_discrete_model_blocks_follow_eq_10_and_12():
     T = 0.1
-    rwr = FlexureKf(FlexureKfParams(quasi_static_model="random_walk_rate", qs_rate_rw_arcsec_s_rt_s=2.0))
+    rwr = FlexureKf(FlexureKfParams(quasi_static_model="random_walk_rate", qs_rate_rw_arcsec_s_rt_s=2.0,
+                                    dynamic_beta_per_s=0.1, dynamic_freq_rad_s=0.5))
     rc = FlexureKf(FlexureKfParams(quasi_static_model="random_constant", qs_rw_arcsec_rt_s=0.5))
     F, Q = rwr.discrete_model(T)
     I3 = np.eye(3)
@@ -292,7 +299,7 @@ def test_first_pair_anchors_relative_attitude_to_the_flexure():
 
 
 def test_nan_inf_and_malformed_are_rejected_and_counted(wobbly, wobbly_reference):
-    kf = FlexureKf()
+    kf = FlexureKf(WOBBLE_BAND)
     feed(kf, wobbly[:100])
     x0 = kf.state
     t_next, d1, _ = wobbly[100]
@@ -315,7 +322,7 @@ def test_nan_inf_and_malformed_are_rejected_and_counted(wobbly, wobbly_reference
 @pytest.mark.parametrize("skip1, skip2", [((), (1500,)), ((1500, 1501), (1500, 1501))],
                          ids=["lgu2_sample_lost", "both_lost_two_stamps"])
 def test_dropped_samples_reanchor_and_keep_the_estimate(wobbly, wobbly_reference, skip1, skip2):
-    kf = FlexureKf()
+    kf = FlexureKf(WOBBLE_BAND)
     est = feed(kf, wobbly, skip1=skip1, skip2=skip2)
     c = kf.counters
     assert c["gaps"] == 1 and c["reanchors"] == 1 and c["resets"] == 0 and c["gated"] == 0
@@ -379,10 +386,10 @@ def test_a_corrupted_increment_is_gated_then_reanchored(synthetic, reference):
     assert c["gated"] == 20 and c["reanchors"] == 1 and c["resets"] == 0
     ref, _ = reference
     np.testing.assert_allclose(est.flexure, ref.flexure, atol=5 * AS)
-    # Without the gate the spike is fused: a large error.
+    # Without the gate the spike is fused: an error beyond the filter's own 3σ.
     kf2 = FlexureKf(FlexureKfParams(gate_probability=None))
     est2 = feed(kf2, spiked)
-    assert np.max(np.abs(est2.flexure - PHI_TRUE)) > 100 * AS
+    assert np.max(np.abs(est2.flexure - PHI_TRUE) / est2.flexure_sigma) > 3.0
 
 
 def test_persistent_gating_after_reanchor_resets():
@@ -424,10 +431,11 @@ def test_random_constant_needs_its_own_process_noise():
     FlexureKfParams(quasi_static_model="random_constant", qs_rate_rw_arcsec_s_rt_s=0.0)
 
 
-# ---------------------------------------------------------------- paper 5 contrast (reduced size)
+# ---------------------------------------------------------------- paper 5 §5, full size
 @pytest.fixture(scope="module")
 def ship_runs():
-    return run_flexure_comparison(1500.0, seed=0, sim_rate_hz=50.0, lgu_rate_hz=10.0, convergence_s=600.0)
+    # The ship_flexure scenario without ROS: 2 h at 10 Hz, scored after 10 min (~20 s here).
+    return run_flexure_comparison(7200.0, seed=0, sim_rate_hz=10.0, lgu_rate_hz=10.0, convergence_s=600.0)
 
 
 def test_random_constant_model_leaves_half_the_variation(ship_runs):
@@ -437,9 +445,10 @@ def test_random_constant_model_leaves_half_the_variation(ship_runs):
     assert np.all(rc["qs_max_over_variation_pp"] < 0.7)
     assert np.all(rwr["qs_max_over_variation_pp"] < 0.2)
     assert np.all(rwr["qs_rms_arcsec"] < 0.3 * rc["qs_rms_arcsec"])
-    # ... and its error couples into the bias difference (truth 0.1 °/h per axis).
-    assert np.all(np.abs(rc["bias_diff_err_final_deg_h"]) > 0.1)
-    assert np.all(np.abs(rwr["bias_diff_err_final_deg_h"]) < 0.05)
+    # ... and its error couples into the bias difference (truth 0.1 °/h per axis): it ends
+    # beyond 3x the 0.01 °/h the random-walk-rate model converges within, on every axis.
+    assert np.all(np.abs(rc["bias_diff_err_final_deg_h"]) > 0.03)
+    assert np.all(np.abs(rwr["bias_diff_err_final_deg_h"]) < 0.01)
     assert np.all(rc["total_rms_arcsec"] > 3 * rwr["total_rms_arcsec"])
     assert rc["total_within_3sigma"] < 0.2  # its covariance does not know
 
@@ -447,13 +456,35 @@ def test_random_constant_model_leaves_half_the_variation(ship_runs):
 def test_random_walk_rate_model_tracks_and_is_consistent(ship_runs):
     r = ship_runs["random_walk_rate"]
     m = r.metrics
-    # 25 min only: the pitch and yaw components of θ_d are still converging (module report).
-    assert np.all(m["total_rms_arcsec"] < 40.0)
-    assert m["total_within_3sigma"] > 0.75
+    # Issue 7's bounds: total flexure below 20″ RMS on every axis (paper 5's full-scale figure)
+    # and the bias difference within 0.01 °/h. Seed 0 of the Monte Carlo in the README.
+    assert np.all(m["total_rms_arcsec"] < 20.0)
+    assert np.all(np.abs(m["bias_diff_err_final_deg_h"]) < 0.01)
+    assert m["total_within_3sigma"] > 0.9
     assert 1.0 < m["total_nees_mean"] < 9.0
     # The helm sinusoid (360″ at 200 s) is tracked: quasi-static error well below it.
     assert np.all(m["qs_rms_arcsec"] < 60.0)
     c = r.counters
     assert c["gated"] == 0 and c["resets"] == 0 and c["updates"] == m["n_epochs"] + 600 * 10 - 1
-    assert r.series["t"].size == pytest.approx(1500, abs=2)
+    assert r.series["t"].size == pytest.approx(7200, abs=2)
     assert r.filter_us_per_pair < 1000.0  # loose: shared CI machines; measured ~40 µs
+
+
+# ---------------------------------------------------------------- experiment command line
+def test_experiment_cli_monte_carlo_table_and_bad_band(capsys):
+    from gimbal_estimators import flexure_experiment as fe
+
+    fe.main(["--seeds", "0", "1", "--duration", "660", "--models", "random_walk_rate", "--dynamic-freq", "0.5"])
+    out = capsys.readouterr().out
+    assert "lambda (0.5, 0.5, 0.5)" in out and "[random_walk_rate] 2 seeds (0, 1)" in out
+    kp = FlexureKfParams(dynamic_freq_rad_s=0.5)
+    runs = [run_flexure_comparison(660.0, seed, models=("random_walk_rate",), sim_rate_hz=10.0, params=kp,
+                                   flexure=FlexureParams(dynamic_freq_rad_s=0.5))["random_walk_rate"]
+            for seed in (0, 1)]
+    mean = np.mean([r.metrics["total_rms_arcsec"] for r in runs], axis=0)
+    assert "mean " + " / ".join(f"{x:.1f}" for x in mean) in out
+    for bad in (["--dynamic-beta", "0.1", "0.2"], ["--dynamic-beta", "-1"], ["--dynamic-freq", "nan"]):
+        with pytest.raises(SystemExit) as exc:
+            fe.main(bad)
+        assert exc.value.code == 2
+        assert "dynamic" in capsys.readouterr().err

@@ -22,6 +22,7 @@ from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_sim import messages as m
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
+from gimbal_sim.sensors import FlexureParams
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
 pytestmark = pytest.mark.ros
@@ -29,13 +30,19 @@ RATE = 10.0  # LGU = simulation rate, as in the ship_flexure scenario
 DT = 1.0 / RATE
 AS = math.pi / 180.0 / 3600.0
 N_PAIRS = 900
+#: The sea-wave band (peaked at 0.5 rad/s) in the truth and in the node alike: its flexure
+#: moves several arcseconds per sample, so a sample lost and fused across would show.
+SEA_BAND = {"dynamic_beta_per_s": [0.1, 0.1, 0.1], "dynamic_freq_rad_s": [0.5, 0.5, 0.5]}
+KF_PARAMS = FlexureKfParams(**SEA_BAND)
 
 
 @pytest.fixture(scope="module")
 def lgu_samples() -> list[LguSample]:
     """90 s of the paper 5 ship with its two LGUs (gimbal_sim cores, seeded)."""
     vc = VehicleCore(VehicleConfig(profile="paper5_ship", plant="host_only", sim_rate_hz=RATE, duration_s=N_PAIRS * DT))
-    suite = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=RATE, lgu_rate_hz=RATE, seed=3))
+    flexure = FlexureParams(**{k: tuple(v) for k, v in SEA_BAND.items()})
+    suite = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=RATE, lgu_rate_hz=RATE, seed=3,
+                                          flexure=flexure))
     out = []
     while True:
         out += [s for s in suite.update(vc.truth()) if isinstance(s, LguSample)]
@@ -83,7 +90,7 @@ def node_run(messages, name: str = "flex_test", **params):
     its outputs received over the graph. Returns (node's core, {topic: {stamp ns: (3,)}})."""
     context = Context()
     rclpy.init(context=context)
-    overrides = {"lgu_rate_hz": RATE, "sim_rate_hz": RATE, **params}
+    overrides = {"lgu_rate_hz": RATE, "sim_rate_hz": RATE, **SEA_BAND, **params}
     args = ["--ros-args", "-r", f"__node:={name}"] + [a for k, v in overrides.items() for a in ("-p", f"{k}:={v}")]
     node = FlexureEstimatorNode(context=context, cli_args=args, use_global_arguments=False)
     harness = Node("harness", context=context)
@@ -143,7 +150,7 @@ def lost_change(lgu_samples, i):
 
 def test_node_publishes_what_the_core_computes_on_its_private_topics(clean, lgu_samples):
     msgs, core, received = clean
-    _, expected = core_run(FlexureKfParams(), msgs)
+    _, expected = core_run(KF_PARAMS, msgs)
     got = received["/flex_test/flexure"]
     assert sorted(got) == sorted(expected) and len(got) == N_PAIRS
     assert max(float(np.max(np.abs(got[k] - expected[k]))) for k in got) == 0.0
@@ -166,7 +173,7 @@ def test_nan_sample_is_rejected_counted_and_bridged_by_a_reanchor(clean, lgu_sam
     got = received["/flex_test/flexure"]
     assert all(np.all(np.isfinite(v)) for topic in received.values() for v in topic.values())
     assert m.step_stamp_ns(401, RATE) not in got  # the broken pair produced no estimate
-    _, expected = core_run(FlexureKfParams(), msgs)
+    _, expected = core_run(KF_PARAMS, msgs)
     assert max(float(np.max(np.abs(got[k] - expected[k]))) for k in got) == 0.0
     # What was learnt survives, and the flexure change over the hole does not stay in the
     # estimate (fused across, it would shift it by about that change, up to 4″ here).
@@ -215,7 +222,7 @@ def test_backward_clock_jump_resets_and_starts_over(lgu_samples):
     assert core.counters["resets"] == 1
     assert "backward clock jump" in core.last_reset_reason
     # after the reset the node is a fresh filter on the second half
-    _, fresh = core_run(FlexureKfParams(), list(stream(lgu_samples[450:])))
+    _, fresh = core_run(KF_PARAMS, list(stream(lgu_samples[450:])))
     got = received["/flex_test/flexure"]
     last = max(fresh)
     assert np.array_equal(got[last], fresh[last])

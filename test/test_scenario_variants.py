@@ -79,3 +79,18 @@ def test_concurrent_variants_record_what_sequential_ones_do(ros_domain_env, tmp_
             path, _ = find_mcap(tmp_path / how / name)
             bags[how] = sorted((m.channel.topic, m.log_time_ns, repr(m.ros_msg)) for m in read_ros2_messages(str(path)))
         assert len(bags["together"]) > 1000 and bags["together"] == bags["apart"], name
+
+
+@pytest.mark.parametrize("name", sorted(builtin_scenarios()))
+def test_builtin_scenarios_set_only_parameters_their_nodes_declare(name):
+    # A misspelt parameter would be refused only when the node starts; catch it here.
+    import importlib
+    from gimbal_sim.config_files import NODE_MODULES
+
+    s = load(name)
+    runs = [variant(s, v) for v in s.variants] or [s]
+    for single in runs:
+        for node, spec in single.nodes.items():
+            declared = {p.name for p in importlib.import_module(NODE_MODULES[spec["executable"]][1]).PARAMS}
+            unknown = set(spec["params"]) - declared
+            assert not unknown, f"{name}: node {node!r} sets undeclared parameters {sorted(unknown)}"

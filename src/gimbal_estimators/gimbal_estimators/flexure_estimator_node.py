@@ -69,9 +69,10 @@ PARAMS = (
     Param("qs_rw_arcsec_rt_s", 0.001, "random walk of the quasi-static flexure [arcsec/sqrt(s)] "
           "(random_constant; small = constant)", 0.0, INF),
     Param("dynamic_rms_arcsec", [20.0, 60.0, 40.0], "dynamic flexure RMS (roll, pitch, yaw) [arcsec]"),
-    Param("dynamic_beta_per_s", [0.1, 0.1, 0.1], "dynamic flexure decay rate beta (roll, pitch, yaw) [1/s]"),
-    Param("dynamic_freq_rad_s", [0.5, 0.5, 0.5], "dynamic flexure damped frequency lambda (roll, pitch, yaw) "
-          "[rad/s]"),
+    Param("dynamic_beta_per_s", [0.2146, 0.2146, 0.2146], "dynamic flexure decay rate beta (roll, pitch, yaw) "
+          "[1/s] (critically damped: 2.146 / correlation time)"),
+    Param("dynamic_freq_rad_s", [0.0, 0.0, 0.0], "dynamic flexure damped frequency lambda (roll, pitch, yaw) "
+          "[rad/s] (0: critically damped)"),
     Param("bias_diff_initial_sigma_deg_h", 0.1, "prior 1-sigma of the bias difference [deg/h]", 1e-12, INF),
     Param("bias_diff_rw_deg_h_rt_h", 0.001, "bias difference random walk [deg/h/sqrt(h)]", 0.0, INF),
     Param("lgu_arw_deg_rt_h", 0.001, "angle random walk of each LGU [deg/sqrt(h)]", 0.0, INF),

@@ -164,8 +164,8 @@ class FlexureKfParams:
     qs_rate_rw_arcsec_s_rt_s: float | tuple[float, ...] = 1.0
     qs_rw_arcsec_rt_s: float | tuple[float, ...] = 0.001
     dynamic_rms_arcsec: float | tuple[float, ...] = (20.0, 60.0, 40.0)
-    dynamic_beta_per_s: float | tuple[float, ...] = 0.1
-    dynamic_freq_rad_s: float | tuple[float, ...] = 0.5
+    dynamic_beta_per_s: float | tuple[float, ...] = 0.2146
+    dynamic_freq_rad_s: float | tuple[float, ...] = 0.0
     bias_diff_initial_sigma_deg_h: float | tuple[float, ...] = 0.1
     bias_diff_rw_deg_h_rt_h: float | tuple[float, ...] = 0.001
     lgu_arw_deg_rt_h: float = 0.001

@@ -78,10 +78,12 @@ PARAMS = (
     Param("flexure_helm_amplitude_deg", 0.1, "helm-induced flexure amplitude [deg]", 0.0, INF),
     Param("flexure_helm_period_s", 200.0, "its period [s]", 1e-9, INF),
     Param("flexure_dynamic_rms_arcsec", [20.0, 60.0, 40.0], "dynamic flexure RMS (roll, pitch, yaw) [arcsec]"),
-    Param("flexure_dynamic_beta_per_s", [0.1, 0.1, 0.1], "dynamic flexure 2nd-order Markov decay rate beta "
-          "(roll, pitch, yaw) [1/s], > 0; paper 5 gives none (README: why pitch is the hard axis)"),
-    Param("flexure_dynamic_freq_rad_s", [0.5, 0.5, 0.5], "dynamic flexure damped frequency lambda (roll, pitch, "
-          "yaw) [rad/s], >= 0 (0: critically damped)"),
+    Param("flexure_dynamic_beta_per_s", [0.2146, 0.2146, 0.2146], "dynamic flexure 2nd-order Markov decay "
+          "rate beta (roll, pitch, yaw) [1/s], > 0; critically damped: 2.146 / (1/e correlation time), "
+          "default 10 s; paper 5 gives none (README: the dynamic-flexure band)"),
+    Param("flexure_dynamic_freq_rad_s", [0.0, 0.0, 0.0], "dynamic flexure damped frequency lambda (roll, pitch, "
+          "yaw) [rad/s], >= 0; 0 (default): the textbook critically damped 2nd-order Markov, > 0: a band "
+          "peaked at lambda (sea waves)"),
     Param("platform_gyro_bias_sigma_deg_h", 0.03, "platform gyro run-to-run bias 1-sigma [deg/h]", 0.0, INF),
     Param("platform_gyro_arw_deg_rt_h", 0.003, "platform gyro angle random walk [deg/sqrt(h)]", 0.0, INF),
     Param("platform_accel_bias_sigma_ug", 100.0, "platform accelerometer bias 1-sigma [micro-g]", 0.0, INF),
