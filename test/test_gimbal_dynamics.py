@@ -301,7 +301,7 @@ def test_balanced_gimbal_at_rest_has_zero_derivative():
     # Default (unbalanced) gimbal at rest: gravity torque m g r, elevation axis, level base.
     p = GimbalParams()
     tau_g = TwoAxisGimbal(p).bias_torques((0.0, 0.0, 0.0, 0.0), rest_base(G))
-    rm, ra = p.inner_cg_m, p.outer_cg_m
+    rm = p.inner_cg_m
     # N = m r × (−g e3): e2 component −m r_x (−g) ... = m g r_x; e3 component 0.
     assert tau_g[1] == pytest.approx(p.inner_mass_kg * G * rm[0], rel=1e-12)
     assert tau_g[0] == pytest.approx(0.0, abs=1e-15)

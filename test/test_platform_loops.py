@@ -41,7 +41,7 @@ def test_step_response_reaches_closed_form_speed(name):
     p = paper3_axis_params(name, coulomb_friction_nm=0.0)
     axis = PlatformAxis(p)
     v = 10.0
-    kt, ke, r, b, j = p.torque_constant_nm_a, p.back_emf, p.resistance_ohm, p.viscous_friction_nm_s_rad, p.inertia_kg_m2
+    kt, ke, r, b = p.torque_constant_nm_a, p.back_emf, p.resistance_ohm, p.viscous_friction_nm_s_rad
     w_ss = kt * v / (kt * ke + r * b)
     x = run(axis, (0.0, 0.0, 0.0), v, 1e-3, round(settle_time(p), 1))
     assert x[1] == pytest.approx(w_ss, rel=1e-7)

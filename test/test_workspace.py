@@ -87,7 +87,9 @@ def test_package_manifests_are_ament_python_format_3():
 def test_package_xml_declares_exactly_the_dependencies_the_code_imports():
     for pkg in PACKAGES:
         root = ET.parse(SRC / pkg / "package.xml").getroot()
-        declared = {e.text for tag in ("depend", "exec_depend") for e in root.findall(tag)}
+        listed = [e.text for tag in ("depend", "exec_depend") for e in root.findall(tag)]
+        assert len(listed) == len(set(listed)), f"{pkg}: package.xml lists a dependency twice: {sorted(listed)}"
+        declared = set(listed)
         used = set()
         for module in imported_top_level_modules(pkg):
             if module in ROSDEP_KEYS:

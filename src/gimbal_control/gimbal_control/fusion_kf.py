@@ -55,17 +55,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_estimators.kalman import check_state, joseph_update
+from gimbal_kinematics.validate import nonneg_finite, positive
 
 _DEG = math.pi / 180.0
 _H = np.array([[1.0, 0.0, 0.0]])
 _H.flags.writeable = False
-
-
-def _number(name: str, value: float, allow_zero: bool = False) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    if value < 0.0 or (value == 0.0 and not allow_zero):
-        raise ValueError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {value}")
 
 
 @dataclass(frozen=True)
@@ -100,9 +94,9 @@ class FusionKfParams:
 
     def __post_init__(self) -> None:
         for name in ("q_angle_deg_rt_s", "q_scale_rt_s", "q_drift_deg_s_rt_s"):
-            _number(name, getattr(self, name), allow_zero=True)
+            nonneg_finite(name, getattr(self, name))
         for name in ("r_deg", "p0_angle_deg", "p0_scale", "p0_drift_deg_s"):
-            _number(name, getattr(self, name))
+            positive(name, getattr(self, name))
         g = self.gate_sigma
         if isinstance(g, bool) or not isinstance(g, (int, float)) or math.isnan(g) or g <= 0.0:
             raise ValueError(f"gate_sigma must be > 0 (inf for no gate), got {g!r}")

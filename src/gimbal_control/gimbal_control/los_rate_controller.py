@@ -65,6 +65,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from gimbal_kinematics.validate import positive
 from gimbal_sim.plant import GimbalParams
 
 from .linearize import STANDARD_GRAVITY, linearize_gimbal
@@ -79,11 +80,6 @@ DEFAULT_OMEGA_N_HZ = 25.0
 PAPER_OMEGA_N_HZ = 100.0
 PAPER_ZETA = 0.8
 ANTI_WINDUP_MODES = ("clamp", "conditional", "none")
-
-
-def _finite_positive(name: str, value: float) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -127,13 +123,13 @@ class LosRateControllerParams:
     reset_backjump_s: float = 0.5
 
     def __post_init__(self) -> None:
-        _finite_positive("rate_hz", self.rate_hz)
-        _finite_positive("omega_n_hz", self.omega_n_hz)
+        positive("rate_hz", self.rate_hz)
+        positive("omega_n_hz", self.omega_n_hz)
         if self.omega_n_hz >= self.rate_hz / 4.0:
             raise ValueError(f"omega_n_hz must be < rate_hz / 4 = {self.rate_hz / 4.0} Hz (the loop crosses over "
                              f"at ~1.7 ω_n), got {self.omega_n_hz}")
-        _finite_positive("zeta", self.zeta)
-        _finite_positive("integrator_limit_factor", self.integrator_limit_factor)
+        positive("zeta", self.zeta)
+        positive("integrator_limit_factor", self.integrator_limit_factor)
         if self.anti_windup not in ANTI_WINDUP_MODES:
             raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_MODES}, got {self.anti_windup!r}")
         for name in ("feedback", "trim"):

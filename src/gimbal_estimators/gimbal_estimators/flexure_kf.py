@@ -78,6 +78,7 @@ from typing import NamedTuple
 
 import numpy as np
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize
+from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
 from . import kalman
 
@@ -96,32 +97,6 @@ _ARCSEC = _DEG / 3600.0
 _DEG_H = _DEG / 3600.0
 _DEG_RT_H = _DEG / 60.0
 _DEG_H_RT_H = _DEG_H / 60.0
-
-
-def _per_axis(name: str, value: object) -> tuple[float, float, float]:
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        vals: tuple[float, ...] = (float(value),) * 3
-    else:
-        try:
-            if isinstance(value, (str, bytes)):
-                raise TypeError
-            vals = tuple(float(v) for v in value)  # type: ignore[union-attr]
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name} must be a number or 3 numbers, got {value!r}") from exc
-        if len(vals) != 3:
-            raise ValueError(f"{name} must be a number or 3 numbers, got {len(vals)} values")
-    if not all(math.isfinite(v) for v in vals):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return vals  # type: ignore[return-value]
-
-
-def _check(name: str, value: object, *, positive: bool = False) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    if positive and value <= 0.0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    if value < 0.0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -186,26 +161,26 @@ class FlexureKfParams:
         for name in ("qs_initial_sigma_deg", "qs_rate_initial_sigma_deg_h", "qs_rate_rw_arcsec_s_rt_s",
                      "qs_rw_arcsec_rt_s", "dynamic_rms_arcsec", "dynamic_beta_per_s", "dynamic_freq_rad_s",
                      "bias_diff_initial_sigma_deg_h", "bias_diff_rw_deg_h_rt_h"):
-            vals = _per_axis(name, getattr(self, name))
+            vals = per_axis(name, getattr(self, name), 3)
             for x in vals:
-                _check(name, x)
+                nonneg_finite(name, x)
             set_(self, name, vals)
         for name in ("qs_initial_sigma_deg", "dynamic_rms_arcsec", "dynamic_beta_per_s",
                      "bias_diff_initial_sigma_deg_h"):
             for x in getattr(self, name):
-                _check(name, x, positive=True)
+                positive(name, x)
         # The active quasi-static model needs process noise or its covariance collapses.
         active = "qs_rate_rw_arcsec_s_rt_s" if self.quasi_static_model == "random_walk_rate" else "qs_rw_arcsec_rt_s"
         for x in getattr(self, active):
-            _check(active, x, positive=True)
+            positive(active, x)
         for name in ("filter_period_s", "meas_noise_arcsec", "anchor_sigma_arcsec", "max_gap_s",
                      "clock_jump_s", "dt_tolerance"):
-            _check(name, getattr(self, name), positive=True)
-        _check("lgu_arw_deg_rt_h", self.lgu_arw_deg_rt_h)
+            positive(name, getattr(self, name))
+        nonneg_finite("lgu_arw_deg_rt_h", self.lgu_arw_deg_rt_h)
         if self.dt_tolerance >= 0.5:
             raise ValueError(f"dt_tolerance must be < 0.5, got {self.dt_tolerance}")
         if self.gate_probability is not None:
-            _check("gate_probability", self.gate_probability, positive=True)
+            positive("gate_probability", self.gate_probability)
             if not self.gate_probability < 1.0:
                 raise ValueError(f"gate_probability must be in (0, 1) or None, got {self.gate_probability}")
         for name in ("max_gate_rejections", "max_pending"):

@@ -69,23 +69,11 @@ from gimbal_kinematics.free_gyro import (
     position_fix,
     unit_vector,
 )
+from gimbal_kinematics.validate import finite, positive
 
 _ARCSEC = math.pi / (180.0 * 3600.0)
 _DEG_RT_H = math.pi / 180.0 / 60.0
 _NAN = float("nan")
-
-
-def _finite(name: str, value: object) -> float:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
-
-
-def _positive(name: str, value: object) -> float:
-    v = _finite(name, value)
-    if v <= 0.0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -129,16 +117,16 @@ class FreeGyroPositioningParams:
         object.__setattr__(self, "u_b_i", b)
         for name in ("nadir_noise_arcsec", "fix_interval_s", "heading_window_s", "triad_arw_deg_rt_h",
                      "max_level_age_s", "reset_backjump_s", "omega_ie_rad_s"):
-            _positive(name, getattr(self, name))
-        if _positive("max_fdop", self.max_fdop) < math.sqrt(2.0):
+            positive(name, getattr(self, name))
+        if positive("max_fdop", self.max_fdop) < math.sqrt(2.0):
             raise ValueError(f"max_fdop must be >= √2 (the best two-gyro FDOP), got {self.max_fdop}")
         if not isinstance(self.min_samples, int) or isinstance(self.min_samples, bool) or self.min_samples < 3:
             raise ValueError(f"min_samples must be an int >= 3, got {self.min_samples!r}")
         for name in ("min_sin_gyro_separation", "min_sin_crossing_angle"):
-            v = _finite(name, getattr(self, name))
+            v = finite(name, getattr(self, name))
             if not 0.0 < v < 1.0:
                 raise ValueError(f"{name} must be in (0, 1), got {v}")
-        _finite("height_m", self.height_m)
+        finite("height_m", self.height_m)
         cx = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         if math.sqrt(sum(c * c for c in cx)) < self.min_sin_gyro_separation:
             raise ValueError("u_b_i must not be parallel or antiparallel to u_a_i (the nadir circles "

@@ -140,6 +140,8 @@ from gimbal_kinematics.rotations import (
     rotation_vector_from_quat,
 )
 
+from gimbal_kinematics.validate import finite, nonneg_finite, positive
+
 from . import kalman
 from .stamp_check import Stamp, check_stamp
 
@@ -149,25 +151,6 @@ _DEG_RT_H = _DEG / 60.0  # °/√h -> rad/√s
 
 #: |cos θm| below which eq. 4 is treated as singular (roll and azimuth axes aligned).
 _SINGULAR_COS = 1e-3
-
-
-def _finite(name: str, value: float) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-
-
-def _nonneg(name: str, value: float) -> None:
-    _finite(name, value)
-    if value < 0.0:
-        raise ValueError(f"{name} must be >= 0, got {value}")
-
-
-def _positive(name: str, value: float, allow_inf: bool = False) -> None:
-    if allow_inf and isinstance(value, (int, float)) and value == math.inf:
-        return
-    _finite(name, value)
-    if value <= 0.0:
-        raise ValueError(f"{name} must be > 0, got {value}")
 
 
 @dataclass(frozen=True)
@@ -225,10 +208,10 @@ class GyroBiasEkfParams:
     max_sync_wait_s: float = 0.05
 
     def __post_init__(self) -> None:
-        _finite("lat_deg", self.lat_deg)
+        finite("lat_deg", self.lat_deg)
         if abs(self.lat_deg) >= 90.0:
             raise ValueError(f"lat_deg must be within (-90, 90), got {self.lat_deg}")
-        _finite("height_m", self.height_m)
+        finite("height_m", self.height_m)
         try:
             vel = tuple(float(v) for v in self.velocity_n_m_s)
         except (TypeError, ValueError):
@@ -238,13 +221,13 @@ class GyroBiasEkfParams:
         object.__setattr__(self, "velocity_n_m_s", vel)
         for name in ("gyro_arw_deg_rt_h", "gyro_bias_instability_deg_h", "roll_arw_deg_rt_h",
                      "roll_bias_instability_deg_h", "ins_roll_pitch_rms_deg", "ins_heading_rms_deg"):
-            _nonneg(name, getattr(self, name))
+            nonneg_finite(name, getattr(self, name))
         for name in ("gyro_bias_sigma_deg_h", "roll_bias_sigma_deg_h", "encoder_noise_deg",
                      "attitude_noise_floor_deg", "clock_jump_s", "max_gyro_gap_s", "covariance_period_s",
                      "max_sync_wait_s"):
-            _positive(name, getattr(self, name))
+            positive(name, getattr(self, name))
         for name in ("gyro_bias_tau_s", "roll_bias_tau_s", "ins_attitude_tau_s"):
-            _positive(name, getattr(self, name), allow_inf=True)
+            positive(name, getattr(self, name), allow_inf=True)
         if not isinstance(self.ins_error_states, bool):
             raise ValueError(f"ins_error_states must be a bool, got {self.ins_error_states!r}")
         if self.ins_error_states:
@@ -252,7 +235,7 @@ class GyroBiasEkfParams:
                 if getattr(self, name) <= 0.0:
                     raise ValueError(f"{name} must be > 0 with ins_error_states (a zero-variance state "
                                      "makes P singular); use ins_error_states=False for a perfect INS")
-        _finite("gate_probability", self.gate_probability)
+        finite("gate_probability", self.gate_probability)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f"gate_probability must be in (0, 1), got {self.gate_probability}")
         if not isinstance(self.max_consecutive_gated, int) or isinstance(self.max_consecutive_gated, bool) \
@@ -368,9 +351,9 @@ def discretize_error_model(
     Q[3:6, :3] = Q[:3, 3:6].T
     Q[3:6, 3:6] = np.diag(np.asarray(qb_psd) * T)
     if pe_var is not None:
-        finite = not math.isinf(tau_e)
-        F[6:, 6:] *= math.exp(-T / tau_e) if finite else 1.0
-        Q[6:, 6:] = np.diag(np.asarray(pe_var) * (-math.expm1(-2.0 * T / tau_e) if finite else 0.0))
+        decaying = not math.isinf(tau_e)
+        F[6:, 6:] *= math.exp(-T / tau_e) if decaying else 1.0
+        Q[6:, 6:] = np.diag(np.asarray(pe_var) * (-math.expm1(-2.0 * T / tau_e) if decaying else 0.0))
     return F, Q
 
 

@@ -89,6 +89,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
+from gimbal_kinematics.validate import finite, positive
 
 from .kalman import check_state, joseph_update, symmetrize
 
@@ -100,19 +101,6 @@ _ARCSEC = math.pi / (180.0 * 3600.0)
 _ARCMIN = math.pi / (180.0 * 60.0)
 _DEG_H = math.pi / (180.0 * 3600.0)
 _UG = 9.80665e-6
-
-
-def _check_finite(name: str, value: object) -> float:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
-
-
-def _check_positive(name: str, value: object) -> float:
-    v = _check_finite(name, value)
-    if v <= 0.0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -154,16 +142,16 @@ class RotationAlignmentParams:
     omega_ie_rad_s: float = OMEGA_IE
 
     def __post_init__(self) -> None:
-        lat = _check_finite("lat_deg", self.lat_deg)
+        lat = finite("lat_deg", self.lat_deg)
         if abs(lat) >= 90.0:
             raise ValueError(f"lat_deg must be in (-90, 90) (azimuth is unobservable at the poles), got {lat}")
         if self.gravity_m_s2 is not None:
-            _check_positive("gravity_m_s2", self.gravity_m_s2)
+            positive("gravity_m_s2", self.gravity_m_s2)
         for name in ("accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
                      "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h",
                      "max_joint_age_s", "converged_tilt_arcsec", "converged_azimuth_arcmin",
                      "reset_backjump_s", "rank_rel_tol", "omega_ie_rad_s"):
-            _check_positive(name, getattr(self, name))
+            positive(name, getattr(self, name))
         if self.rank_rel_tol >= 1.0:
             raise ValueError(f"rank_rel_tol must be < 1, got {self.rank_rel_tol}")
 

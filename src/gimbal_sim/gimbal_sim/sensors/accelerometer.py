@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _validate as v
+from gimbal_kinematics import validate as v
 from .inertial_core import ErrorSpecSI, InertialErrorCore
 from .units import UG, UG_RT_HZ
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _validate as v
+from gimbal_kinematics import validate as v
 from ._normals import NormalStream
 from .units import DEG
 

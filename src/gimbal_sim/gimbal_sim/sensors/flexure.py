@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _validate as v
+from gimbal_kinematics import validate as v
 from .markov import SecondOrderGaussMarkov
 from .units import ARCSEC, DEG, DEG_H
 

@@ -33,7 +33,7 @@ from gimbal_kinematics.earth import OMEGA_IE
 from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
-from . import _validate as v
+from gimbal_kinematics import validate as v
 from ._normals import NormalStream
 from .gyro import GyroModel, GyroParams
 from .units import ARCSEC, DEG_H

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _validate as v
+from gimbal_kinematics import validate as v
 from .inertial_core import ErrorSpecSI, InertialErrorCore
 from .units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._normals import NormalStream
-from ._validate import broadcast, nonneg_finite, positive
+from gimbal_kinematics.validate import broadcast, nonneg_finite, positive
 from .markov import gm1_coefficients
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _validate as v
+from gimbal_kinematics import validate as v
 from .gyro import PAPER1_INS_GYRO, GyroModel, GyroParams
 from .markov import FirstOrderGaussMarkov
 from .units import DEG

@@ -1,7 +1,9 @@
-"""Parameter checks shared by the sensor parameter dataclasses.
+"""Parameter checks shared by the parameter dataclasses of every package (sensor models,
+estimators, controllers).
 
 Every failure raises ``ValueError`` naming the offending field, because a config typo
-must point at the key to fix, not at a NaN ten thousand steps later.
+must point at the key to fix, not at a NaN ten thousand steps later. The scalar checks
+return the value as a float, so a constructor can check and convert in one step.
 """
 from __future__ import annotations
 
@@ -11,27 +13,32 @@ from collections.abc import Sequence
 Number = float | int
 
 
-def finite(name: str, value: float) -> None:
+def finite(name: str, value: object) -> float:
+    """A finite real number (not a bool)."""
     if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
 
 
-def nonneg(name: str, value: float) -> None:
+def nonneg(name: str, value: object) -> float:
+    """``value >= 0`` (+inf admitted)."""
     if not isinstance(value, (int, float)) or isinstance(value, bool) or math.isnan(value) or value < 0.0:
         raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return float(value)
 
 
-def nonneg_finite(name: str, value: float) -> None:
+def nonneg_finite(name: str, value: object) -> float:
     nonneg(name, value)
-    finite(name, value)
+    return finite(name, value)
 
 
-def positive(name: str, value: float, allow_inf: bool = False) -> None:
+def positive(name: str, value: object, allow_inf: bool = False) -> float:
     """``value > 0``; ``allow_inf`` admits +inf (e.g. a correlation time meaning 'constant')."""
     if not isinstance(value, (int, float)) or isinstance(value, bool) or math.isnan(value) or value <= 0.0:
         raise ValueError(f"{name} must be > 0, got {value!r}")
     if not allow_inf and math.isinf(value):
         raise ValueError(f"{name} must be finite, got {value!r}")
+    return float(value)
 
 
 def per_axis(name: str, value: Number | Sequence[Number], n: int | None = None) -> tuple[float, ...]:
