@@ -33,6 +33,7 @@ from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
 from gimbal_kinematics.rotations import euler321_to_dcm
 
 from ..bag.reader import BagError
+from .figures import limit_lines, save_stacked, stacked, style
 from .platform_servo import bag_summary, stream_columns
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -161,32 +162,21 @@ def _band_plot(ax, t, err, sigma, label: str) -> None:
 
 def _figure(path: Path, title: str, runs: dict[str, dict]) -> None:
     """Estimate errors with their ±σ over time: tilts, azimuth, north drift; one colour per run."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True, constrained_layout=True)
+    fig, axes = stacked(4, 11.0)
     panels = ((0, ARCSEC, "δφE0 [arcsec]", LIMITS["tilt_arcsec"]), (1, ARCSEC, "δφN0 [arcsec]", LIMITS["tilt_arcsec"]),
               (2, ARCMIN, "δφU0 [arcmin]", LIMITS["azimuth_arcmin"]))
     for name, s in runs.items():
         age = s["age_s"]
-        for ax, (i, unit, _, _) in zip(axes, panels):
+        for ax, (i, unit, _, _) in zip(axes[:, 0], panels):
             _band_plot(ax, age, (s["initial"][:, i] - s["truth_initial"][i]) / unit, s["initial_sigma"][:, i] / unit,
                        name)
-        _band_plot(axes[3], age, (s["north_drift"] - s["truth_north_drift"]) / DEG_H, s["north_drift_sigma"] / DEG_H,
+        _band_plot(axes[3, 0], age, (s["north_drift"] - s["truth_north_drift"]) / DEG_H, s["north_drift_sigma"] / DEG_H,
                    name)
-    for ax, (_, _, label, limit) in zip(axes, panels + ((3, DEG_H, "ε_N [deg/h]", LIMITS["north_drift_deg_h"]),)):
-        for sign in (1, -1):
-            ax.axhline(sign * limit, color="k", linestyle="--", linewidth=0.7)
-        ax.set_ylabel(label)
+    for ax, (_, _, label, limit) in zip(axes[:, 0], panels + ((3, DEG_H, "ε_N [deg/h]", LIMITS["north_drift_deg_h"]),)):
+        limit_lines(ax, limit)
         ax.set_ylim(-8 * limit, 8 * limit)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize=7, ncol=2)
-    axes[0].set_title(title + " (dashed: issue 8 accuracy)")
-    axes[-1].set_xlabel("alignment time [s]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        style(ax, label, legend_loc="upper right", fontsize=7, ncol=2)
+    save_stacked(fig, axes, path, title + " (dashed: issue 8 accuracy)", xlabel="alignment time [s]")
 
 
 def alignment_report(bag_dir: Path, out: Path) -> dict:

@@ -13,6 +13,7 @@ from .. import messages as msgs
 from ..bag.reader import BagContents, read_messages
 from ..bag.schemas import message_class
 from ..cdr import CdrError
+from .figures import save_stacked, stacked, style
 
 
 class _Stamp(NamedTuple):
@@ -122,21 +123,12 @@ def quat_to_los(q) -> tuple[float, float]:
 
 
 def plot(path: Path, title: str, t: np.ndarray, curves: dict[str, np.ndarray], ylabel: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    """One panel of ``curves`` {label: (N,)} over sim time ``t`` (N,) [s]."""
+    fig, axes = stacked(1, 4.5)
     for label, y in curves.items():
-        ax.plot(t, y, label=label, linewidth=1.0)
-    ax.set_title(title)
-    ax.set_xlabel("sim time [s]")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        axes[0, 0].plot(t, y, label=label, linewidth=1.0)
+    style(axes[0, 0], ylabel)
+    save_stacked(fig, axes, path, title)
 
 
 def times(samples: list) -> np.ndarray:

@@ -28,6 +28,7 @@ import yaml
 
 from ..bag.reader import BagError
 from .common import inertial_los, load_series, plot, vehicle_site
+from .figures import pyplot, save, save_stacked, stacked, style
 from .generic import generic_report
 
 SETTLE_S = 5.0
@@ -163,13 +164,8 @@ def _window_means(t: np.ndarray, y: np.ndarray, width_s: float) -> tuple[np.ndar
 
 
 def _velocity_vs_bias_plot(path: Path, runs: dict[str, FusionRun]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
-    for i, (ax, axis) in enumerate(zip(axes, ("q_m (elevation)", "r_m (azimuth)"))):
+    fig, axes = stacked(2, 6.5)
+    for i, (ax, axis) in enumerate(zip(axes[:, 0], ("q_m (elevation)", "r_m (azimuth)"))):
         first = next(iter(runs.values()))
         ax.plot(first.bias_t, first.bias[:, i] / _DEG, "k--", linewidth=1.2, label="true gyro bias")
         for name, run in runs.items():
@@ -177,13 +173,8 @@ def _velocity_vs_bias_plot(path: Path, runs: dict[str, FusionRun]) -> None:
             ax.plot(tc, mean[:, i] / _DEG, label=f"{name}: feedback − true velocity (0.5 s means)", linewidth=1.0)
             if len(run.corr_t):
                 ax.plot(run.corr_t, -run.corr[:, i] / _DEG, ":", label=f"{name}: −drift correction", linewidth=1.2)
-        ax.set_ylabel(f"{axis} [deg/s]")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="best", fontsize=7)
-    axes[0].set_title("Estimated velocity error against the gyro bias")
-    axes[-1].set_xlabel("sim time [s]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        style(ax, f"{axis} [deg/s]", fontsize=7)
+    save_stacked(fig, axes, path, "Estimated velocity error against the gyro bias")
 
 
 def encoder_fusion_report(bag_dir: Path, out: Path) -> dict:
@@ -220,12 +211,7 @@ def _table(rows: list[dict]) -> str:
 
 
 def _rms_bars(path: Path, rows: list[dict]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.5, 4.5), constrained_layout=True)
+    fig, ax = pyplot().subplots(figsize=(6.5, 4.5), constrained_layout=True)
     names = [r["variant"] for r in rows]
     values = [r["rms_after_settle_urad"] for r in rows]
     bars = ax.bar(names, values, color=["tab:blue", "tab:orange", "tab:green", "tab:red"][:len(rows)])
@@ -235,29 +221,20 @@ def _rms_bars(path: Path, rows: list[dict]) -> None:
     ax.set_ylabel("RMS stabilization error after settle [µrad]")
     ax.set_title("Stabilization error by feedback velocity")
     ax.grid(True, axis="y", which="both", alpha=0.3)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 def _error_plot(path: Path, runs: dict[str, FusionRun]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    fig, axes = stacked(1, 4.5)
+    ax = axes[0, 0]
     for name, run in runs.items():
         ax.plot(run.t, 1e3 * run.error, label=name, linewidth=1.0)
     settle = next(iter(runs.values())).settle_s
     ax.axvline(settle, color="grey", linestyle=":", label=f"settle ({settle:g} s)")
     ax.set_yscale("log")
-    ax.set_xlabel("sim time [s]")
-    ax.set_ylabel("angle to the initial inertial LOS [mrad]")
-    ax.set_title("Stabilization error: encoder, gyro and fused feedback")
+    style(ax, "angle to the initial inertial LOS [mrad]")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_stacked(fig, axes, path, "Stabilization error: encoder, gyro and fused feedback")
 
 
 def encoder_fusion_comparison(runs: dict[str, Path], out: Path) -> dict:

@@ -25,6 +25,7 @@ import yaml
 
 from ..bag.reader import BagError
 from .common import load_series
+from .figures import save, stacked
 from .generic import generic_report
 
 _ARCSEC = math.pi / 180.0 / 3600.0
@@ -204,13 +205,7 @@ def _axes_figure(path: Path, title: str, t: np.ndarray, rows: list[tuple[str, di
     3σ (N, 3) or None)``; a 3σ array is drawn as a ±3σ band about zero. ``zoom_from_s``:
     scale the y axes to the data from that time on (the start-up transient is hundreds
     of times larger than the converged errors)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axs = plt.subplots(len(rows), 3, figsize=(14, 3.0 * len(rows) + 0.6), sharex=True, squeeze=False,
-                            constrained_layout=True)
+    fig, axs = stacked(len(rows), 3.0 * len(rows) + 0.6, cols=3, width_in=14.0)
     for r, (ylabel, curves, sig3) in enumerate(rows):
         for a in range(3):
             ax = axs[r, a]
@@ -235,8 +230,7 @@ def _axes_figure(path: Path, title: str, t: np.ndarray, rows: list[tuple[str, di
                 ax.set_xlabel("sim time [s]")
         axs[r, 0].legend(loc="best", fontsize=7)
     fig.suptitle(title)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)
 
 
 def _as(x: np.ndarray) -> np.ndarray:

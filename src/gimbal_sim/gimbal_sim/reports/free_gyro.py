@@ -21,6 +21,7 @@ from gimbal_kinematics.rotations import quat_to_dcm, quat_to_euler321
 
 from ..bag.reader import BagError
 from .common import load_series, plot
+from .figures import pyplot, save, save_stacked, stacked, style
 from .generic import generic_report
 
 NODE = "/free_gyro_positioning"
@@ -117,53 +118,33 @@ def covariance_consistency(errors: np.ndarray, covs: np.ndarray) -> dict:
     }
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _band_plot(path: Path, title: str, t: np.ndarray, panels: list[tuple[str, np.ndarray, np.ndarray]],
                ylabel: str, reference: tuple[str, np.ndarray] | None = None) -> None:
     """One panel per (label, error, σ): the error against the ±1σ band the node claimed;
     ``reference`` (label, values) adds a predicted error to the first panel."""
-    plt = _pyplot()
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.2 + 2.3 * len(panels)), sharex=True,
-                             constrained_layout=True, squeeze=False)
+    fig, axes = stacked(len(panels), 2.2 + 2.3 * len(panels))
     for ax, (label, err, sig) in zip(axes[:, 0], panels):
         ax.fill_between(t, -sig, sig, color="C1", alpha=0.25, label="±1σ claimed")
         ax.plot(t, err, ".-", linewidth=0.8, markersize=4, label=f"{label} error")
         if reference is not None and ax is axes[0, 0]:
             ax.plot(t, reference[1], "x--", color="C3", linewidth=0.8, label=reference[0])
-        ax.set_ylabel(ylabel)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
-    axes[0, 0].set_title(title)
-    axes[-1, 0].set_xlabel("sim time [s]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        style(ax, ylabel, legend_loc="upper right")
+    save_stacked(fig, axes, path, title)
 
 
 def _scatter(path: Path, errors: np.ndarray, cov: np.ndarray) -> None:
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6, 6), constrained_layout=True)
+    fig, ax = pyplot().subplots(figsize=(6, 6), constrained_layout=True)
     ax.plot(errors[:, 1], errors[:, 0], ".", markersize=4, label="fix errors")
     w, v = np.linalg.eigh(cov)
     a = np.linspace(0.0, 2.0 * math.pi, 200)
-    for k, style in ((1.0, "-"), (2.0, "--")):
+    for k, line in ((1.0, "-"), (2.0, "--")):
         pts = v @ (k * np.sqrt(w)[:, None] * np.array([np.cos(a), np.sin(a)]))
-        ax.plot(pts[1], pts[0], style, color="C1", label=f"{k:g}σ ellipse of FDOP²σ² (NavSatFix covariance)")
+        ax.plot(pts[1], pts[0], line, color="C1", label=f"{k:g}σ ellipse of FDOP²σ² (NavSatFix covariance)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("east error [m]")
-    ax.set_ylabel("north error [m]")
     ax.set_title("Fix errors vs the claimed covariance")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    style(ax, "north error [m]")
+    save(fig, path)
 
 
 def free_gyro_report(bag_dir: Path, out: Path) -> dict:

@@ -34,6 +34,7 @@ import numpy as np
 from ..bag.reader import BagContents, BagError, stream
 from ..bag.schemas import message_class
 from ..plant.platform_loops import PAPER3_TABLE1
+from .figures import limit_lines, save_stacked, stacked, style
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 SETTLE_S = 2.0
@@ -111,27 +112,15 @@ def envelope(t: np.ndarray, y: np.ndarray, bins: int = 3000) -> tuple[np.ndarray
 
 def _plot(path: Path, title: str, panels: list[tuple[str, dict[str, tuple[np.ndarray, np.ndarray]]]],
           hlines: list[float | None] | None = None) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.8 * len(panels) + 0.6), sharex=True,
-                             constrained_layout=True, squeeze=False)
+    fig, axes = stacked(len(panels), 2.8 * len(panels) + 0.6)
     for n, (ax, (ylabel, curves)) in enumerate(zip(axes[:, 0], panels)):
         for label, (t, y) in curves.items():
             ax.plot(*envelope(t, y), label=label, linewidth=0.9)
         limit = hlines[n] if hlines else None
         if limit:
-            for sign in (1, -1):
-                ax.axhline(sign * limit, color="k", linestyle="--", linewidth=0.7)
-        ax.set_ylabel(ylabel)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-    axes[0, 0].set_title(title)
-    axes[-1, 0].set_xlabel("sim time [s]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+            limit_lines(ax, limit)
+        style(ax, ylabel)
+    save_stacked(fig, axes, path, title)
 
 
 def platform_servo_report(bag_dir: Path, out: Path) -> dict:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..bag.reader import BagError
 from .common import inertial_los, load_series, times, vectors, vehicle_site
+from .figures import save_stacked, stacked, style
 from .generic import generic_report
 
 SETTLE_S = 30.0
@@ -104,50 +105,30 @@ def _figures(a: dict) -> dict:
 
 
 def _plot_drift(path: Path, runs: dict[str, dict]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
-    for j, (axis_name, ax) in enumerate(zip(("azimuth (cross-elevation)", "elevation"), axes)):
+    fig, axes = stacked(2, 6.5)
+    for j, (axis_name, ax) in enumerate(zip(("azimuth (cross-elevation)", "elevation"), axes[:, 0])):
         for name, a in runs.items():
-            line, = ax.plot(a["t"], np.degrees(a["drift"][:, j]), label=f"{name}: LOS drift", linewidth=1.2)
+            ax.plot(a["t"], np.degrees(a["drift"][:, j]), label=f"{name}: LOS drift", linewidth=1.2)
         first = next(iter(runs.values()))
         ax.plot(first["t"], np.degrees(first["bias_integral"][:, j]), "k--", linewidth=0.8,
                 label="−∫ true gyro bias dt")
-        ax.set_ylabel(f"{axis_name} [deg]")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-    axes[0].set_title("LOS drift from the initial inertial direction (truth)")
-    axes[-1].set_xlabel("sim time [s]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        style(ax, f"{axis_name} [deg]")
+    save_stacked(fig, axes, path, "LOS drift from the initial inertial direction (truth)")
 
 
 def _plot_bias(path: Path, a: dict, title: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
+    fig, axes = stacked(2, 6.5)
     te = a["t_ekf"]
-    for j, (axis_name, ax) in enumerate(zip(("q (elevation gyro)", "r (azimuth gyro)"), axes)):
+    for j, (axis_name, ax) in enumerate(zip(("q (elevation gyro)", "r (azimuth gyro)"), axes[:, 0])):
         est, sig, tru = a["bias_est"][:, j + 1] * _DEG_H, a["bias_sigma"][:, j + 1] * _DEG_H, a["bias_true"][:, j + 1] * _DEG_H
         ax.fill_between(te, est - 3 * sig, est + 3 * sig, color="C0", alpha=0.2, label="estimate ±3σ")
         ax.plot(te, est, color="C0", linewidth=1.0, label="EKF estimate")
         ax.plot(te, tru, "k", linewidth=1.0, label="truth")
-        ax.set_ylabel(f"bias {axis_name} [deg/h]")
-        ax.grid(True, alpha=0.3)
         lo, hi = np.percentile(tru, [0, 100])
         pad = max(30.0, 0.5 * (hi - lo))
         ax.set_ylim(lo - pad, hi + pad)
-        ax.legend(loc="best", fontsize=8)
-    axes[0].set_title(title)
-    axes[-1].set_xlabel("sim time [s]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        style(ax, f"bias {axis_name} [deg/h]")
+    save_stacked(fig, axes, path, title)
 
 
 def sighting_report(bag_dir: Path, out: Path) -> dict:
