@@ -483,8 +483,10 @@ def test_experiment_cli_monte_carlo_table_and_bad_band(capsys):
             for seed in (0, 1)]
     mean = np.mean([r.metrics["total_rms_arcsec"] for r in runs], axis=0)
     assert "mean " + " / ".join(f"{x:.1f}" for x in mean) in out
-    for bad in (["--dynamic-beta", "0.1", "0.2"], ["--dynamic-beta", "-1"], ["--dynamic-freq", "nan"]):
+    for bad, named in ((["--dynamic-beta", "0.1", "0.2"], "--dynamic-beta"), (["--dynamic-beta", "-1"], "beta"),
+                       (["--dynamic-freq", "nan"], "dynamic_freq"), (["--duration", "0"], "--duration"),
+                       (["--convergence", "7200"], "--convergence"), (["--seeds", "1", "1"], "--seeds")):
         with pytest.raises(SystemExit) as exc:
             fe.main(bad)
         assert exc.value.code == 2
-        assert "dynamic" in capsys.readouterr().err
+        assert named in capsys.readouterr().err

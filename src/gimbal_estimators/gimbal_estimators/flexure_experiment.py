@@ -241,6 +241,13 @@ def main(argv: list[str] | None = None) -> None:
                          "filters)")
     ap.add_argument("--jobs", type=int, default=1, help="seeds run in parallel processes (default 1)")
     a = ap.parse_args(argv)
+    for name, value in (("--duration", a.duration), ("--sim-rate", a.sim_rate), ("--lgu-rate", a.lgu_rate)):
+        if not value > 0.0 or value == float("inf"):
+            ap.error(f"{name} must be a finite number > 0, got {value}")
+    if not 0.0 <= a.convergence < a.duration:
+        ap.error(f"--convergence must be in [0, --duration), got {a.convergence}")
+    if a.jobs < 1 or len(set(a.seeds)) != len(a.seeds):
+        ap.error("--jobs must be >= 1 and --seeds must not repeat a seed")
     band: dict[str, Any] = {}
     try:
         for key, values, name in (("dynamic_beta_per_s", a.dynamic_beta, "--dynamic-beta"),
