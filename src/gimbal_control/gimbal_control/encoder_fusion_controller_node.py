@@ -28,7 +28,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
 
 from . import messages as m
 from .encoder_fusion import (
@@ -98,12 +98,7 @@ def params_from_values(v: dict) -> tuple[EncoderFusionParams, int, int]:
     """The core's params and the encoder / base-rate decimations (steps per sample) from
     parameter values; raises :class:`ParameterError` naming the parameter."""
     rate = v["sim_rate_hz"]
-    every = {}
-    for name in ("encoder_rate_hz", "base_rate_hz"):
-        ratio = rate / v[name]
-        every[name] = int(round(ratio))
-        if every[name] < 1 or abs(ratio - every[name]) > 1e-9 * ratio:
-            raise ParameterError(f"parameter {name!r} = {v[name]} Hz does not divide sim_rate_hz = {rate} Hz")
+    every = {name: steps_per_sample(v, name) for name in ("encoder_rate_hz", "base_rate_hz")}
     if v["loop_bandwidth_hz"] > rate * _BANDWIDTH_PER_RATE:
         raise ParameterError(f"parameter 'loop_bandwidth_hz' = {v['loop_bandwidth_hz']} Hz exceeds sim_rate_hz / 25 "
                              f"= {rate * _BANDWIDTH_PER_RATE:g} Hz (the sampled loop would lose its phase margin)")

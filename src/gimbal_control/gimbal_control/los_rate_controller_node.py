@@ -24,7 +24,7 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_sim.cdr import CdrError
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
 
 from . import messages as m
 from .los_hold import LosHold, LosHoldParams
@@ -82,10 +82,7 @@ class LosRateControllerNode(Node):
         super().__init__("los_rate_controller", **node_kwargs)
         v = declare_and_read(self, PARAMS)
         self.rate = v["sim_rate_hz"]
-        ratio = self.rate / v["ins_rate_hz"]
-        self.ins_every = int(round(ratio))
-        if self.ins_every < 1 or abs(ratio - self.ins_every) > 1e-9 * ratio:
-            raise ParameterError(f"parameter 'ins_rate_hz' = {v['ins_rate_hz']} Hz does not divide sim_rate_hz")
+        self.ins_every = steps_per_sample(v, "ins_rate_hz")
         self.hold_mode = v["mode"] == "los_hold"
         params = core_params(v)
         self.feedback = params.feedback

@@ -34,7 +34,7 @@ from sensor_msgs.msg import Imu
 from gimbal_sim.node_main import run_node
 from gimbal_sim.qos import GRAPH_QOS
 from gimbal_sim.readiness import announce_when_connected
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
 
 from . import messages as m
 from .flexure_kf import QS_MODELS, FlexureEstimate, FlexureKf, FlexureKfParams
@@ -117,11 +117,7 @@ class FlexureEstimatorNode(Node):
         super().__init__("flexure_estimator", **node_kwargs)
         v = declare_and_read(self, PARAMS)
         self.rate = v["sim_rate_hz"]
-        ratio = self.rate / v["lgu_rate_hz"]
-        self.steps_per_sample = int(round(ratio))
-        if self.steps_per_sample < 1 or abs(ratio - self.steps_per_sample) > 1e-9 * ratio:
-            raise ParameterError(f"parameter 'lgu_rate_hz' = {v['lgu_rate_hz']} Hz does not divide "
-                                 f"sim_rate_hz = {self.rate} Hz")
+        self.steps_per_sample = steps_per_sample(v, "lgu_rate_hz")
         if v["filter_period_s"] * v["lgu_rate_hz"] < 1.0 - 1e-9:
             raise ParameterError(f"parameter 'filter_period_s' = {v['filter_period_s']} s is shorter than one "
                                  f"LGU sample (1/lgu_rate_hz = {1.0 / v['lgu_rate_hz']:g} s)")
