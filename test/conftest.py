@@ -14,7 +14,7 @@ import pytest
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.pop("ROS_STATIC_PEERS", None)
 
-from gimbal_sim.ros_domain import claim_domain_id  # noqa: E402
+from gimbal_kinematics.ros.ros_domain import claim_domain_id  # noqa: E402
 
 _SESSION_DOMAIN = claim_domain_id()
 os.environ["ROS_DOMAIN_ID"] = str(_SESSION_DOMAIN.domain_id)

@@ -12,12 +12,12 @@ from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import serialize_message
 from rosbags.highlevel import AnyReader
 
-from gimbal_sim import messages as m
+from gimbal_kinematics.ros import messages as m
 from gimbal_sim.bag.qos_yaml import qos_from_dict, qos_to_dict
 from gimbal_sim.bag.reader import BagError, read_messages, recover, scan
 from gimbal_sim.bag.schemas import SEPARATOR, ros2msg_schema
 from gimbal_sim.bag.writer import BagWriter
-from gimbal_sim.qos import GRAPH_QOS
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 
 RATE = 100.0
 

@@ -13,9 +13,9 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu, JointState
 
 from conftest import VENV_BIN
-from gimbal_sim import messages as m
+from gimbal_kinematics.ros import messages as m
 from gimbal_sim.bag.reader import read_messages, scan
-from gimbal_sim.qos import GRAPH_QOS
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 from ros_harness import harness_node, node_processes, spin_until
 
 pytestmark = pytest.mark.ros

@@ -8,8 +8,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_sim import messages as m
-from gimbal_sim.cdr import CdrError
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.cdr import CdrError
 
 RNG = np.random.default_rng(11)
 FRAMES = ["", "a", "ab", "abc", "abcd", "base_link_frd", "gimbal_inner_frd", "x" * 31]

@@ -76,8 +76,8 @@ def test_nan_measurements_hold_the_command_and_are_counted(ros_domain_env):
     from sensor_msgs.msg import Imu, JointState
 
     from gimbal_control.encoder_fusion_controller_node import EncoderFusionControllerNode
-    from gimbal_sim import messages as m
-    from gimbal_sim.qos import GRAPH_QOS
+    from gimbal_kinematics.ros import messages as m
+    from gimbal_kinematics.ros.qos import GRAPH_QOS
     from ros_harness import harness_node, spin_until
 
     bad = {5: "gyro", 8: "enc", 11: "base"}

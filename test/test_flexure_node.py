@@ -19,8 +19,8 @@ from conftest import VENV_BIN
 from ros_harness import spin_until
 from gimbal_estimators.flexure_estimator_node import OUTPUTS, FlexureEstimatorNode
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
-from gimbal_sim import messages as m
-from gimbal_sim.qos import GRAPH_QOS
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
 from gimbal_sim.sensors import FlexureParams
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore

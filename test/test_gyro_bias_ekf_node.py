@@ -33,7 +33,7 @@ def test_bad_parameters_are_refused_by_name(ros_domain_env, args, named):
 def _static_inputs(k: int, rate: float = 1000.0):
     """Messages of step k for a gimbal at rest on a level, north-facing vehicle at the
     equator: gyro (q, r) = 100 °/h bias + earth rate, INS every 10 steps."""
-    from gimbal_sim import messages as sm
+    from gimbal_kinematics.ros import messages as sm
 
     t_ns = sm.step_stamp_ns(k, rate)
     w_ie = 7.292115e-5
@@ -51,7 +51,7 @@ def test_node_rejects_nan_and_out_of_order_and_resets_on_a_clock_jump(ros_domain
     from sensor_msgs.msg import Imu, JointState
 
     from gimbal_estimators.gyro_bias_ekf_node import GyroBiasEkfNode
-    from gimbal_sim.qos import GRAPH_QOS
+    from gimbal_kinematics.ros.qos import GRAPH_QOS
 
     with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"])) as (harness, executor):
         ekf = GyroBiasEkfNode(context=harness.context,
@@ -149,7 +149,7 @@ def test_replaying_the_sensors_into_a_fresh_node_reproduces_the_estimates(headli
     fed by the bag player; the estimates must equal the recorded ones to 1e-9."""
     from geometry_msgs.msg import Vector3Stamped
 
-    from gimbal_sim.qos import GRAPH_QOS
+    from gimbal_kinematics.ros.qos import GRAPH_QOS
 
     recorded = _bag_estimates(headline_run)
     env = module_ros_domain_env

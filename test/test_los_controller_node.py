@@ -45,7 +45,7 @@ def test_nan_holds_the_command_malformed_bytes_are_counted_and_each_step_waits(r
     from rclpy.context import Context
 
     from gimbal_control.los_rate_controller_node import LosRateControllerNode
-    from gimbal_sim import messages as m
+    from gimbal_kinematics.ros import messages as m
     from ros_harness import ros_args
 
     rate = 1000.0

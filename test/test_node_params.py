@@ -13,7 +13,7 @@ from rclpy.node import Node
 from conftest import VENV_BIN
 from gimbal_sim import sensor_models_node, vehicle_dynamics_node
 from gimbal_sim.config_files import config_path, expected_text
-from gimbal_sim.ros_params import declare_and_read
+from gimbal_kinematics.ros.params import declare_and_read
 from ros_harness import ros_args
 
 NODES = {"vehicle_dynamics": vehicle_dynamics_node, "sensor_models": sensor_models_node}

@@ -19,7 +19,7 @@ from gimbal_sim.bag.reader import read_messages, scan
 from gimbal_sim.sensor_models_node import truth_from_group
 from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore
-from gimbal_sim import messages as m
+from gimbal_kinematics.ros import messages as m
 
 pytestmark = pytest.mark.ros
 DURATION_S, RATE = 10.0, 1000.0  # the issue: a 10 s open-loop run

@@ -21,9 +21,9 @@ from gimbal_control.platform_experiment import (
 )
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
 from gimbal_estimators.rotation_alignment import KinematicPlatformTruth, RotationAlignmentParams
-from gimbal_estimators.step_sync import StepGroups
+from gimbal_kinematics.sync import StepGroups
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
-from gimbal_sim import messages as m
+from gimbal_kinematics.ros import messages as m
 from gimbal_sim.scenario import load
 from ros_harness import ros_args, start_refused
 

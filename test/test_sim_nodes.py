@@ -16,8 +16,8 @@ from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_sim import messages as m
-from gimbal_sim.qos import GRAPH_QOS
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.sensor_models_node import truth_from_group
 from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
 from gimbal_sim.vehicle import VehicleConfig, VehicleCore

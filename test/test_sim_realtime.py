@@ -9,8 +9,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 from geometry_msgs.msg import Vector3Stamped
 
-from gimbal_sim import messages as m
-from gimbal_sim.qos import GRAPH_QOS
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 from ros_harness import harness_node, node_processes, spin_until
 
 pytestmark = pytest.mark.ros

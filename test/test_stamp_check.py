@@ -1,6 +1,6 @@
 import math
 
-from gimbal_estimators.stamp_check import Stamp, check_stamp
+from gimbal_kinematics.sync import Stamp, check_stamp
 
 
 def test_stamp_verdicts():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import random
 
-from gimbal_estimators.stamp_order import StampOrder
+from gimbal_kinematics.sync import StampOrder
 
 STREAMS = ("encoders", "ins", "gyro")
 

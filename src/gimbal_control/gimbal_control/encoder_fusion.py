@@ -70,8 +70,8 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_estimators.stamp_check import StampGate
-from gimbal_sim.plant.gimbal_params import UAV_SMALL_GIMBAL
+from gimbal_kinematics.sync import StampGate
+from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 from gimbal_sim.sensors import PAPER2_ENCODER, EncoderParams, GyroParams
 
 from .fusion_kf import ClosedLoopComplementaryKf, FusionKfParams

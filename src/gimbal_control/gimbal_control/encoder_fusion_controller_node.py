@@ -26,9 +26,10 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_sim.node_main import run_node
-from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
 from .encoder_fusion import (

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.signal import cont2discrete
 
-from gimbal_sim.plant import GimbalParams
+from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 
 from .linearize import STANDARD_GRAVITY, LinearGimbalModel, linearize_gimbal
 

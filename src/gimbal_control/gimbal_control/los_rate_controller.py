@@ -66,7 +66,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gimbal_kinematics.validate import positive
-from gimbal_sim.plant import GimbalParams
+from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 
 from .linearize import STANDARD_GRAVITY, linearize_gimbal
 

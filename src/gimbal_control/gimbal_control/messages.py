@@ -1,16 +1,17 @@
 """Message conversion for gimbal_control (the package's one module that reads or builds
-ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_sim.messages`."""
+ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_kinematics.ros.messages`."""
 from __future__ import annotations
 
+from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import JointState
 
-from gimbal_sim.messages import (  # noqa: F401
-    encoder_readings, imu_from_cdr, joint_state_cdr, joint_state_from_cdr, joint_state_msg, quat_of, stamp_ns,
-    step_of_stamp, step_stamp_ns, vec_of, vector3_stamped_from_cdr,
+from gimbal_kinematics.frames import (  # noqa: F401  (MODULATION_JOINT: used by the servo node)
+    GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, PLATFORM_JOINTS,
 )
-from gimbal_sim.vehicle import PLATFORM_JOINTS  # (a, q, p, r): the platform plant's joint names
-
-GIMBAL_COMMAND_JOINTS = ("gimbal_azimuth", "gimbal_elevation")
+from gimbal_kinematics.ros.messages import (  # noqa: F401
+    encoder_readings, imu_from_cdr, joint_state_cdr, joint_state_from_cdr, joint_state_msg, quat_of, stamp_ns,
+    step_of_stamp, step_stamp_ns, vec_of, vector3_msg, vector3_stamped_from_cdr,
+)
 
 
 def torque_command_msg(t_ns: int, tau: tuple[float, float]) -> JointState:
@@ -23,26 +24,13 @@ def torque_command_cdr(t_ns: int, tau: tuple[float, float]) -> bytes:
 
 
 # ---------------------------------------------------------------- paper 2 (encoder fusion)
-from geometry_msgs.msg import Vector3Stamped  # noqa: E402  (imports kept with the functions using them)
-
-from gimbal_sim.messages import vector3_msg  # noqa: E402
-
-#: Frame of the two-axis gimbal gyro and of the per-axis (q_m, r_m) quantities.
-GIMBAL_GYRO_FRAME = "gimbal_inner_frd"
-
-
 def gimbal_axes_msg(t_ns: int, q: float, r: float) -> Vector3Stamped:
     """A per-axis quantity of the two gyro axes as (0, q, r) in the inner-gimbal frame
     (x, the roll axis the two-axis gyro does not measure, is 0)."""
-    return vector3_msg(t_ns, GIMBAL_GYRO_FRAME, (0.0, q, r))
+    return vector3_msg(t_ns, GIMBAL_FRAME, (0.0, q, r))
 
 
 # --- paper 3 four-gimbal platform servo ------------------------------------------------------
-
-#: Name of the single joint of the servo's ``~/modulation`` message (commanded φz, φ̇z).
-MODULATION_JOINT = "modulation_angle"
-
-
 def platform_joint_positions(msg: JointState) -> tuple[float, float, float, float] | None:
     """Positions of the platform joints (θ_a, θ_q, θ_p, θ_r) [rad] in that order; None when
     the message does not carry exactly those joints with positions."""

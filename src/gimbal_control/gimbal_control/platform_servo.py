@@ -62,7 +62,7 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
-from gimbal_estimators.stamp_check import StampGate
+from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.four_gimbal import (
     BidirectionalRotation, command_rate_s, inner_gimbal_control_signals, outer_roll_control_signal,
 )

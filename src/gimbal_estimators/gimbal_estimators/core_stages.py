@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from gimbal_kinematics.rotations import euler321_from_quat
-from gimbal_sim import messages as m
+from gimbal_kinematics.ros import messages as m
 from gimbal_sim.bag.reader import read_messages
 
 from .gyro_bias_ekf import GyroBiasEkf

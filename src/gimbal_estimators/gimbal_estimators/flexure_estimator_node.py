@@ -31,10 +31,12 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from gimbal_sim.node_main import run_node
-from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.readiness import announce_when_connected
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.frames import LGU1_FRAME
 
 from . import messages as m
 from .flexure_kf import QS_MODELS, FlexureEstimate, FlexureKf, FlexureKfParams
@@ -191,7 +193,7 @@ class FlexureEstimatorNode(Node):
             if b == self._last_bin:
                 return
             self._last_bin = b
-        frame = "lgu1_frd"
+        frame = LGU1_FRAME
         values = {"flexure": est.flexure, "flexure_sigma": est.flexure_sigma,
                   "quasi_static": est.quasi_static, "quasi_static_sigma": est.quasi_static_sigma,
                   "dynamic": est.dynamic, "dynamic_sigma": est.dynamic_sigma,

@@ -39,16 +39,18 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, NavSatFix
 
-from gimbal_sim.node_main import run_node
-from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.readiness import announce_when_connected
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_sim.sensors.free_gyro_sensor import spin_axes_for_site_deg
-from gimbal_sim.stamp_sync import StampSync
+from gimbal_kinematics.sync import StampSync
+from gimbal_kinematics.frames import BASE_FRAME
 
 from . import messages as m
 from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams
-from .stamp_check import Stamp, check_stamp
+from gimbal_kinematics.sync import Stamp, check_stamp
 
 DESCRIPTION = (
     "Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free "
@@ -58,7 +60,7 @@ DESCRIPTION = (
 )
 INF = math.inf
 SPIN_A, SPIN_B, IMU = "/free_gyro/spin_axis_a", "/free_gyro/spin_axis_b", "/free_gyro/imu"
-FRAME_ID = "base_link_frd"
+FRAME_ID = BASE_FRAME
 STATUS_FIX, STATUS_DEGENERATE = 0.0, 1.0
 
 PARAMS = (

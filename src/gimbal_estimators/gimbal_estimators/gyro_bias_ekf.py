@@ -143,7 +143,7 @@ from gimbal_kinematics.rotations import (
 from gimbal_kinematics.validate import finite, nonneg_finite, positive
 
 from . import kalman
-from .stamp_check import Stamp, check_stamp
+from gimbal_kinematics.sync import Stamp, check_stamp
 
 _DEG = math.pi / 180.0
 _DEG_H = _DEG / 3600.0

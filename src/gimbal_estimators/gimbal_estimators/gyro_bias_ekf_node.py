@@ -34,14 +34,15 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_sim.node_main import run_node
-from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.readiness import announce_when_connected
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
 from .gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
-from .stamp_order import StampOrder
+from gimbal_kinematics.sync import StampOrder
 
 DESCRIPTION = (
     "Paper 1 gyro-bias EKF: propagates the inner-gimbal attitude C(n,m) with the two-axis gimbal "

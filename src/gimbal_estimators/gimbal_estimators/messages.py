@@ -1,5 +1,5 @@
 """Message conversion for gimbal_estimators (the package's one module that reads or builds
-ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_sim.messages`."""
+ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_kinematics.ros.messages`."""
 from __future__ import annotations
 
 import math
@@ -9,16 +9,15 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
+from gimbal_kinematics.frames import GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401  (used by the nodes)
 from gimbal_kinematics.rotations import euler321_from_quat
-from gimbal_sim.messages import (  # noqa: F401
+from gimbal_kinematics.ros.messages import (  # noqa: F401
     NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, imu_msg, navsat_fix_msg, quat_of, stamp_ns, step_of_stamp,
     step_stamp_ns, time_msg, vec_of, vector3_msg,
 )
 
 from .free_gyro_positioning import FreeGyroFix, navsat_covariance_enu
 
-#: Frame of the inner gimbal m (FRD), in which the gimbal gyro biases are resolved.
-GIMBAL_FRAME = "gimbal_inner_frd"
 
 
 def euler_of_imu(msg: Imu) -> tuple[float, float, float] | None:
@@ -103,7 +102,6 @@ def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:
 
 
 # --- paper 3 rotation-modulated alignment -----------------------------------------------------
-PLATFORM_FRAME = "platform_frd"
 #: Standard-deviation component of a vector element the estimator does not estimate
 #: (the REP 145 "not provided" marker, used per element).
 NOT_ESTIMATED = -1.0

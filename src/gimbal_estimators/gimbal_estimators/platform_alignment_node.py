@@ -41,14 +41,15 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_sim.node_main import run_node
-from gimbal_sim.qos import GRAPH_QOS
-from gimbal_sim.readiness import announce_when_connected
-from gimbal_sim.ros_params import Param, ParameterError, declare_and_read, steps_per_sample
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
 from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
-from .step_sync import StepGroups
+from gimbal_kinematics.sync import StepGroups
 
 DESCRIPTION = (
     "Paper 3 rotation-modulated fine alignment: 8-state recursive least squares on the platform's level "

@@ -123,7 +123,7 @@ def count_lost(bag: Path, sim_rate_hz: float, end_ns: int) -> tuple[int, int, di
     a topic published every N steps must have one message per N steps from its first
     stamp to the end of the run. Topics with fewer than three messages are not judged."""
     from .bag.reader import read_messages
-    from .cdr import CdrError, read_stamp
+    from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 
     messages, contents = read_messages(bag)
     stamps: dict[str, list[int]] = {}
@@ -206,9 +206,9 @@ def _replay_node_processes(bag: Path, scenario: Scenario) -> str:
     import rclpy
     from rclpy.context import Context
 
-    from . import messages as m
+    from gimbal_kinematics.ros import messages as m
     from .bag.player import BagPlayer, PlayOptions
-    from .node_main import make_executor
+    from gimbal_kinematics.ros.node_main import make_executor
     from .orchestrator import _ros_env, plan_nodes, stop_processes
 
     planned = next((n for n in plan_nodes(scenario, Path("/nonexistent")) if n.executable == EKF_EXECUTABLE), None)
@@ -433,7 +433,7 @@ def bench_run(args: argparse.Namespace) -> int:
 
 def _check_commands(scenario: Scenario, bag: Path) -> str:
     """Does the core loop compute the torque commands the graph recorded, bit for bit?"""
-    from . import messages as m
+    from gimbal_kinematics.ros import messages as m
     from .bag.reader import read_messages
     from .core_loop import run_core_loop
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
-from .ros_params import params_yaml
+from gimbal_kinematics.params import params_yaml
 
 #: node name -> (package, module holding PARAMS)
 NODE_MODULES = {

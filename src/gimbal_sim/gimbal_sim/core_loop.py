@@ -26,7 +26,7 @@ from typing import Any, Callable
 
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
 
-from .messages import step_stamp_ns
+from gimbal_kinematics.ros.messages import step_stamp_ns
 from .scenario import NODE_TYPES, Scenario, ScenarioError, load
 
 #: Nodes with no core to step (they only observe the run).

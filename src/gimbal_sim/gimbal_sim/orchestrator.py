@@ -20,7 +20,7 @@ from typing import Any, Iterable
 
 import yaml
 
-from .ros_domain import claim_domain_id, localhost_env
+from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 from .scenario import NODE_TYPES, Scenario
 
 STOP_GRACE_S = 10.0      # how long a node may take to exit after SIGINT
@@ -154,8 +154,8 @@ class Monitor:
         from rclpy.task import Future
         from rosgraph_msgs.msg import Clock
 
-        from . import messages as m
-        from .qos import GRAPH_QOS
+        from gimbal_kinematics.ros import messages as m
+        from gimbal_kinematics.ros.qos import GRAPH_QOS
 
         self.node = Node("gimbal_run_monitor", context=context)
         self.sim_ns = 0
@@ -319,7 +319,7 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
     import rclpy
     from rclpy.context import Context
 
-    from .node_main import make_executor
+    from gimbal_kinematics.ros.node_main import make_executor
 
     bin_dir = Path(sys.executable).parent
     procs: dict[str, subprocess.Popen] = {}
@@ -387,7 +387,7 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
     import rclpy
     from rclpy.context import Context
 
-    from .node_main import make_executor
+    from gimbal_kinematics.ros.node_main import make_executor
 
     context = Context()
     rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))

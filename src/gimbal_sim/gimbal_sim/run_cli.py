@@ -133,7 +133,7 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
     from tqdm import tqdm
 
     from .orchestrator import PROGRESS_FILE_ENV
-    from .ros_domain import claim_domain_id, localhost_env
+    from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
     out.mkdir(parents=True)
     pending, active, failed, done = list(runs), [], [], {}

@@ -33,7 +33,7 @@ from typing import Any
 
 import yaml
 
-from .ros_params import Param
+from gimbal_kinematics.params import Param
 
 BUILTIN_DIR = Path(__file__).parent / "scenarios"
 

@@ -9,24 +9,26 @@ import math
 import sys
 
 from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat, quat_canonical, quat_from_euler321
+from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, LGU2_FRAME, PLATFORM_FRAME
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
-from . import messages as m
-from .cdr import CdrError
-from .node_main import run_node
-from .qos import GRAPH_QOS
-from .readiness import announce_when_connected
-from .ros_params import Param, ParameterError, declare_and_read
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.ros.params import declare_and_read
 from .sensor_suite import (
     SENSORS, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample,
     SensorSuite, SensorSuiteConfig,
 )
 from .sensors import AccelerometerParams, EncoderParams, FlexureParams, GyroParams, InsParams
 from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensorParams, spin_axes_for_site_deg
-from .stamp_sync import StampSync
+from gimbal_kinematics.sync import StampSync
 from .vehicle import VehicleTruth
 
 DESCRIPTION = (
@@ -325,45 +327,45 @@ class SensorModelsNode(Node):
         cov = self._noise_cov
         if isinstance(s, GimbalGyroSample):
             imu, bias = self.pubs["gimbal_gyro"]
-            imu.publish(m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, s.q_m, s.r_m),
+            imu.publish(m.imu_cdr(t_ns, GIMBAL_FRAME, angular_velocity=(0.0, s.q_m, s.r_m),
                                   angular_velocity_cov=cov["gyro"]))
-            bias.publish(m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, *s.true_bias)))
+            bias.publish(m.vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *s.true_bias)))
         elif isinstance(s, EncoderSample):
             self.pubs["encoders"][0].publish(m.joint_state_cdr(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, InsSample):
             imu, bias = self.pubs["ins"]
-            imu.publish(m.imu_cdr(t_ns, "base_link_frd", orientation=quat_canonical(quat_from_euler321(*s.euler)),
+            imu.publish(m.imu_cdr(t_ns, BASE_FRAME, orientation=quat_canonical(quat_from_euler321(*s.euler)),
                                   orientation_cov=cov["ins_att"], angular_velocity=s.omega_b,
                                   angular_velocity_cov=cov["ins_rate"]))
-            bias.publish(m.vector3_cdr(t_ns, "base_link_frd", s.true_gyro_bias))
+            bias.publish(m.vector3_cdr(t_ns, BASE_FRAME, s.true_gyro_bias))
         elif isinstance(s, LguSample):
             lgu1, lgu2, flex, flex_qs = self.pubs["lgu"]
             # angular_velocity carries the increment over the sample interval divided by it
-            lgu1.publish(m.imu_cdr(t_ns, "lgu1_frd", angular_velocity=[d / s.dt for d in s.dalpha1],
+            lgu1.publish(m.imu_cdr(t_ns, LGU1_FRAME, angular_velocity=[d / s.dt for d in s.dalpha1],
                                    angular_velocity_cov=cov["lgu"]))
-            lgu2.publish(m.imu_cdr(t_ns, "lgu2_frd", angular_velocity=[d / s.dt for d in s.dalpha2],
+            lgu2.publish(m.imu_cdr(t_ns, LGU2_FRAME, angular_velocity=[d / s.dt for d in s.dalpha2],
                                    angular_velocity_cov=cov["lgu"]))
-            flex.publish(m.vector3_cdr(t_ns, "lgu1_frd", s.flexure))
-            flex_qs.publish(m.vector3_cdr(t_ns, "lgu1_frd", s.flexure_quasi_static))
+            flex.publish(m.vector3_cdr(t_ns, LGU1_FRAME, s.flexure))
+            flex_qs.publish(m.vector3_cdr(t_ns, LGU1_FRAME, s.flexure_quasi_static))
         elif isinstance(s, ResolverSample):
             self.pubs["resolvers"][0].publish(m.joint_state_cdr(t_ns, s.names, s.angles, s.rates))
         elif isinstance(s, PlatformImuSample):
             imu, accel_bias, gyro_bias = self.pubs["platform_imu"]
-            imu.publish(m.imu_cdr(t_ns, "platform_frd", angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],
+            imu.publish(m.imu_cdr(t_ns, PLATFORM_FRAME, angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],
                                   linear_acceleration=s.specific_force, linear_acceleration_cov=cov["p_accel"]))
-            accel_bias.publish(m.vector3_cdr(t_ns, "platform_frd", s.true_accel_bias))
-            gyro_bias.publish(m.vector3_cdr(t_ns, "platform_frd", s.true_gyro_bias))
+            accel_bias.publish(m.vector3_cdr(t_ns, PLATFORM_FRAME, s.true_accel_bias))
+            gyro_bias.publish(m.vector3_cdr(t_ns, PLATFORM_FRAME, s.true_gyro_bias))
         elif isinstance(s, FreeGyroSample):
             spin_a, spin_b, imu, position, bias = self.pubs["free_gyro"]
-            spin_a.publish(m.vector3_msg(t_ns, "base_link_frd", s.spin_a_b))
-            spin_b.publish(m.vector3_msg(t_ns, "base_link_frd", s.spin_b_b))
+            spin_a.publish(m.vector3_msg(t_ns, BASE_FRAME, s.spin_a_b))
+            spin_b.publish(m.vector3_msg(t_ns, BASE_FRAME, s.spin_b_b))
             # orientation = the vertical reference: roll and pitch, heading 0 (not measured)
-            imu.publish(m.imu_msg(t_ns, "base_link_frd", orientation=euler321_to_quat(s.roll, s.pitch, 0.0),
+            imu.publish(m.imu_msg(t_ns, BASE_FRAME, orientation=euler321_to_quat(s.roll, s.pitch, 0.0),
                                   orientation_cov=cov["fg_level"], angular_velocity=s.omega_ib_b,
                                   angular_velocity_cov=cov["fg_rate"]))
             lat, lon = (math.radians(x) for x in self.config.free_gyro_site_deg)
-            position.publish(m.navsat_fix_msg(t_ns, "base_link_frd", lat, lon, 0.0, m.ZERO_COV))
-            bias.publish(m.vector3_msg(t_ns, "base_link_frd", s.true_triad_bias))
+            position.publish(m.navsat_fix_msg(t_ns, BASE_FRAME, lat, lon, 0.0, m.ZERO_COV))
+            bias.publish(m.vector3_msg(t_ns, BASE_FRAME, s.true_triad_bias))
 
 
 def main(argv: list[str] | None = None) -> int:

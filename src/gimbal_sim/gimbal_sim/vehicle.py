@@ -36,17 +36,16 @@ from gimbal_kinematics.rotations import (
     quat_mul, rotation_vector_from_quat,
 )
 
-from .plant.gimbal_dynamics import GimbalSimulator
-from .plant.gimbal_params import GimbalParams
-from .plant.host_state import inertial_rates_trig
+from .plant.gimbal_simulator import GimbalSimulator
+from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS  # noqa: F401  (re-exported)
+from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS
+from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
+from gimbal_kinematics.gimbal.host_state import inertial_rates_trig
 from .plant.motion_profiles import PROFILE_NAMES, make_profile
 from .plant.platform_loops import PlatformAxis, paper3_axis_params
-from .plant.turret_base import site_environment
+from gimbal_kinematics.gimbal.turret_base import site_environment
 
 PLANTS = ("two_axis_gimbal", "four_gimbal_platform", "host_only")
-GIMBAL_JOINTS = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
-GIMBAL_COMMAND_JOINTS = ("gimbal_azimuth", "gimbal_elevation")
-PLATFORM_JOINTS = ("platform_azimuth", "platform_inner_roll", "platform_pitch", "platform_outer_roll")
 _PLATFORM_AXES = ("a", "q", "p", "r")
 ARCSEC = math.radians(1.0 / 3600.0)
 

@@ -28,19 +28,20 @@ import sys
 
 import yaml
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 from geometry_msgs.msg import Vector3Stamped
 
-from . import messages as m
-from .cdr import CdrError
-from .node_main import run_node
-from .qos import GRAPH_QOS
-from .plant.gimbal_params import GIMBAL_MODELS
+from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, PLATFORM_FRAME
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from .plant.motion_profiles import PROFILE_NAMES
-from .ros_params import Param, ParameterError, declare_and_read
+from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.ros.params import declare_and_read
 from .vehicle import GIMBAL_COMMAND_JOINTS, PLANTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
 
 DESCRIPTION = (
@@ -67,10 +68,10 @@ PARAMS = (
     Param("controlled", False, "a controller commands the plant (lockstep waits for its command)"),
     Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
     Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
-          array_type=Parameter.Type.STRING_ARRAY),
+          array_type="string_array"),
     Param("pace_topics", [], "rosgraph_msgs/Clock progress topics (time of the next step the reader "
           "needs) of readers to wait for and not outrun",
-          array_type=Parameter.Type.STRING_ARRAY),
+          array_type="string_array"),
     Param("pace_window_steps", 50, "steps the vehicle may run ahead of the slowest pace topic", 1, 10**6),
     Param("exit_at_end", False, "exit the process after the last step"),
 )
@@ -137,7 +138,7 @@ class VehicleDynamicsNode(Node):
         self._needed = self._subscriber_counts(values["subscriber_counts"])
         self._rearm = None  # open loop: zero-period timer that re-runs _free_run_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
-        self._plant_frame = "gimbal_inner_frd" if plant == "two_axis_gimbal" else "platform_frd"
+        self._plant_frame = GIMBAL_FRAME if plant == "two_axis_gimbal" else PLATFORM_FRAME
 
     # --- start-up handshake -------------------------------------------------------------
     def _subscriber_counts(self, entries: list[str]) -> dict:
@@ -265,10 +266,10 @@ class VehicleDynamicsNode(Node):
     def _publish_truth(self, truth: VehicleTruth) -> None:
         # serialized by hand (messages.*_cdr): the same messages, without message objects
         t_ns = m.step_stamp_ns(truth.k, self.config.sim_rate_hz)
-        self.pub_host.publish(m.imu_cdr(t_ns, "base_link_frd", orientation=truth.quat_nb,
+        self.pub_host.publish(m.imu_cdr(t_ns, BASE_FRAME, orientation=truth.quat_nb,
                                         angular_velocity=truth.omega_ib_b,
                                         linear_acceleration=truth.specific_force_b))
-        self.pub_delta.publish(m.vector3_cdr(t_ns, "base_link_frd", truth.delta_angle_b))
+        self.pub_delta.publish(m.vector3_cdr(t_ns, BASE_FRAME, truth.delta_angle_b))
         if self.pub_joints is not None:
             self.pub_joints.publish(m.joint_state_cdr(t_ns, truth.joint_names, truth.joint_position,
                                                       truth.joint_velocity, truth.joint_effort))

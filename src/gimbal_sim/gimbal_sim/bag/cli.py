@@ -55,7 +55,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    from ..ros_domain import localhost_env
+    from gimbal_kinematics.ros.ros_domain import localhost_env
     from .player import BagPlayer, PlayOptions, parse_remaps
 
     options = PlayOptions(rate=args.rate, clock=args.clock, topics=args.topics, remap=parse_remaps(args.remap),

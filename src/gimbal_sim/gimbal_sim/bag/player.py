@@ -26,8 +26,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from .. import messages as m
-from ..qos import GRAPH_QOS
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 from .reader import BagContents, BagError, RawMessage, read_messages
 from .schemas import message_class
 

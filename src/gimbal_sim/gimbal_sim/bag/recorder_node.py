@@ -17,14 +17,14 @@ import sys
 
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from .. import messages as m
-from ..node_main import run_node
-from ..qos import GRAPH_QOS
-from ..ros_params import Param, ParameterError, declare_and_read
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.ros.params import declare_and_read
 from .qos_yaml import qos_to_dict
 from .schemas import message_class, msg_text, split_type
 from .writer import BagWriter
@@ -36,10 +36,10 @@ DESCRIPTION = (
 )
 PARAMS = (
     Param("output_dir", "", "bag directory to write (refused if it already holds a bag)"),
-    Param("topics", [], "topics to record; empty: every topic discovered", array_type=Parameter.Type.STRING_ARRAY),
+    Param("topics", [], "topics to record; empty: every topic discovered", array_type="string_array"),
     Param("exclude_topics", ["/rosout", "/parameter_events"], "topics never recorded"),
     Param("wait_for_nodes", [], "with topics empty: node names whose publishers must all be subscribed "
-          "before ready", array_type=Parameter.Type.STRING_ARRAY),
+          "before ready", array_type="string_array"),
     Param("sim_rate_hz", 1000.0, "simulation rate [Hz], to turn /clock into step numbers", 1.0, 100000.0),
     Param("progress_every_steps", 10, "report the next step needed on ~/progress every N steps", 1, 10**6),
     Param("end_time_s", 0.0, "sim time of the run's last step [s]: reaching it on /clock is reported on "

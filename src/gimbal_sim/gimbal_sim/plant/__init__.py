@@ -1,9 +1,15 @@
 """Pure-Python plant models (no rclpy): host motion profiles, the two-axis gimbal of
 paper 1 and the single-axis DC-motor loops of paper 3. The ``vehicle_dynamics`` node wraps
-these; see each module's docstring for equations, units and chosen parameters."""
-from .gimbal_dynamics import GimbalSimulator, TwoAxisGimbal
-from .gimbal_params import GimbalParams, inertia_matrix
-from .host_state import HostState, body_inertial_rates, host_state_from_euler
+these (the rigid-body gimbal model itself lives in :mod:`gimbal_kinematics.gimbal`, where the
+controller that inverts it finds it); see each module's docstring for equations, units and chosen parameters."""
+from gimbal_kinematics.gimbal.gimbal_dynamics import TwoAxisGimbal
+from gimbal_kinematics.gimbal.gimbal_params import GimbalParams, inertia_matrix
+from gimbal_kinematics.gimbal.host_state import HostState, body_inertial_rates, host_state_from_euler
+from gimbal_kinematics.gimbal.turret_base import (
+    SiteEnvironment, TurretBase, rest_base, site_environment, turret_base_from_host,
+)
+
+from .gimbal_simulator import GimbalSimulator
 from .motion_profiles import (
     PROFILE_NAMES,
     SinusoidChannel,
@@ -16,7 +22,6 @@ from .motion_profiles import (
 )
 from .platform_loops import PAPER3_TABLE1, PlatformAxis, PlatformAxisParams, paper3_axis_params
 from .rk4 import rk4_step
-from .turret_base import SiteEnvironment, TurretBase, rest_base, site_environment, turret_base_from_host
 
 __all__ = [
     "GimbalParams", "GimbalSimulator", "HostState", "PAPER3_TABLE1", "PROFILE_NAMES",

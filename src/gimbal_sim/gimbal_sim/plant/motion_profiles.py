@@ -50,7 +50,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .host_state import HostState, host_state_from_euler
+from gimbal_kinematics.gimbal.host_state import HostState, host_state_from_euler
 
 _DEG = math.pi / 180.0
 

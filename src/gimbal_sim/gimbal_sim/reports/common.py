@@ -9,10 +9,10 @@ from typing import NamedTuple
 import numpy as np
 import yaml
 
-from .. import messages as msgs
+from gimbal_kinematics.ros import messages as msgs
 from ..bag.reader import BagContents, read_messages
 from ..bag.schemas import message_class
-from ..cdr import CdrError
+from gimbal_kinematics.ros.cdr import CdrError
 from .figures import save_stacked, stacked, style
 
 

@@ -19,13 +19,14 @@ from geometry_msgs.msg import Vector3Stamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
+from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, NAV_FRAME  # noqa: F401  (re-exported)
+
 from . import cdr
 
 #: Covariance marking a field as not provided (REP 145).
 NOT_PROVIDED = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 ZERO_COV = (0.0,) * 9
 
-NAV_FRAME = "map_ned"
 
 
 def step_stamp_ns(k: int, rate_hz: float) -> int:
@@ -113,9 +114,6 @@ def quat_of(msg) -> tuple[float, float, float, float]:
 def vec_of(v) -> tuple[float, float, float]:
     """(x, y, z) of a geometry_msgs Vector3 (or the tuple a decoded message holds)."""
     return v if type(v) is tuple else (v.x, v.y, v.z)
-
-
-GIMBAL_ENCODER_JOINTS = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
 
 
 def encoder_readings(msg: JointState) -> tuple[tuple[float, ...], tuple[float, ...]] | None:

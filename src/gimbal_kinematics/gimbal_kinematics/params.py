@@ -1,0 +1,71 @@
+"""A node's parameter table, readable without ROS: one :class:`Param` per parameter (name,
+default, description with units, range or choices).
+
+The table is the single source of a node's parameters: the node declares it through
+:mod:`gimbal_kinematics.ros.params` (rclpy turns the ranges into descriptors and refuses an
+out-of-range value at startup), the core loop and the experiments read the same defaults
+without rclpy, and the config generator writes ``config/<node>.yaml`` from it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+#: Element types of an empty-list default (rcl cannot infer them from ``[]``).
+ARRAY_TYPES = ("string_array", "double_array", "integer_array", "bool_array")
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: name, default (its type is the parameter's type), description with
+    units, and for numbers an inclusive range [low, high]; for strings a set of choices.
+
+    An empty-list default cannot carry its element type, so it needs ``array_type`` (one of
+    :data:`ARRAY_TYPES`); unset, such a parameter reads as ``[]``."""
+
+    name: str
+    default: Any
+    description: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] = ()
+    array_type: str | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.default, list) and not self.default and self.array_type is None:
+            raise ValueError(f"Param {self.name!r}: an empty-list default needs array_type")
+        if self.array_type is not None and self.array_type not in ARRAY_TYPES:
+            raise ValueError(f"Param {self.name!r}: array_type must be one of {ARRAY_TYPES}")
+
+
+class ParameterError(ValueError):
+    """A parameter was refused at startup; the message names it."""
+
+
+def defaults(params: Sequence[Param]) -> dict[str, Any]:
+    """Every parameter's default value by name (what a node reads when nothing is set)."""
+    return {p.name: p.default for p in params}
+
+
+def params_yaml(node_name: str, params: Sequence[Param]) -> str:
+    """The node's default ``--params-file`` YAML (``ros__parameters``), descriptions as
+    comments. An empty-list parameter is written commented out: rcl cannot type ``[]``."""
+    import yaml
+
+    lines = [f"# Default parameters of the {node_name} node (units in the names).",
+             f"# Use: ros2 run <package> {node_name} --ros-args --params-file {node_name}.yaml",
+             f"{node_name}:", "  ros__parameters:"]
+    for p in params:
+        value = yaml.safe_dump(p.default, default_flow_style=True, width=1000).strip().removesuffix("\n...")
+        lines += [f"    # {p.description}", f"    {'# ' if p.default == [] else ''}{p.name}: {value}"]
+    return "\n".join(lines) + "\n"
+
+
+def steps_per_sample(values: dict[str, Any], rate_name: str, base_name: str = "sim_rate_hz") -> int:
+    """Lockstep steps per sample of the rate parameter ``rate_name`` [Hz]; raises
+    :class:`ParameterError` naming it unless it divides ``base_name``."""
+    ratio = values[base_name] / values[rate_name]
+    n = int(round(ratio))
+    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+        raise ParameterError(f"parameter {rate_name!r} = {values[rate_name]} Hz does not divide {base_name}")
+    return n

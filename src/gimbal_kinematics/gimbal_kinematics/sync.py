@@ -1,0 +1,218 @@
+"""The one input-sync toolkit of every node and message-driven core (pure Python, no rclpy).
+
+A node's inputs arrive on separate topics in whatever order the middleware delivers them;
+what the node computes must not depend on that order, or a replay would not reproduce a run.
+
+* :func:`check_stamp` / :class:`StampGate`: the verdict on one stamp (non-finite, out of
+  order, or a backward clock jump that calls for a reset), shared by the cores.
+* :class:`StampOrder`: release several streams in stamp order (a filter fed at any replay
+  speed sees the same sequence), with a bounded wait for a stream that stopped.
+* :class:`StepGroups`: group inputs by lockstep step and release each step once every input
+  due at that step has arrived (a controller whose command k the vehicle waits for).
+* :class:`StampSync`: group one message per topic by exact stamp (a simulator node that
+  needs every truth topic of a step).
+
+StampOrder: a message is released once every stream has delivered a stamp at or after it
+(nothing earlier can still come), or once the newest stamp seen is more than ``max_wait_ns``
+past it. A message stamped before its own stream's previous one (out of order, or a bag
+loop) flushes the buffer and is released at once, for the filter to judge.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from enum import Enum
+from typing import Any, Callable, Iterable, Sequence
+
+
+# ----------------------------------------------------------------------------------------
+# Stamp verdicts, shared by every message-driven core. A stamp that is not finite is
+# rejected; one at or before the previous stamp is rejected as out of order unless it lies
+# more than ``backward_jump_s`` before it: a clock jump (a bag looping) that calls for a reset.
+# ----------------------------------------------------------------------------------------
+class Stamp(Enum):
+    OK = "ok"
+    NONFINITE = "nonfinite"
+    OUT_OF_ORDER = "out_of_order"
+    JUMPED_BACK = "jumped_back"
+
+
+def check_stamp(t: float, last: float | None, backward_jump_s: float) -> Stamp:
+    """Classify stamp ``t`` [s] against the previous accepted stamp ``last`` [s]."""
+    if not math.isfinite(t):
+        return Stamp.NONFINITE
+    if last is not None and t <= last:
+        return Stamp.JUMPED_BACK if last - t > backward_jump_s else Stamp.OUT_OF_ORDER
+    return Stamp.OK
+
+
+class StampGate:
+    """Mixin for a core with ``rejected_nonfinite`` and ``rejected_out_of_order`` counters,
+    ``reset(reason)`` and ``params.backward_jump_s``: counts a rejected stamp and resets on a
+    clock jump (the stamp is then accepted as the first of a new run)."""
+
+    def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
+        verdict = check_stamp(t, last, self.params.backward_jump_s)
+        if verdict is Stamp.NONFINITE:
+            self.rejected_nonfinite += 1
+        elif verdict is Stamp.OUT_OF_ORDER:
+            self.rejected_out_of_order += 1
+        elif verdict is Stamp.JUMPED_BACK:
+            self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
+            return True
+        return verdict is Stamp.OK
+
+
+# ----------------------------------------------------------------------------------------
+# StampOrder: several streams released in stamp order, whatever order they arrive in.
+# ----------------------------------------------------------------------------------------
+class StampOrder:
+    """Stamp-ordered merge of ``streams`` (their order is the release order within a stamp)."""
+
+    def __init__(self, streams: Sequence[str], max_wait_ns: int) -> None:
+        if not streams or len(set(streams)) != len(streams):
+            raise ValueError(f"streams must be distinct names, got {list(streams)!r}")
+        if max_wait_ns < 0:
+            raise ValueError(f"max_wait_ns must be >= 0, got {max_wait_ns}")
+        self.streams = tuple(streams)
+        self.max_wait_ns = int(max_wait_ns)
+        self._queues: dict[str, deque] = {s: deque() for s in self.streams}
+        self._last: dict[str, int | None] = {s: None for s in self.streams}
+        self._newest: int | None = None
+
+    def add(self, stream: str, stamp_ns: int, item: Any) -> list[tuple[str, Any]]:
+        """Buffer ``item`` of ``stream`` stamped ``stamp_ns``; returns the (stream, item)
+        pairs now released, in order."""
+        last = self._last[stream]
+        if last is not None and stamp_ns < last:
+            out = self.flush()
+            out.append((stream, item))
+            self._last = {s: None for s in self.streams}
+            self._newest = None
+            return out
+        self._last[stream] = stamp_ns
+        self._newest = stamp_ns if self._newest is None else max(self._newest, stamp_ns)
+        self._queues[stream].append((stamp_ns, item))
+        return self._release(force=False)
+
+    def flush(self) -> list[tuple[str, Any]]:
+        """Release everything buffered, in order."""
+        return self._release(force=True)
+
+    @property
+    def pending(self) -> int:
+        return sum(len(q) for q in self._queues.values())
+
+    def _release(self, force: bool) -> list[tuple[str, Any]]:
+        out: list[tuple[str, Any]] = []
+        queues = self._queues
+        while True:
+            heads = [q[0][0] for q in queues.values() if q]
+            if not heads:
+                return out
+            t = min(heads)
+            covered = all(last is not None and last >= t for last in self._last.values())
+            if not (force or covered or self._newest - t > self.max_wait_ns):
+                return out
+            for s in self.streams:
+                q = queues[s]
+                while q and q[0][0] == t:
+                    out.append((s, q.popleft()[1]))
+
+
+# ----------------------------------------------------------------------------------------
+# StepGroups: a node's inputs grouped by lockstep step, each step released once complete.
+# ----------------------------------------------------------------------------------------
+class StepGroups:
+    """Pending inputs by step (module docstring).
+
+    A message for a step at or before the last released one is rejected and counted in
+    ``rejected``, unless it lies more than ``backjump_steps`` back: that is a clock jump (a
+    replayed bag looping), so everything pending is dropped, ``restarts`` counts it and the
+    message starts the new run.
+    """
+
+    def __init__(self, needs: Callable[[int], tuple[str, ...]], backjump_steps: float) -> None:
+        self.needs = needs
+        self.backjump_steps = float(backjump_steps)
+        self._pending: dict[int, dict[str, Any]] = {}
+        self.last_step: int | None = None
+        self.rejected = 0
+        self.restarts = 0
+
+    def add(self, kind: str, k: int, msg: Any, logger: Any = None) -> list[tuple[int, dict[str, Any]]]:
+        """Add input ``kind`` of step ``k``; returns the steps it completes, in order, as
+        (step, {kind: msg}) (empty when it completes none or is rejected). A node's
+        ``logger`` (rclpy's, or anything with ``info``/``warning``) hears of restarts and,
+        at most once a second, of rejections."""
+        last = self.last_step
+        if last is not None and k <= last:
+            if last - k <= self.backjump_steps:
+                self.rejected += 1
+                if logger is not None:
+                    logger.warning(f"{kind} stamped for step {k}, already past step {last}: ignored "
+                                   f"({self.rejected} rejected)", throttle_duration_sec=1.0)
+                return []
+            self._pending.clear()
+            self.last_step = None
+            self.restarts += 1
+            if logger is not None:
+                logger.info(f"inputs jumped back from step {last} to {k} (a replay looping?): restarting")
+        self._pending.setdefault(k, {})[kind] = msg
+        done = []
+        for step in sorted(self._pending):
+            group = self._pending[step]
+            if not all(need in group for need in self.needs(step)):
+                break
+            del self._pending[step]
+            self.last_step = step
+            done.append((step, group))
+        return done
+
+
+# ----------------------------------------------------------------------------------------
+# StampSync: one message per topic collected for each exact stamp.
+# ----------------------------------------------------------------------------------------
+class StampSync:
+    """Group messages of ``topics`` by stamp; a group is complete when every topic has
+    delivered its message for that stamp.
+
+    Stamps must rise per topic. A message whose stamp is not newer than the last completed
+    group is rejected and counted in ``rejected`` (a late duplicate or a replayed past);
+    ``max_pending`` bounds the memory held by groups a topic never completes.
+    """
+
+    def __init__(self, topics: Iterable[str], max_pending: int = 1000) -> None:
+        self.topics = frozenset(topics)
+        if not self.topics:
+            raise ValueError("StampSync needs at least one topic")
+        self.max_pending = max_pending
+        self._pending: dict[int, dict[str, Any]] = {}
+        self._last_complete: int | None = None
+        self.rejected = 0
+        self.dropped_incomplete = 0
+
+    def add(self, topic: str, stamp_ns: int, msg: Any) -> dict[str, Any] | None:
+        """Add a message; return its group ({topic: msg}) if this message completes it."""
+        if topic not in self.topics:
+            raise ValueError(f"topic {topic!r} is not synchronised here")
+        if self._last_complete is not None and stamp_ns <= self._last_complete:
+            self.rejected += 1
+            return None
+        group = self._pending.setdefault(stamp_ns, {})
+        if topic in group:
+            self.rejected += 1
+            return None
+        group[topic] = msg
+        if len(group) < len(self.topics):
+            if len(self._pending) > self.max_pending:
+                oldest = min(self._pending)
+                del self._pending[oldest]
+                self.dropped_incomplete += 1
+            return None
+        # Earlier incomplete groups can no longer complete in order.
+        for stamp in [s for s in self._pending if s < stamp_ns]:
+            del self._pending[stamp]
+            self.dropped_incomplete += 1
+        self._last_complete = stamp_ns
+        return self._pending.pop(stamp_ns)
