@@ -30,6 +30,7 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.sync import EagerStepGroups
 
 from . import messages as m
 from .encoder_fusion import (
@@ -135,12 +136,11 @@ class EncoderFusionControllerNode(Node):
         params, self.enc_every, self.base_every = params_from_values(v)
         self.rate = v["sim_rate_hz"]
         self.core = EncoderFusionController(params)
-        self._pending: dict[int, dict[str, object]] = {}
+        self.sync = EagerStepGroups(self._needs, _STALE_STEPS)
         self._omega_b: tuple[float, float, float] | None = None
         self._angles: tuple[float, float] | None = None
         self._kf_updates = 0
         self.held = 0  # steps whose command was held (bad or missing input)
-        self.dropped_steps = 0  # steps whose inputs never all arrived (no command for them)
         self.pub_cmd = self.create_publisher(JointState, "/gimbal/torque_cmd", GRAPH_QOS)
         self.pub_feedback = self.create_publisher(Vector3Stamped, "~/feedback_velocity", GRAPH_QOS)
         self.pub_correction = self.create_publisher(Vector3Stamped, "~/drift_correction", GRAPH_QOS)
@@ -154,26 +154,20 @@ class EncoderFusionControllerNode(Node):
         self.get_logger().warning(f"step {k}: {why}; holding the last command ({self.held} held)",
                                   throttle_duration_sec=1.0)
 
-    def _complete(self, step: int, group: dict) -> bool:
-        return ("gyro" in group and (step % self.enc_every != 0 or "enc" in group)
-                and (step % self.base_every != 0 or "base" in group))
+    def _needs(self, step: int) -> tuple[str, ...]:
+        """The inputs step ``step`` waits for: the gyro, and the encoders and base rates at
+        the steps where they sample."""
+        return (("gyro",) + (("enc",) if step % self.enc_every == 0 else ())
+                + (("base",) if step % self.base_every == 0 else ()))
 
     def _on_input(self, kind: str, msg) -> None:
         k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
-        group = self._pending.setdefault(k, {})
-        group[kind] = msg
-        if not self._complete(k, group):
-            return
         # A complete step runs at once: an older step still waiting for an input (lost, or a
         # stray message from another graph) must not stall the loop behind it. In lockstep the
         # steps complete in order anyway. Steps that stay incomplete are forgotten after a while.
-        del self._pending[k]
-        for step in [s for s in self._pending if s < k - _STALE_STEPS]:
-            del self._pending[step]
-            self.dropped_steps += 1
-            self.get_logger().warning(f"step {step}: inputs never complete; skipped ({self.dropped_steps} "
-                                      "skipped)", throttle_duration_sec=1.0)
-        self._control(k, group)
+        group = self.sync.add(kind, k, msg, self.get_logger())
+        if group is not None:
+            self._control(k, group)
 
     def _control(self, k: int, group: dict) -> None:
         t_ns = m.step_stamp_ns(k, self.rate)

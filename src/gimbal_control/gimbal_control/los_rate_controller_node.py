@@ -26,6 +26,7 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.sync import StepGroups
 
 from . import messages as m
 from .los_hold import LosHold, LosHoldParams
@@ -91,8 +92,9 @@ class LosRateControllerNode(Node):
         self.hold = LosHold(hold_params(v)) if self.hold_mode else None
         # What an INS step waits for besides the sensors.
         self._estimates = (("bias",) if self.feedback else ()) + (("att",) if self.hold_mode else ())
-        self._pending: dict[int, dict[str, object]] = {}
-        self._done_step: int | None = None
+        self._ins_step_needs = ("gyro", "enc", "ins") + self._estimates
+        # a step back of more than reset_backjump_s is a bag loop: start over (the core resets on the stamp)
+        self.sync = StepGroups(self._needs, params.reset_backjump_s * self.rate)
         self._ins_rates: tuple[float, float, float] | None = None
         self.rejected = 0
         self.pub = self.create_publisher(JointState, "/gimbal/torque_cmd", GRAPH_QOS)
@@ -126,10 +128,10 @@ class LosRateControllerNode(Node):
                 self.core.set_rate_command(*self.hold.update(att.stamp_ns * 1e-9, q,
                                                              self.core.bias_estimate_qr))
 
-    def _complete(self, step: int, group: dict) -> bool:
-        if "gyro" not in group or "enc" not in group:
-            return False
-        return step % self.ins_every != 0 or all(kind in group for kind in ("ins",) + self._estimates)
+    def _needs(self, step: int) -> tuple[str, ...]:
+        """The inputs step ``step`` waits for: gyro and encoders, at INS steps also the INS
+        and the estimates in use."""
+        return self._ins_step_needs if step % self.ins_every == 0 else ("gyro", "enc")
 
     def _on_input(self, kind: str, data: bytes, decode) -> None:
         try:
@@ -138,28 +140,17 @@ class LosRateControllerNode(Node):
             self._warn(f"malformed {kind} message ignored: {exc}")
             return
         k = m.step_of_stamp(msg.stamp_ns, self.rate)
-        if self._done_step is not None and k <= self._done_step:
-            if (self._done_step - k) / self.rate > self.core.params.reset_backjump_s:
-                # Time went back (a bag loop): start over; the core resets on the stamp.
-                self._pending.clear()
-                self._done_step = None
-            else:
-                # Late or repeated input for a step already commanded: it cannot change that
-                # command and must not block the steps after it.
-                self._warn(f"{kind} input for step {k} after step {self._done_step} was commanded; ignored")
-                return
+        if not self.sync.admit(kind, k):
+            # Late or repeated input for a step already commanded: it cannot change that
+            # command and must not block the steps after it.
+            self._warn(f"{kind} input for step {k} after step {self.sync.last_step} was commanded; ignored")
+            return
         if kind in ("bias", "att") and k % self.ins_every != 0:
             # An estimate off the INS steps (another estimator rate): use it as it comes.
             self._use_estimates({kind: msg})
             return
-        self._pending.setdefault(k, {})[kind] = msg
-        for step in sorted(self._pending):
-            group = self._pending[step]
-            if not self._complete(step, group):
-                break
-            del self._pending[step]
+        for step, group in self.sync.add(kind, k, msg):
             self._control(step, group)
-            self._done_step = step
 
     def _control(self, k: int, group: dict) -> None:
         self._use_estimates(group)

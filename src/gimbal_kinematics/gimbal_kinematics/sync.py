@@ -7,8 +7,11 @@ what the node computes must not depend on that order, or a replay would not repr
   order, or a backward clock jump that calls for a reset), shared by the cores.
 * :class:`StampOrder`: release several streams in stamp order (a filter fed at any replay
   speed sees the same sequence), with a bounded wait for a stream that stopped.
-* :class:`StepGroups`: group inputs by lockstep step and release each step once every input
-  due at that step has arrived (a controller whose command k the vehicle waits for).
+* :class:`StepGroups`: group inputs by lockstep step and release the steps in order, each
+  once every input due at that step has arrived (a controller whose command k the vehicle
+  waits for, an estimator that must see every step).
+* :class:`EagerStepGroups`: the same grouping, but a complete step goes at once, ahead of
+  older incomplete ones (a controller that must not stall behind a lost input).
 * :class:`StampSync`: group one message per topic by exact stamp (a simulator node that
   needs every truth topic of a step).
 
@@ -140,11 +143,14 @@ class StepGroups:
         self.rejected = 0
         self.restarts = 0
 
-    def add(self, kind: str, k: int, msg: Any, logger: Any = None) -> list[tuple[int, dict[str, Any]]]:
-        """Add input ``kind`` of step ``k``; returns the steps it completes, in order, as
-        (step, {kind: msg}) (empty when it completes none or is rejected). A node's
-        ``logger`` (rclpy's, or anything with ``info``/``warning``) hears of restarts and,
-        at most once a second, of rejections."""
+    def admit(self, kind: str, k: int, logger: Any = None) -> bool:
+        """Whether input ``kind`` of step ``k`` still counts: False (counted in ``rejected``)
+        for a step at or before the last released one, unless it lies more than
+        ``backjump_steps`` back; then everything pending is dropped and the run restarts
+        (True). :meth:`add` calls it; a node calls it alone for an input it uses at once
+        instead of adding it (e.g. an estimate between the steps that wait for one). A
+        node's ``logger`` (rclpy's, or anything with ``info``/``warning``) hears of restarts
+        and, at most once a second, of rejections."""
         last = self.last_step
         if last is not None and k <= last:
             if last - k <= self.backjump_steps:
@@ -152,12 +158,19 @@ class StepGroups:
                 if logger is not None:
                     logger.warning(f"{kind} stamped for step {k}, already past step {last}: ignored "
                                    f"({self.rejected} rejected)", throttle_duration_sec=1.0)
-                return []
+                return False
             self._pending.clear()
             self.last_step = None
             self.restarts += 1
             if logger is not None:
                 logger.info(f"inputs jumped back from step {last} to {k} (a replay looping?): restarting")
+        return True
+
+    def add(self, kind: str, k: int, msg: Any, logger: Any = None) -> list[tuple[int, dict[str, Any]]]:
+        """Add input ``kind`` of step ``k``; returns the steps it completes, in order, as
+        (step, {kind: msg}) (empty when it completes none or is rejected, see :meth:`admit`)."""
+        if not self.admit(kind, k, logger):
+            return []
         self._pending.setdefault(k, {})[kind] = msg
         done = []
         for step in sorted(self._pending):
@@ -168,6 +181,43 @@ class StepGroups:
             self.last_step = step
             done.append((step, group))
         return done
+
+
+# ----------------------------------------------------------------------------------------
+# EagerStepGroups: each step released the moment it is complete, whatever is still pending.
+# ----------------------------------------------------------------------------------------
+class EagerStepGroups:
+    """Inputs grouped by step like :class:`StepGroups`, but each step is released the moment
+    its inputs (``needs(step)``) are in, ahead of older steps still waiting: a controller
+    whose loop must not stall behind an input that was lost (in lockstep the steps complete
+    in order anyway). Nothing is rejected: a repeated input replaces the pending one of its
+    step, and a late one opens its step again (the core judges the stamps). Incomplete steps
+    more than ``stale_steps`` older than a released one are forgotten, counted in
+    ``dropped``.
+    """
+
+    def __init__(self, needs: Callable[[int], tuple[str, ...]], stale_steps: int) -> None:
+        self.needs = needs
+        self.stale_steps = int(stale_steps)
+        self._pending: dict[int, dict[str, Any]] = {}
+        self.dropped = 0
+
+    def add(self, kind: str, k: int, msg: Any, logger: Any = None) -> dict[str, Any] | None:
+        """Add input ``kind`` of step ``k``; returns step k's inputs ({kind: msg}) when this
+        completes it, else None. A node's ``logger`` hears, at most once a second, of the
+        steps forgotten."""
+        group = self._pending.setdefault(k, {})
+        group[kind] = msg
+        if not all(need in group for need in self.needs(k)):
+            return None
+        del self._pending[k]
+        for step in [s for s in self._pending if s < k - self.stale_steps]:
+            del self._pending[step]
+            self.dropped += 1
+            if logger is not None:
+                logger.warning(f"step {step}: inputs never complete; skipped ({self.dropped} skipped)",
+                               throttle_duration_sec=1.0)
+        return group
 
 
 # ----------------------------------------------------------------------------------------
