@@ -7,8 +7,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from .los_rate_controller import LosRateController
-from .los_rate_controller_node import core_params
+from .los_rate_controller import LosRateController, LosRateControllerParams
 
 
 def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Any], None]:
@@ -18,7 +17,7 @@ def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Any], None]:
     if values["mode"] != "rate":
         # its outer loop needs the EKF attitude, which the loop's bus does not carry
         raise ValueError(f"no core stage for los_rate_controller mode {values['mode']!r} (only 'rate')")
-    core = LosRateController(core_params(values))
+    core = LosRateController(LosRateControllerParams.from_values(values))
     rate = values["sim_rate_hz"]
     ins_rates: list[tuple[float, float, float] | None] = [None]
 

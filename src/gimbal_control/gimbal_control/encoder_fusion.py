@@ -71,6 +71,7 @@ from typing import Any, NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.sync import StampGate
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 from gimbal_sim.sensors import PAPER2_ENCODER, EncoderParams, GyroParams
 
@@ -96,6 +97,10 @@ LOOP_BANDWIDTH_HZ = 8.0
 ENCODER_LOOP_BANDWIDTH_HZ = 0.3
 #: PID output clip [N·m]: the UAV gimbal's motor torque limit.
 TORQUE_LIMIT_NM = UAV_SMALL_GIMBAL.azimuth_torque_limit_nm
+#: Highest loop bandwidth per Hz of control rate: a triple-pole loop crosses over at about
+#: 3 x its bandwidth; at sim_rate_hz / 25 the zero-order hold's half-sample delay leaves
+#: >= 45 deg of phase margin (49 deg measured).
+BANDWIDTH_PER_RATE = 1.0 / 25.0
 
 
 def _gains(inertia: float, hz: float) -> PidParams:
@@ -145,6 +150,40 @@ class EncoderFusionParams:
                 raise ValueError(f"{name} must be a PidParams")
         if not isinstance(self.kf, FusionKfParams):
             raise ValueError("kf must be a FusionKfParams")
+
+    @classmethod
+    def from_values(cls, v: dict) -> EncoderFusionParams:
+        """The parameters from an ``encoder_fusion_controller`` node's values (name -> value,
+        as declared in :mod:`.encoder_fusion_controller_params`): the PID gains placed for
+        the loop inertias and bandwidths, the filter's Q, R, P0 (``kf_gate_sigma`` 0: no
+        gate); :class:`ParameterError` names the parameter refused."""
+        rate = v["sim_rate_hz"]
+        if v["loop_bandwidth_hz"] > rate * BANDWIDTH_PER_RATE:
+            raise ParameterError(f"parameter 'loop_bandwidth_hz' = {v['loop_bandwidth_hz']} Hz exceeds "
+                                 f"sim_rate_hz / 25 = {rate * BANDWIDTH_PER_RATE:g} Hz (the sampled loop would "
+                                 "lose its phase margin)")
+        if v["encoder_gate_s"] * rate < 1.0 - 1e-9:
+            raise ParameterError(f"parameter 'encoder_gate_s' = {v['encoder_gate_s']} s is shorter than one step")
+
+        def gains(inertia: str, bandwidth: str) -> PidParams:
+            return pole_placement_gains(v[inertia], v[bandwidth], output_limit=v["torque_limit_nm"],
+                                        derivative_tau_s=v["derivative_tau_s"])
+
+        try:
+            kf = FusionKfParams(q_angle_deg_rt_s=v["kf_q_angle_deg_rt_s"], q_scale_rt_s=v["kf_q_scale_rt_s"],
+                                q_drift_deg_s_rt_s=v["kf_q_drift_deg_s_rt_s"], r_deg=v["kf_r_deg"],
+                                p0_angle_deg=v["kf_p0_angle_deg"], p0_scale=v["kf_p0_scale"],
+                                p0_drift_deg_s=v["kf_p0_drift_deg_s"], gate_sigma=v["kf_gate_sigma"] or math.inf)
+            return cls(
+                mode=v["mode"], encoder_gate_s=v["encoder_gate_s"],
+                elevation_pid=gains("elevation_inertia_kg_m2", "loop_bandwidth_hz"),
+                azimuth_pid=gains("azimuth_inertia_kg_m2", "loop_bandwidth_hz"),
+                encoder_elevation_pid=gains("elevation_inertia_kg_m2", "encoder_loop_bandwidth_hz"),
+                encoder_azimuth_pid=gains("azimuth_inertia_kg_m2", "encoder_loop_bandwidth_hz"),
+                kf=kf, min_cos_elevation=v["min_cos_elevation"], max_gap_s=v["max_gap_s"],
+                backward_jump_s=v["backward_jump_s"])
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
 
 
 class FusionCommand(NamedTuple):

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from gimbal_kinematics.earth import earth_rate_n
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import quat_to_dcm
 
 
@@ -55,6 +56,17 @@ class LosHoldParams:
             raise ValueError(f"capture_s must be a finite number >= 0, got {c!r}")
         if not (isinstance(self.lat_deg, (int, float)) and math.isfinite(self.lat_deg) and abs(self.lat_deg) < 90.0):
             raise ValueError(f"lat_deg must be within (-90, 90), got {self.lat_deg!r}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> LosHoldParams:
+        """The outer loop's parameters from a ``los_rate_controller`` node's values (its
+        ``hold_*``, ``lat_deg`` and ``earth_rate``); :class:`ParameterError` names the
+        parameter refused."""
+        try:
+            return cls(gain_1_s=v["hold_gain_1_s"], max_rate_deg_s=v["hold_max_rate_deg_s"],
+                       capture_s=v["hold_capture_s"], lat_deg=v["lat_deg"], earth_rate=v["earth_rate"])
+        except ValueError as exc:
+            raise ParameterError(f"parameter {exc}") from exc
 
 
 class LosHold:

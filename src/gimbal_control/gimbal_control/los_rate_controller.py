@@ -65,6 +65,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 
@@ -148,6 +149,20 @@ class LosRateControllerParams:
             raise ValueError(f"max_dt_factor must be >= 1, got {self.max_dt_factor!r}")
         if not (math.isfinite(self.reset_backjump_s) and self.reset_backjump_s >= 0.0):
             raise ValueError(f"reset_backjump_s must be >= 0, got {self.reset_backjump_s!r}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> LosRateControllerParams:
+        """The parameters from a ``los_rate_controller`` node's values (name -> value, as
+        declared in :mod:`.los_rate_controller_params`; the loop runs at ``sim_rate_hz``, and
+        ``mode: los_hold`` implies bias feedback); :class:`ParameterError` names the
+        parameter refused."""
+        try:
+            return cls(
+                rate_hz=v["sim_rate_hz"], omega_n_hz=v["omega_n_hz"], zeta=v["zeta"],
+                feedback=v["feedback"] or v["mode"] == "los_hold", anti_windup=v["anti_windup"],
+                integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"])
+        except ValueError as exc:
+            raise ParameterError(f"parameter {exc}") from exc
 
     @property
     def gains(self) -> tuple[float, float]:

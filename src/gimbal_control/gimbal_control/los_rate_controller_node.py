@@ -24,59 +24,14 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import StepGroups
 
 from . import messages as m
 from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
-
-DESCRIPTION = (
-    "Paper 1 LOS rate stabilization controller: dynamic inversion of the linearized gimbal and a PI "
-    "on the inertial LOS rate error (k_p = 2 zeta omega_n, k_i = omega_n^2), torque saturation with "
-    "anti-windup, optional gyro-bias feedback. Publishes /gimbal/torque_cmd for each step."
-)
-PARAMS = (
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step", 1.0, 100000.0),
-    Param("ins_rate_hz", 100.0, "INS output rate [Hz] (the controller waits for it at its steps)", 1e-3, 100000.0),
-    Param("omega_n_hz", 25.0, "closed-loop natural frequency omega_n [Hz] (< sim_rate_hz / 4)", 1e-3, 25000.0),
-    Param("zeta", 0.8, "damping ratio zeta [-]", 1e-3, 10.0),
-    Param("feedback", False, "subtract the gyro-bias estimate from the gyro rates (waits for it at INS steps)"),
-    Param("bias_topic", "/gyro_bias_ekf/bias", "gyro-bias estimate topic (geometry_msgs/Vector3Stamped) [rad/s]"),
-    Param("mode", "rate", "rate: paper 1's LOS rate loop; los_hold: plus an outer loop holding the LOS at its "
-          "initial inertial direction on the EKF attitude estimate (implies feedback)", choices=("rate", "los_hold")),
-    Param("attitude_topic", "/gyro_bias_ekf/attitude", "EKF attitude estimate C(n,m) (sensor_msgs/Imu) for los_hold"),
-    Param("hold_gain_1_s", 0.5, "los_hold outer-loop gain (bandwidth) [1/s]", 1e-6, 1e3),
-    Param("hold_max_rate_deg_s", 1.0, "los_hold rate command limit [deg/s]", 1e-6, 1e3),
-    Param("hold_capture_s", 5.0, "los_hold: capture the initial LOS this long after the first estimate [s]", 0.0, 1e4),
-    Param("lat_deg", 0.0, "site latitude [deg] (earth rate of the los_hold inertial target)", -89.999, 89.999),
-    Param("earth_rate", True, "los_hold: the inertial target turns with the earth as seen from NED"),
-    Param("anti_windup", "clamp", "integrator anti-windup", choices=("clamp", "conditional", "none")),
-    Param("integrator_limit_factor", 4.0, "clamp bound of the integral term, in torque limits [-]", 1e-3, 1e3),
-    Param("trim", True, "feed forward the gravity trim torque of the linearisation point"),
-)
-
-
-def core_params(v: dict) -> LosRateControllerParams:
-    """The core's frozen parameters from the node's values (``ParameterError`` names the
-    culprit); ``mode: los_hold`` implies bias feedback."""
-    try:
-        return LosRateControllerParams(
-            rate_hz=v["sim_rate_hz"], omega_n_hz=v["omega_n_hz"], zeta=v["zeta"],
-            feedback=v["feedback"] or v["mode"] == "los_hold", anti_windup=v["anti_windup"],
-            integrator_limit_factor=v["integrator_limit_factor"], trim=v["trim"])
-    except ValueError as exc:
-        raise ParameterError(f"parameter {exc}") from exc
-
-
-def hold_params(v: dict) -> LosHoldParams:
-    """The LOS-hold outer loop's parameters from the node's values."""
-    try:
-        return LosHoldParams(gain_1_s=v["hold_gain_1_s"], max_rate_deg_s=v["hold_max_rate_deg_s"],
-                             capture_s=v["hold_capture_s"], lat_deg=v["lat_deg"], earth_rate=v["earth_rate"])
-    except ValueError as exc:
-        raise ParameterError(f"parameter {exc}") from exc
+from .los_rate_controller_params import DESCRIPTION, PARAMS
 
 
 class LosRateControllerNode(Node):
@@ -86,10 +41,10 @@ class LosRateControllerNode(Node):
         self.rate = v["sim_rate_hz"]
         self.ins_every = steps_per_sample(v, "ins_rate_hz")
         self.hold_mode = v["mode"] == "los_hold"
-        params = core_params(v)
+        params = LosRateControllerParams.from_values(v)
         self.feedback = params.feedback
         self.core = LosRateController(params)
-        self.hold = LosHold(hold_params(v)) if self.hold_mode else None
+        self.hold = LosHold(LosHoldParams.from_values(v)) if self.hold_mode else None
         # What an INS step waits for besides the sensors.
         self._estimates = (("bias",) if self.feedback else ()) + (("att",) if self.hold_mode else ())
         self._ins_step_needs = ("gyro", "enc", "ins") + self._estimates

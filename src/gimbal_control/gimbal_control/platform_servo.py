@@ -62,6 +62,7 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.four_gimbal import (
     BidirectionalRotation, command_rate_s, inner_gimbal_control_signals, outer_roll_control_signal,
@@ -76,6 +77,9 @@ _DEG_H = _DEG / 3600.0
 TABLE1 = {"a": (0.0026, 0.21, 31.2), "q": (0.0066, 0.21, 35.5), "p": (0.0093, 0.21, 28.7),
           "r": (0.0115, 0.29, 34.3)}
 VOLTAGE_LIMIT_V = 27.0
+#: A loop's triple pole must stay below the control rate / this (at 1 kHz: 25 Hz, where the
+#: Table 1 loops keep 33° of phase margin; the 12 Hz default keeps 51°, test_platform_servo).
+BANDWIDTH_RATE_DIVISOR = 40.0
 
 
 def platform_pid_gains(axis: str, bandwidth_hz: float, derivative_tau_s: float = 0.0) -> PidParams:
@@ -180,6 +184,36 @@ class PlatformServoParams:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"{name} must be > 0, got {v!r}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> PlatformServoParams:
+        """The parameters from a ``platform_servo`` node's values (name -> value, as declared
+        in :mod:`.platform_servo_params`): the Table 1 loops' gains placed at the requested
+        bandwidths (each at most ``imu_rate_hz`` / :data:`BANDWIDTH_RATE_DIVISOR`);
+        :class:`ParameterError` names the parameter refused."""
+        control_hz = v["imu_rate_hz"]
+        for name in ("azimuth_bandwidth_hz", "level_bandwidth_hz", "outer_roll_bandwidth_hz"):
+            if v[name] > control_hz / BANDWIDTH_RATE_DIVISOR:
+                raise ParameterError(f"parameter {name!r} = {v[name]} Hz is above imu_rate_hz/"
+                                     f"{BANDWIDTH_RATE_DIVISOR:g} = {control_hz / BANDWIDTH_RATE_DIVISOR:g} Hz: "
+                                     "the sampled loop loses its margin")
+        if len(v["drift_deg_h"]) != 3:
+            raise ParameterError(f"parameter 'drift_deg_h' needs 3 values (x, y, z), got {v['drift_deg_h']}")
+        try:
+            return cls(
+                lat_deg=v["lat_deg"], rate_deg_s=v["rate_deg_s"], sweep_deg=v["sweep_deg"],
+                reversal_time_s=v["reversal_time_s"], rotate=v["rotation"] == "bidirectional",
+                azimuth_pid=platform_pid_gains("a", v["azimuth_bandwidth_hz"]),
+                inner_roll_pid=platform_pid_gains("q", v["level_bandwidth_hz"]),
+                pitch_pid=platform_pid_gains("p", v["level_bandwidth_hz"]),
+                outer_roll_pid=platform_pid_gains("r", v["outer_roll_bandwidth_hz"], v["outer_roll_derivative_tau_s"]),
+                preset_integrator=v["preset_integrator"],
+                friction=FrictionModel(coulomb_nm=v["friction_coulomb_nm"],
+                                       viscous_nm_s_rad=v["friction_viscous_nm_s_rad"],
+                                       smoothing_rad_s=v["friction_smoothing_rad_s"]),
+                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], backward_jump_s=v["backward_jump_s"])
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
 
     def schedule(self) -> BidirectionalRotation:
         """The modulation schedule φz(t) (t from the first tick)."""

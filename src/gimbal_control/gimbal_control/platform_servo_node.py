@@ -31,74 +31,12 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_kinematics.sync import StepGroups
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
-from .platform_servo import FrictionModel, PlatformServo, PlatformServoParams, platform_pid_gains
-
-DESCRIPTION = (
-    "Paper 3 four-gimbal platform servo: four PID loops (azimuth, inner roll, pitch, outer roll) on the "
-    "emulated gyro pickoffs resolved through the gimbal angles (eq. 1), outer roll holding the inner roll "
-    "at null, bidirectional azimuth modulation at +-1.2 deg/s with the integrator preset at reversals. "
-    "Publishes /platform/voltage_cmd for each step."
-)
-INF = float("inf")
-#: A loop's triple pole must stay below the control rate / this (at 1 kHz: 25 Hz, where the
-#: Table 1 loops keep 33° of phase margin; the 12 Hz default keeps 51°, test_platform_servo).
-BANDWIDTH_RATE_DIVISOR = 40.0
-
-PARAMS = (
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; one command per step", 1.0, 100000.0),
-    Param("imu_rate_hz", 1000.0, "platform gyro rate [Hz] = the control rate (paper 3: 1 kHz); divides sim_rate_hz",
-          1e-3, 100000.0),
-    Param("resolver_rate_hz", 1000.0, "gimbal resolver rate [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
-    Param("lat_deg", 45.0, "site latitude for the earth-rate part of the command [deg]", -89.999, 89.999),
-    Param("rotation", "bidirectional", "azimuth modulation: bidirectional (out through sweep_deg and back) "
-          "or off (hold phi_z = 0)", choices=("bidirectional", "off")),
-    Param("rate_deg_s", 1.2, "modulation rate [deg/s] (paper 3: 1.2)", 1e-6, 1000.0),
-    Param("sweep_deg", 360.0, "sweep of one leg between reversals [deg]", 1e-6, 1e6),
-    Param("reversal_time_s", 0.0, "duration of a reversal ramp [s] (0: instantaneous)", 0.0, 1e6),
-    Param("azimuth_bandwidth_hz", 12.0, "azimuth loop pole-placement bandwidth (triple pole) [Hz]", 1e-3, 10000.0),
-    Param("level_bandwidth_hz", 12.0, "inner-roll and pitch loop bandwidth (triple pole) [Hz]", 1e-3, 10000.0),
-    Param("outer_roll_bandwidth_hz", 4.0, "outer-roll null loop bandwidth (triple pole) [Hz]", 1e-3, 10000.0),
-    Param("outer_roll_derivative_tau_s", 0.005, "low-pass time constant of the outer-roll D term [s]", 0.0, 10.0),
-    Param("preset_integrator", True, "preset the azimuth integrator at each reversal (paper 3)"),
-    Param("friction_coulomb_nm", 0.01, "azimuth bearing Coulomb friction for the preset [N*m]", 0.0, INF),
-    Param("friction_viscous_nm_s_rad", 5e-4, "azimuth bearing viscous friction for the preset [N*m*s/rad]", 0.0, INF),
-    Param("friction_smoothing_rad_s", 0.01, "rate scale of the Coulomb tanh for the preset [rad/s]", 1e-9, INF),
-    Param("drift_deg_h", [0.0, 0.0, 0.0], "platform drift estimate (the negative of the gyro rate bias, as "
-          "platform_alignment's ~/gyro_drift) subtracted from the command, platform x, y, z [deg/h]"),
-    Param("max_gap_s", 0.05, "a longer gap between gyro samples restarts the pickoff integration [s]", 1e-6, INF),
-    Param("backward_jump_s", 1.0, "a stamp this far before the last one restarts the servo (bag loop) [s]", 1e-6, INF),
-    Param("diagnostics_every_steps", 1, "publish ~/control_error and ~/modulation every N control ticks", 1, 10**6),
-)
-
-
-def params_from_values(v: dict) -> PlatformServoParams:
-    """The core's parameters from the node's values; raises naming the parameter."""
-    control_hz = v["imu_rate_hz"]
-    for name in ("azimuth_bandwidth_hz", "level_bandwidth_hz", "outer_roll_bandwidth_hz"):
-        if v[name] > control_hz / BANDWIDTH_RATE_DIVISOR:
-            raise ParameterError(f"parameter {name!r} = {v[name]} Hz is above imu_rate_hz/{BANDWIDTH_RATE_DIVISOR:g} "
-                                 f"= {control_hz / BANDWIDTH_RATE_DIVISOR:g} Hz: the sampled loop loses its margin")
-    if len(v["drift_deg_h"]) != 3:
-        raise ParameterError(f"parameter 'drift_deg_h' needs 3 values (x, y, z), got {v['drift_deg_h']}")
-    try:
-        return PlatformServoParams(
-            lat_deg=v["lat_deg"], rate_deg_s=v["rate_deg_s"], sweep_deg=v["sweep_deg"],
-            reversal_time_s=v["reversal_time_s"], rotate=v["rotation"] == "bidirectional",
-            azimuth_pid=platform_pid_gains("a", v["azimuth_bandwidth_hz"]),
-            inner_roll_pid=platform_pid_gains("q", v["level_bandwidth_hz"]),
-            pitch_pid=platform_pid_gains("p", v["level_bandwidth_hz"]),
-            outer_roll_pid=platform_pid_gains("r", v["outer_roll_bandwidth_hz"], v["outer_roll_derivative_tau_s"]),
-            preset_integrator=v["preset_integrator"],
-            friction=FrictionModel(coulomb_nm=v["friction_coulomb_nm"],
-                                   viscous_nm_s_rad=v["friction_viscous_nm_s_rad"],
-                                   smoothing_rad_s=v["friction_smoothing_rad_s"]),
-            drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], backward_jump_s=v["backward_jump_s"])
-    except ValueError as exc:
-        raise ParameterError(str(exc)) from exc
+from .platform_servo import PlatformServo, PlatformServoParams
+from .platform_servo_params import DESCRIPTION, PARAMS
 
 
 class PlatformServoNode(Node):
@@ -108,7 +46,7 @@ class PlatformServoNode(Node):
         self.rate = v["sim_rate_hz"]
         self.imu_every = steps_per_sample(v, "imu_rate_hz")
         self.res_every = steps_per_sample(v, "resolver_rate_hz")
-        self.core = PlatformServo(params_from_values(v))
+        self.core = PlatformServo(PlatformServoParams.from_values(v))
         self.diag_every = v["diagnostics_every_steps"]
         self.sync = StepGroups(self._needs, v["backward_jump_s"] * self.rate)
         self._ticks = 0

@@ -1,7 +1,7 @@
 """Pure-core stages of gimbal_estimators' nodes for :mod:`gimbal_sim.core_loop` and
 ``gimbal-bench`` (no ROS): the gyro-bias EKF fed what its subscriptions carry.
 The core is built from the node's parameter values by the node's own
-:func:`.gyro_bias_ekf_node.params_from_values`, and fed in the node's order: encoders and
+:meth:`.gyro_bias_ekf_params.GyroBiasEkfParams.from_values`, and fed in the node's order: encoders and
 INS before the gyro sample of the same stamp (:class:`.stamp_order.StampOrder`).
 """
 from __future__ import annotations
@@ -15,15 +15,14 @@ from gimbal_kinematics.ros import messages as m
 from gimbal_sim.bag.reader import read_messages
 
 from .gyro_bias_ekf import GyroBiasEkf
+from .gyro_bias_ekf_params import GyroBiasEkfParams
 
 #: The recorded topics the EKF reads.
 EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")
 
 
 def ekf_from_values(values: dict[str, Any]) -> GyroBiasEkf:
-    from .gyro_bias_ekf_node import params_from_values  # the node's mapping, one copy
-
-    return GyroBiasEkf(params_from_values(values))
+    return GyroBiasEkf(GyroBiasEkfParams.from_values(values))
 
 
 def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Any], None]:

@@ -34,57 +34,13 @@ from sensor_msgs.msg import Imu
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.frames import LGU1_FRAME
 
 from . import messages as m
-from .flexure_kf import QS_MODELS, FlexureEstimate, FlexureKf, FlexureKfParams
-
-DESCRIPTION = (
-    "Paper 5 ship angular-flexure Kalman filter: integrates the two LGUs' attitudes from "
-    "their incremental angles, matches them (Z = phi - A theta_d) in an 18-state filter "
-    "with a random-constant or random-walk-rate quasi-static model, second-order Markov "
-    "dynamic flexure and the bias difference; publishes the total flexure, its quasi-static "
-    "and dynamic parts and the bias difference with 1-sigma companions on private topics."
-)
-INF = float("inf")
-
-PARAMS = (
-    Param("quasi_static_model", "random_walk_rate", "quasi-static flexure model: random_constant (conventional) "
-          "or random_walk_rate (paper 5 eq. 10)", choices=QS_MODELS),
-    Param("lgu_rate_hz", 10.0, "LGU sample rate [Hz]; each sample's interval is 1/lgu_rate_hz", 1e-3, 100000.0),
-    Param("sim_rate_hz", 1000.0, "simulation (lockstep) rate [Hz], for ~/progress; a multiple of lgu_rate_hz",
-          1.0, 100000.0),
-    Param("progress_every_steps", 10, "report on ~/progress (time of the next sample needed) when it has moved "
-          "this many simulation steps; vehicle_dynamics paces on it", 1, 10**6),
-    Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
-          0, 1000),
-    Param("publish_period_s", 0.0, "publish the estimate at most once per this period of stamps [s] "
-          "(0: every filter step)", 0.0, 1e6),
-    Param("filter_period_s", 0.1, "nominal Kalman step [s]; the filter steps once at least this has elapsed",
-          1e-4, 100.0),
-    Param("qs_initial_sigma_deg", 0.5, "prior 1-sigma of the quasi-static flexure [deg]", 1e-9, 90.0),
-    Param("qs_rate_initial_sigma_deg_h", 10.0, "prior 1-sigma of its rate [deg/h] (random_walk_rate)", 0.0, INF),
-    Param("qs_rate_rw_arcsec_s_rt_s", 1.0, "random walk of the quasi-static flexure rate [arcsec/s/sqrt(s)] "
-          "(random_walk_rate)", 0.0, INF),
-    Param("qs_rw_arcsec_rt_s", 0.001, "random walk of the quasi-static flexure [arcsec/sqrt(s)] "
-          "(random_constant; small = constant)", 0.0, INF),
-    Param("dynamic_rms_arcsec", [20.0, 60.0, 40.0], "dynamic flexure RMS (roll, pitch, yaw) [arcsec]"),
-    Param("dynamic_beta_per_s", [0.2146, 0.2146, 0.2146], "dynamic flexure decay rate beta (roll, pitch, yaw) "
-          "[1/s] (critically damped: 2.146 / correlation time)"),
-    Param("dynamic_freq_rad_s", [0.0, 0.0, 0.0], "dynamic flexure damped frequency lambda (roll, pitch, yaw) "
-          "[rad/s] (0: critically damped)"),
-    Param("bias_diff_initial_sigma_deg_h", 0.1, "prior 1-sigma of the bias difference [deg/h]", 1e-12, INF),
-    Param("bias_diff_rw_deg_h_rt_h", 0.001, "bias difference random walk [deg/h/sqrt(h)]", 0.0, INF),
-    Param("lgu_arw_deg_rt_h", 0.001, "angle random walk of each LGU [deg/sqrt(h)]", 0.0, INF),
-    Param("meas_noise_arcsec", 1.0, "1-sigma of the attitude-matching measurement [arcsec]", 1e-9, INF),
-    Param("second_order_observation", True, "predict Z to second order (BCH term) instead of the paper's H x"),
-    Param("gate_probability", 0.99999, "chi-square gate probability (3 dof); 0 disables the gate", 0.0, 1.0),
-    Param("max_gate_rejections", 200, "gated measurements in a row that re-anchor (then reset)", 1, 10**9),
-    Param("max_gap_s", 5.0, "a data gap longer than this resets instead of re-anchoring [s]", 1e-3, 1e6),
-    Param("clock_jump_s", 1.0, "a stamp this far behind the newest is a clock jump (reset) [s]", 1e-6, 1e9),
-)
+from .flexure_estimator_params import DESCRIPTION, PARAMS
+from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams
 
 #: Output topic stems, each published with a ``_sigma`` companion.
 OUTPUTS = ("flexure", "quasi_static", "dynamic", "bias_diff")
@@ -92,26 +48,6 @@ OUTPUTS = ("flexure", "quasi_static", "dynamic", "bias_diff")
 _REJECTIONS = {"nonfinite": "non-finite value", "malformed": "malformed (rates not provided or > 1 rad)",
                "bad_dt": "interval inconsistent with lgu_rate_hz or its partner",
                "out_of_order": "stamp not after the last fused pair", "duplicates": "duplicate stamp"}
-
-
-def core_params(v: dict) -> FlexureKfParams:
-    """The core's frozen parameters from the node's values; raises naming the parameter."""
-    try:
-        return FlexureKfParams(
-            quasi_static_model=v["quasi_static_model"], filter_period_s=v["filter_period_s"],
-            qs_initial_sigma_deg=v["qs_initial_sigma_deg"],
-            qs_rate_initial_sigma_deg_h=v["qs_rate_initial_sigma_deg_h"],
-            qs_rate_rw_arcsec_s_rt_s=v["qs_rate_rw_arcsec_s_rt_s"], qs_rw_arcsec_rt_s=v["qs_rw_arcsec_rt_s"],
-            dynamic_rms_arcsec=tuple(v["dynamic_rms_arcsec"]), dynamic_beta_per_s=tuple(v["dynamic_beta_per_s"]),
-            dynamic_freq_rad_s=tuple(v["dynamic_freq_rad_s"]),
-            bias_diff_initial_sigma_deg_h=v["bias_diff_initial_sigma_deg_h"],
-            bias_diff_rw_deg_h_rt_h=v["bias_diff_rw_deg_h_rt_h"], lgu_arw_deg_rt_h=v["lgu_arw_deg_rt_h"],
-            meas_noise_arcsec=v["meas_noise_arcsec"], second_order_observation=v["second_order_observation"],
-            gate_probability=v["gate_probability"] or None, max_gate_rejections=v["max_gate_rejections"],
-            max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"],
-        )
-    except ValueError as exc:
-        raise ParameterError(f"parameter {exc}") from exc
 
 
 class FlexureEstimatorNode(Node):
@@ -124,7 +60,7 @@ class FlexureEstimatorNode(Node):
             raise ParameterError(f"parameter 'filter_period_s' = {v['filter_period_s']} s is shorter than one "
                                  f"LGU sample (1/lgu_rate_hz = {1.0 / v['lgu_rate_hz']:g} s)")
         self.dt = 1.0 / v["lgu_rate_hz"]
-        self.core = FlexureKf(core_params(v))
+        self.core = FlexureKf(FlexureKfParams.from_values(v))
         self.publish_period_ns = int(round(v["publish_period_s"] * 1e9))
         self._last_bin: int | None = None
         self.progress_every = v["progress_every_steps"]

@@ -77,6 +77,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize
 from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
@@ -189,6 +190,28 @@ class FlexureKfParams:
                 raise ValueError(f"{name} must be an integer >= 1, got {val!r}")
         if self.max_gap_s <= self.filter_period_s:
             raise ValueError(f"max_gap_s must exceed filter_period_s ({self.filter_period_s}), got {self.max_gap_s}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> FlexureKfParams:
+        """The parameters from a ``flexure_estimator`` node's values (name -> value, as
+        declared in :mod:`.flexure_estimator_params`); :class:`ParameterError` names the
+        parameter refused. A ``gate_probability`` of 0 disables the gate (None here)."""
+        try:
+            return cls(
+                quasi_static_model=v["quasi_static_model"], filter_period_s=v["filter_period_s"],
+                qs_initial_sigma_deg=v["qs_initial_sigma_deg"],
+                qs_rate_initial_sigma_deg_h=v["qs_rate_initial_sigma_deg_h"],
+                qs_rate_rw_arcsec_s_rt_s=v["qs_rate_rw_arcsec_s_rt_s"], qs_rw_arcsec_rt_s=v["qs_rw_arcsec_rt_s"],
+                dynamic_rms_arcsec=tuple(v["dynamic_rms_arcsec"]), dynamic_beta_per_s=tuple(v["dynamic_beta_per_s"]),
+                dynamic_freq_rad_s=tuple(v["dynamic_freq_rad_s"]),
+                bias_diff_initial_sigma_deg_h=v["bias_diff_initial_sigma_deg_h"],
+                bias_diff_rw_deg_h_rt_h=v["bias_diff_rw_deg_h_rt_h"], lgu_arw_deg_rt_h=v["lgu_arw_deg_rt_h"],
+                meas_noise_arcsec=v["meas_noise_arcsec"], second_order_observation=v["second_order_observation"],
+                gate_probability=v["gate_probability"] or None, max_gate_rejections=v["max_gate_rejections"],
+                max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"],
+            )
+        except ValueError as exc:
+            raise ParameterError(f"parameter {exc}") from exc
 
 
 def ar2_coefficients(beta: float, freq: float, sigma: float, dt: float) -> tuple[float, float, float]:

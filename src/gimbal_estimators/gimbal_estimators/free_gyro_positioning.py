@@ -67,8 +67,10 @@ from gimbal_kinematics.free_gyro import (
     gyro_azimuth,
     heading_from_earth_rate,
     position_fix,
+    spin_axes_for_site_deg,
     unit_vector,
 )
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import finite, positive
 
 _ARCSEC = math.pi / (180.0 * 3600.0)
@@ -135,6 +137,30 @@ class FreeGyroPositioningParams:
     @property
     def tolerances(self) -> FixTolerances:
         return FixTolerances(self.min_sin_gyro_separation, self.min_sin_crossing_angle)
+
+    @classmethod
+    def from_values(cls, v: dict) -> FreeGyroPositioningParams:
+        """The parameters from a ``free_gyro_positioning`` node's values (name -> value, as
+        declared in :mod:`.free_gyro_positioning_params`): the spin axes from the angles they
+        were set to at a reference site and time; :class:`ParameterError` names the
+        parameter refused."""
+        try:
+            u_a, u_b = spin_axes_for_site_deg(v["spin_reference_lat_deg"], v["spin_reference_lon_deg"],
+                                              v["spin_nadir_deg"], v["spin_azimuth_deg"], v["spin_reference_time_s"],
+                                              names=("spin_nadir_deg", "spin_azimuth_deg"))
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
+        try:
+            return cls(
+                u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],
+                min_samples=v["min_samples"], heading_window_s=v["heading_window_s"],
+                triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"],
+                reset_backjump_s=v["reset_backjump_s"])
+        except ValueError as exc:
+            text = str(exc)
+            if "u_a_i" in text or "u_b_i" in text:  # the axes are the spin angles' doing
+                text = f"parameters 'spin_nadir_deg', 'spin_azimuth_deg': {text}"
+            raise ParameterError(text) from exc
 
 
 class FreeGyroFix(NamedTuple):

@@ -42,85 +42,24 @@ from sensor_msgs.msg import Imu, NavSatFix
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import Param, ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_sim.sensors.free_gyro_sensor import spin_axes_for_site_deg
-from gimbal_kinematics.sync import StampSync
+from gimbal_kinematics.sync import Stamp, StampSync, check_stamp
 from gimbal_kinematics.frames import BASE_FRAME
 
 from . import messages as m
 from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams
-from gimbal_kinematics.sync import Stamp, check_stamp
+from .free_gyro_positioning_params import DESCRIPTION, PARAMS
 
-DESCRIPTION = (
-    "Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free "
-    "gyros over each fix window, fixes latitude/longitude from them (eq. 1) with an FDOP-scaled "
-    "covariance, and the heading from the gyro azimuths (Fig. 4) and from the earth rate (eq. 3-4). "
-    "Publishes sensor_msgs/NavSatFix on /free_gyro_positioning/fix; no fix for degenerate geometry."
-)
-INF = math.inf
 SPIN_A, SPIN_B, IMU = "/free_gyro/spin_axis_a", "/free_gyro/spin_axis_b", "/free_gyro/imu"
 FRAME_ID = BASE_FRAME
 STATUS_FIX, STATUS_DEGENERATE = 0.0, 1.0
-
-PARAMS = (
-    Param("sim_rate_hz", 10.0, "simulation rate [Hz], to turn read-out stamps into lockstep steps", 1.0, 100000.0),
-    Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
-          "vehicle_dynamics waits for and paces on it", 1, 10**6),
-    Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
-          0, 1000),
-    Param("spin_nadir_deg", [60.0, 50.0], "nadir angles (gyro a, gyro b) of the spin axes at the reference "
-          "position and time [deg], each in (0, 180); with the azimuths they define the inertial spin axes"),
-    Param("spin_azimuth_deg", [-40.0, 50.0], "azimuths from north toward east (gyro a, gyro b) of the spin axes "
-          "at the reference position and time [deg]"),
-    Param("spin_reference_lat_deg", 35.0, "latitude where the spin axes had those angles [deg] (e.g. where "
-          "the gyros were set; the fix does not use it)", -90.0, 90.0),
-    Param("spin_reference_lon_deg", 129.0, "longitude of that reference [deg]", -180.0, 180.0),
-    Param("spin_reference_time_s", 0.0, "sim time of that reference [s] (inertial frame: Greenwich on x_i "
-          "at t = 0)", -1e9, 1e9),
-    Param("nadir_noise_arcsec", 5.0, "1-sigma of one read-out nadir angle [arcsec] (pickoff noise)", 1e-9, INF),
-    Param("fix_interval_s", 10.0, "nadir integration window per fix [s]", 1e-6, INF),
-    Param("min_samples", 5, "fewest read-outs in a window for a fix", 3, 10**9),
-    Param("heading_window_s", 60.0, "earth-rate heading averaging window [s]", 1e-6, INF),
-    Param("triad_arw_deg_rt_h", 0.002, "body triad angle random walk [deg/sqrt(h)], for the earth-rate heading "
-          "sigma", 1e-12, INF),
-    Param("max_fdop", 20.0, "FDOP above which the geometry counts as degenerate and no fix is published [-] "
-          "(>= sqrt(2))", 1.0, INF),
-    Param("height_m", 0.0, "height above the ellipsoid reported as altitude and used for the metric covariance "
-          "[m] (free gyros do not observe it)", -1e4, 1e5),
-    Param("height_sigma_m", 100.0, "1-sigma of that height [m] (the vertical element of the NavSatFix "
-          "covariance)", 0.0, INF),
-    Param("reset_backjump_s", 1.0, "a read-out stamp this far [s] behind the last one resets the node "
-          "(bag loop)", 1e-9, INF),
-)
-
-
-def core_params_from(v: dict) -> FreeGyroPositioningParams:
-    """The core's parameters; ``ValueError`` naming the parameter at fault."""
-    u_a, u_b = spin_axes_for_site_deg(v["spin_reference_lat_deg"], v["spin_reference_lon_deg"], v["spin_nadir_deg"],
-                                      v["spin_azimuth_deg"], v["spin_reference_time_s"],
-                                      names=("spin_nadir_deg", "spin_azimuth_deg"))
-    try:
-        return FreeGyroPositioningParams(
-            u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],
-            min_samples=v["min_samples"], heading_window_s=v["heading_window_s"],
-            triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"],
-            reset_backjump_s=v["reset_backjump_s"])
-    except ValueError as exc:
-        text = str(exc)
-        if "u_a_i" in text or "u_b_i" in text:
-            text = f"parameters 'spin_nadir_deg', 'spin_azimuth_deg': {text}"
-        raise ValueError(text) from exc
 
 
 class FreeGyroPositioningNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("free_gyro_positioning", **node_kwargs)
         v = declare_and_read(self, PARAMS)
-        try:
-            self.core = FreeGyroPositioning(core_params_from(v))
-        except ValueError as exc:
-            raise ParameterError(str(exc)) from exc
+        self.core = FreeGyroPositioning(FreeGyroPositioningParams.from_values(v))
         self.rate = v["sim_rate_hz"]
         self.height_m = v["height_m"]
         self.height_sigma_m = v["height_sigma_m"]

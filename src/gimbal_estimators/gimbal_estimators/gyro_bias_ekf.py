@@ -129,7 +129,6 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, fields
 from typing import NamedTuple, Sequence
 
 import numpy as np
@@ -140,9 +139,8 @@ from gimbal_kinematics.rotations import (
     rotation_vector_from_quat,
 )
 
-from gimbal_kinematics.validate import finite, nonneg_finite, positive
-
 from . import kalman
+from .gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.sync import Stamp, check_stamp
 
 _DEG = math.pi / 180.0
@@ -151,100 +149,6 @@ _DEG_RT_H = _DEG / 60.0  # °/√h -> rad/√s
 
 #: |cos θm| below which eq. 4 is treated as singular (roll and azimuth axes aligned).
 _SINGULAR_COS = 1e-3
-
-
-@dataclass(frozen=True)
-class GyroBiasEkfParams:
-    """Filter parameters (engineering units at this edge; validated, immutable).
-
-    Site: ``lat_deg`` [°], ``height_m`` [m], ``velocity_n_m_s`` NED velocity [m/s] (zero for
-    a land vehicle at rest; sets the transport rate).
-
-    Gimbal gyro (q, r axes): ``gyro_arw_deg_rt_h`` [°/√h]; lumped bias prior 1σ
-    ``gyro_bias_sigma_deg_h`` [°/h]; ``gyro_bias_instability_deg_h`` [°/h] and
-    ``gyro_bias_tau_s`` [s] set the random-walk PSD 2σ²/τ (τ = inf: random constant).
-
-    Roll channel (the INS-rate part of eq. 4): ``roll_arw_deg_rt_h``,
-    ``roll_bias_sigma_deg_h``, ``roll_bias_instability_deg_h``, ``roll_bias_tau_s``, from
-    the INS gyro specification.
-
-    INS attitude: ``ins_roll_pitch_rms_deg``, ``ins_heading_rms_deg`` [°], correlation time
-    ``ins_attitude_tau_s`` [s] (inf = constant per run); ``ins_error_states`` chooses the
-    augmented (default) or paper 1's white-noise treatment. ``encoder_noise_deg`` [°]
-    (each of the three encoders); ``attitude_noise_floor_deg`` [°] isotropic white noise
-    added to R for unmodelled residuals (module docstring, "Synchronisation").
-
-    Robustness: ``gate_probability`` of the chi-square innovation gate (3 dof);
-    ``max_consecutive_gated`` gated updates in a row before the attitude is re-aligned;
-    ``clock_jump_s`` [s] backward stamp step that counts as a clock jump (reset), smaller
-    ones are out-of-order samples; ``max_gyro_gap_s`` [s] gyro gap that forces a
-    re-alignment; ``covariance_period_s`` [s] longest interval between covariance
-    propagations; ``max_sync_wait_s`` [s] longest a gyro sample waits for the encoder and
-    INS-rate samples it needs.
-    """
-
-    lat_deg: float = 0.0
-    height_m: float = 0.0
-    velocity_n_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    gyro_arw_deg_rt_h: float = 0.15
-    gyro_bias_sigma_deg_h: float = 104.4
-    gyro_bias_instability_deg_h: float = 30.0
-    gyro_bias_tau_s: float = 100.0
-    roll_arw_deg_rt_h: float = 0.1
-    roll_bias_sigma_deg_h: float = 1.42
-    roll_bias_instability_deg_h: float = 1.0
-    roll_bias_tau_s: float = 60.0
-    ins_roll_pitch_rms_deg: float = 0.05
-    ins_heading_rms_deg: float = 0.2
-    ins_attitude_tau_s: float = 300.0
-    ins_error_states: bool = True
-    encoder_noise_deg: float = 0.05
-    attitude_noise_floor_deg: float = 0.02
-    gate_probability: float = 0.9999
-    max_consecutive_gated: int = 100
-    clock_jump_s: float = 0.5
-    max_gyro_gap_s: float = 0.1
-    covariance_period_s: float = 0.05
-    max_sync_wait_s: float = 0.05
-
-    def __post_init__(self) -> None:
-        finite("lat_deg", self.lat_deg)
-        if abs(self.lat_deg) >= 90.0:
-            raise ValueError(f"lat_deg must be within (-90, 90), got {self.lat_deg}")
-        finite("height_m", self.height_m)
-        try:
-            vel = tuple(float(v) for v in self.velocity_n_m_s)
-        except (TypeError, ValueError):
-            raise ValueError(f"velocity_n_m_s must be 3 numbers, got {self.velocity_n_m_s!r}") from None
-        if len(vel) != 3 or not all(math.isfinite(v) for v in vel):
-            raise ValueError(f"velocity_n_m_s must be 3 finite numbers, got {self.velocity_n_m_s!r}")
-        object.__setattr__(self, "velocity_n_m_s", vel)
-        for name in ("gyro_arw_deg_rt_h", "gyro_bias_instability_deg_h", "roll_arw_deg_rt_h",
-                     "roll_bias_instability_deg_h", "ins_roll_pitch_rms_deg", "ins_heading_rms_deg"):
-            nonneg_finite(name, getattr(self, name))
-        for name in ("gyro_bias_sigma_deg_h", "roll_bias_sigma_deg_h", "encoder_noise_deg",
-                     "attitude_noise_floor_deg", "clock_jump_s", "max_gyro_gap_s", "covariance_period_s",
-                     "max_sync_wait_s"):
-            positive(name, getattr(self, name))
-        for name in ("gyro_bias_tau_s", "roll_bias_tau_s", "ins_attitude_tau_s"):
-            positive(name, getattr(self, name), allow_inf=True)
-        if not isinstance(self.ins_error_states, bool):
-            raise ValueError(f"ins_error_states must be a bool, got {self.ins_error_states!r}")
-        if self.ins_error_states:
-            for name in ("ins_roll_pitch_rms_deg", "ins_heading_rms_deg"):
-                if getattr(self, name) <= 0.0:
-                    raise ValueError(f"{name} must be > 0 with ins_error_states (a zero-variance state "
-                                     "makes P singular); use ins_error_states=False for a perfect INS")
-        finite("gate_probability", self.gate_probability)
-        if not 0.0 < self.gate_probability < 1.0:
-            raise ValueError(f"gate_probability must be in (0, 1), got {self.gate_probability}")
-        if not isinstance(self.max_consecutive_gated, int) or isinstance(self.max_consecutive_gated, bool) \
-                or self.max_consecutive_gated < 1:
-            raise ValueError(f"max_consecutive_gated must be an int >= 1, got {self.max_consecutive_gated!r}")
-
-    @classmethod
-    def field_names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))
 
 
 class Counters(NamedTuple):

@@ -16,7 +16,7 @@ estimate of its step:
 * ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): the health counters (updates,
   gated, rejected, resets, re-alignments) once per simulated second and after each reset.
 
-The three streams are fed to the filter in stamp order (:mod:`.stamp_order`), the encoders
+The three streams are fed to the filter in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), the encoders
 and INS of a stamp before its gyro sample, whatever order the middleware delivers them in;
 so a replay at any speed computes exactly what the run computed.
 
@@ -37,80 +37,19 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import Param, ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
-
-from . import messages as m
-from .gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
 from gimbal_kinematics.sync import StampOrder
 
-DESCRIPTION = (
-    "Paper 1 gyro-bias EKF: propagates the inner-gimbal attitude C(n,m) with the two-axis gimbal "
-    "gyro (roll rate reconstructed from the INS and encoders, earth and transport rate included) and "
-    "fuses the attitude built from the INS Euler angles and the encoders. Publishes the gyro-bias "
-    "estimate and its 1-sigma (~/bias, ~/bias_sigma), the attitude estimate (~/attitude) and health "
-    "(/diagnostics)."
-)
-
-_EKF_DEFAULTS = GyroBiasEkfParams()
-PARAMS = (
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]: maps gyro stamps to steps for ~/progress", 1.0, 100000.0),
-    Param("progress_every_steps", 10, "report the next step needed on ~/progress every N gyro steps", 1, 10**6),
-    Param("diagnostics_period_s", 1.0, "health on /diagnostics every this much sim time [s]", 1e-3, 1e6),
-    Param("lat_deg", _EKF_DEFAULTS.lat_deg, "site latitude [deg] (earth rate, transport rate)", -89.999, 89.999),
-    Param("height_m", _EKF_DEFAULTS.height_m, "site height [m]", -1e4, 1e5),
-    Param("velocity_n_m_s", list(_EKF_DEFAULTS.velocity_n_m_s), "NED velocity [m/s] for the transport rate"),
-    Param("gyro_arw_deg_rt_h", _EKF_DEFAULTS.gyro_arw_deg_rt_h, "gimbal gyro angle random walk [deg/sqrt(h)]", 0.0, 1e4),
-    Param("gyro_bias_sigma_deg_h", _EKF_DEFAULTS.gyro_bias_sigma_deg_h,
-          "prior 1-sigma of the lumped gimbal gyro bias [deg/h]", 1e-6, 1e6),
-    Param("gyro_bias_instability_deg_h", _EKF_DEFAULTS.gyro_bias_instability_deg_h,
-          "gimbal gyro Gauss-Markov bias instability RMS [deg/h] (sets the bias random walk)", 0.0, 1e6),
-    Param("gyro_bias_tau_s", _EKF_DEFAULTS.gyro_bias_tau_s, "gimbal gyro bias correlation time [s]", 1e-3, 1e9),
-    Param("roll_arw_deg_rt_h", _EKF_DEFAULTS.roll_arw_deg_rt_h, "INS gyro angle random walk [deg/sqrt(h)]", 0.0, 1e4),
-    Param("roll_bias_sigma_deg_h", _EKF_DEFAULTS.roll_bias_sigma_deg_h,
-          "prior 1-sigma of the roll-channel (INS gyro) bias [deg/h]", 1e-6, 1e6),
-    Param("roll_bias_instability_deg_h", _EKF_DEFAULTS.roll_bias_instability_deg_h,
-          "INS gyro Gauss-Markov bias instability RMS [deg/h]", 0.0, 1e6),
-    Param("roll_bias_tau_s", _EKF_DEFAULTS.roll_bias_tau_s, "INS gyro bias correlation time [s]", 1e-3, 1e9),
-    Param("ins_roll_pitch_rms_deg", _EKF_DEFAULTS.ins_roll_pitch_rms_deg, "INS roll/pitch error RMS [deg]", 0.0, 90.0),
-    Param("ins_heading_rms_deg", _EKF_DEFAULTS.ins_heading_rms_deg, "INS heading error RMS [deg]", 0.0, 180.0),
-    Param("ins_attitude_tau_s", _EKF_DEFAULTS.ins_attitude_tau_s,
-          "INS attitude error correlation time [s] (with ins_error_states)", 1e-6, 1e9),
-    Param("ins_error_states", _EKF_DEFAULTS.ins_error_states,
-          "model the INS attitude errors as Gauss-Markov states (false: paper 1's white measurement noise)"),
-    Param("encoder_noise_deg", _EKF_DEFAULTS.encoder_noise_deg, "encoder noise 1-sigma [deg]", 1e-9, 10.0),
-    Param("attitude_noise_floor_deg", _EKF_DEFAULTS.attitude_noise_floor_deg,
-          "isotropic white attitude noise added to R for unmodelled residuals [deg]", 1e-9, 10.0),
-    Param("gate_probability", _EKF_DEFAULTS.gate_probability,
-          "chi-square innovation gate probability (3 dof) [-]", 1e-6, 0.999999999),
-    Param("max_consecutive_gated", _EKF_DEFAULTS.max_consecutive_gated,
-          "gated updates in a row before the attitude is re-aligned", 1, 10**9),
-    Param("clock_jump_s", _EKF_DEFAULTS.clock_jump_s, "a stamp this far [s] behind resets the filter (bag loop)",
-          1e-9, 1e9),
-    Param("max_gyro_gap_s", _EKF_DEFAULTS.max_gyro_gap_s, "gyro gap [s] that forces a re-alignment", 1e-6, 1e6),
-    Param("covariance_period_s", _EKF_DEFAULTS.covariance_period_s,
-          "longest interval between covariance propagations [s]", 1e-6, 1e6),
-    Param("max_sync_wait_s", _EKF_DEFAULTS.max_sync_wait_s,
-          "longest a gyro sample waits for its encoder and INS-rate samples [s]", 1e-6, 1e6),
-)
-_CORE_FIELDS = GyroBiasEkfParams.field_names()
-
-
-def params_from_values(values: dict) -> GyroBiasEkfParams:
-    """The core's parameters from the node's values (``ParameterError`` names the culprit)."""
-    kw = {name: values[name] for name in _CORE_FIELDS}
-    kw["velocity_n_m_s"] = tuple(values["velocity_n_m_s"])
-    try:
-        return GyroBiasEkfParams(**kw)
-    except ValueError as exc:
-        raise ParameterError(f"parameter {exc}") from exc
+from . import messages as m
+from .gyro_bias_ekf import EkfOutput, GyroBiasEkf
+from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
 
 
 class GyroBiasEkfNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("gyro_bias_ekf", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        self.core = GyroBiasEkf(params_from_values(values))
+        self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
         self.rate = values["sim_rate_hz"]
         self.progress_every = values["progress_every_steps"]
         self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))

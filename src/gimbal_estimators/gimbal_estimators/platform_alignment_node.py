@@ -44,66 +44,13 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import Param, ParameterError, steps_per_sample
+from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
-
-from . import messages as m
-from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
 from gimbal_kinematics.sync import StepGroups
 
-DESCRIPTION = (
-    "Paper 3 rotation-modulated fine alignment: 8-state recursive least squares on the platform's level "
-    "accelerometers and azimuth joint angle, estimating the initial misalignment, the north gyro drift and "
-    "the level gyro drifts and accelerometer biases. Publishes the estimates with their sigma once per block."
-)
-INF = math.inf
-
-PARAMS = (
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz], to turn stamps into steps", 1.0, 100000.0),
-    Param("imu_rate_hz", 1000.0, "platform IMU rate [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
-    Param("joint_rate_hz", 1000.0, "rate of the azimuth joint topic [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
-    Param("joint_topic", "/platform/resolvers", "sensor_msgs/JointState topic carrying the azimuth joint"),
-    Param("azimuth_joint", "platform_azimuth", "name of the azimuth gimbal joint in joint_topic"),
-    Param("base_heading_deg", 0.0, "heading the base is taken to have (added to the azimuth joint) [deg]",
-          -360.0, 360.0),
-    Param("lat_deg", 40.0, "latitude of the static base [deg] (azimuth is unobservable at the poles)",
-          -89.999, 89.999),
-    Param("gravity_m_s2", 0.0, "local gravity [m/s^2] (0: WGS-84 normal gravity at lat_deg)", 0.0, 100.0),
-    Param("accel_noise_ug_rt_hz", 50.0, "accelerometer white-noise density, sets R [micro-g/sqrt(Hz)]", 1e-6, INF),
-    Param("block_s", 1.0, "accelerometer averaging block per RLS update [s]", 1e-6, 1e6),
-    Param("tilt_scale_arcsec", 600.0, "a-priori size of the initial tilts (P0 = I in these units) [arcsec]",
-          1e-6, INF),
-    Param("azimuth_scale_deg", 2.0, "a-priori size of the initial azimuth error [deg]", 1e-9, INF),
-    Param("north_drift_scale_deg_h", 0.1, "a-priori size of the north drift [deg/h]", 1e-9, INF),
-    Param("accel_bias_scale_ug", 1000.0, "a-priori size of the level accelerometer biases [micro-g]", 1e-9, INF),
-    Param("gyro_drift_scale_deg_h", 0.1, "a-priori size of the level gyro drifts [deg/h]", 1e-9, INF),
-    Param("max_joint_age_s", 0.1, "largest gap [s] between an accelerometer sample and the joint sample "
-          "extrapolated to it", 1e-9, INF),
-    Param("converged_tilt_arcsec", 5.0, "tilt sigma below which the estimate counts as converged [arcsec]",
-          1e-9, INF),
-    Param("converged_azimuth_arcmin", 2.0, "azimuth sigma below which it counts as converged [arcmin]", 1e-9, INF),
-    Param("reset_backjump_s", 1.0, "a stamp this far before the last one restarts the alignment [s]", 1e-9, INF),
-    Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
-          "vehicle_dynamics waits for and paces on it", 1, 10**6),
-    Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
-          0, 1000),
-)
-
-
-def params_from_values(v: dict) -> RotationAlignmentParams:
-    """The core's parameters from the node's values; raises naming the parameter."""
-    try:
-        return RotationAlignmentParams(
-            lat_deg=v["lat_deg"], gravity_m_s2=v["gravity_m_s2"] or None,
-            accel_noise_ug_rt_hz=v["accel_noise_ug_rt_hz"], block_s=v["block_s"],
-            tilt_scale_arcsec=v["tilt_scale_arcsec"], azimuth_scale_deg=v["azimuth_scale_deg"],
-            north_drift_scale_deg_h=v["north_drift_scale_deg_h"], accel_bias_scale_ug=v["accel_bias_scale_ug"],
-            gyro_drift_scale_deg_h=v["gyro_drift_scale_deg_h"], max_joint_age_s=v["max_joint_age_s"],
-            converged_tilt_arcsec=v["converged_tilt_arcsec"], converged_azimuth_arcmin=v["converged_azimuth_arcmin"],
-            reset_backjump_s=v["reset_backjump_s"])
-    except ValueError as exc:
-        raise ParameterError(str(exc)) from exc
-
+from . import messages as m
+from .platform_alignment_params import DESCRIPTION, PARAMS
+from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
 
 #: Output topics, under the node's namespace (module docstring).
 OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initial_misalignment_sigma",
@@ -118,7 +65,7 @@ class PlatformAlignmentNode(Node):
         self.rate = v["sim_rate_hz"]
         self.imu_every = steps_per_sample(v, "imu_rate_hz")
         self.joint_every = steps_per_sample(v, "joint_rate_hz")
-        self.core = RotationAlignmentRls(params_from_values(v))
+        self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(v))
         self.azimuth_joint = v["azimuth_joint"]
         self.heading = math.radians(v["base_heading_deg"])
         self.sync = StepGroups(self._needs, v["reset_backjump_s"] * self.rate)

@@ -89,6 +89,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import finite, positive
 
 from .kalman import check_state, joseph_update, symmetrize
@@ -154,6 +155,23 @@ class RotationAlignmentParams:
             positive(name, getattr(self, name))
         if self.rank_rel_tol >= 1.0:
             raise ValueError(f"rank_rel_tol must be < 1, got {self.rank_rel_tol}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> RotationAlignmentParams:
+        """The parameters from a ``platform_alignment`` node's values (name -> value, as
+        declared in :mod:`.platform_alignment_params`; ``gravity_m_s2`` 0 means WGS-84);
+        :class:`ParameterError` names the parameter refused."""
+        try:
+            return cls(
+                lat_deg=v["lat_deg"], gravity_m_s2=v["gravity_m_s2"] or None,
+                accel_noise_ug_rt_hz=v["accel_noise_ug_rt_hz"], block_s=v["block_s"],
+                tilt_scale_arcsec=v["tilt_scale_arcsec"], azimuth_scale_deg=v["azimuth_scale_deg"],
+                north_drift_scale_deg_h=v["north_drift_scale_deg_h"], accel_bias_scale_ug=v["accel_bias_scale_ug"],
+                gyro_drift_scale_deg_h=v["gyro_drift_scale_deg_h"], max_joint_age_s=v["max_joint_age_s"],
+                converged_tilt_arcsec=v["converged_tilt_arcsec"],
+                converged_azimuth_arcmin=v["converged_azimuth_arcmin"], reset_backjump_s=v["reset_backjump_s"])
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
 
     @property
     def lat_rad(self) -> float:

@@ -66,10 +66,9 @@ class _Bus:
 
 
 def sensor_stage(values: dict) -> Callable[[_Bus], None]:
-    from .sensor_models_node import config_from_params
-    from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite
+    from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
 
-    suite = SensorSuite(config_from_params(values))
+    suite = SensorSuite(SensorSuiteConfig.from_values(values))
 
     def stage(bus: _Bus) -> None:
         truth = bus.truth
@@ -119,8 +118,7 @@ class CoreLoopResult:
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopResult:
     """Step the scenario's cores (module docstring); raises :class:`NoCoreError`."""
-    from .vehicle import VehicleCore
-    from .vehicle_dynamics_node import config_from_params
+    from .vehicle import VehicleConfig, VehicleCore
 
     values = node_values(scenario)
     vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
@@ -128,7 +126,7 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopRe
     if len(vehicles) != 1 or unknown:
         raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
-    vehicle = VehicleCore(config_from_params(vehicles[0]))
+    vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]))
     controlled = vehicles[0]["controlled"]
     stages = [_stage_factory(exe)(v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
     bus = _Bus()

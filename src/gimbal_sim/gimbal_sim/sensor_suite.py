@@ -26,6 +26,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
 
 from .sensors import (
@@ -49,6 +50,31 @@ FREE_GYRO_SITE_DEG = (35.0, 129.0)
 
 def _default_free_gyro() -> FreeGyroSensorParams:
     return FreeGyroSensorParams(*spin_axes_for_site_deg(*FREE_GYRO_SITE_DEG, (60.0, 50.0), (-40.0, 50.0)))
+
+
+def _free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
+    """The free-gyro sensor parameters from a ``sensor_models`` node's values; ``ValueError``
+    naming the parameter at fault."""
+    u_a, u_b = spin_axes_for_site_deg(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"],
+                                      v["free_gyro_nadir_deg"], v["free_gyro_azimuth_deg"],
+                                      names=("free_gyro_nadir_deg", "free_gyro_azimuth_deg"))
+    level_bias = v["free_gyro_level_bias_arcsec"]
+    if len(level_bias) != 2 or not all(math.isfinite(x) for x in level_bias):
+        raise ValueError(f"parameter 'free_gyro_level_bias_arcsec' needs two finite values (roll, pitch), "
+                         f"got {list(level_bias)}")
+    try:
+        triad = GyroParams(bias_deg_h=tuple(v["free_gyro_triad_bias_deg_h"]),
+                           arw_deg_rt_h=v["free_gyro_triad_arw_deg_rt_h"],
+                           bias_sigma_deg_h=v["free_gyro_triad_bias_sigma_deg_h"])
+    except ValueError as exc:
+        raise ValueError(f"parameter 'free_gyro_triad_bias_deg_h': {exc}") from exc
+    try:
+        return FreeGyroSensorParams(
+            u_a, u_b, pickoff_noise_arcsec=v["free_gyro_pickoff_noise_arcsec"],
+            spin_drift_sigma_deg_h=v["free_gyro_spin_drift_sigma_deg_h"],
+            level_noise_arcsec=v["free_gyro_level_noise_arcsec"], level_bias_arcsec=tuple(level_bias), triad=triad)
+    except ValueError as exc:  # what is left to refuse is the pair of spin axes (parallel)
+        raise ValueError(f"parameters 'free_gyro_nadir_deg', 'free_gyro_azimuth_deg': {exc}") from exc
 
 
 #: Paper 3 §3: 19-bit tracking resolver-to-digital converters (2π/2¹⁹ ≈ 2.5″ per count);
@@ -94,6 +120,57 @@ class SensorSuiteConfig:
         if not (abs(lat) <= 90.0 and abs(lon) <= 360.0):
             raise ValueError(f"free_gyro_site_deg must be (lat in [-90, 90], lon in [-360, 360]) deg, "
                              f"got {self.free_gyro_site_deg}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> SensorSuiteConfig:
+        """The config from a ``sensor_models`` node's values (name -> value, as declared in
+        :mod:`.sensor_models_params`); :class:`ParameterError` names the parameter refused."""
+        try:
+            return cls(
+                sensors=tuple(v["sensors"]), sim_rate_hz=v["sim_rate_hz"], seed=v["seed"],
+                ins_rate_hz=v["ins_rate_hz"], gimbal_gyro_rate_hz=v["gimbal_gyro_rate_hz"],
+                encoder_rate_hz=v["encoder_rate_hz"], lgu_rate_hz=v["lgu_rate_hz"],
+                platform_imu_rate_hz=v["platform_imu_rate_hz"],
+                gimbal_gyro=GyroParams(bias_deg_h=tuple(v["gimbal_gyro_bias_deg_h"]),
+                                       bias_sigma_deg_h=v["gimbal_gyro_bias_sigma_deg_h"],
+                                       arw_deg_rt_h=v["gimbal_gyro_arw_deg_rt_h"],
+                                       bias_instability_deg_h=v["gimbal_gyro_bi_deg_h"],
+                                       bias_instability_tau_s=v["gimbal_gyro_bi_tau_s"],
+                                       scale_factor_ppm=tuple(v["gimbal_gyro_scale_factor_ppm"]),
+                                       saturation_deg_s=v["gimbal_gyro_range_deg_s"] or math.inf),
+                ins=InsParams(roll_pitch_rms_deg=v["ins_roll_pitch_rms_deg"], heading_rms_deg=v["ins_heading_rms_deg"],
+                              attitude_tau_s=v["ins_attitude_tau_s"],
+                              gyro=GyroParams(bias_sigma_deg_h=v["ins_gyro_bias_sigma_deg_h"],
+                                              bias_instability_deg_h=v["ins_gyro_bi_deg_h"],
+                                              bias_instability_tau_s=v["ins_gyro_bi_tau_s"],
+                                              arw_deg_rt_h=v["ins_gyro_arw_deg_rt_h"])),
+                encoder=EncoderParams(noise_deg=v["encoder_noise_deg"], lines_per_rev=v["encoder_lines_per_rev"],
+                                      quadrature=v["encoder_quadrature"], velocity_gate_s=v["encoder_velocity_gate_s"]),
+                lgu1=GyroParams(bias_deg_h=v["lgu1_bias_deg_h"], arw_deg_rt_h=v["lgu_arw_deg_rt_h"]),
+                lgu2=GyroParams(bias_deg_h=v["lgu2_bias_deg_h"], arw_deg_rt_h=v["lgu_arw_deg_rt_h"]),
+                flexure=FlexureParams(initial_deg=v["flexure_initial_deg"],
+                                      linear_rate_deg_h=v["flexure_linear_rate_deg_h"],
+                                      slow_amplitude_arcsec=v["flexure_slow_amplitude_arcsec"],
+                                      slow_period_s=v["flexure_slow_period_s"],
+                                      helm_amplitude_deg=v["flexure_helm_amplitude_deg"],
+                                      helm_period_s=v["flexure_helm_period_s"],
+                                      dynamic_rms_arcsec=tuple(v["flexure_dynamic_rms_arcsec"]),
+                                      dynamic_beta_per_s=tuple(v["flexure_dynamic_beta_per_s"]),
+                                      dynamic_freq_rad_s=tuple(v["flexure_dynamic_freq_rad_s"])),
+                platform_gyro=GyroParams(bias_sigma_deg_h=v["platform_gyro_bias_sigma_deg_h"],
+                                         arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"]),
+                platform_accel=AccelerometerParams(bias_sigma_ug=v["platform_accel_bias_sigma_ug"],
+                                                   noise_ug_rt_hz=v["platform_accel_noise_ug_rt_hz"]),
+                free_gyro_rate_hz=v["free_gyro_rate_hz"],
+                free_gyro_site_deg=(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"]),
+                free_gyro=_free_gyro_params_from(v),
+                resolver_rate_hz=v["resolver_rate_hz"],
+                resolver=EncoderParams(noise_deg=v["resolver_noise_arcsec"] / 3600.0,
+                                       lines_per_rev=2 ** v["resolver_bits"] if v["resolver_bits"] else 0,
+                                       velocity_gate_s=v["resolver_velocity_gate_s"]),
+            )
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
 
     def decimation(self, rate_name: str) -> int:
         """Simulation steps per sample of the rate ``rate_name``; raises ``ValueError``

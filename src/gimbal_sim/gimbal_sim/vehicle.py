@@ -29,8 +29,10 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
+import yaml
 
 from gimbal_kinematics.four_gimbal import dcm_sb, platform_rate_s
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import (
     dcm_to_quat, euler321_to_dcm, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
     quat_mul, rotation_vector_from_quat,
@@ -87,6 +89,26 @@ class VehicleConfig:
             raise ValueError("initial_joints_deg must be finite")
         if self.platform_substeps < 1:
             raise ValueError(f"platform_substeps must be >= 1, got {self.platform_substeps}")
+
+    @classmethod
+    def from_values(cls, values: dict) -> VehicleConfig:
+        """The config from a ``vehicle_dynamics`` node's values (name -> value, as declared in
+        :mod:`.vehicle_dynamics_params`; ``profile_params`` a YAML mapping, the initial joints
+        those of the chosen plant); :class:`ParameterError` names the parameter refused."""
+        try:
+            profile_params = yaml.safe_load(values["profile_params"]) or {}
+        except yaml.YAMLError as exc:
+            raise ParameterError(f"parameter 'profile_params' is not valid YAML: {exc}") from exc
+        if not isinstance(profile_params, dict):
+            raise ParameterError("parameter 'profile_params' must be a YAML mapping")
+        initial = {"two_axis_gimbal": values["initial_gimbal_deg"],
+                   "four_gimbal_platform": values["initial_platform_deg"], "host_only": []}[values["plant"]]
+        try:
+            return cls(profile=values["profile"], profile_params=profile_params, plant=values["plant"],
+                       sim_rate_hz=values["sim_rate_hz"], duration_s=values["duration_s"],
+                       earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial))
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
 
     @property
     def dt(self) -> float:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import math
 import sys
 
-import yaml
 from rclpy.node import Node
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
@@ -39,68 +38,17 @@ from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from .plant.motion_profiles import PROFILE_NAMES
-from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
-from .vehicle import GIMBAL_COMMAND_JOINTS, PLANTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
-
-DESCRIPTION = (
-    "Simulated host vehicle and gimbal/platform dynamics. Owns /clock and publishes the "
-    "truth topics every step; in lockstep it integrates step k -> k+1 only after the "
-    "command stamped k has arrived."
-)
-
-PARAMS = (
-    Param("profile", "paper1_land_vehicle", "host motion profile", choices=PROFILE_NAMES),
-    Param("profile_params", "{}", "profile parameters as a YAML mapping, e.g. "
-          "'{lat_deg: 39.9}' (README: host motion profiles)"),
-    Param("plant", "two_axis_gimbal", "plant carried by the host", choices=PLANTS),
-    Param("gimbal_model", "paper1", "two-axis gimbal mass properties, friction and torque limits: paper1 "
-          "(~10 kg payload) or uav_small (paper 2's ~1 kg UAV gimbal)", choices=tuple(GIMBAL_MODELS)),
-    Param("sim_rate_hz", 1000.0, "simulation (lockstep) rate [Hz]", 1.0, 100000.0),
-    Param("duration_s", 120.0, "simulated duration [s]; the node stops stepping there", 1e-3, 1e7),
-    Param("earth_rate", True, "include the earth rate in inertial rates (false: NED is inertial)"),
-    Param("initial_gimbal_deg", [0.0, 0.0], "initial gimbal azimuth psi_m and elevation theta_m [deg]"),
-    Param("initial_platform_deg", [0.0, 0.0, 0.0, 0.0],
-          "initial platform loop angles azimuth, inner roll, pitch, outer roll [deg]"),
-    Param("mode", "lockstep", "lockstep: step on commands/events; realtime: pace to the wall clock",
-          choices=("lockstep", "realtime")),
-    Param("controlled", False, "a controller commands the plant (lockstep waits for its command)"),
-    Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
-    Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
-          array_type="string_array"),
-    Param("pace_topics", [], "rosgraph_msgs/Clock progress topics (time of the next step the reader "
-          "needs) of readers to wait for and not outrun",
-          array_type="string_array"),
-    Param("pace_window_steps", 50, "steps the vehicle may run ahead of the slowest pace topic", 1, 10**6),
-    Param("exit_at_end", False, "exit the process after the last step"),
-)
-
-
-
-def config_from_params(values: dict) -> VehicleConfig:
-    """The core's frozen config from the node's parameter values (raises naming the parameter)."""
-    try:
-        profile_params = yaml.safe_load(values["profile_params"]) or {}
-    except yaml.YAMLError as exc:
-        raise ParameterError(f"parameter 'profile_params' is not valid YAML: {exc}") from exc
-    if not isinstance(profile_params, dict):
-        raise ParameterError("parameter 'profile_params' must be a YAML mapping")
-    initial = {"two_axis_gimbal": values["initial_gimbal_deg"], "four_gimbal_platform": values["initial_platform_deg"],
-               "host_only": []}[values["plant"]]
-    try:
-        return VehicleConfig(profile=values["profile"], profile_params=profile_params, plant=values["plant"],
-                             sim_rate_hz=values["sim_rate_hz"], duration_s=values["duration_s"],
-                             earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial))
-    except ValueError as exc:
-        raise ParameterError(str(exc)) from exc
+from .vehicle import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
+from .vehicle_dynamics_params import DESCRIPTION, PARAMS
 
 
 class VehicleDynamicsNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("vehicle_dynamics", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        self.config = config_from_params(values)
+        self.config = VehicleConfig.from_values(values)
         self.core = VehicleCore(self.config, GIMBAL_MODELS[values["gimbal_model"]])
         self.controlled = values["controlled"]
         self.realtime = values["mode"] == "realtime"

@@ -23,30 +23,13 @@ from rosgraph_msgs.msg import Clock
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
 from .qos_yaml import qos_to_dict
+from .recorder_params import DESCRIPTION, PARAMS
 from .schemas import message_class, msg_text, split_type
 from .writer import BagWriter
 
-DESCRIPTION = (
-    "Record topics, serialized and unchanged, into a rosbag2-style bag (metadata.yaml + MCAP, "
-    "profile ros2, ros2msg schemas, cdr) logged in sim time. Takes part in the run's readiness "
-    "and pacing so that no step is missed."
-)
-PARAMS = (
-    Param("output_dir", "", "bag directory to write (refused if it already holds a bag)"),
-    Param("topics", [], "topics to record; empty: every topic discovered", array_type="string_array"),
-    Param("exclude_topics", ["/rosout", "/parameter_events"], "topics never recorded"),
-    Param("wait_for_nodes", [], "with topics empty: node names whose publishers must all be subscribed "
-          "before ready", array_type="string_array"),
-    Param("sim_rate_hz", 1000.0, "simulation rate [Hz], to turn /clock into step numbers", 1.0, 100000.0),
-    Param("progress_every_steps", 10, "report the next step needed on ~/progress every N steps", 1, 10**6),
-    Param("end_time_s", 0.0, "sim time of the run's last step [s]: reaching it on /clock is reported on "
-          "~/progress at once (0: unknown)", 0.0, 1e9),
-    Param("chunk_duration_s", 0.5, "finish and flush an MCAP chunk at least every this much log time [s]",
-          1e-3, 60.0),
-)
 _STAMP = struct.Struct("<iI")
 
 

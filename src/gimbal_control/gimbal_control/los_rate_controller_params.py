@@ -1,0 +1,34 @@
+"""The ``los_rate_controller`` node's parameter table and --help text, readable without ROS
+(the node declares them; the config generator and the scenario checks read them). The
+mappings to the cores' parameters are
+:meth:`.los_rate_controller.LosRateControllerParams.from_values` and
+:meth:`.los_hold.LosHoldParams.from_values`.
+"""
+from __future__ import annotations
+
+from gimbal_kinematics.params import Param
+
+DESCRIPTION = (
+    "Paper 1 LOS rate stabilization controller: dynamic inversion of the linearized gimbal and a PI "
+    "on the inertial LOS rate error (k_p = 2 zeta omega_n, k_i = omega_n^2), torque saturation with "
+    "anti-windup, optional gyro-bias feedback. Publishes /gimbal/torque_cmd for each step."
+)
+PARAMS = (
+    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step", 1.0, 100000.0),
+    Param("ins_rate_hz", 100.0, "INS output rate [Hz] (the controller waits for it at its steps)", 1e-3, 100000.0),
+    Param("omega_n_hz", 25.0, "closed-loop natural frequency omega_n [Hz] (< sim_rate_hz / 4)", 1e-3, 25000.0),
+    Param("zeta", 0.8, "damping ratio zeta [-]", 1e-3, 10.0),
+    Param("feedback", False, "subtract the gyro-bias estimate from the gyro rates (waits for it at INS steps)"),
+    Param("bias_topic", "/gyro_bias_ekf/bias", "gyro-bias estimate topic (geometry_msgs/Vector3Stamped) [rad/s]"),
+    Param("mode", "rate", "rate: paper 1's LOS rate loop; los_hold: plus an outer loop holding the LOS at its "
+          "initial inertial direction on the EKF attitude estimate (implies feedback)", choices=("rate", "los_hold")),
+    Param("attitude_topic", "/gyro_bias_ekf/attitude", "EKF attitude estimate C(n,m) (sensor_msgs/Imu) for los_hold"),
+    Param("hold_gain_1_s", 0.5, "los_hold outer-loop gain (bandwidth) [1/s]", 1e-6, 1e3),
+    Param("hold_max_rate_deg_s", 1.0, "los_hold rate command limit [deg/s]", 1e-6, 1e3),
+    Param("hold_capture_s", 5.0, "los_hold: capture the initial LOS this long after the first estimate [s]", 0.0, 1e4),
+    Param("lat_deg", 0.0, "site latitude [deg] (earth rate of the los_hold inertial target)", -89.999, 89.999),
+    Param("earth_rate", True, "los_hold: the inertial target turns with the earth as seen from NED"),
+    Param("anti_windup", "clamp", "integrator anti-windup", choices=("clamp", "conditional", "none")),
+    Param("integrator_limit_factor", 4.0, "clamp bound of the integral term, in torque limits [-]", 1e-3, 1e3),
+    Param("trim", True, "feed forward the gravity trim torque of the linearisation point"),
+)
