@@ -84,13 +84,12 @@ def test_concurrent_variants_record_what_sequential_ones_do(ros_domain_env, tmp_
 @pytest.mark.parametrize("name", sorted(builtin_scenarios()))
 def test_builtin_scenarios_set_only_parameters_their_nodes_declare(name):
     # A misspelt parameter would be refused only when the node starts; catch it here.
-    import importlib
-    from gimbal_sim.config_files import NODE_MODULES
+    from gimbal_sim.registry import NODE_TYPES
 
     s = load(name)
     runs = [variant(s, v) for v in s.variants] or [s]
     for single in runs:
         for node, spec in single.nodes.items():
-            declared = {p.name for p in importlib.import_module(NODE_MODULES[spec["executable"]][1]).PARAMS}
+            declared = {p.name for p in NODE_TYPES[spec["executable"]].params}
             unknown = set(spec["params"]) - declared
             assert not unknown, f"{name}: node {node!r} sets undeclared parameters {sorted(unknown)}"

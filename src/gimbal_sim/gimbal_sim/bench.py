@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import atexit
 import dataclasses
-import importlib
 import json
 import os
 import shutil
@@ -36,13 +35,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import median
 
+from .core_stages import EKF_INPUTS
 from .scenario import ScenarioError, Scenario, load, variant
 
 HEADLINE = "sighting_land_vehicle"
 EKF_EXECUTABLE = "gyro_bias_ekf"
-EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")
-#: bag -> EKF core replay, by import path (gimbal_estimators depends on gimbal_sim)
-EKF_REPLAY = "gimbal_estimators.core_stages:replay_bag"
 
 #: Targets of issue 9 (steps/s, ratios, ms, x real time, fraction of a core, fraction).
 TARGETS = {"core_steps_s": 20_000.0, "container_steps_s": 5_000.0, "container_ratio": 3.0,
@@ -179,24 +176,23 @@ def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float,
     """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s and
     CPU s including decoding, updates), or None when the bag lacks them."""
     from .core_loop import node_values
-
-    replay = getattr(importlib.import_module(EKF_REPLAY.partition(":")[0]), EKF_REPLAY.partition(":")[2])
-    from .scenario import NODE_TYPES
+    from .core_stages import replay_bag
+    from .registry import NODE_TYPES
 
     values = next((v for exe, v in node_values(scenario).values() if exe == EKF_EXECUTABLE), None)
     if values is None:  # a scenario without the EKF: replay into one with the node's defaults
-        values = {p.name: p.default for p in NODE_TYPES[EKF_EXECUTABLE].params()}
-    return replay(bag, values)
+        values = {p.name: p.default for p in NODE_TYPES[EKF_EXECUTABLE].params}
+    return replay_bag(bag, values)
 
 
 def replay_ekf_node(bag: Path, scenario: Scenario) -> str:
     """HOOK for the gyro_bias_ekf node: replay the recorded sensor topics into the node
     alone (as fast as it takes them, paced on its progress topic) and time it."""
-    from .scenario import NODE_TYPES
+    from .registry import NODE_TYPES
 
     if EKF_EXECUTABLE not in NODE_TYPES:
-        return "not measured: no gyro_bias_ekf node registered yet (scenario.NODE_TYPES)"
-    params = {p.name for p in NODE_TYPES[EKF_EXECUTABLE].params()}
+        return "not measured: no gyro_bias_ekf node registered yet (registry.NODE_TYPES)"
+    params = {p.name for p in NODE_TYPES[EKF_EXECUTABLE].params}
     if "progress_every_steps" not in params:
         return "not measured: the gyro_bias_ekf node has no progress_every_steps parameter to pace a replay on"
     return _replay_node_processes(bag, scenario)

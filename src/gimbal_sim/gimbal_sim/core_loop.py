@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import json
 import sys
 import time
@@ -24,10 +23,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
-
 from gimbal_kinematics.ros.messages import step_stamp_ns
-from .scenario import NODE_TYPES, Scenario, ScenarioError, load
+
+from .core_stages import Bus, gyro_bias_ekf_stage, los_rate_controller_stage, sensor_stage
+from .registry import NODE_TYPES
+from .scenario import Scenario, ScenarioError, load
+from .vehicle import VehicleConfig, VehicleCore
 
 #: Nodes with no core to step (they only observe the run).
 PASSIVE = {"bag_recorder"}
@@ -46,60 +47,19 @@ def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
     for planned in plan_nodes(scenario, Path("/nonexistent")):
         if planned.executable in PASSIVE:
             continue
-        values = {p.name: p.default for p in NODE_TYPES[planned.executable].params()}
+        values = {p.name: p.default for p in NODE_TYPES[planned.executable].params}
         values.update(planned.params)
         out[planned.name] = (planned.executable, values)
     return out
 
 
-class _Bus:
-    """What one step's messages carry, as the nodes would read them: step k, its stamp t
-    [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
-    Euler angles as a reader of its quaternion gets them, the command and the bias
-    estimate (None when not produced this step)."""
-
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias")
-
-    def __init__(self) -> None:
-        self.k, self.t = 0, 0.0
-        self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
-
-
-def sensor_stage(values: dict) -> Callable[[_Bus], None]:
-    from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
-
-    suite = SensorSuite(SensorSuiteConfig.from_values(values))
-
-    def stage(bus: _Bus) -> None:
-        truth = bus.truth
-        # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
-        truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
-        bus.gyro = bus.encoders = bus.ins = None
-        for s in suite.update(truth):
-            if type(s) is GimbalGyroSample:
-                bus.gyro = s
-            elif type(s) is EncoderSample:
-                bus.encoders = s
-            elif type(s) is InsSample:
-                bus.ins = s
-                # published as a quaternion; readers turn it back into Euler angles
-                bus.ins_euler = euler321_from_quat(quat_canonical(quat_from_euler321(*s.euler)))
-    return stage
-
-
-#: executable -> "module:function" making its stage from the node's parameter values, in
-#: lockstep order (vehicle_dynamics is the loop itself). By import path, like the node
-#: types, so gimbal_sim does not depend on the packages that depend on it.
-STAGES: dict[str, str] = {
-    "sensor_models": "gimbal_sim.core_loop:sensor_stage",
-    "gyro_bias_ekf": "gimbal_estimators.core_stages:gyro_bias_ekf_stage",
-    "los_rate_controller": "gimbal_control.core_stages:los_rate_controller_stage",
+#: executable -> the function making its stage from the node's parameter values, in
+#: lockstep order (vehicle_dynamics is the loop itself).
+STAGES: dict[str, Callable[[dict[str, Any]], Callable[[Bus], None]]] = {
+    "sensor_models": sensor_stage,
+    "gyro_bias_ekf": gyro_bias_ekf_stage,
+    "los_rate_controller": los_rate_controller_stage,
 }
-
-
-def _stage_factory(executable: str) -> Callable[[dict], Callable[[_Bus], None]]:
-    module, _, func = STAGES[executable].partition(":")
-    return getattr(importlib.import_module(module), func)
 
 
 @dataclass
@@ -118,8 +78,6 @@ class CoreLoopResult:
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopResult:
     """Step the scenario's cores (module docstring); raises :class:`NoCoreError`."""
-    from .vehicle import VehicleConfig, VehicleCore
-
     values = node_values(scenario)
     vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
     unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
@@ -128,8 +86,8 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopRe
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
     vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]))
     controlled = vehicles[0]["controlled"]
-    stages = [_stage_factory(exe)(v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
-    bus = _Bus()
+    stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
+    bus = Bus()
     hold = (0.0,) * vehicle.config.command_size
     commands = [] if keep_commands else None
     lat = array("d")

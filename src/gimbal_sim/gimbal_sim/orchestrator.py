@@ -21,7 +21,8 @@ from typing import Any, Iterable
 import yaml
 
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
-from .scenario import NODE_TYPES, Scenario
+from .registry import NODE_TYPES
+from .scenario import Scenario
 
 STOP_GRACE_S = 10.0      # how long a node may take to exit after SIGINT
 DRAIN_QUIET_S = 0.3      # quiet time after the recorder reached the end before stopping
@@ -105,10 +106,10 @@ def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
     """Every node with its final parameters: the scenario's, plus what the orchestrator
     owns (rate, seed, duration, readiness and pacing wiring, the recorder's output)."""
     paced = [n for n, s in scenario.nodes.items()
-             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params()}]
+             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}]
     planned = []
     for name, spec in scenario.nodes.items():
-        declared = {p.name for p in NODE_TYPES[spec["executable"]].params()}
+        declared = {p.name for p in NODE_TYPES[spec["executable"]].params}
         params = dict(spec["params"])
         if "sim_rate_hz" in declared:
             params["sim_rate_hz"] = scenario.sim_rate_hz

@@ -26,51 +26,16 @@ and values of the wrong type are refused with a message naming them.
 from __future__ import annotations
 
 import copy
-import importlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from gimbal_kinematics.params import Param
+from .registry import NODE_TYPES
 
 BUILTIN_DIR = Path(__file__).parent / "scenarios"
 
-
-@dataclass(frozen=True)
-class NodeType:
-    """A node executable the orchestrator can run: its package and class."""
-
-    package: str
-    module: str
-    cls: str
-
-    def params(self) -> tuple[Param, ...]:
-        return importlib.import_module(self.module).PARAMS
-
-    def node_class(self) -> type:
-        return getattr(importlib.import_module(self.module), self.cls)
-
-
-#: executable -> NodeType; scenario nodes must use one of these.
-NODE_TYPES: dict[str, NodeType] = {
-    "vehicle_dynamics": NodeType("gimbal_sim", "gimbal_sim.vehicle_dynamics_node", "VehicleDynamicsNode"),
-    "sensor_models": NodeType("gimbal_sim", "gimbal_sim.sensor_models_node", "SensorModelsNode"),
-    "bag_recorder": NodeType("gimbal_sim", "gimbal_sim.bag.recorder_node", "BagRecorderNode"),
-    "los_rate_controller": NodeType("gimbal_control", "gimbal_control.los_rate_controller_node",
-                                    "LosRateControllerNode"),
-    "gyro_bias_ekf": NodeType("gimbal_estimators", "gimbal_estimators.gyro_bias_ekf_node", "GyroBiasEkfNode"),
-    "free_gyro_positioning": NodeType("gimbal_estimators", "gimbal_estimators.free_gyro_positioning_node",
-                                      "FreeGyroPositioningNode"),
-    "encoder_fusion_controller": NodeType("gimbal_control", "gimbal_control.encoder_fusion_controller_node",
-                                          "EncoderFusionControllerNode"),
-    "flexure_estimator": NodeType("gimbal_estimators", "gimbal_estimators.flexure_estimator_node",
-                                  "FlexureEstimatorNode"),
-    "platform_servo": NodeType("gimbal_control", "gimbal_control.platform_servo_node", "PlatformServoNode"),
-    "platform_alignment": NodeType("gimbal_estimators", "gimbal_estimators.platform_alignment_node",
-                                   "PlatformAlignmentNode"),
-}
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",
              "comparison"}
@@ -139,7 +104,7 @@ def _number(where: str, value: Any, positive: bool = True) -> float:
 def check_param(node: str, executable: str, name: str, value: Any) -> Any:
     """Validate one node parameter against its declaration; returns the value typed as
     declared (an int is accepted for a float parameter)."""
-    table = {p.name: p for p in NODE_TYPES[executable].params()}
+    table = {p.name: p for p in NODE_TYPES[executable].params}
     if name not in table:
         raise ScenarioError(f"node {node!r} ({executable}) has no parameter {name!r}; "
                             f"known: {', '.join(sorted(table))}")

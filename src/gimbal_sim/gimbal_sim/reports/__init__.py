@@ -4,46 +4,49 @@ Each report is a function ``(bag_dir, report_dir) -> metrics`` in a module of it
 scenario names its report in its YAML (``report:``). A scenario with variants also names a
 comparison (``comparison:``), a function ``(runs, report_dir) -> metrics`` over the
 variants' bags (``runs``: variant name -> bag directory, in run order); a ``table`` entry
-in its metrics (text) is printed at the end of the run. The registry holds import paths so a
-report's own dependencies load only when it runs.
+in its metrics (text) is printed at the end of the run. matplotlib loads only when a report
+draws its first figure (:func:`.figures.pyplot`).
 """
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import Callable
 
-#: report name -> "module:function" (module relative to this package)
-REPORTS: dict[str, str] = {
-    "generic": "generic:generic_report",
-    "flexure": "flexure:flexure_report",
-    "los_pointing": "los_pointing:los_pointing_report",
-    "sighting": "sighting:sighting_report",
-    "free_gyro": "free_gyro:free_gyro_report",
-    "encoder_fusion": "encoder_fusion:encoder_fusion_report",
-    "platform_servo": "platform_servo:platform_servo_report",
-    "alignment": "alignment:alignment_report",
+from .alignment import alignment_campaign, alignment_report, rotation_comparison
+from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
+from .flexure import flexure_report
+from .free_gyro import free_gyro_report
+from .generic import generic_report
+from .los_pointing import los_pointing_report
+from .platform_servo import platform_servo_report
+from .sighting import sighting_comparison, sighting_report
+
+#: report name -> function (bag_dir, report_dir) -> metrics
+REPORTS: dict[str, Callable[[Path, Path], dict]] = {
+    "generic": generic_report,
+    "flexure": flexure_report,
+    "los_pointing": los_pointing_report,
+    "sighting": sighting_report,
+    "free_gyro": free_gyro_report,
+    "encoder_fusion": encoder_fusion_report,
+    "platform_servo": platform_servo_report,
+    "alignment": alignment_report,
 }
 
-#: comparison name -> "module:function"
-COMPARISONS: dict[str, str] = {
-    "sighting": "sighting:sighting_comparison",
-    "encoder_fusion": "encoder_fusion:encoder_fusion_comparison",
-    "alignment_rotation": "alignment:rotation_comparison",
-    "alignment_campaign": "alignment:alignment_campaign",
+#: comparison name -> function (runs, report_dir) -> metrics
+COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
+    "sighting": sighting_comparison,
+    "encoder_fusion": encoder_fusion_comparison,
+    "alignment_rotation": rotation_comparison,
+    "alignment_campaign": alignment_campaign,
 }
-
-
-def _load(path: str) -> Callable:
-    module, _, func = path.partition(":")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), func)
 
 
 def report_function(name: str) -> Callable[[Path, Path], dict]:
     """The report called ``name``; ``KeyError`` if there is none."""
-    return _load(REPORTS[name])
+    return REPORTS[name]
 
 
 def comparison_function(name: str) -> Callable[[dict[str, Path], Path], dict]:
     """The comparison called ``name``; ``KeyError`` if there is none."""
-    return _load(COMPARISONS[name])
+    return COMPARISONS[name]

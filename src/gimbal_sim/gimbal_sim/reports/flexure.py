@@ -121,12 +121,12 @@ def _run_config(bag_dir: Path) -> dict[str, dict]:
 
 def _param(nodes: dict[str, dict], executable: str, name: str) -> Any:
     """A node parameter from the run (first node of ``executable``), else its declared default."""
-    from ..scenario import NODE_TYPES
+    from ..registry import NODE_TYPES
 
     for spec in nodes.values():
         if spec.get("executable") == executable and name in (spec.get("params") or {}):
             return spec["params"][name]
-    return next(p.default for p in NODE_TYPES[executable].params() if p.name == name)
+    return next(p.default for p in NODE_TYPES[executable].params if p.name == name)
 
 
 def estimator_nodes(bag_dir: Path, topics: set[str]) -> dict[str, str]:

@@ -1,0 +1,130 @@
+"""Pure-core stages of the graph's nodes for :mod:`.core_loop` and ``gimbal-bench`` (no ROS).
+
+A stage is built from a node's parameter values (the mapping the node itself uses, each
+core's ``from_values``) and called once per lockstep step with the loop's :class:`Bus`
+(what the step's messages carry); it does what the node does with them, in the node's
+order. :func:`replay_bag` feeds a bag's recorded sensor topics into the gyro-bias EKF core.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
+from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
+from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
+from gimbal_kinematics.ros import messages as m
+
+from .bag.reader import read_messages
+from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
+
+#: The recorded topics the EKF reads.
+EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")
+
+
+class Bus:
+    """What one step's messages carry, as the nodes would read them: step k, its stamp t
+    [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
+    Euler angles as a reader of its quaternion gets them, the command and the bias
+    estimate (None when not produced this step)."""
+
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias")
+
+    def __init__(self) -> None:
+        self.k, self.t = 0, 0.0
+        self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
+
+
+def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+    """``sensor_models``: the suite's samples of step k from the vehicle's truth."""
+    suite = SensorSuite(SensorSuiteConfig.from_values(values))
+
+    def stage(bus: Bus) -> None:
+        truth = bus.truth
+        # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
+        truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
+        bus.gyro = bus.encoders = bus.ins = None
+        for s in suite.update(truth):
+            if type(s) is GimbalGyroSample:
+                bus.gyro = s
+            elif type(s) is EncoderSample:
+                bus.encoders = s
+            elif type(s) is InsSample:
+                bus.ins = s
+                # published as a quaternion; readers turn it back into Euler angles
+                bus.ins_euler = euler321_from_quat(quat_canonical(quat_from_euler321(*s.euler)))
+    return stage
+
+
+def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+    """``gyro_bias_ekf``: INS (Euler angles from its quaternion), gyro and encoders of step k,
+    encoders and INS before the gyro sample of the same stamp (the node's
+    :class:`gimbal_kinematics.sync.StampOrder`); leaves the bias estimate on the bus when an
+    update completed."""
+    ekf = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+
+    def stage(bus: Bus) -> None:
+        t = bus.t
+        out = None
+        if bus.encoders is not None:
+            out = ekf.on_encoders(t, bus.encoders.angles, bus.encoders.rates) or out
+        if bus.ins is not None:
+            out = ekf.on_ins(t, bus.ins_euler, bus.ins.omega_b) or out
+        if bus.gyro is not None:
+            out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
+        bus.bias = None if out is None else tuple(out.bias.tolist())
+    return stage
+
+
+def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+    """``los_rate_controller``: the torque command of step k from the gyro, encoders and the
+    latest INS rates (held between INS samples, as the node does), and the bias estimate of
+    the step when the EKF made one (the node waits for it at INS steps)."""
+    if values["mode"] != "rate":
+        # its outer loop needs the EKF attitude, which the loop's bus does not carry
+        raise ValueError(f"no core stage for los_rate_controller mode {values['mode']!r} (only 'rate')")
+    core = LosRateController(LosRateControllerParams.from_values(values))
+    rate = values["sim_rate_hz"]
+    ins_rates: list[tuple[float, float, float] | None] = [None]
+
+    def stage(bus: Bus) -> None:
+        if bus.ins is not None:
+            ins_rates[0] = bus.ins.omega_b
+        if bus.bias is not None:
+            core.set_bias_estimate(bus.t, bus.bias)
+        enc = bus.encoders
+        if bus.gyro is None or enc is None or ins_rates[0] is None:
+            bus.command = core.command
+            return
+        bus.command = core.step(bus.k / rate, (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
+    return stage
+
+
+def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, float, int] | None:
+    """Replay a bag's sensor topics into the EKF core (built from the ``gyro_bias_ekf``
+    node's parameter ``values``) as fast as it goes: (simulated s, wall s and CPU s spent
+    decoding and filtering, updates), or None when the bag lacks a topic."""
+    messages, _ = read_messages(bag, set(EKF_INPUTS))
+    if {msg.topic for msg in messages} != set(EKF_INPUTS):
+        return None
+    # the node's order within a stamp: encoders and INS before the gyro
+    rank = {"/gimbal/joint_states": 0, "/ins/imu": 1, "/gimbal/imu": 2}
+    messages.sort(key=lambda msg: (msg.log_time_ns, rank[msg.topic]))
+    ekf = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+    updates = 0
+    t0, c0 = time.perf_counter(), time.process_time()
+    for msg in messages:
+        if msg.topic == "/gimbal/imu":
+            d = m.imu_from_cdr(msg.data)
+            out = ekf.on_gyro(d.stamp_ns * 1e-9, d.angular_velocity[1], d.angular_velocity[2])
+        elif msg.topic == "/gimbal/joint_states":
+            d = m.joint_state_from_cdr(msg.data)
+            out = ekf.on_encoders(d.stamp_ns * 1e-9, d.position, d.velocity)
+        else:
+            d = m.imu_from_cdr(msg.data)
+            out = ekf.on_ins(d.stamp_ns * 1e-9, euler321_from_quat(d.orientation), d.angular_velocity)
+        updates += out is not None
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9, wall, cpu, updates

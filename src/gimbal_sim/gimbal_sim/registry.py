@@ -1,0 +1,109 @@
+"""The one registry of the graph's node executables: for each, its package, its parameter
+table and ``--help`` text, and its node class.
+
+Everything that lists nodes derives from it: scenario validation (:mod:`.scenario`), the
+orchestrator, the config generator (:mod:`.config_files`), the core loop and the bench.
+gimbal_sim is the composition root, so it reaches the packages below it through plain
+static imports. The parameter tables come from each node's rclpy-free ``<node>_params``
+module, so validating a scenario or writing the configs does not load rclpy; a node class
+is imported (with rclpy) only when :meth:`NodeType.node_class` is called, to run it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from gimbal_control import encoder_fusion_controller_params, los_rate_controller_params, platform_servo_params
+from gimbal_estimators import (
+    flexure_estimator_params, free_gyro_positioning_params, gyro_bias_ekf_params, platform_alignment_params,
+)
+from gimbal_kinematics.params import Param
+
+from . import sensor_models_params, vehicle_dynamics_params
+from .bag import recorder_params
+
+
+@dataclass(frozen=True)
+class NodeType:
+    """A node executable the orchestrator can run: its ``package``, parameter table
+    ``params`` and ``--help`` text ``description``, and ``load_class``, which imports its
+    rclpy node class."""
+
+    package: str
+    params: tuple[Param, ...]
+    description: str
+    load_class: Callable[[], type]
+
+    def node_class(self) -> type:
+        return self.load_class()
+
+
+# Each loader imports one node module: rclpy loads only for a node that is run.
+def _vehicle_dynamics() -> type:
+    from .vehicle_dynamics_node import VehicleDynamicsNode
+    return VehicleDynamicsNode
+
+
+def _sensor_models() -> type:
+    from .sensor_models_node import SensorModelsNode
+    return SensorModelsNode
+
+
+def _bag_recorder() -> type:
+    from .bag.recorder_node import BagRecorderNode
+    return BagRecorderNode
+
+
+def _los_rate_controller() -> type:
+    from gimbal_control.los_rate_controller_node import LosRateControllerNode
+    return LosRateControllerNode
+
+
+def _gyro_bias_ekf() -> type:
+    from gimbal_estimators.gyro_bias_ekf_node import GyroBiasEkfNode
+    return GyroBiasEkfNode
+
+
+def _free_gyro_positioning() -> type:
+    from gimbal_estimators.free_gyro_positioning_node import FreeGyroPositioningNode
+    return FreeGyroPositioningNode
+
+
+def _encoder_fusion_controller() -> type:
+    from gimbal_control.encoder_fusion_controller_node import EncoderFusionControllerNode
+    return EncoderFusionControllerNode
+
+
+def _flexure_estimator() -> type:
+    from gimbal_estimators.flexure_estimator_node import FlexureEstimatorNode
+    return FlexureEstimatorNode
+
+
+def _platform_servo() -> type:
+    from gimbal_control.platform_servo_node import PlatformServoNode
+    return PlatformServoNode
+
+
+def _platform_alignment() -> type:
+    from gimbal_estimators.platform_alignment_node import PlatformAlignmentNode
+    return PlatformAlignmentNode
+
+
+def _node_type(package: str, params_module, load_class: Callable[[], type]) -> NodeType:
+    return NodeType(package, params_module.PARAMS, params_module.DESCRIPTION, load_class)
+
+
+#: executable -> NodeType; scenario nodes must use one of these.
+NODE_TYPES: dict[str, NodeType] = {
+    "vehicle_dynamics": _node_type("gimbal_sim", vehicle_dynamics_params, _vehicle_dynamics),
+    "sensor_models": _node_type("gimbal_sim", sensor_models_params, _sensor_models),
+    "bag_recorder": _node_type("gimbal_sim", recorder_params, _bag_recorder),
+    "los_rate_controller": _node_type("gimbal_control", los_rate_controller_params, _los_rate_controller),
+    "gyro_bias_ekf": _node_type("gimbal_estimators", gyro_bias_ekf_params, _gyro_bias_ekf),
+    "free_gyro_positioning": _node_type("gimbal_estimators", free_gyro_positioning_params, _free_gyro_positioning),
+    "encoder_fusion_controller": _node_type("gimbal_control", encoder_fusion_controller_params,
+                                            _encoder_fusion_controller),
+    "flexure_estimator": _node_type("gimbal_estimators", flexure_estimator_params, _flexure_estimator),
+    "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo),
+    "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment),
+}
