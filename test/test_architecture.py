@@ -115,3 +115,45 @@ def test_every_package_manifest_lists_only_packages_below_it():
         deps = {e.text for tag in ("depend", "exec_depend") for e in root.findall(tag)}
         above = [d for d in deps & set(LEVEL) if LEVEL[d] > LEVEL[pkg]]
         assert not above, f"{pkg}/package.xml depends on {above}, above it"
+
+
+def node_entry_points() -> dict[str, tuple[str, str]]:
+    """executable -> (package, module) of every ``<module>_node:main`` console script that the
+    packages' ``setup.py`` declare (the graph's nodes; CLIs like gimbal-run are not nodes)."""
+    out = {}
+    for pkg in LEVEL:
+        for node in ast.walk(ast.parse((SRC / pkg / "setup.py").read_text())):
+            if isinstance(node, ast.keyword) and node.arg == "entry_points":
+                for spec in ast.literal_eval(node.value).get("console_scripts", []):
+                    exe, _, target = (s.strip() for s in spec.partition("="))
+                    module = target.partition(":")[0]
+                    if module.endswith("_node"):
+                        out[exe] = (pkg, module)
+    return out
+
+
+def test_every_node_parameter_table_loads_without_ros():
+    """Each node's ``<node>_params`` module (its PARAMS and DESCRIPTION, what scenario checks,
+    the config generator and the core loop read) and the node registry import in a fresh
+    interpreter without rclpy or any message package."""
+    modules = [module.removesuffix("_node") + "_params" for _, module in node_entry_points().values()]
+    code = ("import sys\n" + "".join(f"import {m}\n" for m in modules) + "import gimbal_sim.registry\n" +
+            "for m in sys.argv[1:]:\n    assert sys.modules[m].PARAMS and sys.modules[m].DESCRIPTION, m\n" +
+            "print(sorted({n.split('.')[0] for n in sys.modules} & set(%r)))" % sorted(ROS_MODULES))
+    out = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]", f"parameter tables loaded {out.stdout.strip()}"
+    assert len(modules) == 10
+
+
+def test_the_registry_lists_every_node_executable_with_its_package_table_and_class():
+    from gimbal_sim.registry import NODE_TYPES
+
+    nodes = node_entry_points()
+    assert len(nodes) == 10 and set(NODE_TYPES) == set(nodes)
+    for exe, (pkg, module) in nodes.items():
+        node_type = NODE_TYPES[exe]
+        table = sys.modules.get(module.removesuffix("_node") + "_params")
+        assert node_type.package == pkg and table is not None, exe
+        assert node_type.params is table.PARAMS and node_type.description is table.DESCRIPTION, exe
+        assert node_type.node_class().__module__ == module, exe
