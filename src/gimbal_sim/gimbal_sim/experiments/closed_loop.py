@@ -27,13 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from gimbal_kinematics.los import inertial_los, pointing_error
-from gimbal_sim.sensors import PAPER1_GIMBAL_GYRO, GyroModel
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
-
-from .los_rate_controller import (
+from gimbal_control.los_rate_controller import (
     DEFAULT_OMEGA_N_HZ, DEFAULT_RATE_HZ, PAPER_ZETA, LosRateController, LosRateControllerParams,
 )
+from gimbal_kinematics.los import inertial_los, pointing_error
+
+from ..sensors import PAPER1_GIMBAL_GYRO, GyroModel
+from ..vehicle import VehicleConfig, VehicleCore
 
 GYRO_MODES = ("ideal", "noise", "paper1")
 
@@ -128,7 +128,7 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
     return dict(metrics=metrics, t=t_rec, pointing_error_rad=err, los_i=los_i, tau=tau_rec, rate_error=err_rec)
 
 
-if __name__ == "__main__":  # python -m gimbal_control.closed_loop [duration] [rate] [omega_n] [gyro] [delay]
+if __name__ == "__main__":  # python -m gimbal_sim.experiments.closed_loop [duration] [rate] [omega_n] [gyro] [delay]
     import sys
 
     args = sys.argv[1:]
