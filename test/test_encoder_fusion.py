@@ -9,11 +9,11 @@ from scipy import signal
 from scipy.linalg import solve_discrete_are
 
 from gimbal_control.encoder_fusion import (
-    MEMS_GYRO, UAV_AZIMUTH_INERTIA_KG_M2, UAV_ELEVATION_INERTIA_KG_M2, UAV_GIMBAL, UAV_INITIAL_JOINTS_DEG,
-    EncoderFusionController, EncoderFusionParams, run_encoder_fusion,
+    UAV_AZIMUTH_INERTIA_KG_M2, UAV_ELEVATION_INERTIA_KG_M2, EncoderFusionController, EncoderFusionParams,
 )
 from gimbal_control.fusion_kf import ClosedLoopComplementaryKf, FusionKfParams, process_noise, transition
 from gimbal_control.pid import Pid, PidParams, pole_placement_gains
+from gimbal_sim.experiments.encoder_fusion import MEMS_GYRO, UAV_GIMBAL, UAV_INITIAL_JOINTS_DEG, run_encoder_fusion
 from gimbal_sim.plant import TwoAxisGimbal
 
 DEG = math.pi / 180.0

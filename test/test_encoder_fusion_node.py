@@ -13,9 +13,8 @@ from rosbags.highlevel import AnyReader
 from scipy.spatial.transform import Rotation
 
 from conftest import VENV_BIN
-from gimbal_control.encoder_fusion import (
-    MEMS_GYRO, UAV_INITIAL_JOINTS_DEG, UAV_PROFILE, EncoderFusionController, run_encoder_fusion,
-)
+from gimbal_control.encoder_fusion import EncoderFusionController
+from gimbal_sim.experiments.encoder_fusion import MEMS_GYRO, UAV_INITIAL_JOINTS_DEG, UAV_PROFILE, run_encoder_fusion
 from gimbal_sim.scenario import BUILTIN_DIR
 from gimbal_sim.sensors import PAPER2_ENCODER
 

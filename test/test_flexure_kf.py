@@ -8,9 +8,9 @@ from scipy.linalg import solve_discrete_lyapunov
 from scipy.spatial.transform import Rotation
 
 from gimbal_estimators import flexure_kf as fk
-from gimbal_estimators.flexure_experiment import run_flexure_comparison
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, small_angles_from_dcm
+from gimbal_sim.experiments.flexure import run_flexure_comparison
 from gimbal_sim.sensors import FlexureParams
 
 AS = math.pi / 180.0 / 3600.0
@@ -472,7 +472,7 @@ def test_random_walk_rate_model_tracks_and_is_consistent(ship_runs):
 
 # ---------------------------------------------------------------- experiment command line
 def test_experiment_cli_monte_carlo_table_and_bad_band(capsys):
-    from gimbal_estimators import flexure_experiment as fe
+    from gimbal_sim.experiments import flexure as fe
 
     fe.main(["--seeds", "0", "1", "--duration", "660", "--models", "random_walk_rate", "--dynamic-freq", "0.5"])
     out = capsys.readouterr().out

@@ -25,14 +25,13 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu, NavSatFix
 
 from conftest import VENV_BIN
-from gimbal_estimators.free_gyro_positioning import (
-    FreeGyroPositioning, FreeGyroPositioningParams, make_spin_axes, simulate_truth,
-)
+from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_estimators.free_gyro_positioning_node import FreeGyroPositioningNode
 from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, prime_vertical_radius
 from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_sim.experiments.free_gyro import make_spin_axes, simulate_truth
 from gimbal_sim.scenario import BUILTIN_DIR
 from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ros_harness import harness_node, spin_until

@@ -10,17 +10,20 @@ from scipy.stats import chi2
 from gimbal_estimators.free_gyro_positioning import (
     FreeGyroPositioning,
     FreeGyroPositioningParams,
-    make_spin_axes,
     navsat_covariance_enu,
+)
+from gimbal_kinematics import earth
+from gimbal_kinematics import free_gyro as fg
+from gimbal_kinematics.free_gyro import spin_axis_for_site
+from gimbal_kinematics.rotations import rot3
+from gimbal_sim.experiments.free_gyro import (
+    make_spin_axes,
     run_fdop_monte_carlo,
     run_free_gyro_experiment,
     simulate_truth,
 )
-from gimbal_kinematics import earth
-from gimbal_kinematics import free_gyro as fg
-from gimbal_kinematics.rotations import rot3
 from gimbal_sim.sensors import GyroParams
-from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams, spin_axis_for_site
+from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 
 ARCSEC = math.radians(1.0 / 3600.0)
 ARCMIN = math.radians(1.0 / 60.0)

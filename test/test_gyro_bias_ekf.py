@@ -10,9 +10,6 @@ import pytest
 from scipy.stats import chi2
 
 from gimbal_estimators import kalman
-from gimbal_estimators.bias_ekf_experiment import (
-    GENERAL_GIMBAL_GYRO, TruthStabilizer, ekf_params_from_sensors, run_monte_carlo,
-)
 from gimbal_estimators.gyro_bias_ekf import (
     GyroBiasEkf, GyroBiasEkfParams, discretize_error_model, encoder_error_jacobian, ins_error_jacobian,
     measured_quat_nm, quat_nb_from_euler, roll_rate_matrix,
@@ -22,6 +19,9 @@ from gimbal_kinematics.rotations import (
     dcm_from_rotation_vector, quat_to_dcm, rotation_vector_from_dcm, skew, small_angles_from_dcm,
 )
 from gimbal_kinematics.sighting_chain import dcm_bm, dcm_nb, reconstruct_roll_rate
+from gimbal_sim.experiments.bias_ekf import (
+    GENERAL_GIMBAL_GYRO, TruthStabilizer, ekf_params_from_sensors, run_monte_carlo,
+)
 from gimbal_sim.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig,
 )
@@ -386,7 +386,7 @@ def test_consistency_at_reduced_size(gyro):
     the NEES averaged over runs and time (t ≥ 30 s) inside the 3-run 99 % chi-square
     interval (99 % at this size, where two statistics × two gyros are checked; the 20-run
     × 120 s figures against the 95 % interval come from
-    ``python -m gimbal_estimators.bias_ekf_experiment``)."""
+    ``python -m gimbal_sim.experiments.bias_ekf``)."""
     sensors = SensorSuiteConfig() if gyro is None else SensorSuiteConfig(gimbal_gyro=gyro)
     mc = run_monte_carlo((11, 12, 13), 45.0, sensors_config=sensors, sim_rate_hz=200.0, ins_rate_hz=100.0)
     assert np.all(mc.within_3sigma_mean[1:] >= 0.95)

@@ -130,7 +130,7 @@ def headline_run(module_ros_domain_env, tmp_path_factory):
 
 @pytest.mark.slow
 def test_graph_computes_what_the_core_loop_computes(headline_run):
-    from gimbal_control.sighting_loop import paper1_sensors, run_sighting
+    from gimbal_sim.experiments.sighting_loop import paper1_sensors, run_sighting
 
     sensors, params = paper1_sensors()
     core = run_sighting("feedback", seed=1, duration_s=2.0, sensors_config=sensors, ekf_params=params)

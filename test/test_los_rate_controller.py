@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from gimbal_control.closed_loop import run_closed_loop
 from gimbal_kinematics.los import inertial_los, pointing_error
 from gimbal_control.linearize import linearize_gimbal
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_kinematics.rotations import dcm_from_rotation_vector
 from gimbal_kinematics.sighting_chain import task_to_joint_rates
+from gimbal_sim.experiments.closed_loop import main as closed_loop_main, run_closed_loop
 from gimbal_sim.plant import GimbalParams, TwoAxisGimbal, rest_base
 
 G = 9.80665
@@ -281,3 +281,20 @@ def test_closed_loop_with_one_sample_delay_and_gyro_bias_drift():
     biased = run_closed_loop(duration_s=3.0, gyro="paper1", seed=4)
     drift = biased["pointing_error_rad"][-1] / 3.0
     assert drift == pytest.approx(math.sqrt(2) * math.radians(100.0 / 3600.0), rel=0.5)
+
+
+def test_closed_loop_cli_prints_the_run_and_refuses_bad_arguments(capsys):
+    """``python -m gimbal_sim.experiments.closed_loop duration rate omega_n gyro delay``: the
+    printed metrics are those of :func:`run_closed_loop` with the same arguments; a bad
+    argument exits 2 naming it."""
+    assert closed_loop_main(["0.2", "1000", "25", "noise", "1"]) == 0
+    printed = dict(line.split(": ", 1) for line in capsys.readouterr().out.splitlines())
+    m = run_closed_loop(duration_s=0.2, rate_hz=1000.0, omega_n_hz=25.0, gyro="noise", delay_samples=1)["metrics"]
+    for key in ("pointing_rms_urad", "final_error_urad", "steps", "torque_rms_nm"):
+        assert printed[key] == str(m[key])
+    for bad, name in ((["1", "1000", "25", "bogus"], "gyro"), (["1", "1000", "25", "ideal", "-1"], "delay_samples"),
+                      (["ten"], "duration")):
+        with pytest.raises(SystemExit) as exc:
+            closed_loop_main(bad)
+        assert exc.value.code == 2
+        assert name in capsys.readouterr().err

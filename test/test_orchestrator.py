@@ -162,17 +162,27 @@ def _child_pid(parent: int, executable: str) -> int | None:
 
 def test_a_dying_node_ends_the_run_named_and_the_bag_is_kept(ros_domain_env, tmp_path):
     out = tmp_path / "run"
+    # The run writes its sim time to this file as it steps: the victim is killed once the
+    # graph has stepped (and the recorder recorded) at least 0.5 s, whatever the machine's speed.
+    progress = tmp_path / "progress"
+    env = dict(ros_domain_env, GIMBAL_RUN_PROGRESS_FILE=str(progress))
     run = subprocess.Popen([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", "600", "--out", str(out),
-                            "--no-progress"], env=ros_domain_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True)
+
+    def sim_time() -> float:
+        try:
+            return float(progress.read_text() or 0.0)
+        except (FileNotFoundError, ValueError):  # not written yet, or caught mid-write
+            return 0.0
+
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120
         victim = None
-        while victim is None or not (out / "logs" / "vehicle_dynamics.log").read_text().count("starting"):
-            assert time.monotonic() < deadline and run.poll() is None, "the run did not start"
+        while victim is None or sim_time() < 0.5:
+            assert time.monotonic() < deadline and run.poll() is None, "the run did not start stepping"
             victim = victim or _child_pid(run.pid, "sensor_models")
-            time.sleep(0.1)
-        time.sleep(1.0)
+            time.sleep(0.05)
         os.kill(victim, signal.SIGKILL)
         killed = time.monotonic()
         _, stderr = run.communicate(timeout=60)

@@ -16,14 +16,15 @@ import rclpy
 from rclpy.context import Context
 
 from conftest import VENV_BIN
-from gimbal_control.platform_experiment import (
-    ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup, run_platform_alignment,
-)
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
-from gimbal_estimators.rotation_alignment import KinematicPlatformTruth, RotationAlignmentParams
+from gimbal_estimators.rotation_alignment import RotationAlignmentParams
 from gimbal_kinematics.sync import StepGroups
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.ros import messages as m
+from gimbal_sim.experiments.alignment import KinematicPlatformTruth
+from gimbal_sim.experiments.platform_servo import (
+    ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup, run_platform_alignment,
+)
 from gimbal_sim.scenario import load
 from ros_harness import ros_args, start_refused
 

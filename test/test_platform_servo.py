@@ -8,12 +8,12 @@ import pytest
 from scipy import signal
 
 from gimbal_control.pid import PidParams
-from gimbal_control.platform_experiment import ARCSEC, run_platform_servo
 from gimbal_control.platform_servo import (
     TABLE1, FrictionModel, PlatformServo, PlatformServoParams, platform_pid_gains,
 )
 from gimbal_kinematics.earth import earth_rate_n
 from gimbal_kinematics.rotations import rot3
+from gimbal_sim.experiments.platform_servo import ARCSEC, run_platform_servo
 from gimbal_sim.plant import PlatformAxis, paper3_axis_params
 
 DEG = math.pi / 180.0

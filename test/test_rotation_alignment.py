@@ -6,17 +6,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from gimbal_estimators.rotation_alignment import (
-    STATE_NAMES,
-    KinematicPlatformTruth,
-    RotationAlignmentParams,
-    RotationAlignmentRls,
-    run_alignment_experiment,
-    summarize_alignment,
-)
+from gimbal_estimators.rotation_alignment import STATE_NAMES, RotationAlignmentParams, RotationAlignmentRls
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.rotations import rot3
+from gimbal_sim.experiments.alignment import KinematicPlatformTruth, run_alignment_experiment, summarize_alignment
 from gimbal_sim.sensors import AccelerometerParams
 
 ARCSEC = math.radians(1.0 / 3600.0)

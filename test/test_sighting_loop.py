@@ -1,4 +1,4 @@
-"""Paper 1's headline experiment without ROS (gimbal_control.sighting_loop) and the LOS-hold
+"""Paper 1's headline experiment without ROS (gimbal_sim.experiments.sighting_loop) and the LOS-hold
 outer loop: LOS drift against the integral of the true gyro bias, the EKF's effect."""
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from gimbal_control.los_hold import LosHold, LosHoldParams
-from gimbal_control.sighting_loop import paper1_sensors, run_sighting
-from gimbal_estimators.bias_ekf_experiment import GENERAL_GIMBAL_GYRO, ekf_params_from_sensors
+from gimbal_sim.experiments.bias_ekf import GENERAL_GIMBAL_GYRO, ekf_params_from_sensors
+from gimbal_sim.experiments.sighting_loop import paper1_sensors, run_sighting
 
 DEG = math.pi / 180.0
 

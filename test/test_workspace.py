@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ast
 import os
+import signal
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -135,3 +136,66 @@ def test_venv_has_every_executable_on_path():
     for pkg in PACKAGES:
         for exe in declared_console_scripts(pkg):
             assert (VENV_BIN / exe).exists(), f"{exe} is not on the venv PATH; run `make venv`"
+
+
+def test_packages_up_to_gimbal_estimators_build_alone_and_the_ekf_node_starts(tmp_path, ros_domain_env):
+    """A hardware user builds only what the EKF needs: colcon's own dependency resolution from
+    the manifests picks gimbal_kinematics and gimbal_estimators, nothing else, and the node
+    starts from that install with gimbal_sim and gimbal_control made unimportable."""
+    result = subprocess.run(
+        [str(VENV_BIN / "colcon"), "--log-base", str(tmp_path / "log"), "build", "--base-paths", str(SRC),
+         "--packages-up-to", "gimbal_estimators", "--build-base", str(tmp_path / "build"),
+         "--install-base", str(tmp_path / "install")],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "2 packages finished" in result.stdout, result.stdout
+    built = sorted(p.name for p in (tmp_path / "install").iterdir() if (p / "share" / p.name / "package.xml").is_file())
+    assert built == ["gimbal_estimators", "gimbal_kinematics"]
+    # Modules shadowing the packages above (first on sys.path): importing either fails loudly.
+    blockers = tmp_path / "blockers"
+    blockers.mkdir()
+    for above in ("gimbal_sim", "gimbal_control"):
+        (blockers / f"{above}.py").write_text(f"raise ImportError('{above} is not part of this install')\n")
+    pyver = f"python{sys.version_info.major}.{sys.version_info.minor}"
+    env = dict(ros_domain_env)
+    env["AMENT_PREFIX_PATH"] = os.pathsep.join(str(tmp_path / "install" / p) for p in built)
+    env["PYTHONPATH"] = os.pathsep.join([str(blockers)] + [
+        str(tmp_path / "install" / p / "lib" / pyver / "site-packages") for p in built])
+    exe = tmp_path / "install" / "gimbal_estimators" / "lib" / "gimbal_estimators" / "gyro_bias_ekf"
+    params = tmp_path / "install" / "gimbal_estimators" / "share" / "gimbal_estimators" / "config" / "gyro_bias_ekf.yaml"
+    proc = subprocess.Popen([str(exe), "--ros-args", "--params-file", str(params)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for_node_on_graph("gyro_bias_ekf", int(env["ROS_DOMAIN_ID"]), proc)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err, err
+
+
+def _wait_for_node_on_graph(name: str, domain_id: int, proc: subprocess.Popen, timeout_s: float = 120.0) -> None:
+    """Wait until a node called ``name`` is on the ROS graph of ``domain_id`` (an rclpy
+    context of this test's own in that domain), failing early if ``proc`` exits."""
+    import time
+
+    import rclpy
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=domain_id)
+    try:
+        probe = rclpy.create_node("workspace_probe", context=ctx)
+        deadline = time.monotonic() + timeout_s
+        while name not in probe.get_node_names():
+            if proc.poll() is not None:
+                out, err = proc.communicate()
+                raise AssertionError(f"{name} exited with {proc.returncode}: {out}{err}")
+            assert time.monotonic() < deadline, f"{name} did not appear on the graph in {timeout_s} s"
+            time.sleep(0.1)
+        probe.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=ctx)

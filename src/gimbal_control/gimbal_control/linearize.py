@@ -10,10 +10,10 @@ accelerations are zero, and writes
 so that ẏ = A′x + B′u with A′ = C_l A_l (2×4) and B′ = C_l B_l (2×2).
 
 Here A_l and B_l are *not* typed in: they are central differences of
-``gimbal_sim.plant.TwoAxisGimbal.derivative`` evaluated on ``rest_base(g)``, i.e. of the
-very model the simulator integrates. ``derivative`` is affine in the torque (below the
-limits), so B_l is exact up to rounding and its lower block is M(0)⁻¹; A_l carries the
-viscous friction (−M⁻¹ b) and the gravity stiffness of the CG offsets.
+``gimbal_kinematics.gimbal.gimbal_dynamics.TwoAxisGimbal.derivative`` evaluated on
+``rest_base(g)``, i.e. of the very model the simulator integrates. ``derivative`` is affine
+in the torque (below the limits), so B_l is exact up to rounding and its lower block is
+M(0)⁻¹; A_l carries the viscous friction (−M⁻¹ b) and the gravity stiffness of the CG offsets.
 
 Our gimbal has a few millimetres of mass imbalance (``GimbalParams``), so the rest point
 is not an equilibrium at zero torque: f(0, 0) = (0, 0, ẏ₀) with ẏ₀ ≠ 0 (gravity pulls the

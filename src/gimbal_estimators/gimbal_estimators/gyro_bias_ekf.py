@@ -75,8 +75,8 @@ z = log(C_meas Ĉᵀ) ≈ ψ + δα, δα the n-frame rotation error of C_meas. 
 (ε_t, ε_m, ε_θ the encoder errors; turret and gimbal azimuth turn about the same axis u).
 H = [I, 0, J_e], R = σ_enc² (2 u uᵀ + v vᵀ) + σ_floor² I.
 
-INS errors. Paper 1 treats the INS angles as white noise. They are not: gimbal_sim (and a
-real INS) has slowly varying errors (Gauss-Markov, τ = 300 s, 0.05°/0.05°/0.2° RMS). Fused
+INS errors. Paper 1 treats the INS angles as white noise. They are not: the simulated INS (and a
+real one) has slowly varying errors (Gauss-Markov, τ = 300 s, 0.05°/0.05°/0.2° RMS). Fused
 at 100 Hz as white noise they make the filter believe the attitude to ~0.005° while the
 true error stays ~0.1°, and the slow INS wander is read as gyro bias with too much
 confidence: on 16 runs × 60 s of paper 1's scenario the 6-state NEES averaged 866 (6

@@ -31,6 +31,9 @@ import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE
 from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
+# Setting up spin axes for a site is pure geometry that the free_gyro_positioning node needs
+# too, so it lives in gimbal_kinematics; re-exported here for the simulator's callers.
+from gimbal_kinematics.free_gyro import spin_axes_for_site_deg, spin_axis_for_site  # noqa: F401
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from gimbal_kinematics import validate as v
@@ -40,34 +43,6 @@ from .units import ARCSEC, DEG_H
 
 #: Body triad default: a navigation-grade triad (ARW 0.002 °/√h); the paper gives no figure.
 FREE_GYRO_TRIAD = GyroParams(arw_deg_rt_h=0.002)
-
-
-def spin_axis_for_site(lat: float, lon: float, t: float, nadir: float, azimuth: float,
-                       omega_ie: float | None = None) -> tuple[float, float, float]:
-    """Inertial spin axis u_i (unit) that has nadir angle ``nadir`` and azimuth ``azimuth``
-    [rad] (from north toward east) at (lat, lon) [rad] and time ``t`` [s]; for setting up a
-    scenario's spin-axis geometry."""
-    u_n = np.array([math.sin(nadir) * math.cos(azimuth), math.sin(nadir) * math.sin(azimuth), math.cos(nadir)])
-    C_in = dcm_ni(lat, lon, t, OMEGA_IE if omega_ie is None else omega_ie).T
-    u = C_in @ u_n
-    return float(u[0]), float(u[1]), float(u[2])
-
-
-def spin_axes_for_site_deg(lat_deg: float, lon_deg: float, nadir_deg: Sequence[float],
-                           azimuth_deg: Sequence[float], t: float = 0.0,
-                           names: tuple[str, str] = ("nadir_deg", "azimuth_deg")) -> tuple[tuple, tuple]:
-    """Inertial spin axes (u_a_i, u_b_i) of two gyros set at site (lat_deg, lon_deg) [deg] at
-    time ``t`` [s] to nadir angles ``nadir_deg`` in (0, 180) and azimuths ``azimuth_deg``
-    [deg] (each (gyro a, gyro b)): the degree-unit edge of :func:`spin_axis_for_site`.
-    ``ValueError`` names the offending argument by ``names`` (e.g. a node's parameters)."""
-    for name, values in zip(names, (nadir_deg, azimuth_deg)):
-        if len(values) != 2 or not all(math.isfinite(x) for x in values):
-            raise ValueError(f"parameter '{name}' needs two finite values (gyro a, gyro b), got {list(values)}")
-    if not all(0.0 < x < 180.0 for x in nadir_deg):
-        raise ValueError(f"parameter '{names[0]}' must be in (0, 180) deg, got {list(nadir_deg)}")
-    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
-    return tuple(spin_axis_for_site(lat, lon, t, math.radians(nd), math.radians(az))  # type: ignore[return-value]
-                 for nd, az in zip(nadir_deg, azimuth_deg))
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,13 @@
-"""Closed-loop paper 3 experiments in one process: :class:`.platform_servo.PlatformServo` on
-gimbal_sim's four-gimbal platform on a static base (SPEC §3.3), alone (scenario
-``rotational_platform_servo``) and carrying the rotation-modulated alignment
-(:class:`gimbal_estimators.rotation_alignment.RotationAlignmentRls`, scenario
-``rotational_ins_alignment``). The graph runs the same cores through ROS messages and gives
+"""Closed-loop paper 3 experiments in one process:
+:class:`gimbal_control.platform_servo.PlatformServo` on gimbal_sim's four-gimbal platform on
+a static base (SPEC §3.3), alone (scenario ``rotational_platform_servo``) and carrying the
+rotation-modulated alignment (:class:`gimbal_estimators.rotation_alignment.RotationAlignmentRls`,
+scenario ``rotational_ins_alignment``). The graph runs the same cores through ROS messages and gives
 the same numbers (test_platform_servo_node, test_platform_alignment_node); this module is
 the quick way to campaign over seeds::
 
-    python -m gimbal_control.platform_experiment alignment --seeds 1 2 3 4 5 6
-    python -m gimbal_control.platform_experiment servo --duration 320
+    python -m gimbal_sim.experiments.platform_servo alignment --seeds 1 2 3 4 5 6
+    python -m gimbal_sim.experiments.platform_servo servo --duration 320
 
 Plant and sensors. gimbal_sim's platform (``VehicleConfig(plant='four_gimbal_platform')``)
 is the four-gimbal chain, one DC-motor loop per joint, driven by the four gimbal motor
@@ -39,12 +39,16 @@ from typing import Any, Iterator, Sequence
 
 import numpy as np
 
-from gimbal_estimators.rotation_alignment import (
-    PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, RotationAlignmentParams, RotationAlignmentRls, alignment_metrics,
-    summarize_alignment,
-)
+from gimbal_control.platform_servo import PlatformServo, PlatformServoParams, ServoCommand
+from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
+from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm, platform_misalignment_enu
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, quat_to_dcm
 
-from .platform_servo import PlatformServo, PlatformServoParams, ServoCommand
+from ..plant import paper3_axis_params
+from ..sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
+from ..sensors import AccelerometerParams, GyroParams
+from ..vehicle import VehicleConfig, VehicleCore
+from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics, summarize_alignment
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 
@@ -57,8 +61,6 @@ def closed_loop(core, suite, servo: PlatformServo) -> Iterator[tuple[Any, list, 
     platform IMU and resolvers, as the lockstep graph does: per step k, yields (truth_k,
     the sensor samples of step k, the servo's output or None); the command is applied over
     k → k+1. The last step's truth is yielded too (the graph publishes it)."""
-    from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample
-
     cmd = (0.0, 0.0, 0.0, 0.0)
     while True:
         truth = core.truth()
@@ -82,9 +84,6 @@ def _platform_sim(duration_s: float, seed: int, profile_params: dict, initial_jo
     """(VehicleCore, SensorSuite) of the static-base platform at RATE_HZ with the paper 3
     sensors (platform IMU and resolvers at RATE_HZ, defaults as in sensor_models;
     ``sensors`` overrides SensorSuiteConfig fields, e.g. ``platform_gyro``)."""
-    from gimbal_sim.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
-    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
-
     core = VehicleCore(VehicleConfig(profile="static", profile_params=profile_params, plant="four_gimbal_platform",
                                      sim_rate_hz=RATE_HZ, duration_s=duration_s,
                                      initial_joints_deg=tuple(initial_joints_deg)))
@@ -105,8 +104,6 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
     voltages), one entry per step 0..N. Figures in arc-seconds are added as ``*_arcsec``.
     ``resolver``: the resolver ``EncoderParams`` (default ``PAPER3_RESOLVER``).
     """
-    from gimbal_sim.plant import paper3_axis_params
-
     params = params if params is not None else PlatformServoParams()
     core, suite = _platform_sim(duration_s, seed, {"lat_deg": params.lat_deg}, resolver=resolver)
     kt_a = paper3_axis_params("a").torque_constant_nm_a  # the plant's azimuth motor
@@ -181,9 +178,6 @@ def alignment_setup(misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_
     azimuth gimbal at 0 it believes the platform at φz = 0 (where the servo starts it), while
     the base's true heading is −δφU0 and the platform is tilted by (δφE0, δφN0); the outer
     roll takes the roll tilt so the inner roll starts at null."""
-    from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
-    from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
-
     e, n, u = (float(v) * ARCSEC for v in misalignment0_arcsec)
     C_ns = dcm_from_rotation_vector(np.array([n, e, -u]))  # exp([φ×]) times the believed frame (I)
     C_nb = euler321_to_dcm(0.0, 0.0, -u)  # the base heading the filter does not know
@@ -210,11 +204,6 @@ def run_platform_alignment(seed: int, rotate: bool = True, duration_s: float = 6
     servo holds the measured rate at the command); the simulated platform has no drift fixed
     in the level frame, so ε_N is 0.
     """
-    from gimbal_kinematics.four_gimbal import platform_misalignment_enu
-    from gimbal_kinematics.rotations import quat_to_dcm
-    from gimbal_sim.sensor_suite import PlatformImuSample, ResolverSample
-    from gimbal_sim.sensors import AccelerometerParams, GyroParams
-
     heading_deg, joints_deg = alignment_setup(misalignment0_arcsec)
     core, suite = _platform_sim(
         duration_s, seed, {"lat_deg": lat_deg, "yaw_deg": heading_deg}, joints_deg,
@@ -265,7 +254,7 @@ def _alignment_table(runs: list[AlignmentMetrics]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m gimbal_control.platform_experiment",
+        prog="python -m gimbal_sim.experiments.platform_servo",
         description="Paper 3 closed-loop experiments in one process (the graph's cores without ROS): the "
                     "platform servo figures, or a Table 2 style alignment campaign over seeds.")
     sub = parser.add_subparsers(dest="what", required=True)

@@ -4,8 +4,8 @@ same LGU samples, scored against the simulator's flexure truth.
 
 Command line (prints the metrics of both models; with several seeds, a Monte Carlo table)::
 
-    python -m gimbal_estimators.flexure_experiment --duration 7200 --seeds 0
-    python -m gimbal_estimators.flexure_experiment --seeds 0 1 2 3 4 5 6 7 --dynamic-freq 0.5
+    python -m gimbal_sim.experiments.flexure --duration 7200 --seeds 0
+    python -m gimbal_sim.experiments.flexure --seeds 0 1 2 3 4 5 6 7 --dynamic-freq 0.5
 
 ``--dynamic-beta``/``--dynamic-freq`` set the dynamic-flexure band of the truth and of the
 filters alike (a matched model: what is left is the information the LGUs carry).
@@ -22,12 +22,13 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from gimbal_sim.reports.flexure import flexure_metrics
-from gimbal_sim.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
-from gimbal_sim.sensors import FlexureParams, GyroParams
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
-from .flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
+from gimbal_estimators.flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
+
+from ..reports.flexure import flexure_metrics
+from ..sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
+from ..sensors import FlexureParams, GyroParams
+from ..vehicle import VehicleConfig, VehicleCore
 
 
 #: Per-epoch series kept (each (n, 3) except ``t`` and ``d2``).
@@ -222,7 +223,7 @@ def monte_carlo_table(runs: dict[int, dict[str, FlexureExperimentResult]]) -> st
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(
-        prog="python -m gimbal_estimators.flexure_experiment",
+        prog="python -m gimbal_sim.experiments.flexure",
         description="Paper 5 ship flexure without ROS: the ship simulation feeds one FlexureKf per "
                     "quasi-static model on the same LGU samples; prints the errors against the truth "
                     "after the convergence time (several seeds: a Monte Carlo table).")

@@ -6,7 +6,7 @@ estimator the only thing measured). The EKF estimates are not fed back ("open lo
 
     run_open_loop_ekf(seed, duration_s, sensors_config) -> BiasEkfRun
     run_monte_carlo(seeds, duration_s, sensors_config)  -> MonteCarloSummary
-    python -m gimbal_estimators.bias_ekf_experiment --runs 20 --duration 120 [--general]
+    python -m gimbal_sim.experiments.bias_ekf --runs 20 --duration 120 [--general]
 
 Truth used for the metrics, at each EKF update t:
 ψ = log(C_true Ĉᵀ) (the filter's attitude error convention); b_q, b_r =
@@ -25,15 +25,15 @@ from typing import Sequence
 import numpy as np
 from scipy.stats import chi2
 
+from gimbal_estimators.gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.sighting_chain import task_to_joint_rates
-from gimbal_sim.sensor_suite import (
+
+from ..sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig,
 )
-from gimbal_sim.sensors import GyroParams
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore, VehicleTruth
-
-from .gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+from ..sensors import GyroParams
+from ..vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
 _DEG_H = math.pi / 180.0 / 3600.0
 
@@ -305,7 +305,8 @@ def _print_summary(label: str, mc: MonteCarloSummary) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.bias_ekf",
+                                 description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--first-seed", type=int, default=1)
     ap.add_argument("--duration", type=float, default=120.0)

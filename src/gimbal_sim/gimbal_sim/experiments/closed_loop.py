@@ -27,13 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from gimbal_kinematics.los import inertial_los, pointing_error
-from gimbal_sim.sensors import PAPER1_GIMBAL_GYRO, GyroModel
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
-
-from .los_rate_controller import (
+from gimbal_control.los_rate_controller import (
     DEFAULT_OMEGA_N_HZ, DEFAULT_RATE_HZ, PAPER_ZETA, LosRateController, LosRateControllerParams,
 )
+from gimbal_kinematics.los import inertial_los, pointing_error
+
+from ..sensors import PAPER1_GIMBAL_GYRO, GyroModel
+from ..vehicle import VehicleConfig, VehicleCore
 
 GYRO_MODES = ("ideal", "noise", "paper1")
 
@@ -128,14 +128,31 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
     return dict(metrics=metrics, t=t_rec, pointing_error_rad=err, los_i=los_i, tau=tau_rec, rate_error=err_rec)
 
 
-if __name__ == "__main__":  # python -m gimbal_control.closed_loop [duration] [rate] [omega_n] [gyro] [delay]
-    import sys
+def main(argv: list[str] | None = None) -> int:
+    """``python -m gimbal_sim.experiments.closed_loop [duration] [rate] [omega_n] [gyro] [delay]``:
+    one run, its metrics printed one per line."""
+    import argparse
 
-    args = sys.argv[1:]
-    out = run_closed_loop(duration_s=float(args[0]) if args else 10.0,
-                          rate_hz=float(args[1]) if len(args) > 1 else DEFAULT_RATE_HZ,
-                          omega_n_hz=float(args[2]) if len(args) > 2 else DEFAULT_OMEGA_N_HZ,
-                          gyro=args[3] if len(args) > 3 else "ideal",
-                          delay_samples=int(args[4]) if len(args) > 4 else 0)
+    ap = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.closed_loop",
+                                 description="Paper 1 rate loop without ROS (vehicle, gyro, LosRateController in "
+                                             "one loop); prints the pointing-error metrics.")
+    ap.add_argument("duration", nargs="?", type=float, default=10.0, help="simulated time [s] (default 10)")
+    ap.add_argument("rate", nargs="?", type=float, default=DEFAULT_RATE_HZ,
+                    help=f"loop rate [Hz] (default {DEFAULT_RATE_HZ:g})")
+    ap.add_argument("omega_n", nargs="?", type=float, default=DEFAULT_OMEGA_N_HZ,
+                    help=f"loop natural frequency [Hz] (default {DEFAULT_OMEGA_N_HZ:g})")
+    ap.add_argument("gyro", nargs="?", choices=GYRO_MODES, default="ideal", help="gyro model (default ideal)")
+    ap.add_argument("delay", nargs="?", type=int, default=0, help="extra command delay [samples] (default 0)")
+    a = ap.parse_args(argv)
+    try:
+        out = run_closed_loop(duration_s=a.duration, rate_hz=a.rate, omega_n_hz=a.omega_n, gyro=a.gyro,
+                              delay_samples=a.delay)
+    except ValueError as exc:
+        ap.error(str(exc))
     for key, value in out["metrics"].items():
         print(f"{key}: {value}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

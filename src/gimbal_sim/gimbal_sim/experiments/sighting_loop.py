@@ -24,15 +24,16 @@ from typing import Sequence
 
 import numpy as np
 
-from .los_hold import LosHold, LosHoldParams
-from .los_rate_controller import LosRateController, LosRateControllerParams
+from gimbal_control.los_hold import LosHold, LosHoldParams
+from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
+from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
-from gimbal_sim.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
 
-from gimbal_estimators.bias_ekf_experiment import ekf_params_from_sensors
-from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
+from ..sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
+from ..sensors import InsParams
+from ..vehicle import VehicleConfig, VehicleCore
+from .bias_ekf import ekf_params_from_sensors
 
 MODES = ("off", "feedback", "los_hold")
 
@@ -148,8 +149,6 @@ def paper1_sensors(correlated_ins: bool = False) -> tuple[SensorSuiteConfig, Gyr
     """Paper 1's sensors and the matching EKF: the INS attitude errors white (paper 1's
     model, τ → 0, the 6-state filter) or Gauss-Markov with τ = 300 s (``correlated_ins``,
     the 9-state filter that models them)."""
-    from gimbal_sim.sensors import InsParams
-
     if correlated_ins:
         sensors = SensorSuiteConfig()
         return sensors, ekf_params_from_sensors(sensors)
@@ -202,7 +201,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import argparse
 
     ap = argparse.ArgumentParser(
-        prog="python -m gimbal_control.sighting_loop",
+        prog="python -m gimbal_sim.experiments.sighting_loop",
         description="Paper 1 headline experiment in one Python loop (no ROS): LOS drift without and with the "
                     "gyro-bias EKF fed back, and with the LOS-hold outer loop; a Monte Carlo over seeds.")
     ap.add_argument("--monte-carlo", type=int, default=1, metavar="N", help="runs per mode (seeds 1..N)")
