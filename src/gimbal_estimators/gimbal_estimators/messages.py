@@ -91,7 +91,7 @@ def free_gyro_fix_msg(fix: FreeGyroFix, frame_id: str, height_m: float, height_s
 
 def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:
     """Incremental angle Δα [rad] (3,) of an LGU message over its sample interval ``dt``
-    [s]: the sensor publishes Δα/Δt in ``angular_velocity`` (README topic table), so this
+    [s]: the sensor publishes Δα/Δt in ``angular_velocity`` (docs/interfaces.md, topic table), so this
     is exact for the interval the rate was formed over. None when the message marks its
     rates as not provided (REP 145: ``angular_velocity_covariance[0] == -1``). Non-finite
     values pass through; the filter core rejects and counts them."""

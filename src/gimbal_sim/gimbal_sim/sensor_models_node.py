@@ -1,7 +1,7 @@
 """``sensor_models`` node: the :class:`.sensor_suite.SensorSuite` on the vehicle's truth.
 
 It gathers the truth topics of each step (exact stamp match), runs the enabled sensors and
-publishes their measurements stamped with the step's time. See the README topic table.
+publishes their measurements stamped with the step's time. See the topic table in docs/interfaces.md.
 """
 from __future__ import annotations
 

@@ -61,7 +61,7 @@ PARAMS = (
     Param("flexure_dynamic_rms_arcsec", [20.0, 60.0, 40.0], "dynamic flexure RMS (roll, pitch, yaw) [arcsec]"),
     Param("flexure_dynamic_beta_per_s", [0.2146, 0.2146, 0.2146], "dynamic flexure 2nd-order Markov decay "
           "rate beta (roll, pitch, yaw) [1/s], > 0; critically damped: 2.146 / (1/e correlation time), "
-          "default 10 s; paper 5 gives none (README: the dynamic-flexure band)"),
+          "default 10 s; paper 5 gives none (docs/results/paper5.md: the dynamic-flexure band)"),
     Param("flexure_dynamic_freq_rad_s", [0.0, 0.0, 0.0], "dynamic flexure damped frequency lambda (roll, pitch, "
           "yaw) [rad/s], >= 0; 0 (default): the textbook critically damped 2nd-order Markov, > 0: a band "
           "peaked at lambda (sea waves)"),

@@ -19,7 +19,7 @@ DESCRIPTION = (
 PARAMS = (
     Param("profile", "paper1_land_vehicle", "host motion profile", choices=PROFILE_NAMES),
     Param("profile_params", "{}", "profile parameters as a YAML mapping, e.g. "
-          "'{lat_deg: 39.9}' (README: host motion profiles)"),
+          "'{lat_deg: 39.9}' (docs/interfaces.md: host motion profiles)"),
     Param("plant", "two_axis_gimbal", "plant carried by the host", choices=PLANTS),
     Param("gimbal_model", "paper1", "two-axis gimbal mass properties, friction and torque limits: paper1 "
           "(~10 kg payload) or uav_small (paper 2's ~1 kg UAV gimbal)", choices=tuple(GIMBAL_MODELS)),
