@@ -23,6 +23,7 @@ REPORTS: dict[str, str] = {
     "encoder_fusion": "encoder_fusion:encoder_fusion_report",
     "platform_servo": "platform_servo:platform_servo_report",
     "alignment": "alignment:alignment_report",
+    "allan": "allan:allan_report",
 }
 
 #: comparison name -> "module:function"
@@ -31,6 +32,7 @@ COMPARISONS: dict[str, str] = {
     "encoder_fusion": "encoder_fusion:encoder_fusion_comparison",
     "alignment_rotation": "alignment:rotation_comparison",
     "alignment_campaign": "alignment:alignment_campaign",
+    "allan": "allan:allan_comparison",
 }
 
 
