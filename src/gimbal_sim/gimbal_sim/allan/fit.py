@@ -12,7 +12,7 @@ variances (IEEE Std 952-1997, annex C), each linear in its squared coefficient::
 
 with, for the first-order Gauss-Markov bias b' = -b/T + w of stationary RMS σ,
 ``g(x) = (2/x) [1 - (3 - 4e^{-x} + e^{-2x}) / (2x)]``: g → 2x/3 for x ≪ 1 (a rate random
-walk of K² = 2σ²/T), g → 2/x for x ≫ 1 (white noise of N² = 2σ²T), maximum 0.3812 at
+walk of K² = 2σ²/T), g → 2/x for x ≫ 1 (white noise of N² = 2σ²T), maximum 0.3811 at
 x = 1.893 (the bump a correlation time shows at τ ≈ 1.89 T). The flicker ("bias
 instability") floor of IEEE 952, σ² = (2 ln 2/π) B², is reported as read off the curve:
 B = min ADEV / 0.664.
@@ -45,7 +45,7 @@ TERMS = ("quantization", "white", "gauss_markov", "rrw", "ramp")
 FLICKER_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 #: Where the Gauss-Markov Allan variance peaks: τ = GM_PEAK_X · T, value GM_PEAK_G · σ².
 GM_PEAK_X = 1.8926
-GM_PEAK_G = 0.38125
+GM_PEAK_G = 0.38114
 #: χ² rise (in units of the reduced χ², at least 1) below which a term is dropped.
 DROP_CHI2 = 9.0
 #: Noise types (allantools' α for frequency data) the EDF table holds.
