@@ -30,7 +30,7 @@ import numpy as np
 
 from ..allan.analyze import analyze, to_json
 from ..allan.stream import read_imu_field
-from ..scenario import Scenario, ScenarioError, load, variant
+from ..scenario import Scenario, ScenarioError, apply_set, load, variant
 
 SCENARIO = "gyro_at_rest"
 TOPIC = "/ins/imu"
@@ -62,7 +62,7 @@ def write_at_rest_bag(scenario: Scenario, out: Path) -> dict[str, float]:
     stage = sensor_stage(sensors)
     # the node's own covariance fields (they depend on its config only)
     cov = SensorModelsNode._white_noise_covariances(SimpleNamespace(config=config_from_params(sensors)))
-    writer = BagWriter(out)
+    writer = BagWriter(out, chunk_duration_ns=60_000_000_000)  # big chunks: a recorder's 0.5 s ones slow reading
     writer.add_topic(TOPIC, "sensor_msgs/msg/Imu", [])
     bus = _Bus()
     rate = vehicle.config.sim_rate_hz
@@ -101,6 +101,33 @@ def one_run(mix: str, seed: int, duration_s: float) -> dict:
                             "ratio": (terms[key] or 0.0) / truth[key] if truth[key] else None}
                       for key in TERMS}
     return {"mix": mix, "seed": seed, "truth": truth, "axes": axes, "simulate_s": t1 - t0, "analyse_s": t2 - t1}
+
+
+def refit_scenario(scenario: Scenario, fitted_params: dict[str, float], seed: int) -> Scenario:
+    """``scenario`` whose INS gyro is the fitted one (``sensor_models`` parameters), with ``seed``."""
+    for name, value in fitted_params.items():
+        scenario = apply_set(scenario, f"sensor_models.{name}={float(value)!r}")
+    return dataclasses.replace(scenario, seed=seed)
+
+
+def closed_loop(mix: str, seed: int, duration_s: float) -> dict:
+    """Fit a simulated bag, simulate the fitted gyro (seed + 1000), fit again: second / first."""
+    from ..allan.params import sensor_models_params
+
+    scenario = dataclasses.replace(variant(load(SCENARIO), mix), seed=seed, duration_s=duration_s)
+    with tempfile.TemporaryDirectory(prefix="allan_cl_") as tmp:
+        write_at_rest_bag(scenario, Path(tmp) / "first")
+        result = analyze(read_imu_field(Path(tmp) / "first", TOPIC, "angular_velocity", progress=False))
+        fitted = sensor_models_params(result, "ins_gyro")
+        write_at_rest_bag(refit_scenario(scenario, fitted, seed + 1000), Path(tmp) / "second")
+        first = to_json(result)
+        second = to_json(analyze(read_imu_field(Path(tmp) / "second", TOPIC, "angular_velocity", progress=False)))
+    axes = {}
+    for axis, terms in first["axes"].items():
+        again = second["axes"][axis]
+        axes[axis] = {key: {"first": terms[key] or 0.0, "second": again[key] or 0.0,
+                            "ratio": (again[key] or 0.0) / terms[key] if terms[key] else None} for key in TERMS}
+    return {"mix": mix, "seed": seed, "fitted_params": fitted, "axes": axes}
 
 
 def summarise(runs: list[dict]) -> dict:

@@ -1,0 +1,62 @@
+"""Closed loop of gimbal-allan on the simulator's own cores: a bag of the ``gyro_at_rest``
+scenario's INS gyro → fit → the fitted ``sensor_models`` parameters → a new bag (another
+seed) → fit again, within the issue's bounds; and the new simulator parameters at their
+default 0 leave every random stream as it was.
+
+The CI record is 1 h of the Gauss-Markov mix (``arw_gm``) instead of the runner's 6 h of
+every mix: over 16 seeds of 1 h the fitted σ scatters by 6 % and T by 14 % (1σ; note), so a
+second realisation differs from the first by about √2 times that; the bounds (35 % and
+×2) are more than 4 of those.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from gimbal_sim.experiments.allan_roundtrip import closed_loop
+from gimbal_sim.sensor_models_node import PARAMS, config_from_params
+from gimbal_sim.sensor_suite import SensorSuite
+from gimbal_sim.sensors import GyroParams
+from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+
+
+def test_fit_simulate_fit_agrees_within_the_bounds():
+    run = closed_loop("arw_gm", seed=3, duration_s=3600.0)
+    fitted = run["fitted_params"]
+    assert fitted["ins_gyro_arw_deg_rt_h"] == pytest.approx(0.15, rel=0.10)
+    assert fitted["ins_gyro_bi_deg_h"] == pytest.approx(5.0, rel=0.35)
+    assert fitted["ins_gyro_bi_tau_s"] == pytest.approx(20.0, rel=0.5)
+    assert fitted["ins_gyro_rrw_deg_h_rt_h"] == 0.0
+    for axis, terms in run["axes"].items():
+        assert terms["arw_deg_rt_h"]["ratio"] == pytest.approx(1.0, abs=0.10), axis
+        assert terms["bias_instability_deg_h"]["ratio"] == pytest.approx(1.0, abs=0.35), axis
+        assert 0.5 <= terms["bias_tau_s"]["ratio"] <= 2.0, axis
+
+
+def test_zero_rate_random_walk_and_quantum_draw_nothing():
+    """Default 0 for the new parameters: the same samples as a suite whose gyros never had them."""
+    values = {p.name: p.default for p in PARAMS} | {"sensors": ["ins"], "ins_rate_hz": 100.0, "sim_rate_hz": 100.0}
+    config = config_from_params(values)
+    assert config.ins.gyro.rrw_deg_h_rt_h == 0.0 and config.ins.gyro.quantisation_rad == 0.0
+    # what config_from_params built before the new parameters existed
+    legacy_gyro = GyroParams(bias_sigma_deg_h=values["ins_gyro_bias_sigma_deg_h"],
+                             bias_instability_deg_h=values["ins_gyro_bi_deg_h"],
+                             bias_instability_tau_s=values["ins_gyro_bi_tau_s"], arw_deg_rt_h=values["ins_gyro_arw_deg_rt_h"])
+    assert config.ins.gyro == legacy_gyro
+    assert config.gimbal_gyro == GyroParams(bias_deg_h=(100.0, 100.0), arw_deg_rt_h=0.15, bias_instability_deg_h=30.0,
+                                            bias_instability_tau_s=100.0, scale_factor_ppm=(0.0, 0.0))
+    legacy = dataclasses.replace(config, ins=dataclasses.replace(config.ins, gyro=legacy_gyro))
+    vehicle = VehicleCore(VehicleConfig(profile="static", plant="host_only", sim_rate_hz=100.0, duration_s=1.0))
+    a, b = SensorSuite(config), SensorSuite(legacy)
+    with_rrw = SensorSuite(config_from_params(values | {"ins_gyro_rrw_deg_h_rt_h": 1.0}))
+    differ = False
+    for _ in range(100):
+        truth = vehicle.truth()
+        sa, sb, sr = a.update(truth), b.update(truth), with_rrw.update(truth)
+        assert sa == sb
+        differ = differ or sa[0].omega_b != sr[0].omega_b
+        vehicle.step(())
+    assert differ  # the parameter is wired: a non-zero random walk changes the rates
+    assert np.array_equal(a.ins.gyro.rrw_bias, np.zeros(3))
