@@ -11,6 +11,8 @@ second realisation differs from the first by about √2 times that; the bounds (
 from __future__ import annotations
 
 import dataclasses
+import json
+import subprocess
 
 import numpy as np
 import pytest
@@ -60,3 +62,31 @@ def test_zero_rate_random_walk_and_quantum_draw_nothing():
         vehicle.step(())
     assert differ  # the parameter is wired: a non-zero random walk changes the rates
     assert np.array_equal(a.ins.gyro.rrw_bias, np.zeros(3))
+
+
+@pytest.mark.ros
+def test_graph_run_records_what_the_runner_simulates_and_its_report_characterises_it(ros_domain_env, tmp_path):
+    """``gimbal-run gyro_at_rest`` (the nodes) and the runner's cores write the same /ins/imu
+    bytes, and the run's ``allan`` report characterises its bag (closed cleanly)."""
+    from conftest import VENV_BIN
+    from gimbal_sim.bag.any_reader import iter_raw, open_bag
+    from gimbal_sim.experiments.allan_roundtrip import write_at_rest_bag
+    from gimbal_sim.scenario import load, variant
+
+    out = tmp_path / "run"
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "gyro_at_rest", "--variant", "arw_gm", "--duration", "600",
+                             "--seed", "4", "--mode", "container", "--no-progress", "--out", str(out)], env=ros_domain_env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    scenario = dataclasses.replace(variant(load("gyro_at_rest"), "arw_gm"), duration_s=600.0, seed=4)
+    write_at_rest_bag(scenario, tmp_path / "cores")
+
+    def raw(path):
+        with open_bag(path) as reader:
+            return list(iter_raw(reader, "/ins/imu"))
+
+    assert raw(out / "arw_gm") == raw(tmp_path / "cores")
+    metrics = json.loads((out / "arw_gm" / "report" / "metrics.json").read_text())
+    assert metrics["closed_cleanly"] and metrics["simulated"]["bias_tau_s"] == 20.0
+    assert all(r["arw_deg_rt_h"] == pytest.approx(1.0, abs=0.1) for r in metrics["fitted_over_simulated"].values())
+    assert (out / "report" / "comparison.md").read_text().startswith("gimbal-allan on the recorded /ins/imu")

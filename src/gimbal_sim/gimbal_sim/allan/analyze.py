@@ -137,8 +137,8 @@ def analyze(data: ImuField, axes: list[str] | None = None, tau_max_s: float | No
         raise AnalysisError(f"{data.topic}: {dropped} of {data.count} samples ({100.0 * dropped / data.count:.2f} %) "
                             f"are not finite, over the {100 * MAX_NONFINITE_FRACTION:g} % that may be dropped",
                             "BAG")
-    stamps = data.stamps_ns[finite]
-    values = data.values[finite]
+    # dropping copies the samples; a clean record is used as it is
+    stamps, values = (data.stamps_ns[finite], data.values[finite]) if dropped else (data.stamps_ns, data.values)
     try:
         samp = sampling(stamps)
     except ValueError as exc:

@@ -47,7 +47,7 @@ FLICKER_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 GM_PEAK_X = 1.8926
 GM_PEAK_G = 0.38114
 #: χ² rise (in units of the reduced χ², at least 1) below which a term is dropped.
-DROP_CHI2 = 9.0
+DROP_CHI2 = 16.0
 #: Noise types (allantools' α for frequency data) the EDF table holds.
 ALPHAS = (2, 1, 0, -1, -2)
 #: A fitted correlation time within this factor of either end of its range is not identified.

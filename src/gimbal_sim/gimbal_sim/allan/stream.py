@@ -102,7 +102,11 @@ def read_imu_field(path: str | Path, topic: str, field_name: str, progress: bool
             except CdrError:
                 stamp, v = _decode_fallback(reader, data, summary.msgtype, field_name)
             stamps.append(stamp)
-            logs.append(log_ns)
+            if logs is not None:  # needed only while every header stamp is zero (an unstamped driver)
+                if stamp:
+                    logs = None
+                else:
+                    logs.append(log_ns)
             values.extend(v[:3])
             if v[3] == -1.0:
                 absent += 1
@@ -114,12 +118,13 @@ def read_imu_field(path: str | Path, topic: str, field_name: str, progress: bool
                 unmeasured[2] += 1
             bar.update()
         bar.close()
+    # numpy views of the arrays' buffers: no copy of the samples
     st = np.frombuffer(stamps, dtype=np.int64) if len(stamps) else np.zeros(0, dtype=np.int64)
     source = "header"
-    if len(st) and not st.any():
+    if logs is not None and len(logs):
         st, source = np.frombuffer(logs, dtype=np.int64), "log"
-    return ImuField(topic, field_name, summary.msgtype, st.copy(),
-                    np.frombuffer(values, dtype=float).reshape(-1, 3).copy() if len(values) else np.zeros((0, 3)),
+    return ImuField(topic, field_name, summary.msgtype, st,
+                    np.frombuffer(values, dtype=float).reshape(-1, 3) if len(values) else np.zeros((0, 3)),
                     absent, np.array(unmeasured), source)
 
 

@@ -11,6 +11,7 @@ import yaml
 from ..allan.analyze import analyze, to_json
 from ..allan.plot import plot_all
 from ..allan.stream import read_imu_field
+from ..bag.reader import scan
 from ..sensor_models_node import PARAMS as SENSOR_PARAMS
 
 TOPIC = "/ins/imu"
@@ -36,6 +37,7 @@ def simulated_terms(bag_dir: Path) -> dict[str, float]:
 
 def allan_report(bag_dir: Path, out: Path) -> dict:
     """Characterise ``/ins/imu``'s angular velocity; plots, ``allan.json`` and fitted / true per term."""
+    contents = scan(bag_dir)  # what every report states: counts and whether the bag was closed
     data = read_imu_field(bag_dir, TOPIC, "angular_velocity", progress=False)
     result = analyze(data)
     doc = to_json(result)
@@ -44,7 +46,10 @@ def allan_report(bag_dir: Path, out: Path) -> dict:
     truth = simulated_terms(bag_dir)
     ratios = {axis: {key: (terms[key] or 0.0) / truth[key] for key in truth if truth[key]}
               for axis, terms in doc["axes"].items()}
-    return {"bag": str(bag_dir), "closed_cleanly": True, "topic": TOPIC, "duration_s": doc["duration_s"],
+    return {"bag": str(bag_dir), "closed_cleanly": contents.closed_cleanly, "read_error": contents.error,
+            "message_count": contents.message_count,
+            "topics": {name: {"type": t.type_name, "count": t.count} for name, t in sorted(contents.topics.items())},
+            "topic": TOPIC, "duration_s": doc["duration_s"],
             "sample_rate_hz": doc["sample_rate_hz"], "simulated": truth,
             "fitted": {axis: {key: terms[key] for key in truth} for axis, terms in doc["axes"].items()},
             "fitted_over_simulated": ratios, "plots": plots}
