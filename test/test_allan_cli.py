@@ -166,3 +166,22 @@ def test_sqlite3_bag_with_unstamped_messages_uses_the_log_times(tmp_path, capsys
     assert code == 0, err
     doc = json.loads((tmp_path / "o" / "allan.json").read_text())
     assert doc["stamps"] == "log" and doc["sample_rate_hz"] == pytest.approx(RATE_HZ)
+
+
+def test_accelerometer_field_in_si_units(tmp_path, capsys):
+    vrw = 5e-4  # m/s²/√Hz
+    acc = vrw * math.sqrt(RATE_HZ) * np.random.default_rng(1).standard_normal((N_MSG, 3)) + [0.0, 0.0, -9.8]
+    b = write_imu_bag(tmp_path / "acc", _stamps(), _gyro(), accel=acc)
+    code, _, err = _run(capsys, b, "--topic", "/imu", "--field", "linear_acceleration", "--out", tmp_path / "o",
+                        "--no-progress")
+    assert code == 0, err
+    doc = json.loads((tmp_path / "o" / "allan.json").read_text())
+    assert doc["field"] == "linear_acceleration" and doc["units"]["vrw_m_s2_rt_hz"] == "m/s²/√Hz"
+    for axis in doc["axes"].values():
+        assert axis["vrw_m_s2_rt_hz"] == pytest.approx(vrw, rel=0.1) and "vrw_sigma" in axis
+        assert "bias_instability_m_s2" in axis and "accel_rw_m_s3_rt_hz" in axis
+    import yaml
+    params = yaml.safe_load((tmp_path / "o" / "sensor_models.yaml").read_text())["sensor_models"]["ros__parameters"]
+    mean = np.mean([a["vrw_m_s2_rt_hz"] for a in doc["axes"].values()])
+    assert params == {"platform_accel_noise_ug_rt_hz": pytest.approx(mean / 9.80665e-6)}
+    assert "no filter" in (tmp_path / "o" / "filters.yaml").read_text()

@@ -45,7 +45,8 @@ def test_zero_rate_random_walk_and_quantum_draw_nothing():
     # what config_from_params built before the new parameters existed
     legacy_gyro = GyroParams(bias_sigma_deg_h=values["ins_gyro_bias_sigma_deg_h"],
                              bias_instability_deg_h=values["ins_gyro_bi_deg_h"],
-                             bias_instability_tau_s=values["ins_gyro_bi_tau_s"], arw_deg_rt_h=values["ins_gyro_arw_deg_rt_h"])
+                             bias_instability_tau_s=values["ins_gyro_bi_tau_s"],
+                             arw_deg_rt_h=values["ins_gyro_arw_deg_rt_h"])
     assert config.ins.gyro == legacy_gyro
     assert config.gimbal_gyro == GyroParams(bias_deg_h=(100.0, 100.0), arw_deg_rt_h=0.15, bias_instability_deg_h=30.0,
                                             bias_instability_tau_s=100.0, scale_factor_ppm=(0.0, 0.0))
@@ -75,8 +76,8 @@ def test_graph_run_records_what_the_runner_simulates_and_its_report_characterise
 
     out = tmp_path / "run"
     result = subprocess.run([str(VENV_BIN / "gimbal-run"), "gyro_at_rest", "--variant", "arw_gm", "--duration", "600",
-                             "--seed", "4", "--mode", "container", "--no-progress", "--out", str(out)], env=ros_domain_env,
-                            capture_output=True, text=True, timeout=300)
+                             "--seed", "4", "--mode", "container", "--no-progress", "--out", str(out)],
+                            env=ros_domain_env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
     scenario = dataclasses.replace(variant(load("gyro_at_rest"), "arw_gm"), duration_s=600.0, seed=4)
     write_at_rest_bag(scenario, tmp_path / "cores")

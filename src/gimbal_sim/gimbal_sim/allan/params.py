@@ -113,6 +113,9 @@ def sensor_models_yaml(result: Characterisation, target: str, source: str) -> st
 def filters_yaml(result: Characterisation, target: str, source: str) -> str:
     """The filters' noise parameters for this gyro (one ``ros__parameters`` block per node)."""
     nodes = filter_params(result, target)
+    if not nodes:
+        return (f"# gimbal-allan, {source}: no filter of this toolkit takes accelerometer noise parameters\n"
+                f"# (platform_alignment's least squares has none); the fitted terms are in allan.json.\n")
     header = [f"Filter noise parameters fitted by gimbal-allan from {source} (largest over the axes).",
               "The bias walk PSD q_b = 2 sigma_gm^2 / T + K^2 (Gauss-Markov and rate random walk):",
               "gyro_bias_ekf uses 2 sigma^2 / tau = q_b; flexure_estimator's LGU bias difference walks with",

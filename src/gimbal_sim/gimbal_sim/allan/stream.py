@@ -3,8 +3,8 @@
 :func:`read_imu_field` keeps only flat arrays (``array('q')`` stamps, ``array('d')`` values):
 nothing per message survives its decoding, so memory grows by 32 bytes a message whatever
 the bag's size. Each message is decoded by the struct CDR reader (``cdr.read_header_doubles``,
-what ``messages.imu_from_cdr`` uses: about a microsecond); one it cannot read (e.g. big-endian CDR) goes through rosbags'
-deserializer.
+what ``messages.imu_from_cdr`` uses: about a microsecond); one it cannot read (e.g. big-endian
+CDR) goes through rosbags' deserializer.
 
 Covariance conventions read from each message (REP 145 and SPEC §2):
 

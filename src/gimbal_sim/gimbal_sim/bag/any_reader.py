@@ -66,7 +66,7 @@ def open_bag(path: str | Path) -> Iterator[AnyReader]:
     try:
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY))
         reader.open()
-    except (AnyReaderError, ReaderError, FileNotFoundError, struct.error, EOFError, OSError, KeyError, ValueError) as exc:
+    except (AnyReaderError, ReaderError, struct.error, EOFError, OSError, KeyError, ValueError) as exc:
         raise AnyBagError(f"{path}: cannot read the bag ({type(exc).__name__}: {exc}); if a recording was "
                           f"cut short, `gimbal-bag recover` rewrites an MCAP bag's complete chunks") from exc
     try:

@@ -74,9 +74,9 @@ def write_at_rest_bag(scenario: Scenario, out: Path) -> dict[str, float]:
         s = bus.ins
         if s is not None:
             t_ns = m.step_stamp_ns(k, rate)
-            writer.write(TOPIC, m.imu_cdr(t_ns, "base_link_frd", orientation=quat_canonical(quat_from_euler321(*s.euler)),
-                                          orientation_cov=cov["ins_att"], angular_velocity=s.omega_b,
-                                          angular_velocity_cov=cov["ins_rate"]), t_ns)
+            quat = quat_canonical(quat_from_euler321(*s.euler))
+            writer.write(TOPIC, m.imu_cdr(t_ns, "base_link_frd", orientation=quat, orientation_cov=cov["ins_att"],
+                                          angular_velocity=s.omega_b, angular_velocity_cov=cov["ins_rate"]), t_ns)
         if k < n:
             vehicle.step(())
     writer.close()
@@ -111,7 +111,8 @@ def refit_scenario(scenario: Scenario, fitted_params: dict[str, float], seed: in
 
 
 def closed_loop(mix: str, seed: int, duration_s: float) -> dict:
-    """Fit a simulated bag, simulate the fitted gyro (seed + 1000), fit again: second / first."""
+    """Fit a simulated bag, simulate the fitted gyro (seed + 1000), fit again: each axis of the
+    second fit over the first fit's values as ``sensor_models`` simulated them (mean over axes)."""
     from ..allan.params import sensor_models_params
 
     scenario = dataclasses.replace(variant(load(SCENARIO), mix), seed=seed, duration_s=duration_s)
@@ -122,11 +123,13 @@ def closed_loop(mix: str, seed: int, duration_s: float) -> dict:
         write_at_rest_bag(refit_scenario(scenario, fitted, seed + 1000), Path(tmp) / "second")
         first = to_json(result)
         second = to_json(analyze(read_imu_field(Path(tmp) / "second", TOPIC, "angular_velocity", progress=False)))
-    axes = {}
-    for axis, terms in first["axes"].items():
-        again = second["axes"][axis]
-        axes[axis] = {key: {"first": terms[key] or 0.0, "second": again[key] or 0.0,
-                            "ratio": (again[key] or 0.0) / terms[key] if terms[key] else None} for key in TERMS}
+    # the first fit as sensor_models got it (one value for the axes) against each axis of the second
+    simulated = {key: float(fitted[name]) if key != "bias_tau_s" or fitted["ins_gyro_bi_deg_h"] else 0.0
+                 for key, (name, _) in TERMS.items()}
+    axes = {axis: {key: {"first": simulated[key], "first_axis": first["axes"][axis][key] or 0.0,
+                         "second": terms[key] or 0.0,
+                         "ratio": (terms[key] or 0.0) / simulated[key] if simulated[key] else None} for key in TERMS}
+            for axis, terms in second["axes"].items()}
     return {"mix": mix, "seed": seed, "fitted_params": fitted, "axes": axes}
 
 
@@ -157,6 +160,39 @@ def summarise(runs: list[dict]) -> dict:
     return out
 
 
+def summarise_closed_loop(runs: list[dict]) -> dict:
+    """Per mix and term: second fit / first fit over seeds and axes, against the same bounds."""
+    out: dict = {}
+    for mix in dict.fromkeys(r["mix"] for r in runs):
+        rows = [r for r in runs if r["mix"] == mix]
+        out[mix] = {}
+        for key in TERMS:
+            ratios = np.array([[a[key]["ratio"] for a in r["axes"].values()] for r in rows], dtype=object)
+            if any(v is None for v in ratios.ravel()):
+                continue  # the first fit had no such term
+            ratios = ratios.astype(float)
+            mean_bound, each_bound = BOUNDS[key]
+            if each_bound == "x2":
+                ok = bool(np.all((ratios >= 0.5) & (ratios <= 2.0)))
+            else:
+                ok = bool(np.all(np.abs(ratios - 1.0) <= each_bound)) and \
+                    (mean_bound is None or abs(float(ratios.mean()) - 1.0) <= mean_bound)
+            out[mix][key] = {"mean": float(ratios.mean()), "scatter": float(ratios.std(ddof=1)) if ratios.size > 1
+                             else 0.0, "worst_error": float(np.max(np.abs(ratios - 1.0))), "meets_bound": ok}
+    return out
+
+
+def closed_loop_table(summary: dict) -> str:
+    lines = ["closed loop: fit -> sensor_models parameters -> new bag (seed + 1000) -> fit again "
+             "(second fit per axis / first fit as simulated)",
+             "| mix | term | mean | scatter (1σ) | worst error | met |", "| --- | --- | ---: | ---: | ---: | --- |"]
+    for mix, terms in summary.items():
+        for key, s in terms.items():
+            lines.append(f"| {mix} | {key} | {s['mean']:.3f} | {s['scatter']:.3f} | {s['worst_error']:.1%} | "
+                         f"{'yes' if s['meets_bound'] else 'NO'} |")
+    return "\n".join(lines)
+
+
 def table(summary: dict, seeds: list[int], duration_s: float) -> str:
     lines = [f"gimbal-allan round trip: {SCENARIO} at rest, {duration_s / 3600:g} h at 10 Hz, seeds {seeds}, "
              f"axes x y z (fitted / true)",
@@ -183,6 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration-s", type=float, default=scenario.duration_s, help="record length [s]")
     parser.add_argument("--jobs", type=int, default=1, help="processes")
     parser.add_argument("--json", type=Path, help="write every run and the summary to this file")
+    parser.add_argument("--closed-loop", action="store_true",
+                        help="fit, simulate the fitted parameters (another seed), fit again; compare the two fits")
     args = parser.parse_args(argv)
     try:
         if args.jobs < 1:
@@ -200,12 +238,15 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         runs = []
-        for run in pool.map(one_run, *zip(*jobs)):
+        for run in pool.map(closed_loop if args.closed_loop else one_run, *zip(*jobs)):
             runs.append(run)
-            print(f"  {run['mix']} seed {run['seed']}: simulated {run['simulate_s']:.1f} s, analysed "
-                  f"{run['analyse_s']:.1f} s", file=sys.stderr)
-    summary = summarise(runs)
-    print(table(summary, args.seeds, args.duration_s))
+            print(f"  {run['mix']} seed {run['seed']} done", file=sys.stderr)
+    if args.closed_loop:
+        summary = summarise_closed_loop(runs)
+        print(closed_loop_table(summary))
+    else:
+        summary = summarise(runs)
+        print(table(summary, args.seeds, args.duration_s))
     print(f"({len(runs)} runs in {time.perf_counter() - t0:.0f} s)")
     if args.json is not None:
         args.json.write_text(json.dumps({"runs": runs, "summary": summary}, indent=1) + "\n")
