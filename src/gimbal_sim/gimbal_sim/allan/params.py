@@ -58,10 +58,11 @@ def sensor_models_params(result: Characterisation, target: str) -> dict:
         params = {
             f"{p}_arw_deg_rt_h": t["white"] * 60.0 / DEG,
             f"{p}_bi_deg_h": t["gauss_markov"] * 3600.0 / DEG,
-            f"{p}_bi_tau_s": t["tc"] if t["tc"] else 100.0,
             f"{p}_rrw_deg_h_rt_h": t["rrw"] * 3600.0 * 60.0 / DEG,
             f"{p}_quantum_deg": t["quantization"] * math.sqrt(12.0) / DEG,
         }
+        if t["tc"]:  # without a Gauss-Markov term its correlation time stays as it was
+            params[f"{p}_bi_tau_s"] = t["tc"]
         return params
     if target not in ACCEL_TARGETS:
         raise ValueError(f"--simulate-as {target!r}: an accelerometer can be simulated as {sorted(ACCEL_TARGETS)}")

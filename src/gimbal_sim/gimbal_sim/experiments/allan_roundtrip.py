@@ -124,7 +124,7 @@ def closed_loop(mix: str, seed: int, duration_s: float) -> dict:
         first = to_json(result)
         second = to_json(analyze(read_imu_field(Path(tmp) / "second", TOPIC, "angular_velocity", progress=False)))
     # the first fit as sensor_models got it (one value for the axes) against each axis of the second
-    simulated = {key: float(fitted[name]) if key != "bias_tau_s" or fitted["ins_gyro_bi_deg_h"] else 0.0
+    simulated = {key: float(fitted.get(name, 0.0)) if key != "bias_tau_s" or fitted["ins_gyro_bi_deg_h"] else 0.0
                  for key, (name, _) in TERMS.items()}
     axes = {axis: {key: {"first": simulated[key], "first_axis": first["axes"][axis][key] or 0.0,
                          "second": terms[key] or 0.0,
