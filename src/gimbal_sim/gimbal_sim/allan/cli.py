@@ -89,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     if target not in targets:
         return _refuse("--simulate-as", f"{target!r} cannot simulate {args.field}; choose one of {sorted(targets)}")
     existing = [args.out / name for name in OUTPUTS if (args.out / name).exists()]
+    existing += sorted(args.out.glob("adev_*.png")) if args.out.is_dir() else []
     if args.out.exists() and not args.out.is_dir():
         return _refuse("--out", f"{args.out} exists and is not a directory")
     if existing:
