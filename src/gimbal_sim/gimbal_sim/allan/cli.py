@@ -66,7 +66,8 @@ def _refuse(option: str, message: str) -> int:
 def summary(doc: dict) -> str:
     """A few lines per axis for the terminal."""
     lines = [f"{doc['topic']} {doc['field']}: {doc['duration_s'] / 3600.0:.3g} h at {doc['sample_rate_hz']:.4g} Hz, "
-             f"{doc['messages']} messages, sampling: {doc['sampling']['segments']} segment(s), "
+             f"{doc['messages']} messages, sampling: {doc['sampling']['segments']} segment(s) "
+             f"(step jitter {doc['sampling']['jitter_rms']:.2%} RMS), "
              f"{doc['nonfinite_dropped']} non-finite dropped"]
     for axis, why in doc["skipped_axes"].items():
         lines.append(f"  axis {axis} skipped: {why}")
