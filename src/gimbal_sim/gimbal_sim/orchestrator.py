@@ -398,8 +398,11 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
     bar = Progress(scenario.duration_s, progress)
     built = {}
     try:
+        # Import every node module before the first node starts, so that the nodes come up
+        # back to back: the order their ready messages reach the recorder depends on it.
+        classes = {node.name: NODE_TYPES[node.executable].node_class() for node in nodes}
         for node in nodes:
-            cls = NODE_TYPES[node.executable].node_class()
+            cls = classes[node.name]
             try:
                 built[node.name] = cls(context=context, cli_args=node.ros_args(), use_global_arguments=False)
             except ValueError as exc:
