@@ -84,7 +84,7 @@ from gimbal_kinematics.stream_stats import StreamStats, Verdict
 from gimbal_kinematics.sync import StampOrder
 
 from . import messages as m
-from .gyro_bias_ekf import EkfOutput, GyroBiasEkf
+from .gyro_bias_ekf import GyroBiasEkf
 from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
 from .nis import NisWindow
 
@@ -166,7 +166,8 @@ class GyroBiasEkfNode(Node):
             self._warn("gimbal gyro message with angular velocity marked not provided ignored")
             return
         w = msg.angular_velocity
-        self._after(self.core.on_gyro(self._t(t_ns), w.y, w.z))
+        self.core.on_gyro(self._t(t_ns), w.y, w.z)
+        self._after()
         if self.free:
             self._gyro_samples += 1
             if self._gyro_samples % self.progress_every == 0:
@@ -182,7 +183,8 @@ class GyroBiasEkfNode(Node):
             self.bad["joint_names_missing"] += 1
             self._warn(f"encoder message without the joints {list(m.GIMBAL_ENCODER_JOINTS)} ignored")
             return
-        self._after(self.core.on_encoders(self._t(m.stamp_ns(msg.header.stamp)), *readings))
+        self.core.on_encoders(self._t(m.stamp_ns(msg.header.stamp)), *readings)
+        self._after()
 
     def _on_ins(self, msg: Imu) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
@@ -196,12 +198,10 @@ class GyroBiasEkfNode(Node):
         if euler is None:
             self.bad["ins_attitude_not_provided"] += 1
         before = self.core.counters
-        out = self.core.on_ins(self._t(t_ns), euler, m.vec_of(msg.angular_velocity))
+        self.core.on_ins(self._t(t_ns), euler, m.vec_of(msg.angular_velocity))
         after = self.core.counters
-        if out is not None:
-            self._after(out)
-        elif euler is None or after.rejected_nonfinite > before.rejected_nonfinite \
-                or after.rejected_out_of_order > before.rejected_out_of_order:
+        if not self._after() and (euler is None or after.rejected_nonfinite > before.rejected_nonfinite \
+                or after.rejected_out_of_order > before.rejected_out_of_order):
             # No update will come for this stamp: publish the current estimate so a controller
             # waiting for it carries on. (An accepted sample whose gyro has not arrived yet
             # is answered by the update, when it does.)
@@ -214,18 +214,20 @@ class GyroBiasEkfNode(Node):
         self._warned += 1
         self.get_logger().warning(f"{text} ({self._warned} warnings)", throttle_duration_sec=1.0)
 
-    def _after(self, out: EkfOutput | None) -> None:
+    def _after(self) -> bool:
+        """Log a reset; publish every output the last core call produced; whether any."""
         c = self.core.counters
         if c.resets + c.realignments > self._resets_seen:
             self._resets_seen = c.resets + c.realignments
             t, reason = self.core.reset_log[-1]
             self.get_logger().warning(f"filter reset at {t:.3f} s: {reason}")
             self._next_diag_ns = 0
-        if out is None:
-            return
-        if self.free and (out.d2 > 0.0 or not out.accepted):
-            self.nis.add(out.d2)  # an update (accepted or gated), not an alignment
-        self._publish(self._stamp(out.t), out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
+        outs = self.core.take_outputs()
+        for out in outs:
+            if self.free and (out.d2 > 0.0 or not out.accepted):
+                self.nis.add(out.d2)  # an update (accepted or gated), not an alignment
+            self._publish(self._stamp(out.t), out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
+        return bool(outs)
 
     def _publish_current(self, t_ns: int) -> None:
         core = self.core
