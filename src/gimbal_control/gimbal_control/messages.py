@@ -9,8 +9,8 @@ from gimbal_kinematics.frames import (  # noqa: F401  (MODULATION_JOINT: used by
     GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, PLATFORM_JOINTS,
 )
 from gimbal_kinematics.ros.messages import (  # noqa: F401
-    encoder_readings, imu_from_cdr, joint_state_cdr, joint_state_from_cdr, joint_state_msg, quat_of, stamp_ns,
-    step_of_stamp, step_stamp_ns, vec_of, vector3_msg, vector3_stamped_from_cdr,
+    encoder_readings, field_provided, gyro_qr_provided, imu_from_cdr, joint_state_cdr, joint_state_from_cdr,
+    joint_state_msg, quat_of, stamp_ns, step_of_stamp, step_stamp_ns, vec_of, vector3_msg, vector3_stamped_from_cdr,
 )
 
 

@@ -56,6 +56,7 @@ class GyroBiasEkfNode(Node):
         self._next_diag_ns = 0
         self._resets_seen = 0
         self._warned = 0
+        self.rejected_no_rates = 0  # gyro messages whose rates are marked not provided (REP 145)
         self.pub_bias = self.create_publisher(m.Vector3Stamped, "~/bias", GRAPH_QOS)
         self.pub_sigma = self.create_publisher(m.Vector3Stamped, "~/bias_sigma", GRAPH_QOS)
         self.pub_attitude = self.create_publisher(Imu, "~/attitude", GRAPH_QOS)
@@ -80,7 +81,12 @@ class GyroBiasEkfNode(Node):
     def _on_gyro(self, msg: Imu) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
         w = msg.angular_velocity
-        self._after(self.core.on_gyro(t_ns * 1e-9, w.y, w.z))
+        if m.gyro_qr_provided(msg.angular_velocity_covariance):
+            self._after(self.core.on_gyro(t_ns * 1e-9, w.y, w.z))
+        else:
+            self.rejected_no_rates += 1
+            self._warn("gyro message marks its angular velocity not provided (covariance[0] = -1 without "
+                       "y, z variances); not fused")
         k = m.step_of_stamp(t_ns, self.rate)
         if (k + 1) % self.progress_every == 0:
             self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + 1, self.rate)))
