@@ -38,6 +38,13 @@ class Param:
             raise ValueError(f"Param {self.name!r}: array_type must be one of {ARRAY_TYPES}")
 
 
+#: A node's timing (parameter ``timing``): free-running on message stamps, or the
+#: orchestrator's lockstep graph (gimbal_kinematics.ros.node_io).
+TIMING_CHOICES = ("free", "lockstep")
+TIMING_PARAM = Param("timing", "free", "free: step on message stamps, SensorDataQoS inputs (a driver, a bag, "
+                     "ros2 bag play); lockstep: the orchestrator's deterministic graph", choices=TIMING_CHOICES)
+
+
 class ParameterError(ValueError):
     """A parameter was refused at startup; the message names it."""
 
