@@ -116,7 +116,7 @@ def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
         if "seed" in declared:
             params["seed"] = scenario.seed
         if "timing" in declared:
-            # the deterministic graph, unless the scenario runs this node free (a real-time rehearsal)
+            # the deterministic graph (a scenario may still ask a node for free timing)
             params.setdefault("timing", "lockstep")
         if spec["executable"] == "vehicle_dynamics":
             params["duration_s"] = scenario.duration_s
