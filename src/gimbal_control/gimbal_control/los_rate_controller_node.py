@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 import sys
 
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
@@ -44,9 +43,10 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import FreshInputs, StepGroups
+from gimbal_kinematics.sync import StepGroups
 
 from . import messages as m
+from .free_loop import FreeLoop
 from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
 from .los_rate_controller_params import DESCRIPTION, PARAMS
@@ -84,16 +84,10 @@ class LosRateControllerNode(Node):
             self._ins_rates: tuple[float, float, float] | None = None
             on_input = self._on_input
         else:
-            sensor_age, estimate_age = (int(round(v[n] * 1e9)) for n in ("max_input_age_s", "max_estimate_age_s"))
-            ages = {kind: estimate_age if kind in ("bias", "att") else sensor_age for kind, *_ in inputs[1:]}
-            self.gate = FreshInputs("gyro", ages, int(round(1e9 / self.rate)),
-                                    int(round(params.reset_backjump_s * 1e9)))
-            self.counts = dict.fromkeys(("stale_commands", "malformed", "rejected_no_rates", "rejected_nonfinite",
-                                         "rejected_joint_names", "restarts_after_stale"), 0)
-            self._was_stale = False
-            self._diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
-            self._next_diag_ns: int | None = None
-            self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
+            ages = {kind: v["max_estimate_age_s"] if kind in ("bias", "att") else v["max_input_age_s"]
+                    for kind, *_ in inputs[1:]}
+            self.free = FreeLoop(self, self.io, "gyro", ages, 1.0 / self.rate, params.reset_backjump_s,
+                                 v["diagnostics_period_s"])
             on_input = self._on_free_input
         for kind, msg_type, topic, decode in inputs:
             self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: on_input(k, data, d), timing, raw=True)
@@ -162,37 +156,33 @@ class LosRateControllerNode(Node):
 
 
     # ------------------------------------------------------------------ free timing
-    def _count(self, counter: str, text: str) -> None:
-        self.counts[counter] += 1
-        self.get_logger().warning(f"{text} ({self.counts[counter]} {counter})", throttle_duration_sec=1.0)
-
     def _usable(self, kind: str, msg):
         """What the loop takes from an input message, or None (counted) when it cannot be used."""
         if kind == "gyro":
             if not m.gyro_qr_provided(msg.angular_velocity_covariance):
-                self._count("rejected_no_rates", "gyro angular velocity marked not provided; not fused")
+                self.free.count("rejected_no_rates", "gyro angular velocity marked not provided; not fused")
                 return None
             return msg.angular_velocity[1:]  # (q, r); x, the roll axis, is not measured
         if kind == "enc":
             readings = m.encoder_readings(msg)
             if readings is None:
-                self._count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
+                self.free.count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
                 return None
             values = (*readings[0], *readings[1])
         elif kind == "ins":
             if not m.field_provided(msg.angular_velocity_covariance):
-                self._count("rejected_no_rates", "INS angular velocity marked not provided; not fused")
+                self.free.count("rejected_no_rates", "INS angular velocity marked not provided; not fused")
                 return None
             values = readings = msg.angular_velocity
         elif kind == "bias":
             values = readings = msg.vector
         else:  # att
             if not m.field_provided(msg.orientation_covariance):
-                self._count("rejected_no_rates", "attitude estimate marked not provided; not fused")
+                self.free.count("rejected_no_rates", "attitude estimate marked not provided; not fused")
                 return None
             values = readings = msg.orientation
         if not all(map(math.isfinite, values)):
-            self._count("rejected_nonfinite", f"non-finite {kind} sample; not fused")
+            self.free.count("rejected_nonfinite", f"non-finite {kind} sample; not fused")
             return None
         return readings
 
@@ -200,54 +190,36 @@ class LosRateControllerNode(Node):
         try:
             msg = decode(data)
         except CdrError as exc:
-            self._count("malformed", f"malformed {kind} message ignored: {exc}")
+            self.free.count("malformed", f"malformed {kind} message ignored: {exc}")
             return
         value = self._usable(kind, msg)
         if value is None:
             return
-        gate = self.gate
+        free = self.free
+        gate = free.gate
         accepted = gate.accepted[kind]
         step = gate.add(kind, msg.stamp_ns, (msg.stamp_ns, value))
         if kind == "att" and gate.accepted[kind] > accepted and self.hold is not None:
             # the outer loop runs on each new attitude estimate
-            self.core.set_rate_command(*self.hold.update((msg.stamp_ns - gate.t0_ns) * 1e-9, value,
+            self.core.set_rate_command(*self.hold.update(free.seconds(msg.stamp_ns), value,
                                                          self.core.bias_estimate_qr))
         if step is None:
             return
         core = self.core
-        if step.restarted:
-            core.reset("stamps jumped back (a bag looping?): restarted")
-        if step.stale:
-            self._count("stale_commands", f"{', '.join(step.stale)} older than its maximum age or missing: "
-                        "command zeroed")
-            self._was_stale = True
-            tau = (0.0, 0.0)
-        else:
-            if self._was_stale:
-                self._was_stale = False
-                self.counts["restarts_after_stale"] += 1
-                core.reset("inputs fresh again after a stale period: loop restarted")
-            inputs = step.inputs
-            (angles, rates), ins = inputs["enc"][1], inputs["ins"][1]
-            bias = inputs.get("bias")
+        if free.fresh(step, core.reset):
+            (angles, rates), ins = step.inputs["enc"][1], step.inputs["ins"][1]
+            bias = step.inputs.get("bias")
             if bias is not None:
-                core.set_bias_estimate((bias[0] - gate.t0_ns) * 1e-9, bias[1])
+                core.set_bias_estimate(free.seconds(bias[0]), bias[1])
             before = core.rejected_inputs
             tau = core.step(step.t_ns * 1e-9, value, angles, rates, ins)
             if core.rejected_inputs > before:
-                self._count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
+                free.count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
+        else:
+            tau = (0.0, 0.0)
         self.pub.publish(m.torque_command_cdr(msg.stamp_ns, tau))
-        self._diagnostics(msg.stamp_ns)
-
-    def _diagnostics(self, t_ns: int) -> None:
-        if self._next_diag_ns is not None and t_ns < self._next_diag_ns:
-            return
-        self._next_diag_ns = t_ns + self._diag_period_ns
-        core = self.core
-        counters = {**self.gate.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
-                    "saturated_steps": core.saturated_steps, "singular_steps": core.singular_steps,
-                    "rejected_bias": core.rejected_bias, "resets": core.resets}
-        self.pub_diag.publish(m.controller_diagnostics_msg(t_ns, self.get_name(), self._was_stale, counters))
+        free.diagnostics(msg.stamp_ns, {"saturated_steps": core.saturated_steps, "singular_steps": core.singular_steps,
+                                        "rejected_bias": core.rejected_bias, "resets": core.resets})
 
 
 def main(argv: list[str] | None = None) -> int:
