@@ -1,4 +1,5 @@
-"""Free timing's bookkeeping, shared by the controller nodes (ROS edge: it publishes).
+"""Free timing's bookkeeping, shared by the controller nodes (it publishes through the node's
+:class:`NodeIo` and builds messages only through :mod:`.messages`).
 
 A controller in ``timing: free`` steps on each sample of its driving gyro with the newest
 other inputs (:class:`gimbal_kinematics.sync.FreshInputs`). This class holds that gate, the
@@ -14,8 +15,6 @@ counters of inputs that could not be used, the stale-input policy and ``/diagnos
 from __future__ import annotations
 
 from typing import Any, Callable
-
-from diagnostic_msgs.msg import DiagnosticArray
 
 from gimbal_kinematics.sync import FreeStep, FreshInputs
 
@@ -38,7 +37,7 @@ class FreeLoop:
         self.was_stale = False
         self._diag_period_ns = int(round(diagnostics_period_s * 1e9))
         self._next_diag_ns: int | None = None
-        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", "free")
+        self.pub_diag = io.advertise(m.DiagnosticArray, "/diagnostics", "free")
 
     def count(self, counter: str, text: str) -> None:
         """Count an input not used (or a command zeroed) and warn, at most once a second."""
