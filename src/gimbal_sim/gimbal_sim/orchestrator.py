@@ -105,8 +105,10 @@ class RunResult:
 def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
     """Every node with its final parameters: the scenario's, plus what the orchestrator
     owns (rate, seed, duration, readiness and pacing wiring, the recorder's output)."""
+    # a node in free timing is no lockstep reader: the vehicle neither waits for nor paces on it
     paced = [n for n, s in scenario.nodes.items()
-             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}]
+             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}
+             and s["params"].get("timing", "lockstep") != "free"]
     planned = []
     for name, spec in scenario.nodes.items():
         declared = {p.name for p in NODE_TYPES[spec["executable"]].params}

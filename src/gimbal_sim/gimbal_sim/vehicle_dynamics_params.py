@@ -35,6 +35,9 @@ PARAMS = (
     Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
     Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
           array_type="string_array"),
+    Param("topic_subscriber_counts", [], "before step 0, wait until the ROS graph shows this many subscriptions "
+          "on topics the vehicle does not publish, as 'topic=count' entries (realtime runs: free-timing nodes "
+          "that report no readiness, e.g. '/gimbal/imu=3')", array_type="string_array"),
     Param("pace_topics", [], "rosgraph_msgs/Clock progress topics (time of the next step the reader "
           "needs) of readers to wait for and not outrun",
           array_type="string_array"),
