@@ -130,7 +130,10 @@ def test_lockstep_graph_equals_the_cores_and_repeats_exactly(ros_domain_env, tmp
     assert len(first["/gimbal/imu"]) == STEPS + 1 and len(first["/ins/imu"]) == STEPS // 5 + 1
     for got, want in zip(first["/gimbal/imu"], expected["gyro"], strict=True):
         assert (got.angular_velocity.y, got.angular_velocity.z) == (want.q_m, want.r_m)
-        assert got.angular_velocity_covariance[0] == -1.0 and got.orientation_covariance[0] == -1.0
+        # the unmeasured roll axis: x = 0 with a very large variance (REP 145's per-axis form);
+        # orientation is not provided at all ([0] = -1)
+        assert got.angular_velocity.x == 0.0 and got.angular_velocity_covariance[0] == 1e6
+        assert got.orientation_covariance[0] == -1.0
     for got, want in zip(first["/gimbal/joint_states"], expected["encoders"], strict=True):
         assert tuple(got.position) == want.angles and tuple(got.velocity) == want.rates
     for got, want in zip(first["/ins/imu"], expected["ins"], strict=True):
