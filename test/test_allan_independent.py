@@ -74,7 +74,7 @@ def test_parameter_files_are_accepted_by_the_nodes(characterised):
     for node, block in filters.items():
         for name, value in block["ros__parameters"].items():
             check_param(node, node, name, value)
-            table = {p.name: p for p in NODE_TYPES[node].params()}
+            table = {p.name: p for p in NODE_TYPES[node].params}
             assert table[name].low is None or value >= table[name].low
     ekf = filters["gyro_bias_ekf"]["ros__parameters"]
     k_max = max(t["rrw_deg_h_rt_h"] for t in doc["axes"].values())

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..reports.figures import pyplot, save
 from .analyze import UNITS, AxisResult, Characterisation
 from .fit import FLICKER_FACTOR
 
@@ -22,6 +21,9 @@ def _value_text(value: float, sigma: float, unit: str) -> str:
 
 def plot_axis(result: Characterisation, res: AxisResult, path: Path) -> Path:
     """Write the figure of one axis to ``path`` (PNG); returns it."""
+    # here, not at the top: the reports package imports this module for its ``allan`` report
+    from ..reports.figures import pyplot, save
+
     plt = pyplot()
     units = UNITS[result.field]
     scale = units["adev"].per_si
