@@ -42,7 +42,7 @@ def _compression(contents) -> str:
 def cmd_info(args: argparse.Namespace) -> int:
     contents = scan(Path(args.bag))
     info = {
-        "bag": str(contents.directory), "file": contents.mcap_path.name,
+        "bag": str(args.bag), "file": contents.mcap_path.name,
         "files": [f.name for f in contents.files], "storage": contents.storage,
         "compression": _compression(contents),
         "closed_cleanly": contents.closed_cleanly, "metadata.yaml": contents.has_metadata,

@@ -276,4 +276,18 @@ class BagPlayer(Node):
                 if i % SPIN_EVERY == 0:
                     self._spin(executor)
             if not self.options.loop:
+                self.drain()
                 return self.published
+
+    def drain(self, timeout_s: float = 30.0) -> None:
+        """Wait until every reliable reader has acknowledged what was published: the last
+        messages of a fast replay are still in flight when the loop ends, and a publisher
+        destroyed then takes them with it."""
+        from rclpy.duration import Duration
+
+        deadline = time.monotonic() + timeout_s
+        for topic, pub in self.pubs.items():
+            if self.qos[topic].reliability == ReliabilityPolicy.RELIABLE:
+                left = max(deadline - time.monotonic(), 0.0)
+                if not pub.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9))):
+                    self.get_logger().warning(f"{topic}: not every reader acknowledged the last messages")

@@ -55,12 +55,13 @@ class BagContents:
     start_ns: int | None = None
     end_ns: int | None = None
     storage: str = "mcap"            # "mcap" or "sqlite3"
+    metadata_required: bool = True   # False for a lone .mcap file: its footer and summary index it
     files: list[Path] = field(default_factory=list)
     compression: set[str] = field(default_factory=set)   # chunk compressions met ("" = none)
 
     @property
     def closed_cleanly(self) -> bool:
-        return self.complete and self.has_metadata and self.error is None
+        return self.complete and (self.has_metadata or not self.metadata_required) and self.error is None
 
     @property
     def message_count(self) -> int:
@@ -80,6 +81,7 @@ class BagFiles:
     storage: str
     files: list[Path]
     has_metadata: bool
+    metadata_required: bool = True
 
 
 def locate(path: Path) -> BagFiles:
@@ -92,7 +94,9 @@ def locate(path: Path) -> BagFiles:
         storage = {".mcap": "mcap", ".db3": "sqlite3"}.get(path.suffix)
         if storage is None:
             raise BagError(f"{path}: not a bag (give a bag directory, or its .mcap / .db3 file)")
-        return BagFiles(path.parent, storage, [path], (path.parent / "metadata.yaml").is_file())
+        # a lone MCAP file (e.g. from a non-rosbag2 writer) is complete with its footer
+        return BagFiles(path.parent, storage, [path], (path.parent / "metadata.yaml").is_file(),
+                        metadata_required=storage != "mcap")
     meta = path / "metadata.yaml"
     if meta.is_file():
         try:
@@ -215,7 +219,7 @@ def stream(directory: Path, topics: set[str] | None = None) -> Iterator[RawMessa
     the :class:`BagContents` summary. ``topics``: only these (None: all; counts cover all)."""
     found = locate(directory)
     contents = BagContents(found.directory, found.files[0], found.has_metadata, storage=found.storage,
-                           files=list(found.files))
+                           files=list(found.files), metadata_required=found.metadata_required)
     if found.storage == "mcap":
         yield from _stream_mcap(contents, topics)
     else:
