@@ -4,7 +4,7 @@ mapping to the core's parameters is :meth:`.flexure_kf.FlexureKfParams.from_valu
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import TIMING_PARAM, Param
 
 from .flexure_kf import QS_MODELS
 
@@ -18,6 +18,7 @@ DESCRIPTION = (
 INF = float("inf")
 
 PARAMS = (
+    TIMING_PARAM,
     Param("quasi_static_model", "random_walk_rate", "quasi-static flexure model: random_constant (conventional) "
           "or random_walk_rate (paper 5 eq. 10)", choices=QS_MODELS),
     Param("lgu_rate_hz", 10.0, "LGU sample rate [Hz]; each sample's interval is 1/lgu_rate_hz", 1e-3, 100000.0),

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free "
@@ -18,6 +18,7 @@ DESCRIPTION = (
 INF = math.inf
 
 PARAMS = (
+    TIMING_PARAM,
     Param("sim_rate_hz", 10.0, "simulation rate [Hz], to turn read-out stamps into lockstep steps", 1.0, 100000.0),
     Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
           "vehicle_dynamics waits for and paces on it", 1, 10**6),

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.params import TIMING_PARAM, Param, ParameterError
 from gimbal_kinematics.validate import finite, nonneg_finite, positive
 
 
@@ -128,6 +128,7 @@ DESCRIPTION = (
 
 _EKF_DEFAULTS = GyroBiasEkfParams()
 PARAMS = (
+    TIMING_PARAM,
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]: maps gyro stamps to steps for ~/progress", 1.0, 100000.0),
     Param("progress_every_steps", 10, "report the next step needed on ~/progress every N gyro steps", 1, 10**6),
     Param("diagnostics_period_s", 1.0, "health on /diagnostics every this much sim time [s]", 1e-3, 1e6),

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 3 rotation-modulated fine alignment: 8-state recursive least squares on the platform's level "
@@ -17,6 +17,7 @@ DESCRIPTION = (
 INF = math.inf
 
 PARAMS = (
+    TIMING_PARAM,
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz], to turn stamps into steps", 1.0, 100000.0),
     Param("imu_rate_hz", 1000.0, "platform IMU rate [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
     Param("joint_rate_hz", 1000.0, "rate of the azimuth joint topic [Hz]; divides sim_rate_hz", 1e-3, 100000.0),

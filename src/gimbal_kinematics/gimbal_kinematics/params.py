@@ -38,6 +38,17 @@ class Param:
             raise ValueError(f"Param {self.name!r}: array_type must be one of {ARRAY_TYPES}")
 
 
+#: The two timings of an estimator or controller node (:mod:`gimbal_kinematics.ros.node_io`).
+TIMING_CHOICES = ("free", "lockstep")
+
+#: The ``timing`` entry of every estimator and controller node's parameter table.
+TIMING_PARAM = Param(
+    "timing", "free",
+    "free: step on message stamps, SensorDataQoS inputs (a driver, a bag, ros2 bag play); "
+    "lockstep: the orchestrator's deterministic graph (GRAPH_QOS, step grid)",
+    choices=TIMING_CHOICES)
+
+
 class ParameterError(ValueError):
     """A parameter was refused at startup; the message names it."""
 

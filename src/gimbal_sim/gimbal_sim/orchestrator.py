@@ -115,6 +115,9 @@ def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
             params["sim_rate_hz"] = scenario.sim_rate_hz
         if "seed" in declared:
             params["seed"] = scenario.seed
+        if "timing" in declared:
+            # the deterministic graph (a scenario may still ask a node for free timing)
+            params.setdefault("timing", "lockstep")
         if spec["executable"] == "vehicle_dynamics":
             params["duration_s"] = scenario.duration_s
             params["pace_topics"] = [f"/{n}/progress" for n in paced + [RECORDER]]
