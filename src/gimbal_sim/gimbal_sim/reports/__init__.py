@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable
 
 from .alignment import alignment_campaign, alignment_report, rotation_comparison
+from .consistency import consistency_report
 from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
 from .flexure import flexure_report
 from .free_gyro import free_gyro_report
@@ -31,6 +32,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "encoder_fusion": encoder_fusion_report,
     "platform_servo": platform_servo_report,
     "alignment": alignment_report,
+    "consistency": consistency_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics
