@@ -78,7 +78,9 @@ def cmd_recover(args: argparse.Namespace) -> int:
 
 def cmd_play(args: argparse.Namespace) -> int:
     import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
+
+    from gimbal_kinematics.ros.node_main import make_executor
 
     from gimbal_kinematics.ros.ros_domain import localhost_env
     from .player import BagPlayer, PlayOptions, load_qos_overrides, parse_remaps
@@ -94,7 +96,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     player = None
     try:
         player = BagPlayer(Path(args.bag), options)
-        executor = SingleThreadedExecutor()
+        executor = make_executor()
         executor.add_node(player)
         count = player.play(executor)
         print(f"played {count} messages ({player.retries} publish retries under back-pressure"

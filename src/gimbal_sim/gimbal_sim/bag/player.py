@@ -192,17 +192,40 @@ class BagPlayer(Node):
             self.pubs[topic] = self.create_publisher(message_class(record.type_name),
                                                      options.remap.get(topic, topic), qos)
         self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock_hz > 0 else None
-        self._paced = {t: None for t in options.pace_topics}
-        for topic in options.pace_topics:
-            # transient-local, as the nodes offer it: a reader's "ready" (step 0) may have
-            # been published before the player started
-            self.create_subscription(Clock, topic, lambda msg, t=topic: self._on_progress(t, msg), GRAPH_QOS)
+        self._paced: dict[str, int | None] = {t: None for t in options.pace_topics}
+        self._pace_subs: dict[str, object] = {}
+        self.t_bag0 = self.messages[0].log_time_ns if self.messages else 0
         self.published = 0
         self.retries = 0
         self.clocks = 0
 
     def _on_progress(self, topic: str, msg: Clock) -> None:
         self._paced[topic] = max(m.stamp_ns(msg.clock), self._paced[topic] or 0)
+
+    def _subscribe_progress(self) -> None:
+        """Subscribe to each progress topic once its publisher is known, with its durability.
+
+        A lockstep node offers progress transient-local and publishes "ready" (step 0) once
+        its inputs are connected, possibly before this subscription exists: a transient-local
+        subscription still gets it. A free-timing node offers it volatile (a transient-local
+        subscription would not match) and reports only after its first samples: it counts
+        as ready at the bag's start once matched.
+        """
+        for topic in self._paced:
+            if topic in self._pace_subs:
+                sub = self._pace_subs[topic]
+                if sub.qos_profile.durability == DurabilityPolicy.VOLATILE and sub.get_publisher_count() > 0:
+                    self._paced[topic] = max(self._paced[topic] or 0, self.t_bag0)
+                continue
+            offered = self.get_publishers_info_by_topic(topic)
+            if not offered:
+                continue
+            durable = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in offered)
+            qos = GRAPH_QOS if durable else QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                                                       reliability=ReliabilityPolicy.RELIABLE,
+                                                       durability=DurabilityPolicy.VOLATILE)
+            self._pace_subs[topic] = self.create_subscription(
+                Clock, topic, lambda msg, t=topic: self._on_progress(t, msg), qos)
 
     def _spin(self, executor, timeout: float = 0.0) -> None:
         executor.spin_once(timeout_sec=timeout)
@@ -221,6 +244,7 @@ class BagPlayer(Node):
         need = self.options.wait_for_subscribers
         while any(p.get_subscription_count() < need for p in self.pubs.values()) or \
                 any(v is None for v in self._paced.values()):
+            self._subscribe_progress()
             if time.monotonic() > deadline:
                 raise BagError(f"readers did not appear within {timeout_s:g} s (need {need} per topic and "
                                f"progress on {sorted(self._paced)})")
@@ -254,7 +278,7 @@ class BagPlayer(Node):
         period = int(round(1e9 / self.options.clock_hz)) if self.pub_clock is not None else 0
         pubs = {topic: self.pubs[topic] for topic in self.pubs}
         while True:
-            t_bag0 = self.messages[0].log_time_ns if self.messages else 0
+            t_bag0 = self.t_bag0
             next_clock = t_bag0
             t_wall0 = time.monotonic()
             for i, msg in enumerate(self.messages):
