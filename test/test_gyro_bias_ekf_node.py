@@ -55,7 +55,8 @@ def test_node_rejects_nan_and_out_of_order_and_resets_on_a_clock_jump(ros_domain
 
     with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"])) as (harness, executor):
         ekf = GyroBiasEkfNode(context=harness.context,
-                              parameter_overrides=[Parameter("ins_error_states", value=False),
+                              parameter_overrides=[Parameter("timing", value="lockstep"),
+                                                   Parameter("ins_error_states", value=False),
                                                    Parameter("clock_jump_s", value=0.03)])
         executor.add_node(ekf)
         try:

@@ -100,8 +100,12 @@ mean lag of a hold (a hold leaves a ~2e-4 rad wander of the roll about the LOS o
 mode). The attitude estimate therefore lags the newest gyro sample by at most one INS
 period; measurement updates are not delayed: an INS attitude stamped t_ins is fused as
 soon as the gyro samples up to t_ins are integrated, with the encoder angles interpolated
-to t_ins. (An INS message later than ``max_sync_wait_s`` is fused against the current
-attitude, a skew of up to that wait; a newer INS attitude replaces an unfused one.)
+to t_ins. When the INS is not stamped on gyro stamps (a driver, free timing), the gyro
+rates are interpolated linearly to each INS stamp, the attitude integrated to it and the
+update made there, so there is no skew; several updates may then complete in one call,
+:meth:`GyroBiasEkf.take_outputs` returns them all (each ``on_*`` returns the last). (An INS
+message later than ``max_sync_wait_s`` is fused against the current attitude, a skew of up
+to that wait.)
 
 ``attitude_noise_floor_deg`` (default 0.02°, white, isotropic, added to R) stands for the
 unmodelled residuals: that interpolation ripple, sync skew, encoder quantisation. It
@@ -134,12 +138,13 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
-from gimbal_kinematics.rotations import (
-    dcm_from_rotation_vector, quat_from_euler321, quat_from_rotation_vector, quat_mul, quat_to_dcm,
-    rotation_vector_from_quat,
-)
+from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat
 
 from . import kalman
+from .gyro_bias_ekf_model import (  # noqa: F401  (re-exported: the model helpers)
+    discretize_error_model, encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
+    roll_rate_matrix,
+)
 from .gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.sync import Stamp, check_stamp
 
@@ -149,6 +154,8 @@ _DEG_RT_H = _DEG / 60.0  # °/√h -> rad/√s
 
 #: |cos θm| below which eq. 4 is treated as singular (roll and azimuth axes aligned).
 _SINGULAR_COS = 1e-3
+#: INS attitudes held for fusion at most (0.2 s at 500 Hz).
+_MAX_PENDING = 100
 
 
 class Counters(NamedTuple):
@@ -189,78 +196,6 @@ _rotvec_quat = quat_from_rotation_vector
 _rotvec_from_quat = rotation_vector_from_quat
 
 
-def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of C_nb = ``sighting_chain.dcm_nb(φ, θ, ψ)`` (3-2-1 Euler angles [rad])."""
-    return quat_from_euler321(euler[0], euler[1], euler[2])
-
-
-def measured_quat_nm(q_nb: Sequence[float], angles: Sequence[float]) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of C_nm = C_nb ``sighting_chain.dcm_bm(ψt, ψm, θm)``; C_bm is a turn of
-    ψt + ψm about z followed by θm about y, so q_bm = q_z(ψt + ψm) ⊗ q_y(θm)."""
-    ha, he = 0.5 * (angles[0] + angles[1]), 0.5 * angles[2]
-    ca, sa, ce, se = math.cos(ha), math.sin(ha), math.cos(he), math.sin(he)
-    return quat_mul(q_nb, (-sa * se, ca * se, sa * ce, ca * ce))
-
-
-def ins_error_jacobian(euler: Sequence[float]) -> np.ndarray:
-    """J_e (3, 3): n-frame rotation δα of C_nb per Euler-angle error (δφ, δθ, δψ) [rad/rad],
-    i.e. C_nb(euler + δ) ≈ (I + [J_e δ ×]) C_nb(euler)."""
-    roll, pitch, yaw = euler
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([[cp * cy, -sy, 0.0], [cp * sy, cy, 0.0], [-sp, 0.0, 1.0]])
-
-
-def encoder_error_jacobian(q_nb: Sequence[float], q_nm: Sequence[float]) -> np.ndarray:
-    """(3, 3): n-frame rotation of C_nm per encoder error (ε_t, ε_m, ε_θ) [rad/rad], from the
-    (x, y, z, w) quaternions of C_nb and C_nm: turret and gimbal azimuth turn about
-    u = C_nb e3, the elevation about v = C_nm e2."""
-    bx, by, bz, bw = q_nb
-    mx, my, mz, mw = q_nm
-    u0, u1, u2 = 2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by)
-    v0, v1, v2 = 2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw)
-    return np.array([[u0, u0, v0], [u1, u1, v1], [u2, u2, v2]])
-
-
-def roll_rate_matrix(theta_m: float) -> np.ndarray:
-    """M (3, 3): gyro-frame rate error per (δb_x, δb_q, δb_r) — see the module docstring."""
-    c, s = math.cos(theta_m), math.sin(theta_m)
-    return np.array([[1.0 / c, 0.0, -s / c], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-
-
-def discretize_error_model(
-    A: np.ndarray, T: float, omega_in_n: np.ndarray, n_psd: np.ndarray, qb_psd: np.ndarray,
-    pe_var: np.ndarray | None = None, tau_e: float = math.inf,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(F, Q) of the error model over a step ``T`` [s] (module docstring), A = C_nm M held.
-
-    ``A`` (3, 3); ``omega_in_n`` (3,) [rad/s]; ``n_psd`` (3,) white rate-noise PSDs of
-    (x, q, r) [rad²/s]; ``qb_psd`` (3,) bias random-walk PSDs [rad²/s³]; ``pe_var`` (3,)
-    stationary variances of the INS-error states [rad²] with correlation time ``tau_e``
-    [s], or None for the 6-state filter. Shapes (n, n), n = 6 or 9. Terms of relative size
-    (|ω_in| T)² and Q's ω_in coupling (|ω_in| T ~ 1e-6 at 100 Hz) are dropped.
-    """
-    n = 6 if pe_var is None else 9
-    F = np.eye(n)
-    w = np.asarray(omega_in_n, dtype=float)
-    F[:3, :3] = dcm_from_rotation_vector(-T * w)
-    # −∫ exp(−[ω_in×](T−s)) A ds, to second order in |ω_in| T (~1e-6).
-    wx, wy, wz = w
-    Wx = np.array([[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]])
-    F[:3, 3:6] = (0.5 * T * T) * (Wx @ A) - T * A
-    Q = np.zeros((n, n))
-    AQb = A * qb_psd  # A diag(q): the densities are diagonal
-    Q[:3, :3] = (A * (np.asarray(n_psd) * T) + AQb * (T**3 / 3.0)) @ A.T
-    Q[:3, 3:6] = AQb * (-0.5 * T * T)
-    Q[3:6, :3] = Q[:3, 3:6].T
-    Q[3:6, 3:6] = np.diag(np.asarray(qb_psd) * T)
-    if pe_var is not None:
-        decaying = not math.isinf(tau_e)
-        F[6:, 6:] *= math.exp(-T / tau_e) if decaying else 1.0
-        Q[6:, 6:] = np.diag(np.asarray(pe_var) * (-math.expm1(-2.0 * T / tau_e) if decaying else 0.0))
-    return F, Q
-
-
 class GyroBiasEkf:
     """Gyro-bias EKF core (module docstring). Not thread-safe; feed messages in order."""
 
@@ -295,6 +230,8 @@ class GyroBiasEkf:
         self.counters = Counters(0, 0, 0, 0, 0, 0, 0)
         #: (t, reason) of the latest resets and re-alignments, newest last.
         self.reset_log: deque[tuple[float, str]] = deque(maxlen=100)
+        #: every EkfOutput since the last :meth:`take_outputs` (a call may complete several)
+        self.outputs: list[EkfOutput] = []
         self._clear()
 
     # ------------------------------------------------------------------ state handling
@@ -311,7 +248,10 @@ class GyroBiasEkf:
         self._enc_hist: deque[tuple[float, float, float, float]] = deque()
         self._ins_hist: deque[tuple[float, float, float, float]] = deque()
         self._trig = (1.0, 0.0, 1.0, 0.0)  # cos, sin (ψt+ψm); cos, sin θm at t_gyro
-        self._pending: tuple[float, tuple[float, float, float]] | None = None
+        # INS attitudes not fused yet, oldest first (bounded: a stopped gyro must not grow it)
+        self._pending: deque[tuple[float, tuple[float, float, float]]] = deque(maxlen=_MAX_PENDING)
+        self._raw_prev: tuple[float, float, float] | None = None  # last integrated (t, q_m, r_m)
+
         self._t_cov: float | None = None
         self._A_cov: np.ndarray | None = None
         self._consecutive_gated = 0
@@ -428,7 +368,7 @@ class GyroBiasEkf:
             return None
         self._gyro_q.append((t, q_m, r_m))
         self._drain()
-        return self._try_update()
+        return self._updates()
 
     def on_encoders(self, t: float, angles: Sequence[float],
                     rates: Sequence[float] | None = None) -> EkfOutput | None:
@@ -449,7 +389,7 @@ class GyroBiasEkf:
             return None
         self._enc_hist.append((t,) + a)
         self._drain()
-        return self._try_update()
+        return self._updates()
 
     def on_ins(self, t: float, euler: Sequence[float] | None, omega_b: Sequence[float]) -> EkfOutput | None:
         """INS sample at ``t`` [s]: Euler (φ, θ, ψ) [rad] and body rates (p, q, r) [rad/s].
@@ -472,9 +412,9 @@ class GyroBiasEkf:
             return None
         self._ins_hist.append((t,) + w)
         if e is not None:
-            self._pending = (t, e)
+            self._pending.append((t, e))
         self._drain()
-        return self._try_update()
+        return self._updates()
 
     # ------------------------------------------------------------------ synchronisation
     def _drain(self) -> None:
@@ -487,7 +427,45 @@ class GyroBiasEkf:
             t = gq[0][0]
             if (not enc or enc[-1][0] < t or not ins or ins[-1][0] < t) and self._t_newest - t <= wait:
                 return
-            self._integrate(*gq.popleft())
+            sample = gq.popleft()
+            self._split_at_pending(*sample)
+            self._integrate(*sample)
+            self._raw_prev = sample
+
+    def _split_at_pending(self, t: float, q_m: float, r_m: float) -> None:
+        """Fuse the INS attitudes stamped strictly between the last gyro sample and this one
+        at their own stamps: integrate to each with the gyro rates interpolated linearly,
+        update there, then go on. (With a gyro sample at every INS stamp, as in lockstep,
+        there is none: the update follows that sample.)"""
+        pend, raw = self._pending, self._raw_prev
+        if raw is None or t - raw[0] > self.params.max_gyro_gap_s:
+            return  # a gap re-aligns at the next sample (never interpolated across)
+        while pend and raw[0] == self._t_gyro and raw[0] < pend[0][0] < t:
+            tp = pend[0][0]
+            f = (tp - raw[0]) / (t - raw[0])
+            raw = (tp, raw[1] + f * (q_m - raw[1]), raw[2] + f * (r_m - raw[2]))
+            self._integrate(*raw)
+            self._raw_prev = raw
+            self._updates()
+
+    def _updates(self) -> EkfOutput | None:
+        """Fuse the newest pending INS attitude the integration has reached (older ones
+        reached at the same time, e.g. across a gyro gap, are superseded by it)."""
+        pend = self._pending
+        while len(pend) > 1 and self._t_gyro is not None and pend[1][0] <= self._t_gyro:
+            pend.popleft()
+        out = None
+        while pend and self._t_gyro is not None and self._t_gyro >= pend[0][0]:
+            res = self._try_update()
+            if res is not None:
+                out = res
+        return out
+
+    def take_outputs(self) -> list[EkfOutput]:
+        """Every output produced since the last call, oldest first (one call of ``on_*`` may
+        complete several updates when the INS is not on the gyro's stamps)."""
+        out, self.outputs = self.outputs, []
+        return out
 
     @staticmethod
     def _interp(hist: deque, t: float) -> tuple[float, float, float] | None:
@@ -590,11 +568,9 @@ class GyroBiasEkf:
 
     # ------------------------------------------------------------------ measurement
     def _try_update(self) -> EkfOutput | None:
-        pend = self._pending
-        if pend is None or self._t_gyro is None or self._t_gyro < pend[0]:
+        if not self._pending or self._t_gyro is None or self._t_gyro < self._pending[0][0]:
             return None
-        self._pending = None
-        t_ins, euler = pend
+        t_ins, euler = self._pending.popleft()
         angles = self._interp(self._enc_hist, t_ins)
         if angles is None:
             return None
@@ -675,5 +651,9 @@ class GyroBiasEkf:
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> EkfOutput:
         P = self.P
-        return EkfOutput(t, np.array(self._b), np.sqrt(np.diag(P)[3:6]), np.array(self._q),
-                         P[:3, :3].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters)
+        out = EkfOutput(t, np.array(self._b), np.sqrt(np.diag(P)[3:6]), np.array(self._q),
+                        P[:3, :3].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters)
+        self.outputs.append(out)
+        if len(self.outputs) > _MAX_PENDING:  # a caller that never takes them
+            del self.outputs[0]
+        return out

@@ -2,7 +2,7 @@
 
 Inputs: the gimbal gyro (``/gimbal/imu``, q_m and r_m), the encoders
 (``/gimbal/joint_states``) and the INS (``/ins/imu``, orientation and body rates). Remap
-them to run against other topics, e.g. a bag played back under other names.
+them to run against other topics, e.g. a driver's or a bag played back under other names.
 
 Outputs, one of each per INS sample (stamped like it), so a controller can wait for the
 estimate of its step:
@@ -14,16 +14,58 @@ estimate of its step:
   the attitude error resolved in the navigation frame (``map_ned``, the frame the small
   rotation is about), and the bias-corrected inertial rate of the inner gimbal;
 * ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): the health counters (updates,
-  gated, rejected, resets, re-alignments) once per simulated second and after each reset.
+  gated, rejected, resets, re-alignments) once per ``diagnostics_period_s`` of stamp time
+  and after each reset; in free timing also the input counters, the incompatible-QoS
+  peers and the NIS window (below).
 
-The three streams are fed to the filter in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), the encoders
-and INS of a stamp before its gyro sample, whatever order the middleware delivers them in;
-so a replay at any speed computes exactly what the run computed.
+Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
+
+* ``lockstep`` (what ``gimbal-run`` sets): inputs and outputs with ``GRAPH_QOS``; the node
+  reports on ``~/progress`` (rosgraph_msgs/Clock) the next lockstep step it needs, so the
+  vehicle or the bag player does not outrun it. /diagnostics carries the filter counters
+  only, as it always did, so scenario bags stay byte-identical.
+* ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs.
+  The node never waits on a step grid, ``/clock`` or a progress topic: the filter
+  propagates on each gyro sample with dt from consecutive gyro stamps, and updates on each
+  INS attitude sample. Stamps may be wall-clock or epoch times: they are kept as integer
+  nanoseconds and the filter runs on seconds relative to the first stamp seen (a float64
+  near 1.8e9 s resolves only 2.4e-7 s), converted back to absolute stamps on output.
+  Duplicate stamps and samples older than their stream's last one (by less than
+  ``clock_jump_s``) are dropped and counted; gaps (dropped samples) and the interval
+  jitter are counted (:class:`gimbal_kinematics.stream_stats.StreamStats`); ±30 % jitter
+  needs nothing else, since every step uses its own dt. A stream whose stamps jump back by
+  more than ``clock_jump_s`` (a bag loop, a restarted driver) resets the filter and
+  re-bases the relative time. ``~/progress`` still reports the newest gyro stamp
+  processed (absolute), every ``progress_every_steps`` gyro samples, for a pacing player.
+
+In both timings the three streams are fed to the filter in stamp order
+(:class:`gimbal_kinematics.sync.StampOrder`), the encoders and INS of a stamp before its gyro
+sample, whatever order the middleware delivers them in; so a replay at any speed computes
+exactly what the run computed, and a bag replayed into the node gives what its messages
+fed to the core in stamp order give.
+
+Encoder readings are linearly interpolated, to each gyro stamp (for eq. 4's roll rate) and
+to each INS stamp (for the measured attitude), never taken at the nearest stamp: the
+gimbal moves between samples, and at a 100 Hz encoder and a 50 Hz INS with independent
+clocks the nearest sample can be 5 ms off, 5 mrad at 1 rad/s, far above the 0.05° encoder
+noise the filter assumes; interpolation leaves an error of order ¼·θ̈·dt², negligible.
+The INS body rates are interpolated to the gyro stamps the same way.
+
+Input checks (counted on /diagnostics, never fused): non-finite values and stamps (the
+core's ``rejected_nonfinite``), backward and duplicate stamps, a ``/gimbal/imu`` whose
+angular velocity is marked not provided (``[0] = -1`` without y, z variances: the older
+``[0] = -1`` with positive ``[4]``, ``[8]`` marking only the roll axis is accepted, as are
+this project's large x variance and a driver's all-zero "unknown"), an INS message whose
+angular velocity is marked not provided (eq. 4 needs it), an INS message without
+orientation (its rates are used, there is nothing to fuse), and a JointState that lacks
+one of the three gimbal joints (other joints may be present).
 
 An INS sample whose estimate cannot be produced (non-finite, or before alignment) still
-gets an output: the current estimate with that stamp, so a waiting controller never
-stalls. The node reports on ``~/progress`` (rosgraph_msgs/Clock) the next gyro step it
-needs, so the vehicle or the bag player does not outrun it.
+gets an output: the current estimate with that stamp, so a waiting controller never stalls.
+
+``use_sim_time`` works as usual: the filter runs on message stamps only; the node's clock
+(ROS time, or /clock with ``use_sim_time``) serves logging alone, and the readiness check
+runs on a steady timer, so nothing waits for a /clock that a driver graph does not have.
 """
 from __future__ import annotations
 
@@ -34,15 +76,17 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
+from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.stream_stats import StreamStats, Verdict
 from gimbal_kinematics.sync import StampOrder
 
 from . import messages as m
-from .gyro_bias_ekf import EkfOutput, GyroBiasEkf
+from .gyro_bias_ekf import GyroBiasEkf
 from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
+from .nis import NisWindow
 
 
 class GyroBiasEkfNode(Node):
@@ -50,58 +94,114 @@ class GyroBiasEkfNode(Node):
         super().__init__("gyro_bias_ekf", **node_kwargs)
         values = declare_and_read(self, PARAMS)
         self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+        timing = values["timing"]
+        self.free = timing == "free"
         self.rate = values["sim_rate_hz"]
         self.progress_every = values["progress_every_steps"]
         self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self._resets_seen = 0
         self._warned = 0
-        self.pub_bias = self.create_publisher(m.Vector3Stamped, "~/bias", GRAPH_QOS)
-        self.pub_sigma = self.create_publisher(m.Vector3Stamped, "~/bias_sigma", GRAPH_QOS)
-        self.pub_attitude = self.create_publisher(Imu, "~/attitude", GRAPH_QOS)
-        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", GRAPH_QOS)
-        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        #: origin of the filter's time [ns]: 0 in lockstep (stamps are sim time from 0), the
+        #: first stamp in free timing (epoch stamps)
+        self.t0_ns: int | None = None if self.free else 0
+        jump_ns = int(round(values["clock_jump_s"] * 1e9))
+        self.stats = {s: StreamStats(jump_ns) for s in ("gyro", "encoders", "ins")}
+        self.bad = {k: 0 for k in m.BAD_INPUT_KEYS}
+        self.nis = NisWindow(3, window=values["nis_window"])
+        self._gyro_samples = 0
+        self.io = io = NodeIo(self)
+        self.pub_bias = io.advertise(m.Vector3Stamped, "~/bias", timing)
+        self.pub_sigma = io.advertise(m.Vector3Stamped, "~/bias_sigma", timing)
+        self.pub_attitude = io.advertise(Imu, "~/attitude", timing)
+        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing)
+        self.pub_progress = io.advertise(Clock, "~/progress", timing)
         # Encoders and INS before the gyro of the same stamp: the gyro sample completes a step.
         self._handlers = {"encoders": self._on_encoders, "ins": self._on_ins, "gyro": self._on_gyro}
         self.order = StampOrder(tuple(self._handlers), int(round(values["max_sync_wait_s"] * 1e9)))
         self.subs = [
-            self.create_subscription(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), GRAPH_QOS),
-            self.create_subscription(JointState, "/gimbal/joint_states", lambda msg: self._on_input("encoders", msg),
-                                     GRAPH_QOS),
-            self.create_subscription(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), GRAPH_QOS),
+            io.subscribe(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), timing),
+            io.subscribe(JointState, "/gimbal/joint_states", lambda msg: self._on_input("encoders", msg), timing),
+            io.subscribe(Imu, "/ins/imu", lambda msg: self._on_input("ins", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, inputs=self.subs)
 
+    # ----------------------------------------------------------------- time
+    def _t(self, t_ns: int) -> float:
+        """Filter time [s] of an absolute stamp [ns] (relative to :attr:`t0_ns`)."""
+        return (t_ns - self.t0_ns) * 1e-9
+
+    def _stamp(self, t: float) -> int:
+        """Absolute stamp [ns] of a filter time [s]."""
+        return self.t0_ns + int(round(t * 1e9))
+
     # ----------------------------------------------------------------- inputs
     def _on_input(self, stream: str, msg) -> None:
-        for kind, item in self.order.add(stream, m.stamp_ns(msg.header.stamp), msg):
+        t_ns = m.stamp_ns(msg.header.stamp)
+        if self.free:
+            verdict = self.stats[stream].offer(t_ns)
+            if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
+                return  # counted; the filter already used a later sample of this stream
+            if verdict is Verdict.JUMPED_BACK:
+                self._restart(stream, t_ns)
+            if self.t0_ns is None:
+                self.t0_ns = t_ns
+        for kind, item in self.order.add(stream, t_ns, msg):
             self._handlers[kind](item)
+
+    def _restart(self, stream: str, t_ns: int) -> None:
+        """A clock jump back (bag loop, restarted driver): forget the old run's buffered
+        messages, reset the filter, and take this stamp as the new time origin."""
+        self.core.reset(f"clock jumped back on {stream} to {t_ns * 1e-9:.6f} s", 0.0)
+        self.order = StampOrder(self.order.streams, self.order.max_wait_ns)
+        for other, st in self.stats.items():
+            if other != stream:
+                st.last_ns = None  # the other streams' next stamps belong to the new run
+        self.t0_ns = None
 
     def _on_gyro(self, msg: Imu) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
+        if not m.gyro_rates_provided(msg):
+            self.bad["gyro_not_provided"] += 1
+            self._warn("gimbal gyro message with angular velocity marked not provided ignored")
+            return
         w = msg.angular_velocity
-        self._after(self.core.on_gyro(t_ns * 1e-9, w.y, w.z))
+        self.core.on_gyro(self._t(t_ns), w.y, w.z)
+        self._after()
+        if self.free:
+            self._gyro_samples += 1
+            if self._gyro_samples % self.progress_every == 0:
+                self.pub_progress.publish(m.clock_msg(t_ns))
+            return
         k = m.step_of_stamp(t_ns, self.rate)
         if (k + 1) % self.progress_every == 0:
             self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + 1, self.rate)))
 
     def _on_encoders(self, msg: JointState) -> None:
-        readings = m.encoder_readings(msg)
+        readings = m.encoder_angles(msg)
         if readings is None:
-            self._warn("encoder message without the three gimbal joints ignored")
+            self.bad["joint_names_missing"] += 1
+            self._warn(f"encoder message without the joints {list(m.GIMBAL_ENCODER_JOINTS)} ignored")
             return
-        self._after(self.core.on_encoders(m.stamp_ns(msg.header.stamp) * 1e-9, *readings))
+        self.core.on_encoders(self._t(m.stamp_ns(msg.header.stamp)), *readings)
+        self._after()
 
     def _on_ins(self, msg: Imu) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
+        if not m.field_provided(msg.angular_velocity_covariance):
+            self.bad["ins_rates_not_provided"] += 1
+            self._warn(f"INS sample at {t_ns * 1e-9:.3f} s without body rates (eq. 4 needs them) ignored; "
+                       "publishing the current estimate")
+            self._publish_current(t_ns)
+            return
         euler = m.euler_of_imu(msg)
+        if euler is None:
+            self.bad["ins_attitude_not_provided"] += 1
         before = self.core.counters
-        out = self.core.on_ins(t_ns * 1e-9, euler, m.vec_of(msg.angular_velocity))
+        self.core.on_ins(self._t(t_ns), euler, m.vec_of(msg.angular_velocity))
         after = self.core.counters
-        if out is not None:
-            self._after(out)
-        elif euler is None or after.rejected_nonfinite > before.rejected_nonfinite \
-                or after.rejected_out_of_order > before.rejected_out_of_order:
+        if not self._after() and (euler is None or after.rejected_nonfinite > before.rejected_nonfinite \
+                or after.rejected_out_of_order > before.rejected_out_of_order):
             # No update will come for this stamp: publish the current estimate so a controller
             # waiting for it carries on. (An accepted sample whose gyro has not arrived yet
             # is answered by the update, when it does.)
@@ -114,17 +214,20 @@ class GyroBiasEkfNode(Node):
         self._warned += 1
         self.get_logger().warning(f"{text} ({self._warned} warnings)", throttle_duration_sec=1.0)
 
-    def _after(self, out: EkfOutput | None) -> None:
+    def _after(self) -> bool:
+        """Log a reset; publish every output the last core call produced; whether any."""
         c = self.core.counters
         if c.resets + c.realignments > self._resets_seen:
             self._resets_seen = c.resets + c.realignments
             t, reason = self.core.reset_log[-1]
             self.get_logger().warning(f"filter reset at {t:.3f} s: {reason}")
             self._next_diag_ns = 0
-        if out is None:
-            return
-        t_ns = int(round(out.t * 1e9))
-        self._publish(t_ns, out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
+        outs = self.core.take_outputs()
+        for out in outs:
+            if self.free and (out.d2 > 0.0 or not out.accepted):
+                self.nis.add(out.d2)  # an update (accepted or gated), not an alignment
+            self._publish(self._stamp(out.t), out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
+        return bool(outs)
 
     def _publish_current(self, t_ns: int) -> None:
         core = self.core
@@ -140,7 +243,21 @@ class GyroBiasEkfNode(Node):
         self.pub_attitude.publish(m.attitude_msg(t_ns, quat, att_cov, rate))
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
-            self.pub_diag.publish(m.health_msg(t_ns, self.get_name(), self.core.counters, self.core.aligned))
+            self.pub_diag.publish(self.health(t_ns))
+
+    def health(self, t_ns: int) -> DiagnosticArray:
+        """The /diagnostics message (module docstring); free timing adds the input counters,
+        the incompatible-QoS peers and the NIS window."""
+        if not self.free:
+            return m.health_msg(t_ns, self.get_name(), self.core.counters, self.core.aligned)
+        extra: dict = {}
+        for name, st in self.stats.items():
+            extra.update(st.as_dict(name))
+        extra.update(self.bad)
+        extra["incompatible_qos"] = self.io.incompatible_qos
+        extra.update(self.nis.as_dict())
+        return m.health_msg(t_ns, self.get_name(), self.core.counters, self.core.aligned, extra,
+                            self.nis.verdict().verdict)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -132,6 +132,7 @@ PARAMS = (
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]: maps gyro stamps to steps for ~/progress", 1.0, 100000.0),
     Param("progress_every_steps", 10, "report the next step needed on ~/progress every N gyro steps", 1, 10**6),
     Param("diagnostics_period_s", 1.0, "health on /diagnostics every this much sim time [s]", 1e-3, 1e6),
+    Param("nis_window", 100, "measurement updates in the NIS window on /diagnostics (free timing)", 1, 10**6),
     Param("lat_deg", _EKF_DEFAULTS.lat_deg, "site latitude [deg] (earth rate, transport rate)", -89.999, 89.999),
     Param("height_m", _EKF_DEFAULTS.height_m, "site height [m]", -1e4, 1e5),
     Param("velocity_n_m_s", list(_EKF_DEFAULTS.velocity_n_m_s), "NED velocity [m/s] for the transport rate"),

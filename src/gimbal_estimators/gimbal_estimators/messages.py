@@ -9,7 +9,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
-from gimbal_kinematics.frames import GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401  (used by the nodes)
+from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401
 from gimbal_kinematics.rotations import euler321_from_quat
 from gimbal_kinematics.ros.messages import (  # noqa: F401
     NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, imu_msg, navsat_fix_msg, quat_of, stamp_ns, step_of_stamp,
@@ -43,17 +43,26 @@ def attitude_msg(t_ns: int, quat_nm: Sequence[float] | None, cov_n: Sequence[Seq
     return imu_msg(t_ns, NAV_FRAME, orientation=quat_nm, orientation_cov=cov, angular_velocity=rate_m)
 
 
-def health_msg(t_ns: int, name: str, counters, aligned: bool) -> DiagnosticArray:
+def health_msg(t_ns: int, name: str, counters, aligned: bool, extra: dict | None = None,
+               nis_verdict: str | None = None) -> DiagnosticArray:
     """One DiagnosticStatus with an estimator's counters (a NamedTuple of ints): OK when
     aligned with no resets, WARN after resets/re-alignments or gated updates, STALE before
-    alignment."""
+    alignment. ``extra`` (free timing): more key/values after the counters (input
+    counters, incompatible-QoS peers, the NIS window); a NIS verdict other than
+    consistent or insufficient, or a non-zero input counter, is a WARN too."""
     status = DiagnosticStatus(name=f"{name}: health", hardware_id=name)
     fields = counters._asdict()
+    if extra:
+        fields = {**fields, **extra}
     if not aligned:
         status.level, status.message = DiagnosticStatus.STALE, "not aligned"
     elif any(fields.get(k, 0) for k in ("resets", "realignments", "gated", "rejected_nonfinite",
                                          "rejected_out_of_order")):
         status.level, status.message = DiagnosticStatus.WARN, "running; inputs rejected or filter reset (see values)"
+    elif nis_verdict in ("overconfident", "conservative"):
+        status.level, status.message = DiagnosticStatus.WARN, f"running; NIS {nis_verdict} (see nis_*)"
+    elif extra and any(extra.get(k, 0) for k in BAD_INPUT_KEYS + ("incompatible_qos",)):
+        status.level, status.message = DiagnosticStatus.WARN, "running; inputs not fused or QoS mismatch (see values)"
     else:
         status.level, status.message = DiagnosticStatus.OK, "running"
     status.values = [KeyValue(key=k, value=str(v)) for k, v in fields.items()]
@@ -138,3 +147,44 @@ def north_only(value: float, sigma: bool = False) -> tuple[float, float, float]:
     """A north component as an NED vector (east/down 0, or not-estimated for a σ vector)."""
     rest = NOT_ESTIMATED if sigma else 0.0
     return float(value), rest, rest
+
+
+# --- free timing: what a driver or another tool may send -----------------------------------
+#: Input-check counters of an estimator node (free timing), by name; each counts messages
+#: or samples that were not fused.
+BAD_INPUT_KEYS = ("gyro_not_provided", "ins_rates_not_provided", "ins_attitude_not_provided",
+                  "joint_names_missing")
+
+
+def gyro_rates_provided(msg: Imu) -> bool:
+    """Whether a two-axis gyro message carries its y, z rates. Three forms are accepted:
+    x marked by a very large variance on its diagonal element (this project's form,
+    REP 145's "unmeasured axis"), all zeros ("covariance unknown", what many drivers send)
+    and the older form of this project's bags, ``[0] = -1`` with positive y and z variances
+    (``[4]``, ``[8]``), which marked only the roll axis. ``[0] = -1`` without them means the
+    whole field is not provided (REP 145)."""
+    cov = msg.angular_velocity_covariance
+    if cov[0] == -1.0:
+        return cov[4] > 0.0 and cov[8] > 0.0
+    return True
+
+
+def field_provided(cov) -> bool:
+    """REP 145: a field whose covariance element 0 is -1 is not provided."""
+    return cov[0] != -1.0
+
+
+def encoder_angles(msg: JointState) -> tuple[tuple[float, ...], tuple[float, ...] | None] | None:
+    """(angles, rates or None) of the three gimbal joints in the order turret, gimbal
+    azimuth, elevation, from a JointState that names them in any order among other joints
+    (a driver's); rates are None when the message has no velocities. None when a joint is
+    missing or has no position."""
+    names = list(msg.name)
+    try:
+        idx = [names.index(j) for j in GIMBAL_ENCODER_JOINTS]
+    except ValueError:
+        return None
+    if max(idx) >= len(msg.position):
+        return None
+    rates = tuple(msg.velocity[i] for i in idx) if len(msg.velocity) == len(names) else None
+    return tuple(msg.position[i] for i in idx), rates

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Iterable
 
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.subscription import Subscription
@@ -15,7 +16,8 @@ def announce_when_connected(node: Node, progress: Publisher, inputs: Iterable[Su
                             outputs: Iterable[Publisher] = (), readers: int = 1, period_s: float = 0.02) -> None:
     """Every ``period_s`` [s] (a wall-clock timer: this waits for discovery, not for steps),
     check that each of ``inputs`` has a publisher and each of ``outputs`` ``readers``
-    subscriptions; then publish step 0 on ``progress`` once and stop checking."""
+    subscriptions; then publish step 0 on ``progress`` once and stop checking. The timer
+    runs on the steady clock, so it fires with ``use_sim_time`` before any /clock."""
     inputs, outputs = tuple(inputs), tuple(outputs)
     timer = None
 
@@ -28,4 +30,4 @@ def announce_when_connected(node: Node, progress: Publisher, inputs: Iterable[Su
         node.destroy_timer(timer)
         progress.publish(m.clock_msg(0))
 
-    timer = node.create_timer(period_s, check)
+    timer = node.create_timer(period_s, check, clock=Clock(clock_type=ClockType.STEADY_TIME))
