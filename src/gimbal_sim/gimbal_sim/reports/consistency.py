@@ -17,7 +17,7 @@ one of ours) into the EKF core, exactly as the ``gyro_bias_ekf`` node feeds it, 
 
 Parameters come from the run's ``params/gyro_bias_ekf.yaml`` when the bag is one of our
 runs, else the node's defaults (``config/gyro_bias_ekf.yaml``). Times on the plots are
-seconds from the first sensor stamp (the stamps may be epoch times).
+seconds from the first estimate (the stamps may be epoch times).
 """
 from __future__ import annotations
 
@@ -80,8 +80,6 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
     t0 = None
     for t_ns, o in ekf_outputs(messages, ekf):
         t0 = t_ns if t0 is None else t0
-        if o is None:
-            continue
         stamps.append(t_ns - t0)
         bias.append(o.bias)
         sigma.append(o.bias_sigma)
@@ -117,14 +115,14 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
         ax.fill_between(t, (bias[:, i] - 3 * sigma[:, i]) * _DEG_H, (bias[:, i] + 3 * sigma[:, i]) * _DEG_H,
                         alpha=0.25, label="±3σ")
         style(ax, "[deg/h]")
-    save_stacked(fig, axes, out / "bias_3sigma.png", "Gyro bias estimates ±3σ", xlabel="time from first stamp [s]")
+    save_stacked(fig, axes, out / "bias_3sigma.png", "Gyro bias estimates ±3σ", xlabel="time from the first estimate [s]")
     plots.append("bias_3sigma.png")
     fig, axes = stacked(1, 4.5)
     for i, axis in enumerate(("x", "y", "z")):
         axes[0, 0].plot(t, innov[:, i] * _ARCSEC, label=f"innovation {axis}", linewidth=0.6)
     style(axes[0, 0], "[arcsec]")
     save_stacked(fig, axes, out / "innovations.png", "EKF innovations (measured vs predicted C(n,m))",
-                 xlabel="time from first stamp [s]")
+                 xlabel="time from the first estimate [s]")
     plots.append("innovations.png")
     if windows:
         w = np.array([(a, b, c, d) for a, b, c, d, _ in windows])
@@ -137,7 +135,7 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
         ax.set_yscale("log")
         style(ax, "NIS")
         save_stacked(fig, axes, out / "nis.png", "Normalised innovation squared against its chi-square bounds",
-                     xlabel="time from first stamp [s]")
+                     xlabel="time from the first estimate [s]")
         plots.append("nis.png")
     verdicts = [v for *_, v in windows]
     return {
