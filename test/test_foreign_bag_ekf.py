@@ -130,3 +130,31 @@ def test_foreign_bag_replays_into_a_fresh_ekf_exactly(foreign_bag, ros_domain_en
     assert set(got) == set(ins_stamps)      # one estimate per INS sample, stamped like it
     for t_ns, bias in want.items():
         assert np.max(np.abs(got[t_ns] - bias)) <= 1e-9, t_ns
+
+
+def test_consistency_report_on_a_bag_without_truth(foreign_bag, tmp_path):
+    """gimbal-report --report consistency on the foreign bag (no truth topics): its figures
+    against the core fed by rosbags' reading, and the NIS bounds against scipy's chi-square."""
+    import json
+    import shutil
+
+    from scipy.stats import chi2
+
+    bag = tmp_path / "bag"
+    shutil.copytree(foreign_bag, bag)
+    result = subprocess.run([str(VENV_BIN / "gimbal-report"), str(bag), "--report", "consistency"],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    metrics = json.loads((bag / "report" / "metrics.json").read_text())
+    want, _ = core_estimates(foreign_bag)
+    last = want[max(want)]
+    assert np.allclose(np.radians(np.array(metrics["bias_final_deg_h"]) / 3600.0), last, rtol=0, atol=1e-12)
+    assert metrics["outputs"] == len(want)
+    nis = metrics["nis"]
+    n = nis["samples"]
+    assert n == metrics["updates"] - 1      # every update after the initial alignment
+    assert nis["lower_95"] == pytest.approx(chi2.ppf(0.025, 3 * n) / n, rel=1e-9)
+    assert nis["upper_95"] == pytest.approx(chi2.ppf(0.975, 3 * n) / n, rel=1e-9)
+    assert nis["windows"] == n // 100 and sum(nis["windows_by_verdict"].values()) == n // 100
+    assert {"bias_3sigma.png", "innovations.png", "nis.png"} <= set(metrics["plots"])
+    assert all((bag / "report" / p).is_file() for p in metrics["plots"])
