@@ -82,7 +82,10 @@ def test_nan_measurements_hold_the_command_and_are_counted(ros_domain_env):
     bad = {5: "gyro", 8: "enc", 11: "base"}
     steps = 16
     with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"])) as (node, executor):
-        ctl = EncoderFusionControllerNode(context=node.context)
+        from rclpy.parameter import Parameter
+
+        ctl = EncoderFusionControllerNode(context=node.context,
+                                          parameter_overrides=[Parameter("timing", value="lockstep")])
         executor.add_node(ctl)
         try:
             pubs = {"gyro": node.create_publisher(Imu, "/gimbal/imu", GRAPH_QOS),

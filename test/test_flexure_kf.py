@@ -467,7 +467,6 @@ def test_random_walk_rate_model_tracks_and_is_consistent(ship_runs):
     c = r.counters
     assert c["gated"] == 0 and c["resets"] == 0 and c["updates"] == m["n_epochs"] + 600 * 10 - 1
     assert r.series["t"].size == pytest.approx(7200, abs=2)
-    assert r.filter_us_per_pair < 1000.0  # loose: shared CI machines; measured ~40 µs
 
 
 # ---------------------------------------------------------------- experiment command line

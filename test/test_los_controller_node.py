@@ -53,7 +53,7 @@ def test_nan_holds_the_command_malformed_bytes_are_counted_and_each_step_waits(r
     imu, joints = m.imu_from_cdr, m.joint_state_from_cdr
     context = Context()
     rclpy.init(context=context, domain_id=int(ros_domain_env["ROS_DOMAIN_ID"]))
-    node = LosRateControllerNode(context=context, cli_args=ros_args({}), use_global_arguments=False)
+    node = LosRateControllerNode(context=context, cli_args=ros_args({"timing": "lockstep"}), use_global_arguments=False)
     sent = []
     node.pub.publish = sent.append
     try:

@@ -49,7 +49,7 @@ def servo_node(domain_env, params: dict | None = None):
     (inputs are handed to its subscription callbacks directly, so the test is exact)."""
     context = Context()
     rclpy.init(context=context, domain_id=int(domain_env["ROS_DOMAIN_ID"]))
-    node = PlatformServoNode(context=context, cli_args=ros_args(params or {}), use_global_arguments=False)
+    node = PlatformServoNode(context=context, cli_args=ros_args({"timing": "lockstep", **(params or {})}), use_global_arguments=False)
     sent = defaultdict(list)
     for name, pub in (("cmd", node.pub), ("error", node.pub_error), ("mod", node.pub_mod)):
         pub.publish = sent[name].append

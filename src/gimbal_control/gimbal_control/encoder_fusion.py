@@ -1,4 +1,4 @@
-"""Paper 2: two-axis gimbal stabilization by PID with encoder/gyro fusion (SPEC §3.2).
+"""Paper 2: two-axis gimbal stabilization by PID with encoder/gyro fusion (docs/spec.md §3.2).
 
 What the loop controls (our reading of paper 2, Fig. 1)
 -------------------------------------------------------

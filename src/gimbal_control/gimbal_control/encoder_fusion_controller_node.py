@@ -17,9 +17,17 @@ Diagnostics (``geometry_msgs/Vector3Stamped``, (0, q, r) in ``gimbal_inner_frd``
 
 Bad input: a NaN/inf measurement holds the last command (counted, warned at most once a
 second); invalid modes, gains and rates are refused at startup naming the parameter.
+
+That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
+driver or a bag) never waits: each gyro sample makes one command, stamped like it, with the
+newest encoder and base-rate samples no older than ``max_input_age_s``; a stale or missing
+one zeroes the command, counted (:mod:`.free_loop` says why and what else is counted, on
+``/diagnostics``). The encoder angle is the newest sample's, not interpolated to the gyro
+stamp: the filter's gate integrates the gyro between encoder stamps itself.
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from geometry_msgs.msg import Vector3Stamped
@@ -27,12 +35,13 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import EagerStepGroups
 
 from . import messages as m
+from .free_loop import FreeLoop
 from .encoder_fusion import EncoderFusionController, EncoderFusionParams
 from .encoder_fusion_controller_params import DESCRIPTION, PARAMS
 
@@ -53,13 +62,21 @@ class EncoderFusionControllerNode(Node):
         self._angles: tuple[float, float] | None = None
         self._kf_updates = 0
         self.held = 0  # steps whose command was held (bad or missing input)
-        self.pub_cmd = self.create_publisher(JointState, "/gimbal/torque_cmd", GRAPH_QOS)
-        self.pub_feedback = self.create_publisher(Vector3Stamped, "~/feedback_velocity", GRAPH_QOS)
-        self.pub_correction = self.create_publisher(Vector3Stamped, "~/drift_correction", GRAPH_QOS)
-        self.create_subscription(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), GRAPH_QOS)
-        self.create_subscription(JointState, "/gimbal/joint_states", lambda msg: self._on_input("enc", msg),
-                                 GRAPH_QOS)
-        self.create_subscription(Imu, "/truth/host/imu", lambda msg: self._on_input("base", msg), GRAPH_QOS)
+        self.timing = timing = v["timing"]
+        self.io = NodeIo(self)
+        self.pub_cmd = self.io.advertise(JointState, "/gimbal/torque_cmd", timing)
+        self.pub_feedback = self.io.advertise(Vector3Stamped, "~/feedback_velocity", timing)
+        self.pub_correction = self.io.advertise(Vector3Stamped, "~/drift_correction", timing)
+        on_input = self._on_input
+        if timing == "free":
+            p = self.core.params
+            self.free = FreeLoop(self, self.io, "gyro", {"enc": v["max_input_age_s"], "base": v["max_input_age_s"]},
+                                 1.0 / self.rate, p.backward_jump_s, v["diagnostics_period_s"])
+            self._fed = {"enc": None, "base": None}  # stamps already given to the core
+            on_input = self._on_free_input
+        self.io.subscribe(Imu, "/gimbal/imu", lambda msg: on_input("gyro", msg), timing)
+        self.io.subscribe(JointState, "/gimbal/joint_states", lambda msg: on_input("enc", msg), timing)
+        self.io.subscribe(Imu, "/truth/host/imu", lambda msg: on_input("base", msg), timing)
 
     def _hold(self, k: int, why: str) -> None:
         self.held += 1
@@ -107,6 +124,62 @@ class EncoderFusionControllerNode(Node):
         if updates != self._kf_updates:
             self._kf_updates = updates
             self.pub_correction.publish(m.gimbal_axes_msg(t_ns, *self.core.corrections))
+
+
+    # ------------------------------------------------------------------ free timing
+    def _usable(self, kind: str, msg):
+        """What the loop takes from a message, or None (counted) when it cannot be used."""
+        count = self.free.count
+        if kind == "enc":
+            readings = m.encoder_readings(msg)
+            if readings is None:
+                count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
+                return None
+            value = (readings[0][1], readings[0][2])
+        else:
+            if not (m.gyro_qr_provided if kind == "gyro" else m.field_provided)(msg.angular_velocity_covariance):
+                count("rejected_no_rates", f"{kind} angular velocity marked not provided; not fused")
+                return None
+            value = m.vec_of(msg.angular_velocity)
+            if kind == "gyro":
+                return value[1:]  # (q, r); NaN is the core's to reject (it holds the command)
+        if not all(map(math.isfinite, value)):
+            count("rejected_nonfinite", f"non-finite {kind} sample; not fused")
+            return None
+        return value
+
+    def _on_free_input(self, kind: str, msg) -> None:
+        value = self._usable(kind, msg)
+        if value is None:
+            return
+        stamp = m.stamp_ns(msg.header.stamp)
+        free, core = self.free, self.core
+        step = free.gate.add(kind, stamp, (stamp, value))
+        if step is None:
+            return
+        if not free.fresh(step, core.reset):
+            tau = (0.0, 0.0)
+            self._fed = {"enc": None, "base": None}
+        else:
+            if step.restarted:
+                self._fed = {"enc": None, "base": None}
+            for other, feed in (("base", core.on_base_rates), ("enc", lambda t, a: core.on_encoders(t, *a))):
+                t_in, val = step.inputs[other]
+                if self._fed[other] is None or t_in > self._fed[other]:
+                    self._fed[other] = t_in
+                    feed(free.seconds(t_in), val)
+            out = core.on_gyro(step.t_ns * 1e-9, *value)
+            if out is None or out.held:  # None: a stamp the core refused (counted there)
+                if out is not None:
+                    free.count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
+                tau = core.command
+            else:
+                tau = (out.torque_azimuth, out.torque_elevation)
+                self.pub_feedback.publish(m.gimbal_axes_msg(stamp, out.velocity_q, out.velocity_r))
+        self.pub_cmd.publish(m.torque_command_msg(stamp, tau))
+        free.diagnostics(stamp, {"held_commands": core.held_commands, "core_rejected_nonfinite":
+                                 core.rejected_nonfinite, "core_rejected_out_of_order": core.rejected_out_of_order,
+                                 "resets": len(core.reset_reasons)})
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -5,7 +5,7 @@ them). The mapping to the core's parameters is
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import TIMING_PARAM, Param
 
 from .encoder_fusion import (
     ENCODER_LOOP_BANDWIDTH_HZ, LOOP_BANDWIDTH_HZ, MODES, TORQUE_LIMIT_NM, UAV_AZIMUTH_INERTIA_KG_M2,
@@ -26,8 +26,13 @@ _CORE = EncoderFusionParams()
 PARAMS = (
     Param("mode", "fused", "feedback velocity: encoder (pulse-count rate), gyro (raw MEMS gyro) or fused "
           "(gyro corrected by the complementary KF)", choices=MODES),
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step on the gyro sample",
-          1.0, 100000.0),
+    TIMING_PARAM,
+    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step on the gyro sample. In "
+          "free timing: the gyro's nominal rate (the drop count)", 1.0, 100000.0),
+    Param("max_input_age_s", 0.1, "free timing: the newest encoder and base-rate samples may be this much older than the gyro "
+          "sample [s]; older (or none): the command is zeroed, counted", 1e-4, 100.0),
+    Param("diagnostics_period_s", 1.0, "free timing: /diagnostics with the counters every this much stamp time [s]",
+          1e-3, 3600.0),
     Param("encoder_rate_hz", 1000.0, "encoder output rate [Hz] (must divide sim_rate_hz)", 1e-3, 100000.0),
     Param("base_rate_hz", 1000.0, "UAV autopilot body-rate output rate [Hz] (must divide sim_rate_hz)",
           1e-3, 100000.0),

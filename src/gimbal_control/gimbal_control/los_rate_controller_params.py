@@ -6,7 +6,7 @@ mappings to the cores' parameters are
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 1 LOS rate stabilization controller: dynamic inversion of the linearized gimbal and a PI "
@@ -14,7 +14,15 @@ DESCRIPTION = (
     "anti-windup, optional gyro-bias feedback. Publishes /gimbal/torque_cmd for each step."
 )
 PARAMS = (
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step", 1.0, 100000.0),
+    TIMING_PARAM,
+    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step. In free timing: the gyro's "
+          "nominal rate (the integrator's nominal step, the drop count)", 1.0, 100000.0),
+    Param("max_input_age_s", 0.1, "free timing: the newest encoder and INS samples may be this much older than the "
+          "gyro sample [s]; older (or none): the command is zeroed, counted", 1e-4, 100.0),
+    Param("max_estimate_age_s", 0.5, "free timing: the same for the EKF's bias and attitude estimates [s]",
+          1e-4, 100.0),
+    Param("diagnostics_period_s", 1.0, "free timing: /diagnostics with the counters every this much stamp time [s]",
+          1e-3, 3600.0),
     Param("ins_rate_hz", 100.0, "INS output rate [Hz] (the controller waits for it at its steps)", 1e-3, 100000.0),
     Param("omega_n_hz", 25.0, "closed-loop natural frequency omega_n [Hz] (< sim_rate_hz / 4)", 1e-3, 25000.0),
     Param("zeta", 0.8, "damping ratio zeta [-]", 1e-3, 10.0),

@@ -1,4 +1,4 @@
-"""Paper 3: four-gimbal platform servo with bidirectional rotation modulation (SPEC §3.3).
+"""Paper 3: four-gimbal platform servo with bidirectional rotation modulation (docs/spec.md §3.3).
 
 Four PID loops at 1 kHz: azimuth a, inner roll q, pitch p, outer roll r. Each one outputs
 the voltage of its gimbal's DC torque motor.

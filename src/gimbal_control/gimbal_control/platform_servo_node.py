@@ -19,6 +19,12 @@ Bad input: a NaN/inf gyro sample (or resolvers at gimbal lock) holds the last co
 NaN/inf or malformed resolver sample is ignored (the last angles are kept); both are counted
 and warned about at most once a second. A stamp at or before the last step is rejected and
 counted; one more than ``backward_jump_s`` back (a replayed bag looping) restarts the servo.
+
+That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
+driver or a bag) never waits: each platform gyro sample makes one command, stamped like it,
+with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
+zeroes the voltages, counted (:mod:`.free_loop` says why and what else is counted, on
+``/diagnostics``).
 """
 from __future__ import annotations
 
@@ -30,11 +36,12 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.sync import StepGroups
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
+from .free_loop import FreeLoop
 from .platform_servo import PlatformServo, PlatformServoParams
 from .platform_servo_params import DESCRIPTION, PARAMS
 
@@ -52,13 +59,21 @@ class PlatformServoNode(Node):
         self._ticks = 0
         self.rejected_resolvers = 0
         self._seen = (0, 0, 0)  # core counters already warned about
-        self.pub = self.create_publisher(JointState, "/platform/voltage_cmd", GRAPH_QOS)
-        self.pub_error = self.create_publisher(JointState, "~/control_error", GRAPH_QOS)
-        self.pub_mod = self.create_publisher(JointState, "~/modulation", GRAPH_QOS)
-        self.create_subscription(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), GRAPH_QOS)
-        self.create_subscription(JointState, "/platform/resolvers", lambda msg: self._on_input("res", msg), GRAPH_QOS)
-        if self.imu_every > 1:  # steps without a gyro sample still need their (held) command
-            self.create_subscription(Clock, "/clock", lambda msg: self._on_input("clock", msg), GRAPH_QOS)
+        self.timing = timing = v["timing"]
+        self.io = NodeIo(self)
+        self.pub = self.io.advertise(JointState, "/platform/voltage_cmd", timing)
+        self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
+        self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
+        on_input = self._on_input
+        if timing == "free":
+            self.free = FreeLoop(self, self.io, "imu", {"res": v["max_input_age_s"]}, 1.0 / v["imu_rate_hz"],
+                                 v["backward_jump_s"], v["diagnostics_period_s"])
+            self._fed_res: int | None = None
+            on_input = self._on_free_input
+        self.io.subscribe(Imu, "/platform/imu", lambda msg: on_input("imu", msg), timing)
+        self.io.subscribe(JointState, "/platform/resolvers", lambda msg: on_input("res", msg), timing)
+        if self.imu_every > 1 and timing == "lockstep":  # steps without a gyro sample still need their command
+            self.io.subscribe(Clock, "/clock", lambda msg: self._on_input("clock", msg), timing)
 
     def _warn(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=1.0)
@@ -104,6 +119,44 @@ class PlatformServoNode(Node):
             if (self._ticks - 1) % self.diag_every == 0:
                 self.pub_error.publish(m.platform_control_error_msg(t_ns, out.control_signals))
                 self.pub_mod.publish(m.modulation_msg(t_ns, out.phi_z, out.phi_z_rate))
+
+
+    # ------------------------------------------------------------------ free timing
+    def _on_free_input(self, kind: str, msg) -> None:
+        free, core = self.free, self.core
+        if kind == "res":
+            value = m.platform_joint_positions(msg)
+            if value is None:
+                free.count("rejected_joint_names", "resolver message without the four platform joints")
+                return
+        else:
+            if not m.field_provided(msg.angular_velocity_covariance):
+                free.count("rejected_no_rates", "platform gyro angular velocity marked not provided; not fused")
+                return
+            value = m.vec_of(msg.angular_velocity)
+        stamp = m.stamp_ns(msg.header.stamp)
+        step = free.gate.add(kind, stamp, (stamp, value))
+        if step is None:
+            return
+        out = None
+        if not free.fresh(step, core.reset):
+            volts = (0.0, 0.0, 0.0, 0.0)
+            self._fed_res = None
+        else:
+            t_res, angles = step.inputs["res"]
+            if step.restarted or self._fed_res is None or t_res > self._fed_res:
+                self._fed_res = t_res
+                core.on_resolvers(free.seconds(t_res), angles)  # the core counts a non-finite one
+            out = core.on_gyro(step.t_ns * 1e-9, value)
+            volts = out.voltages if out is not None else core.command_voltages
+        self.pub.publish(m.platform_voltage_msg(stamp, volts))
+        if out is not None:
+            self._ticks += 1
+            if (self._ticks - 1) % self.diag_every == 0:
+                self.pub_error.publish(m.platform_control_error_msg(stamp, out.control_signals))
+                self.pub_mod.publish(m.modulation_msg(stamp, out.phi_z, out.phi_z_rate))
+        free.diagnostics(stamp, {"core_rejected_nonfinite": core.rejected_nonfinite, "held_commands":
+                                 core.held_commands, "rejected_gimbal_lock": core.rejected_gimbal_lock})
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -4,7 +4,7 @@ the core's parameters is :meth:`.platform_servo.PlatformServoParams.from_values`
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 3 four-gimbal platform servo: four PID loops (azimuth, inner roll, pitch, outer roll) on the "
@@ -15,7 +15,13 @@ DESCRIPTION = (
 INF = float("inf")
 
 PARAMS = (
-    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; one command per step", 1.0, 100000.0),
+    TIMING_PARAM,
+    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; one command per step. In free timing: the platform gyro's "
+          "nominal rate (the drop count)", 1.0, 100000.0),
+    Param("max_input_age_s", 0.1, "free timing: the newest resolver sample may be this much older than the gyro "
+          "sample [s]; older (or none): the command is zeroed, counted", 1e-4, 100.0),
+    Param("diagnostics_period_s", 1.0, "free timing: /diagnostics with the counters every this much stamp time [s]",
+          1e-3, 3600.0),
     Param("imu_rate_hz", 1000.0, "platform gyro rate [Hz] = the control rate (paper 3: 1 kHz); divides sim_rate_hz",
           1e-3, 100000.0),
     Param("resolver_rate_hz", 1000.0, "gimbal resolver rate [Hz]; divides sim_rate_hz", 1e-3, 100000.0),

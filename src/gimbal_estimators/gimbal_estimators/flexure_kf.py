@@ -1,4 +1,4 @@
-"""Ship angular-flexure Kalman filter from two ring-laser-gyro units (paper 5, SPEC §3.5).
+"""Ship angular-flexure Kalman filter from two ring-laser-gyro units (paper 5, docs/spec.md §3.5).
 
 Frames and attitude integration
 -------------------------------
@@ -103,7 +103,7 @@ _DEG_H_RT_H = _DEG_H / 60.0
 @dataclass(frozen=True)
 class FlexureKfParams:
     """Filter parameters (engineering units in the field names; per-axis fields take a scalar
-    or a (roll, pitch, yaw) triple). Defaults match the paper 5 simulation (SPEC §3.5).
+    or a (roll, pitch, yaw) triple). Defaults match the paper 5 simulation (docs/spec.md §3.5).
 
     Attributes:
         quasi_static_model: ``"random_constant"`` or ``"random_walk_rate"`` (eq. 10).

@@ -1,4 +1,4 @@
-"""Free-gyro positioning and heading (paper 4, SPEC §3.4): message-driven core.
+"""Free-gyro positioning and heading (paper 4, docs/spec.md §3.4): message-driven core.
 
 Inputs (each with its message time stamp t [s]):
 

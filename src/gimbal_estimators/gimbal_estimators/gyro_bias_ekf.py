@@ -1,4 +1,4 @@
-"""Gyro-bias EKF of paper 1 §3 (SPEC §3.1): attitude C(n,m) of the inner gimbal + gyro biases.
+"""Gyro-bias EKF of paper 1 §3 (docs/spec.md §3.1): attitude C(n,m) of the inner gimbal + gyro biases.
 
 Message-driven, pure Python (no rclpy). Feed it the three sensor streams with their stamps:
 

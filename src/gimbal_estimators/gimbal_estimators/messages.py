@@ -12,8 +12,8 @@ from sensor_msgs.msg import Imu, JointState, NavSatFix
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401
 from gimbal_kinematics.rotations import euler321_from_quat
 from gimbal_kinematics.ros.messages import (  # noqa: F401
-    NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, imu_msg, navsat_fix_msg, quat_of, stamp_ns, step_of_stamp,
-    step_stamp_ns, time_msg, vec_of, vector3_msg,
+    NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, field_provided, gyro_qr_provided, imu_msg, navsat_fix_msg, quat_of,
+    stamp_ns, step_of_stamp, step_stamp_ns, time_msg, vec_of, vector3_msg,
 )
 
 from .free_gyro_positioning import FreeGyroFix, navsat_covariance_enu
@@ -100,7 +100,7 @@ def free_gyro_fix_msg(fix: FreeGyroFix, frame_id: str, height_m: float, height_s
 
 def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:
     """Incremental angle Δα [rad] (3,) of an LGU message over its sample interval ``dt``
-    [s]: the sensor publishes Δα/Δt in ``angular_velocity`` (README topic table), so this
+    [s]: the sensor publishes Δα/Δt in ``angular_velocity`` (docs/interfaces.md, topic table), so this
     is exact for the interval the rate was formed over. None when the message marks its
     rates as not provided (REP 145: ``angular_velocity_covariance[0] == -1``). Non-finite
     values pass through; the filter core rejects and counts them."""
@@ -157,21 +157,9 @@ BAD_INPUT_KEYS = ("gyro_not_provided", "ins_rates_not_provided", "ins_attitude_n
 
 
 def gyro_rates_provided(msg: Imu) -> bool:
-    """Whether a two-axis gyro message carries its y, z rates. Three forms are accepted:
-    x marked by a very large variance on its diagonal element (this project's form,
-    REP 145's "unmeasured axis"), all zeros ("covariance unknown", what many drivers send)
-    and the older form of this project's bags, ``[0] = -1`` with positive y and z variances
-    (``[4]``, ``[8]``), which marked only the roll axis. ``[0] = -1`` without them means the
-    whole field is not provided (REP 145)."""
-    cov = msg.angular_velocity_covariance
-    if cov[0] == -1.0:
-        return cov[4] > 0.0 and cov[8] > 0.0
-    return True
-
-
-def field_provided(cov) -> bool:
-    """REP 145: a field whose covariance element 0 is -1 is not provided."""
-    return cov[0] != -1.0
+    """Whether a two-axis gyro message carries its y, z rates (the three accepted forms of
+    :func:`gimbal_kinematics.ros.messages.gyro_qr_provided`)."""
+    return gyro_qr_provided(msg.angular_velocity_covariance)
 
 
 def encoder_angles(msg: JointState) -> tuple[tuple[float, ...], tuple[float, ...] | None] | None:

@@ -1,4 +1,4 @@
-"""Rotation-modulated fine alignment of a platform INS on a static base (paper 3, SPEC §3.3).
+"""Rotation-modulated fine alignment of a platform INS on a static base (paper 3, docs/spec.md §3.3).
 
 The platform (stable element ``s``) is held level by its servo and turned back and forth
 about the local vertical; the 8-state recursive least squares (RLS) of paper 3 estimates

@@ -1,1 +1,1 @@
-"""Geometry of stabilized sighting platforms (SPEC section 2). Pure numpy/scipy; no rclpy."""
+"""Geometry of stabilized sighting platforms (docs/spec.md section 2). Pure numpy/scipy; no rclpy."""

@@ -17,7 +17,7 @@ F = 1.0 / 298.257223563
 E2 = F * (2.0 - F)
 #: Semi-minor axis [m].
 B = A * (1.0 - F)
-#: Earth rotation rate [rad/s] (SPEC §2).
+#: Earth rotation rate [rad/s] (docs/spec.md §2).
 OMEGA_IE = 7.292115e-5
 #: Earth gravitational constant GM [m³/s²].
 GM = 3.986004418e14

@@ -1,4 +1,4 @@
-"""Four-gimbal inertially stabilized platform of paper 3 (SPEC §3.3): geometry and servo signals.
+"""Four-gimbal inertially stabilized platform of paper 3 (docs/spec.md §3.3): geometry and servo signals.
 
 Frames and joints (outer to inner; the paper lists the gimbals inner to outer a, q, p, r)::
 

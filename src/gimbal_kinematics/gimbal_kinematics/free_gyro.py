@@ -1,4 +1,4 @@
-"""Free-gyro positioning and directional geometry (paper 4, SPEC §3.4).
+"""Free-gyro positioning and directional geometry (paper 4, docs/spec.md §3.4).
 
 Frames
 ------

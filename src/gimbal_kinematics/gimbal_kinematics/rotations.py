@@ -1,6 +1,6 @@
 """Rotations: elementary frame rotations, 3-2-1 Euler angles, DCMs and quaternions.
 
-Conventions (SPEC section 2):
+Conventions (docs/spec.md section 2):
 
 * ``C_ab`` is the direction-cosine matrix that maps a vector resolved in frame b to
   frame a: ``vec_a = C_ab @ vec_b``.

@@ -1,4 +1,4 @@
-"""The two-axis sighting chain of paper 1, section 2 (SPEC section 2).
+"""The two-axis sighting chain of paper 1, section 2 (docs/spec.md section 2).
 
 Frames: navigation ``n`` (NED) -> host body ``b`` (3-2-1 Euler φ, θ, ψ) -> revolving base
 (turret) ``t`` (azimuth ψt about b-z) -> outer gimbal ``a`` (azimuth ψm about t-z) -> inner
@@ -126,7 +126,7 @@ def chain_rates(
 
 
 def omega_m_m(omega_b_b: np.ndarray, joint_angles: np.ndarray, joint_rates: np.ndarray) -> np.ndarray:
-    """Inertial rate of the inner gimbal in m [rad/s] (SPEC §2):
+    """Inertial rate of the inner gimbal in m [rad/s] (docs/spec.md §2):
     ω_m = C_mb ω_b + C_mt [0, 0, ψ̇t] + C_ma [0, 0, ψ̇m] + [0, θ̇m, 0]; shape (3,)."""
     zero = np.zeros(3)
     return chain_rates(omega_b_b, zero, joint_angles, joint_rates, zero).omega_m_m

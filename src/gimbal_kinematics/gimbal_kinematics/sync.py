@@ -14,6 +14,9 @@ what the node computes must not depend on that order, or a replay would not repr
   older incomplete ones (a controller that must not stall behind a lost input).
 * :class:`StampSync`: group one message per topic by exact stamp (a simulator node that
   needs every truth topic of a step).
+* :class:`FreshInputs`: free timing, no grid: a step on each sample of a driving stream with
+  the newest sample of the others, each no older than its maximum age (a controller fed by
+  a driver or a bag).
 
 StampOrder: a message is released once every stream has delivered a stamp at or after it
 (nothing earlier can still come), or once the newest stamp seen is more than ``max_wait_ns``
@@ -25,7 +28,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from enum import Enum
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Iterable, NamedTuple, Sequence
 
 
 # ----------------------------------------------------------------------------------------
@@ -266,3 +269,120 @@ class StampSync:
             self.dropped_incomplete += 1
         self._last_complete = stamp_ns
         return self._pending.pop(stamp_ns)
+
+
+# ----------------------------------------------------------------------------------------
+# FreshInputs: free timing. A step on each sample of one driving stream, with the newest
+# sample of every other stream if it is fresh enough.
+# ----------------------------------------------------------------------------------------
+class FreeStep(NamedTuple):
+    """One step of free timing, on a driving sample.
+
+    ``t_ns``: its stamp relative to the first stamp seen (int ns; in float seconds near
+    1.8e9 s a double resolves only ~0.2 µs, relative to the start it keeps every ns);
+    ``dt_ns``: since the previous driving sample (0 for the first after a start);
+    ``inputs``: the newest sample of each other stream, None when it has none;
+    ``stale``: the streams with no sample, or whose newest is older than their maximum age;
+    ``restarted``: the stamps jumped back (a bag looping): the consumer starts over.
+    """
+
+    t_ns: int
+    dt_ns: int
+    inputs: dict[str, Any]
+    stale: tuple[str, ...]
+    restarted: bool
+
+
+class FreshInputs:
+    """Free-timing gate of a controller: it steps on each sample of ``driver`` (the gyro),
+    with the newest sample of each stream of ``max_age_ns`` (stream → its maximum age [ns],
+    measured in stamps against the driving sample) that is no older than that.
+
+    Bad stamps, per stream, against the newest accepted one: the same stamp again is a
+    duplicate, an earlier one is out of order; both are rejected and counted (a consumer
+    never steps back in time). One more than ``backjump_ns`` earlier is a clock jump (a
+    replayed bag looping): every stream is forgotten, the time origin starts again and
+    ``restarts`` counts it. Driving intervals are checked against ``period_ns``, the
+    nominal driving period: one longer than 1.5 periods counts ``round(gap / period) − 1``
+    samples as dropped (an estimate: ±30 % jitter and a drop overlap between 1.4 and 1.6
+    periods); one off the period by more than 30 % counts as jittered. Nothing here waits:
+    each driving sample is a step at once.
+    """
+
+    def __init__(self, driver: str, max_age_ns: dict[str, int], period_ns: int, backjump_ns: int) -> None:
+        if driver in max_age_ns:
+            raise ValueError(f"the driving stream {driver!r} has no maximum age")
+        if period_ns <= 0 or backjump_ns < 0 or any(a < 0 for a in max_age_ns.values()):
+            raise ValueError("period_ns must be > 0, backjump_ns and the maximum ages >= 0")
+        self.driver = driver
+        self.max_age_ns = dict(max_age_ns)
+        self.period_ns = int(period_ns)
+        self.backjump_ns = int(backjump_ns)
+        self.t0_ns: int | None = None
+        self._newest: dict[str, tuple[int, Any]] = {}
+        self.accepted = {s: 0 for s in (driver, *max_age_ns)}
+        self.duplicates = 0
+        self.out_of_order = 0
+        self.restarts = 0
+        self.dropped = 0
+        self.jittered = 0
+        self.stale_steps = 0
+
+    def _admit(self, stream: str, stamp_ns: int) -> bool | None:
+        """True: accept; False: reject (counted); None: a clock jump, restart first."""
+        newest = self._newest.get(stream)
+        if newest is None or stamp_ns > newest[0]:
+            return True
+        if newest[0] - stamp_ns > self.backjump_ns:
+            return None
+        if stamp_ns == newest[0]:
+            self.duplicates += 1
+        else:
+            self.out_of_order += 1
+        return False
+
+    def add(self, stream: str, stamp_ns: int, item: Any) -> FreeStep | None:
+        """Take ``item`` of ``stream`` stamped ``stamp_ns`` (absolute, int ns); returns the
+        step a driving sample makes, None for another stream's sample or a rejected one."""
+        if stream not in self.accepted:
+            raise ValueError(f"unknown stream {stream!r}")
+        verdict = self._admit(stream, stamp_ns)
+        restarted = verdict is None
+        if restarted:
+            self._newest.clear()
+            self.t0_ns = None
+            self.restarts += 1
+        elif not verdict:
+            return None
+        if self.t0_ns is None:
+            self.t0_ns = stamp_ns
+        self.accepted[stream] += 1
+        previous = self._newest.get(stream)
+        self._newest[stream] = (stamp_ns, item)
+        if stream != self.driver:
+            return None
+        dt = 0 if previous is None else stamp_ns - previous[0]
+        if dt:
+            if 2 * dt > 3 * self.period_ns:
+                self.dropped += max(0, round(dt / self.period_ns) - 1)
+            elif 10 * abs(dt - self.period_ns) > 3 * self.period_ns:
+                self.jittered += 1
+        inputs: dict[str, Any] = {}
+        stale = []
+        for other, max_age in self.max_age_ns.items():
+            newest = self._newest.get(other)
+            if newest is None or stamp_ns - newest[0] > max_age:
+                stale.append(other)
+                inputs[other] = None if newest is None else newest[1]
+            else:
+                inputs[other] = newest[1]
+        if stale:
+            self.stale_steps += 1
+        return FreeStep(stamp_ns - self.t0_ns, dt, inputs, tuple(stale), restarted)
+
+    def counters(self) -> dict[str, int]:
+        """The counters by name (for /diagnostics)."""
+        out = {f"accepted_{s}": n for s, n in self.accepted.items()}
+        out.update(duplicates=self.duplicates, out_of_order=self.out_of_order, restarts=self.restarts,
+                   dropped=self.dropped, jittered=self.jittered, stale_steps=self.stale_steps)
+        return out

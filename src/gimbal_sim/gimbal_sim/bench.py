@@ -444,6 +444,24 @@ def bench_compare(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
+def bench_flexure(args: argparse.Namespace) -> int:
+    """Paper 5's flexure filters fed by the sensor cores without ROS: the filter's cost per
+    LGU pair against the 1 ms target (the figure the unit tests used to assert)."""
+    from .experiments.flexure import run_flexure_comparison
+
+    results = run_flexure_comparison(args.duration, args.seed)
+    print(f"flexure filters, {args.duration:g} s of LGU pairs at 10 Hz, seed {args.seed}:")
+    for model, r in results.items():
+        verdict = "met" if r.filter_us_per_pair < FLEXURE_TARGET_US else "NOT MET"
+        print(f"  {model:<18} {r.filter_us_per_pair:8.1f} us per pair (target < {FLEXURE_TARGET_US:g} us: "
+              f"{verdict}); whole run {r.wall_s:.1f} s wall")
+    return 0
+
+
+#: the flexure filter's cost per LGU pair [µs]: 1 % of the 100 ms between 10 Hz pairs
+FLEXURE_TARGET_US = 1000.0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gimbal-bench", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -465,6 +483,10 @@ def main(argv: list[str] | None = None) -> int:
     rec.add_argument("--scenario", default="sim_open_loop", help="scenario to record (default sim_open_loop)")
     rec.add_argument("--duration", type=float, default=20.0, help="simulated seconds (default 20)")
     rec.set_defaults(func=bench_record)
+    flex = sub.add_parser("flexure", help="paper 5 flexure filters' cost per LGU pair (cores, no ROS)")
+    flex.add_argument("--duration", type=float, default=7200.0, help="simulated seconds (default 7200)")
+    flex.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    flex.set_defaults(func=bench_flexure)
     cmp_ = sub.add_parser("compare", help="do two bags hold the same data? (exit 0 yes, 1 no)")
     cmp_.add_argument("a")
     cmp_.add_argument("b")
@@ -472,7 +494,7 @@ def main(argv: list[str] | None = None) -> int:
                       help="accept float fields within this relative tolerance (default 0: to the bit)")
     cmp_.set_defaults(func=bench_compare)
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in ("run", "record", "compare", "-h", "--help"):
+    if not argv or argv[0] not in ("run", "record", "flexure", "compare", "-h", "--help"):
         argv = ["run", *argv]
     args = parser.parse_args(argv)
     try:

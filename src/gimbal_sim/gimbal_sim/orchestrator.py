@@ -105,8 +105,10 @@ class RunResult:
 def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
     """Every node with its final parameters: the scenario's, plus what the orchestrator
     owns (rate, seed, duration, readiness and pacing wiring, the recorder's output)."""
+    # a node in free timing is no lockstep reader: the vehicle neither waits for nor paces on it
     paced = [n for n, s in scenario.nodes.items()
-             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}]
+             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}
+             and s["params"].get("timing", "lockstep") != "free"]
     planned = []
     for name, spec in scenario.nodes.items():
         declared = {p.name for p in NODE_TYPES[spec["executable"]].params}
@@ -401,8 +403,11 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
     bar = Progress(scenario.duration_s, progress)
     built = {}
     try:
+        # Import every node module before the first node starts, so that the nodes come up
+        # back to back: the order their ready messages reach the recorder depends on it.
+        classes = {node.name: NODE_TYPES[node.executable].node_class() for node in nodes}
         for node in nodes:
-            cls = NODE_TYPES[node.executable].node_class()
+            cls = classes[node.name]
             try:
                 built[node.name] = cls(context=context, cli_args=node.ros_args(), use_global_arguments=False)
             except ValueError as exc:

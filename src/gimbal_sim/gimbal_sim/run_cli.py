@@ -20,7 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from .scenario import Scenario, ScenarioError, apply_set, describe_builtins, load, variant
+from .scenario import Scenario, ScenarioError, apply_params_file, apply_set, describe_builtins, load, variant
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -37,6 +37,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, help="seed of every random stream")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                         help="override a node parameter (value in YAML syntax); repeatable")
+    parser.add_argument("--params-file", action="append", default=[], type=Path, metavar="FILE",
+                        help="ROS 2 parameter file (node: {ros__parameters: {...}}, e.g. gimbal-allan's "
+                             "sensor_models.yaml): each value overrides that node's parameter like --set, "
+                             "before the --set ones; repeatable")
     parser.add_argument("--out", type=Path, help="run directory (default bags/<timestamp>_<scenario>)")
     parser.add_argument("--mode", choices=("processes", "container"), default="processes",
                         help="one OS process per node, or all nodes in this process (default processes)")
@@ -76,6 +80,8 @@ def main(argv: list[str] | None = None) -> int:
             if args.seed < 0:
                 raise ScenarioError(f"--seed must be >= 0, got {args.seed}")
             scenario = dataclasses.replace(scenario, seed=args.seed)
+        for path in args.params_file:
+            scenario = apply_params_file(scenario, path)
         for assignment in args.set:
             scenario = apply_set(scenario, assignment)
     except ScenarioError as exc:

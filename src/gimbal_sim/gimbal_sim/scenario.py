@@ -226,3 +226,34 @@ def apply_set(scenario: Scenario, assignment: str) -> Scenario:
     except yaml.YAMLError as exc:
         raise ScenarioError(f"--set {assignment!r}: value is not valid YAML: {exc}") from exc
     return _override(scenario, target, value, f"--set {assignment!r}")
+
+
+def apply_params_file(scenario: Scenario, path: Path) -> Scenario:
+    """``--params-file``: the ``node: {ros__parameters: {param: value}}`` blocks of a ROS 2
+    parameter file applied as ``node.param`` overrides to the scenario's nodes; returns a new
+    scenario. Blocks of other nodes are ignored, as a node ignores them; if none applies, or a
+    parameter is unknown or mistyped, :class:`ScenarioError` says which."""
+    where = f"--params-file {path}"
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except OSError as exc:
+        raise ScenarioError(f"{where}: cannot read it: {exc}") from exc
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{where}: not valid YAML: {exc}") from exc
+    if not isinstance(data, dict) or not all(isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict)
+                                             for v in data.values()):
+        raise ScenarioError(f"{where}: expected a ROS 2 parameter file: node: {{ros__parameters: {{...}}}}")
+    # as in ROS 2, a node reads its own block only: blocks of nodes this scenario does not run are
+    # left alone (gimbal-allan's filters.yaml has one per filter), but one of them must apply
+    names = {str(node).lstrip("/"): spec for node, spec in data.items()}
+    used = [n for n in names if n in scenario.nodes]
+    if not used:
+        raise ScenarioError(f"{where}: none of its nodes ({', '.join(names)}) is in the scenario "
+                            f"(nodes: {', '.join(scenario.nodes)})")
+    for node in used:
+        for param, value in names[node]["ros__parameters"].items():
+            try:
+                scenario = _override(scenario, f"{node}.{param}", value, where)
+            except ScenarioError as exc:
+                raise ScenarioError(f"{where}: {exc}" if where not in str(exc) else str(exc)) from exc
+    return scenario

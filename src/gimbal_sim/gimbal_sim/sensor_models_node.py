@@ -1,7 +1,7 @@
 """``sensor_models`` node: the :class:`.sensor_suite.SensorSuite` on the vehicle's truth.
 
 It gathers the truth topics of each step (exact stamp match), runs the enabled sensors and
-publishes their measurements stamped with the step's time. See the README topic table.
+publishes their measurements stamped with the step's time. See the topic table in docs/interfaces.md.
 """
 from __future__ import annotations
 
@@ -126,8 +126,8 @@ class SensorModelsNode(Node):
         return {
             "ins_att": m.diag_cov([(c.ins.roll_pitch_rms_deg * deg) ** 2] * 2 + [(c.ins.heading_rms_deg * deg) ** 2]),
             "ins_rate": m.diag_cov([arw(c.ins.gyro.arw_deg_rt_h, c.ins_rate_hz)] * 3),
-            "gyro": (-1.0, 0.0, 0.0, 0.0, arw(c.gimbal_gyro.arw_deg_rt_h, c.gimbal_gyro_rate_hz), 0.0,
-                     0.0, 0.0, arw(c.gimbal_gyro.arw_deg_rt_h, c.gimbal_gyro_rate_hz)),
+            # the roll axis x has no gyro: REP 145's large-variance marking of one axis
+            "gyro": m.gimbal_gyro_covariance(*[arw(c.gimbal_gyro.arw_deg_rt_h, c.gimbal_gyro_rate_hz)] * 2),
             "lgu": m.diag_cov([arw(c.lgu1.arw_deg_rt_h, c.lgu_rate_hz)] * 3),
             "p_gyro": m.diag_cov([arw(c.platform_gyro.arw_deg_rt_h, c.platform_imu_rate_hz)] * 3),
             "p_accel": m.diag_cov([(c.platform_accel.noise_ug_rt_hz * 9.80665e-6) ** 2 * c.platform_imu_rate_hz] * 3),

@@ -36,6 +36,9 @@ PARAMS = (
     Param("gimbal_gyro_arw_deg_rt_h", 0.15, "gimbal gyro angle random walk [deg/sqrt(h)]", 0.0, INF),
     Param("gimbal_gyro_bi_deg_h", 30.0, "gimbal gyro Gauss-Markov bias instability RMS [deg/h]", 0.0, INF),
     Param("gimbal_gyro_bi_tau_s", 100.0, "its correlation time [s] (inf: random constant)", 1e-9, INF),
+    Param("gimbal_gyro_rrw_deg_h_rt_h", 0.0, "gimbal gyro rate random walk [deg/h/sqrt(h)]", 0.0, INF),
+    Param("gimbal_gyro_quantum_deg", 0.0, "gimbal gyro incremental-angle quantum (LSB) [deg] (0: none); IEEE 952 "
+          "quantisation noise Q = quantum / sqrt(12)", 0.0, INF),
     Param("gimbal_gyro_scale_factor_ppm", [0.0, 0.0], "gimbal gyro scale-factor error (q_m, r_m) [ppm]"),
     Param("gimbal_gyro_range_deg_s", 0.0, "gimbal gyro measurement range +-[deg/s] (0: unlimited)", 0.0, INF),
     Param("ins_roll_pitch_rms_deg", 0.05, "INS roll/pitch error RMS [deg]", 0.0, INF),
@@ -45,6 +48,9 @@ PARAMS = (
     Param("ins_gyro_bi_deg_h", 1.0, "INS gyro Gauss-Markov bias RMS [deg/h]", 0.0, INF),
     Param("ins_gyro_bi_tau_s", 60.0, "its correlation time [s]", 1e-9, INF),
     Param("ins_gyro_arw_deg_rt_h", 0.1, "INS gyro angle random walk [deg/sqrt(h)]", 0.0, INF),
+    Param("ins_gyro_rrw_deg_h_rt_h", 0.0, "INS gyro rate random walk [deg/h/sqrt(h)]", 0.0, INF),
+    Param("ins_gyro_quantum_deg", 0.0, "INS gyro incremental-angle quantum (LSB) [deg] (0: none); IEEE 952 "
+          "quantisation noise Q = quantum / sqrt(12)", 0.0, INF),
     Param("encoder_noise_deg", 0.05, "encoder angle noise RMS [deg]", 0.0, INF),
     Param("encoder_lines_per_rev", 0, "encoder lines per revolution (0: no quantisation)", 0, 10**9),
     Param("encoder_quadrature", 1, "edges counted per line (1, 2 or 4)", 1, 4),
@@ -61,7 +67,7 @@ PARAMS = (
     Param("flexure_dynamic_rms_arcsec", [20.0, 60.0, 40.0], "dynamic flexure RMS (roll, pitch, yaw) [arcsec]"),
     Param("flexure_dynamic_beta_per_s", [0.2146, 0.2146, 0.2146], "dynamic flexure 2nd-order Markov decay "
           "rate beta (roll, pitch, yaw) [1/s], > 0; critically damped: 2.146 / (1/e correlation time), "
-          "default 10 s; paper 5 gives none (README: the dynamic-flexure band)"),
+          "default 10 s; paper 5 gives none (docs/results/paper5.md: the dynamic-flexure band)"),
     Param("flexure_dynamic_freq_rad_s", [0.0, 0.0, 0.0], "dynamic flexure damped frequency lambda (roll, pitch, "
           "yaw) [rad/s], >= 0; 0 (default): the textbook critically damped 2nd-order Markov, > 0: a band "
           "peaked at lambda (sea waves)"),

@@ -9,7 +9,14 @@ the wall clock):
 * ``controlled: false``: no controller; the node runs open loop at full speed, re-arming
   itself through a guard condition so other callbacks interleave.
 * ``mode: realtime``: a wall-clock timer at the simulation rate; a command that is late
-  is replaced by the last one and counted.
+  is replaced by the last one and counted. The command subscription then uses the
+  free-timing input QoS (:func:`gimbal_kinematics.ros.node_io.input_qos`: best effort,
+  volatile), so a free-timing controller (reliable, volatile) or a driver-like publisher
+  matches it; the truth publishers stay reliable + transient-local, which every
+  subscription matches (best effort or reliable, volatile or transient-local). A command
+  stamped for an earlier step than the current one is not thrown away in realtime mode:
+  the newest one is held for the next step (a real plant applies the newest command it
+  has), and that step is still counted late.
 
 Step 0 is published once every truth topic has at least ``wait_for_subscribers`` matched
 subscriptions (and, when controlled, the command topic a publisher).
@@ -35,6 +42,7 @@ from geometry_msgs.msg import Vector3Stamped
 from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, PLATFORM_FRAME
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.node_io import input_qos
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
@@ -82,8 +90,11 @@ class VehicleDynamicsNode(Node):
         self.sub_cmd = None
         if plant != "host_only" and (self.controlled or self.realtime):
             topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
-            self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, GRAPH_QOS, raw=True)
+            # realtime: the command comes from a free-timing controller (node_io's outputs are volatile)
+            qos = input_qos("free") if self.realtime else GRAPH_QOS
+            self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, qos, raw=True)
         self._needed = self._subscriber_counts(values["subscriber_counts"])
+        self._graph_needed = self._topic_counts(values["topic_subscriber_counts"])
         self._rearm = None  # open loop: zero-period timer that re-runs _free_run_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
         self._plant_frame = GIMBAL_FRAME if plant == "two_axis_gimbal" else PLATFORM_FRAME
@@ -101,8 +112,23 @@ class VehicleDynamicsNode(Node):
             needed[by_topic[topic]] = int(count)
         return needed
 
+    @staticmethod
+    def _topic_counts(entries: list[str]) -> dict[str, int]:
+        """Topic -> subscriptions the graph must show before step 0."""
+        needed = {}
+        for entry in entries:
+            topic, _, count = entry.partition("=")
+            if not topic.startswith("/") or not count.strip().isdigit():
+                raise ParameterError(f"parameter 'topic_subscriber_counts': entry {entry!r} is not "
+                                     "'/topic=count'")
+            needed[topic.strip()] = int(count)
+        return needed
+
     def _try_start(self) -> None:
         if any(p.get_subscription_count() < n for p, n in self._needed.items()):
+            return
+        # free-timing readers announce no readiness: wait until the graph shows their subscriptions
+        if any(self.count_subscribers(t) < n for t, n in self._graph_needed.items()):
             return
         if self.sub_cmd is not None and self.controlled and self.sub_cmd.get_publisher_count() < 1:
             return
@@ -131,6 +157,12 @@ class VehicleDynamicsNode(Node):
                                       throttle_duration_sec=1.0)
             return
         k = m.step_of_stamp(msg.stamp_ns, self.config.sim_rate_hz)
+        if self.realtime and self._started and k < self.core.k and (self._command_k is None or k > self._command_k):
+            # late: the newest command is held for the next step (still counted late there)
+            values = self._command_values(msg)
+            if values is not None:
+                self._command, self._command_k = values, k
+            return
         if not self._started or k != self.core.k:
             self.rejected_commands += 1
             self.get_logger().warning(

@@ -19,7 +19,7 @@ DESCRIPTION = (
 PARAMS = (
     Param("profile", "paper1_land_vehicle", "host motion profile", choices=PROFILE_NAMES),
     Param("profile_params", "{}", "profile parameters as a YAML mapping, e.g. "
-          "'{lat_deg: 39.9}' (README: host motion profiles)"),
+          "'{lat_deg: 39.9}' (docs/interfaces.md: host motion profiles)"),
     Param("plant", "two_axis_gimbal", "plant carried by the host", choices=PLANTS),
     Param("gimbal_model", "paper1", "two-axis gimbal mass properties, friction and torque limits: paper1 "
           "(~10 kg payload) or uav_small (paper 2's ~1 kg UAV gimbal)", choices=tuple(GIMBAL_MODELS)),
@@ -35,6 +35,9 @@ PARAMS = (
     Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
     Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
           array_type="string_array"),
+    Param("topic_subscriber_counts", [], "before step 0, wait until the ROS graph shows this many subscriptions "
+          "on topics the vehicle does not publish, as 'topic=count' entries (realtime runs: free-timing nodes "
+          "that report no readiness, e.g. '/gimbal/imu=3')", array_type="string_array"),
     Param("pace_topics", [], "rosgraph_msgs/Clock progress topics (time of the next step the reader "
           "needs) of readers to wait for and not outrun",
           array_type="string_array"),

@@ -1,7 +1,7 @@
 """Two-axis gimbal rigid-body dynamics on a moving turret (paper 1 §4), closed form + RK4.
 
 Bodies: outer (azimuth) frame ``a`` on joint ψm about t-z, inner (elevation) frame ``m`` on
-joint θm about a-y (SPEC §2). The two joint axes intersect at the pivot P. State
+joint θm about a-y (docs/spec.md §2). The two joint axes intersect at the pivot P. State
 ``x = (ψm, θm, ψ̇m, θ̇m)`` [rad, rad/s]; input ``τ = (τ_a, τ_e)`` [N·m], saturated at the
 torque limits; base motion is a :class:`.turret_base.TurretBase` (ω_t, α_t, f_t = a_P − g).
 

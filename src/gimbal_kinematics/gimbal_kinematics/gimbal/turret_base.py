@@ -1,7 +1,7 @@
 """Base motion seen by the two-axis gimbal: the turret frame t's inertial motion.
 
 The gimbal (outer frame a on joint ψm about t-z, inner frame m on θm about a-y) is carried
-by the turret t (ψt about b-z, SPEC §2). Everything the gimbal dynamics need from the host
+by the turret t (ψt about b-z, docs/spec.md §2). Everything the gimbal dynamics need from the host
 is, resolved in t:
 
 * ``ω_t``: inertial angular velocity of t [rad/s];

@@ -4,10 +4,14 @@ Time on topics is simulation time. Step k of a run at ``rate_hz`` is stamped
 ``round(k·1e9 / rate_hz)`` ns, and a receiver maps a stamp back to k the same way, so
 stamps never accumulate floating-point error.
 
-REP 145: a field a sensor does not provide has covariance element 0 set to -1. The two-axis
-gimbal gyro measures only q_m and r_m: its message sets ``angular_velocity.x = 0`` and
-``angular_velocity_covariance[0] = -1`` while elements 4 and 8 carry the variances of y and z,
-i.e. element 0 (the x-x variance) marks exactly the unmeasured roll axis.
+REP 145: a field a sensor does not provide at all has covariance element 0 set to -1, and
+consumers (robot_localization, ...) then drop the whole field. A single unmeasured axis of a
+provided field is marked the conventional way instead: value 0 with a very large variance on
+its diagonal element (:data:`UNMEASURED_VARIANCE`). The two-axis gimbal gyro measures only q_m
+and r_m: its message sets ``angular_velocity.x = 0`` and ``angular_velocity_covariance =
+diag(UNMEASURED_VARIANCE, var_q, var_r)`` (:func:`gimbal_gyro_covariance`). Readers accept
+the older forms too (:func:`gyro_qr_provided`): ``[0] = -1`` with ``[4]``, ``[8]`` > 0 (bags
+recorded before the change) and an all-zero covariance ("unknown", a driver's default).
 """
 from __future__ import annotations
 
@@ -26,6 +30,12 @@ from . import cdr
 #: Covariance marking a field as not provided (REP 145).
 NOT_PROVIDED = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 ZERO_COV = (0.0,) * 9
+#: Variance [rad²/s²] marking one unmeasured axis of a provided rate field (σ = 1000 rad/s,
+#: ~160 turns/s: no gimbal turns that fast, so a consumer gives that axis no weight). Not
+#: larger: a consumer that inverts the covariance then divides it by measured variances of
+#: ~1e-7 rad²/s², and 1e6 / 1e-7 = 1e13 stays well inside double precision (1/eps = 4.5e15),
+#: where 1e9 (also seen in drivers) would leave barely two digits.
+UNMEASURED_VARIANCE = 1e6
 
 
 
@@ -55,6 +65,28 @@ def diag_cov(variances: Sequence[float]) -> tuple[float, ...]:
     """Row-major 3×3 covariance with ``variances`` on the diagonal."""
     a, b, c = variances
     return (a, 0.0, 0.0, 0.0, b, 0.0, 0.0, 0.0, c)
+
+
+def gimbal_gyro_covariance(var_q: float, var_r: float) -> tuple[float, ...]:
+    """Angular-velocity covariance of the two-axis gimbal gyro: the unmeasured roll axis x
+    marked with :data:`UNMEASURED_VARIANCE`, the noise variances of q and r [rad²/s²] on
+    elements 4 and 8 (module docstring)."""
+    return diag_cov((UNMEASURED_VARIANCE, var_q, var_r))
+
+
+def gyro_qr_provided(cov: Sequence[float]) -> bool:
+    """Whether an Imu's angular-velocity covariance (9 row-major) lets a reader use its y and
+    z rates: the large-variance marking of an unmeasured x, the older ``[0] = -1`` form with
+    ``[4]`` and ``[8]`` > 0 (bags recorded before the change), a driver's all-zero
+    ("unknown") covariance, or any ordinary covariance. False only for ``[0] = -1`` without
+    y and z variances: REP 145's "no angular velocity at all"."""
+    return cov[0] != -1.0 or (cov[4] > 0.0 and cov[8] > 0.0)
+
+
+def field_provided(cov: Sequence[float]) -> bool:
+    """Whether an Imu field is provided at all (REP 145: element 0 of its covariance is not
+    -1). An all-zero covariance is "unknown", still provided."""
+    return cov[0] != -1.0
 
 
 def imu_msg(t_ns: int, frame_id: str, *, orientation: Sequence[float] | None = None,

@@ -1,4 +1,4 @@
-"""Paper 3 alignment campaign on a kinematic platform truth (SPEC §3.3, Table 2 style runs),
+"""Paper 3 alignment campaign on a kinematic platform truth (docs/spec.md §3.3, Table 2 style runs),
 and the metrics of a finished alignment against its truth.
 
 The truth is built from rotation matrices, not from the measurement model H of

@@ -7,7 +7,7 @@ measurement (cores stepped in one Python loop, no middleware).
 Measurements: the gyro reads the truth's inertial rate of m about y, z at t_k
 (``'ideal'``), plus paper 1's ARW (``'noise'``: ``PAPER1_GIMBAL_GYRO`` without its
 fixed bias and Gauss-Markov terms), or the full paper 1 gyro (``'paper1'``: bias too; with
-no estimator fed back the LOS drifts, SPEC §3.1). Encoders and INS body rates are ideal
+no estimator fed back the LOS drifts, docs/spec.md §3.1). Encoders and INS body rates are ideal
 (truth). Timing follows the lockstep graph: the command computed from the samples of
 t_k is held over [t_k, t_{k+1}]; ``delay_samples`` > 0 applies it that many steps later.
 

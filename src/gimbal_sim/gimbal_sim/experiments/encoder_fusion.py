@@ -1,4 +1,4 @@
-"""Paper 2 closed-loop experiment (SPEC §3.2): :class:`gimbal_control.encoder_fusion.EncoderFusionController`
+"""Paper 2 closed-loop experiment (docs/spec.md §3.2): :class:`gimbal_control.encoder_fusion.EncoderFusionController`
 stabilizing the simulated small UAV gimbal in each feedback mode (encoder, gyro, fused), without
 ROS; the ``gimbal_encoder_fusion`` scenario runs the same cores through the graph.
 

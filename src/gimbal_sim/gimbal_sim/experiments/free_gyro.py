@@ -1,4 +1,4 @@
-"""Free-gyro positioning experiment (paper 4, SPEC §3.4): the simulated ship and free-gyro
+"""Free-gyro positioning experiment (paper 4, docs/spec.md §3.4): the simulated ship and free-gyro
 sensor feed :class:`gimbal_estimators.free_gyro_positioning.FreeGyroPositioning`, and the fixes
 are scored against the true site; a seeded Monte Carlo checks the fix errors against the
 claimed FDOP²σ² covariance::

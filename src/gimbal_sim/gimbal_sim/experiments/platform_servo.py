@@ -1,6 +1,6 @@
 """Closed-loop paper 3 experiments in one process:
 :class:`gimbal_control.platform_servo.PlatformServo` on gimbal_sim's four-gimbal platform on
-a static base (SPEC §3.3), alone (scenario ``rotational_platform_servo``) and carrying the
+a static base (docs/spec.md §3.3), alone (scenario ``rotational_platform_servo``) and carrying the
 rotation-modulated alignment (:class:`gimbal_estimators.rotation_alignment.RotationAlignmentRls`,
 scenario ``rotational_ins_alignment``). The graph runs the same cores through ROS messages and gives
 the same numbers (test_platform_servo_node, test_platform_alignment_node); this module is
@@ -165,7 +165,7 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
 #: walk N leaves a slope error N·√(6/5T), which reads as azimuth error /ω_N and as north
 #: drift; 0.003 °/√h (sensor_models' default) would alone give 2.4′ and 0.008 °/h (1σ at
 #: 40° N), above the paper's 1.5′ and 0.006 °/h. A high-grade DTG's 0.001 °/√h and a quartz
-#: accelerometer's 20 µg/√Hz fit the paper's figures (README: alignment noise budget).
+#: accelerometer's 20 µg/√Hz fit the paper's figures (docs/results/paper3.md: alignment noise budget).
 ALIGNMENT_GYRO_ARW_DEG_RT_H = 0.001
 ALIGNMENT_ACCEL_NOISE_UG_RT_HZ = 20.0
 

@@ -1,5 +1,5 @@
 """Paper 1's headline experiment without ROS: vehicle, sensors, LOS controller and bias EKF
-stepped in one Python loop with the lockstep graph's timing (SPEC §3.1, scenario
+stepped in one Python loop with the lockstep graph's timing (docs/spec.md §3.1, scenario
 ``sighting_land_vehicle``).
 
 Per step k (t = k·dt): the sensors sample the truth of step k; the EKF takes the encoders,

@@ -11,7 +11,7 @@ accelerations come from :func:`.host_state.host_state_from_euler`.
 
 Profiles (``make_profile(name, params)``; every ``params`` key is optional):
 
-``paper1_land_vehicle`` (paper 1 §6, SPEC §3.1), degrees with t in s::
+``paper1_land_vehicle`` (paper 1 §6, docs/spec.md §3.1), degrees with t in s::
 
     φ  =  1.5 sin(0.6t) + 1.0 sin(0.3t)
     θ  = −1.5 sin(0.6t) + 1.0 sin(0.3t)
@@ -22,7 +22,7 @@ Profiles (``make_profile(name, params)``; every ``params`` key is optional):
   pivot accelerations zero. Keys: ``lat_deg``, ``lon_deg``, ``height_m``,
   ``structural_modes`` (bool, default true).
 
-``paper5_ship`` (paper 5 §5.1, SPEC §3.5): heading/pitch/roll sinusoids of amplitude
+``paper5_ship`` (paper 5 §5.1, docs/spec.md §3.5): heading/pitch/roll sinusoids of amplitude
   3°, 3°, 5°. The paper gives no periods; the defaults (heading 15 s, pitch 6 s, roll 10 s)
   are typical of a medium ship in a moderate sea. Keys: ``heading_amplitude_deg``,
   ``pitch_amplitude_deg``, ``roll_amplitude_deg``, ``heading_period_s``,

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable
 
 from .alignment import alignment_campaign, alignment_report, rotation_comparison
+from .allan import allan_comparison, allan_report
 from .consistency import consistency_report
 from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
 from .flexure import flexure_report
@@ -32,6 +33,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "encoder_fusion": encoder_fusion_report,
     "platform_servo": platform_servo_report,
     "alignment": alignment_report,
+    "allan": allan_report,
     "consistency": consistency_report,
 }
 
@@ -41,6 +43,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "encoder_fusion": encoder_fusion_comparison,
     "alignment_rotation": rotation_comparison,
     "alignment_campaign": alignment_campaign,
+    "allan": allan_comparison,
 }
 
 

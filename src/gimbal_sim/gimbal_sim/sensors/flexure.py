@@ -1,4 +1,4 @@
-"""Ship angular flexure truth between LGU1 and LGU2 (paper 5 §5.1, SPEC §3.5).
+"""Ship angular flexure truth between LGU1 and LGU2 (paper 5 §5.1, docs/spec.md §3.5).
 
 The flexure vector θ = (roll, pitch, yaw) [rad] is the small rotation taking the LGU1 body
 frame b1 to the LGU2 body frame b2: ``C_b1b2 ≈ I + [θ×]`` (paper 5 eq. 4), i.e.
@@ -15,7 +15,7 @@ frame b1 to the LGU2 body frame b2: ``C_b1b2 ≈ I + [θ×]`` (paper 5 eq. 4), i
   gives no bandwidth; wave-driven flexure decorrelates over about a wave period, so the
   default correlation time is 10 s (β = 0.2146 1/s), the ship's roll period. β and a damped
   frequency λ > 0 (a band peaked at λ, e.g. sea waves at 0.5 rad/s) are settable per axis.
-  How the band moves the estimator's accuracy is measured in the README (the
+  How the band moves the estimator's accuracy is measured in docs/results/paper5.md (the
   dynamic-flexure band).
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Free gyros of the free-gyro positioning and directional system (paper 4, SPEC §3.4).
+"""Free gyros of the free-gyro positioning and directional system (paper 4, docs/spec.md §3.4).
 
 What is simulated (paper 4 §2.3, Figs. 3–4): two free gyros whose spin axes u_a, u_b keep a
 fixed direction in inertial space, read out in the ship's body frame by their pickoffs, a

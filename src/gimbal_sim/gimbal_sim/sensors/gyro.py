@@ -1,6 +1,6 @@
 """Reusable n-axis gyro error model: parameters at the config edge, presets from the papers.
 
-Terms (SPEC §3.1, paper 1 §3): fixed bias (given and/or drawn per run), first-order
+Terms (docs/spec.md §3.1, paper 1 §3): fixed bias (given and/or drawn per run), first-order
 Gauss-Markov bias instability (exact discretisation), angle random walk, rate random walk,
 scale factor, small-angle axis misalignment, quantisation with carried residual and
 saturation; output as step-average rate [rad/s] or incremental angle [rad]. The maths is in
@@ -114,7 +114,7 @@ class GyroModel(InertialErrorCore):
 
 
 #: Paper 1 gimbal gyro (q_m, r_m): 100 °/h bias (given, so the no-EKF LOS drift of
-#: SPEC §3.1, ~3.3° in 120 s, is reproduced every run), ARW 0.15 °/√h, bias instability
+#: docs/spec.md §3.1, ~3.3° in 120 s, is reproduced every run), ARW 0.15 °/√h, bias instability
 #: Gauss-Markov 30 °/h RMS with τ = 100 s.
 PAPER1_GIMBAL_GYRO = GyroParams(
     bias_deg_h=100.0, arw_deg_rt_h=0.15, bias_instability_deg_h=30.0, bias_instability_tau_s=100.0

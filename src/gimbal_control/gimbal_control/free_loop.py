@@ -1,0 +1,72 @@
+"""Free timing's bookkeeping, shared by the controller nodes (it publishes through the node's
+:class:`NodeIo` and builds messages only through :mod:`.messages`).
+
+A controller in ``timing: free`` steps on each sample of its driving gyro with the newest
+other inputs (:class:`gimbal_kinematics.sync.FreshInputs`). This class holds that gate, the
+counters of inputs that could not be used, the stale-input policy and ``/diagnostics``:
+
+* a stale or missing input *zeroes* the command (zero torque or voltage lets the gimbal
+  coast; a command computed from inputs that no longer hold can drive it into a stop, and
+  the papers say nothing about lost inputs), counted in ``stale_commands``;
+* when the inputs are fresh again the loop restarts (the core reset: it was open), counted
+  in ``restarts_after_stale``; a clock jump back (a bag looping) resets it too;
+* every ``diagnostics_period_s`` of stamp time one DiagnosticStatus carries every counter.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from gimbal_kinematics.sync import FreeStep, FreshInputs
+
+from . import messages as m
+
+COUNTERS = ("stale_commands", "restarts_after_stale", "malformed", "rejected_no_rates", "rejected_nonfinite",
+            "rejected_joint_names")
+
+
+class FreeLoop:
+    """The free-timing state of one controller node (module docstring)."""
+
+    def __init__(self, node: Any, io: Any, driver: str, max_age_s: dict[str, float], period_s: float,
+                 backjump_s: float, diagnostics_period_s: float) -> None:
+        self.node = node
+        self.io = io
+        self.gate = FreshInputs(driver, {k: int(round(a * 1e9)) for k, a in max_age_s.items()},
+                                int(round(period_s * 1e9)), int(round(backjump_s * 1e9)))
+        self.counts = dict.fromkeys(COUNTERS, 0)
+        self.was_stale = False
+        self._diag_period_ns = int(round(diagnostics_period_s * 1e9))
+        self._next_diag_ns: int | None = None
+        self.pub_diag = io.advertise(m.DiagnosticArray, "/diagnostics", "free")
+
+    def count(self, counter: str, text: str) -> None:
+        """Count an input not used (or a command zeroed) and warn, at most once a second."""
+        self.counts[counter] += 1
+        self.node.get_logger().warning(f"{text} ({self.counts[counter]} {counter})", throttle_duration_sec=1.0)
+
+    def seconds(self, stamp_ns: int) -> float:
+        """A stamp as seconds after the first stamp seen [s]."""
+        return (stamp_ns - self.gate.t0_ns) * 1e-9
+
+    def fresh(self, step: FreeStep, reset: Callable[[str], None]) -> bool:
+        """Whether the core may run on ``step``; False (counted): zero the command."""
+        if step.restarted:
+            reset("stamps jumped back (a bag looping?): restarted")
+        if step.stale:
+            self.count("stale_commands", f"{', '.join(step.stale)} older than its maximum age or missing: "
+                       "command zeroed")
+            self.was_stale = True
+            return False
+        if self.was_stale:
+            self.was_stale = False
+            self.counts["restarts_after_stale"] += 1
+            reset("inputs fresh again after a stale period: loop restarted")
+        return True
+
+    def diagnostics(self, t_ns: int, extra: dict[str, int]) -> None:
+        """Publish the counters (and the core's ``extra`` ones) when a period has passed."""
+        if self._next_diag_ns is not None and t_ns < self._next_diag_ns:
+            return
+        self._next_diag_ns = t_ns + self._diag_period_ns
+        counters = {**self.gate.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos, **extra}
+        self.pub_diag.publish(m.controller_diagnostics_msg(t_ns, self.node.get_name(), self.was_stale, counters))
