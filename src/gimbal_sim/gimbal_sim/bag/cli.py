@@ -61,7 +61,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"Messages:   {contents.message_count}" + ("" if contents.closed_cleanly else " (readable part)"))
         print(f"Start:      {_fmt_time(contents.start_ns)}")
         print(f"End:        {_fmt_time(contents.end_ns)}")
-        print(f"Duration:   {info['duration_s'] if info['duration_s'] is not None else '-'} s")
+        print(f"Duration:   {'-' if contents.start_ns is None else _fmt_time(contents.end_ns - contents.start_ns)}")
         print("Topics:")
         width = max((len(t) for t in info["topics"]), default=0)
         for name, t in sorted(info["topics"].items()):

@@ -167,7 +167,8 @@ class BagPlayer(Node):
         if wanted is not None:
             wanted -= set(options.exclude_topics)
         messages, contents = read_messages(Path(bag_dir), wanted)
-        for option, names in (("--topics", set(options.topics or ())), ("--exclude-topics", set(options.exclude_topics)),
+        for option, names in (("--topics", set(options.topics or ())),
+                              ("--exclude-topics", set(options.exclude_topics)),
                               ("--qos-profile-overrides-path", set(options.qos_overrides))):
             missing = names - set(contents.topics)
             if missing:

@@ -115,7 +115,8 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
         ax.fill_between(t, (bias[:, i] - 3 * sigma[:, i]) * _DEG_H, (bias[:, i] + 3 * sigma[:, i]) * _DEG_H,
                         alpha=0.25, label="±3σ")
         style(ax, "[deg/h]")
-    save_stacked(fig, axes, out / "bias_3sigma.png", "Gyro bias estimates ±3σ", xlabel="time from the first estimate [s]")
+    save_stacked(fig, axes, out / "bias_3sigma.png", "Gyro bias estimates ±3σ",
+                 xlabel="time from the first estimate [s]")
     plots.append("bias_3sigma.png")
     fig, axes = stacked(1, 4.5)
     for i, axis in enumerate(("x", "y", "z")):
