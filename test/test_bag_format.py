@@ -123,7 +123,7 @@ def test_not_a_bag_is_named(tmp_path):
     with pytest.raises(BagError, match="no such file"):
         scan(tmp_path / "missing")
     (tmp_path / "file.txt").write_text("x")
-    with pytest.raises(BagError, match="not a bag directory"):
+    with pytest.raises(BagError, match="not a bag .give a bag directory"):
         scan(tmp_path / "file.txt")
     (tmp_path / "empty").mkdir()
     with pytest.raises(BagError, match="not a bag"):

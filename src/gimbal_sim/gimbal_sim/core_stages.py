@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
@@ -102,6 +102,37 @@ def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
     return stage
 
 
+#: The node's order within a stamp: encoders and INS before the gyro.
+_EKF_RANK = {"/gimbal/joint_states": 0, "/ins/imu": 1, "/gimbal/imu": 2}
+
+
+def ekf_outputs(messages: list, ekf: GyroBiasEkf, t0_ns: int | None = None) -> Iterator[tuple[int, Any]]:
+    """Feed recorded sensor messages (``RawMessage``s of :data:`EKF_INPUTS`, sorted here by
+    log time, the node's order within a stamp) into ``ekf`` as the ``gyro_bias_ekf`` node
+    does; yield ``(stamp [ns], output)`` for every :class:`EkfOutput` the core produces.
+
+    Times go to the core as seconds from ``t0_ns`` (default: the first stamp, as the node
+    does in free timing; the lockstep node uses 0), so an epoch start near 1.8e9 s keeps
+    nanosecond resolution.
+    """
+    messages = sorted(messages, key=lambda msg: (msg.log_time_ns, _EKF_RANK[msg.topic]))
+    for msg in messages:
+        if msg.topic == "/gimbal/imu":
+            d = m.imu_from_cdr(msg.data)
+            t0_ns = d.stamp_ns if t0_ns is None else t0_ns
+            ekf.on_gyro((d.stamp_ns - t0_ns) * 1e-9, d.angular_velocity[1], d.angular_velocity[2])
+        elif msg.topic == "/gimbal/joint_states":
+            d = m.joint_state_from_cdr(msg.data)
+            t0_ns = d.stamp_ns if t0_ns is None else t0_ns
+            ekf.on_encoders((d.stamp_ns - t0_ns) * 1e-9, d.position, d.velocity)
+        else:
+            d = m.imu_from_cdr(msg.data)
+            t0_ns = d.stamp_ns if t0_ns is None else t0_ns
+            ekf.on_ins((d.stamp_ns - t0_ns) * 1e-9, euler321_from_quat(d.orientation), d.angular_velocity)
+        for out in ekf.take_outputs():
+            yield t0_ns + int(round(out.t * 1e9)), out
+
+
 def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, float, int] | None:
     """Replay a bag's sensor topics into the EKF core (built from the ``gyro_bias_ekf``
     node's parameter ``values``) as fast as it goes: (simulated s, wall s and CPU s spent
@@ -109,22 +140,8 @@ def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, float, 
     messages, _ = read_messages(bag, set(EKF_INPUTS))
     if {msg.topic for msg in messages} != set(EKF_INPUTS):
         return None
-    # the node's order within a stamp: encoders and INS before the gyro
-    rank = {"/gimbal/joint_states": 0, "/ins/imu": 1, "/gimbal/imu": 2}
-    messages.sort(key=lambda msg: (msg.log_time_ns, rank[msg.topic]))
     ekf = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
-    updates = 0
     t0, c0 = time.perf_counter(), time.process_time()
-    for msg in messages:
-        if msg.topic == "/gimbal/imu":
-            d = m.imu_from_cdr(msg.data)
-            out = ekf.on_gyro(d.stamp_ns * 1e-9, d.angular_velocity[1], d.angular_velocity[2])
-        elif msg.topic == "/gimbal/joint_states":
-            d = m.joint_state_from_cdr(msg.data)
-            out = ekf.on_encoders(d.stamp_ns * 1e-9, d.position, d.velocity)
-        else:
-            d = m.imu_from_cdr(msg.data)
-            out = ekf.on_ins(d.stamp_ns * 1e-9, euler321_from_quat(d.orientation), d.angular_velocity)
-        updates += out is not None
+    updates = sum(1 for _ in ekf_outputs(messages, ekf, t0_ns=0))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    return (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9, wall, cpu, updates
+    return (max(x.log_time_ns for x in messages) - min(x.log_time_ns for x in messages)) * 1e-9, wall, cpu, updates

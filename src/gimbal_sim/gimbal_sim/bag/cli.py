@@ -1,4 +1,5 @@
-"""``gimbal-bag``: inspect, play and recover rosbag2-style MCAP bags.
+"""``gimbal-bag``: inspect, play and recover rosbag2 bags: ours, and any other writer's
+(MCAP, compressed chunks included, and sqlite3 ``.db3``, read through ``rosbags``).
 
 Exit codes: 0 success, 1 the bag is damaged (info) or playback failed, 2 bad input (not a
 bag, bad options). Nothing is ever overwritten.
@@ -14,29 +15,53 @@ from .reader import BagError, recover, scan
 
 
 def _fmt_time(ns: int | None) -> str:
-    return "-" if ns is None else f"{ns / 1e9:.9f} s"
+    """Integer ns as seconds with all nine decimals (a float would lose them at epoch times)."""
+    if ns is None:
+        return "-"
+    sec, frac = divmod(ns, 1_000_000_000)
+    return f"{sec}.{frac:09d} s"
+
+
+def _compression(contents) -> str:
+    """The MCAP chunk compressions of a closed bag (from its summary), or sqlite3's answer."""
+    if contents.storage != "mcap":
+        return "none (sqlite3 rows)"
+    from mcap.reader import make_reader
+
+    kinds = set()
+    for path in contents.files:
+        try:
+            with open(path, "rb") as f:
+                summary = make_reader(f).get_summary()
+        except Exception:  # noqa: BLE001 - a truncated file has no summary: say so, do not fail
+            return "unknown (no summary: bag not closed cleanly)"
+        kinds |= {c.compression or "none" for c in (summary.chunk_indexes if summary else [])}
+    return ", ".join(sorted(kinds)) or "none"
 
 
 def cmd_info(args: argparse.Namespace) -> int:
     contents = scan(Path(args.bag))
     info = {
-        "bag": str(contents.directory), "file": contents.mcap_path.name,
+        "bag": str(args.bag), "file": contents.mcap_path.name,
+        "files": [f.name for f in contents.files], "storage": contents.storage,
+        "compression": _compression(contents),
         "closed_cleanly": contents.closed_cleanly, "metadata.yaml": contents.has_metadata,
         "problem": contents.error, "messages": contents.message_count,
         "start": contents.start_ns, "end": contents.end_ns,
-        "duration_s": None if contents.start_ns is None else (contents.end_ns - contents.start_ns) / 1e9,
+        "duration_s": None if contents.start_ns is None else (contents.end_ns - contents.start_ns) * 1e-9,
         "topics": {t.name: {"type": t.type_name, "count": t.count} for t in contents.topics.values()},
     }
     if args.json:
         print(json.dumps(info, indent=2))
     else:
-        print(f"Bag:        {info['bag']} ({info['file']})")
+        print(f"Bag:        {info['bag']} ({', '.join(info['files'])})")
+        print(f"Storage:    {contents.storage}, compression: {info['compression']}")
         state = "yes" if contents.closed_cleanly else f"NO ({contents.error or 'no metadata.yaml'})"
         print(f"Closed cleanly: {state}")
         print(f"Messages:   {contents.message_count}" + ("" if contents.closed_cleanly else " (readable part)"))
         print(f"Start:      {_fmt_time(contents.start_ns)}")
         print(f"End:        {_fmt_time(contents.end_ns)}")
-        print(f"Duration:   {info['duration_s'] if info['duration_s'] is not None else '-'} s")
+        print(f"Duration:   {'-' if contents.start_ns is None else _fmt_time(contents.end_ns - contents.start_ns)}")
         print("Topics:")
         width = max((len(t) for t in info["topics"]), default=0)
         for name, t in sorted(info["topics"].items()):
@@ -53,23 +78,29 @@ def cmd_recover(args: argparse.Namespace) -> int:
 
 def cmd_play(args: argparse.Namespace) -> int:
     import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
+
+    from gimbal_kinematics.ros.node_main import make_executor
 
     from gimbal_kinematics.ros.ros_domain import localhost_env
-    from .player import BagPlayer, PlayOptions, parse_remaps
+    from .player import BagPlayer, PlayOptions, load_qos_overrides, parse_remaps
 
-    options = PlayOptions(rate=args.rate, clock=args.clock, topics=args.topics, remap=parse_remaps(args.remap),
-                          start_offset_s=args.start_offset, loop=args.loop,
-                          wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace)
+    options = PlayOptions(rate=args.rate, clock_hz=args.clock or 0.0, topics=args.topics,
+                          exclude_topics=args.exclude_topics, remap=parse_remaps(args.remap),
+                          start_offset_s=args.start_offset, playback_duration_s=args.playback_duration,
+                          start_paused=args.start_paused, loop=args.loop,
+                          wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace,
+                          qos_overrides=load_qos_overrides(args.qos_profile_overrides_path))
     localhost_env()
     rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
     player = None
     try:
         player = BagPlayer(Path(args.bag), options)
-        executor = SingleThreadedExecutor()
+        executor = make_executor()
         executor.add_node(player)
         count = player.play(executor)
-        print(f"played {count} messages ({player.retries} publish retries under back-pressure)")
+        print(f"played {count} messages ({player.retries} publish retries under back-pressure"
+              + (f", {player.clocks} /clock" if player.clocks else "") + ")")
         return 0
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0
@@ -79,21 +110,39 @@ def cmd_play(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
 
 
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="gimbal-bag", description="Inspect, play back and recover "
-                                     "rosbag2-style MCAP bags (the ones gimbal-run records).")
+    parser = argparse.ArgumentParser(prog="gimbal-bag", description="Inspect, play back and recover rosbag2 "
+                                     "bags: the ones gimbal-run records and any other writer's (MCAP, compressed "
+                                     "or not, and sqlite3 .db3).")
     sub = parser.add_subparsers(dest="command", required=True)
-    info = sub.add_parser("info", help="topics, types, counts, time span and whether the bag was closed cleanly")
-    info.add_argument("bag", help="bag directory")
+    info = sub.add_parser("info", help="topics, types, counts, time span, storage, compression and whether the "
+                                       "bag was closed cleanly")
+    info.add_argument("bag", help="bag directory (or its .mcap / .db3 file)")
     info.add_argument("--json", action="store_true", help="print JSON")
     info.set_defaults(func=cmd_info)
-    play = sub.add_parser("play", help="publish the bag's messages (reliably: nothing is dropped)")
-    play.add_argument("bag", help="bag directory")
+    play = sub.add_parser("play", help="publish the bag's messages with the QoS they were recorded with")
+    play.add_argument("bag", help="bag directory (or its .mcap / .db3 file)")
     play.add_argument("--rate", type=float, default=1.0, help="playback speed factor; 0 = as fast as possible")
-    play.add_argument("--clock", action="store_true", help="publish /clock from bag time")
+    play.add_argument("--clock", type=_positive, nargs="?", const=40.0, default=None, metavar="RATE_HZ",
+                      help="publish /clock from bag time, every 1/RATE_HZ s of bag time (default 40 Hz, "
+                           "as rosbag2)")
     play.add_argument("--topics", nargs="+", help="only these topics")
+    play.add_argument("--exclude-topics", nargs="+", default=[], metavar="TOPIC", help="all topics but these")
     play.add_argument("--remap", nargs="+", default=[], metavar="OLD:=NEW", help="rename topics")
     play.add_argument("--start-offset", type=float, default=0.0, metavar="S", help="skip the first S seconds")
+    play.add_argument("--playback-duration", type=float, default=-1.0, metavar="S",
+                      help="play S seconds of bag time from the start (offset); < 0 (default): to the end")
+    play.add_argument("--start-paused", action="store_true",
+                      help="wait for a keypress (a newline when stdin is not a terminal) before playing")
+    play.add_argument("--qos-profile-overrides-path", type=Path, metavar="YAML",
+                      help="rosbag2's per-topic QoS overrides: /topic: {reliability, durability, history, depth}")
     play.add_argument("--loop", action="store_true", help="play again and again (bag time jumps back)")
     play.add_argument("--wait-for-subscribers", type=int, default=0, metavar="N",
                       help="wait until every topic has N matched subscriptions")

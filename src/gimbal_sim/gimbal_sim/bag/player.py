@@ -1,33 +1,46 @@
 """Play a bag back onto ROS topics, serialized bytes as recorded.
 
-Each topic is offered with the durability it was recorded with (``offered_qos_profiles``,
-as ``ros2 bag play`` does), so the subscriptions of the nodes that wrote or read it match:
-a transient-local subscription (our graph's QoS) refuses a volatile publisher.
+QoS, as ``ros2 bag play`` does it: each topic is offered with the reliability and
+durability it was recorded with (``offered_qos_profiles``; when the recorded publishers
+differ, reliable only if all were, transient-local only if all were; none recorded: the
+ROS default, reliable volatile), so the subscriptions of the nodes that wrote or read it
+match. ``--qos-profile-overrides-path`` replaces any of it per topic (rosbag2's YAML).
 
-* Volatile topics: reliable KEEP_ALL, so the middleware applies back-pressure to a slow
-  reader, and a publish that times out under that pressure is retried, never dropped.
+* Reliable volatile topics: KEEP_ALL, so the middleware applies back-pressure to a slow
+  reliable reader, and a publish that times out under that pressure is retried, never
+  dropped. A best-effort reader (a free-timing node's SensorDataQoS) gets no back-pressure:
+  at ``--rate 0`` pace it (``--pace``) or it drops what its queue cannot hold.
 * Transient-local topics: reliable KEEP_LAST with a deep history (``TRANSIENT_DEPTH``); a
   transient-local KEEP_ALL writer would keep the whole bag in memory for late joiners.
   Such a writer does not block, so a reader that falls more than that far behind loses
   samples: pace it.
+* Best-effort topics: best effort KEEP_ALL (a best-effort writer never blocks).
 
 Pacing: the player never runs more than ``pace_window_s`` of bag time ahead of the time
 each ``pace_topics`` reader reports on its progress topic (``rosgraph_msgs/Clock``, the
-time of the next step it needs). Our nodes all report one, so ``--pace`` makes replay into
-them lossless at any rate.
+time of the next sample it needs). Our nodes all report one, so ``--pace`` makes replay
+into them lossless at any rate.
+
+``/clock`` (``--clock RATE_HZ``): the bag time, on a grid of 1/RATE_HZ of bag time (at
+``--rate`` r that is RATE_HZ/r per wall second; rosbag2 publishes RATE_HZ per wall
+second), each grid time published before the first message at or after it.
 """
 from __future__ import annotations
 
+import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
+from .qos_yaml import qos_from_dict
 from .reader import BagContents, BagError, RawMessage, read_messages
 from .schemas import message_class
 
@@ -36,26 +49,72 @@ PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPol
 TRANSIENT_DEPTH = 1000
 TRANSIENT_PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=TRANSIENT_DEPTH,
                                 reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+BEST_EFFORT_PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.BEST_EFFORT,
+                                  durability=DurabilityPolicy.VOLATILE)
+
+
+def _all(offered: list[dict], key: str, value: str) -> bool:
+    return bool(offered) and all(str(o.get(key, "")).lower() == value for o in offered)
 
 
 def play_qos(offered: list[dict]) -> QoSProfile:
     """The profile to play a topic with, from its recorded ``offered_qos_profiles``."""
-    durable = any(str(o.get("durability", "")).lower() == "transient_local" for o in offered or [])
-    return TRANSIENT_PLAY_QOS if durable else PLAY_QOS
+    if _all(offered, "durability", "transient_local") and not _all(offered, "reliability", "best_effort"):
+        return TRANSIENT_PLAY_QOS
+    if offered and not _all(offered, "reliability", "reliable"):
+        return BEST_EFFORT_PLAY_QOS
+    return PLAY_QOS
+
+
+def load_qos_overrides(path: Path | None) -> dict[str, QoSProfile]:
+    """rosbag2's ``--qos-profile-overrides-path`` YAML: ``/topic: {reliability: best_effort,
+    durability: volatile, history: keep_last, depth: 10}``; fields not given keep the profile
+    the player would have used. Raises :class:`BagError` naming the option on a bad file."""
+    if path is None:
+        return {}
+    try:
+        data = yaml.safe_load(Path(path).read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise BagError(f"--qos-profile-overrides-path {path}: {exc}") from exc
+    if not isinstance(data, dict) or not all(isinstance(k, str) and isinstance(v, dict) for k, v in data.items()):
+        raise BagError(f"--qos-profile-overrides-path {path}: expected a mapping /topic -> {{reliability, "
+                       f"durability, history, depth}}")
+    allowed = {"reliability": ("reliable", "best_effort", "system_default"),
+               "durability": ("volatile", "transient_local", "system_default"),
+               "history": ("keep_last", "keep_all", "system_default")}
+    out = {}
+    for topic, entry in data.items():
+        for key, value in entry.items():
+            if key in allowed and str(value).lower() not in allowed[key]:
+                raise BagError(f"--qos-profile-overrides-path {path}: {topic}.{key} = {value!r}, "
+                               f"expected one of {allowed[key]}")
+            if key == "depth" and (not isinstance(value, int) or value < 0):
+                raise BagError(f"--qos-profile-overrides-path {path}: {topic}.depth = {value!r}, expected an int >= 0")
+        out[topic] = entry
+    return out
+
+
 PUBLISH_RETRY_LIMIT = 1000
+#: Spin this often (messages) besides the waits: the player's only subscriptions are the
+#: progress topics (served while it waits on them), and a spin costs more than a publish.
+SPIN_EVERY = 256
 
 
 @dataclass
 class PlayOptions:
     rate: float = 1.0                 # 0: as fast as delivery allows
-    clock: bool = False               # publish /clock from bag time
+    clock_hz: float = 0.0             # > 0: publish /clock on a grid of 1/clock_hz s of bag time
     topics: list[str] | None = None   # None: every topic
+    exclude_topics: list[str] = field(default_factory=list)
     remap: dict[str, str] = field(default_factory=dict)
     start_offset_s: float = 0.0
+    playback_duration_s: float = -1.0  # < 0: to the end
+    start_paused: bool = False        # wait for a keypress (a newline when stdin is not a terminal)
     loop: bool = False
     wait_for_subscribers: int = 0     # matched subscriptions each topic needs before playing
     pace_topics: list[str] = field(default_factory=list)
     pace_window_s: float = 0.05
+    qos_overrides: dict[str, dict] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.rate >= 0.0:
@@ -64,6 +123,10 @@ class PlayOptions:
             raise BagError(f"--start-offset must be >= 0 s, got {self.start_offset_s}")
         if self.wait_for_subscribers < 0:
             raise BagError("--wait-for-subscribers must be >= 0")
+        if not self.clock_hz >= 0.0:
+            raise BagError(f"--clock must be a rate > 0 Hz, got {self.clock_hz}")
+        if self.playback_duration_s != self.playback_duration_s:
+            raise BagError("--playback-duration must be a number of seconds (< 0: to the end)")
 
 
 def parse_remaps(items: list[str]) -> dict[str, str]:
@@ -76,6 +139,24 @@ def parse_remaps(items: list[str]) -> dict[str, str]:
     return remap
 
 
+def wait_for_key(stream=None) -> None:
+    """Block until a key is pressed on a terminal, or a line (or end of input) arrives otherwise."""
+    stream = stream or sys.stdin
+    if stream.isatty():
+        import termios
+        import tty
+
+        fd = stream.fileno()
+        saved = termios.tcgetattr(fd)
+        try:
+            tty.setcbreak(fd)
+            stream.read(1)
+        finally:
+            termios.tcsetattr(fd, termios.TCSADRAIN, saved)
+    else:
+        stream.readline()
+
+
 class BagPlayer(Node):
     """Publishes a bag's messages; :meth:`play` blocks until done (or forever with loop)."""
 
@@ -83,33 +164,69 @@ class BagPlayer(Node):
         super().__init__("bag_player", **node_kwargs)
         self.options = options
         wanted = set(options.topics) if options.topics else None
+        if wanted is not None:
+            wanted -= set(options.exclude_topics)
         messages, contents = read_messages(Path(bag_dir), wanted)
-        if wanted:
-            missing = wanted - set(contents.topics)
+        for option, names in (("--topics", set(options.topics or ())),
+                              ("--exclude-topics", set(options.exclude_topics)),
+                              ("--qos-profile-overrides-path", set(options.qos_overrides))):
+            missing = names - set(contents.topics)
             if missing:
-                raise BagError(f"topics not in the bag: {sorted(missing)}")
+                raise BagError(f"{option}: topics not in the bag: {sorted(missing)}; it has {sorted(contents.topics)}")
         self.contents: BagContents = contents
         if contents.error:
             self.get_logger().warning(f"bag not closed cleanly ({contents.error}); playing its complete part")
-        start = (contents.start_ns or 0) + int(options.start_offset_s * 1e9)
-        self.messages: list[RawMessage] = sorted((x for x in messages if x.log_time_ns >= start),
-                                                 key=lambda x: x.log_time_ns)
+        start = (contents.start_ns or 0) + int(round(options.start_offset_s * 1e9))
+        stop = None if options.playback_duration_s < 0 else start + int(round(options.playback_duration_s * 1e9))
+        excluded = set(options.exclude_topics)
+        self.messages: list[RawMessage] = sorted(
+            (x for x in messages if x.log_time_ns >= start and (stop is None or x.log_time_ns <= stop)
+             and x.topic not in excluded), key=lambda x: x.log_time_ns)
         self.pubs = {}
+        self.qos = {}
         for topic in sorted({x.topic for x in self.messages}):
             record = contents.topics[topic]
+            qos = play_qos(record.qos_profiles)
+            if topic in options.qos_overrides:
+                qos = qos_from_dict(options.qos_overrides[topic], qos)
+            self.qos[topic] = qos
             self.pubs[topic] = self.create_publisher(message_class(record.type_name),
-                                                     options.remap.get(topic, topic), play_qos(record.qos_profiles))
-        self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock else None
-        self._paced = {t: None for t in options.pace_topics}
-        for topic in options.pace_topics:
-            # transient-local, as the nodes offer it: a reader's "ready" (step 0) may have
-            # been published before the player started
-            self.create_subscription(Clock, topic, lambda msg, t=topic: self._on_progress(t, msg), GRAPH_QOS)
+                                                     options.remap.get(topic, topic), qos)
+        self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock_hz > 0 else None
+        self._paced: dict[str, int | None] = {t: None for t in options.pace_topics}
+        self._pace_subs: dict[str, object] = {}
+        self.t_bag0 = self.messages[0].log_time_ns if self.messages else 0
         self.published = 0
         self.retries = 0
+        self.clocks = 0
 
     def _on_progress(self, topic: str, msg: Clock) -> None:
         self._paced[topic] = max(m.stamp_ns(msg.clock), self._paced[topic] or 0)
+
+    def _subscribe_progress(self) -> None:
+        """Subscribe to each progress topic once its publisher is known, with its durability.
+
+        A lockstep node offers progress transient-local and publishes "ready" (step 0) once
+        its inputs are connected, possibly before this subscription exists: a transient-local
+        subscription still gets it. A free-timing node offers it volatile (a transient-local
+        subscription would not match) and reports only after its first samples: it counts
+        as ready at the bag's start once matched.
+        """
+        for topic in self._paced:
+            if topic in self._pace_subs:
+                sub = self._pace_subs[topic]
+                if sub.qos_profile.durability == DurabilityPolicy.VOLATILE and sub.get_publisher_count() > 0:
+                    self._paced[topic] = max(self._paced[topic] or 0, self.t_bag0)
+                continue
+            offered = self.get_publishers_info_by_topic(topic)
+            if not offered:
+                continue
+            durable = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in offered)
+            qos = GRAPH_QOS if durable else QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                                                       reliability=ReliabilityPolicy.RELIABLE,
+                                                       durability=DurabilityPolicy.VOLATILE)
+            self._pace_subs[topic] = self.create_subscription(
+                Clock, topic, lambda msg, t=topic: self._on_progress(t, msg), qos)
 
     def _spin(self, executor, timeout: float = 0.0) -> None:
         executor.spin_once(timeout_sec=timeout)
@@ -128,31 +245,74 @@ class BagPlayer(Node):
         need = self.options.wait_for_subscribers
         while any(p.get_subscription_count() < need for p in self.pubs.values()) or \
                 any(v is None for v in self._paced.values()):
+            self._subscribe_progress()
             if time.monotonic() > deadline:
                 raise BagError(f"readers did not appear within {timeout_s:g} s (need {need} per topic and "
                                f"progress on {sorted(self._paced)})")
             self._spin(executor, 0.05)
 
+    def wait_for_resume(self, executor, key_source=None) -> None:
+        """``--start-paused``: keep the graph alive until a key (or a newline) arrives."""
+        if not self.options.start_paused:
+            return
+        print("paused: press a key (or send a newline) to start playing", file=sys.stderr, flush=True)
+        pressed = threading.Event()
+        threading.Thread(target=lambda: (wait_for_key(key_source), pressed.set()), daemon=True).start()
+        while not pressed.is_set():
+            self._spin(executor, 0.05)
+
+    def _clock_until(self, t_ns: int, next_clock: int, period: int) -> int:
+        """Publish every /clock grid time up to ``t_ns``; returns the next grid time."""
+        while next_clock <= t_ns:
+            self._publish(self.pub_clock, m.clock_msg(next_clock))
+            self.clocks += 1
+            next_clock += period
+        return next_clock
+
     def play(self, executor) -> int:
         """Publish every message once (or repeatedly with loop); returns messages published."""
         self.wait_for_readers(executor)
+        self.wait_for_resume(executor)
         window = int(self.options.pace_window_s * 1e9)
+        rate = self.options.rate
+        paced = bool(self._paced)
+        period = int(round(1e9 / self.options.clock_hz)) if self.pub_clock is not None else 0
+        pubs = {topic: self.pubs[topic] for topic in self.pubs}
         while True:
-            t_bag0 = self.messages[0].log_time_ns if self.messages else 0
+            t_bag0 = self.t_bag0
+            next_clock = t_bag0
             t_wall0 = time.monotonic()
-            last_clock = None
-            for msg in self.messages:
-                if self.options.rate > 0:
-                    target = t_wall0 + (msg.log_time_ns - t_bag0) * 1e-9 / self.options.rate
+            for i, msg in enumerate(self.messages):
+                t = msg.log_time_ns
+                if rate > 0:
+                    target = t_wall0 + (t - t_bag0) * 1e-9 / rate
                     while (delay := target - time.monotonic()) > 0:
                         self._spin(executor, min(delay, 0.01))
-                while self._paced and min(self._paced.values()) + window < msg.log_time_ns:
-                    self._spin(executor, 0.01)
-                if self.pub_clock is not None and msg.log_time_ns != last_clock:
-                    self._publish(self.pub_clock, m.clock_msg(msg.log_time_ns))
-                    last_clock = msg.log_time_ns
-                self._publish(self.pubs[msg.topic], msg.data)
+                        if period:  # /clock keeps ticking through a gap in the bag
+                            now = t_bag0 + int((time.monotonic() - t_wall0) * rate * 1e9)
+                            next_clock = self._clock_until(min(now, t), next_clock, period)
+                if paced:
+                    while min(self._paced.values()) + window < t:
+                        self._spin(executor, 0.01)
+                if period:
+                    next_clock = self._clock_until(t, next_clock, period)
+                self._publish(pubs[msg.topic], msg.data)
                 self.published += 1
-                self._spin(executor)
+                if i % SPIN_EVERY == 0:
+                    self._spin(executor)
             if not self.options.loop:
+                self.drain()
                 return self.published
+
+    def drain(self, timeout_s: float = 30.0) -> None:
+        """Wait until every reliable reader has acknowledged what was published: the last
+        messages of a fast replay are still in flight when the loop ends, and a publisher
+        destroyed then takes them with it."""
+        from rclpy.duration import Duration
+
+        deadline = time.monotonic() + timeout_s
+        for topic, pub in self.pubs.items():
+            if self.qos[topic].reliability == ReliabilityPolicy.RELIABLE:
+                left = max(deadline - time.monotonic(), 0.0)
+                if not pub.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9))):
+                    self.get_logger().warning(f"{topic}: not every reader acknowledged the last messages")

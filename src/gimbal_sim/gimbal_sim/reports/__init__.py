@@ -14,6 +14,7 @@ from typing import Callable
 
 from .alignment import alignment_campaign, alignment_report, rotation_comparison
 from .allan import allan_comparison, allan_report
+from .consistency import consistency_report
 from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
 from .flexure import flexure_report
 from .free_gyro import free_gyro_report
@@ -33,6 +34,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "platform_servo": platform_servo_report,
     "alignment": alignment_report,
     "allan": allan_report,
+    "consistency": consistency_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics

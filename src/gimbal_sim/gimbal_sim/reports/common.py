@@ -4,91 +4,20 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 import yaml
 
-from gimbal_kinematics.ros import messages as msgs
+from gimbal_kinematics.ros.views import VIEWS
 from ..bag.reader import BagContents, read_messages
 from ..bag.schemas import message_class
 from gimbal_kinematics.ros.cdr import CdrError
 from .figures import save_stacked, stacked, style
 
 
-class _Stamp(NamedTuple):
-    sec: int
-    nanosec: int
-
-
-class _Header(NamedTuple):
-    stamp: _Stamp
-    frame_id: str
-
-
-class _Xyz(NamedTuple):
-    x: float
-    y: float
-    z: float
-
-
-class _Xyzw(NamedTuple):
-    x: float
-    y: float
-    z: float
-    w: float
-
-
-class ImuView(NamedTuple):
-    """The fields of a sensor_msgs/Imu a report reads, decoded without message objects."""
-
-    header: _Header
-    orientation: _Xyzw
-    orientation_covariance: tuple[float, ...]
-    angular_velocity: _Xyz
-    angular_velocity_covariance: tuple[float, ...]
-    linear_acceleration: _Xyz
-    linear_acceleration_covariance: tuple[float, ...]
-
-
-class Vector3StampedView(NamedTuple):
-    header: _Header
-    vector: _Xyz
-
-
-class JointStateView(NamedTuple):
-    header: _Header
-    name: tuple[str, ...]
-    position: tuple[float, ...]
-    velocity: tuple[float, ...]
-    effort: tuple[float, ...]
-
-
-def _header(stamp_ns: int, frame_id: str) -> _Header:
-    return _Header(_Stamp(*divmod(stamp_ns, 1_000_000_000)), frame_id)
-
-
-def _imu_view(data: bytes) -> ImuView:
-    d = msgs.imu_from_cdr(data)
-    return ImuView(_header(d.stamp_ns, d.frame_id), _Xyzw(*d.orientation), d.orientation_covariance,
-                   _Xyz(*d.angular_velocity), d.angular_velocity_covariance, _Xyz(*d.linear_acceleration),
-                   d.linear_acceleration_covariance)
-
-
-def _vector3_view(data: bytes) -> Vector3StampedView:
-    d = msgs.vector3_stamped_from_cdr(data)
-    return Vector3StampedView(_header(d.stamp_ns, d.frame_id), _Xyz(*d.vector))
-
-
-def _joint_state_view(data: bytes) -> JointStateView:
-    d = msgs.joint_state_from_cdr(data)
-    return JointStateView(_header(d.stamp_ns, d.frame_id), d.name, d.position, d.velocity, d.effort)
-
-
-#: Types decoded by struct (:mod:`..cdr`) into read-only views with the same field names:
-#: twenty times faster than message objects on the 1 kHz topics.
-_VIEWS = {"sensor_msgs/msg/Imu": _imu_view, "geometry_msgs/msg/Vector3Stamped": _vector3_view,
-          "sensor_msgs/msg/JointState": _joint_state_view}
+#: Types decoded by struct (:mod:`gimbal_kinematics.ros.views`) into read-only views with
+#: the same field names: twenty times faster than message objects on the 1 kHz topics.
+_VIEWS = VIEWS
 
 
 def load_series(bag_dir: Path, topics: set[str] | None = None) -> tuple[dict[str, list], BagContents]:
