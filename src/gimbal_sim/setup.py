@@ -30,6 +30,7 @@ setup(
             "gimbal-report = gimbal_sim.report:main",
             "gimbal-bag = gimbal_sim.bag.cli:main",
             "gimbal-bench = gimbal_sim.bench:main",
+            "gimbal-campaign = gimbal_sim.experiments.campaign_cli:main",
         ],
     },
 )

@@ -28,7 +28,8 @@ def ekf_from_values(values: dict[str, Any]) -> GyroBiasEkf:
 
 def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Any], None]:
     """``gyro_bias_ekf``: INS (Euler angles from its quaternion), gyro and encoders of step k;
-    leaves the bias estimate on the bus when an update completed."""
+    leaves the bias estimate on the bus when an update completed (and the whole output,
+    with its sigma, in ``bus.ekf``)."""
     ekf = ekf_from_values(values)
 
     def stage(bus) -> None:
@@ -41,6 +42,7 @@ def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Any], None]:
         if bus.gyro is not None:
             out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
         bus.bias = None if out is None else tuple(out.bias.tolist())
+        bus.ekf = out
     return stage
 
 

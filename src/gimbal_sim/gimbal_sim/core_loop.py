@@ -56,13 +56,15 @@ class _Bus:
     """What one step's messages carry, as the nodes would read them: step k, its stamp t
     [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
     Euler angles as a reader of its quaternion gets them, the command and the bias
-    estimate (None when not produced this step)."""
+    estimate (None when not produced this step), with the estimator's whole output of the
+    step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers."""
 
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias")
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
+        self.ekf = None
 
 
 def sensor_stage(values: dict) -> Callable[[_Bus], None]:
@@ -117,8 +119,12 @@ class CoreLoopResult:
         return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
-def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopResult:
-    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`."""
+def run_core_loop(scenario: Scenario, keep_commands: bool = False,
+                  observer: Callable[[_Bus], None] | None = None) -> CoreLoopResult:
+    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
+
+    ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
+    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
     from .vehicle import VehicleCore
     from .vehicle_dynamics_node import config_from_params
 
@@ -145,6 +151,8 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopRe
         bus.truth = vehicle.truth()
         for stage in stages:
             stage(bus)
+        if observer is not None:
+            observer(bus)
         command = bus.command if controlled and bus.command is not None else hold
         if commands is not None:
             commands.append(command)
