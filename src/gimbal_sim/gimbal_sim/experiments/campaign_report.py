@@ -270,7 +270,7 @@ def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict
     import yaml
 
     from ..report import write_report
-    from .campaign import RESULT_FILE, flatten_metrics, write_results
+    from .campaign import RESULT_FILE, flatten_metrics, read_results, write_results
 
     campaign_dir = Path(campaign_dir)
     asked = (yaml.safe_load((campaign_dir / "campaign.yaml").read_text()) or {}).get("campaign", {})
@@ -288,6 +288,11 @@ def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict
                 row["metrics"] = flatten_metrics(json.loads(path.read_text()))
                 result.write_text(json.dumps(row, indent=1, default=float) + "\n")
         rows.append(row)
+    try:  # the table's order (the plan's), runs it does not know at the end
+        order = {r["run_id"]: i for i, r in enumerate(read_results(campaign_dir))}
+    except OSError:
+        order = {}
+    rows.sort(key=lambda r: (order.get(r["run_id"], len(order)), r["run_id"]))
     write_results(campaign_dir, rows, list((asked.get("sweep") or {}).keys()))
     return write_campaign_report(campaign_dir)
 
