@@ -214,3 +214,36 @@ def test_graph_campaign_keeps_what_it_is_told_and_gimbal_report_regenerates_from
     (row,) = _rows(slow)
     assert row["status"] == "failed" and row["reason"] == "timed out after 3 s"
     assert (slow / "runs" / row["run_id"] / "logs" / "gimbal-run.log").is_file()
+
+
+def _seeded_mean_run(task, run_dir: Path) -> None:
+    """A caller's own run (the hook the experiment runners plug into): a seeded sample mean
+    scaled by the swept value, written as the run's metrics."""
+    import numpy as np
+
+    gain = task.values["los_rate_controller.omega_n_hz"]
+    value = gain * float(np.random.default_rng(task.seed).normal(size=1000).mean())
+    (run_dir / "report").mkdir()
+    (run_dir / "report" / "metrics.json").write_text(json.dumps({"experiment": {"scaled_mean": value}}))
+
+
+def test_run_campaign_api_runs_a_callable_per_run(tmp_path):
+    import numpy as np
+
+    from gimbal_sim.experiments.campaign import run_campaign
+    from gimbal_sim.experiments.campaign_spec import spec_from_mapping
+
+    spec = spec_from_mapping({"scenario": "sighting_land_vehicle", "variants": ["ekf_on"], "seeds": "1-4",
+                              "sweep": {"los_rate_controller.omega_n_hz": "10,20"}})
+    result = run_campaign(spec, tmp_path / "c", serial=True, progress=False, run_fn=_seeded_mean_run)
+    assert result.ran == 8 and not result.failed
+    rows = _rows(tmp_path / "c")
+    for row in rows:
+        expected = row["sweep.los_rate_controller.omega_n_hz"] * np.random.default_rng(row["seed"]).normal(
+            size=1000).mean()
+        assert row["experiment.scaled_mean"] == expected and row["engine"] == "custom"
+    summary = json.loads((tmp_path / "c" / "report" / "summary.json").read_text())
+    for group in summary["groups"]:
+        gain = group["sweep"]["los_rate_controller.omega_n_hz"]
+        values = [gain * np.random.default_rng(s).normal(size=1000).mean() for s in range(1, 5)]
+        assert group["metrics"]["experiment.scaled_mean"]["mean"] == pytest.approx(np.mean(values), rel=1e-12)

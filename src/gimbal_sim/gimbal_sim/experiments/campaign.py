@@ -220,7 +220,8 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
             from .core_metrics import run_core
 
             run_core(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt)
-        metrics, why = _check_metrics(attempt, task.engine) if not reason or attempt.exists() else (None, "")
+        engine = "custom" if run_fn is not None else task.engine  # only a graph run has a bag to check
+        metrics, why = _check_metrics(attempt, engine) if not reason or attempt.exists() else (None, "")
         reason = reason or why
     except Exception as exc:  # noqa: BLE001 - any failure of one run is recorded, the campaign goes on
         reason = f"{type(exc).__name__}: {exc}"
@@ -316,7 +317,9 @@ def _cleanup(out_dir: Path) -> None:
         pass
 
 
-def _run_dask(client: Any, todo: list[RunTask], run_fn: RunFunction | None, bar, on_row) -> None:
+def _run_dask(client: Any, todo: list[RunTask], run_fn: RunFunction | None, on_row, show) -> None:
+    """Submit every task, hand each finished one's row to ``on_row``, and ``show(running)``
+    the number of our tasks the workers are processing about once a second."""
     nonce = uuid.uuid4().hex[:8]
     futures = {client.submit(execute_run, task, run_fn, key=f"gimbal-campaign-{nonce}-{task.run_id}",
                              pure=False): task for task in todo}
@@ -334,10 +337,9 @@ def _run_dask(client: Any, todo: list[RunTask], run_fn: RunFunction | None, bar,
         if time.monotonic() >= next_poll:
             next_poll = time.monotonic() + 1.0
             try:
-                running = sum(len(keys.intersection(k)) for k in client.processing().values())
-            except Exception:  # noqa: BLE001 - the count is cosmetic
-                running = -1
-            bar.set_postfix_str(f"running {running}" if running >= 0 else "", refresh=True)
+                show(sum(len(keys.intersection(k)) for k in client.processing().values()))
+            except Exception:  # noqa: BLE001 - the count is cosmetic: keep the last one
+                show()
         if pending:
             time.sleep(0.2)
 
@@ -378,7 +380,12 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
             sort_keys=False))
         if todo:
             bar = _progress(len(todo), progress)
-            failed = 0
+            failed, running = 0, 0
+
+            def show(now_running: int | None = None) -> None:
+                nonlocal running
+                running = running if now_running is None else now_running
+                bar.set_postfix_str(f"failed {failed}, running {running}", refresh=True)
 
             def on_row(row: dict[str, Any]) -> None:
                 nonlocal failed
@@ -392,15 +399,15 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
                     bar.write(f"run {row['run_id']} ({row['variant'] or '-'}, seed {row['seed']}) failed: "
                               f"{row['reason']}", file=sys.stderr)
                 bar.update(1)
-                bar.set_postfix_str(f"failed {failed}", refresh=True)
+                show()
 
             try:
                 if serial:
                     for task in todo:
-                        bar.set_postfix_str(f"failed {failed}, running 1", refresh=True)
+                        show(1)
                         on_row(execute_run(task, run_fn))
                 else:
-                    _run_dask(client, todo, run_fn, bar, on_row)
+                    _run_dask(client, todo, run_fn, on_row, show)
             finally:
                 bar.close()
             _cleanup(out_dir)
