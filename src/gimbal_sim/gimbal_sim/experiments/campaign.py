@@ -240,8 +240,9 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
     try:
         attempt.rename(final)
     except OSError:  # another attempt finished first (a task run twice): keep the one that is there
-        if (final / RESULT_FILE).is_file():
-            row = json.loads((final / RESULT_FILE).read_text())
+        if not (final / RESULT_FILE).is_file():
+            raise  # something else is in the way: keep this attempt where it is, and say so
+        row = json.loads((final / RESULT_FILE).read_text())
     shutil.rmtree(attempt.parent, ignore_errors=True)
     return row
 
@@ -292,9 +293,10 @@ def connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
         except (OSError, TimeoutError) as exc:
             raise CampaignError(f"--scheduler {scheduler}: unreachable ({type(exc).__name__}: {exc})") from None
     n = workers or len(os.sched_getaffinity(0))
-    # processes, one thread each: a core run holds the GIL for its whole run; dashboard off
+    # processes, one thread each: a core run holds the GIL for its whole run; everything on
+    # loopback, the dashboard too (any free port, so that two campaigns never collide)
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=logging.ERROR)
+                           dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
 
@@ -405,7 +407,11 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
                 if serial:
                     for task in todo:
                         show(1)
-                        on_row(execute_run(task, run_fn))
+                        try:
+                            row = execute_run(task, run_fn)
+                        except OSError as exc:  # its attempt could not be put in place: kept, named
+                            row = failed_row(task, f"{type(exc).__name__}: {exc}")
+                        on_row(row)
                 else:
                     _run_dask(client, todo, run_fn, on_row, show)
             finally:
