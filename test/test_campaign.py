@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -162,21 +163,24 @@ def test_core_campaign_records_failures_carries_on_and_resumes(tmp_path, ros_dom
         assert "Traceback" in failed["log_tail"]
     assert "FAILED" in first.stdout
 
-    t0 = time.monotonic()
     again = _campaign([*args, "--resume"], ros_domain_env)
     assert again.returncode == 1
     assert "2 runs ran, 2 had results, 2 failed" in again.stdout  # only the failed ones ran again
     assert len(list((out / "runs").glob("*.failed-*"))) == 2      # the earlier failures kept beside
 
-    only_ok = [a.replace("rate,los_hold", "rate") for a in args]
-    done = _campaign([*only_ok, "--resume"], ros_domain_env)
+    # a finished campaign: --resume runs nothing and does not even start or reach a cluster
+    # (this scheduler address answers nobody; connecting would be refused with exit 2)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        nowhere = f"tcp://127.0.0.1:{s.getsockname()[1]}"
+        only_ok = [a.replace("rate,los_hold", "rate") for a in args if a != "--serial"]
+        done = _campaign([*only_ok, "--resume", "--scheduler", nowhere], ros_domain_env)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "0 runs ran, 2 had results, 0 failed" in done.stdout
     assert [r["status"] for r in _rows(out)] == ["ok", "ok"]
-    assert time.monotonic() - t0 < 60
     with open(out / "invocations.jsonl") as f:
         calls = [json.loads(line) for line in f]
-    assert [c["ran"] for c in calls] == [4, 2, 0] and calls[-1]["wall_s"] < 10.0
+    assert [c["ran"] for c in calls] == [4, 2, 0]
 
 
 @pytest.mark.ros

@@ -320,8 +320,8 @@ def _cleanup(out_dir: Path) -> None:
 
 
 def _run_dask(client: Any, todo: list[RunTask], run_fn: RunFunction | None, on_row, show) -> None:
-    """Submit every task, hand each finished one's row to ``on_row``, and ``show(running)``
-    the number of our tasks the workers are processing about once a second."""
+    """Submit every task (in plan order), hand each finished one's row to ``on_row``, and
+    ``show(running)`` the number of our tasks the workers are processing every 5 s."""
     nonce = uuid.uuid4().hex[:8]
     futures = {client.submit(execute_run, task, run_fn, key=f"gimbal-campaign-{nonce}-{task.run_id}",
                              pure=False): task for task in todo}
@@ -337,7 +337,7 @@ def _run_dask(client: Any, todo: list[RunTask], run_fn: RunFunction | None, on_r
                 row = failed_row(task, f"task failed on the cluster: {type(exc).__name__}: {exc}")
             on_row(row)
         if time.monotonic() >= next_poll:
-            next_poll = time.monotonic() + 1.0
+            next_poll = time.monotonic() + 5.0  # a scheduler round trip: not more often
             try:
                 show(sum(len(keys.intersection(k)) for k in client.processing().values()))
             except Exception:  # noqa: BLE001 - the count is cosmetic: keep the last one

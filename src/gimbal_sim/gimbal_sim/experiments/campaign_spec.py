@@ -420,11 +420,15 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
     runs = []
     for point in _points(spec):
         point = _round_for_int_params(base, point)
+        swept = {}
         for name, single in singles.items():
-            scenario = single
+            swept[name] = single
             for target, value in point.items():
-                scenario = apply_value(scenario, target, value, f"--sweep {target}")
-            for seed in spec.seeds:
+                swept[name] = apply_value(swept[name], target, value, f"--sweep {target}")
+        # seed by seed, every variant of a seed together: a campaign stopped halfway has
+        # the same seeds in each variant (and --resume carries on in that order)
+        for seed in spec.seeds:
+            for name, scenario in swept.items():
                 seeded = dataclasses.replace(scenario, seed=seed)
                 runs.append(PlannedRun(run_id(base.name, name, seed, point), name, seed, dict(point), seeded))
     ids = [r.run_id for r in runs]
