@@ -251,3 +251,28 @@ def test_run_campaign_api_runs_a_callable_per_run(tmp_path):
         gain = group["sweep"]["los_rate_controller.omega_n_hz"]
         values = [gain * np.random.default_rng(s).normal(size=1000).mean() for s in range(1, 5)]
         assert group["metrics"]["experiment.scaled_mean"]["mean"] == pytest.approx(np.mean(values), rel=1e-12)
+
+
+def _interrupted_at_seed_3(task, run_dir: Path) -> None:
+    if task.seed == 3:
+        raise KeyboardInterrupt  # as Ctrl-C would, mid-campaign
+    _seeded_mean_run(task, run_dir)
+
+
+def test_an_interrupted_campaign_keeps_its_finished_runs_and_resume_completes_it(tmp_path):
+    from gimbal_sim.experiments.campaign import run_campaign
+    from gimbal_sim.experiments.campaign_spec import spec_from_mapping
+
+    spec = spec_from_mapping({"scenario": "sighting_land_vehicle", "seeds": "1-4",
+                              "sweep": {"los_rate_controller.omega_n_hz": "10"}})
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(spec, tmp_path / "c", serial=True, progress=False, run_fn=_interrupted_at_seed_3)
+    # seed by seed, both variants of a seed together: seeds 1 and 2 finished, in both variants
+    assert sorted((r["seed"], r["variant"]) for r in _rows(tmp_path / "c")) == \
+        [(1, "ekf_off"), (1, "ekf_on"), (2, "ekf_off"), (2, "ekf_on")]
+    assert (tmp_path / "c" / "report" / "summary.json").is_file()
+    result = run_campaign(spec, tmp_path / "c", resume=True, serial=True, progress=False, run_fn=_seeded_mean_run)
+    assert (result.ran, result.skipped, len(result.failed)) == (4, 4, 0)
+    assert [(r["seed"], r["variant"]) for r in _rows(tmp_path / "c")] == \
+        [(s, v) for s in (1, 2, 3, 4) for v in ("ekf_off", "ekf_on")]
+    assert not (tmp_path / "c" / "runs" / ".attempts").exists()

@@ -417,6 +417,15 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
             finally:
                 bar.close()
             _cleanup(out_dir)
+    except KeyboardInterrupt:
+        # the finished runs are tabulated and reported; --resume runs the rest
+        done = [rows[r.run_id] for r in campaign.runs if r.run_id in rows]
+        write_results(out_dir, done, [s.target for s in spec.sweeps])
+        if done:
+            from .campaign_report import write_campaign_report
+
+            write_campaign_report(out_dir)
+        raise
     finally:
         if client is not None:
             client.close()

@@ -166,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gimbal-campaign: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("gimbal-campaign: interrupted; --resume continues it", file=sys.stderr)
+        print("gimbal-campaign: interrupted; the finished runs are in results.parquet and report/; "
+              "--resume continues it", file=sys.stderr)
         return 130
     summary = json.loads((result.directory / "report" / "summary.json").read_text())
     print(summary.get("table", ""))
