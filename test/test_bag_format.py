@@ -34,8 +34,8 @@ def _messages(n: int):
         yield "/clock", "rosgraph_msgs/msg/Clock", m.clock_msg(t), t
 
 
-def write_bag(directory: Path, n: int, chunk_duration_ns: int = 10**9) -> list:
-    writer = BagWriter(directory, chunk_duration_ns=chunk_duration_ns)
+def write_bag(directory: Path, n: int, chunk_duration_ns: int = 10**9, compress: bool = True) -> list:
+    writer = BagWriter(directory, chunk_duration_ns=chunk_duration_ns, compress=compress)
     written = []
     for topic, type_name, msg, t in _messages(n):
         writer.add_topic(topic, type_name, [qos_to_dict(GRAPH_QOS)])
@@ -46,8 +46,9 @@ def write_bag(directory: Path, n: int, chunk_duration_ns: int = 10**9) -> list:
     return written
 
 
-def test_rosbags_and_mcap_read_back_every_message(tmp_path):
-    written = write_bag(tmp_path / "bag", 200)
+@pytest.mark.parametrize("compress", [True, False])
+def test_rosbags_and_mcap_read_back_every_message(tmp_path, compress):
+    written = write_bag(tmp_path / "bag", 200, compress=compress)
     with AnyReader([tmp_path / "bag"]) as reader:
         assert {c.topic: c.msgcount for c in reader.connections} == {"/imu": 200, "/joints": 200, "/clock": 200}
         got = [(c.topic, t, reader.deserialize(raw, c.msgtype)) for c, t, raw in reader.messages()]
@@ -61,6 +62,7 @@ def test_rosbags_and_mcap_read_back_every_message(tmp_path):
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         assert reader.get_header().profile == "ros2"
         summary = reader.get_summary()
+        assert {c.compression for c in summary.chunk_indexes} == {"zstd" if compress else ""}
         assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
         assert {c.message_encoding for c in summary.channels.values()} == {"cdr"}
         for channel in summary.channels.values():
@@ -85,14 +87,18 @@ def test_schema_layout_and_metadata(tmp_path):
     assert qos_from_dict(qos, GRAPH_QOS) == GRAPH_QOS
 
 
-def test_truncated_bag_keeps_every_complete_chunk_and_recovers(tmp_path):
+@pytest.mark.parametrize("compress", [True, False])
+def test_truncated_bag_keeps_every_complete_chunk_and_recovers(tmp_path, compress):
     # 0.1 s chunks: 5 s of data (1500 messages) in ~50 chunks
-    written = write_bag(tmp_path / "bag", 500, chunk_duration_ns=100_000_000)
+    written = write_bag(tmp_path / "bag", 500, chunk_duration_ns=100_000_000, compress=compress)
     mcap = tmp_path / "bag" / "bag_0.mcap"
     data = mcap.read_bytes()
     with open(mcap, "rb") as f:
         chunks = make_reader(f).get_summary().chunk_indexes
-    cut = int(len(data) * 0.6)
+    # cut in the middle of the chunk 60 % into the file (a cut between chunks, in the
+    # message indexes that follow each, would leave no partial chunk to test)
+    middle = chunks[len(chunks) * 6 // 10]
+    cut = middle.chunk_start_offset + middle.chunk_length // 2
     complete = [c for c in chunks if c.chunk_start_offset + c.chunk_length <= cut]
     partial = [c for c in chunks if c.chunk_start_offset < cut < c.chunk_start_offset + c.chunk_length]
     assert len(complete) >= 10 and len(partial) == 1

@@ -31,6 +31,7 @@ setup(
             "gimbal-bag = gimbal_sim.bag.cli:main",
             "gimbal-bench = gimbal_sim.bench:main",
             "gimbal-allan = gimbal_sim.allan.cli:main",
+            "gimbal-campaign = gimbal_sim.experiments.campaign_cli:main",
         ],
     },
 )

@@ -16,7 +16,8 @@ replaying the recorded sensor topics into the gyro-bias EKF, checks that (b) and
 recorded the same data and that (a) computed the same torque commands, and, with
 ``--memory``, resident memory over a run ``--memory-factor`` times longer.
 
-``record``: the recorder's throughput and CPU share on a scenario run (processes mode).
+``record``: the recorder's throughput, CPU share and bag size on a scenario run (processes
+mode), with zstd-compressed chunks and without.
 ``compare A B``: do two bags hold the same data (:mod:`.bag.compare`)?
 """
 from __future__ import annotations
@@ -397,35 +398,49 @@ def _check_commands(scenario: Scenario, bag: Path) -> str:
 
 
 # ------------------------------------------------------------------------------ record
-def bench_record(args: argparse.Namespace) -> int:
-    from .bag.reader import scan
+def _record_once(scenario: Scenario, compress: bool) -> dict[str, str]:
+    """One processes-mode run recorded with or without zstd chunks: the recorder's figures."""
+    from .bag.reader import find_mcap, scan
     from .orchestrator import run
 
-    scenario = dataclasses.replace(load(args.scenario), duration_s=args.duration)
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-") as tmp:
         out = Path(tmp) / "run"
-        result = run(scenario, out, "processes", progress=False)
+        result = run(scenario, out, "processes", progress=False, compress=compress)
         contents = scan(out)
+        size = find_mcap(out)[0].stat().st_size
     rec = result.processes["bag_recorder"]
     rec_cpu = rec.cpu_s - result.cpu_at_start.get("bag_recorder", 0.0)
-    rows = [
-        ("scenario", f"{scenario.name}, {scenario.duration_s:g} s simulated at {scenario.sim_rate_hz:g} Hz "
-                     f"(processes mode)"),
-        ("wall time", f"{result.wall_s:.2f} s (real-time factor {result.real_time_factor:.2f})"),
-        ("messages recorded", f"{contents.message_count} on {len(contents.topics)} topics, "
-                              f"bag {'closed cleanly' if contents.closed_cleanly else 'NOT closed cleanly'}"),
-        ("recorder throughput", f"{contents.message_count / result.wall_s:,.0f} msg/s wall, "
-                                f"{contents.message_count / result.sim_s:,.0f} msg per simulated s"),
-        ("recorder CPU", f"{rec_cpu:.2f} s while stepping = {100 * rec_cpu / result.wall_s:.1f} % of one core; "
-                         f"{1e6 * rec_cpu / max(1, contents.message_count):.1f} us per message"),
-        ("recorder at real time", f"{100 * rec_cpu / result.sim_s:.1f} % of one core to record the scenario's "
-                                  f"rates in real time"),
-        ("recorder peak RSS", f"{rec.peak_rss_mb:.0f} MiB"),
-    ]
-    for name, stats in sorted(result.processes.items()):
-        rows.append((f"  {name}", f"CPU {stats.cpu_s:.2f} s, peak RSS {stats.peak_rss_mb:.0f} MiB"))
-    width = max(len(k) for k, _ in rows)
-    print("\n".join(f"{k:<{width}}  {v}" for k, v in rows))
+    return {
+        "wall time": f"{result.wall_s:.2f} s (real-time factor {result.real_time_factor:.2f})",
+        "messages recorded": f"{contents.message_count} on {len(contents.topics)} topics, "
+                             f"{'closed cleanly' if contents.closed_cleanly else 'NOT closed cleanly'}",
+        "bag size": f"{size / 2**20:.1f} MiB ({size / max(1, contents.message_count):.0f} B per message)",
+        "recorder throughput": f"{contents.message_count / result.wall_s:,.0f} msg/s wall",
+        "recorder CPU": f"{rec_cpu:.2f} s while stepping = {100 * rec_cpu / result.wall_s:.1f} % of one core; "
+                        f"{1e6 * rec_cpu / max(1, contents.message_count):.1f} us per message",
+        "recorder at real time": f"{100 * rec_cpu / result.sim_s:.1f} % of one core for the scenario's rates "
+                                 f"in real time",
+        "recorder peak RSS": f"{rec.peak_rss_mb:.0f} MiB",
+        "other processes CPU": ", ".join(f"{name} {st.cpu_s:.2f} s" for name, st in sorted(result.processes.items())
+                                         if name != "bag_recorder"),
+    }
+
+
+def bench_record(args: argparse.Namespace) -> int:
+    scenario = dataclasses.replace(load(args.scenario), duration_s=args.duration)
+    settings = {"both": (True, False), "on": (True,), "off": (False,)}[args.compress]
+    columns = {}
+    for compress in settings:
+        _note(f"recording {scenario.name} ({scenario.duration_s:g} s, processes mode), compression "
+              f"{'on (zstd chunks)' if compress else 'off'} ...")
+        columns["zstd chunks" if compress else "uncompressed"] = _record_once(scenario, compress)
+    print(f"scenario: {scenario.name}, {scenario.duration_s:g} s simulated at {scenario.sim_rate_hz:g} Hz "
+          f"(processes mode)")
+    names = list(next(iter(columns.values())))
+    width = max(len(k) for k in names)
+    for name in names:
+        for label, values in columns.items():
+            print(f"{name:<{width}}  [{label}] {values[name]}")
     return 0
 
 
@@ -482,6 +497,8 @@ def main(argv: list[str] | None = None) -> int:
     rec = sub.add_parser("record", help="recorder throughput and CPU share on a scenario run")
     rec.add_argument("--scenario", default="sim_open_loop", help="scenario to record (default sim_open_loop)")
     rec.add_argument("--duration", type=float, default=20.0, help="simulated seconds (default 20)")
+    rec.add_argument("--compress", choices=("both", "on", "off"), default="both",
+                     help="record with zstd chunks, without, or both one after the other (default both)")
     rec.set_defaults(func=bench_record)
     flex = sub.add_parser("flexure", help="paper 5 flexure filters' cost per LGU pair (cores, no ROS)")
     flex.add_argument("--duration", type=float, default=7200.0, help="simulated seconds (default 7200)")

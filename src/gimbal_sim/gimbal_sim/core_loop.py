@@ -76,8 +76,12 @@ class CoreLoopResult:
         return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
-def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopResult:
-    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`."""
+def run_core_loop(scenario: Scenario, keep_commands: bool = False,
+                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
+
+    ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
+    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
     values = node_values(scenario)
     vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
     unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
@@ -101,6 +105,8 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False) -> CoreLoopRe
         bus.truth = vehicle.truth()
         for stage in stages:
             stage(bus)
+        if observer is not None:
+            observer(bus)
         command = bus.command if controlled and bus.command is not None else hold
         if commands is not None:
             commands.append(command)

@@ -28,13 +28,15 @@ class Bus:
     """What one step's messages carry, as the nodes would read them: step k, its stamp t
     [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
     Euler angles as a reader of its quaternion gets them, the command and the bias
-    estimate (None when not produced this step)."""
+    estimate (None when not produced this step), with the estimator's whole output of the
+    step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers."""
 
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias")
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
+        self.ekf = None
 
 
 def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
@@ -75,6 +77,7 @@ def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
         if bus.gyro is not None:
             out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
         bus.bias = None if out is None else tuple(out.bias.tolist())
+        bus.ekf = out
     return stage
 
 

@@ -102,9 +102,10 @@ class RunResult:
         return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
 
 
-def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
+def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list[PlannedNode]:
     """Every node with its final parameters: the scenario's, plus what the orchestrator
-    owns (rate, seed, duration, readiness and pacing wiring, the recorder's output)."""
+    owns (rate, seed, duration, readiness and pacing wiring, the recorder's output and
+    whether it compresses the bag's chunks)."""
     # a node in free timing is no lockstep reader: the vehicle neither waits for nor paces on it
     paced = [n for n, s in scenario.nodes.items()
              if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}
@@ -128,7 +129,8 @@ def plan_nodes(scenario: Scenario, out_dir: Path) -> list[PlannedNode]:
         elif "wait_for_subscribers" in declared:
             params["wait_for_subscribers"] = 1  # the recorder reads every output
         planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
-    recorder = {"output_dir": str(out_dir), "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
+    recorder = {"output_dir": str(out_dir), "compress": compress,
+                "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
                 "topics": [] if scenario.record == "all" else list(scenario.record),
                 "wait_for_nodes": list(scenario.nodes)}
     # the recorder starts first so that it is listening before anyone publishes
@@ -256,12 +258,13 @@ def _ros_env() -> tuple[dict[str, str], Any]:
 
 
 def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bool = True,
-        stall_timeout_s: float = 60.0) -> RunResult:
-    """Run ``scenario`` into ``out_dir`` (which must not exist); raises :class:`RunError`."""
+        stall_timeout_s: float = 60.0, compress: bool = True) -> RunResult:
+    """Run ``scenario`` into ``out_dir`` (which must not exist); raises :class:`RunError`.
+    ``compress``: the recorder zstd-compresses the bag's MCAP chunks."""
     out_dir = Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"output directory {out_dir} already exists; not overwriting it")
-    nodes = plan_nodes(scenario, out_dir)
+    nodes = plan_nodes(scenario, out_dir, compress)
     write_run_files(scenario, nodes, out_dir)
     env, claim = _ros_env()
     try:

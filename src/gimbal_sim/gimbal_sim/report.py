@@ -58,16 +58,33 @@ def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
     return out, metrics
 
 
+def _campaign_main(campaign_dir: Path) -> int:
+    """A campaign directory: its runs' reports from their bags, then the campaign report."""
+    from .experiments.campaign_report import regenerate
+
+    try:
+        out, summary = regenerate(campaign_dir)
+    except (BagError, OSError, ValueError) as exc:
+        print(f"gimbal-report: {campaign_dir}: {exc}", file=sys.stderr)
+        return 2
+    print(summary["table"])
+    print(f"campaign report written to {out} ({len(summary['plots'])} plots)")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="gimbal-report",
         description="Write (or rewrite) the report of a recorded run: DIR/report/metrics.json and PNG plots, "
                     "computed from the bag alone.")
-    parser.add_argument("bag", help="bag directory (a gimbal-run output or any rosbag2 MCAP bag), or the "
+    parser.add_argument("bag", help="bag directory (a gimbal-run output or any rosbag2 MCAP bag), the "
                                     "directory of a run with variants (rewrites each variant's report and "
-                                    "the comparison)")
+                                    "the comparison), or a gimbal-campaign directory (rewrites each kept "
+                                    "run's report, results.parquet and the campaign report)")
     parser.add_argument("--report", help=f"report to write (default: the run's own); one of {sorted(REPORTS)}")
     args = parser.parse_args(argv)
+    if args.report is None and (Path(args.bag) / "campaign.yaml").is_file():
+        return _campaign_main(Path(args.bag))
     try:
         variants = _variant_runs(Path(args.bag)) if args.report is None else None
         if variants is not None:

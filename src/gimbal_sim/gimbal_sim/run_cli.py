@@ -49,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
                         help="run up to N variants at once, each in its own process and ROS domain (default 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-compress", action="store_true",
+                        help="store the bag's MCAP chunks uncompressed (default: zstd-compressed)")
     return parser
 
 
@@ -159,7 +161,8 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
             log_path = out / f".{name}.log"
             with open(log_path, "w") as log:  # the child keeps its own handle
                 proc = subprocess.Popen([sys.executable, "-m", "gimbal_sim.run_cli", str(spec), "--out",
-                                         str(out / name), "--mode", args.mode, "--no-progress"],
+                                         str(out / name), "--mode", args.mode, "--no-progress",
+                                         *(["--no-compress"] if args.no_compress else [])],
                                         env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
             tqdm.write(f"== variant {name}: started (ROS domain {claim.domain_id}, log {log_path})", file=sys.stderr)
             active.append((name, proc, claim, log_path, spec))
@@ -204,9 +207,10 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     from .orchestrator import run
     from .report import write_report
 
-    result = run(scenario, out, args.mode, progress=not args.no_progress)
+    result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress)
     (out / "run.json").write_text(json.dumps({
-        "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "sim_s": result.sim_s,
+        "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,
+        "sim_s": result.sim_s,
         "wall_s": result.wall_s, "real_time_factor": result.real_time_factor,
         "steps_per_s": result.sim_s * scenario.sim_rate_hz / result.wall_s if result.wall_s > 0 else None,
         "processes": {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v

@@ -60,7 +60,8 @@ class BagRecorderNode(Node):
         if not values["output_dir"]:
             raise ParameterError("parameter 'output_dir' is required")
         try:
-            self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9))
+            self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9),
+                                    compress=values["compress"])
         except FileExistsError as exc:
             raise ParameterError(f"parameter 'output_dir': {exc}") from exc
         self.wanted = list(values["topics"])

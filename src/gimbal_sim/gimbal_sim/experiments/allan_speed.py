@@ -30,7 +30,7 @@ TARGET_S = 60.0
 
 def write_gyro_bag(path: Path, hours: float, rate_hz: float, seed: int = 0) -> int:
     """A static 3-axis gyro on ``/imu`` for ``hours`` at ``rate_hz``; returns the message count."""
-    from .. import messages as m
+    from gimbal_kinematics.ros import messages as m
     from ..bag.writer import BagWriter
 
     n = int(round(hours * 3600.0 * rate_hz))

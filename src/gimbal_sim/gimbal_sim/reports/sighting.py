@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -41,21 +42,56 @@ def _interp_columns(t: np.ndarray, tp: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(t, tp, y[:, i]) for i in range(y.shape[1])])
 
 
-def analyse(bag_dir: Path) -> dict:
-    """The run's series and figures (SI units; see the module docstring)."""
-    from gimbal_kinematics.los import los_drift
+@dataclass(frozen=True)
+class SightingSeries:
+    """What the sighting figures are computed from, as recorded (times are log times [s]):
+    ``t_truth`` (N,) and ``quat_nm`` (N, 4) (x, y, z, w) of ``/truth/gimbal/imu``;
+    ``t_bias`` (M,) and ``bias_true`` (M, 3) [rad/s] of ``/truth/gimbal/gyro_bias``;
+    ``t_ekf`` (K,), ``bias_est`` and ``bias_sigma`` (K, 3) [rad/s] of the EKF's ``~/bias`` and
+    ``~/bias_sigma`` (None without an EKF). A bag gives them (:func:`load_sighting_series`),
+    and so does the core loop (``gimbal_sim.experiments.core_metrics``), so that both
+    engines' figures come from this one computation."""
 
+    t_truth: np.ndarray
+    quat_nm: np.ndarray
+    t_bias: np.ndarray
+    bias_true: np.ndarray
+    t_ekf: np.ndarray | None = None
+    bias_est: np.ndarray | None = None
+    bias_sigma: np.ndarray | None = None
+
+
+def load_sighting_series(bag_dir: Path) -> SightingSeries:
+    """The recorded series of a run (:class:`SightingSeries`); raises :class:`BagError`
+    when the truth topics are missing."""
     series, _ = load_series(bag_dir, {TRUTH_LOS, TRUTH_BIAS, EKF_BIAS, EKF_SIGMA})
     if not series.get(TRUTH_LOS) or not series.get(TRUTH_BIAS):
         raise BagError(f"{bag_dir}: needs {TRUTH_LOS} and {TRUTH_BIAS} (record the truth topics)")
     truth = series[TRUTH_LOS]
-    t = times(truth)
-    t = t - t[0]
     quats = np.array([[m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w] for _, m in truth])
+    ekf = {}
+    if series.get(EKF_BIAS) and series.get(EKF_SIGMA):
+        ekf = dict(t_ekf=times(series[EKF_BIAS]), bias_est=vectors(series[EKF_BIAS]),
+                   bias_sigma=vectors(series[EKF_SIGMA]))
+    return SightingSeries(times(truth), quats, times(series[TRUTH_BIAS]), vectors(series[TRUTH_BIAS]), **ekf)
+
+
+def analyse(bag_dir: Path) -> dict:
+    """The run's series and figures (SI units; see the module docstring)."""
     lat, earth_rate = vehicle_site(bag_dir)
-    drift = los_drift(inertial_los(t, quats, lat, earth_rate))
-    tb = times(series[TRUTH_BIAS]) - times(truth)[0]
-    b_true = vectors(series[TRUTH_BIAS])
+    return analyse_series(load_sighting_series(bag_dir), lat, earth_rate)
+
+
+def analyse_series(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
+    """Series and figures of one run from its :class:`SightingSeries`, at latitude ``lat``
+    [rad] with or without the earth rate (the run's vehicle site)."""
+    from gimbal_kinematics.los import los_drift
+
+    t0 = s.t_truth[0]
+    t = s.t_truth - t0
+    drift = los_drift(inertial_los(t, s.quat_nm, lat, earth_rate))
+    tb = s.t_bias - t0
+    b_true = s.bias_true
     # −∫b dt by trapezoids on the bias samples (az from r = z, el from q = y)
     integral = np.zeros((len(tb), 2))
     if len(tb) > 1:
@@ -69,9 +105,9 @@ def analyse(bag_dir: Path) -> dict:
            "drift_rate_last_deg_h": np.degrees(drift[-1] - drift[i_last]) / span * 3600.0 if span > 0 else
            np.full(2, np.nan), "bias_rate_last_deg_h": np.degrees(integral[-1] - integral[i_last]) / span * 3600.0
            if span > 0 else np.full(2, np.nan)}
-    if series.get(EKF_BIAS) and series.get(EKF_SIGMA):
-        te = times(series[EKF_BIAS]) - times(truth)[0]
-        est, sig = vectors(series[EKF_BIAS]), vectors(series[EKF_SIGMA])
+    if s.t_ekf is not None and len(s.t_ekf):
+        te = s.t_ekf - t0
+        est, sig = s.bias_est, s.bias_sigma
         tru = _interp_columns(te, tb, b_true)
         err = est[:, 1:] - tru[:, 1:]
         late = te >= SETTLE_S
@@ -82,6 +118,11 @@ def analyse(bag_dir: Path) -> dict:
                    else np.full(2, np.nan),
                    mean_nees_bias=float(np.mean(nees[late])) if late.any() else math.nan)
     return out
+
+
+def sighting_figures(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
+    """The ``sighting`` entry of a run's metrics.json, from its series."""
+    return _figures(analyse_series(s, lat, earth_rate))
 
 
 def _figures(a: dict) -> dict:

@@ -1,0 +1,181 @@
+"""``gimbal-campaign``: Monte Carlo and parameter sweeps of a scenario on Dask.
+
+    gimbal-campaign sighting_land_vehicle --seeds 1-20 --mode container --out bags/mc20
+    gimbal-campaign sighting_land_vehicle --variant ekf_on --seeds 1-5 \\
+        --sweep sensor_models.gimbal_gyro_bias_deg_h=50:200:4 --duration 60
+    gimbal-campaign campaign.yaml --scheduler tcp://10.0.0.5:8786     # an existing cluster
+    gimbal-campaign --out bags/mc20 --resume                          # finish / extend it
+    gimbal-campaign diff bags/mc20 bags/mc20_core --prefix sighting.  # two campaigns' metrics
+
+The campaign comes from a YAML file (:mod:`.campaign_spec` documents it) and/or flags (a
+flag overrides the file). Without ``--scheduler`` an embedded LocalCluster on 127.0.0.1
+runs one single-threaded worker process per core. The campaign directory holds
+``campaign.yaml``, ``runs/<id>/``, ``results.parquet`` (+ csv) and ``report/``.
+
+Exit codes: 0 every run ok; 1 a run failed (the others still ran; each failure is in the
+results with its reason); 2 bad input (unknown scenario, variant or parameter, malformed
+range, unreachable scheduler, existing directory without --resume), nothing started.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .campaign_spec import ENGINES, KEEP_BAGS, MODES, SAMPLINGS, CampaignError, CampaignSpec, load_spec_file, \
+    spec_from_mapping
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="gimbal-campaign", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
+                                epilog="`gimbal-campaign diff A B` compares two campaigns' metrics run by run.")
+    p.add_argument("campaign", nargs="?", help="a campaign YAML file, or a scenario (built-in name or scenario YAML)")
+    p.add_argument("--variant", action="append", metavar="NAME", help="run this variant (repeatable; default all)")
+    p.add_argument("--seeds", help="seeds, e.g. 1-20 or 1,3,5-7 (default: the file's, else 0)")
+    p.add_argument("--sweep", action="append", metavar="NODE.PARAM=SPEC",
+                   help="sweep a node parameter: a:b:n (grid), v1,v2,... (list), a:b (bounds, --sampling sobol); "
+                        "NODE.PARAM[i] sweeps one element of a vector parameter; repeatable")
+    p.add_argument("--sampling", choices=SAMPLINGS, help="grid: every combination; sobol: --samples scrambled "
+                   "Sobol points in the sweeps' bounds (scipy.stats.qmc)")
+    p.add_argument("--samples", type=int, metavar="N", help="Sobol points (a power of 2)")
+    p.add_argument("--sample-seed", type=int, metavar="N", help="Sobol scrambling seed (default 0)")
+    p.add_argument("--set", action="append", metavar="NODE.PARAM=VALUE", help="fix a node parameter in every run")
+    p.add_argument("--duration", type=float, metavar="S", help="simulated seconds per run (default: the scenario's)")
+    p.add_argument("--mode", choices=MODES, help="graph engine: all nodes in one process (container, default) or "
+                   "one process per node")
+    p.add_argument("--engine", choices=ENGINES, help="graph: the real nodes through gimbal-run (default); core: "
+                   "the same cores in one Python loop, no ROS")
+    p.add_argument("--keep-bags", choices=KEEP_BAGS, help="keep every run's bag (all, default), only failed runs' "
+                   "or none (each run keeps its metrics and report)")
+    p.add_argument("--no-compress", action="store_true", help="uncompressed MCAP chunks in the bags")
+    p.add_argument("--timeout", type=float, metavar="S", help="a run taking longer fails (default 120 + 10 x duration)")
+    p.add_argument("--out", type=Path, help="campaign directory (default bags/campaigns/<time>_<scenario>)")
+    p.add_argument("--resume", action="store_true", help="continue the campaign in --out: runs with results are "
+                   "skipped, failed ones run again")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="use this Dask scheduler instead of a LocalCluster")
+    p.add_argument("--workers", type=int, metavar="N", help="LocalCluster worker processes (default: the cores)")
+    p.add_argument("--serial", action="store_true", help="run the tasks one by one in this process (no Dask)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def _is_campaign_file(text: str) -> bool:
+    path = Path(text)
+    if path.suffix not in (".yaml", ".yml") or not path.is_file():
+        return False
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError:
+        return False
+    return isinstance(data, dict) and "scenario" in data and "nodes" not in data
+
+
+def _assignments(items: list[str] | None, option: str) -> dict[str, str]:
+    out = {}
+    for item in items or []:
+        target, sep, value = item.partition("=")
+        if not sep or not target.strip() or not value.strip():
+            raise CampaignError(f"{option} {item!r}: expected NODE.PARAM=VALUE")
+        out[target.strip()] = value.strip()
+    return out
+
+
+def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
+    """The campaign the flags (and file) ask for; None for a bare ``--resume --out DIR``."""
+    data: dict[str, Any] = {}
+    if args.campaign and _is_campaign_file(args.campaign):
+        data = load_spec_file(Path(args.campaign)).to_dict()
+    elif args.campaign:
+        data["scenario"] = args.campaign
+    elif args.resume and args.out is not None and (args.out / "campaign.yaml").is_file():
+        data = (yaml.safe_load((args.out / "campaign.yaml").read_text()) or {}).get("campaign", {})
+    else:
+        raise CampaignError("no campaign: give a scenario or a campaign YAML file (or --resume --out DIR)")
+    for flag, key in (("seeds", "seeds"), ("sampling", "sampling"), ("samples", "samples"),
+                      ("sample_seed", "sample_seed"), ("duration", "duration_s"), ("mode", "mode"),
+                      ("engine", "engine"), ("keep_bags", "keep_bags"), ("timeout", "timeout_s")):
+        value = getattr(args, flag)
+        if value is not None:
+            data[key] = value
+    if args.variant:
+        data["variants"] = list(args.variant)
+    if args.no_compress:
+        data["compress"] = False
+    if args.sweep:
+        data["sweep"] = _assignments(args.sweep, "--sweep")
+    if args.set:
+        try:
+            data["set"] = {**(data.get("set") or {}),
+                           **{k: yaml.safe_load(v) for k, v in _assignments(args.set, "--set").items()}}
+        except yaml.YAMLError as exc:
+            raise CampaignError(f"--set: value is not valid YAML: {exc}") from None
+    return spec_from_mapping(data, "campaign")
+
+
+def _diff(argv: list[str]) -> int:
+    from .campaign_report import diff_results
+
+    p = argparse.ArgumentParser(prog="gimbal-campaign diff",
+                                description="Compare two campaigns' metrics on the runs they share (same run id).")
+    p.add_argument("a", type=Path)
+    p.add_argument("b", type=Path)
+    p.add_argument("--prefix", default="", help="only metrics whose name starts with this (e.g. sighting.)")
+    p.add_argument("--tol", type=float, default=0.0, help="exit 1 when a metric differs by more (default 0)")
+    args = p.parse_args(argv)
+    for d in (args.a, args.b):
+        if not (d / "results.parquet").is_file():
+            print(f"gimbal-campaign diff: {d}: no results.parquet; not a campaign directory", file=sys.stderr)
+            return 2
+    out = diff_results(args.a, args.b, args.prefix)
+    print(f"{out['shared_runs']} runs in both ({out['only_a']} only in {args.a}, {out['only_b']} only in {args.b})")
+    width = max((len(k) for k in out["metrics"]), default=0)
+    worst = 0.0
+    for name, m in out["metrics"].items():
+        worst = max(worst, m["max_abs_diff"])
+        nan = "" if m["nonfinite_agree"] else "  (NaN in one only!)"
+        print(f"  {name:<{width}}  max |a - b| {m['max_abs_diff']:.3g} over {m['runs']} runs{nan}")
+    ok = worst <= args.tol and all(m["nonfinite_agree"] for m in out["metrics"].values())
+    print(f"largest difference {worst:.3g}: {'within' if ok else 'ABOVE'} tolerance {args.tol:g}")
+    return 0 if ok and out["shared_runs"] else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "diff":
+        return _diff(argv[1:])
+    args = build_parser().parse_args(argv)
+    from .campaign import run_campaign
+
+    try:
+        spec = spec_from_args(args)
+        if args.workers is not None and args.workers < 1:
+            raise CampaignError(f"--workers must be >= 1, got {args.workers}")
+        if args.scheduler and (args.serial or args.workers):
+            raise CampaignError("--scheduler uses that cluster's workers: drop --serial / --workers")
+        if args.resume and args.out is None:
+            raise CampaignError("--resume needs --out DIR (the campaign to continue)")
+        out = args.out or Path("bags") / "campaigns" / f"{time.strftime('%Y%m%d-%H%M%S')}_{Path(spec.scenario).stem}"
+        result = run_campaign(spec, out, resume=args.resume, scheduler=args.scheduler, workers=args.workers,
+                              serial=args.serial, progress=not args.no_progress)
+    except CampaignError as exc:
+        print(f"gimbal-campaign: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("gimbal-campaign: interrupted; the finished runs are in results.parquet and report/; "
+              "--resume continues it", file=sys.stderr)
+        return 130
+    summary = json.loads((result.directory / "report" / "summary.json").read_text())
+    print(summary.get("table", ""))
+    print(f"campaign {result.directory}: {result.ran} runs ran, {result.skipped} had results, "
+          f"{len(result.failed)} failed; wall time {result.wall_s:.1f} s")
+    print(f"results {result.directory / 'results.parquet'}, report {result.directory / 'report'}")
+    return 1 if result.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
