@@ -33,8 +33,11 @@ Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
   float64 near 1.8e9 s resolves only 2.4e-7 s, and the two units pair on equal stamps).
   Each sample's interval Δt is its stamp minus its unit's previous accepted stamp, when
   that is at most 1.5 nominal periods (1/``lgu_rate_hz``, so ±30 % jitter is followed);
-  after a longer gap (dropped samples) or on the first sample it is the nominal period, so
-  the core sees the gap and re-anchors instead of stretching one sample's rate over it.
+  the first sample (and the first after a backward clock jump, which resets) takes the
+  nominal period. After a longer gap (a lost sample) the next sample's own interval is
+  unknown (its rate is Δα over an interval that ended at the lost sample's stamp or later),
+  so it is not integrated: it is counted (``lgu1_interval_unknown``, ``lgu2_interval_unknown``)
+  and the core, seeing the hole, drops its partner and re-anchors at the next complete pair.
   Each unit's stamps go through :class:`gimbal_kinematics.stream_stats.StreamStats`
   (received, duplicates, out_of_order, clock_jumps, dropped, jitter_rms, counted on
   /diagnostics as ``lgu1_*``, ``lgu2_*``); duplicates and late samples are dropped
@@ -98,6 +101,7 @@ class FlexureEstimatorNode(Node):
         self.t0_ns: int | None = None if self.free else 0
         self.dt_ns = 1e9 / v["lgu_rate_hz"]
         self._last_ns: list[int | None] = [None, None]  # each unit's last accepted stamp (free timing)
+        self.interval_unknown = [0, 0]  # samples after a gap, not integrated (free timing)
         self._samples = 0
         self.stats = [StreamStats(int(round(v["clock_jump_s"] * 1e9))) for _ in (0, 1)]
         self.nis = NisWindow(3, window=v["nis_window"])
@@ -135,7 +139,7 @@ class FlexureEstimatorNode(Node):
         if self.free:
             dt = self._free_interval(unit, t_ns)
             if dt is None:
-                return  # duplicate or late: counted, never fused
+                return  # duplicate, late or after a gap: counted, never fused
         before = dict(self.core.counters)
         dalpha = m.lgu_increment(msg, dt)
         feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
@@ -153,7 +157,8 @@ class FlexureEstimatorNode(Node):
 
     def _free_interval(self, unit: int, t_ns: int) -> float | None:
         """Free timing: judge the stamp (StreamStats); the sample's interval [s] from the
-        stamps (module docstring), or None for a duplicate or late sample."""
+        stamps (module docstring), or None for a duplicate or late sample or one whose
+        interval is unknown (after a gap)."""
         verdict = self.stats[unit].offer(t_ns)
         if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
             self.get_logger().warning(f"LGU{unit + 1} sample at {t_ns * 1e-9:.6f} s dropped: {verdict.value} "
@@ -162,8 +167,14 @@ class FlexureEstimatorNode(Node):
         if self.t0_ns is None:
             self.t0_ns = t_ns
         last, self._last_ns[unit] = self._last_ns[unit], t_ns
-        if verdict is Verdict.JUMPED_BACK or last is None or t_ns - last > GAP_PERIODS * self.dt_ns:
-            return self.dt  # the core sees the gap (or the jump) and re-anchors (or resets)
+        if verdict is Verdict.JUMPED_BACK or last is None:
+            return self.dt  # first sample, or a new run (the core resets)
+        if t_ns - last > GAP_PERIODS * self.dt_ns:
+            self.interval_unknown[unit] += 1
+            self.get_logger().warning(f"LGU{unit + 1} sample at {t_ns * 1e-9:.6f} s after a gap of "
+                                      f"{(t_ns - last) * 1e-9:.3f} s: its interval is unknown, not integrated",
+                                      throttle_duration_sec=1.0)
+            return None
         return (t_ns - last) * 1e-9
 
     def _free_progress(self, t_ns: int) -> None:
@@ -215,6 +226,7 @@ class FlexureEstimatorNode(Node):
         fields: dict = dict(self.core.counters)
         for u, st in enumerate(self.stats):
             fields.update(st.as_dict(f"lgu{u + 1}"))
+            fields[f"lgu{u + 1}_interval_unknown"] = self.interval_unknown[u]
         fields["incompatible_qos"] = self.io.incompatible_qos
         fields.update(self.nis.as_dict())
         warn = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
