@@ -90,7 +90,7 @@ def node_run(messages, name: str = "flex_test", **params):
     its outputs received over the graph. Returns (node's core, {topic: {stamp ns: (3,)}})."""
     context = Context()
     rclpy.init(context=context)
-    overrides = {"lgu_rate_hz": RATE, "sim_rate_hz": RATE, **SEA_BAND, **params}
+    overrides = {"timing": "lockstep", "lgu_rate_hz": RATE, "sim_rate_hz": RATE, **SEA_BAND, **params}
     args = ["--ros-args", "-r", f"__node:={name}"] + [a for k, v in overrides.items() for a in ("-p", f"{k}:={v}")]
     node = FlexureEstimatorNode(context=context, cli_args=args, use_global_arguments=False)
     harness = Node("harness", context=context)

@@ -48,7 +48,7 @@ OUTPUTS = {"fix": NavSatFix, "heading": Vector3Stamped, "geometry": Vector3Stamp
 
 
 def node_params(**overrides) -> list[Parameter]:
-    values = {"sim_rate_hz": RATE, "progress_every_steps": 1, "spin_nadir_deg": list(NADIR),
+    values = {"timing": "lockstep", "sim_rate_hz": RATE, "progress_every_steps": 1, "spin_nadir_deg": list(NADIR),
               "spin_azimuth_deg": list(AZIMUTH), "spin_reference_lat_deg": LAT, "spin_reference_lon_deg": LON,
               "heading_window_s": 20.0, **overrides}
     return [Parameter(k, value=v) for k, v in values.items()]

@@ -73,7 +73,8 @@ def alignment_node(domain_env, params: dict | None = None):
     inputs handed to its subscription callbacks directly (exact, no discovery)."""
     context = Context()
     rclpy.init(context=context, domain_id=int(domain_env["ROS_DOMAIN_ID"]))
-    params = {"lat_deg": LAT_DEG, "imu_rate_hz": IMU_HZ, "joint_rate_hz": IMU_HZ, **(params or {})}
+    params = {"timing": "lockstep", "lat_deg": LAT_DEG, "imu_rate_hz": IMU_HZ, "joint_rate_hz": IMU_HZ,
+              **(params or {})}
     node = PlatformAlignmentNode(context=context, cli_args=ros_args(params), use_global_arguments=False)
     sent = defaultdict(list)
     for name, pub in node.pubs.items():

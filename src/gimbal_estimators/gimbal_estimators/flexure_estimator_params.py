@@ -28,6 +28,9 @@ PARAMS = (
           "this many simulation steps; vehicle_dynamics paces on it", 1, 10**6),
     Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
           0, 1000),
+    Param("diagnostics_period_s", 1.0, "health, input counters and NIS on /diagnostics every this much stamp "
+          "time [s] (free timing; lockstep publishes no /diagnostics)", 1e-3, 1e6),
+    Param("nis_window", 100, "measurement updates in the NIS window on /diagnostics (free timing)", 1, 10**6),
     Param("publish_period_s", 0.0, "publish the estimate at most once per this period of stamps [s] "
           "(0: every filter step)", 0.0, 1e6),
     Param("filter_period_s", 0.1, "nominal Kalman step [s]; the filter steps once at least this has elapsed",

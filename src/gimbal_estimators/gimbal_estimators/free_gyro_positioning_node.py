@@ -28,6 +28,23 @@ above ``max_fdop``) is counted, warned about at most once a second, reported on
 non-unit inputs are rejected and counted; a stamp more than ``reset_backjump_s`` behind the
 last read-out (a bag looping) resets the node. The node must see every read-out, so it
 reports the next step it needs on ``~/progress`` (the lockstep pacing protocol).
+
+Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
+
+* ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS`` everywhere, ``~/progress`` on the
+  step grid, no /diagnostics: the behaviour before free timing existed (byte-identical bags).
+* ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs, no
+  wait on a step grid, ``/clock`` or a progress topic: read-outs are grouped by exact stamp
+  and processed as they complete. The core keeps absolute seconds here (unlike the filters):
+  its earth-rotation angle is referred to ``spin_reference_time_s``, so the time origin is
+  physical, and float seconds near 1.8e9 s (resolution 2.4e-7 s) move the earth by
+  1.7e-11 rad, far below the arcsecond read-out noise. ``~/progress`` reports the newest
+  completed read-out's stamp every ``progress_every_steps`` read-outs. /diagnostics (one
+  status per fix window) carries the core's counters, the node's (``rejected_stamps``:
+  duplicate or out-of-order stamps of one topic; ``degenerate``; ``node_resets``) and
+  ``incompatible_qos``. There is no NIS: a fix is a least-squares geometric solution per
+  window, with no predicted measurement to innovate against; its consistency shows in
+  ``geometry`` (FDOP) and the window's nadir σ.
 """
 from __future__ import annotations
 
@@ -39,8 +56,10 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, NavSatFix
 
+from diagnostic_msgs.msg import DiagnosticArray
+
+from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import Stamp, StampSync, check_stamp
@@ -76,18 +95,24 @@ class FreeGyroPositioningNode(Node):
         self._interval_steps = 1               # steps between read-outs (learned from the stamps)
         self._report_at = 0                    # next step at which ~/progress reports
         self._er_t: float | None = None        # stamp of the last earth-rate heading published
-        pub = lambda typ, name: self.create_publisher(typ, f"~/{name}", GRAPH_QOS)  # noqa: E731
+        timing = v["timing"]
+        self.free = timing == "free"
+        self._readouts = 0
+        self.io = io = NodeIo(self)
+        pub = lambda typ, name: io.advertise(typ, f"~/{name}", timing)  # noqa: E731
         self.pub_fix = pub(NavSatFix, "fix")
         self.pub_heading = pub(Vector3Stamped, "heading")
         self.pub_geometry = pub(Vector3Stamped, "geometry")
         self.pub_nadir = pub(Vector3Stamped, "nadir")
         self.pub_heading_er = pub(Vector3Stamped, "heading_earth_rate")
         self.outputs = (self.pub_fix, self.pub_heading, self.pub_geometry, self.pub_nadir, self.pub_heading_er)
-        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        self.pub_progress = pub(Clock, "progress")
+        # lockstep publishes no /diagnostics (its bags stay as they were)
+        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing) if self.free else None
         self.subs = [
-            self.create_subscription(Vector3Stamped, SPIN_A, lambda msg: self._on_input(SPIN_A, msg), GRAPH_QOS),
-            self.create_subscription(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), GRAPH_QOS),
-            self.create_subscription(Imu, IMU, lambda msg: self._on_input(IMU, msg), GRAPH_QOS),
+            io.subscribe(Vector3Stamped, SPIN_A, lambda msg: self._on_input(SPIN_A, msg), timing),
+            io.subscribe(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), timing),
+            io.subscribe(Imu, IMU, lambda msg: self._on_input(IMU, msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, outputs=self.outputs, readers=self.wait_for_subscribers)
 
@@ -139,7 +164,26 @@ class FreeGyroPositioningNode(Node):
         self._last_ns = t_ns
         if fix is not None:
             self._publish_fix(fix, t)
+            if self.free:
+                self.pub_diag.publish(self.health(t_ns))
+        if self.free:
+            self._readouts += 1
+            if self._readouts % self.progress_every == 0:
+                self.pub_progress.publish(m.clock_msg(t_ns))
+            return
         self._progress(m.step_of_stamp(t_ns, self.rate))
+
+    def health(self, t_ns: int) -> DiagnosticArray:
+        """Free-timing /diagnostics (module docstring)."""
+        c = self.core.counters
+        fields = {k: getattr(c, k) for k in ("spin_accepted", "rates_accepted", "rejected_nonfinite",
+                                             "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
+                                             "rejected_stale_level", "fixes", "degenerate", "resets")}
+        fields.update(rejected_stamps=self.rejected_stamps + self.sync.rejected, node_resets=self.resets,
+                      incompatible_qos=self.io.incompatible_qos)
+        warn = ("rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
+                "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos")
+        return m.free_health_msg(t_ns, self.get_name(), fields, c.fixes > 0, warn, None)
 
     def _progress(self, k: int) -> None:
         """Report the next step needed: the next read-out's, one learned interval ahead."""

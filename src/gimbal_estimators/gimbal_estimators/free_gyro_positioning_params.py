@@ -32,7 +32,7 @@ PARAMS = (
           "the gyros were set; the fix does not use it)", -90.0, 90.0),
     Param("spin_reference_lon_deg", 129.0, "longitude of that reference [deg]", -180.0, 180.0),
     Param("spin_reference_time_s", 0.0, "sim time of that reference [s] (inertial frame: Greenwich on x_i "
-          "at t = 0)", -1e9, 1e9),
+          "at t = 0); in free timing the stamps' time base, e.g. an epoch time", -1e10, 1e10),
     Param("nadir_noise_arcsec", 5.0, "1-sigma of one read-out nadir angle [arcsec] (pickoff noise)", 1e-9, INF),
     Param("fix_interval_s", 10.0, "nadir integration window per fix [s]", 1e-6, INF),
     Param("min_samples", 5, "fewest read-outs in a window for a fix", 3, 10**9),

@@ -70,6 +70,27 @@ def health_msg(t_ns: int, name: str, counters, aligned: bool, extra: dict | None
     arr.header.stamp = time_msg(t_ns)
     return arr
 
+def free_health_msg(t_ns: int, name: str, fields: dict, ready: bool, warn_keys: Sequence[str],
+                    nis_verdict: str | None) -> DiagnosticArray:
+    """An estimator's free-timing /diagnostics (one DiagnosticStatus named ``<name>: health``,
+    like :func:`health_msg`): ``fields`` as key/values; STALE until ``ready`` (no estimate
+    yet), WARN when a ``warn_keys`` counter is non-zero or the NIS verdict is overconfident
+    or conservative, OK otherwise."""
+    status = DiagnosticStatus(name=f"{name}: health", hardware_id=name)
+    if not ready:
+        status.level, status.message = DiagnosticStatus.STALE, "no estimate yet"
+    elif any(fields.get(k, 0) for k in warn_keys):
+        status.level, status.message = DiagnosticStatus.WARN, "running; inputs rejected or filter reset (see values)"
+    elif nis_verdict in ("overconfident", "conservative"):
+        status.level, status.message = DiagnosticStatus.WARN, f"running; NIS {nis_verdict} (see nis_*)"
+    else:
+        status.level, status.message = DiagnosticStatus.OK, "running"
+    status.values = [KeyValue(key=k, value=str(v)) for k, v in fields.items()]
+    arr = DiagnosticArray(status=[status])
+    arr.header.stamp = time_msg(t_ns)
+    return arr
+
+
 _NAN = float("nan")
 
 

@@ -30,6 +30,26 @@ It must see every sample, so it takes part in pacing: ``~/progress`` (rosgraph_m
 carries the next step it needs. Bad input: NaN/inf samples and stamps at or before the last
 step are rejected and counted (warned at most once a second); a stamp more than
 ``reset_backjump_s`` back (a bag looping) restarts the alignment.
+
+Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
+
+* ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS``, inputs grouped by step on the
+  ``sim_rate_hz`` grid (off-grid stamps rejected), ``~/progress`` on the grid, no
+  /diagnostics: the behaviour before free timing existed (byte-identical bags).
+* ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs, no
+  step grid, no wait on ``/clock`` or a progress topic. The two streams are fed to the core
+  in stamp order (:class:`gimbal_kinematics.sync.StampOrder`, the joint before the
+  accelerometer of the same stamp, a sample waiting at most ``max_sync_wait_s`` for the
+  other stream); the core holds the newest joint angle and extrapolates it with its rate
+  to each accelerometer stamp (its ``max_joint_age_s`` bounds how old). Stamps are integer
+  nanoseconds and the core runs on seconds relative to the first stamp seen (its
+  integrals need the interval, and a float64 near 1.8e9 s resolves only 2.4e-7 s); outputs
+  carry the absolute stamps. /diagnostics, every ``diagnostics_period_s`` of stamp time
+  after an output: the core's counters, the node's (``rejected_joints``: a JointState
+  without ``azimuth_joint``), per stream StreamStats (``imu_*``, ``joint_*``: received,
+  duplicates, out_of_order, clock_jumps, dropped, jitter_rms), ``incompatible_qos`` and
+  the NIS window of the block updates (``nis_*``, 2 dof). ``~/progress`` reports the
+  newest accelerometer stamp every ``progress_every_steps`` samples.
 """
 from __future__ import annotations
 
@@ -41,14 +61,18 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
+from diagnostic_msgs.msg import DiagnosticArray
+
+from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.stream_stats import StreamStats, Verdict
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import StepGroups
+from gimbal_kinematics.sync import StampOrder, StepGroups
 
 from . import messages as m
+from .nis import NisWindow
 from .platform_alignment_params import DESCRIPTION, PARAMS
 from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
 
@@ -74,12 +98,26 @@ class PlatformAlignmentNode(Node):
         self.rejected_off_grid = 0
         self.rejected_joints = 0
         self._seen: tuple[int, ...] = ()
-        self.pubs = {name: self.create_publisher(Vector3Stamped, f"~/{name}", GRAPH_QOS) for name in OUTPUTS}
-        self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
+        timing = v["timing"]
+        self.free = timing == "free"
+        self.t0_ns: int | None = None  # free timing: the first stamp (the core's time origin)
+        self.order = StampOrder(("joint", "imu"), int(round(v["max_sync_wait_s"] * 1e9)))
+        jump_ns = int(round(v["reset_backjump_s"] * 1e9))
+        self.stats = {s: StreamStats(jump_ns) for s in ("imu", "joint")}
+        self.nis = NisWindow(2, window=v["nis_window"])
+        self._updates_seen = 0
+        self._imu_samples = 0
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        self.io = io = NodeIo(self)
+        self.pubs = {name: io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
+        self.pub_progress = io.advertise(Clock, "~/progress", timing)
+        # lockstep publishes no /diagnostics (its bags stay as they were)
+        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing) if self.free else None
+        on_input = self._on_free_input if self.free else self._on_input
         self.subs = [
-            self.create_subscription(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), GRAPH_QOS),
-            self.create_subscription(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg),
-                                     GRAPH_QOS),
+            io.subscribe(Imu, "/platform/imu", lambda msg: on_input("imu", msg), timing),
+            io.subscribe(JointState, v["joint_topic"], lambda msg: on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
 
@@ -106,28 +144,85 @@ class PlatformAlignmentNode(Node):
         for step, group in groups:
             self._process(step, group)
 
+    def _on_free_input(self, kind: str, msg) -> None:
+        """Free timing: judge the stamp, then feed the core in stamp order (module docstring)."""
+        t_ns = m.stamp_ns(msg.header.stamp)
+        verdict = self.stats[kind].offer(t_ns)
+        if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
+            self._warn(f"{kind} sample at {t_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
+            return
+        if self.t0_ns is None:
+            self.t0_ns = t_ns
+        for stream, item in self.order.add(kind, t_ns, msg):
+            self._process_free(stream, item)
+
+    def _process_free(self, kind: str, msg) -> None:
+        t_ns = m.stamp_ns(msg.header.stamp)
+        t = (t_ns - self.t0_ns) * 1e-9
+        est = None
+        if kind == "joint":
+            self._feed_joint(t, msg, f"{t_ns * 1e-9:.6f} s")
+        else:
+            est = self.core.on_accel(t, m.vec_of(msg.linear_acceleration))
+            self._imu_samples += 1
+            if self._imu_samples % self.progress_every == 0:
+                self.pub_progress.publish(m.clock_msg(t_ns))
+        self._warn_counters(f"{t_ns * 1e-9:.6f} s")
+        if self.core.n_updates != self._updates_seen:
+            if self.core.n_updates > self._updates_seen:
+                self.nis.add(self.core.last_nis)
+            self._updates_seen = self.core.n_updates
+        if est is not None:
+            self._publish(t_ns, est)
+            if t_ns >= self._next_diag_ns:
+                self._next_diag_ns = t_ns + self.diag_period_ns
+                self.pub_diag.publish(self.health(t_ns))
+
+    def health(self, t_ns: int) -> DiagnosticArray:
+        """Free-timing /diagnostics (module docstring)."""
+        c = self.core.counters
+        fields: dict = {k: getattr(c, k) for k in (
+            "accepted", "rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
+            "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets")}
+        fields.update(updates=self.core.n_updates, rejected_joints=self.rejected_joints)
+        for name, st in self.stats.items():
+            fields.update(st.as_dict(name))
+        fields["incompatible_qos"] = self.io.incompatible_qos
+        fields.update(self.nis.as_dict())
+        warn = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
+                "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
+                "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos")
+        return m.free_health_msg(t_ns, self.get_name(), fields, self.core.n_updates > 0, warn,
+                                 self.nis.verdict().verdict)
+
+    def _feed_joint(self, t: float, msg, where: str) -> None:
+        joint = m.joint_position_velocity(msg, self.azimuth_joint)
+        if joint is None:
+            self.rejected_joints += 1
+            self._warn(f"{where}: no joint {self.azimuth_joint!r} with a position: ignored "
+                       f"({self.rejected_joints} rejected)")
+        else:
+            self.core.on_joint_state(t, joint[0] + self.heading, joint[1])
+
+    def _warn_counters(self, where: str) -> None:
+        c = self.core.counters
+        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_joint, c.rejected_stale_joint,
+                c.joint_rejected_nonfinite, c.joint_rejected_out_of_order)
+        if seen != self._seen and any(seen):
+            self._warn(f"{where}: samples rejected so far: accelerometer {seen[0]} non-finite, {seen[1]} out of "
+                       f"order, {seen[2] + seen[3]} without a joint angle; joint {seen[4]} non-finite, "
+                       f"{seen[5]} out of order")
+        self._seen = seen
+
     def _process(self, k: int, group: dict) -> None:
         t = k / self.rate
         core = self.core
         if "joint" in group:
-            joint = m.joint_position_velocity(group["joint"], self.azimuth_joint)
-            if joint is None:
-                self.rejected_joints += 1
-                self._warn(f"step {k}: no joint {self.azimuth_joint!r} with a position: ignored "
-                           f"({self.rejected_joints} rejected)")
-            else:
-                core.on_joint_state(t, joint[0] + self.heading, joint[1])
+            self._feed_joint(t, group["joint"], f"step {k}")
         est = None
         if "imu" in group:
             est = core.on_accel(t, m.vec_of(group["imu"].linear_acceleration))
-        c = core.counters
-        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_joint, c.rejected_stale_joint,
-                c.joint_rejected_nonfinite, c.joint_rejected_out_of_order)
-        if seen != self._seen and any(seen):
-            self._warn(f"step {k}: samples rejected so far: accelerometer {seen[0]} non-finite, {seen[1]} out of "
-                       f"order, {seen[2] + seen[3]} without a joint angle; joint {seen[4]} non-finite, "
-                       f"{seen[5]} out of order")
-        self._seen = seen
+        self._warn_counters(f"step {k}")
         if est is not None:
             self._publish(m.step_stamp_ns(k, self.rate), est)
         nxt = self._next_due(k)

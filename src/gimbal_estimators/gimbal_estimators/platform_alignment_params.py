@@ -42,6 +42,11 @@ PARAMS = (
           1e-9, INF),
     Param("converged_azimuth_arcmin", 2.0, "azimuth sigma below which it counts as converged [arcmin]", 1e-9, INF),
     Param("reset_backjump_s", 1.0, "a stamp this far before the last one restarts the alignment [s]", 1e-9, INF),
+    Param("max_sync_wait_s", 0.05, "free timing: longest a sample waits for the other stream's stamp to pass "
+          "it (stamp order) [s]", 0.0, 10.0),
+    Param("diagnostics_period_s", 1.0, "free timing: counters and NIS on /diagnostics every this much stamp "
+          "time [s]", 1e-3, 1e6),
+    Param("nis_window", 50, "free timing: block updates in the NIS window on /diagnostics", 1, 10**6),
     Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
           "vehicle_dynamics waits for and paces on it", 1, 10**6),
     Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",

@@ -296,6 +296,7 @@ class RotationAlignmentRls:
         self._psi_last = 0.0
         self._ic = self._is = 0.0
         self._n_updates = 0
+        self.last_nis = math.nan
         self._t_update: float | None = None
         self._clear_block()
 
@@ -414,6 +415,8 @@ class RotationAlignmentRls:
         zw = np.array([b[5], b[6]]) * w
         upd = joseph_update(self._xi, self._P, zw, Hw, np.eye(2))
         self._xi, self._P = upd.x, upd.P
+        #: NIS of the last block update (2 dof; whitened rows, so S = Hw P Hwᵀ + I) [-]
+        self.last_nis = upd.d2
         self._info += Hw.T @ Hw
         self._n_updates += 1
         self._t_update = self._t_last
