@@ -5,9 +5,16 @@ A controller in ``timing: free`` steps on each sample of its driving gyro with t
 other inputs (:class:`gimbal_kinematics.sync.FreshInputs`). This class holds that gate, the
 counters of inputs that could not be used, the stale-input policy and ``/diagnostics``:
 
-* a stale or missing input *zeroes* the command (zero torque or voltage lets the gimbal
-  coast; a command computed from inputs that no longer hold can drive it into a stop, and
-  the papers say nothing about lost inputs), counted in ``stale_commands``;
+* a stale or missing measurement *zeroes* the command (zero torque or voltage lets the
+  gimbal coast; a command computed from inputs that no longer hold can drive it into a
+  stop, and the papers say nothing about lost inputs), counted in ``stale_commands``;
+* a stale or missing *estimate* (``held``: another node's gyro-bias or attitude estimate)
+  does not: the loop goes on with the last estimate it took (none yet: no correction, as
+  the lockstep loop before the filter's first output), counted in ``stale_estimate_steps``.
+  A bias changes over hours, so the last estimate is still the best correction, and the
+  rate loop stays closed on the gyro; zeroing torque instead lets the gimbal follow the
+  vehicle (an estimator starting a few samples late cost the real-time rehearsal over a
+  degree of LOS in a tenth of a second);
 * when the inputs are fresh again the loop restarts (the core reset: it was open), counted
   in ``restarts_after_stale``; a clock jump back (a bag looping) resets it too;
 * every ``diagnostics_period_s`` of stamp time one DiagnosticStatus carries every counter.
@@ -20,7 +27,7 @@ from gimbal_kinematics.sync import FreeStep, FreshInputs
 
 from . import messages as m
 
-COUNTERS = ("stale_commands", "restarts_after_stale", "malformed", "rejected_no_rates", "rejected_nonfinite",
+COUNTERS = ("stale_commands", "stale_estimate_steps", "restarts_after_stale", "malformed", "rejected_no_rates", "rejected_nonfinite",
             "rejected_joint_names")
 
 
@@ -28,8 +35,12 @@ class FreeLoop:
     """The free-timing state of one controller node (module docstring)."""
 
     def __init__(self, node: Any, io: Any, driver: str, max_age_s: dict[str, float], period_s: float,
-                 backjump_s: float, diagnostics_period_s: float) -> None:
+                 backjump_s: float, diagnostics_period_s: float, held: tuple[str, ...] = ()) -> None:
+        unknown = set(held) - set(max_age_s)
+        if unknown:
+            raise ValueError(f"held streams {sorted(unknown)} are not inputs")
         self.node = node
+        self.held = frozenset(held)
         self.io = io
         self.gate = FreshInputs(driver, {k: int(round(a * 1e9)) for k, a in max_age_s.items()},
                                 int(round(period_s * 1e9)), int(round(backjump_s * 1e9)))
@@ -49,11 +60,16 @@ class FreeLoop:
         return (stamp_ns - self.gate.t0_ns) * 1e-9
 
     def fresh(self, step: FreeStep, reset: Callable[[str], None]) -> bool:
-        """Whether the core may run on ``step``; False (counted): zero the command."""
+        """Whether the core may run on ``step``; False (counted): zero the command. Held
+        streams that are stale are counted but do not stop it (module docstring)."""
         if step.restarted:
             reset("stamps jumped back (a bag looping?): restarted")
-        if step.stale:
-            self.count("stale_commands", f"{', '.join(step.stale)} older than its maximum age or missing: "
+        zeroing = [s for s in step.stale if s not in self.held]
+        if len(zeroing) < len(step.stale):
+            self.count("stale_estimate_steps", f"{', '.join(s for s in step.stale if s in self.held)} older "
+                       "than its maximum age or missing: the last estimate kept")
+        if zeroing:
+            self.count("stale_commands", f"{', '.join(zeroing)} older than its maximum age or missing: "
                        "command zeroed")
             self.was_stale = True
             return False

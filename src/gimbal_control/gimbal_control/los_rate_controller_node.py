@@ -16,11 +16,15 @@ That is ``timing: lockstep``, which the orchestrator sets. ``timing: free`` (the
 for a driver or a bag) never waits: each gyro sample makes one command, stamped like it,
 from the newest encoder and INS samples no older than ``max_input_age_s`` and the newest
 estimates no older than ``max_estimate_age_s`` (:class:`gimbal_kinematics.sync.FreshInputs`;
-dt from the stamps, time in int ns from the first stamp). A stale or missing input *zeroes*
-the command: for a rate loop zero torque lets the gimbal coast on its bearings, while
-holding a torque computed from angles that no longer hold can drive it into a stop; paper 1
-says nothing about lost inputs. Each such command is counted (``stale_commands``), and when
-the inputs are fresh again the loop restarts (integrator zeroed: the loop was open). Jitter,
+dt from the stamps, time in int ns from the first stamp). A stale or missing measurement
+(gyro, encoders, INS) *zeroes* the command: for a rate loop zero torque lets the gimbal
+coast on its bearings, while holding a torque computed from angles that no longer hold can
+drive it into a stop; paper 1 says nothing about lost inputs. Each such command is counted
+(``stale_commands``), and when the inputs are fresh again the loop restarts (integrator
+zeroed: the loop was open). A stale or missing *estimate* (bias, attitude) keeps the last
+one taken (before the first: no correction, like the lockstep loop before the EKF's first
+output) and is counted (``stale_estimate_steps``): the bias changes over hours, and zeroing
+torque while an estimator starts would let the gimbal follow the vehicle. Jitter,
 drops, duplicates and out-of-order stamps are counted; ``/diagnostics`` carries every
 counter once per ``diagnostics_period_s`` of stamp time.
 
@@ -87,7 +91,7 @@ class LosRateControllerNode(Node):
             ages = {kind: v["max_estimate_age_s"] if kind in ("bias", "att") else v["max_input_age_s"]
                     for kind, *_ in inputs[1:]}
             self.free = FreeLoop(self, self.io, "gyro", ages, 1.0 / self.rate, params.reset_backjump_s,
-                                 v["diagnostics_period_s"])
+                                 v["diagnostics_period_s"], held=tuple(k for k in ("bias", "att") if k in ages))
             on_input = self._on_free_input
         for kind, msg_type, topic, decode in inputs:
             self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: on_input(k, data, d), timing, raw=True)
@@ -209,7 +213,7 @@ class LosRateControllerNode(Node):
         if free.fresh(step, core.reset):
             (angles, rates), ins = step.inputs["enc"][1], step.inputs["ins"][1]
             bias = step.inputs.get("bias")
-            if bias is not None:
+            if bias is not None and "bias" not in step.stale:  # a stale one is already the core's
                 core.set_bias_estimate(free.seconds(bias[0]), bias[1])
             before = core.rejected_inputs
             tau = core.step(step.t_ns * 1e-9, value, angles, rates, ins)

@@ -80,3 +80,17 @@ def steps_per_sample(values: dict[str, Any], rate_name: str, base_name: str = "s
     if n < 1 or abs(ratio - n) > 1e-9 * ratio:
         raise ParameterError(f"parameter {rate_name!r} = {values[rate_name]} Hz does not divide {base_name}")
     return n
+
+
+def topic_counts(entries: Sequence[str], param: str, topics: Sequence[str] | None = None) -> dict[str, int]:
+    """Parse a ``'topic=count'`` string-array parameter into {topic: count}. ``topics``, when
+    given, are the only topics allowed; raises :class:`ParameterError` naming ``param``."""
+    out: dict[str, int] = {}
+    for entry in entries:
+        topic, _, count = entry.partition("=")
+        topic = topic.strip()
+        if not topic.startswith("/") or not count.strip().isdigit() or (topics is not None and topic not in topics):
+            allowed = "" if topics is None else f" with topic one of {sorted(topics)}"
+            raise ParameterError(f"parameter '{param}': entry {entry!r} is not '/topic=count'{allowed}")
+        out[topic] = int(count)
+    return out

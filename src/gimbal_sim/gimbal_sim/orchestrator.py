@@ -127,7 +127,10 @@ def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list
             # /clock: the recorder and the run's monitor (which times every step)
             params.setdefault("subscriber_counts", ["/clock=2"])
         elif "wait_for_subscribers" in declared:
-            params["wait_for_subscribers"] = 1  # the recorder reads every output
+            # the recorder reads every output; a real-time scenario also counts its
+            # free-timing readers (no readiness of their own: a sample sent before they
+            # matched is lost)
+            params.setdefault("wait_for_subscribers", 1)
         planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
     recorder = {"output_dir": str(out_dir), "compress": compress,
                 "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,

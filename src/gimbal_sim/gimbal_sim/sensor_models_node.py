@@ -20,6 +20,7 @@ from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import StampSync
 from .sensor_models_params import DESCRIPTION, PARAMS
@@ -114,8 +115,10 @@ class SensorModelsNode(Node):
         self.progress_every = values["progress_every_steps"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
-        announce_when_connected(self, self.pub_progress, outputs=(p for group in self.pubs.values() for p in group),
-                                readers=self.wait_for_subscribers)
+        outputs = [p for group in self.pubs.values() for p in group]
+        counts = topic_counts(values["subscriber_counts"], "subscriber_counts", [p.topic_name for p in outputs])
+        announce_when_connected(self, self.pub_progress, outputs=outputs, readers=self.wait_for_subscribers,
+                                counts=counts)
 
     def _white_noise_covariances(self) -> dict:
         """Per-sample variances of the white noise each measurement carries (for the

@@ -26,6 +26,8 @@ PARAMS = (
           "vehicle_dynamics waits for and paces on it", 1, 10**6),
     Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
           0, 1000),
+    Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as '/topic=count' entries "
+          "(a real-time scenario: its free-timing readers announce no readiness)", array_type="string_array"),
     Param("ins_rate_hz", 100.0, "INS output rate [Hz]", 1e-3, 100000.0),
     Param("gimbal_gyro_rate_hz", 1000.0, "gimbal gyro output rate [Hz]", 1e-3, 100000.0),
     Param("encoder_rate_hz", 1000.0, "encoder output rate [Hz]", 1e-3, 100000.0),

@@ -8,8 +8,10 @@ the wall clock):
   The same inputs therefore give the same outputs, however slow any node is.
 * ``controlled: false``: no controller; the node runs open loop at full speed, re-arming
   itself through a guard condition so other callbacks interleave.
-* ``mode: realtime``: a wall-clock timer at the simulation rate; a command that is late
-  is replaced by the last one and counted. The command subscription then uses the
+* ``mode: realtime``: a wall-clock timer at the simulation rate times
+  ``real_time_factor`` (below 1 on a loaded machine: the stamps stay sim time, so the
+  free-timing nodes see the same data); a command that is late is replaced by the last
+  one and counted. The command subscription then uses the
   free-timing input QoS (:func:`gimbal_kinematics.ros.node_io.input_qos`: best effort,
   volatile), so a free-timing controller (reliable, volatile) or a driver-like publisher
   matches it; the truth publishers stay reliable + transient-local, which every
@@ -46,7 +48,7 @@ from gimbal_kinematics.ros.node_io import input_qos
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
 from .vehicle import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
 from .vehicle_dynamics_params import DESCRIPTION, PARAMS
@@ -60,6 +62,7 @@ class VehicleDynamicsNode(Node):
         self.core = VehicleCore(self.config, GIMBAL_MODELS[values["gimbal_model"]])
         self.controlled = values["controlled"]
         self.realtime = values["mode"] == "realtime"
+        self.real_time_factor = float(values["real_time_factor"])
         self.exit_at_end = values["exit_at_end"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
         self.done = Future()
@@ -94,7 +97,8 @@ class VehicleDynamicsNode(Node):
             qos = input_qos("free") if self.realtime else GRAPH_QOS
             self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, qos, raw=True)
         self._needed = self._subscriber_counts(values["subscriber_counts"])
-        self._graph_needed = self._topic_counts(values["topic_subscriber_counts"])
+        # topic -> subscriptions the graph must show before step 0
+        self._graph_needed = topic_counts(values["topic_subscriber_counts"], "topic_subscriber_counts")
         self._rearm = None  # open loop: zero-period timer that re-runs _free_run_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
         self._plant_frame = GIMBAL_FRAME if plant == "two_axis_gimbal" else PLATFORM_FRAME
@@ -104,24 +108,8 @@ class VehicleDynamicsNode(Node):
         """Publisher -> matched subscriptions it needs before step 0."""
         by_topic = {p.topic_name: p for p in self._truth_pubs}
         needed = {p: self.wait_for_subscribers for p in self._truth_pubs}
-        for entry in entries:
-            topic, _, count = entry.partition("=")
-            if topic not in by_topic or not count.strip().isdigit():
-                raise ParameterError(f"parameter 'subscriber_counts': entry {entry!r} is not 'topic=count' "
-                                     f"with topic one of {sorted(by_topic)}")
-            needed[by_topic[topic]] = int(count)
-        return needed
-
-    @staticmethod
-    def _topic_counts(entries: list[str]) -> dict[str, int]:
-        """Topic -> subscriptions the graph must show before step 0."""
-        needed = {}
-        for entry in entries:
-            topic, _, count = entry.partition("=")
-            if not topic.startswith("/") or not count.strip().isdigit():
-                raise ParameterError(f"parameter 'topic_subscriber_counts': entry {entry!r} is not "
-                                     "'/topic=count'")
-            needed[topic.strip()] = int(count)
+        for topic, count in topic_counts(entries, "subscriber_counts", list(by_topic)).items():
+            needed[by_topic[topic]] = count
         return needed
 
     def _try_start(self) -> None:
@@ -143,7 +131,8 @@ class VehicleDynamicsNode(Node):
             f"{'realtime' if self.realtime else 'lockstep'})")
         self._publish_truth(self.core.truth())
         if self.realtime:
-            self.create_timer(self.config.dt, self._realtime_step)
+            # the stamps stay k·dt: only the wall-clock period between steps scales
+            self.create_timer(self.config.dt / self.real_time_factor, self._realtime_step)
         elif not self.controlled:
             self._rearm = self.create_timer(0.0, self._free_run_step)
 

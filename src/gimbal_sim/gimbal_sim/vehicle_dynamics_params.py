@@ -31,6 +31,9 @@ PARAMS = (
           "initial platform loop angles azimuth, inner roll, pitch, outer roll [deg]"),
     Param("mode", "lockstep", "lockstep: step on commands/events; realtime: pace to the wall clock",
           choices=("lockstep", "realtime")),
+    Param("real_time_factor", 1.0, "realtime mode: simulated seconds per wall-clock second [s/s] (1: real time; "
+          "below 1 slows the wall clock down, giving a loaded machine headroom; stamps stay sim time)",
+          0.01, 10.0),
     Param("controlled", False, "a controller commands the plant (lockstep waits for its command)"),
     Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
     Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
