@@ -235,6 +235,11 @@ def summarize_alignment(runs: Sequence[AlignmentMetrics]) -> dict[str, dict[str,
         "accel_bias_x_error_ug": [r.accel_bias_error_ug[0] for r in runs],
         "accel_bias_y_error_ug": [r.accel_bias_error_ug[1] for r in runs],
     }
+    return column_stats(cols)
+
+
+def column_stats(cols: dict[str, Sequence[float]]) -> dict[str, dict[str, float]]:
+    """Mean, std (ddof=1, as Table 2), RMS and max |·| of each column of run values."""
     out = {}
     for name, vals in cols.items():
         a = np.asarray(vals, dtype=float)

@@ -74,6 +74,8 @@ class RunTask:
     compress: bool
     keep_bags: str
     timeout_s: float
+    experiment: str = ""                  # an experiment runner's campaign (its name is scenario_name)
+    options: dict[str, Any] = field(default_factory=dict)   # the runner's settings
 
 
 #: A caller's run: (task, run_dir to create) -> the run's metrics (a metrics.json mapping).
@@ -220,19 +222,21 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
             from .core_metrics import run_core
 
             run_core(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt)
-        engine = "custom" if run_fn is not None else task.engine  # only a graph run has a bag to check
+        # only a graph run has a bag to check; an experiment's run function is its core engine
+        engine = "custom" if run_fn is not None and not task.experiment else task.engine
         metrics, why = _check_metrics(attempt, engine) if not reason or attempt.exists() else (None, "")
         reason = reason or why
     except Exception as exc:  # noqa: BLE001 - any failure of one run is recorded, the campaign goes on
         reason = f"{type(exc).__name__}: {exc}"
         log_tail = _tail(traceback.format_exc())
     attempt.mkdir(parents=True, exist_ok=True)
+    engine_label = "custom" if run_fn is not None and not task.experiment else task.engine
     status = "failed" if reason else "ok"
     bag_kept = any(attempt.glob("*.mcap"))
     if bag_kept and (task.keep_bags == "none" or (task.keep_bags == "failed" and status == "ok")):
         bag_kept = not _drop_bag(attempt)
     row = {"run_id": task.run_id, "scenario": task.scenario_name.split(":")[0], "variant": task.variant,
-           "seed": task.seed, "engine": "custom" if run_fn is not None else task.engine, "status": status,
+           "seed": task.seed, "engine": engine_label, "status": status,
            "reason": reason, "wall_s": time.monotonic() - t0, "host": socket.gethostname(),
            "log_tail": log_tail if status != "ok" else "", "values": task.values, "bag_kept": bag_kept,
            "metrics": flatten_metrics(metrics) if metrics else {}}
@@ -249,9 +253,12 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
 
 # ------------------------------------------------------------------ the campaign (client side)
 def _tasks(campaign: CampaignPlan, out_dir: Path, spec: CampaignSpec) -> list[RunTask]:
-    timeout = spec.timeout_s or 120.0 + 10.0 * campaign.base.duration_s
-    return [RunTask(r.run_id, str(out_dir), r.scenario.to_yaml(), r.scenario.name, r.variant, r.seed, r.values,
-                    spec.engine, spec.mode, spec.compress, spec.keep_bags, timeout) for r in campaign.runs]
+    timeout = spec.timeout_s or 120.0 + 10.0 * (campaign.base.duration_s if campaign.base else 0.0)
+    options = campaign.fingerprint.get("options", {})
+    return [RunTask(r.run_id, str(out_dir), r.scenario.to_yaml() if r.scenario else "",
+                    r.scenario.name if r.scenario else spec.experiment, r.variant, r.seed, r.values, spec.engine,
+                    spec.mode, spec.compress, spec.keep_bags, timeout, spec.experiment, options)
+            for r in campaign.runs]
 
 
 def _load_row(out_dir: Path, run_id: str) -> dict[str, Any] | None:
@@ -361,6 +368,10 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
     t0 = time.monotonic()
     out_dir = Path(out_dir).absolute()
     campaign = plan(spec)
+    if spec.experiment and spec.engine == "core" and run_fn is None:
+        from .experiment_campaigns import run_experiment_task
+
+        run_fn = run_experiment_task
     check_directory(out_dir, campaign, resume)
     rows: dict[str, dict[str, Any]] = {}
     for run in campaign.runs:

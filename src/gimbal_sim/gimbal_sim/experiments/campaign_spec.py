@@ -94,9 +94,16 @@ class CampaignSpec:
     keep_bags: str = "all"
     timeout_s: float | None = None
     compress: bool = True
+    #: an experiment runner's campaign (:mod:`.experiment_campaigns`) instead of a scenario's
+    experiment: str = ""
+    options: tuple[tuple[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The campaign in its YAML form (what ``campaign.yaml`` holds)."""
+        if self.experiment:
+            return {"experiment": self.experiment, "variants": list(self.variants), "seeds": list(self.seeds),
+                    "options": {k: v for k, v in self.options}, "mode": self.mode, "engine": self.engine,
+                    "keep_bags": self.keep_bags, "timeout_s": self.timeout_s, "compress": self.compress}
         return {"scenario": self.scenario, "variants": list(self.variants), "seeds": list(self.seeds),
                 "duration_s": self.duration_s, "mode": self.mode, "engine": self.engine,
                 "set": {k: v for k, v in self.overrides},
@@ -107,19 +114,20 @@ class CampaignSpec:
 
 @dataclass(frozen=True)
 class PlannedRun:
-    """One run of a campaign: the single-run scenario it executes and what identifies it."""
+    """One run of a campaign: the single-run scenario it executes (None: an experiment
+    runner's core run) and what identifies it."""
 
     run_id: str
     variant: str
     seed: int
     values: dict[str, Any]
-    scenario: Scenario = field(repr=False)
+    scenario: Scenario | None = field(repr=False)
 
 
 @dataclass(frozen=True)
 class CampaignPlan:
     spec: CampaignSpec
-    base: Scenario
+    base: Scenario | None       # None: an experiment runner's core runs
     runs: tuple[PlannedRun, ...]
     fingerprint: dict[str, Any]
 
@@ -379,6 +387,10 @@ def check_core_engine(scenario: Scenario) -> None:
 def plan(spec: CampaignSpec) -> CampaignPlan:
     """Validate ``spec`` against its scenario and expand it into runs (variant × seed × point).
     Raises :class:`CampaignError` naming what is wrong; nothing is started or written."""
+    if spec.experiment:
+        from .experiment_campaigns import plan_experiment
+
+        return plan_experiment(spec)
     try:
         base = load(spec.scenario)
     except ScenarioError as exc:

@@ -29,6 +29,9 @@ from ..reports.flexure import flexure_metrics
 from ..sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
 from ..sensors import FlexureParams, GyroParams
 from ..vehicle import VehicleConfig, VehicleCore
+from .campaign_spec import CampaignSpec
+from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+                                   run_for_cli, run_metrics)
 
 
 #: Per-epoch series kept (each (n, 3) except ``t`` and ``d2``).
@@ -170,13 +173,22 @@ def run_flexure_experiment(model: str = "random_walk_rate", duration_s: float = 
     return run_flexure_comparison(duration_s, seed, models=(model,), **kwargs)[model]
 
 
-def format_metrics(result: FlexureExperimentResult) -> str:
-    """Human-readable summary of one result."""
-    m = result.metrics
+def estimator_figures(result: FlexureExperimentResult) -> dict[str, Any]:
+    """One filter's figures as the ``flexure`` report keeps an estimator's (JSON-able), plus
+    what only the core loop knows: wall time, filter cost and counters."""
+    out = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in result.metrics.items()}
+    out.update(model=result.model, wall_s=result.wall_s, filter_us_per_pair=result.filter_us_per_pair,
+               counters=dict(result.counters))
+    return out
+
+
+def format_metrics(label: str, m: dict[str, Any]) -> str:
+    """Human-readable summary of one filter's figures (:func:`estimator_figures`, or a graph
+    run's report entry, which has no wall time, filter cost or counters)."""
     f = lambda v, d=1: "(" + ", ".join(f"{x:.{d}f}" for x in v) + ")"  # noqa: E731
+    cost = (f" wall={m['wall_s']:.1f} s filter={m['filter_us_per_pair']:.1f} us/pair" if "wall_s" in m else "")
     return "\n".join([
-        f"[{result.label}] epochs={m['n_epochs']} wall={result.wall_s:.1f} s"
-        f" filter={result.filter_us_per_pair:.1f} us/pair",
+        f"[{label}] epochs={m['n_epochs']}{cost}",
         f"  total flexure error RMS {f(m['total_rms_arcsec'])}″  max {f(m['total_max_arcsec'])}″"
         f"  filter 1σ RMS {f(m['total_sigma_rms_arcsec'])}″"
         f"  within ±3σ {100 * m['total_within_3sigma']:.1f} %  NEES {m['total_nees_mean']:.2f}",
@@ -184,7 +196,7 @@ def format_metrics(result: FlexureExperimentResult) -> str:
         f"  variation p-p {f(m['qs_variation_pp_arcsec'])}″  max/p-p {f(m['qs_max_over_variation_pp'], 2)}",
         f"  bias diff error final {f(m['bias_diff_err_final_deg_h'], 4)} °/h  max {f(m['bias_diff_err_max_deg_h'], 4)}"
         f"  RMS {f(m['bias_diff_err_rms_deg_h'], 4)} °/h  within 0.01 °/h from {m['bias_diff_settle_s']:.0f} s",
-        f"  counters {result.counters}",
+        *([f"  counters {m['counters']}"] if "counters" in m else []),
     ])
 
 
@@ -196,24 +208,49 @@ def _band(values: list[float] | None, name: str) -> float | tuple[float, ...] | 
     return values[0] if len(values) == 1 else tuple(values)
 
 
-def _run_seed(job: tuple[int, dict[str, Any]]) -> dict[str, FlexureExperimentResult]:
-    seed, kwargs = job
-    return run_flexure_comparison(seed=seed, **kwargs)
+def _band_kwargs(options: dict[str, Any]) -> dict[str, Any]:
+    """The dynamic-flexure band options given (lists) as FlexureParams/FlexureKfParams keywords."""
+    return {k: (v if isinstance(v, float) else tuple(v)) for k in ("dynamic_beta_per_s", "dynamic_freq_rad_s")
+            if (v := options[k]) is not None}
 
 
-def monte_carlo_table(runs: dict[int, dict[str, FlexureExperimentResult]]) -> str:
-    """Per model, statistics over seeds of the figures the issue scores (arcsec, °/h)."""
+def campaign_run(variant: str, seed: int, options: dict[str, Any]) -> dict[str, Any]:
+    """The campaign engine's core run (:data:`CAMPAIGN`): one ship simulation feeding one
+    filter per model; the figures under the ``flexure`` report's names
+    (``estimators.flexure_<model>``)."""
+    band = _band_kwargs(options)
+    results = run_flexure_comparison(options["duration_s"], seed, models=tuple(options["models"]),
+                                     sim_rate_hz=options["sim_rate_hz"], lgu_rate_hz=options["lgu_rate_hz"],
+                                     convergence_s=options["convergence_s"], params=FlexureKfParams(**band),
+                                     flexure=FlexureParams(**band))
+    return {"duration_s": options["duration_s"], "convergence_s": options["convergence_s"],
+            "estimators": {f"flexure_{m}": estimator_figures(r) for m, r in results.items()}}
+
+
+#: Seeds as a campaign: ``engine: core`` runs :func:`campaign_run`; ``engine: graph`` runs
+#: scenario ``ship_flexure`` (both models, 10 Hz, the default band; its estimators publish at
+#: 1 Hz, so its figures are scored on those epochs).
+CAMPAIGN = ExperimentCampaign(
+    name="flexure", variants=("",),
+    defaults={"duration_s": 7200.0, "models": list(QS_MODELS), "sim_rate_hz": 10.0, "lgu_rate_hz": 10.0,
+              "convergence_s": 600.0, "dynamic_beta_per_s": None, "dynamic_freq_rad_s": None},
+    run=campaign_run, graph=GraphEquivalent("ship_flexure", {"": None}, {"duration_s": "duration_s"}))
+
+
+def monte_carlo_table(runs: list[tuple[int, dict[str, Any]]], models: list[str]) -> str:
+    """Per model, statistics over seeds (``runs``: [(seed, figures)]) of the figures the issue
+    scores (arcsec, °/h)."""
     lines = []
-    models = next(iter(runs.values())).keys()
+    seeds = sorted(seed for seed, _ in runs)
     f = lambda v, d=1: " / ".join(f"{x:.{d}f}" for x in v)  # noqa: E731
     for m in models:
-        ms = [runs[s][m].metrics for s in sorted(runs)]
+        ms = [fig["estimators"][f"flexure_{m}"] for _, fig in sorted(runs, key=lambda r: r[0])]
         rms = np.array([x["total_rms_arcsec"] for x in ms])
         sig = np.array([x["total_sigma_rms_arcsec"] for x in ms])
         bd = np.array([np.abs(x["bias_diff_err_final_deg_h"]) for x in ms])
         nees = np.array([x["total_nees_mean"] for x in ms])
         lines += [
-            f"[{m}] {len(ms)} seeds ({', '.join(str(s) for s in sorted(runs))})",
+            f"[{m}] {len(ms)} seeds ({', '.join(str(s) for s in seeds)})",
             f"  total flexure error RMS, roll / pitch / yaw [″]: mean {f(rms.mean(0))}   max {f(rms.max(0))}",
             f"  filter 1σ RMS [″]: mean {f(sig.mean(0))}   NEES (3 dof) mean {nees.mean():.2f}",
             f"  |bias difference error| at the end [°/h]: max {f(bd.max(0), 4)}",
@@ -226,7 +263,9 @@ def main(argv: list[str] | None = None) -> None:
         prog="python -m gimbal_sim.experiments.flexure",
         description="Paper 5 ship flexure without ROS: the ship simulation feeds one FlexureKf per "
                     "quasi-static model on the same LGU samples; prints the errors against the truth "
-                    "after the convergence time (several seeds: a Monte Carlo table).")
+                    "after the convergence time (several seeds: a Monte Carlo table). The seeds run as a "
+                    "campaign (gimbal-campaign's engine: --jobs, --scheduler, --out, --resume; --engine graph "
+                    "runs the real nodes of scenario ship_flexure instead).")
     ap.add_argument("--duration", type=float, default=7200.0, help="simulated time [s] (default 7200)")
     ap.add_argument("--seeds", "--seed", type=int, nargs="+", default=[0], help="seeds to run (default 0)")
     ap.add_argument("--models", nargs="+", choices=QS_MODELS, default=list(QS_MODELS),
@@ -240,15 +279,15 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--dynamic-freq", type=float, nargs="+", metavar="LAMBDA_RAD_S",
                     help="dynamic flexure damped frequency lambda [rad/s] (0 = critically damped; truth and "
                          "filters)")
-    ap.add_argument("--jobs", type=int, default=1, help="seeds run in parallel processes (default 1)")
+    add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
     for name, value in (("--duration", a.duration), ("--sim-rate", a.sim_rate), ("--lgu-rate", a.lgu_rate)):
         if not value > 0.0 or value == float("inf"):
             ap.error(f"{name} must be a finite number > 0, got {value}")
     if not 0.0 <= a.convergence < a.duration:
         ap.error(f"--convergence must be in [0, --duration), got {a.convergence}")
-    if a.jobs < 1 or len(set(a.seeds)) != len(a.seeds):
-        ap.error("--jobs must be >= 1 and --seeds must not repeat a seed")
+    if len(set(a.seeds)) != len(a.seeds):
+        ap.error("--seeds must not repeat a seed")
     band: dict[str, Any] = {}
     try:
         for key, values, name in (("dynamic_beta_per_s", a.dynamic_beta, "--dynamic-beta"),
@@ -257,31 +296,23 @@ def main(argv: list[str] | None = None) -> None:
             if v is not None:
                 band[key] = v
         flexure = FlexureParams(**band)
-        params = FlexureKfParams(**band)
+        FlexureKfParams(**band)
     except ValueError as exc:
         ap.error(str(exc))
-    kwargs = dict(duration_s=a.duration, models=tuple(a.models), sim_rate_hz=a.sim_rate, lgu_rate_hz=a.lgu_rate,
-                  convergence_s=a.convergence, params=params, flexure=flexure)
-    from tqdm import tqdm
-    jobs = [(seed, kwargs) for seed in a.seeds]
-    runs: dict[int, dict[str, FlexureExperimentResult]] = {}
-    with tqdm(total=len(jobs), unit="seed", disable=None) as bar:
-        if a.jobs > 1 and len(jobs) > 1:
-            from concurrent.futures import ProcessPoolExecutor
-            with ProcessPoolExecutor(max_workers=a.jobs) as pool:
-                for seed, res in zip(a.seeds, pool.map(_run_seed, jobs)):
-                    runs[seed] = res
-                    bar.update()
-        else:
-            for job in jobs:
-                runs[job[0]] = _run_seed(job)
-                bar.update()
+    options = {"duration_s": a.duration, "models": list(a.models), "sim_rate_hz": a.sim_rate,
+               "lgu_rate_hz": a.lgu_rate, "convergence_s": a.convergence,
+               **{k: (list(v) if isinstance(v, tuple) else v) for k, v in band.items()}}
+    spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(a.seeds), engine=a.engine, mode=a.mode,
+                        options=tuple(options.items()))
+    with campaign_dir(a.out) as out:
+        runs = run_metrics(run_for_cli(ap, a, spec, out))[""]
     print(f"dynamic flexure band: beta {flexure.dynamic_beta_per_s} 1/s, lambda {flexure.dynamic_freq_rad_s} rad/s")
+    models = list(a.models)
     if len(runs) == 1:
-        for r in next(iter(runs.values())).values():
-            print(format_metrics(r))
+        for m in models:
+            print(format_metrics(m, runs[0][1]["estimators"][f"flexure_{m}"]))
     else:
-        print(monte_carlo_table(runs))
+        print(monte_carlo_table(runs, models))
 
 
 if __name__ == "__main__":

@@ -21,6 +21,8 @@ from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
 
 from ..sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ..vehicle import VehicleConfig, VehicleCore
+from .campaign_spec import CampaignSpec
+from .experiment_campaigns import ExperimentCampaign, add_engine_arguments, campaign_dir, run_for_cli, run_metrics
 
 _NAN = float("nan")
 
@@ -134,36 +136,84 @@ class FdopMonteCarlo(NamedTuple):
     heading_sigma_mean: float
 
 
-def run_fdop_monte_carlo(n_runs: int = 200, *, fixes_per_run: int = 1, lat_deg: float = 35.0,
-                         lon_deg: float = 129.0, profile: str = "paper5_ship", rate_hz: float = 10.0,
-                         fix_interval_s: float = 10.0, nadir_deg: tuple[float, float] = (60.0, 50.0),
-                         azimuth_deg: tuple[float, float] = (-40.0, 50.0), pickoff_noise_arcsec: float = 5.0,
-                         first_seed: int = 1) -> FdopMonteCarlo:
-    """``n_runs`` seeded runs (the same ship truth, new sensor noise each) of
-    ``fixes_per_run`` fix windows each; pooled error statistics against FDOP²σ²."""
-    u_a, u_b = make_spin_axes(lat_deg, lon_deg, 0.0, nadir_deg, azimuth_deg)
-    duration = fixes_per_run * fix_interval_s + 1.0 / rate_hz
-    truth = simulate_truth(profile, lat_deg, lon_deg, duration, rate_hz)
-    sp = FreeGyroSensorParams(u_a, u_b, pickoff_noise_arcsec=pickoff_noise_arcsec)
-    cp = FreeGyroPositioningParams(u_a, u_b, nadir_noise_arcsec=pickoff_noise_arcsec, fix_interval_s=fix_interval_s,
-                                   heading_window_s=max(60.0, duration))
-    errs, covs, nees, fdops, hd, hs = [], [], [], [], [], []
-    for k in range(n_runs):
-        run = run_free_gyro_experiment(first_seed + k, truth, lat_deg, lon_deg, sp, cp)
-        errs.append(run.errors_ne_m)
-        covs.append(run.cov_ne_m)
-        nees.extend(run.nees)
-        fdops.extend(f.fdop for f in run.fixes)
-        hd.extend(run.heading_errors)
-        hs.extend(f.heading_sigma for f in run.fixes)
-    e = np.vstack(errs)
+def _setup(options: dict) -> tuple:
+    """(truth, sensor params, core params) of an FDOP Monte Carlo's options (every run shares
+    the ship truth; only the sensor noise is seeded)."""
+    u_a, u_b = make_spin_axes(options["lat_deg"], options["lon_deg"], 0.0, tuple(options["nadir_deg"]),
+                              tuple(options["azimuth_deg"]))
+    rate_hz, fix_interval_s = options["rate_hz"], options["fix_interval_s"]
+    duration = options["fixes_per_run"] * fix_interval_s + 1.0 / rate_hz
+    truth = simulate_truth(options["profile"], options["lat_deg"], options["lon_deg"], duration, rate_hz)
+    sp = FreeGyroSensorParams(u_a, u_b, pickoff_noise_arcsec=options["pickoff_noise_arcsec"])
+    cp = FreeGyroPositioningParams(u_a, u_b, nadir_noise_arcsec=options["pickoff_noise_arcsec"],
+                                   fix_interval_s=fix_interval_s, heading_window_s=max(60.0, duration))
+    return truth, sp, cp
+
+
+#: The options of an FDOP Monte Carlo and their defaults (paper 4's ship at 35° N).
+FDOP_DEFAULTS = {"fixes_per_run": 1, "lat_deg": 35.0, "lon_deg": 129.0, "profile": "paper5_ship", "rate_hz": 10.0,
+                 "fix_interval_s": 10.0, "nadir_deg": [60.0, 50.0], "azimuth_deg": [-40.0, 50.0],
+                 "pickoff_noise_arcsec": 5.0}
+_SETUPS: dict[str, tuple] = {}   # per process: a campaign's runs share one truth
+
+
+def campaign_run(variant: str, seed: int, options: dict) -> dict:
+    """The campaign engine's core run (:data:`CAMPAIGN`): one seeded run of the free-gyro
+    sensor and positioning cores on the shared ship truth; every fix's north/east error [m],
+    FDOP²σ² covariance [m²], NEES and FDOP, the heading errors and claimed σ [rad]."""
+    key = repr(sorted(options.items()))
+    if key not in _SETUPS:
+        _SETUPS.clear()
+        _SETUPS[key] = _setup(options)
+    truth, sp, cp = _SETUPS[key]
+    run = run_free_gyro_experiment(seed, truth, options["lat_deg"], options["lon_deg"], sp, cp)
+    return {"fixes": len(run.fixes), "withheld_fixes": run.degenerate,
+            "errors_ne_m": run.errors_ne_m.tolist(), "cov_ne_m": run.cov_ne_m.tolist(), "nees": run.nees.tolist(),
+            "fdop": [f.fdop for f in run.fixes], "heading_error_rad": run.heading_errors.tolist(),
+            "heading_sigma_rad": [f.heading_sigma for f in run.fixes]}
+
+
+#: FDOP over seeded runs as a campaign (``engine: core``; the free_gyro_positioning scenario's
+#: report scores one run's fixes, not this pooled covariance).
+CAMPAIGN = ExperimentCampaign(name="free_gyro", variants=("",), defaults=FDOP_DEFAULTS, run=campaign_run)
+
+
+def pooled(runs: Sequence[dict]) -> FdopMonteCarlo:
+    """Pooled error statistics of runs' figures (:func:`campaign_run`) against FDOP²σ²."""
+    e = np.vstack([np.asarray(r["errors_ne_m"], dtype=float).reshape(-1, 2) for r in runs])
     emp = e.T @ e / len(e)  # zero-mean errors by construction: no mean is estimated
-    pred = np.mean(np.concatenate(covs), axis=0)
+    pred = np.mean(np.concatenate([np.asarray(r["cov_ne_m"], dtype=float).reshape(-1, 2, 2) for r in runs]), axis=0)
+    cat = lambda key: np.concatenate([np.asarray(r[key], dtype=float) for r in runs])  # noqa: E731
     return FdopMonteCarlo(
         empirical_cov_ne_m=emp, predicted_cov_ne_m=pred, trace_ratio=float(np.trace(emp) / np.trace(pred)),
-        variance_ratios=np.diag(emp) / np.diag(pred), mean_nees=float(np.mean(nees)), fdop=float(np.mean(fdops)),
-        n_runs=n_runs, n_fixes=len(e), heading_error_std=float(np.std(hd)), heading_sigma_mean=float(np.mean(hs)),
+        variance_ratios=np.diag(emp) / np.diag(pred), mean_nees=float(np.mean(cat("nees"))),
+        fdop=float(np.mean(cat("fdop"))), n_runs=len(runs), n_fixes=len(e),
+        heading_error_std=float(np.std(cat("heading_error_rad"))),
+        heading_sigma_mean=float(np.mean(cat("heading_sigma_rad"))),
     )
+
+
+def run_fdop_monte_carlo(n_runs: int = 200, *, first_seed: int = 1, **options) -> FdopMonteCarlo:
+    """``n_runs`` seeded runs (the same ship truth, new sensor noise each) of
+    ``fixes_per_run`` fix windows each, in this process; pooled error statistics against
+    FDOP²σ² (``options``: :data:`FDOP_DEFAULTS`)."""
+    unknown = set(options) - set(FDOP_DEFAULTS)
+    if unknown:
+        raise TypeError(f"unknown options {sorted(unknown)}")
+    opts = {**FDOP_DEFAULTS, **options}
+    return pooled([campaign_run("", first_seed + k, opts) for k in range(n_runs)])
+
+
+def format_table(mc: FdopMonteCarlo) -> str:
+    emp, pred = mc.empirical_cov_ne_m, mc.predicted_cov_ne_m
+    return "\n".join([
+        f"{mc.n_runs} runs, {mc.n_fixes} fixes, FDOP {mc.fdop:.4f}",
+        f"  empirical cov (N, E) [m²]: {np.round(emp, 2).tolist()}",
+        f"  FDOP²σ² cov  (N, E) [m²]: {np.round(pred, 2).tolist()}",
+        f"  trace ratio {mc.trace_ratio:.4f}, variance ratios {np.round(mc.variance_ratios, 4).tolist()}, "
+        f"mean NEES {mc.mean_nees:.3f} (2 if consistent)",
+        f"  free-gyro heading error std / claimed σ: {mc.heading_error_std / mc.heading_sigma_mean:.3f}",
+    ])
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -171,7 +221,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.free_gyro",
                                  description="Free-gyro FDOP Monte Carlo (paper 4): seeded runs of the free-gyro "
                                              "sensor and positioning cores on a rolling ship; empirical north/east "
-                                             "fix-error covariance against the claimed FDOP²σ².")
+                                             "fix-error covariance against the claimed FDOP²σ². The runs go "
+                                             "through gimbal-campaign's engine (--jobs, --scheduler, --out, "
+                                             "--resume).")
     ap.add_argument("--runs", type=int, default=200, help="seeded runs")
     ap.add_argument("--fixes-per-run", type=int, default=1, help="fix windows per run")
     ap.add_argument("--lat-deg", type=float, default=35.0)
@@ -179,17 +231,18 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--nadir-deg", type=float, nargs=2, default=(60.0, 50.0), help="spin axes' nadir angles [deg]")
     ap.add_argument("--azimuth-deg", type=float, nargs=2, default=(-40.0, 50.0), help="their azimuths [deg]")
     ap.add_argument("--pickoff-noise-arcsec", type=float, default=5.0)
+    add_engine_arguments(ap, graph=False)
     a = ap.parse_args(argv)
-    mc = run_fdop_monte_carlo(a.runs, fixes_per_run=a.fixes_per_run, lat_deg=a.lat_deg, lon_deg=a.lon_deg,
-                              nadir_deg=tuple(a.nadir_deg), azimuth_deg=tuple(a.azimuth_deg),
-                              pickoff_noise_arcsec=a.pickoff_noise_arcsec)
-    emp, pred = mc.empirical_cov_ne_m, mc.predicted_cov_ne_m
-    print(f"{mc.n_runs} runs, {mc.n_fixes} fixes, FDOP {mc.fdop:.4f}")
-    print(f"  empirical cov (N, E) [m²]: {np.round(emp, 2).tolist()}")
-    print(f"  FDOP²σ² cov  (N, E) [m²]: {np.round(pred, 2).tolist()}")
-    print(f"  trace ratio {mc.trace_ratio:.4f}, variance ratios {np.round(mc.variance_ratios, 4).tolist()}, "
-          f"mean NEES {mc.mean_nees:.3f} (2 if consistent)")
-    print(f"  free-gyro heading error std / claimed σ: {mc.heading_error_std / mc.heading_sigma_mean:.3f}")
+    if a.runs < 1 or a.fixes_per_run < 1:
+        ap.error("--runs and --fixes-per-run must be >= 1")
+    options = {**FDOP_DEFAULTS, "fixes_per_run": a.fixes_per_run, "lat_deg": a.lat_deg, "lon_deg": a.lon_deg,
+               "nadir_deg": list(a.nadir_deg), "azimuth_deg": list(a.azimuth_deg),
+               "pickoff_noise_arcsec": a.pickoff_noise_arcsec}
+    spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.runs + 1)), engine=a.engine,
+                        options=tuple(options.items()))
+    with campaign_dir(a.out) as out:
+        runs = run_metrics(run_for_cli(ap, a, spec, out))[""]
+    print(format_table(pooled([m for _, m in runs])))
 
 
 if __name__ == "__main__":

@@ -48,7 +48,10 @@ from ..plant import paper3_axis_params
 from ..sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
 from ..sensors import AccelerometerParams, GyroParams
 from ..vehicle import VehicleConfig, VehicleCore
-from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics, summarize_alignment
+from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics, column_stats
+from .campaign_spec import CampaignSpec
+from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+                                   run_for_cli, run_metrics)
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 
@@ -241,15 +244,68 @@ def _progress_bar(total: int, desc: str, enabled: bool):
                 file=sys.stderr, mininterval=1.0)
 
 
-def _alignment_table(runs: list[AlignmentMetrics]) -> str:
+def alignment_figures(r: AlignmentMetrics) -> dict:
+    """One alignment run's figures in the ``alignment`` report's shape
+    (:func:`gimbal_sim.reports.alignment.final_errors`; the Table 2 columns)."""
+    return {"tilt_error_arcsec": {"east": float(r.tilt_error_arcsec[0]), "north": float(r.tilt_error_arcsec[1])},
+            "tilt_sigma_arcsec": {"east": float(r.tilt_sigma_arcsec[0]), "north": float(r.tilt_sigma_arcsec[1])},
+            "azimuth_error_arcmin": r.azimuth_error_arcmin, "azimuth_sigma_arcmin": r.azimuth_sigma_arcmin,
+            "north_drift_error_deg_h": r.north_drift_error_deg_h, "north_drift_sigma_deg_h": r.north_drift_sigma_deg_h,
+            "gyro_drift_error_deg_h": [float(v) for v in r.gyro_drift_error_deg_h],
+            "accel_bias_error_ug": [float(v) for v in r.accel_bias_error_ug], "converged": bool(r.converged),
+            "updates": int(r.n_updates), "rank": int(r.rank), "condition": float(r.condition)}
+
+
+VARIANTS = {"rotate": True, "fixed": False}   # the platform turned (360° and back) or held
+
+
+def campaign_run(variant: str, seed: int, options: dict) -> dict:
+    """The campaign engine's core run (:data:`CAMPAIGN`): one alignment, its figures under
+    the ``alignment`` report's names."""
+    r = run_platform_alignment(seed, VARIANTS[variant], options["duration_s"], lat_deg=options["lat_deg"],
+                               gyro_arw_deg_rt_h=options["gyro_arw_deg_rt_h"],
+                               accel_noise_ug_rt_hz=options["accel_noise_ug_rt_hz"])
+    return {"duration_s": options["duration_s"], "alignment": alignment_figures(r)}
+
+
+#: Table 2 style seeds as a campaign: ``engine: core`` runs :func:`campaign_run`; ``engine:
+#: graph`` runs scenario ``rotational_ins_alignment`` (40° N and the default noise: the
+#: latitude lives in three of its nodes).
+CAMPAIGN = ExperimentCampaign(
+    name="alignment", variants=tuple(VARIANTS),
+    defaults={"duration_s": 600.0, "lat_deg": 40.0, "gyro_arw_deg_rt_h": ALIGNMENT_GYRO_ARW_DEG_RT_H,
+              "accel_noise_ug_rt_hz": ALIGNMENT_ACCEL_NOISE_UG_RT_HZ},
+    run=campaign_run,
+    graph=GraphEquivalent("rotational_ins_alignment", {"rotate": "rotation_on", "fixed": "rotation_off"},
+                          {"duration_s": "duration_s"}))
+
+
+def _alignment_table(runs: list[tuple[int, dict]]) -> str:
+    """Per seed ([(seed, figures)] as :func:`alignment_figures`) the Table 2 columns."""
     rows = [f"{'seed':>4} {'dphiE0 err':>11} {'dphiN0 err':>11} {'dphiU0 err':>11} {'epsN err':>10} "
             f"{'sigma E/N/U':>22}",
             f"{'':>4} {'[arcsec]':>11} {'[arcsec]':>11} {'[arcmin]':>11} {'[deg/h]':>10}"]
-    for r in runs:
-        rows.append(f"{r.seed:>4} {r.tilt_error_arcsec[0]:>11.2f} {r.tilt_error_arcsec[1]:>11.2f} "
-                    f"{r.azimuth_error_arcmin:>11.3f} {r.north_drift_error_deg_h:>10.5f} "
-                    f"{r.tilt_sigma_arcsec[0]:>7.2f}″{r.tilt_sigma_arcsec[1]:>6.2f}″{r.azimuth_sigma_arcmin:>6.2f}′")
+    for seed, r in runs:
+        rows.append(f"{seed:>4} {r['tilt_error_arcsec']['east']:>11.2f} {r['tilt_error_arcsec']['north']:>11.2f} "
+                    f"{r['azimuth_error_arcmin']:>11.3f} {r['north_drift_error_deg_h']:>10.5f} "
+                    f"{r['tilt_sigma_arcsec']['east']:>7.2f}″{r['tilt_sigma_arcsec']['north']:>6.2f}″"
+                    f"{r['azimuth_sigma_arcmin']:>6.2f}′")
     return "\n".join(rows)
+
+
+def summarize_figures(runs: list[dict]) -> dict[str, dict[str, float]]:
+    """:func:`.alignment.summarize_alignment` of runs' figures (:func:`alignment_figures`)."""
+    cols = {
+        "east_tilt_error_arcsec": [r["tilt_error_arcsec"]["east"] for r in runs],
+        "north_tilt_error_arcsec": [r["tilt_error_arcsec"]["north"] for r in runs],
+        "azimuth_error_arcmin": [r["azimuth_error_arcmin"] for r in runs],
+        "north_drift_error_deg_h": [r["north_drift_error_deg_h"] for r in runs],
+        "gyro_drift_x_error_deg_h": [r["gyro_drift_error_deg_h"][0] for r in runs],
+        "gyro_drift_y_error_deg_h": [r["gyro_drift_error_deg_h"][1] for r in runs],
+        "accel_bias_x_error_ug": [r["accel_bias_error_ug"][0] for r in runs],
+        "accel_bias_y_error_ug": [r["accel_bias_error_ug"][1] for r in runs],
+    }
+    return column_stats(cols)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -270,6 +326,7 @@ def main(argv: list[str] | None = None) -> int:
                        help="platform gyro angle random walk [deg/sqrt(h)]")
     align.add_argument("--accel-noise", type=float, default=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ,
                        help="platform accelerometer noise density [micro-g/sqrt(Hz)]")
+    add_engine_arguments(align, graph=True)
     args = parser.parse_args(argv)
     if args.what == "servo":
         m = run_platform_servo(args.duration, args.seed)
@@ -277,14 +334,19 @@ def main(argv: list[str] | None = None) -> int:
                     "steady_max_level_error_arcsec", "steady_mean_abs_current_a", "peak_current_a"):
             print(f"{key:32s} {m[key]:.4g}")
         return 0
-    runs = []
-    for seed in args.seeds:
-        runs.append(run_platform_alignment(seed, not args.no_rotation, args.duration, lat_deg=args.lat,
-                                           gyro_arw_deg_rt_h=args.gyro_arw, accel_noise_ug_rt_hz=args.accel_noise,
-                                           progress=True))
-        print(_alignment_table(runs[-1:]).splitlines()[-1], flush=True)
+    variant = "fixed" if args.no_rotation else "rotate"
+    options = {"duration_s": args.duration, "lat_deg": args.lat, "gyro_arw_deg_rt_h": args.gyro_arw,
+               "accel_noise_ug_rt_hz": args.accel_noise}
+    if len(set(args.seeds)) != len(args.seeds):
+        align.error("--seeds must not repeat a seed")
+    spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(args.seeds), variants=(variant,),
+                        engine=args.engine, mode=args.mode, options=tuple(options.items()))
+    with campaign_dir(args.out) as out:
+        runs = [(seed, m["alignment"]) for seed, m in run_metrics(run_for_cli(align, args, spec, out))[variant]]
+    for run in runs:  # each seed's line, as the runs finished before (now after the campaign)
+        print(_alignment_table([run]).splitlines()[-1])
     print(_alignment_table(runs))
-    summary = summarize_alignment(runs)
+    summary = summarize_figures([r for _, r in runs])
     print(f"{'':>4} {'mean':>11} {'std':>11}   (ddof=1, as paper 3 Table 2)")
     for key, stats in summary.items():
         print(f"{key:28s} mean {stats['mean']:+.4g}  std {stats['std']:.4g}  rms {stats['rms']:.4g}")

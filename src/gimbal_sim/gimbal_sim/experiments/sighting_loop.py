@@ -34,8 +34,12 @@ from ..sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSui
 from ..sensors import InsParams
 from ..vehicle import VehicleConfig, VehicleCore
 from .bias_ekf import ekf_params_from_sensors
+from .campaign_spec import CampaignSpec
+from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+                                   run_for_cli, run_metrics)
 
 MODES = ("off", "feedback", "los_hold")
+SETTLE_S = 30.0   # the bias figures are taken after the EKF's settling [s]
 
 
 @dataclass(frozen=True)
@@ -156,42 +160,70 @@ def paper1_sensors(correlated_ins: bool = False) -> tuple[SensorSuiteConfig, Gyr
     return sensors, ekf_params_from_sensors(sensors, ins_error_states=False)
 
 
-def monte_carlo(seeds: Sequence[int], duration_s: float = 120.0, modes: Sequence[str] = ("off", "feedback"),
-                correlated_ins: bool = False, progress: bool = True) -> dict[str, list[SightingRun]]:
-    """:func:`run_sighting` for every seed and mode with paper 1's sensors."""
-    sensors, params = paper1_sensors(correlated_ins)
-    jobs = [(mode, seed) for seed in seeds for mode in modes]
-    runs: dict[str, list[SightingRun]] = {mode: [] for mode in modes}
-    from tqdm import tqdm
+def run_figures(run: SightingRun, settle_s: float = SETTLE_S) -> dict:
+    """One run's figures, under the ``sighting`` report's names (:mod:`..reports.sighting`),
+    computed from the run's series: final drift and last-60 s drift rate (az·cos el, el),
+    the (b_q, b_r) NEES with the EKF's full 2×2 covariance and the share of estimates within
+    ±3σ after ``settle_s``, and (core only: a bag carries σ, not the covariance) the NEES of
+    the 6 paper states."""
+    late = run.t_ekf >= settle_s
+    d, rate = run.final_drift_deg, run.drift_rate_last_deg_h()
+    err = np.abs(run.bias_est[late, 1:] - run.bias_true[late, 1:])
+    within = np.mean(err <= 3 * run.bias_sigma[late, 1:], axis=0)
+    return {"duration_s": run.duration_s, "wall_s": run.wall_s, "steps": run.steps,
+            "sighting": {"final_drift_deg": {"azimuth": float(d[0]), "elevation": float(d[1])},
+                         "drift_rate_last_60s_deg_h": {"azimuth": float(rate[0]), "elevation": float(rate[1])},
+                         "bias_within_3sigma_after_30s": {"q": float(within[0]), "r": float(within[1])},
+                         "bias_nees_mean_after_30s": float(np.mean(run.nees_bias[late])),
+                         "nees_mean_after_30s": float(np.mean(run.nees[late]))}}
 
-    for mode, seed in tqdm(jobs, unit="run", disable=None if progress else True):
-        runs[mode].append(run_sighting(mode, int(seed), duration_s, sensors_config=sensors, ekf_params=params))
-    return runs
+
+def campaign_run(mode: str, seed: int, options: dict) -> dict:
+    """The campaign engine's core run (:data:`CAMPAIGN`): one mode and seed with paper 1's
+    sensors, as :func:`run_figures`."""
+    sensors, params = paper1_sensors(options["correlated_ins"])
+    return run_figures(run_sighting(mode, seed, options["duration_s"], sensors_config=sensors, ekf_params=params))
 
 
-def summarize(runs: dict[str, list[SightingRun]], settle_s: float = 30.0) -> str:
-    """Text table of a Monte Carlo: drift per mode (mean ± std over runs), and for the EKF
-    the run- and time-averaged NEES against its 95 % chi-square interval."""
+#: The Monte Carlo over seeds as a campaign: ``engine: core`` runs :func:`campaign_run`;
+#: ``engine: graph`` runs scenario ``sighting_land_vehicle`` (the same paper 1 sensors and
+#: 6-state EKF; no LOS-hold variant, and its INS model is paper 1's white one).
+CAMPAIGN = ExperimentCampaign(
+    name="sighting_loop", variants=MODES, defaults={"duration_s": 120.0, "correlated_ins": False}, run=campaign_run,
+    graph=GraphEquivalent("sighting_land_vehicle", {"off": "ekf_off", "feedback": "ekf_on"},
+                          {"duration_s": "duration_s"}))
+
+
+def summarize(runs: dict[str, list[tuple[int, dict]]], settle_s: float = SETTLE_S) -> str:
+    """Text table of a Monte Carlo (per mode: [(seed, figures)] as :func:`run_figures` gives
+    them, or a graph run's report): drift per mode (mean ± std over runs), and for the EKF the
+    run- and time-averaged NEES against its 95 % chi-square interval."""
     from scipy.stats import chi2
 
     lines = []
     for mode, rs in runs.items():
-        d = np.array([r.final_drift_deg for r in rs])
-        rate = np.array([r.drift_rate_last_deg_h() for r in rs])
-        lines.append(f"{mode:9s} {len(rs)} runs: drift at {rs[0].duration_s:g} s [deg] az {np.mean(d[:, 0]):+.4f} ± "
+        fig = [m["sighting"] for _, m in rs]
+        d = np.array([[f["final_drift_deg"]["azimuth"], f["final_drift_deg"]["elevation"]] for f in fig])
+        rate = np.array([[f["drift_rate_last_60s_deg_h"]["azimuth"], f["drift_rate_last_60s_deg_h"]["elevation"]]
+                         for f in fig])
+        lines.append(f"{mode:9s} {len(rs)} runs: drift at {rs[0][1]['duration_s']:g} s [deg] az {np.mean(d[:, 0]):+.4f} ± "
                      f"{np.std(d[:, 0]):.4f}, el {np.mean(d[:, 1]):+.4f} ± {np.std(d[:, 1]):.4f}; |drift| mean "
                      f"{np.mean(np.abs(d[:, 0])):.4f} / {np.mean(np.abs(d[:, 1])):.4f}; "
                      f"|rate last 60 s| mean [deg/h] {np.mean(np.abs(rate[:, 0])):.2f} / {np.mean(np.abs(rate[:, 1])):.2f}")
         n = len(rs)
-        k = min(len(r.t_ekf) for r in rs)
-        late = rs[0].t_ekf[:k] >= settle_s
-        for name, dof in (("nees", 6), ("nees_bias", 2)):
-            avg = float(np.mean(np.mean([getattr(r, name)[:k] for r in rs], axis=0)[late]))
+        for name, key, dof in (("nees", "nees_mean_after_30s", 6), ("nees_bias", "bias_nees_mean_after_30s", 2)):
+            if key not in fig[0]:
+                lines.append(f"          {name} ({dof} dof): not in a graph run's bag (the EKF publishes σ, "
+                             "not its covariance)")
+                continue
+            # every run has the same EKF output times: the run average of each run's time
+            # average is the time average of the run average
+            avg = float(np.mean([f[key] for f in fig]))
             lo, hi = chi2.ppf([0.025, 0.975], n * dof) / n
             lines.append(f"          {name} ({dof} dof) time- and run-averaged {avg:.3f}; 95% interval of an "
                          f"{n}-run average [{lo:.3f}, {hi:.3f}] -> {'inside' if lo <= avg <= hi else 'OUTSIDE'}")
-        within = np.array([np.mean(np.abs(r.bias_est[r.t_ekf >= settle_s, 1:] - r.bias_true[r.t_ekf >= settle_s, 1:])
-                                   <= 3 * r.bias_sigma[r.t_ekf >= settle_s, 1:], axis=0) for r in rs])
+        within = np.array([[f["bias_within_3sigma_after_30s"]["q"], f["bias_within_3sigma_after_30s"]["r"]]
+                           for f in fig])
         lines.append(f"          bias within ±3σ after {settle_s:g} s (q, r): mean {np.round(within.mean(axis=0), 4)}, "
                      f"worst run {np.round(within.min(axis=0), 4)}")
     return "\n".join(lines)
@@ -203,15 +235,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m gimbal_sim.experiments.sighting_loop",
         description="Paper 1 headline experiment in one Python loop (no ROS): LOS drift without and with the "
-                    "gyro-bias EKF fed back, and with the LOS-hold outer loop; a Monte Carlo over seeds.")
+                    "gyro-bias EKF fed back, and with the LOS-hold outer loop; a Monte Carlo over seeds, run as a "
+                    "campaign (gimbal-campaign's engine: --jobs, --scheduler, --out, --resume; --engine graph "
+                    "runs the real nodes of scenario sighting_land_vehicle instead).")
     ap.add_argument("--monte-carlo", type=int, default=1, metavar="N", help="runs per mode (seeds 1..N)")
     ap.add_argument("--duration", type=float, default=120.0, help="simulated time per run [s]")
-    ap.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
+    ap.add_argument("--modes", nargs="+", default=None, choices=MODES,
+                    help=f"default: {' '.join(MODES)} (engine core), off feedback (engine graph)")
     ap.add_argument("--correlated-ins", action="store_true",
                     help="Gauss-Markov INS attitude errors (tau 300 s) and the 9-state EKF instead of paper 1's white")
+    add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
-    runs = monte_carlo(range(1, a.monte_carlo + 1), a.duration, a.modes, a.correlated_ins)
-    print(summarize(runs))
+    if a.monte_carlo < 1 or not 0 < a.duration < float("inf"):
+        ap.error("--monte-carlo must be >= 1 and --duration a finite number > 0")
+    modes = a.modes or (list(MODES) if a.engine == "core" else list(CAMPAIGN.graph.variants))
+    spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.monte_carlo + 1)),
+                        variants=tuple(modes), engine=a.engine, mode=a.mode,
+                        options=(("duration_s", a.duration), ("correlated_ins", a.correlated_ins)))
+    with campaign_dir(a.out) as out:
+        print(summarize(run_metrics(run_for_cli(ap, a, spec, out))))
     return 0
 
 

@@ -1,0 +1,209 @@
+"""The experiment runners' Monte Carlo campaigns on the campaign engine (:mod:`.campaign`).
+
+Four runners predate ``gimbal-campaign`` and keep their CLIs and printed tables:
+``sighting_loop --monte-carlo``, ``flexure --seeds``, ``free_gyro --runs`` and
+``platform_servo align``. Each is an :class:`ExperimentCampaign`: named variants (the
+runner's modes or cases), a run function for ``engine: core`` (the runner's own loop, no
+ROS: one seed of one variant, returning its metrics mapping), and, where a scenario's
+report carries the figures its table needs, the scenario for ``engine: graph`` (real nodes
+through ``gimbal-run``). A :class:`~.campaign_spec.CampaignSpec` with ``experiment`` set is
+planned here (:func:`plan_experiment`), so those runs go through the same engine as any
+campaign: one Dask task per run (or serially in-process), a campaign directory with each
+run's ``report/metrics.json``, ``results.parquet``, ``--resume`` and the campaign report.
+The runner's table is then computed from the runs' metrics (:func:`run_metrics`).
+
+Run ids hash the experiment name, variant, seed and options (the runner's settings), so a
+run's id does not depend on the campaign it is in. Graph runs are the scenario's runs,
+relabelled with the experiment's variant names; their ids are the scenario campaign's.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+import tempfile
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+#: core engine: (variant, seed, options) -> the run's metrics (a JSON-able mapping)
+CoreRun = Callable[[str, int, dict[str, Any]], dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class GraphEquivalent:
+    """An experiment's runs as a scenario's: ``variants`` maps each experiment variant to
+    the scenario's (None: the scenario has no variants), ``options`` maps an option to the
+    ``node.param`` it sets (``"duration_s"``: the run's duration); any other option must keep
+    its default, else the graph engine is refused naming it."""
+
+    scenario: str
+    variants: dict[str, str | None]
+    options: dict[str, str]
+
+
+@dataclass(frozen=True)
+class ExperimentCampaign:
+    """One runner's Monte Carlo (module docstring). ``defaults``: every option and its default
+    (the options a run takes); ``run`` must be a module-level function (Dask pickles it)."""
+
+    name: str
+    variants: tuple[str, ...]
+    defaults: dict[str, Any]
+    run: CoreRun
+    graph: GraphEquivalent | None = None
+
+
+def _registry() -> dict[str, ExperimentCampaign]:
+    # imported here: the runner modules import this one for the dataclasses
+    from . import flexure, free_gyro, platform_servo, sighting_loop
+
+    return {e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN,
+                                platform_servo.CAMPAIGN)}
+
+
+def experiment(name: str) -> ExperimentCampaign:
+    from .campaign_spec import CampaignError
+
+    known = _registry()
+    if name not in known:
+        raise CampaignError(f"experiment: unknown experiment {name!r}; known: {', '.join(sorted(known))}")
+    return known[name]
+
+
+def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
+    from .campaign_spec import CampaignError
+
+    options = dict(exp.defaults)
+    for key, value in given:
+        if key not in options:
+            raise CampaignError(f"experiment {exp.name}: unknown option {key!r}; options: {sorted(options)}")
+        options[key] = value
+    return options
+
+
+def plan_experiment(spec: Any) -> Any:
+    """The :class:`~.campaign_spec.CampaignPlan` of an experiment campaign (``spec.experiment``
+    set): variant × seed runs of the runner's core loop, or (``engine: graph``) the runs of
+    its scenario relabelled with the experiment's variant names."""
+    from .campaign_spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, plan, run_id
+
+    exp = experiment(spec.experiment)
+    if spec.sweeps or spec.overrides:
+        raise CampaignError(f"experiment {exp.name}: sweeps and --set are for scenario campaigns; "
+                            "its settings are options")
+    variants = spec.variants or exp.variants
+    for name in variants:
+        if name not in exp.variants:
+            raise CampaignError(f"experiment {exp.name}: no variant {name!r}; variants: {', '.join(exp.variants)}")
+    options = _options(exp, spec.options)
+    fingerprint = {"experiment": exp.name, "engine": spec.engine, "options": options,
+                   "mode": spec.mode if spec.engine == "graph" else None}
+    if spec.engine == "core":
+        runs = tuple(PlannedRun(run_id(exp.name, v, seed, options), v, seed, {}, None)
+                     for seed in spec.seeds for v in variants)
+        return CampaignPlan(spec, None, runs, fingerprint)
+    graph = exp.graph
+    if graph is None:
+        raise CampaignError(f"experiment {exp.name}: no scenario's report carries its table's figures; "
+                            "--engine graph is not available (use core)")
+    missing = [v for v in variants if v not in graph.variants]
+    if missing:
+        raise CampaignError(f"experiment {exp.name}: variant(s) {missing} have no variant of scenario "
+                            f"{graph.scenario!r}; --engine graph runs {sorted(graph.variants)}")
+    fixed = [k for k, v in options.items() if k not in graph.options and v != exp.defaults[k]]
+    if fixed:
+        raise CampaignError(f"experiment {exp.name}: option(s) {fixed} have no equivalent in scenario "
+                            f"{graph.scenario!r}; --engine graph takes only {sorted(graph.options)}")
+    duration = options.get("duration_s") if "duration_s" in graph.options else None
+    overrides = tuple((graph.options[k], v) for k, v in options.items() if k in graph.options and k != "duration_s")
+    scenario_variants = tuple(graph.variants[v] for v in variants if graph.variants[v] is not None)
+    inner = plan(CampaignSpec(scenario=graph.scenario, seeds=spec.seeds, variants=scenario_variants,
+                              duration_s=duration, mode=spec.mode, engine="graph", overrides=overrides,
+                              keep_bags=spec.keep_bags, timeout_s=spec.timeout_s, compress=spec.compress))
+    label = {graph.variants[v] or "": v for v in variants}
+    runs = tuple(dataclasses.replace(r, variant=label[r.variant]) for r in inner.runs)
+    return CampaignPlan(spec, inner.base, runs, {**fingerprint, **inner.fingerprint, "options": options})
+
+
+def run_experiment_task(task: Any, run_dir: Path) -> dict[str, Any]:
+    """The campaign engine's run function for ``engine: core`` experiment runs (picklable):
+    the runner's loop for the task's variant, seed and options; writes
+    ``report/metrics.json`` and ``run.json`` into ``run_dir``."""
+    exp = experiment(task.scenario_name)
+    metrics = exp.run(task.variant, task.seed, dict(task.options))
+    (run_dir / "report").mkdir(parents=True, exist_ok=True)
+    (run_dir / "report" / "metrics.json").write_text(json.dumps(metrics, indent=1, default=float) + "\n")
+    (run_dir / "run.json").write_text(json.dumps({"experiment": exp.name, "engine": "core", "variant": task.variant,
+                                                  "seed": task.seed, "options": task.options}, default=repr) + "\n")
+    return metrics
+
+
+def run_metrics(result: Any) -> dict[str, list[tuple[int, dict[str, Any]]]]:
+    """Each variant's [(seed, metrics.json mapping)] of a finished campaign, in plan order.
+    Raises RuntimeError naming the failed runs (a runner's table needs every run)."""
+    failed = result.failed
+    if failed:
+        raise RuntimeError("; ".join(f"run {r['run_id']} ({r['variant'] or '-'}, seed {r['seed']}) failed: "
+                                     f"{r['reason']}" for r in failed))
+    out: dict[str, list[tuple[int, dict[str, Any]]]] = {}
+    for row in result.rows:
+        path = Path(result.directory) / "runs" / row["run_id"] / "report" / "metrics.json"
+        out.setdefault(row["variant"], []).append((int(row["seed"]), json.loads(path.read_text())))
+    return out
+
+
+@contextmanager
+def campaign_dir(out: str | None) -> Iterator[Path]:
+    """Where a runner's campaign goes: ``out`` (kept), or a temporary directory removed after
+    its table is printed (what the runners did before: print, keep nothing)."""
+    if out:
+        yield Path(out)
+        return
+    tmp = Path(tempfile.mkdtemp(prefix="gimbal-experiment-"))
+    try:
+        yield tmp / "campaign"
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def add_engine_arguments(ap: Any, *, graph: bool) -> None:
+    """The campaign options every runner CLI takes (argparse parser ``ap``)."""
+    ap.add_argument("--engine", choices=("core", "graph") if graph else ("core",), default="core",
+                    help="core: this runner's own loop (no ROS, default); graph: the real nodes through "
+                         "gimbal-run (the scenario's report gives the figures)" if graph else
+                         "core: this runner's own loop (no scenario's report carries this table's figures)")
+    ap.add_argument("--mode", choices=("container", "processes"), default="container",
+                    help="graph engine: one process for all nodes (default) or one per node")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="runs at once on a Dask LocalCluster on 127.0.0.1 (default 1: one by one in this process)")
+    ap.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler instead")
+    ap.add_argument("--out", metavar="DIR", help="keep the campaign directory (runs, results.parquet, report); "
+                                                 "default: a temporary one, removed after the table")
+    ap.add_argument("--resume", action="store_true", help="with --out: skip the runs that have results")
+
+
+def run_for_cli(ap: Any, args: Any, spec: Any, out: Path) -> Any:
+    """Run an experiment campaign for a runner's CLI: bad input exits 2 naming it (through
+    ``ap.error``), a failed run exits 1 naming it; returns the
+    :class:`~.campaign.CampaignResult`."""
+    import sys
+
+    from .campaign import run_campaign
+    from .campaign_spec import CampaignError
+
+    if args.jobs < 1:
+        ap.error(f"--jobs must be >= 1, got {args.jobs}")
+    serial = args.jobs == 1 and not args.scheduler
+    try:
+        result = run_campaign(spec, out, resume=args.resume, scheduler=args.scheduler, workers=args.jobs,
+                              serial=serial)
+    except CampaignError as exc:
+        ap.error(str(exc))
+    if result.failed:
+        for row in result.failed:
+            print(f"run {row['run_id']} ({row['variant'] or '-'}, seed {row['seed']}) failed: {row['reason']}\n"
+                  f"{row['log_tail']}", file=sys.stderr)
+        raise SystemExit(1)
+    return result
