@@ -1,0 +1,108 @@
+"""The experiment runners' Monte Carlo as campaigns (issue 17, part 3): their CLIs go through
+the campaign engine (serial, a Dask LocalCluster on 127.0.0.1, or the real nodes with
+``--engine graph``) and print the figures their own loops give, computed here without the
+engine; ``--resume`` runs nothing; what has no graph equivalent is refused, naming it."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from gimbal_sim.experiments import flexure, free_gyro, sighting_loop
+from gimbal_sim.experiments.campaign_spec import CampaignError, CampaignSpec, Sweep, plan
+
+
+def _drift_line(runs: list, mode: str) -> str:
+    d = np.array([r.final_drift_deg for r in runs])
+    return (f"{mode:9s} {len(runs)} runs: drift at {runs[0].duration_s:g} s [deg] az {np.mean(d[:, 0]):+.4f} ± "
+            f"{np.std(d[:, 0]):.4f}, el {np.mean(d[:, 1]):+.4f} ± {np.std(d[:, 1]):.4f}")
+
+
+def test_sighting_loop_prints_its_loops_figures_and_resume_runs_nothing(tmp_path, capsys):
+    out = tmp_path / "mc"
+    args = ["--monte-carlo", "2", "--duration", "31", "--modes", "off", "feedback", "--out", str(out)]
+    assert sighting_loop.main(args) == 0
+    printed = capsys.readouterr().out
+    sensors, params = sighting_loop.paper1_sensors()
+    for mode in ("off", "feedback"):
+        runs = [sighting_loop.run_sighting(mode, seed, 31.0, sensors_config=sensors, ekf_params=params)
+                for seed in (1, 2)]
+        assert _drift_line(runs, mode) in printed
+        late = [r.t_ekf >= 30.0 for r in runs]
+        nees = np.mean(np.mean([r.nees_bias for r in runs], axis=0)[late[0]])
+        assert f"nees_bias (2 dof) time- and run-averaged {nees:.3f}" in printed
+    # a campaign directory like any other: one row per run, each with its metrics
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(out / "results.parquet").to_pylist()
+    assert sorted((r["variant"], r["seed"]) for r in rows) == [("feedback", 1), ("feedback", 2), ("off", 1), ("off", 2)]
+    assert all(r["status"] == "ok" and r["engine"] == "core" for r in rows)
+    assert all(np.isfinite(r["sighting.final_drift_deg.azimuth"]) for r in rows)
+    assert sighting_loop.main([*args, "--resume"]) == 0
+    assert capsys.readouterr().out == printed
+    last = json.loads((out / "invocations.jsonl").read_text().splitlines()[-1])
+    assert last["ran"] == 0 and last["skipped"] == 4
+
+
+def test_free_gyro_on_a_local_cluster_prints_the_in_process_monte_carlo(tmp_path, capsys):
+    free_gyro.main(["--runs", "6", "--fixes-per-run", "2", "--jobs", "2", "--out", str(tmp_path / "fg")])
+    printed = capsys.readouterr().out
+    assert printed.strip() == free_gyro.format_table(free_gyro.run_fdop_monte_carlo(6, fixes_per_run=2)).strip()
+    workers = {json.loads(p.read_text())["host"] for p in (tmp_path / "fg" / "runs").glob("*/result.json")}
+    assert len(workers) == 1  # every run recorded where it ran (this host)
+
+
+def test_flexure_single_seed_prints_each_models_figures(tmp_path, capsys):
+    flexure.main(["--seeds", "3", "--duration", "400", "--convergence", "100", "--models", "random_walk_rate"])
+    printed = capsys.readouterr().out
+    want = flexure.run_flexure_comparison(400.0, 3, models=("random_walk_rate",), sim_rate_hz=10.0,
+                                          convergence_s=100.0)["random_walk_rate"].metrics
+    f = lambda v: "(" + ", ".join(f"{x:.1f}" for x in v) + ")"  # noqa: E731
+    assert f"total flexure error RMS {f(want['total_rms_arcsec'])}″" in printed
+    assert f"[random_walk_rate] epochs={want['n_epochs']} wall=" in printed
+
+
+@pytest.mark.parametrize("main, args, named", [
+    (sighting_loop.main, ["--engine", "graph", "--modes", "los_hold"], "los_hold"),
+    (sighting_loop.main, ["--engine", "graph", "--correlated-ins"], "correlated_ins"),
+    (sighting_loop.main, ["--monte-carlo", "0"], "--monte-carlo"),
+    (flexure.main, ["--engine", "graph", "--sim-rate", "50"], "sim_rate_hz"),
+    (free_gyro.main, ["--engine", "graph"], "--engine"),
+    (free_gyro.main, ["--runs", "2", "--jobs", "0"], "--jobs"),
+])
+def test_what_a_runner_cannot_do_exits_2_naming_it(main, args, named, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    assert named in capsys.readouterr().err
+
+
+def test_experiment_specs_are_validated_before_anything_runs():
+    for spec, named in ((CampaignSpec("", (1,), experiment="nope"), "unknown experiment"),
+                        (CampaignSpec("", (1,), experiment="free_gyro", options=(("runs", 3),)), "unknown option"),
+                        (CampaignSpec("", (1,), experiment="alignment", variants=("spin",)), "no variant"),
+                        (CampaignSpec("", (1,), experiment="flexure", sweeps=(Sweep("a.b", (1,)),)), "sweeps")):
+        with pytest.raises(CampaignError, match=named):
+            plan(spec)
+    # the id of a run does not depend on the campaign it is in
+    one = plan(CampaignSpec("", (1, 2), experiment="alignment", options=(("duration_s", 60.0),)))
+    two = plan(CampaignSpec("", (2,), experiment="alignment", variants=("rotate",), options=(("duration_s", 60.0),)))
+    assert {r.run_id for r in two.runs} < {r.run_id for r in one.runs}
+    assert len(one.runs) == 4
+
+
+@pytest.mark.ros
+def test_sighting_loop_on_the_graph_engine_runs_the_real_nodes(tmp_path, capsys):
+    out = tmp_path / "graph"
+    assert sighting_loop.main(["--duration", "5", "--modes", "feedback", "--engine", "graph", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    (run_dir,) = [p for p in (out / "runs").iterdir() if not p.name.startswith(".")]
+    assert any(run_dir.glob("*.mcap"))          # a bag of the real graph
+    metrics = json.loads((run_dir / "report" / "metrics.json").read_text())["sighting"]["final_drift_deg"]
+    assert f"az {metrics['azimuth']:+.4f} ± 0.0000" in printed
+    assert "nees (6 dof): not in a graph run's bag" in printed
+    # the real nodes and the loop: the same LOS drift (the loop's last sample is one step earlier)
+    sensors, params = sighting_loop.paper1_sensors()
+    loop = sighting_loop.run_sighting("feedback", 1, 5.0, sensors_config=sensors, ekf_params=params)
+    assert np.allclose([metrics["azimuth"], metrics["elevation"]], loop.final_drift_deg, atol=1e-3)
