@@ -68,7 +68,7 @@ def test_flexure_single_seed_prints_each_models_figures(tmp_path, capsys):
     (sighting_loop.main, ["--engine", "graph", "--correlated-ins"], "correlated_ins"),
     (sighting_loop.main, ["--monte-carlo", "0"], "--monte-carlo"),
     (flexure.main, ["--engine", "graph", "--sim-rate", "50"], "sim_rate_hz"),
-    (free_gyro.main, ["--engine", "graph"], "--engine"),
+    (free_gyro.main, ["--engine", "graph", "--lat-deg", "40"], "lat_deg"),
     (free_gyro.main, ["--runs", "2", "--jobs", "0"], "--jobs"),
 ])
 def test_what_a_runner_cannot_do_exits_2_naming_it(main, args, named, capsys):
@@ -106,3 +106,40 @@ def test_sighting_loop_on_the_graph_engine_runs_the_real_nodes(tmp_path, capsys)
     sensors, params = sighting_loop.paper1_sensors()
     loop = sighting_loop.run_sighting("feedback", 1, 5.0, sensors_config=sensors, ekf_params=params)
     assert np.allclose([metrics["azimuth"], metrics["elevation"]], loop.final_drift_deg, atol=1e-3)
+
+
+def test_graph_reports_pool_to_the_statistics_of_all_their_fixes():
+    """free_gyro's graph table pools each run's report (n fixes already pooled by the
+    report's own function) into what the pooled fixes give directly."""
+    from gimbal_sim.reports.free_gyro import covariance_consistency
+
+    rng = np.random.default_rng(7)
+    arcsec = np.pi / (180 * 3600)
+    runs, reports = [], []
+    for n in (3, 5):
+        err = rng.normal(scale=12.0, size=(n, 2))
+        a = rng.normal(size=(n, 2, 2))
+        cov = a @ a.transpose(0, 2, 1) + 100.0 * np.eye(2)
+        nees = [float(e @ np.linalg.solve(c, e)) for e, c in zip(err, cov)]
+        hd, hs = rng.normal(scale=20 * arcsec, size=n), rng.uniform(15, 25, size=n) * arcsec
+        runs.append({"errors_ne_m": err, "cov_ne_m": cov, "nees": nees, "fdop": [2 ** 0.5] * n,
+                     "heading_error_rad": hd, "heading_sigma_rad": hs})
+        reports.append({"free_gyro": {"fdop_mean": 2 ** 0.5, "position": covariance_consistency(err, cov),
+                                      "heading": {"n": n, "rms_error_arcsec": float(np.sqrt(np.mean(hd ** 2)) / arcsec),
+                                                  "mean_error_arcsec": float(np.mean(hd) / arcsec),
+                                                  "mean_sigma_arcsec": float(np.mean(hs) / arcsec)}}})
+    want, got = free_gyro.pooled(runs), free_gyro.pooled_reports(reports)
+    assert got.n_fixes == want.n_fixes == 8
+    for field in ("empirical_cov_ne_m", "predicted_cov_ne_m", "trace_ratio", "variance_ratios", "mean_nees", "fdop",
+                  "heading_error_std", "heading_sigma_mean"):
+        assert np.allclose(getattr(got, field), getattr(want, field), rtol=1e-12, atol=0), field
+
+
+@pytest.mark.ros
+def test_free_gyro_on_the_graph_engine_pools_the_scenarios_reports(tmp_path, capsys):
+    free_gyro.main(["--runs", "2", "--fixes-per-run", "2", "--engine", "graph"])
+    printed = capsys.readouterr().out
+    core = free_gyro.run_fdop_monte_carlo(2, fixes_per_run=2)
+    # the scenario set up as the cores: the same fixes, the same claimed covariance
+    assert printed.startswith(f"2 runs, 4 fixes, FDOP {core.fdop:.4f}")
+    assert f"FDOP²σ² cov  (N, E) [m²]: {np.round(core.predicted_cov_ne_m, 2).tolist()}" in printed

@@ -31,16 +31,24 @@ from typing import Any, Callable, Iterator
 CoreRun = Callable[[str, int, dict[str, Any]], dict[str, Any]]
 
 
+def duration_only(options: dict[str, Any]) -> tuple[float, tuple[tuple[str, Any], ...]]:
+    """A :attr:`GraphEquivalent.translate` for runners whose only scenario-expressible option
+    is the run's duration (``duration_s``)."""
+    return options["duration_s"], ()
+
+
 @dataclass(frozen=True)
 class GraphEquivalent:
     """An experiment's runs as a scenario's: ``variants`` maps each experiment variant to
-    the scenario's (None: the scenario has no variants), ``options`` maps an option to the
-    ``node.param`` it sets (``"duration_s"``: the run's duration); any other option must keep
-    its default, else the graph engine is refused naming it."""
+    the scenario's (None: the scenario has no variants); ``options`` names the options the
+    scenario can express and ``translate(options)`` gives the run's duration [s] and its
+    ``(node.param, value)`` overrides; any other option must keep its default, else the
+    graph engine is refused naming it."""
 
     scenario: str
     variants: dict[str, str | None]
-    options: dict[str, str]
+    options: tuple[str, ...] = ("duration_s",)
+    translate: Callable[[dict[str, Any]], tuple[float | None, tuple[tuple[str, Any], ...]]] = duration_only
 
 
 @dataclass(frozen=True)
@@ -116,8 +124,7 @@ def plan_experiment(spec: Any) -> Any:
     if fixed:
         raise CampaignError(f"experiment {exp.name}: option(s) {fixed} have no equivalent in scenario "
                             f"{graph.scenario!r}; --engine graph takes only {sorted(graph.options)}")
-    duration = options.get("duration_s") if "duration_s" in graph.options else None
-    overrides = tuple((graph.options[k], v) for k, v in options.items() if k in graph.options and k != "duration_s")
+    duration, overrides = graph.translate(options)
     scenario_variants = tuple(graph.variants[v] for v in variants if graph.variants[v] is not None)
     inner = plan(CampaignSpec(scenario=graph.scenario, seeds=spec.seeds, variants=scenario_variants,
                               duration_s=duration, mode=spec.mode, engine="graph", overrides=overrides,

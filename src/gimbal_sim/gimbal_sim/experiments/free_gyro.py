@@ -22,7 +22,8 @@ from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
 from ..sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ..vehicle import VehicleConfig, VehicleCore
 from .campaign_spec import CampaignSpec
-from .experiment_campaigns import ExperimentCampaign, add_engine_arguments, campaign_dir, run_for_cli, run_metrics
+from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+                                   run_for_cli, run_metrics)
 
 _NAN = float("nan")
 
@@ -173,9 +174,29 @@ def campaign_run(variant: str, seed: int, options: dict) -> dict:
             "heading_sigma_rad": [f.heading_sigma for f in run.fixes]}
 
 
-#: FDOP over seeded runs as a campaign (``engine: core``; the free_gyro_positioning scenario's
-#: report scores one run's fixes, not this pooled covariance).
-CAMPAIGN = ExperimentCampaign(name="free_gyro", variants=("",), defaults=FDOP_DEFAULTS, run=campaign_run)
+def graph_translate(options: dict) -> tuple[float, tuple]:
+    """The scenario ``free_gyro_positioning`` set up as :func:`_setup` sets the cores: a run of
+    ``fixes_per_run`` fix windows, the spin-axis geometry and pickoff noise in the sensors and
+    in the estimator alike."""
+    duration = options["fixes_per_run"] * options["fix_interval_s"] + 1.0 / options["rate_hz"]
+    nadir, azimuth, noise = list(options["nadir_deg"]), list(options["azimuth_deg"]), options["pickoff_noise_arcsec"]
+    return duration, (("sensor_models.free_gyro_nadir_deg", nadir), ("free_gyro_positioning.spin_nadir_deg", nadir),
+                      ("sensor_models.free_gyro_azimuth_deg", azimuth),
+                      ("free_gyro_positioning.spin_azimuth_deg", azimuth),
+                      ("sensor_models.free_gyro_pickoff_noise_arcsec", noise),
+                      ("free_gyro_positioning.nadir_noise_arcsec", noise),
+                      ("free_gyro_positioning.fix_interval_s", options["fix_interval_s"]),
+                      ("free_gyro_positioning.heading_window_s", max(60.0, duration)))
+
+
+#: FDOP over seeded runs as a campaign: ``engine: core`` runs :func:`campaign_run`; ``engine:
+#: graph`` runs scenario ``free_gyro_positioning`` (the same ship and site; the table pools
+#: each run's report, :func:`pooled_reports`).
+CAMPAIGN = ExperimentCampaign(
+    name="free_gyro", variants=("",), defaults=FDOP_DEFAULTS, run=campaign_run,
+    graph=GraphEquivalent("free_gyro_positioning", {"": None},
+                          ("fixes_per_run", "nadir_deg", "azimuth_deg", "pickoff_noise_arcsec", "fix_interval_s"),
+                          graph_translate))
 
 
 def pooled(runs: Sequence[dict]) -> FdopMonteCarlo:
@@ -191,6 +212,28 @@ def pooled(runs: Sequence[dict]) -> FdopMonteCarlo:
         heading_error_std=float(np.std(cat("heading_error_rad"))),
         heading_sigma_mean=float(np.mean(cat("heading_sigma_rad"))),
     )
+
+
+def pooled_reports(reports: Sequence[dict]) -> FdopMonteCarlo:
+    """:func:`pooled` from graph runs' ``free_gyro`` reports, which keep each run's fixes
+    pooled already (empirical and claimed covariance, NEES and heading statistics over its n
+    fixes): weighted by n, the same sums over every fix."""
+    pos = [r["free_gyro"]["position"] for r in reports]
+    n = np.array([p["n_fixes"] for p in pos], dtype=float)
+    w = lambda values: np.tensordot(n, np.asarray(values, dtype=float), axes=1) / n.sum()  # noqa: E731
+    emp, pred = w([p["empirical_cov_ne_m2"] for p in pos]), w([p["claimed_cov_ne_m2"] for p in pos])
+    head = [r["free_gyro"]["heading"] for r in reports]
+    hn = np.array([h["n"] for h in head], dtype=float)
+    hw = lambda values: float(np.dot(hn, values) / hn.sum())  # noqa: E731
+    mean = hw([h["mean_error_arcsec"] for h in head])
+    std = math.sqrt(max(hw([h["rms_error_arcsec"] ** 2 for h in head]) - mean * mean, 0.0))
+    arcsec = math.pi / (180.0 * 3600.0)
+    return FdopMonteCarlo(
+        empirical_cov_ne_m=emp, predicted_cov_ne_m=pred, trace_ratio=float(np.trace(emp) / np.trace(pred)),
+        variance_ratios=np.diag(emp) / np.diag(pred), mean_nees=float(w([p["mean_nees"] for p in pos])),
+        fdop=float(np.mean([r["free_gyro"]["fdop_mean"] for r in reports])), n_runs=len(reports),
+        n_fixes=int(n.sum()), heading_error_std=std * arcsec,
+        heading_sigma_mean=hw([h["mean_sigma_arcsec"] for h in head]) * arcsec)
 
 
 def run_fdop_monte_carlo(n_runs: int = 200, *, first_seed: int = 1, **options) -> FdopMonteCarlo:
@@ -231,7 +274,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--nadir-deg", type=float, nargs=2, default=(60.0, 50.0), help="spin axes' nadir angles [deg]")
     ap.add_argument("--azimuth-deg", type=float, nargs=2, default=(-40.0, 50.0), help="their azimuths [deg]")
     ap.add_argument("--pickoff-noise-arcsec", type=float, default=5.0)
-    add_engine_arguments(ap, graph=False)
+    add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
     if a.runs < 1 or a.fixes_per_run < 1:
         ap.error("--runs and --fixes-per-run must be >= 1")
@@ -239,10 +282,10 @@ def main(argv: Sequence[str] | None = None) -> None:
                "nadir_deg": list(a.nadir_deg), "azimuth_deg": list(a.azimuth_deg),
                "pickoff_noise_arcsec": a.pickoff_noise_arcsec}
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.runs + 1)), engine=a.engine,
-                        options=tuple(options.items()))
+                        mode=a.mode, options=tuple(options.items()))
     with campaign_dir(a.out) as out:
-        runs = run_metrics(run_for_cli(ap, a, spec, out))[""]
-    print(format_table(pooled([m for _, m in runs])))
+        runs = [m for _, m in run_metrics(run_for_cli(ap, a, spec, out))[""]]
+    print(format_table(pooled(runs) if a.engine == "core" else pooled_reports(runs)))
 
 
 if __name__ == "__main__":

@@ -190,8 +190,7 @@ def campaign_run(mode: str, seed: int, options: dict) -> dict:
 #: 6-state EKF; no LOS-hold variant, and its INS model is paper 1's white one).
 CAMPAIGN = ExperimentCampaign(
     name="sighting_loop", variants=MODES, defaults={"duration_s": 120.0, "correlated_ins": False}, run=campaign_run,
-    graph=GraphEquivalent("sighting_land_vehicle", {"off": "ekf_off", "feedback": "ekf_on"},
-                          {"duration_s": "duration_s"}))
+    graph=GraphEquivalent("sighting_land_vehicle", {"off": "ekf_off", "feedback": "ekf_on"}))
 
 
 def summarize(runs: dict[str, list[tuple[int, dict]]], settle_s: float = SETTLE_S) -> str:
