@@ -186,6 +186,45 @@ def test_play_options(bags, ros_domain_env, tmp_path):
     assert clocks == list(range(EPOCH_NS, last + 1, 10_000_000))
 
 
+@pytest.mark.ros
+def test_pace_starts_on_a_free_timing_readers_ready_and_again_for_a_second_player(bags, ros_domain_env):
+    """--pace into a reader built like a free-timing node: best-effort inputs and a volatile
+    ~/progress on which ``announce_when_connected`` says "ready" (step 0, i.e. epoch 0,
+    1.8e9 s before the bag), then the newest /imu stamp it got. The player starts on "ready",
+    takes it as "from the bag's start" (it used to wait forever for a reader 1.8e9 s behind)
+    and delivers every message in order; a second player into the same reader gets its own
+    "ready"."""
+    from gimbal_kinematics.ros.node_io import input_qos, output_qos
+    from gimbal_kinematics.ros.readiness import announce_when_connected
+
+    want = {t: [ns for tt, _, ns, _ in MESSAGES if tt == t] for t in ("/imu", "/joints")}
+    got: dict[str, list[int]] = {t: [] for t in want}
+    with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"]), "free_reader") as (node, executor):
+        progress = node.create_publisher(Clock, "~/progress", output_qos("free"))
+
+        def on_imu(msg: Imu) -> None:
+            got["/imu"].append(m.stamp_ns(msg.header.stamp))
+            progress.publish(m.clock_msg(got["/imu"][-1]))
+
+        inputs = [node.create_subscription(Imu, "/imu", on_imu, input_qos("free")),
+                  node.create_subscription(JointState, "/joints",
+                                           lambda msg: got["/joints"].append(m.stamp_ns(msg.header.stamp)),
+                                           input_qos("free"))]
+        announce_when_connected(node, progress, inputs=inputs)
+        for _ in range(2):
+            for stamps in got.values():
+                stamps.clear()
+            play = _play(bags["mcap"], ros_domain_env, "--rate", "0", "--pace", "/free_reader/progress",
+                         "--wait-for-subscribers", "1")
+            delivered = spin_until(executor, lambda: all(len(got[t]) >= len(want[t]) for t in want), 120.0)
+            if not delivered:
+                play.kill()  # its stderr (what it waits for) is in _finish's message
+            _finish(play)
+            assert delivered and got == want
+            # that player has gone: the next one to match is a new progress reader
+            assert spin_until(executor, lambda: progress.get_subscription_count() == 0, 60.0)
+
+
 def test_bad_play_options_exit_2_naming_them(bags, tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text(yaml.safe_dump({"/imu": {"reliability": "sometimes"}}))

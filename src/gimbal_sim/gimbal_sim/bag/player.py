@@ -16,10 +16,10 @@ match. ``--qos-profile-overrides-path`` replaces any of it per topic (rosbag2's 
   samples: pace it.
 * Best-effort topics: best effort KEEP_ALL (a best-effort writer never blocks).
 
-Pacing: the player never runs more than ``pace_window_s`` of bag time ahead of the time
-each ``pace_topics`` reader reports on its progress topic (``rosgraph_msgs/Clock``, the
-time of the next sample it needs). Our nodes all report one, so ``--pace`` makes replay
-into them lossless at any rate.
+Pacing: the player starts once each ``pace_topics`` reader has reported "ready" on its
+progress topic (``rosgraph_msgs/Clock``), and never runs more than ``pace_window_s`` of bag
+time ahead of the time each one reports (the time of the next sample it needs). Our nodes
+all report one, so ``--pace`` makes replay into them lossless at any rate.
 
 ``/clock`` (``--clock RATE_HZ``): the bag time, on a grid of 1/RATE_HZ of bag time (at
 ``--rate`` r that is RATE_HZ/r per wall second; rosbag2 publishes RATE_HZ per wall
@@ -95,6 +95,8 @@ def load_qos_overrides(path: Path | None) -> dict[str, QoSProfile]:
 
 
 PUBLISH_RETRY_LIMIT = 1000
+#: Wall time [s] a paced wait goes on before the player says, and repeats, what it waits for.
+PACE_STALL_WARN_S = 10.0
 #: Spin this often (messages) besides the waits: the player's only subscriptions are the
 #: progress topics (served while it waits on them), and a spin costs more than a publish.
 SPIN_EVERY = 256
@@ -201,22 +203,26 @@ class BagPlayer(Node):
         self.clocks = 0
 
     def _on_progress(self, topic: str, msg: Clock) -> None:
-        self._paced[topic] = max(m.stamp_ns(msg.clock), self._paced[topic] or 0)
+        # Any report means "connected, send me the bag": "ready" is step 0, which is epoch 0 for a
+        # free-timing node fed epoch stamps, and no report can ask for a message before the first.
+        # Unclamped, a "ready" arriving as the wait ends left the reader 1.8e9 s behind: the
+        # player waited for a report from a node that had been sent nothing, forever.
+        self._paced[topic] = max(m.stamp_ns(msg.clock), self._paced[topic] or 0, self.t_bag0)
 
     def _subscribe_progress(self) -> None:
         """Subscribe to each progress topic once its publisher is known, with its durability.
 
-        A lockstep node offers progress transient-local and publishes "ready" (step 0) once
-        its inputs are connected, possibly before this subscription exists: a transient-local
-        subscription still gets it. A free-timing node offers it volatile (a transient-local
-        subscription would not match) and reports only after its first samples: it counts
-        as ready at the bag's start once matched.
+        A reader counts as ready once it reports (``announce_when_connected``: "ready" once
+        its inputs have publishers), not once its progress topic matches: discovery matches
+        each direction on its own, so this player's publishers may have matched a reader that
+        has not yet matched them, and a best-effort reader drops what such a writer sends; the
+        first window would be lost and the reader would never report. A lockstep node offers
+        progress transient-local and says "ready" once: this subscription gets it even if made
+        later. A free-timing node offers it volatile (a transient-local subscription would not
+        match) and says "ready" to each new progress reader once its inputs are connected.
         """
         for topic in self._paced:
             if topic in self._pace_subs:
-                sub = self._pace_subs[topic]
-                if sub.qos_profile.durability == DurabilityPolicy.VOLATILE and sub.get_publisher_count() > 0:
-                    self._paced[topic] = max(self._paced[topic] or 0, self.t_bag0)
                 continue
             offered = self.get_publishers_info_by_topic(topic)
             if not offered:
@@ -269,6 +275,22 @@ class BagPlayer(Node):
             next_clock += period
         return next_clock
 
+    def _wait_for_pace(self, executor, t_ns: int, window_ns: int) -> None:
+        """Spin until every paced reader is within ``window_ns`` of bag time ``t_ns``; say what
+        is awaited every :data:`PACE_STALL_WARN_S` (a reader that stops reporting otherwise
+        stalls the replay without a word)."""
+        started = time.monotonic()
+        warn_at = started + PACE_STALL_WARN_S
+        while min(self._paced.values()) + window_ns < t_ns:
+            self._spin(executor, 0.01)
+            if time.monotonic() > warn_at:
+                warn_at += PACE_STALL_WARN_S
+                behind = {topic: f"{(v - self.t_bag0) * 1e-9:.3f} s" for topic, v in self._paced.items()
+                          if v + window_ns < t_ns}
+                self.get_logger().warning(
+                    f"paced: waiting {time.monotonic() - started:.0f} s for progress; readers at {behind} of bag time, "
+                    f"next message at {(t_ns - self.t_bag0) * 1e-9:.3f} s ({self.published} published)")
+
     def play(self, executor) -> int:
         """Publish every message once (or repeatedly with loop); returns messages published."""
         self.wait_for_readers(executor)
@@ -291,9 +313,8 @@ class BagPlayer(Node):
                         if period:  # /clock keeps ticking through a gap in the bag
                             now = t_bag0 + int((time.monotonic() - t_wall0) * rate * 1e9)
                             next_clock = self._clock_until(min(now, t), next_clock, period)
-                if paced:
-                    while min(self._paced.values()) + window < t:
-                        self._spin(executor, 0.01)
+                if paced and min(self._paced.values()) + window < t:
+                    self._wait_for_pace(executor, t, window)
                 if period:
                     next_clock = self._clock_until(t, next_clock, period)
                 self._publish(pubs[msg.topic], msg.data)

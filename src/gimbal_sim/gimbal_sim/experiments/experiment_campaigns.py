@@ -157,6 +157,9 @@ def run_metrics(result: Any) -> dict[str, list[tuple[int, dict[str, Any]]]]:
     out: dict[str, list[tuple[int, dict[str, Any]]]] = {}
     for row in result.rows:
         path = Path(result.directory) / "runs" / row["run_id"] / "report" / "metrics.json"
+        if not path.is_file():  # a worker on another host wrote it on its own disk
+            raise RuntimeError(f"run {row['run_id']} ran on {row['host']}: its metrics.json is not in {path.parent}; "
+                               "with workers on other hosts, give --out on a file system they share")
         out.setdefault(row["variant"], []).append((int(row["seed"]), json.loads(path.read_text())))
     return out
 
@@ -185,7 +188,8 @@ def add_engine_arguments(ap: Any, *, graph: bool) -> None:
                     help="graph engine: one process for all nodes (default) or one per node")
     ap.add_argument("--jobs", type=int, default=1,
                     help="runs at once on a Dask LocalCluster on 127.0.0.1 (default 1: one by one in this process)")
-    ap.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler instead")
+    ap.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                    help="run on this Dask scheduler instead (workers on other hosts: --out on a shared file system)")
     ap.add_argument("--out", metavar="DIR", help="keep the campaign directory (runs, results.parquet, report); "
                                                  "default: a temporary one, removed after the table")
     ap.add_argument("--resume", action="store_true", help="with --out: skip the runs that have results")
