@@ -174,7 +174,7 @@ def _slug(text: str) -> str:
 
 
 def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> list[str]:
-    from ..reports.figures import pyplot, save
+    from ..reports.figures import pyplot
 
     plt = pyplot()
     sweep_cols = [f"sweep.{s}" for s in summary["sweep"]]
@@ -193,19 +193,25 @@ def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, A
         bins = np.histogram_bin_edges(finite, bins=min(20, max(5, len(finite) // 3)))
         for label, vals in data.items():
             ax.hist(vals, bins=bins, alpha=0.5, label=f"{label} (n {len(vals)})")
-        ax.set_xlabel(name)
-        ax.set_ylabel("runs")
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
-        ax.set_title(f"{name} over the runs")
-        path = f"hist_{_slug(name)}.png"
-        save(fig, out / path)
-        written.append(path)
+        written.append(_finish(fig, ax, name, "runs", f"{name} over the runs", out, f"hist_{_slug(name)}.png"))
     return written
 
 
+def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, name: str) -> str:
+    """Label, grid and legend ``ax``, save ``fig`` as ``out/name``; returns ``name``."""
+    from ..reports.figures import save
+
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title)
+    save(fig, out / name)
+    return name
+
+
 def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> list[str]:
-    from ..reports.figures import pyplot, save
+    from ..reports.figures import pyplot
 
     plt = pyplot()
     ok = [r for r in rows if r["status"] == "ok"]
@@ -234,14 +240,8 @@ def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any],
                                         for j in keep]).T
                         ax.errorbar(px, mean, yerr=err, color=f"C{i}", marker="o", capsize=3,
                                     label=f"{variant or 'runs'}: mean, 95 % interval")
-            ax.set_xlabel(target)
-            ax.set_ylabel(name)
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=8)
-            ax.set_title(f"{name} against {target}")
-            path = f"sweep_{_slug(target)}__{_slug(name)}.png"
-            save(fig, out / path)
-            written.append(path)
+            written.append(_finish(fig, ax, target, name, f"{name} against {target}", out,
+                                   f"sweep_{_slug(target)}__{_slug(name)}.png"))
     return written
 
 
