@@ -17,7 +17,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from conftest import VENV_BIN
-from gimbal_sim.orchestrator import stop_processes
+from gimbal_sim.graph.orchestrator import stop_processes
 
 
 def ros_args(params: dict) -> list[str]:

@@ -61,7 +61,7 @@ def test_arw_and_rrw_recovered_on_each_axis(characterised):
 
 
 def test_parameter_files_are_accepted_by_the_nodes(characterised):
-    from gimbal_sim.scenario import NODE_TYPES, apply_params_file, apply_set, check_param, load
+    from gimbal_sim.graph.scenario import NODE_TYPES, apply_params_file, apply_set, check_param, load
 
     doc, out = characterised
     params = yaml.safe_load((out / "sensor_models.yaml").read_text())["sensor_models"]["ros__parameters"]

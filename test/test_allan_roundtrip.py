@@ -17,12 +17,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from gimbal_sim.experiments.allan_roundtrip import closed_loop
-from gimbal_sim.sensor_models_params import PARAMS
-from gimbal_sim.sensor_suite import SensorSuiteConfig
-from gimbal_sim.sensor_suite import SensorSuite
-from gimbal_sim.sensors import GyroParams
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from gimbal_sim.tools.allan_roundtrip import closed_loop
+from gimbal_sim.nodes.sensor_models_params import PARAMS
+from gimbal_sim.world.sensor_suite import SensorSuiteConfig
+from gimbal_sim.world.sensor_suite import SensorSuite
+from gimbal_sim.world.sensors import GyroParams
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
 
 def test_fit_simulate_fit_agrees_within_the_bounds():
@@ -72,8 +72,8 @@ def test_graph_run_records_what_the_runner_simulates_and_its_report_characterise
     bytes, and the run's ``allan`` report characterises its bag (closed cleanly)."""
     from conftest import VENV_BIN
     from gimbal_sim.bag.any_reader import iter_raw, open_bag
-    from gimbal_sim.experiments.allan_roundtrip import write_at_rest_bag
-    from gimbal_sim.scenario import load, variant
+    from gimbal_sim.tools.allan_roundtrip import write_at_rest_bag
+    from gimbal_sim.graph.scenario import load, variant
 
     out = tmp_path / "run"
     result = subprocess.run([str(VENV_BIN / "gimbal-run"), "gyro_at_rest", "--variant", "arw_gm", "--duration", "600",

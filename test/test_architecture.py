@@ -137,7 +137,7 @@ def test_every_node_parameter_table_loads_without_ros():
     the config generator and the core loop read) and the node registry import in a fresh
     interpreter without rclpy or any message package."""
     modules = [module.removesuffix("_node") + "_params" for _, module in node_entry_points().values()]
-    code = ("import sys\n" + "".join(f"import {m}\n" for m in modules) + "import gimbal_sim.registry\n" +
+    code = ("import sys\n" + "".join(f"import {m}\n" for m in modules) + "import gimbal_sim.graph.registry\n" +
             "for m in sys.argv[1:]:\n    assert sys.modules[m].PARAMS and sys.modules[m].DESCRIPTION, m\n" +
             "print(sorted({n.split('.')[0] for n in sys.modules} & set(%r)))" % sorted(ROS_MODULES))
     out = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, timeout=120)
@@ -147,7 +147,7 @@ def test_every_node_parameter_table_loads_without_ros():
 
 
 def test_the_registry_lists_every_node_executable_with_its_package_table_and_class():
-    from gimbal_sim.registry import NODE_TYPES
+    from gimbal_sim.graph.registry import NODE_TYPES
 
     nodes = node_entry_points()
     assert len(nodes) == 10 and set(NODE_TYPES) == set(nodes)

@@ -10,8 +10,8 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import stats as sps
 
-from gimbal_sim.experiments.campaign import flatten_metrics, write_results
-from gimbal_sim.experiments.campaign_report import nees_verdict, stats, summarize, text_summary
+from gimbal_sim.campaign.engine import flatten_metrics, write_results
+from gimbal_sim.campaign.report import nees_verdict, stats, summarize, text_summary
 
 
 def test_stats_match_scipys_t_interval():

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from gimbal_sim.experiments.campaign_cli import main as campaign_main
-from gimbal_sim.experiments.campaign_spec import (CampaignError, CampaignSpec, parse_seeds, parse_sweep, plan,
+from gimbal_sim.campaign_cli import main as campaign_main
+from gimbal_sim.campaign.spec import (CampaignError, CampaignSpec, parse_seeds, parse_sweep, plan,
                                                   run_id, spec_from_mapping)
-from gimbal_sim.scenario import load, variant
+from gimbal_sim.graph.scenario import load, variant
 
 
 def test_seed_ranges_and_lists():
@@ -139,7 +139,7 @@ def test_cli_refuses_an_existing_directory_without_resume(tmp_path, capsys):
 
 
 def test_cli_refuses_an_unreachable_scheduler_within_10_s(tmp_path):
-    from gimbal_sim.experiments.campaign import CONNECT_TIMEOUT_S, connect
+    from gimbal_sim.campaign.engine import CONNECT_TIMEOUT_S, connect
 
     with socket.socket() as s:  # a port nobody listens on: bound, never listening
         s.bind(("127.0.0.1", 0))
@@ -149,7 +149,7 @@ def test_cli_refuses_an_unreachable_scheduler_within_10_s(tmp_path):
         with pytest.raises(CampaignError, match=f"--scheduler tcp://127.0.0.1:{port}: unreachable"):
             connect(f"tcp://127.0.0.1:{port}", None)
         assert CONNECT_TIMEOUT_S < 10.0 and time.monotonic() - t0 < 10.0
-        result = subprocess.run([sys.executable, "-m", "gimbal_sim.experiments.campaign_cli", "sighting_land_vehicle",
+        result = subprocess.run([sys.executable, "-m", "gimbal_sim.campaign_cli", "sighting_land_vehicle",
                                  "--scheduler", f"tcp://127.0.0.1:{port}", "--out", str(tmp_path / "c"),
                                  "--no-progress"], capture_output=True, text=True, timeout=300)
     assert result.returncode == 2, result.stderr

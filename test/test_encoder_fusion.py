@@ -14,7 +14,7 @@ from gimbal_control.encoder_fusion import (
 from gimbal_control.fusion_kf import ClosedLoopComplementaryKf, FusionKfParams, process_noise, transition
 from gimbal_control.pid import Pid, PidParams, pole_placement_gains
 from gimbal_sim.experiments.encoder_fusion import MEMS_GYRO, UAV_GIMBAL, UAV_INITIAL_JOINTS_DEG, run_encoder_fusion
-from gimbal_sim.plant import TwoAxisGimbal
+from gimbal_sim.world.plant import TwoAxisGimbal
 
 DEG = math.pi / 180.0
 

@@ -15,8 +15,8 @@ from scipy.spatial.transform import Rotation
 from conftest import VENV_BIN
 from gimbal_control.encoder_fusion import EncoderFusionController
 from gimbal_sim.experiments.encoder_fusion import MEMS_GYRO, UAV_INITIAL_JOINTS_DEG, UAV_PROFILE, run_encoder_fusion
-from gimbal_sim.scenario import BUILTIN_DIR
-from gimbal_sim.sensors import PAPER2_ENCODER
+from gimbal_sim.graph.scenario import BUILTIN_DIR
+from gimbal_sim.world.sensors import PAPER2_ENCODER
 
 pytestmark = pytest.mark.ros
 

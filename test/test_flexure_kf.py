@@ -11,7 +11,7 @@ from gimbal_estimators import flexure_kf as fk
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, small_angles_from_dcm
 from gimbal_sim.experiments.flexure import run_flexure_comparison
-from gimbal_sim.sensors import FlexureParams
+from gimbal_sim.world.sensors import FlexureParams
 
 AS = math.pi / 180.0 / 3600.0
 DEG = math.pi / 180.0
@@ -183,9 +183,9 @@ def test_observation_model_against_the_ship_simulation():
     """Z = φ − Ĉ_i1b1ᵀ θ_d with θ_d = φ(t0) + ∫Ĉ_i1b1 (ε1 − ε2) dt, on the gimbal_sim ship
     (noise-free LGUs with ±0.05 °/h biases, earth rate on), to under 1″ (paper's first
     order) and 0.3″ (second order; over the 2 h scenario: 4″ and 0.4″)."""
-    from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
-    from gimbal_sim.sensors import GyroParams
-    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+    from gimbal_sim.world.sensor_suite import SensorSuite, SensorSuiteConfig
+    from gimbal_sim.world.sensors import GyroParams
+    from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
     vc = VehicleCore(VehicleConfig(profile="paper5_ship", plant="host_only", sim_rate_hz=50.0, duration_s=240.0))
     ss = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=50.0, lgu_rate_hz=10.0, seed=4,

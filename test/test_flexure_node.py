@@ -21,9 +21,9 @@ from gimbal_estimators.flexure_estimator_node import OUTPUTS, FlexureEstimatorNo
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_sim.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
-from gimbal_sim.sensors import FlexureParams
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from gimbal_sim.world.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
+from gimbal_sim.world.sensors import FlexureParams
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
 pytestmark = pytest.mark.ros
 RATE = 10.0  # LGU = simulation rate, as in the ship_flexure scenario

@@ -32,8 +32,8 @@ from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.experiments.free_gyro import make_spin_axes, simulate_truth
-from gimbal_sim.scenario import BUILTIN_DIR
-from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
+from gimbal_sim.graph.scenario import BUILTIN_DIR
+from gimbal_sim.world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ros_harness import harness_node, spin_until
 
 pytestmark = pytest.mark.ros

@@ -22,8 +22,8 @@ from gimbal_sim.experiments.free_gyro import (
     run_free_gyro_experiment,
     simulate_truth,
 )
-from gimbal_sim.sensors import GyroParams
-from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
+from gimbal_sim.world.sensors import GyroParams
+from gimbal_sim.world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 
 ARCSEC = math.radians(1.0 / 3600.0)
 ARCMIN = math.radians(1.0 / 60.0)
@@ -287,8 +287,8 @@ def test_sensor_suite_free_gyro_against_an_independent_rotation_chain():
     are C_bn C_ni u_i and the triad rate is the rotation of b over the sample interval in
     inertial space divided by the interval, both rebuilt with scipy from the truth Euler
     angles; the core fed these samples fixes the ship's site to < 0.5 m."""
-    from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
-    from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+    from gimbal_sim.world.sensor_suite import SensorSuite, SensorSuiteConfig
+    from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
     rate, lat, lon = 50.0, math.radians(LAT), math.radians(LON)
     core = VehicleCore(VehicleConfig(profile="paper5_ship", plant="host_only", sim_rate_hz=rate, duration_s=21.0,

@@ -22,11 +22,11 @@ from gimbal_kinematics.sighting_chain import dcm_bm, dcm_nb, reconstruct_roll_ra
 from gimbal_sim.experiments.bias_ekf import (
     GENERAL_GIMBAL_GYRO, TruthStabilizer, ekf_params_from_sensors, run_monte_carlo,
 )
-from gimbal_sim.sensor_suite import (
+from gimbal_sim.world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig,
 )
-from gimbal_sim.sensors import EncoderParams, GyroParams, InsParams
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from gimbal_sim.world.sensors import EncoderParams, GyroParams, InsParams
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
 DEG = math.pi / 180.0
 DEG_H = DEG / 3600.0

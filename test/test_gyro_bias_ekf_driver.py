@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from conftest import VENV_BIN, _claimed_env
-from gimbal_sim.orchestrator import stop_processes
+from gimbal_sim.graph.orchestrator import stop_processes
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -10,7 +10,7 @@ import pytest
 from mcap_ros2.reader import read_ros2_messages
 
 from conftest import VENV_BIN
-from gimbal_sim.orchestrator import stop_processes
+from gimbal_sim.graph.orchestrator import stop_processes
 from ros_harness import harness_node, spin_until
 
 pytestmark = pytest.mark.ros

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_sim.sensors import PAPER1_GIMBAL_GYRO, PAPER1_INS_GYRO, GyroModel, GyroParams
-from gimbal_sim.sensors.markov import FirstOrderGaussMarkov
+from gimbal_sim.world.sensors import PAPER1_GIMBAL_GYRO, PAPER1_INS_GYRO, GyroModel, GyroParams
+from gimbal_sim.world.sensors.markov import FirstOrderGaussMarkov
 
 SEED = 20261121
 DEG_H = math.pi / 180.0 / 3600.0
@@ -273,7 +273,7 @@ def test_model_rejects_mismatched_axes():
 
 
 def test_si_spec_and_gauss_markov_validate():
-    from gimbal_sim.sensors import ErrorSpecSI
+    from gimbal_sim.world.sensors import ErrorSpecSI
 
     with pytest.raises(ValueError, match="white_density"):
         ErrorSpecSI(white_density=-1.0)

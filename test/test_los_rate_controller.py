@@ -19,7 +19,7 @@ from gimbal_control.los_rate_controller import LosRateController, LosRateControl
 from gimbal_kinematics.rotations import dcm_from_rotation_vector
 from gimbal_kinematics.sighting_chain import task_to_joint_rates
 from gimbal_sim.experiments.closed_loop import main as closed_loop_main, run_closed_loop
-from gimbal_sim.plant import GimbalParams, TwoAxisGimbal, rest_base
+from gimbal_sim.world.plant import GimbalParams, TwoAxisGimbal, rest_base
 
 G = 9.80665
 ZERO3 = (0.0, 0.0, 0.0)

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from gimbal_kinematics.earth import earth_rate_n
 from gimbal_kinematics.gimbal import host_state
-from gimbal_sim.plant import motion_profiles as mp
+from gimbal_sim.world.plant import motion_profiles as mp
 
 D = math.pi / 180.0
 H = 2e-4  # 5-point stencil step [s]: truncation ~h⁴ f⁽⁵⁾, rounding ~eps/h².

@@ -106,7 +106,7 @@ def test_incompatible_qos_is_logged_once_per_topic_and_counted(ros_domain_env):
         try:
             ok = spin_until(_SpinAdapter(executor), lambda: io.incompatible_qos >= 2, 20.0)
         finally:
-            from gimbal_sim.orchestrator import stop_processes
+            from gimbal_sim.graph.orchestrator import stop_processes
 
             stop_processes([proc])
         assert ok, f"incompatible peers seen: {io.incompatible_qos}"

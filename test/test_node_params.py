@@ -11,8 +11,8 @@ from rclpy.context import Context
 from rclpy.node import Node
 
 from conftest import VENV_BIN
-from gimbal_sim.config_files import config_path, expected_text
-from gimbal_sim.registry import NODE_TYPES
+from gimbal_sim.graph.config_files import config_path, expected_text
+from gimbal_sim.graph.registry import NODE_TYPES
 from gimbal_kinematics.ros.params import declare_and_read
 from ros_harness import ros_args
 
@@ -22,7 +22,7 @@ NODES = ("vehicle_dynamics", "sensor_models")
 @pytest.mark.parametrize("node_name", NODES)
 def test_config_yaml_matches_declared_defaults_and_loads_in_rcl(node_name, ros_domain_env):
     path = config_path("gimbal_sim", node_name)
-    assert path.read_text() == expected_text(node_name), "regenerate: python -m gimbal_sim.config_files"
+    assert path.read_text() == expected_text(node_name), "regenerate: python -m gimbal_sim.graph.config_files"
     params = NODE_TYPES[node_name].params
     in_file = yaml.safe_load(path.read_text())[node_name]["ros__parameters"]
     declared = {p.name: p.default for p in params if p.default != []}

@@ -16,9 +16,9 @@ from rosbags.highlevel import AnyReader
 
 from conftest import VENV_BIN
 from gimbal_sim.bag.reader import read_messages, scan
-from gimbal_sim.sensor_models_node import truth_from_group
-from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from gimbal_sim.nodes.sensor_models_node import truth_from_group
+from gimbal_sim.world.sensor_suite import SensorSuite, SensorSuiteConfig
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 from gimbal_kinematics.ros import messages as m
 
 pytestmark = pytest.mark.ros

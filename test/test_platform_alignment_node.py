@@ -25,7 +25,7 @@ from gimbal_sim.experiments.alignment import KinematicPlatformTruth
 from gimbal_sim.experiments.platform_servo import (
     ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup, run_platform_alignment,
 )
-from gimbal_sim.scenario import load
+from gimbal_sim.graph.scenario import load
 from ros_harness import ros_args, start_refused
 
 pytestmark = pytest.mark.ros

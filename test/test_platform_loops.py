@@ -8,7 +8,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 from scipy.optimize import brentq
 
-from gimbal_sim.plant import PAPER3_TABLE1, PlatformAxis, paper3_axis_params, rk4_step
+from gimbal_sim.world.plant import PAPER3_TABLE1, PlatformAxis, paper3_axis_params, rk4_step
 
 AXES = ("a", "q", "p", "r")
 

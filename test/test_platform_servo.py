@@ -14,7 +14,7 @@ from gimbal_control.platform_servo import (
 from gimbal_kinematics.earth import earth_rate_n
 from gimbal_kinematics.rotations import rot3
 from gimbal_sim.experiments.platform_servo import ARCSEC, run_platform_servo
-from gimbal_sim.plant import PlatformAxis, paper3_axis_params
+from gimbal_sim.world.plant import PlatformAxis, paper3_axis_params
 
 DEG = math.pi / 180.0
 

@@ -11,7 +11,7 @@ from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.rotations import rot3
 from gimbal_sim.experiments.alignment import KinematicPlatformTruth, run_alignment_experiment, summarize_alignment
-from gimbal_sim.sensors import AccelerometerParams
+from gimbal_sim.world.sensors import AccelerometerParams
 
 ARCSEC = math.radians(1.0 / 3600.0)
 ARCMIN = math.radians(1.0 / 60.0)

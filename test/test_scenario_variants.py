@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from gimbal_sim.scenario import ScenarioError, builtin_scenarios, load, validate, variant
+from gimbal_sim.graph.scenario import ScenarioError, builtin_scenarios, load, validate, variant
 
 
 def _base() -> dict:
@@ -84,7 +84,7 @@ def test_concurrent_variants_record_what_sequential_ones_do(ros_domain_env, tmp_
 @pytest.mark.parametrize("name", sorted(builtin_scenarios()))
 def test_builtin_scenarios_set_only_parameters_their_nodes_declare(name):
     # A misspelt parameter would be refused only when the node starts; catch it here.
-    from gimbal_sim.registry import NODE_TYPES
+    from gimbal_sim.graph.registry import NODE_TYPES
 
     s = load(name)
     runs = [variant(s, v) for v in s.variants] or [s]

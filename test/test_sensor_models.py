@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_sim.sensors import (
+from gimbal_sim.world.sensors import (
     PAPER1_ENCODER,
     PAPER2_ENCODER,
     PAPER3_ACCELEROMETER,

@@ -18,9 +18,9 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_sim.sensor_models_node import truth_from_group
-from gimbal_sim.sensor_suite import SensorSuite, SensorSuiteConfig
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from gimbal_sim.nodes.sensor_models_node import truth_from_group
+from gimbal_sim.world.sensor_suite import SensorSuite, SensorSuiteConfig
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 from ros_harness import harness_node, node_processes, spin_until
 
 pytestmark = pytest.mark.ros

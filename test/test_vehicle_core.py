@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 from gimbal_kinematics.earth import earth_rate_n, normal_gravity
 from gimbal_kinematics.rotations import unskew
-from gimbal_sim.vehicle import VehicleConfig, VehicleCore
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
 
 def _R_nb(euler):

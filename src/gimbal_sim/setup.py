@@ -9,7 +9,7 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test"]),
-    package_data={package_name: ["scenarios/*.yaml"]},
+    package_data={package_name + ".graph": ["scenarios/*.yaml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
@@ -24,14 +24,14 @@ setup(
     entry_points={
         "console_scripts": [
             "gimbal-run = gimbal_sim.run_cli:main",
-            "vehicle_dynamics = gimbal_sim.vehicle_dynamics_node:main",
-            "sensor_models = gimbal_sim.sensor_models_node:main",
-            "bag_recorder = gimbal_sim.bag.recorder_node:main",
-            "gimbal-report = gimbal_sim.report:main",
+            "vehicle_dynamics = gimbal_sim.nodes.vehicle_dynamics_node:main",
+            "sensor_models = gimbal_sim.nodes.sensor_models_node:main",
+            "bag_recorder = gimbal_sim.nodes.bag_recorder_node:main",
+            "gimbal-report = gimbal_sim.reports.dispatch:main",
             "gimbal-bag = gimbal_sim.bag.cli:main",
-            "gimbal-bench = gimbal_sim.bench:main",
+            "gimbal-bench = gimbal_sim.tools.bench:main",
             "gimbal-allan = gimbal_sim.allan.cli:main",
-            "gimbal-campaign = gimbal_sim.experiments.campaign_cli:main",
+            "gimbal-campaign = gimbal_sim.campaign_cli:main",
         ],
     },
 )

@@ -20,7 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from .scenario import Scenario, ScenarioError, apply_params_file, apply_set, describe_builtins, load, variant
+from .graph.scenario import Scenario, ScenarioError, apply_params_file, apply_set, describe_builtins, load, variant
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -104,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gimbal-run: {exc}", file=sys.stderr)
         return 2
 
-    from .orchestrator import RunError
-    from .report import write_comparison
+    from .graph.orchestrator import RunError
+    from .reports.dispatch import write_comparison
 
     rows, ok = [], True
     if args.jobs > 1 and len(runs) > 1:
@@ -140,7 +140,7 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
     rows to ``rows``. False when a child failed (its log is printed)."""
     from tqdm import tqdm
 
-    from .orchestrator import PROGRESS_FILE_ENV
+    from .graph.orchestrator import PROGRESS_FILE_ENV
     from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
     out.mkdir(parents=True)
@@ -204,8 +204,8 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
 def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
     """Run one scenario into ``out``, write its run.json and report; returns the report's
     metrics and the summary rows."""
-    from .orchestrator import run
-    from .report import write_report
+    from .graph.orchestrator import run
+    from .reports.dispatch import write_report
 
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress)
     (out / "run.json").write_text(json.dumps({

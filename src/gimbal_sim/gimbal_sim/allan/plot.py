@@ -22,7 +22,7 @@ def _value_text(value: float, sigma: float, unit: str) -> str:
 def plot_axis(result: Characterisation, res: AxisResult, path: Path) -> Path:
     """Write the figure of one axis to ``path`` (PNG); returns it."""
     # here, not at the top: the reports package imports this module for its ``allan`` report
-    from ..reports.figures import pyplot, save
+    from ..figures import pyplot, save
 
     plt = pyplot()
     units = UNITS[result.field]

@@ -6,7 +6,7 @@ The truth is built from rotation matrices, not from the measurement model H of
 integrated from its commanded rate (``four_gimbal.command_rate_s``: level, earth-rate
 compensated, turning by ψ(t)) plus the gyro drift, the NED frame is turned with the earth
 (``free_gyro.dcm_ni``), and the accelerometers sense C_sn,true (0, 0, −g) through the
-simulator's :class:`~gimbal_sim.sensors.AccelerometerModel`. The closed-loop campaign on the
+simulator's :class:`~gimbal_sim.world.sensors.AccelerometerModel`. The closed-loop campaign on the
 simulated platform (:mod:`.platform_servo`) scores its runs with :func:`alignment_metrics`
 and :func:`summarize_alignment` too.
 
@@ -26,7 +26,7 @@ from gimbal_kinematics.four_gimbal import BidirectionalRotation, platform_misali
 from gimbal_kinematics.free_gyro import dcm_ni
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, rot3
 
-from ..sensors import PAPER3_ACCELEROMETER, AccelerometerModel
+from ..world.sensors import PAPER3_ACCELEROMETER, AccelerometerModel
 
 # Unit factors, the same expressions as the core's (so the same floats).
 _ARCSEC = math.pi / (180.0 * 3600.0)

@@ -29,11 +29,11 @@ from gimbal_estimators.gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, Gy
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.sighting_chain import task_to_joint_rates
 
-from ..sensor_suite import (
+from ..world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig,
 )
-from ..sensors import GyroParams
-from ..vehicle import VehicleConfig, VehicleCore, VehicleTruth
+from ..world.sensors import GyroParams
+from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
 _DEG_H = math.pi / 180.0 / 3600.0
 

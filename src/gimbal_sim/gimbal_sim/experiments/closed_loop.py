@@ -32,8 +32,8 @@ from gimbal_control.los_rate_controller import (
 )
 from gimbal_kinematics.los import inertial_los, pointing_error
 
-from ..sensors import PAPER1_GIMBAL_GYRO, GyroModel
-from ..vehicle import VehicleConfig, VehicleCore
+from ..world.sensors import PAPER1_GIMBAL_GYRO, GyroModel
+from ..world.vehicle import VehicleConfig, VehicleCore
 
 GYRO_MODES = ("ideal", "noise", "paper1")
 

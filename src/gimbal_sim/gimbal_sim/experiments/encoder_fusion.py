@@ -15,9 +15,9 @@ import numpy as np
 from gimbal_control.encoder_fusion import MODES, EncoderFusionController, EncoderFusionParams
 from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 
-from ..sensor_suite import EncoderSample, GimbalGyroSample, SensorSuite, SensorSuiteConfig
-from ..sensors import PAPER2_ENCODER, EncoderParams, GyroParams
-from ..vehicle import VehicleConfig, VehicleCore
+from ..world.sensor_suite import EncoderSample, GimbalGyroSample, SensorSuite, SensorSuiteConfig
+from ..world.sensors import PAPER2_ENCODER, EncoderParams, GyroParams
+from ..world.vehicle import VehicleConfig, VehicleCore
 
 #: The simulated plant is gimbal_sim's ``uav_small`` preset (the ``gimbal_model`` of the
 #: vehicle node); this name stays for the experiment and the tests.
@@ -77,7 +77,7 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
 
     The UAV base follows ``profile_params`` (default :data:`UAV_PROFILE`) with NED treated
     as inertial (``earth_rate=False``); the gimbal is :data:`UAV_GIMBAL` at 1 kHz; sensors
-    are the 1024-line encoders (:data:`gimbal_sim.sensors.PAPER2_ENCODER`) and the MEMS
+    are the 1024-line encoders (:data:`gimbal_sim.world.sensors.PAPER2_ENCODER`) and the MEMS
     gyro ``gyro`` on the inner gimbal; the autopilot's body rates are the truth.
 
     Stabilization error: the angle between the LOS (m-frame x axis, from

@@ -26,11 +26,11 @@ import numpy as np
 from gimbal_estimators.flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
 
 from ..reports.flexure import flexure_metrics
-from ..sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
-from ..sensors import FlexureParams, GyroParams
-from ..vehicle import VehicleConfig, VehicleCore
-from .campaign_spec import CampaignSpec
-from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+from ..world.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
+from ..world.sensors import FlexureParams, GyroParams
+from ..world.vehicle import VehicleConfig, VehicleCore
+from ..campaign.spec import CampaignSpec
+from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
                                    run_for_cli, run_metrics)
 
 

@@ -19,10 +19,10 @@ from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyr
 from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
 from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
 
-from ..sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
-from ..vehicle import VehicleConfig, VehicleCore
-from .campaign_spec import CampaignSpec
-from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
+from ..world.vehicle import VehicleConfig, VehicleCore
+from ..campaign.spec import CampaignSpec
+from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
                                    run_for_cli, run_metrics)
 
 _NAN = float("nan")

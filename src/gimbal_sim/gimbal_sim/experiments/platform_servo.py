@@ -44,13 +44,13 @@ from gimbal_estimators.rotation_alignment import RotationAlignmentParams, Rotati
 from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm, platform_misalignment_enu
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, quat_to_dcm
 
-from ..plant import paper3_axis_params
-from ..sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
-from ..sensors import AccelerometerParams, GyroParams
-from ..vehicle import VehicleConfig, VehicleCore
+from ..world.plant import paper3_axis_params
+from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
+from ..world.sensors import AccelerometerParams, GyroParams
+from ..world.vehicle import VehicleConfig, VehicleCore
 from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics, column_stats
-from .campaign_spec import CampaignSpec
-from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+from ..campaign.spec import CampaignSpec
+from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
                                    run_for_cli, run_metrics)
 
 ARCSEC = math.pi / (180.0 * 3600.0)

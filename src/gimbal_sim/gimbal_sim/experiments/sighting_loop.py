@@ -30,12 +30,12 @@ from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
 
-from ..sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
-from ..sensors import InsParams
-from ..vehicle import VehicleConfig, VehicleCore
+from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
+from ..world.sensors import InsParams
+from ..world.vehicle import VehicleConfig, VehicleCore
 from .bias_ekf import ekf_params_from_sensors
-from .campaign_spec import CampaignSpec
-from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
+from ..campaign.spec import CampaignSpec
+from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
                                    run_for_cli, run_metrics)
 
 MODES = ("off", "feedback", "los_hold")

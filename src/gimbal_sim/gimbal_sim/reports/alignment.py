@@ -33,7 +33,7 @@ from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
 from gimbal_kinematics.rotations import euler321_to_dcm
 
 from ..bag.reader import BagError
-from .figures import limit_lines, save_stacked, stacked, style
+from ..figures import limit_lines, save_stacked, stacked, style
 from .platform_servo import bag_summary, stream_columns
 
 ARCSEC = math.pi / (180.0 * 3600.0)

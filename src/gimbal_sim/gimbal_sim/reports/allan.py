@@ -12,7 +12,7 @@ from ..allan.analyze import analyze, to_json
 from ..allan.plot import plot_all
 from ..allan.stream import read_imu_field
 from ..bag.reader import scan
-from ..sensor_models_params import PARAMS as SENSOR_PARAMS
+from ..nodes.sensor_models_params import PARAMS as SENSOR_PARAMS
 
 TOPIC = "/ins/imu"
 #: JSON key of a fitted term -> the sensor_models parameter that set it.

@@ -12,7 +12,7 @@ from gimbal_kinematics.ros.views import VIEWS
 from ..bag.reader import BagContents, read_messages
 from ..bag.schemas import message_class
 from gimbal_kinematics.ros.cdr import CdrError
-from .figures import save_stacked, stacked, style
+from ..figures import save_stacked, stacked, style
 
 
 #: Types decoded by struct (:mod:`gimbal_kinematics.ros.views`) into read-only views with

@@ -28,7 +28,7 @@ import yaml
 
 from ..bag.reader import BagError
 from .common import inertial_los, load_series, plot, vehicle_site
-from .figures import pyplot, save, save_stacked, stacked, style
+from ..figures import pyplot, save, save_stacked, stacked, style
 from .generic import generic_report
 
 SETTLE_S = 5.0

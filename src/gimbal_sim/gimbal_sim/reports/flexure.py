@@ -25,7 +25,7 @@ import yaml
 
 from ..bag.reader import BagError
 from .common import load_series
-from .figures import save, stacked
+from ..figures import save, stacked
 from .generic import generic_report
 
 _ARCSEC = math.pi / 180.0 / 3600.0
@@ -121,7 +121,7 @@ def _run_config(bag_dir: Path) -> dict[str, dict]:
 
 def _param(nodes: dict[str, dict], executable: str, name: str) -> Any:
     """A node parameter from the run (first node of ``executable``), else its declared default."""
-    from ..registry import NODE_TYPES
+    from ..graph.registry import NODE_TYPES
 
     for spec in nodes.values():
         if spec.get("executable") == executable and name in (spec.get("params") or {}):

@@ -21,7 +21,7 @@ from gimbal_kinematics.rotations import quat_to_dcm, quat_to_euler321
 
 from ..bag.reader import BagError
 from .common import load_series, plot
-from .figures import pyplot, save, save_stacked, stacked, style
+from ..figures import pyplot, save, save_stacked, stacked, style
 from .generic import generic_report
 
 NODE = "/free_gyro_positioning"

@@ -33,8 +33,8 @@ import numpy as np
 
 from ..bag.reader import BagContents, BagError, stream
 from ..bag.schemas import message_class
-from ..plant.platform_loops import PAPER3_TABLE1
-from .figures import limit_lines, save_stacked, stacked, style
+from ..world.plant.platform_loops import PAPER3_TABLE1
+from ..figures import limit_lines, save_stacked, stacked, style
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 SETTLE_S = 2.0

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..bag.reader import BagError
 from .common import inertial_los, load_series, times, vectors, vehicle_site
-from .figures import save_stacked, stacked, style
+from ..figures import save_stacked, stacked, style
 from .generic import generic_report
 
 SETTLE_S = 30.0
@@ -49,7 +49,7 @@ class SightingSeries:
     ``t_bias`` (M,) and ``bias_true`` (M, 3) [rad/s] of ``/truth/gimbal/gyro_bias``;
     ``t_ekf`` (K,), ``bias_est`` and ``bias_sigma`` (K, 3) [rad/s] of the EKF's ``~/bias`` and
     ``~/bias_sigma`` (None without an EKF). A bag gives them (:func:`load_sighting_series`),
-    and so does the core loop (``gimbal_sim.experiments.core_metrics``), so that both
+    and so does the core loop (``gimbal_sim.reports.core_metrics``), so that both
     engines' figures come from this one computation."""
 
     t_truth: np.ndarray

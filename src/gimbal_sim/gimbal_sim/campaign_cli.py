@@ -27,7 +27,7 @@ from typing import Any
 
 import yaml
 
-from .campaign_spec import ENGINES, KEEP_BAGS, MODES, SAMPLINGS, CampaignError, CampaignSpec, load_spec_file, \
+from .campaign.spec import ENGINES, KEEP_BAGS, MODES, SAMPLINGS, CampaignError, CampaignSpec, load_spec_file, \
     spec_from_mapping
 
 
@@ -118,7 +118,7 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
 
 
 def _diff(argv: list[str]) -> int:
-    from .campaign_report import diff_results
+    from .campaign.report import diff_results
 
     p = argparse.ArgumentParser(prog="gimbal-campaign diff",
                                 description="Compare two campaigns' metrics on the runs they share (same run id).")
@@ -149,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "diff":
         return _diff(argv[1:])
     args = build_parser().parse_args(argv)
-    from .campaign import run_campaign
+    from .campaign.engine import run_campaign
 
     try:
         spec = spec_from_args(args)

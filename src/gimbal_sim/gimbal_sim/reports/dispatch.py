@@ -14,8 +14,8 @@ from pathlib import Path
 
 import yaml
 
-from .bag.reader import BagError
-from .reports import COMPARISONS, REPORTS, comparison_function, report_function
+from ..bag.reader import BagError
+from . import COMPARISONS, REPORTS, comparison_function, report_function
 
 
 def write_comparison(run_dir: Path, name: str, runs: dict[str, Path]) -> tuple[Path, dict]:
@@ -60,7 +60,7 @@ def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
 
 def _campaign_main(campaign_dir: Path) -> int:
     """A campaign directory: its runs' reports from their bags, then the campaign report."""
-    from .experiments.campaign_report import regenerate
+    from ..campaign.report import regenerate
 
     try:
         out, summary = regenerate(campaign_dir)

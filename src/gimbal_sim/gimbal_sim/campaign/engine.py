@@ -44,7 +44,7 @@ from typing import Any, Callable
 
 import yaml
 
-from .campaign_spec import CampaignError, CampaignPlan, CampaignSpec, plan
+from .spec import CampaignError, CampaignPlan, CampaignSpec, plan
 
 RESULT_FILE = "result.json"
 CONNECT_TIMEOUT_S = 5.0           # an unreachable scheduler is refused within this
@@ -201,7 +201,7 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
 
     Never raises for a failed run: the row says ``status: failed`` with the reason and the
     log tail. Writes ``runs/<id>/`` (via an attempt directory renamed when complete)."""
-    from ..scenario import validate
+    from ..graph.scenario import validate
 
     runs = Path(task.campaign_dir) / "runs"
     final = runs / task.run_id
@@ -219,7 +219,7 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
         elif task.engine == "graph":
             reason, log_tail = _run_graph(task, attempt)
         else:
-            from .core_metrics import run_core
+            from ..reports.core_metrics import run_core
 
             run_core(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt)
         # only a graph run has a bag to check; an experiment's run function is its core engine
@@ -369,7 +369,7 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
     out_dir = Path(out_dir).absolute()
     campaign = plan(spec)
     if spec.experiment and spec.engine == "core" and run_fn is None:
-        from .experiment_campaigns import run_experiment_task
+        from .experiment import run_experiment_task
 
         run_fn = run_experiment_task
     check_directory(out_dir, campaign, resume)
@@ -433,7 +433,7 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
         done = [rows[r.run_id] for r in campaign.runs if r.run_id in rows]
         write_results(out_dir, done, [s.target for s in spec.sweeps])
         if done:
-            from .campaign_report import write_campaign_report
+            from .report import write_campaign_report
 
             write_campaign_report(out_dir)
         raise
@@ -445,7 +445,7 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
     ordered = [rows[r.run_id] for r in campaign.runs]
     write_results(out_dir, ordered, [s.target for s in spec.sweeps])
     if todo or not (out_dir / "report").is_dir():
-        from .campaign_report import write_campaign_report
+        from .report import write_campaign_report
 
         write_campaign_report(out_dir)
     result = CampaignResult(out_dir, ordered, len(todo), skipped, time.monotonic() - t0)

@@ -8,7 +8,7 @@ import math
 
 from gimbal_kinematics.params import Param
 
-from .sensor_suite import SENSORS
+from ..world.sensor_suite import SENSORS
 
 DESCRIPTION = (
     "Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the "

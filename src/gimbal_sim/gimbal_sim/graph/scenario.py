@@ -1,6 +1,6 @@
 """Scenarios: which nodes run with which parameters, for how long, with which seed.
 
-A scenario is a YAML mapping (``yaml.safe_load``), built in (``gimbal_sim/scenarios/``) or
+A scenario is a YAML mapping (``yaml.safe_load``), built in (``gimbal_sim/graph/scenarios/``) or
 the user's own file::
 
     name: sim_open_loop

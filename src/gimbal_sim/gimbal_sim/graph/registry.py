@@ -19,8 +19,7 @@ from gimbal_estimators import (
 )
 from gimbal_kinematics.params import Param
 
-from . import sensor_models_params, vehicle_dynamics_params
-from .bag import recorder_params
+from ..nodes import bag_recorder_params, sensor_models_params, vehicle_dynamics_params
 
 
 @dataclass(frozen=True)
@@ -40,17 +39,17 @@ class NodeType:
 
 # Each loader imports one node module: rclpy loads only for a node that is run.
 def _vehicle_dynamics() -> type:
-    from .vehicle_dynamics_node import VehicleDynamicsNode
+    from ..nodes.vehicle_dynamics_node import VehicleDynamicsNode
     return VehicleDynamicsNode
 
 
 def _sensor_models() -> type:
-    from .sensor_models_node import SensorModelsNode
+    from ..nodes.sensor_models_node import SensorModelsNode
     return SensorModelsNode
 
 
 def _bag_recorder() -> type:
-    from .bag.recorder_node import BagRecorderNode
+    from ..nodes.bag_recorder_node import BagRecorderNode
     return BagRecorderNode
 
 
@@ -97,7 +96,7 @@ def _node_type(package: str, params_module, load_class: Callable[[], type]) -> N
 NODE_TYPES: dict[str, NodeType] = {
     "vehicle_dynamics": _node_type("gimbal_sim", vehicle_dynamics_params, _vehicle_dynamics),
     "sensor_models": _node_type("gimbal_sim", sensor_models_params, _sensor_models),
-    "bag_recorder": _node_type("gimbal_sim", recorder_params, _bag_recorder),
+    "bag_recorder": _node_type("gimbal_sim", bag_recorder_params, _bag_recorder),
     "los_rate_controller": _node_type("gimbal_control", los_rate_controller_params, _los_rate_controller),
     "gyro_bias_ekf": _node_type("gimbal_estimators", gyro_bias_ekf_params, _gyro_bias_ekf),
     "free_gyro_positioning": _node_type("gimbal_estimators", free_gyro_positioning_params, _free_gyro_positioning),

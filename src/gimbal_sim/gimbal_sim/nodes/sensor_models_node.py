@@ -24,12 +24,12 @@ from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import StampSync
 from .sensor_models_params import DESCRIPTION, PARAMS
-from .sensor_suite import (
+from ..world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
     SensorSuiteConfig,
 )
-from .sensors.free_gyro_sensor import FreeGyroSample
-from .vehicle import VehicleTruth
+from ..world.sensors.free_gyro_sensor import FreeGyroSample
+from ..world.vehicle import VehicleTruth
 
 #: Truth topic -> message type; which ones a run needs follows from the enabled sensors.
 TRUTH_TOPICS = {

@@ -65,14 +65,14 @@ class ExperimentCampaign:
 
 def _registry() -> dict[str, ExperimentCampaign]:
     # imported here: the runner modules import this one for the dataclasses
-    from . import flexure, free_gyro, platform_servo, sighting_loop
+    from ..experiments import flexure, free_gyro, platform_servo, sighting_loop
 
     return {e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN,
                                 platform_servo.CAMPAIGN)}
 
 
 def experiment(name: str) -> ExperimentCampaign:
-    from .campaign_spec import CampaignError
+    from .spec import CampaignError
 
     known = _registry()
     if name not in known:
@@ -81,7 +81,7 @@ def experiment(name: str) -> ExperimentCampaign:
 
 
 def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
-    from .campaign_spec import CampaignError
+    from .spec import CampaignError
 
     options = dict(exp.defaults)
     for key, value in given:
@@ -95,7 +95,7 @@ def plan_experiment(spec: Any) -> Any:
     """The :class:`~.campaign_spec.CampaignPlan` of an experiment campaign (``spec.experiment``
     set): variant × seed runs of the runner's core loop, or (``engine: graph``) the runs of
     its scenario relabelled with the experiment's variant names."""
-    from .campaign_spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, plan, run_id
+    from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, plan, run_id
 
     exp = experiment(spec.experiment)
     if spec.sweeps or spec.overrides:
@@ -201,8 +201,8 @@ def run_for_cli(ap: Any, args: Any, spec: Any, out: Path) -> Any:
     :class:`~.campaign.CampaignResult`."""
     import sys
 
-    from .campaign import run_campaign
-    from .campaign_spec import CampaignError
+    from .engine import run_campaign
+    from .spec import CampaignError
 
     if args.jobs < 1:
         ap.error(f"--jobs must be >= 1, got {args.jobs}")

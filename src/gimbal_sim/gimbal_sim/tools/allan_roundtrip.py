@@ -3,12 +3,12 @@ again, over term mixes and seeds; the scatter of single realisations, measured.
 
 Each (mix, seed) is the ``gyro_at_rest`` scenario's variant run on the same cores its nodes
 use (``VehicleCore`` and ``SensorSuite``, with the parameter values the orchestrator would
-give the nodes, :func:`gimbal_sim.core_loop.node_values`), its ``/ins/imu`` serialised as
+give the nodes, :func:`gimbal_sim.core.core_loop.node_values`), its ``/ins/imu`` serialised as
 ``sensor_models`` publishes it and written with our bag writer (a graph run of 6 h at 10 Hz
 gives the same samples, but takes minutes). ``gimbal-allan``'s reader and fit then
 characterise the bag, and each term is compared with what was simulated.
 
-``python -m gimbal_sim.experiments.allan_roundtrip [--mixes arw all] [--seeds 0 1 2 3 4]
+``python -m gimbal_sim.tools.allan_roundtrip [--mixes arw all] [--seeds 0 1 2 3 4]
 [--duration-s 21600] [--jobs 2] [--json FILE]`` prints, per mix and term, fitted/true per seed
 and axis, their mean and spread (the scatter of one realisation), the largest error, and
 the fit's own 1σ next to that spread.
@@ -30,7 +30,7 @@ import numpy as np
 
 from ..allan.analyze import analyze, to_json
 from ..allan.stream import read_imu_field
-from ..scenario import Scenario, ScenarioError, apply_set, load, variant
+from ..graph.scenario import Scenario, ScenarioError, apply_set, load, variant
 
 SCENARIO = "gyro_at_rest"
 TOPIC = "/ins/imu"
@@ -52,11 +52,11 @@ def write_at_rest_bag(scenario: Scenario, out: Path) -> dict[str, float]:
     from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
 
     from ..bag.writer import BagWriter
-    from ..core_loop import node_values
-    from ..core_stages import Bus, sensor_stage
-    from ..sensor_models_node import SensorModelsNode
-    from ..sensor_suite import SensorSuiteConfig
-    from ..vehicle import VehicleConfig, VehicleCore
+    from ..core.core_loop import node_values
+    from ..core.core_stages import Bus, sensor_stage
+    from ..nodes.sensor_models_node import SensorModelsNode
+    from ..world.sensor_suite import SensorSuiteConfig
+    from ..world.vehicle import VehicleConfig, VehicleCore
 
     values = node_values(scenario)
     sensors = next(v for exe, v in values.values() if exe == "sensor_models")
@@ -213,7 +213,7 @@ def table(summary: dict, seeds: list[int], duration_s: float) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     scenario = load(SCENARIO)
-    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.allan_roundtrip",
+    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.tools.allan_roundtrip",
                                      description="gimbal-allan round trip on simulated at-rest gyro bags: the "
                                                  "gyro_at_rest variants (term mixes) over seeds; prints the table.")
     parser.add_argument("--mixes", nargs="+", default=list(scenario.variants), choices=list(scenario.variants))

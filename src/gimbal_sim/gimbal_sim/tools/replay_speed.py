@@ -7,7 +7,7 @@ default: SensorDataQoS inputs, steps on the message stamps) and ``gimbal-bag pla
 ``timing: free``), times the replay from the first published message until the node has
 published an estimate for every INS sample, and compares every estimate with the EKF core
 fed the same bag directly (:func:`.core_stages.ekf_outputs`): the figure counts only if the
-two agree to 1e-9 rad/s. ``python -m gimbal_sim.replay_speed BAG`` prints it for a bag.
+two agree to 1e-9 rad/s. ``python -m gimbal_sim.tools.replay_speed BAG`` prints it for a bag.
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .core_stages import EKF_INPUTS, ekf_outputs
+from ..core.core_stages import EKF_INPUTS, ekf_outputs
 
 EKF = "gyro_bias_ekf"
 #: Largest difference [rad/s] between node and core estimates that still counts as exact.
@@ -93,8 +93,8 @@ def measure(bag: Path, timeout_s: float = 600.0) -> ReplaySpeed:
     from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
     from gimbal_kinematics.ros import messages as m
     from gimbal_kinematics.ros.node_main import make_executor
-    from .bag.player import BagPlayer, PlayOptions
-    from .orchestrator import _ros_env, stop_processes
+    from ..bag.player import BagPlayer, PlayOptions
+    from ..graph.orchestrator import _ros_env, stop_processes
 
     values = ekf_values(bag, {"timing": "free"})
     env, claim = _ros_env()
@@ -148,7 +148,7 @@ def measure(bag: Path, timeout_s: float = 600.0) -> ReplaySpeed:
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 1:
-        print("usage: python -m gimbal_sim.replay_speed BAG", file=sys.stderr)
+        print("usage: python -m gimbal_sim.tools.replay_speed BAG", file=sys.stderr)
         return 2
     print(measure(Path(args[0])).summary())
     return 0

@@ -37,8 +37,8 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
-from .core_stages import EKF_INPUTS
-from .scenario import ScenarioError, Scenario, load, variant
+from ..core.core_stages import EKF_INPUTS
+from ..graph.scenario import ScenarioError, Scenario, load, variant
 
 HEADLINE = "sighting_land_vehicle"
 EKF_EXECUTABLE = "gyro_bias_ekf"
@@ -91,7 +91,7 @@ class ModeResult:
 # ------------------------------------------------------------------------------ (a)
 def measure_core(scenario: Scenario) -> ModeResult:
     """(a): :mod:`.core_loop` in a subprocess (its CPU and peak RSS are then its own)."""
-    cmd = [sys.executable, "-m", "gimbal_sim.core_loop", str(_scenario_file(scenario)), "--json"]
+    cmd = [sys.executable, "-m", "gimbal_sim.core.core_loop", str(_scenario_file(scenario)), "--json"]
     t0 = time.monotonic()
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
@@ -121,7 +121,7 @@ def count_lost(bag: Path, sim_rate_hz: float, end_ns: int) -> tuple[int, int, di
     """(messages recorded, messages missing, per-topic missing) from each topic's stamps:
     a topic published every N steps must have one message per N steps from its first
     stamp to the end of the run. Topics with fewer than three messages are not judged."""
-    from .bag.reader import read_messages
+    from ..bag.reader import read_messages
     from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 
     messages, contents = read_messages(bag)
@@ -149,7 +149,7 @@ def count_lost(bag: Path, sim_rate_hz: float, end_ns: int) -> tuple[int, int, di
 
 def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
     """(b) or (c): the orchestrator's run, with its telemetry."""
-    from .orchestrator import run
+    from ..graph.orchestrator import run
 
     t0 = time.monotonic()
     r = run(scenario, out, mode, progress=False)
@@ -177,9 +177,9 @@ def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
 def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float, int] | None:
     """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s and
     CPU s including decoding, updates), or None when the bag lacks them."""
-    from .core_loop import node_values
-    from .core_stages import replay_bag
-    from .registry import NODE_TYPES
+    from ..core.core_loop import node_values
+    from ..core.core_stages import replay_bag
+    from ..graph.registry import NODE_TYPES
 
     values = next((v for exe, v in node_values(scenario).values() if exe == EKF_EXECUTABLE), None)
     if values is None:  # a scenario without the EKF: replay into one with the node's defaults
@@ -333,7 +333,7 @@ def bench_run(args: argparse.Namespace) -> int:
         for mode in modes:
             _note(f"{mode}: {scenario.name}, {scenario.duration_s:g} s simulated ...")
             if mode == "core":
-                from .core_loop import NoCoreError
+                from ..core.core_loop import NoCoreError
                 try:
                     results[mode] = measure_core(scenario)
                 except (NoCoreError, RuntimeError) as exc:
@@ -344,7 +344,7 @@ def bench_run(args: argparse.Namespace) -> int:
                 _note(f"{mode}: {results[mode].steps_per_s:,.0f} steps/s")
         bags = [results[m].bag for m in ("processes", "container") if m in results]
         if len(bags) == 2:
-            from .bag.compare import compare_bags
+            from ..bag.compare import compare_bags
 
             diff = compare_bags(bags[1], bags[0])
             extra.append(("(b) and (c) recorded data", "identical (every message, stamp and field)" if diff.identical
@@ -385,8 +385,8 @@ def bench_run(args: argparse.Namespace) -> int:
 def _check_commands(scenario: Scenario, bag: Path) -> str:
     """Does the core loop compute the torque commands the graph recorded, bit for bit?"""
     from gimbal_kinematics.ros import messages as m
-    from .bag.reader import read_messages
-    from .core_loop import run_core_loop
+    from ..bag.reader import read_messages
+    from ..core.core_loop import run_core_loop
 
     recorded = [m.joint_state_from_cdr(msg.data).effort for msg in read_messages(bag, {"/gimbal/torque_cmd"})[0]]
     if not recorded:
@@ -400,8 +400,8 @@ def _check_commands(scenario: Scenario, bag: Path) -> str:
 # ------------------------------------------------------------------------------ record
 def _record_once(scenario: Scenario, compress: bool) -> dict[str, str]:
     """One processes-mode run recorded with or without zstd chunks: the recorder's figures."""
-    from .bag.reader import find_mcap, scan
-    from .orchestrator import run
+    from ..bag.reader import find_mcap, scan
+    from ..graph.orchestrator import run
 
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-") as tmp:
         out = Path(tmp) / "run"
@@ -445,8 +445,8 @@ def bench_record(args: argparse.Namespace) -> int:
 
 
 def bench_compare(args: argparse.Namespace) -> int:
-    from .bag.compare import compare_bags
-    from .bag.reader import BagError
+    from ..bag.compare import compare_bags
+    from ..bag.reader import BagError
 
     try:
         diff = compare_bags(Path(args.a), Path(args.b), rel_tol=args.rel_tol)
@@ -462,7 +462,7 @@ def bench_compare(args: argparse.Namespace) -> int:
 def bench_flexure(args: argparse.Namespace) -> int:
     """Paper 5's flexure filters fed by the sensor cores without ROS: the filter's cost per
     LGU pair against the 1 ms target (the figure the unit tests used to assert)."""
-    from .experiments.flexure import run_flexure_comparison
+    from ..experiments.flexure import run_flexure_comparison
 
     results = run_flexure_comparison(args.duration, args.seed)
     print(f"flexure filters, {args.duration:g} s of LGU pairs at 10 Hz, seed {args.seed}:")

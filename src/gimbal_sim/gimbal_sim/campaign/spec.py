@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..scenario import Scenario, ScenarioError, check_param, load, variant
+from ..graph.scenario import Scenario, ScenarioError, check_param, load, variant
 
 ENGINES = ("graph", "core")
 MODES = ("container", "processes")
@@ -295,7 +295,7 @@ def run_id(scenario_name: str, variant_name: str, seed: int, values: dict[str, A
 def _typed(node: str, executable: str, param: str, index: int | None, value: Any, current: Any, where: str) -> Any:
     """``value`` as the node's parameter takes it: a scalar spread over a vector parameter
     (or put at ``index``), integral floats as integers for an integer parameter."""
-    from ..registry import NODE_TYPES
+    from ..graph.registry import NODE_TYPES
 
     default = {p.name: p.default for p in NODE_TYPES[executable].params}.get(param)
     if isinstance(default, list):
@@ -360,7 +360,7 @@ def _points(spec: CampaignSpec) -> list[dict[str, Any]]:
 
 def _round_for_int_params(base: Scenario, point: dict[str, Any]) -> dict[str, Any]:
     """Sobol points of integer parameters, rounded to the nearest integer."""
-    from ..registry import NODE_TYPES
+    from ..graph.registry import NODE_TYPES
 
     out = {}
     for target, value in point.items():
@@ -375,7 +375,7 @@ def _round_for_int_params(base: Scenario, point: dict[str, Any]) -> dict[str, An
 
 def check_core_engine(scenario: Scenario) -> None:
     """Refuse (:class:`CampaignError`) a scenario the core loop cannot step."""
-    from ..core_loop import STAGES, node_values
+    from ..core.core_loop import STAGES, node_values
 
     executables = {exe for exe, _ in node_values(scenario).values()}
     unknown = sorted(executables - set(STAGES) - {"vehicle_dynamics"})
@@ -388,7 +388,7 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
     """Validate ``spec`` against its scenario and expand it into runs (variant × seed × point).
     Raises :class:`CampaignError` naming what is wrong; nothing is started or written."""
     if spec.experiment:
-        from .experiment_campaigns import plan_experiment
+        from .experiment import plan_experiment
 
         return plan_experiment(spec)
     try:

@@ -2,7 +2,7 @@
 
 The nodes and their tables come from :data:`.registry.NODE_TYPES`. The tests fail when a
 config file and its node's declared defaults disagree; regenerate with
-``python -m gimbal_sim.config_files``.
+``python -m gimbal_sim.graph.config_files``.
 """
 from __future__ import annotations
 

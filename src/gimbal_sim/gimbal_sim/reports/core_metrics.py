@@ -1,5 +1,5 @@
 """The ``core`` engine's run: the scenario's cores stepped in one Python loop (no ROS,
-:func:`gimbal_sim.core_loop.run_core_loop`), and the same metrics the scenario's report
+:func:`gimbal_sim.core.core_loop.run_core_loop`), and the same metrics the scenario's report
 computes from a bag.
 
 A collector watches each step's bus and keeps what the graph would have recorded, with the
@@ -18,7 +18,10 @@ from typing import Any, Callable
 import numpy as np
 
 from gimbal_kinematics.ros.messages import step_stamp_ns
-from ..scenario import Scenario
+from ..core.core_loop import run_core_loop
+from ..graph.scenario import Scenario
+from .common import vehicle_site
+from .sighting import SightingSeries, sighting_figures
 
 
 class SightingCollector:
@@ -50,9 +53,6 @@ class SightingCollector:
             self.sig.append(tuple(float(v) for v in out.bias_sigma))
 
     def metrics(self, run_dir: Path) -> dict[str, Any]:
-        from ..reports.common import vehicle_site
-        from ..reports.sighting import SightingSeries, sighting_figures
-
         # log times as a bag reader computes them: ns * 1e-9, one float multiply each
         seconds = lambda ns: np.array([v * 1e-9 for v in ns])  # noqa: E731
         ekf = {}
@@ -71,8 +71,6 @@ COLLECTORS: dict[str, Callable[[Scenario], Any]] = {"sighting": SightingCollecto
 def run_core(scenario: Scenario, run_dir: Path) -> dict[str, Any]:
     """Run ``scenario``'s cores into ``run_dir`` (created; must not exist): writes
     ``scenario.yaml``, ``run.json`` and ``report/metrics.json``; returns the metrics."""
-    from ..core_loop import run_core_loop
-
     run_dir = Path(run_dir)
     (run_dir / "report").mkdir(parents=True)
     (run_dir / "scenario.yaml").write_text(scenario.to_yaml())

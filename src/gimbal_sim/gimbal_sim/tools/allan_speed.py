@@ -9,7 +9,7 @@ Two lengths give the memory per message: the slope of peak RSS against the messa
 next to the 32 bytes a message that the stamp and three values take as float64/int64 (the
 analysis then holds a few more arrays of the samples: the per-axis copies and the phase).
 
-``python -m gimbal_sim.experiments.allan_speed [--hours 0.5 2] [--rate-hz 100] [--keep DIR]``
+``python -m gimbal_sim.tools.allan_speed [--hours 0.5 2] [--rate-hz 100] [--keep DIR]``
 """
 from __future__ import annotations
 
@@ -70,7 +70,7 @@ def time_gimbal_allan(bag: Path, out: Path) -> tuple[float, float, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.allan_speed",
+    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.tools.allan_speed",
                                      description="Time gimbal-allan (wall time, peak RSS) on long bags.")
     parser.add_argument("--hours", nargs="+", type=float, default=[0.5, 2.0], help="bag lengths [h]")
     parser.add_argument("--rate-hz", type=float, default=100.0)

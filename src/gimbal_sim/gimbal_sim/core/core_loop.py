@@ -8,7 +8,7 @@ sensor node), in lockstep order: truth k → sensors k → estimator k → comma
 k → k+1. So for a seed the loop computes the same numbers as the graph, and its torque
 commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for bit.
 
-``python -m gimbal_sim.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
+``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
 (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
 """
 from __future__ import annotations
@@ -26,9 +26,10 @@ from typing import Any, Callable
 from gimbal_kinematics.ros.messages import step_stamp_ns
 
 from .core_stages import Bus, gyro_bias_ekf_stage, los_rate_controller_stage, sensor_stage
-from .registry import NODE_TYPES
-from .scenario import Scenario, ScenarioError, load
-from .vehicle import VehicleConfig, VehicleCore
+from ..graph.plan import plan_nodes, process_stats
+from ..graph.registry import NODE_TYPES
+from ..graph.scenario import Scenario, ScenarioError, load
+from ..world.vehicle import VehicleConfig, VehicleCore
 
 #: Nodes with no core to step (they only observe the run).
 PASSIVE = {"bag_recorder"}
@@ -41,8 +42,6 @@ class NoCoreError(ScenarioError):
 def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
     """node name -> (executable, every parameter value the node would read: its declared
     defaults, then the scenario's values, then what the orchestrator sets)."""
-    from .orchestrator import plan_nodes
-
     out = {}
     for planned in plan_nodes(scenario, Path("/nonexistent")):
         if planned.executable in PASSIVE:
@@ -120,7 +119,7 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.core_loop",
+    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.core.core_loop",
                                      description="Step a scenario's cores in one Python loop (no ROS) and time it.")
     parser.add_argument("scenario")
     parser.add_argument("--duration", type=float, help="simulated seconds (default: the scenario's)")
@@ -137,8 +136,6 @@ def main(argv: list[str] | None = None) -> int:
     except ScenarioError as exc:
         print(f"core_loop: {exc}", file=sys.stderr)
         return 2
-    from .orchestrator import process_stats
-
     if args.json:
         json.dump({"steps": result.steps, "sim_s": result.sim_s, "wall_s": result.wall_s, "cpu_s": result.cpu_s,
                    "peak_rss_mb": process_stats().peak_rss_mb, "step_latency_s": result.step_latency_s.tolist()},

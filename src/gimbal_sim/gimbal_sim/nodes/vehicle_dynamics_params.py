@@ -7,8 +7,8 @@ from __future__ import annotations
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.params import Param
 
-from .plant.motion_profiles import PROFILE_NAMES
-from .vehicle import PLANTS
+from ..world.plant.motion_profiles import PROFILE_NAMES
+from ..world.vehicle import PLANTS
 
 DESCRIPTION = (
     "Simulated host vehicle and gimbal/platform dynamics. Owns /clock and publishes the "

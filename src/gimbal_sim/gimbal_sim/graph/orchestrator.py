@@ -18,65 +18,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
-import yaml
-
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
+from .plan import RECORDER, ProcessStats, plan_nodes, process_stats, resident_mb, write_run_files
 from .registry import NODE_TYPES
 from .scenario import Scenario
 
 STOP_GRACE_S = 10.0      # how long a node may take to exit after SIGINT
 DRAIN_QUIET_S = 0.3      # quiet time after the recorder reached the end before stopping
-RECORDER = "bag_recorder"
 
 
 class RunError(RuntimeError):
     """The run failed; the message names the node and why."""
-
-
-@dataclass
-class PlannedNode:
-    name: str
-    executable: str
-    params: dict[str, Any]
-    remap: dict[str, str]
-    params_file: Path | None = None
-
-    def ros_args(self) -> list[str]:
-        args = ["--ros-args", "-r", f"__node:={self.name}", "--params-file", str(self.params_file)]
-        for old, new in self.remap.items():
-            args += ["-r", f"{old}:={new}"]
-        return args
-
-
-@dataclass(frozen=True)
-class ProcessStats:
-    """CPU seconds (user + system) and peak resident memory of one process."""
-
-    cpu_s: float
-    peak_rss_mb: float
-
-
-def process_stats(pid: int | str = "self") -> ProcessStats:
-    """Read from /proc: utime + stime [s] and VmHWM [MiB] (Linux)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    ticks = os.sysconf("SC_CLK_TCK")
-    cpu = (int(fields[11]) + int(fields[12])) / ticks
-    rss = 0.0
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            rss = int(line.split()[1]) / 1024.0
-    return ProcessStats(cpu, rss)
-
-
-def resident_mb(pid: int | str = "self") -> float:
-    """Current resident memory (VmRSS) of a process [MiB]; 0 when it is gone."""
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return 0.0
 
 
 @dataclass
@@ -100,53 +52,6 @@ class RunResult:
     @property
     def real_time_factor(self) -> float:
         return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
-
-
-def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list[PlannedNode]:
-    """Every node with its final parameters: the scenario's, plus what the orchestrator
-    owns (rate, seed, duration, readiness and pacing wiring, the recorder's output and
-    whether it compresses the bag's chunks)."""
-    # a node in free timing is no lockstep reader: the vehicle neither waits for nor paces on it
-    paced = [n for n, s in scenario.nodes.items()
-             if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}
-             and s["params"].get("timing", "lockstep") != "free"]
-    planned = []
-    for name, spec in scenario.nodes.items():
-        declared = {p.name for p in NODE_TYPES[spec["executable"]].params}
-        params = dict(spec["params"])
-        if "sim_rate_hz" in declared:
-            params["sim_rate_hz"] = scenario.sim_rate_hz
-        if "seed" in declared:
-            params["seed"] = scenario.seed
-        if "timing" in declared:
-            # the deterministic graph (a scenario may still ask a node for free timing)
-            params.setdefault("timing", "lockstep")
-        if spec["executable"] == "vehicle_dynamics":
-            params["duration_s"] = scenario.duration_s
-            params["pace_topics"] = [f"/{n}/progress" for n in paced + [RECORDER]]
-            # /clock: the recorder and the run's monitor (which times every step)
-            params.setdefault("subscriber_counts", ["/clock=2"])
-        elif "wait_for_subscribers" in declared:
-            # the recorder reads every output; a real-time scenario also counts its
-            # free-timing readers (no readiness of their own: a sample sent before they
-            # matched is lost)
-            params.setdefault("wait_for_subscribers", 1)
-        planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
-    recorder = {"output_dir": str(out_dir), "compress": compress,
-                "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
-                "topics": [] if scenario.record == "all" else list(scenario.record),
-                "wait_for_nodes": list(scenario.nodes)}
-    # the recorder starts first so that it is listening before anyone publishes
-    return [PlannedNode(RECORDER, RECORDER, recorder, {})] + planned
-
-
-def write_run_files(scenario: Scenario, nodes: list[PlannedNode], out_dir: Path) -> None:
-    (out_dir / "params").mkdir(parents=True)
-    (out_dir / "logs").mkdir()
-    (out_dir / "scenario.yaml").write_text(scenario.to_yaml())
-    for node in nodes:
-        node.params_file = out_dir / "params" / f"{node.name}.yaml"
-        node.params_file.write_text(yaml.safe_dump({node.name: {"ros__parameters": node.params}}, sort_keys=False))
 
 
 def _tail(path: Path, lines: int = 15) -> str:

@@ -25,10 +25,10 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
-from .qos_yaml import qos_to_dict
-from .recorder_params import DESCRIPTION, PARAMS
-from .schemas import message_class, msg_text, split_type
-from .writer import BagWriter
+from ..bag.qos_yaml import qos_to_dict
+from .bag_recorder_params import DESCRIPTION, PARAMS
+from ..bag.schemas import message_class, msg_text, split_type
+from ..bag.writer import BagWriter
 
 _STAMP = struct.Struct("<iI")
 

@@ -17,8 +17,8 @@ from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
 from gimbal_kinematics.ros import messages as m
 
-from .bag.reader import read_messages
-from .sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
+from ..bag.reader import read_messages
+from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
 
 #: The recorded topics the EKF reads.
 EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")

@@ -174,7 +174,7 @@ def _slug(text: str) -> str:
 
 
 def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> list[str]:
-    from ..reports.figures import pyplot
+    from ..figures import pyplot
 
     plt = pyplot()
     sweep_cols = [f"sweep.{s}" for s in summary["sweep"]]
@@ -199,7 +199,7 @@ def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, A
 
 def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, name: str) -> str:
     """Label, grid and legend ``ax``, save ``fig`` as ``out/name``; returns ``name``."""
-    from ..reports.figures import save
+    from ..figures import save
 
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
@@ -211,7 +211,7 @@ def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, 
 
 
 def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> list[str]:
-    from ..reports.figures import pyplot
+    from ..figures import pyplot
 
     plt = pyplot()
     ok = [r for r in rows if r["status"] == "ok"]
@@ -247,7 +247,7 @@ def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any],
 
 def write_campaign_report(campaign_dir: Path) -> tuple[Path, dict[str, Any]]:
     """Write ``<campaign_dir>/report/`` from ``results.parquet``; returns it and the summary."""
-    from .campaign import read_results
+    from .engine import read_results
 
     campaign_dir = Path(campaign_dir)
     rows = read_results(campaign_dir)
@@ -269,8 +269,8 @@ def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict
     each run's row from its metrics, the results table, then the campaign report."""
     import yaml
 
-    from ..report import write_report
-    from .campaign import RESULT_FILE, flatten_metrics, read_results, write_results
+    from ..reports.dispatch import write_report
+    from .engine import RESULT_FILE, flatten_metrics, read_results, write_results
 
     campaign_dir = Path(campaign_dir)
     asked = (yaml.safe_load((campaign_dir / "campaign.yaml").read_text()) or {}).get("campaign", {})
@@ -300,7 +300,7 @@ def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict
 def diff_results(dir_a: Path, dir_b: Path, prefix: str = "") -> dict[str, Any]:
     """Two campaigns' metrics on the runs they share (same run id: same scenario, variant,
     seed, values): per metric starting with ``prefix``, the runs compared and max |a − b|."""
-    from .campaign import read_results
+    from .engine import read_results
 
     a = {r["run_id"]: r for r in read_results(dir_a) if r["status"] == "ok"}
     b = {r["run_id"]: r for r in read_results(dir_b) if r["status"] == "ok"}

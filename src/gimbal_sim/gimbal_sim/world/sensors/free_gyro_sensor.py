@@ -196,7 +196,7 @@ class FreeGyroSensor:
         )
 
     def update_from_truth(self, truth, lat: float, lon: float, dt: float) -> FreeGyroSample:
-        """Read-out from a ``gimbal_sim.vehicle.VehicleTruth`` (its site at (lat, lon) [rad]);
+        """Read-out from a ``gimbal_sim.world.vehicle.VehicleTruth`` (its site at (lat, lon) [rad]);
         the triad gets the exact step rotation ``delta_angle_b / dt``."""
         w = np.asarray(truth.delta_angle_b, dtype=float) / dt if truth.k else np.asarray(truth.omega_ib_b)
         return self.update(truth.t, lat, lon, truth.euler, w, dt)
