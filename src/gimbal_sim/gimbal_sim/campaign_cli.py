@@ -7,7 +7,7 @@
     gimbal-campaign --out bags/mc20 --resume                          # finish / extend it
     gimbal-campaign diff bags/mc20 bags/mc20_core --prefix sighting.  # two campaigns' metrics
 
-The campaign comes from a YAML file (:mod:`.campaign_spec` documents it) and/or flags (a
+The campaign comes from a YAML file (:mod:`gimbal_sim.campaign.spec` documents it) and/or flags (a
 flag overrides the file). Without ``--scheduler`` an embedded LocalCluster on 127.0.0.1
 runs one single-threaded worker process per core. The campaign directory holds
 ``campaign.yaml``, ``runs/<id>/``, ``results.parquet`` (+ csv) and ``report/``.
@@ -27,8 +27,10 @@ from typing import Any
 
 import yaml
 
+from .campaign.report import diff_results
 from .campaign.spec import ENGINES, KEEP_BAGS, MODES, SAMPLINGS, CampaignError, CampaignSpec, load_spec_file, \
     spec_from_mapping
+from .experiments.registry import run_campaign
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -118,8 +120,6 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
 
 
 def _diff(argv: list[str]) -> int:
-    from .campaign.report import diff_results
-
     p = argparse.ArgumentParser(prog="gimbal-campaign diff",
                                 description="Compare two campaigns' metrics on the runs they share (same run id).")
     p.add_argument("a", type=Path)
@@ -149,8 +149,6 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "diff":
         return _diff(argv[1:])
     args = build_parser().parse_args(argv)
-    from .campaign.engine import run_campaign
-
     try:
         spec = spec_from_args(args)
         if args.workers is not None and args.workers < 1:

@@ -20,7 +20,11 @@ import sys
 import time
 from pathlib import Path
 
+from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
+
+from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run
 from .graph.scenario import Scenario, ScenarioError, apply_params_file, apply_set, describe_builtins, load, variant
+from .reports.dispatch import write_comparison, write_report
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -104,9 +108,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gimbal-run: {exc}", file=sys.stderr)
         return 2
 
-    from .graph.orchestrator import RunError
-    from .reports.dispatch import write_comparison
-
     rows, ok = [], True
     if args.jobs > 1 and len(runs) > 1:
         if not _run_concurrently(runs, out, args, rows):
@@ -139,9 +140,6 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
     ``args.jobs`` at a time, each in a ROS domain claimed here; appends the children's summary
     rows to ``rows``. False when a child failed (its log is printed)."""
     from tqdm import tqdm
-
-    from .graph.orchestrator import PROGRESS_FILE_ENV
-    from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
     out.mkdir(parents=True)
     pending, active, failed, done = list(runs), [], [], {}
@@ -204,9 +202,6 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
 def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
     """Run one scenario into ``out``, write its run.json and report; returns the report's
     metrics and the summary rows."""
-    from .graph.orchestrator import run
-    from .reports.dispatch import write_report
-
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress)
     (out / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,

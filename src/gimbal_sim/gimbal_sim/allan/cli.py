@@ -16,8 +16,9 @@ import sys
 from pathlib import Path
 
 from ..bag.any_reader import AnyBagError
-from .analyze import ACCEL_SIGMA_PREFIX, AXES, SIGMA_PREFIX, UNITS, AnalysisError, analyze, to_json
+from .analyze import ACCEL_SIGMA_PREFIX, AXES, AnalysisError, SIGMA_PREFIX, UNITS, analyze, to_json
 from .params import ACCEL_TARGETS, GYRO_TARGETS, filters_yaml, sensor_models_yaml, set_arguments
+from .plot import plot_all
 from .stream import FIELDS, read_imu_field
 
 OUTPUTS = ("allan.json", "sensor_models.yaml", "filters.yaml", "set_args.txt")
@@ -109,7 +110,6 @@ def main(argv: list[str] | None = None) -> int:
     except AnalysisError as exc:
         return _refuse(exc.option, str(exc))
     doc = to_json(result)
-    from .plot import plot_all  # matplotlib only once there is something to draw
 
     args.out.mkdir(parents=True, exist_ok=True)
     text = json.dumps(doc, indent=2) + "\n"

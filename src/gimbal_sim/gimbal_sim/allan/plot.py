@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .analyze import UNITS, AxisResult, Characterisation
+from ..figures import pyplot, save
+from .analyze import AxisResult, Characterisation, UNITS
 from .fit import FLICKER_FACTOR
 
 _COLORS = {"quantization": "tab:purple", "white": "tab:blue", "gauss_markov": "tab:orange", "rrw": "tab:red",
@@ -21,9 +22,6 @@ def _value_text(value: float, sigma: float, unit: str) -> str:
 
 def plot_axis(result: Characterisation, res: AxisResult, path: Path) -> Path:
     """Write the figure of one axis to ``path`` (PNG); returns it."""
-    # here, not at the top: the reports package imports this module for its ``allan`` report
-    from ..figures import pyplot, save
-
     plt = pyplot()
     units = UNITS[result.field]
     scale = units["adev"].per_si

@@ -11,6 +11,8 @@ import json
 import sys
 from pathlib import Path
 
+from gimbal_kinematics.ros.ros_domain import localhost_env
+
 from .reader import BagError, recover, scan
 
 
@@ -82,7 +84,6 @@ def cmd_play(args: argparse.Namespace) -> int:
 
     from gimbal_kinematics.ros.node_main import make_executor
 
-    from gimbal_kinematics.ros.ros_domain import localhost_env
     from .player import BagPlayer, PlayOptions, load_qos_overrides, parse_remaps
 
     options = PlayOptions(rate=args.rate, clock_hz=args.clock or 0.0, topics=args.topics,

@@ -26,6 +26,7 @@ from typing import Any, Iterator
 from mcap.reader import make_reader
 
 from .reader import find_mcap
+from .schemas import message_class
 
 
 @dataclass
@@ -100,8 +101,6 @@ def _raw(bag: Path) -> tuple[dict[str, list[tuple[int, int, bytes]]], dict[str, 
 def _decode(data: bytes, type_name: str) -> Any:
     """The message object rclpy's own deserializer makes of a payload."""
     from rclpy.serialization import deserialize_message
-
-    from .schemas import message_class
 
     return deserialize_message(data, message_class(type_name.replace("/msg/", "/")))
 

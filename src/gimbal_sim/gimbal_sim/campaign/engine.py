@@ -1,6 +1,6 @@
 """The campaign engine: every run of a campaign as one Dask task, results in one table.
 
-``run_campaign(spec, out_dir)`` plans the runs (:mod:`.campaign_spec`), submits the ones
+``run_campaign(spec, out_dir)`` plans the runs with the ``plan`` it is handed (:func:`.spec.plan` for a scenario campaign), submits the ones
 without results to a Dask cluster (an embedded ``LocalCluster`` on 127.0.0.1 sized to the
 cores, or ``scheduler="tcp://host:port"``), and writes the campaign directory::
 
@@ -10,12 +10,12 @@ cores, or ``scheduler="tcp://host:port"``), and writes the campaign directory::
     OUT/results.parquet      one row per run (also results.csv): run id, variant, seed,
                              swept values (sweep.<node.param>), status, reason, wall time,
                              every numeric metric of the run's report (dotted paths)
-    OUT/report/              the campaign report (:mod:`.campaign_report`)
+    OUT/report/              the campaign report (the ``report`` it is handed: :mod:`.report`)
 
 A task (:func:`execute_run`) runs on whichever worker gets it. Engine ``graph`` runs the
 real node graph as a child ``gimbal-run`` of the single-run scenario, in a ROS domain
 claimed on that host with discovery kept on it; engine ``core`` steps the same cores in
-the worker (:mod:`.core_metrics`); a caller's own ``run_fn(task, run_dir) -> metrics``
+the worker (the ``core_run`` it is handed); a caller's own ``run_fn(task, run_dir) -> metrics``
 replaces both (the hook for the experiment runners). Each attempt writes into a fresh
 ``runs/.attempts/<id>-<token>/<id>/`` and is renamed to ``runs/<id>/`` only when complete, so a
 task Dask reschedules after its worker died starts clean, and a half-done attempt never
@@ -24,7 +24,6 @@ with its reason and log tail; the campaign carries on.
 """
 from __future__ import annotations
 
-import csv
 import ctypes
 import json
 import logging
@@ -38,86 +37,40 @@ import sys
 import time
 import traceback
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 import yaml
 
-from .spec import CampaignError, CampaignPlan, CampaignSpec, plan
+from gimbal_kinematics.ros.ros_domain import claim_domain_id
 
-RESULT_FILE = "result.json"
+from ..graph.scenario import Scenario, validate
+from .results import RESULT_FILE, CampaignResult, flatten_metrics, write_results
+from .spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask
+
 CONNECT_TIMEOUT_S = 5.0           # an unreachable scheduler is refused within this
 STOP_GRACE_S = 20.0               # a timed-out gimbal-run gets this long to close its bag after SIGINT
 LOG_TAIL_LINES = 25
-#: Columns every row has, in this order; swept values follow as sweep.<target>, then the metrics.
-FIXED_COLUMNS = ("run_id", "scenario", "variant", "seed", "engine", "status", "reason", "wall_s", "host", "log_tail")
-#: Entries of a report's metrics.json that are not figures (paths, plot lists, per-topic counts, text).
-NOT_METRICS = {"plots", "topics", "bag", "read_error", "report", "runs", "table", "comparison"}
 _SCHEDULER = re.compile(r"^(tcp|tls)://[^\s/:]+:\d{1,5}$")
 
 
+#: The core engine's run of a scenario: (scenario, run_dir to create) -> the run's metrics.
+CoreRun = Callable[[Scenario, Path], dict]
+
+
 @dataclass(frozen=True)
-class RunTask:
-    """One run, as shipped to a worker (picklable): the single-run scenario as YAML and how
-    to run it. ``values`` are the swept values (target -> value)."""
+class Runners:
+    """What the engine is handed to run a task: ``run_fn`` (a caller's own run, e.g. an
+    experiment runner's core loop) or, for a scenario campaign's ``engine: core`` run,
+    ``core_run(scenario, run_dir) -> metrics`` (the core engine with its report's metrics).
+    Module-level functions (or partials of them): Dask pickles them."""
 
-    run_id: str
-    campaign_dir: str
-    scenario_yaml: str
-    scenario_name: str
-    variant: str
-    seed: int
-    values: dict[str, Any]
-    engine: str
-    mode: str
-    compress: bool
-    keep_bags: str
-    timeout_s: float
-    experiment: str = ""                  # an experiment runner's campaign (its name is scenario_name)
-    options: dict[str, Any] = field(default_factory=dict)   # the runner's settings
-
-
-#: A caller's run: (task, run_dir to create) -> the run's metrics (a metrics.json mapping).
-RunFunction = Callable[[RunTask, Path], dict]
-
-
-@dataclass
-class CampaignResult:
-    directory: Path
-    rows: list[dict[str, Any]]        # one per planned run, in plan order
-    ran: int                          # runs executed by this call
-    skipped: int                      # runs whose results already existed (--resume)
-    wall_s: float
-
-    @property
-    def failed(self) -> list[dict[str, Any]]:
-        return [r for r in self.rows if r["status"] != "ok"]
+    run_fn: RunFunction | None = None
+    core_run: CoreRun | None = None
 
 
 # ------------------------------------------------------------------ the task (worker side)
-def flatten_metrics(metrics: dict[str, Any], prefix: str = "") -> dict[str, float | None]:
-    """Numeric leaves of a metrics.json mapping by dotted path (list items as ``path.i``);
-    booleans as 0/1; text, plot lists and per-topic counts left out."""
-    out: dict[str, float | None] = {}
-    for key, value in metrics.items():
-        if not prefix and key in NOT_METRICS:
-            continue
-        path = f"{prefix}{key}"
-        if isinstance(value, dict):
-            out.update(flatten_metrics(value, path + "."))
-        elif isinstance(value, list):
-            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
-                out.update({f"{path}.{i}": float(v) for i, v in enumerate(value)})
-        elif isinstance(value, bool):
-            out[path] = float(value)
-        elif isinstance(value, (int, float)):
-            out[path] = float(value)
-        elif value is None:
-            out[path] = None
-    return out
-
-
 def _die_with_parent() -> None:
     """In the child, before exec: SIGINT when the worker that started it dies (Linux
     PR_SET_PDEATHSIG), so a killed worker leaves no run going on that nobody waits for."""
@@ -135,8 +88,6 @@ def _run_graph(task: RunTask, attempt: Path) -> tuple[str, str]:
     """``gimbal-run`` of the task's scenario into ``attempt``; returns (failure reason or "",
     log tail). The child gets a ROS domain claimed on this host; its lock is passed to the
     child so that the id stays taken for as long as the child lives."""
-    from gimbal_kinematics.ros.ros_domain import claim_domain_id
-
     scenario_file, log_file = attempt.parent / "scenario.yaml", attempt.parent / "gimbal-run.log"
     scenario_file.write_text(task.scenario_yaml)
     claim = claim_domain_id()
@@ -196,13 +147,11 @@ def _drop_bag(run_dir: Path) -> bool:
     return found
 
 
-def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, Any]:
+def execute_run(task: RunTask, runners: Runners) -> dict[str, Any]:
     """Run one task where it lands (a Dask worker, or this process) and return its row.
 
     Never raises for a failed run: the row says ``status: failed`` with the reason and the
     log tail. Writes ``runs/<id>/`` (via an attempt directory renamed when complete)."""
-    from ..graph.scenario import validate
-
     runs = Path(task.campaign_dir) / "runs"
     final = runs / task.run_id
     if (final / RESULT_FILE).is_file():  # an earlier attempt of this task completed it
@@ -212,6 +161,7 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
     attempt.parent.mkdir(parents=True)
     t0 = time.monotonic()
     reason, log_tail, metrics = "", "", None
+    run_fn = runners.run_fn
     try:
         if run_fn is not None:
             attempt.mkdir(parents=True)
@@ -219,9 +169,7 @@ def execute_run(task: RunTask, run_fn: RunFunction | None = None) -> dict[str, A
         elif task.engine == "graph":
             reason, log_tail = _run_graph(task, attempt)
         else:
-            from ..reports.core_metrics import run_core
-
-            run_core(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt)
+            runners.core_run(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt)
         # only a graph run has a bag to check; an experiment's run function is its core engine
         engine = "custom" if run_fn is not None and not task.experiment else task.engine
         metrics, why = _check_metrics(attempt, engine) if not reason or attempt.exists() else (None, "")
@@ -326,11 +274,11 @@ def _cleanup(out_dir: Path) -> None:
         pass
 
 
-def _run_dask(client: Any, todo: list[RunTask], run_fn: RunFunction | None, on_row, show) -> None:
+def _run_dask(client: Any, todo: list[RunTask], runners: Runners, on_row, show) -> None:
     """Submit every task (in plan order), hand each finished one's row to ``on_row``, and
     ``show(running)`` the number of our tasks the workers are processing every 5 s."""
     nonce = uuid.uuid4().hex[:8]
-    futures = {client.submit(execute_run, task, run_fn, key=f"gimbal-campaign-{nonce}-{task.run_id}",
+    futures = {client.submit(execute_run, task, runners, key=f"gimbal-campaign-{nonce}-{task.run_id}",
                              pure=False): task for task in todo}
     keys = {f.key for f in futures}
     pending = dict(futures)
@@ -359,83 +307,98 @@ def failed_row(task: RunTask, reason: str) -> dict[str, Any]:
             "host": "", "log_tail": "", "values": task.values, "bag_kept": False, "metrics": {}}
 
 
-def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, scheduler: str | None = None,
-                 workers: int | None = None, serial: bool = False, progress: bool = True,
-                 run_fn: RunFunction | None = None) -> CampaignResult:
-    """Run the campaign ``spec`` into ``out_dir`` (module docstring). ``serial`` runs the
-    tasks one by one in this process (no Dask); ``run_fn`` replaces the engine's run.
-    Raises :class:`CampaignError` for bad input, before anything is started or written."""
-    t0 = time.monotonic()
-    out_dir = Path(out_dir).absolute()
-    campaign = plan(spec)
-    if spec.experiment and spec.engine == "core" and run_fn is None:
-        from .experiment import run_experiment_task
+class _Progress:
+    """The campaign's progress bar and the rows as they come in (``on_row``)."""
 
-        run_fn = run_experiment_task
-    check_directory(out_dir, campaign, resume)
+    def __init__(self, out_dir: Path, rows: dict[str, dict[str, Any]], total: int, enabled: bool) -> None:
+        self.out_dir, self.rows = out_dir, rows
+        self.bar = _progress(total, enabled)
+        self.failed = self.running = 0
+
+    def show(self, now_running: int | None = None) -> None:
+        self.running = self.running if now_running is None else now_running
+        self.bar.set_postfix_str(f"failed {self.failed}, running {self.running}", refresh=True)
+
+    def on_row(self, row: dict[str, Any]) -> None:
+        self.rows[row["run_id"]] = row
+        path = self.out_dir / "runs" / row["run_id"] / RESULT_FILE
+        if not path.is_file():  # the worker's disk is not ours: keep the row here
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(row, indent=1, default=float) + "\n")
+        if row["status"] != "ok":
+            self.failed += 1
+            self.bar.write(f"run {row['run_id']} ({row['variant'] or '-'}, seed {row['seed']}) failed: "
+                           f"{row['reason']}", file=sys.stderr)
+        self.bar.update(1)
+        self.show()
+
+
+def _resumed_rows(out_dir: Path, campaign: CampaignPlan, resume: bool) -> dict[str, dict[str, Any]]:
+    """The rows of runs that already succeeded (``resume``); an earlier failure's run
+    directory is kept beside (``<id>.failed-<time>``) and the run goes again."""
     rows: dict[str, dict[str, Any]] = {}
     for run in campaign.runs:
         row = _load_row(out_dir, run.run_id) if resume else None
         if row is not None and row.get("status") == "ok":
             rows[run.run_id] = row
-        elif row is not None:  # an earlier failure: kept beside, then run again
+        elif row is not None:
             stamp = time.strftime("%Y%m%d-%H%M%S")
             (out_dir / "runs" / run.run_id).rename(out_dir / "runs" / f"{run.run_id}.failed-{stamp}")
+    return rows
+
+
+def _execute(todo: list[RunTask], runners: Runners, client: Any, bar: _Progress) -> None:
+    """Every task of ``todo``, serially here (``client`` None) or on the Dask cluster."""
+    try:
+        if client is None:
+            for task in todo:
+                bar.show(1)
+                try:
+                    row = execute_run(task, runners)
+                except OSError as exc:  # its attempt could not be put in place: kept, named
+                    row = failed_row(task, f"{type(exc).__name__}: {exc}")
+                bar.on_row(row)
+        else:
+            _run_dask(client, todo, runners, bar.on_row, bar.show)
+    finally:
+        bar.bar.close()
+
+
+def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignSpec], CampaignPlan],
+                 report: Callable[[Path], Any], runners: Runners = Runners(), resume: bool = False,
+                 scheduler: str | None = None, workers: int | None = None, serial: bool = False,
+                 progress: bool = True) -> CampaignResult:
+    """Run the campaign ``spec`` into ``out_dir`` (module docstring): ``plan(spec)`` expands
+    it into runs, ``runners`` run them, ``report(out_dir)`` writes the campaign report.
+    ``serial`` runs the tasks one by one in this process (no Dask). Raises
+    :class:`CampaignError` for bad input, before anything is started or written."""
+    t0 = time.monotonic()
+    out_dir = Path(out_dir).absolute()
+    campaign = plan(spec)
+    if spec.engine == "core" and runners.run_fn is None and runners.core_run is None:
+        raise CampaignError("engine core: no core run was handed to the engine")
+    check_directory(out_dir, campaign, resume)
+    rows = _resumed_rows(out_dir, campaign, resume)
     todo = [t for t in _tasks(campaign, out_dir, spec) if t.run_id not in rows]
     skipped = len(rows)
     client = cluster = None
     if todo and not serial:
         client, cluster = connect(scheduler, workers)
+    targets = [s.target for s in spec.sweeps]
     try:
         (out_dir / "runs").mkdir(parents=True, exist_ok=True)
         (out_dir / "campaign.yaml").write_text(yaml.safe_dump(
             {"campaign": spec.to_dict(), "fingerprint": campaign.fingerprint, "runs": len(campaign.runs)},
             sort_keys=False))
         if todo:
-            bar = _progress(len(todo), progress)
-            failed, running = 0, 0
-
-            def show(now_running: int | None = None) -> None:
-                nonlocal running
-                running = running if now_running is None else now_running
-                bar.set_postfix_str(f"failed {failed}, running {running}", refresh=True)
-
-            def on_row(row: dict[str, Any]) -> None:
-                nonlocal failed
-                rows[row["run_id"]] = row
-                path = out_dir / "runs" / row["run_id"] / RESULT_FILE
-                if not path.is_file():  # the worker's disk is not ours: keep the row here
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    path.write_text(json.dumps(row, indent=1, default=float) + "\n")
-                if row["status"] != "ok":
-                    failed += 1
-                    bar.write(f"run {row['run_id']} ({row['variant'] or '-'}, seed {row['seed']}) failed: "
-                              f"{row['reason']}", file=sys.stderr)
-                bar.update(1)
-                show()
-
-            try:
-                if serial:
-                    for task in todo:
-                        show(1)
-                        try:
-                            row = execute_run(task, run_fn)
-                        except OSError as exc:  # its attempt could not be put in place: kept, named
-                            row = failed_row(task, f"{type(exc).__name__}: {exc}")
-                        on_row(row)
-                else:
-                    _run_dask(client, todo, run_fn, on_row, show)
-            finally:
-                bar.close()
+            _execute(todo, runners, client, _Progress(out_dir, rows, len(todo), progress))
             _cleanup(out_dir)
     except KeyboardInterrupt:
         # the finished runs are tabulated and reported; --resume runs the rest
         done = [rows[r.run_id] for r in campaign.runs if r.run_id in rows]
-        write_results(out_dir, done, [s.target for s in spec.sweeps])
+        write_results(out_dir, done, targets)
         if done:
-            from .report import write_campaign_report
-
-            write_campaign_report(out_dir)
+            report(out_dir)
         raise
     finally:
         if client is not None:
@@ -443,11 +406,9 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
         if cluster is not None:
             cluster.close()
     ordered = [rows[r.run_id] for r in campaign.runs]
-    write_results(out_dir, ordered, [s.target for s in spec.sweeps])
+    write_results(out_dir, ordered, targets)
     if todo or not (out_dir / "report").is_dir():
-        from .report import write_campaign_report
-
-        write_campaign_report(out_dir)
+        report(out_dir)
     result = CampaignResult(out_dir, ordered, len(todo), skipped, time.monotonic() - t0)
     with open(out_dir / "invocations.jsonl", "a") as log:  # when, where and how long each call ran
         log.write(json.dumps({"finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": result.wall_s,
@@ -455,54 +416,3 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, resume: bool = False, sch
                               "executor": "serial" if serial else (scheduler or f"LocalCluster({workers or 'cores'})"),
                               "engine": spec.engine}) + "\n")
     return result
-
-
-# ------------------------------------------------------------------ the results table
-def table_rows(rows: list[dict[str, Any]], sweep_targets: list[str]) -> tuple[list[str], list[dict[str, Any]]]:
-    """(columns, flat rows) of the results table: fixed columns, sweep.<target>, metrics."""
-    metric_cols: dict[str, None] = {}
-    for row in rows:
-        metric_cols.update(dict.fromkeys(row.get("metrics", {})))
-    columns = list(FIXED_COLUMNS) + [f"sweep.{t}" for t in sweep_targets] + list(metric_cols)
-    flat = []
-    for row in rows:
-        item = {c: row.get(c) for c in FIXED_COLUMNS}
-        item.update({f"sweep.{t}": row.get("values", {}).get(t) for t in sweep_targets})
-        item.update({c: row.get("metrics", {}).get(c) for c in metric_cols})
-        flat.append(item)
-    return columns, flat
-
-
-def write_results(out_dir: Path, rows: list[dict[str, Any]], sweep_targets: list[str]) -> Path:
-    """``results.parquet`` (and ``results.csv``) of the rows; returns the Parquet path."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    columns, flat = table_rows(rows, sweep_targets)
-    arrays = {}
-    for col in columns:
-        values = [r[col] for r in flat]
-        if col in ("seed",):
-            arrays[col] = pa.array(values, pa.int64())
-        elif col in FIXED_COLUMNS and col != "wall_s":
-            arrays[col] = pa.array(["" if v is None else str(v) for v in values], pa.string())
-        elif col.startswith("sweep."):
-            arrays[col] = pa.array(values)  # the parameter's own type (number, bool, text)
-        else:
-            arrays[col] = pa.array([None if v is None else float(v) for v in values], pa.float64())
-    path = out_dir / "results.parquet"
-    tmp = path.with_suffix(".parquet.tmp")
-    pq.write_table(pa.table(arrays), tmp)
-    tmp.replace(path)
-    with open(out_dir / "results.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(flat)
-    return path
-
-
-def read_results(out_dir: Path) -> list[dict[str, Any]]:
-    """The rows of ``results.parquet`` (pyarrow), as dicts by column."""
-    import pyarrow.parquet as pq
-
-    return pq.read_table(Path(out_dir) / "results.parquet").to_pylist()

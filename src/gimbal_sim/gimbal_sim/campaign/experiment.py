@@ -1,4 +1,4 @@
-"""The experiment runners' Monte Carlo campaigns on the campaign engine (:mod:`.campaign`).
+"""The experiment runners' Monte Carlo campaigns on the campaign engine (:mod:`.engine`).
 
 Four runners predate ``gimbal-campaign`` and keep their CLIs and printed tables:
 ``sighting_loop --monte-carlo``, ``flexure --seeds``, ``free_gyro --runs`` and
@@ -6,7 +6,7 @@ Four runners predate ``gimbal-campaign`` and keep their CLIs and printed tables:
 runner's modes or cases), a run function for ``engine: core`` (the runner's own loop, no
 ROS: one seed of one variant, returning its metrics mapping), and, where a scenario's
 report carries the figures its table needs, the scenario for ``engine: graph`` (real nodes
-through ``gimbal-run``). A :class:`~.campaign_spec.CampaignSpec` with ``experiment`` set is
+through ``gimbal-run``). A :class:`~.spec.CampaignSpec` with ``experiment`` set is
 planned here (:func:`plan_experiment`), so those runs go through the same engine as any
 campaign: one Dask task per run (or serially in-process), a campaign directory with each
 run's ``report/metrics.json``, ``results.parquet``, ``--resume`` and the campaign report.
@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import shutil
-import tempfile
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
+
+from .results import CampaignResult
+from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, RunTask, plan, run_id
 
 #: core engine: (variant, seed, options) -> the run's metrics (a JSON-able mapping)
 CoreRun = Callable[[str, int, dict[str, Any]], dict[str, Any]]
@@ -63,26 +63,7 @@ class ExperimentCampaign:
     graph: GraphEquivalent | None = None
 
 
-def _registry() -> dict[str, ExperimentCampaign]:
-    # imported here: the runner modules import this one for the dataclasses
-    from ..experiments import flexure, free_gyro, platform_servo, sighting_loop
-
-    return {e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN,
-                                platform_servo.CAMPAIGN)}
-
-
-def experiment(name: str) -> ExperimentCampaign:
-    from .spec import CampaignError
-
-    known = _registry()
-    if name not in known:
-        raise CampaignError(f"experiment: unknown experiment {name!r}; known: {', '.join(sorted(known))}")
-    return known[name]
-
-
 def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
-    from .spec import CampaignError
-
     options = dict(exp.defaults)
     for key, value in given:
         if key not in options:
@@ -91,13 +72,13 @@ def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dic
     return options
 
 
-def plan_experiment(spec: Any) -> Any:
-    """The :class:`~.campaign_spec.CampaignPlan` of an experiment campaign (``spec.experiment``
-    set): variant × seed runs of the runner's core loop, or (``engine: graph``) the runs of
-    its scenario relabelled with the experiment's variant names."""
-    from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, plan, run_id
-
-    exp = experiment(spec.experiment)
+def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan:
+    """The :class:`~.spec.CampaignPlan` of the experiment campaign ``spec`` of ``exp``
+    (``spec.experiment`` names it): variant × seed runs of the runner's core loop, or
+    (``engine: graph``) the runs of its scenario relabelled with the experiment's variant
+    names."""
+    if spec.experiment != exp.name:
+        raise CampaignError(f"experiment: campaign of {spec.experiment!r} given experiment {exp.name!r}")
     if spec.sweeps or spec.overrides:
         raise CampaignError(f"experiment {exp.name}: sweeps and --set are for scenario campaigns; "
                             "its settings are options")
@@ -134,11 +115,11 @@ def plan_experiment(spec: Any) -> Any:
     return CampaignPlan(spec, inner.base, runs, {**fingerprint, **inner.fingerprint, "options": options})
 
 
-def run_experiment_task(task: Any, run_dir: Path) -> dict[str, Any]:
-    """The campaign engine's run function for ``engine: core`` experiment runs (picklable):
-    the runner's loop for the task's variant, seed and options; writes
-    ``report/metrics.json`` and ``run.json`` into ``run_dir``."""
-    exp = experiment(task.scenario_name)
+def run_experiment_task(exp: ExperimentCampaign, task: RunTask, run_dir: Path) -> dict[str, Any]:
+    """The campaign engine's run function for ``engine: core`` runs of ``exp`` (picklable as
+    ``functools.partial(run_experiment_task, exp)``): the runner's loop for the task's
+    variant, seed and options; writes ``report/metrics.json`` and ``run.json`` into
+    ``run_dir``."""
     metrics = exp.run(task.variant, task.seed, dict(task.options))
     (run_dir / "report").mkdir(parents=True, exist_ok=True)
     (run_dir / "report" / "metrics.json").write_text(json.dumps(metrics, indent=1, default=float) + "\n")
@@ -147,7 +128,7 @@ def run_experiment_task(task: Any, run_dir: Path) -> dict[str, Any]:
     return metrics
 
 
-def run_metrics(result: Any) -> dict[str, list[tuple[int, dict[str, Any]]]]:
+def run_metrics(result: CampaignResult) -> dict[str, list[tuple[int, dict[str, Any]]]]:
     """Each variant's [(seed, metrics.json mapping)] of a finished campaign, in plan order.
     Raises RuntimeError naming the failed runs (a runner's table needs every run)."""
     failed = result.failed
@@ -162,59 +143,3 @@ def run_metrics(result: Any) -> dict[str, list[tuple[int, dict[str, Any]]]]:
                                "with workers on other hosts, give --out on a file system they share")
         out.setdefault(row["variant"], []).append((int(row["seed"]), json.loads(path.read_text())))
     return out
-
-
-@contextmanager
-def campaign_dir(out: str | None) -> Iterator[Path]:
-    """Where a runner's campaign goes: ``out`` (kept), or a temporary directory removed after
-    its table is printed (what the runners did before: print, keep nothing)."""
-    if out:
-        yield Path(out)
-        return
-    tmp = Path(tempfile.mkdtemp(prefix="gimbal-experiment-"))
-    try:
-        yield tmp / "campaign"
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-def add_engine_arguments(ap: Any, *, graph: bool) -> None:
-    """The campaign options every runner CLI takes (argparse parser ``ap``)."""
-    ap.add_argument("--engine", choices=("core", "graph") if graph else ("core",), default="core",
-                    help="core: this runner's own loop (no ROS, default); graph: the real nodes through "
-                         "gimbal-run (the scenario's report gives the figures)" if graph else
-                         "core: this runner's own loop (no scenario's report carries this table's figures)")
-    ap.add_argument("--mode", choices=("container", "processes"), default="container",
-                    help="graph engine: one process for all nodes (default) or one per node")
-    ap.add_argument("--jobs", type=int, default=1,
-                    help="runs at once on a Dask LocalCluster on 127.0.0.1 (default 1: one by one in this process)")
-    ap.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                    help="run on this Dask scheduler instead (workers on other hosts: --out on a shared file system)")
-    ap.add_argument("--out", metavar="DIR", help="keep the campaign directory (runs, results.parquet, report); "
-                                                 "default: a temporary one, removed after the table")
-    ap.add_argument("--resume", action="store_true", help="with --out: skip the runs that have results")
-
-
-def run_for_cli(ap: Any, args: Any, spec: Any, out: Path) -> Any:
-    """Run an experiment campaign for a runner's CLI: bad input exits 2 naming it (through
-    ``ap.error``), a failed run exits 1 naming it; returns the
-    :class:`~.campaign.CampaignResult`."""
-    import sys
-
-    from .engine import run_campaign
-    from .spec import CampaignError
-
-    if args.jobs < 1:
-        ap.error(f"--jobs must be >= 1, got {args.jobs}")
-    serial = args.jobs == 1 and not args.scheduler
-    try:
-        result = run_campaign(spec, out, resume=args.resume, scheduler=args.scheduler, workers=args.jobs,
-                              serial=serial)
-    except CampaignError as exc:
-        ap.error(str(exc))
-    if result.failed:
-        for row in result.failed:
-            print(f"run {row['run_id']} ({row['variant'] or '-'}, seed {row['seed']}) failed: {row['reason']}\n"
-                  f"{row['log_tail']}", file=sys.stderr)
-        raise SystemExit(1)
-    return result

@@ -24,9 +24,13 @@ import math
 import re
 from collections import defaultdict
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
+import yaml
+
+from ..figures import pyplot, save
+from .results import RESULT_FILE, flatten_metrics, read_results, write_results
 
 #: Leaf name of a report's time-averaged NEES -> its degrees of freedom (the report that writes it).
 NEES_DOF = {"bias_nees_mean_after_30s": 2,   # sighting: (b_q, b_r)
@@ -174,8 +178,6 @@ def _slug(text: str) -> str:
 
 
 def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> list[str]:
-    from ..figures import pyplot
-
     plt = pyplot()
     sweep_cols = [f"sweep.{s}" for s in summary["sweep"]]
     groups = _groups([r for r in rows if r["status"] == "ok"], sweep_cols)
@@ -199,8 +201,6 @@ def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, A
 
 def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, name: str) -> str:
     """Label, grid and legend ``ax``, save ``fig`` as ``out/name``; returns ``name``."""
-    from ..figures import save
-
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
@@ -211,8 +211,6 @@ def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, 
 
 
 def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> list[str]:
-    from ..figures import pyplot
-
     plt = pyplot()
     ok = [r for r in rows if r["status"] == "ok"]
     written = []
@@ -247,8 +245,6 @@ def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any],
 
 def write_campaign_report(campaign_dir: Path) -> tuple[Path, dict[str, Any]]:
     """Write ``<campaign_dir>/report/`` from ``results.parquet``; returns it and the summary."""
-    from .engine import read_results
-
     campaign_dir = Path(campaign_dir)
     rows = read_results(campaign_dir)
     summary = summarize(rows)
@@ -264,14 +260,10 @@ def write_campaign_report(campaign_dir: Path) -> tuple[Path, dict[str, Any]]:
     return out, summary
 
 
-def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict[str, Any]]:
-    """``gimbal-report CAMPAIGN_DIR``: rewrite each kept bag's run report (``run_reports``),
-    each run's row from its metrics, the results table, then the campaign report."""
-    import yaml
-
-    from ..reports.dispatch import write_report
-    from .engine import RESULT_FILE, flatten_metrics, read_results, write_results
-
+def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = None) -> tuple[Path, dict[str, Any]]:
+    """``gimbal-report CAMPAIGN_DIR``: rewrite each kept bag's run report (with
+    ``write_report(run_dir)``, the run report writer it is handed; None: keep them), each
+    run's row from its metrics, the results table, then the campaign report."""
     campaign_dir = Path(campaign_dir)
     asked = (yaml.safe_load((campaign_dir / "campaign.yaml").read_text()) or {}).get("campaign", {})
     rows = []
@@ -281,7 +273,7 @@ def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict
             continue  # earlier failed attempts kept beside (<id>.failed-<time>)
         row = json.loads(result.read_text())
         if row["status"] == "ok":
-            if run_reports and (run_dir / "metadata.yaml").is_file():
+            if write_report is not None and (run_dir / "metadata.yaml").is_file():
                 write_report(run_dir)
             path = run_dir / "report" / "metrics.json"
             if path.is_file():
@@ -300,8 +292,6 @@ def regenerate(campaign_dir: Path, run_reports: bool = True) -> tuple[Path, dict
 def diff_results(dir_a: Path, dir_b: Path, prefix: str = "") -> dict[str, Any]:
     """Two campaigns' metrics on the runs they share (same run id: same scenario, variant,
     seed, values): per metric starting with ``prefix``, the runs compared and max |a − b|."""
-    from .engine import read_results
-
     a = {r["run_id"]: r for r in read_results(dir_a) if r["status"] == "ok"}
     b = {r["run_id"]: r for r in read_results(dir_b) if r["status"] == "ok"}
     shared = sorted(set(a) & set(b))

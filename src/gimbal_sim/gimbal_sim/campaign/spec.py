@@ -42,11 +42,13 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import yaml
 
+from ..core.core_loop import STAGES, node_values
+from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, check_param, load, variant
 
 ENGINES = ("graph", "core")
@@ -284,6 +286,30 @@ def load_spec_file(path: Path) -> CampaignSpec:
     return spec_from_mapping(data, str(path))
 
 
+@dataclass(frozen=True)
+class RunTask:
+    """One run, as shipped to a worker (picklable): the single-run scenario as YAML and how
+    to run it. ``values`` are the swept values (target -> value)."""
+
+    run_id: str
+    campaign_dir: str
+    scenario_yaml: str
+    scenario_name: str
+    variant: str
+    seed: int
+    values: dict[str, Any]
+    engine: str
+    mode: str
+    compress: bool
+    keep_bags: str
+    timeout_s: float
+    experiment: str = ""                  # an experiment runner's campaign (its name is scenario_name)
+    options: dict[str, Any] = field(default_factory=dict)   # the runner's settings
+
+
+#: A caller's run: (task, run_dir to create) -> the run's metrics (a metrics.json mapping).
+RunFunction = Callable[[RunTask, Path], dict]
+
 # ------------------------------------------------------------------------ planning
 def run_id(scenario_name: str, variant_name: str, seed: int, values: dict[str, Any]) -> str:
     """The run's id: 16 hex digits of the SHA-256 of (scenario, variant, seed, values)."""
@@ -295,8 +321,6 @@ def run_id(scenario_name: str, variant_name: str, seed: int, values: dict[str, A
 def _typed(node: str, executable: str, param: str, index: int | None, value: Any, current: Any, where: str) -> Any:
     """``value`` as the node's parameter takes it: a scalar spread over a vector parameter
     (or put at ``index``), integral floats as integers for an integer parameter."""
-    from ..graph.registry import NODE_TYPES
-
     default = {p.name: p.default for p in NODE_TYPES[executable].params}.get(param)
     if isinstance(default, list):
         base = list(current if current is not None else default)
@@ -360,8 +384,6 @@ def _points(spec: CampaignSpec) -> list[dict[str, Any]]:
 
 def _round_for_int_params(base: Scenario, point: dict[str, Any]) -> dict[str, Any]:
     """Sobol points of integer parameters, rounded to the nearest integer."""
-    from ..graph.registry import NODE_TYPES
-
     out = {}
     for target, value in point.items():
         node, param = _TARGET.match(target).group(1, 2)
@@ -375,8 +397,6 @@ def _round_for_int_params(base: Scenario, point: dict[str, Any]) -> dict[str, An
 
 def check_core_engine(scenario: Scenario) -> None:
     """Refuse (:class:`CampaignError`) a scenario the core loop cannot step."""
-    from ..core.core_loop import STAGES, node_values
-
     executables = {exe for exe, _ in node_values(scenario).values()}
     unknown = sorted(executables - set(STAGES) - {"vehicle_dynamics"})
     if unknown or "vehicle_dynamics" not in executables:
@@ -388,9 +408,8 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
     """Validate ``spec`` against its scenario and expand it into runs (variant × seed × point).
     Raises :class:`CampaignError` naming what is wrong; nothing is started or written."""
     if spec.experiment:
-        from .experiment import plan_experiment
-
-        return plan_experiment(spec)
+        raise CampaignError(f"experiment {spec.experiment!r}: an experiment campaign is planned by "
+                            "its experiment (gimbal_sim.campaign.experiment.plan_experiment)")
     try:
         base = load(spec.scenario)
     except ScenarioError as exc:

@@ -30,8 +30,8 @@ from ..world.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import FlexureParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from ..campaign.spec import CampaignSpec
-from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
-                                   run_for_cli, run_metrics)
+from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
+from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
 
 #: Per-epoch series kept (each (n, 3) except ``t`` and ``d2``).
@@ -305,7 +305,7 @@ def main(argv: list[str] | None = None) -> None:
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(a.seeds), engine=a.engine, mode=a.mode,
                         options=tuple(options.items()))
     with campaign_dir(a.out) as out:
-        runs = run_metrics(run_for_cli(ap, a, spec, out))[""]
+        runs = run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN))[""]
     print(f"dynamic flexure band: beta {flexure.dynamic_beta_per_s} 1/s, lambda {flexure.dynamic_freq_rad_s} rad/s")
     models = list(a.models)
     if len(runs) == 1:

@@ -22,8 +22,8 @@ from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
 from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from ..campaign.spec import CampaignSpec
-from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
-                                   run_for_cli, run_metrics)
+from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
+from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
 _NAN = float("nan")
 
@@ -284,7 +284,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.runs + 1)), engine=a.engine,
                         mode=a.mode, options=tuple(options.items()))
     with campaign_dir(a.out) as out:
-        runs = [m for _, m in run_metrics(run_for_cli(ap, a, spec, out))[""]]
+        runs = [m for _, m in run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN))[""]]
     print(format_table(pooled(runs) if a.engine == "core" else pooled_reports(runs)))
 
 

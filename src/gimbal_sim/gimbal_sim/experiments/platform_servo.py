@@ -50,8 +50,8 @@ from ..world.sensors import AccelerometerParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics, column_stats
 from ..campaign.spec import CampaignSpec
-from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
-                                   run_for_cli, run_metrics)
+from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
+from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 
@@ -341,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(args.seeds), variants=(variant,),
                         engine=args.engine, mode=args.mode, options=tuple(options.items()))
     with campaign_dir(args.out) as out:
-        runs = [(seed, m["alignment"]) for seed, m in run_metrics(run_for_cli(align, args, spec, out))[variant]]
+        runs = [(seed, m["alignment"]) for seed, m in run_metrics(run_for_cli(align, args, spec, out, CAMPAIGN))[variant]]
     for run in runs:  # each seed's line, as the runs finished before (now after the campaign)
         print(_alignment_table([run]).splitlines()[-1])
     print(_alignment_table(runs))

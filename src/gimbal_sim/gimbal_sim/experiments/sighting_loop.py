@@ -35,8 +35,8 @@ from ..world.sensors import InsParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from .bias_ekf import ekf_params_from_sensors
 from ..campaign.spec import CampaignSpec
-from ..campaign.experiment import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
-                                   run_for_cli, run_metrics)
+from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
+from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
 MODES = ("off", "feedback", "los_hold")
 SETTLE_S = 30.0   # the bias figures are taken after the EKF's settling [s]
@@ -252,7 +252,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         variants=tuple(modes), engine=a.engine, mode=a.mode,
                         options=(("duration_s", a.duration), ("correlated_ins", a.correlated_ins)))
     with campaign_dir(a.out) as out:
-        print(summarize(run_metrics(run_for_cli(ap, a, spec, out))))
+        print(summarize(run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN))))
     return 0
 
 

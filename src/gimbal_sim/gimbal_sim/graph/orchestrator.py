@@ -18,8 +18,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
-from .plan import RECORDER, ProcessStats, plan_nodes, process_stats, resident_mb, write_run_files
+
+from .plan import ProcessStats, RECORDER, plan_nodes, process_stats, resident_mb, write_run_files
 from .registry import NODE_TYPES
 from .scenario import Scenario
 
@@ -69,9 +72,6 @@ class Monitor:
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from rclpy.task import Future
         from rosgraph_msgs.msg import Clock
-
-        from gimbal_kinematics.ros import messages as m
-        from gimbal_kinematics.ros.qos import GRAPH_QOS
 
         self.node = Node("gimbal_run_monitor", context=context)
         self.sim_ns = 0

@@ -8,10 +8,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from gimbal_kinematics.earth import earth_rate_n
+from gimbal_kinematics.los import inertial_los as carry, los_from_quat
+from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.views import VIEWS
+
 from ..bag.reader import BagContents, read_messages
 from ..bag.schemas import message_class
-from gimbal_kinematics.ros.cdr import CdrError
 from ..figures import save_stacked, stacked, style
 
 
@@ -84,7 +87,4 @@ def vehicle_site(bag_dir: Path) -> tuple[float, bool]:
 def inertial_los(t: np.ndarray, quats: np.ndarray, lat: float, earth_rate: bool) -> np.ndarray:
     """LOS unit vectors (N, 3) in the inertial frame that coincides with NED at t = 0, from
     C(n,m) quaternions (N, 4) at times ``t`` [s] from the start, at latitude ``lat`` [rad]."""
-    from gimbal_kinematics.earth import earth_rate_n
-    from gimbal_kinematics.los import inertial_los as carry, los_from_quat
-
     return carry(los_from_quat(quats), t, earth_rate_n(lat) if earth_rate else np.zeros(3))

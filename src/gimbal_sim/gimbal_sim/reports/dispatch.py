@@ -1,9 +1,10 @@
-"""Reports from recorded bags: ``report/metrics.json`` plus PNG plots.
+"""``gimbal-report``'s dispatch: a run's ``report/metrics.json`` plus PNG plots.
 
-``gimbal-report DIR`` regenerates the report of any bag; the orchestrator writes it at the
-end of each run. Every figure comes from the bag itself, decoded from the recorded bytes.
-The reports themselves live in :mod:`.reports`, one module each; ``generic`` works for any
-run.
+``gimbal-report DIR`` regenerates the report of any bag (``gimbal-run`` writes it at the
+end of each run), the comparison of a run with variants, or a campaign's reports. Every
+figure comes from the bag itself, decoded from the recorded bytes. The reports live in
+this package, one module each (:data:`gimbal_sim.reports.REPORTS`); ``generic`` works for
+any run.
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from pathlib import Path
 import yaml
 
 from ..bag.reader import BagError
+from ..campaign.report import regenerate
 from . import COMPARISONS, REPORTS, comparison_function, report_function
 
 
@@ -60,10 +62,8 @@ def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
 
 def _campaign_main(campaign_dir: Path) -> int:
     """A campaign directory: its runs' reports from their bags, then the campaign report."""
-    from ..campaign.report import regenerate
-
     try:
-        out, summary = regenerate(campaign_dir)
+        out, summary = regenerate(campaign_dir, write_report)
     except (BagError, OSError, ValueError) as exc:
         print(f"gimbal-report: {campaign_dir}: {exc}", file=sys.stderr)
         return 2

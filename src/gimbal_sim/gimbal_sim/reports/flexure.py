@@ -23,9 +23,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..bag.reader import BagError
-from .common import load_series
+from ..bag.reader import BagError, scan
 from ..figures import save, stacked
+from ..graph.registry import NODE_TYPES
+from .common import load_series
 from .generic import generic_report
 
 _ARCSEC = math.pi / 180.0 / 3600.0
@@ -121,8 +122,6 @@ def _run_config(bag_dir: Path) -> dict[str, dict]:
 
 def _param(nodes: dict[str, dict], executable: str, name: str) -> Any:
     """A node parameter from the run (first node of ``executable``), else its declared default."""
-    from ..graph.registry import NODE_TYPES
-
     for spec in nodes.values():
         if spec.get("executable") == executable and name in (spec.get("params") or {}):
             return spec["params"][name]
@@ -152,7 +151,6 @@ def load_flexure_runs(bag_dir: Path) -> tuple[dict[str, dict[str, np.ndarray]], 
     companions and ``truth_dynamic``) on its own epochs, matched to the truth by stamp.
     Returns (series by node, models by node, truth settings)."""
     bag_dir = Path(bag_dir)
-    from ..bag.reader import scan
 
     topics = set(scan(bag_dir).topics)
     models = estimator_nodes(bag_dir, topics)

@@ -24,9 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
+from gimbal_kinematics.los import los_drift
+
 from ..bag.reader import BagError
-from .common import inertial_los, load_series, times, vectors, vehicle_site
 from ..figures import save_stacked, stacked, style
+from .common import inertial_los, load_series, times, vectors, vehicle_site
 from .generic import generic_report
 
 SETTLE_S = 30.0
@@ -85,8 +87,6 @@ def analyse(bag_dir: Path) -> dict:
 def analyse_series(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
     """Series and figures of one run from its :class:`SightingSeries`, at latitude ``lat``
     [rad] with or without the earth rate (the run's vehicle site)."""
-    from gimbal_kinematics.los import los_drift
-
     t0 = s.t_truth[0]
     t = s.t_truth - t0
     drift = los_drift(inertial_los(t, s.quat_nm, lat, earth_rate))

@@ -28,9 +28,18 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
+
 from ..allan.analyze import analyze, to_json
+from ..allan.params import sensor_models_params
 from ..allan.stream import read_imu_field
+from ..bag.writer import BagWriter
+from ..core.core_loop import node_values
+from ..core.core_stages import Bus, sensor_stage
 from ..graph.scenario import Scenario, ScenarioError, apply_set, load, variant
+from ..world.sensor_suite import SensorSuiteConfig
+from ..world.vehicle import VehicleConfig, VehicleCore
 
 SCENARIO = "gyro_at_rest"
 TOPIC = "/ins/imu"
@@ -48,15 +57,7 @@ BOUNDS = {"arw_deg_rt_h": (None, 0.10), "bias_instability_deg_h": (0.15, 0.35), 
 def write_at_rest_bag(scenario: Scenario, out: Path) -> dict[str, float]:
     """Run ``scenario``'s vehicle and sensor cores and write its ``/ins/imu`` to a bag at ``out``
     as ``sensor_models`` would publish it; returns the sensor_models parameter values."""
-    from gimbal_kinematics.ros import messages as m
-    from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
-
-    from ..bag.writer import BagWriter
-    from ..core.core_loop import node_values
-    from ..core.core_stages import Bus, sensor_stage
     from ..nodes.sensor_models_node import SensorModelsNode
-    from ..world.sensor_suite import SensorSuiteConfig
-    from ..world.vehicle import VehicleConfig, VehicleCore
 
     values = node_values(scenario)
     sensors = next(v for exe, v in values.values() if exe == "sensor_models")
@@ -115,8 +116,6 @@ def refit_scenario(scenario: Scenario, fitted_params: dict[str, float], seed: in
 def closed_loop(mix: str, seed: int, duration_s: float) -> dict:
     """Fit a simulated bag, simulate the fitted gyro (seed + 1000), fit again: each axis of the
     second fit over the first fit's values as ``sensor_models`` simulated them (mean over axes)."""
-    from ..allan.params import sensor_models_params
-
     scenario = dataclasses.replace(variant(load(SCENARIO), mix), seed=seed, duration_s=duration_s)
     with tempfile.TemporaryDirectory(prefix="allan_cl_") as tmp:
         write_at_rest_bag(scenario, Path(tmp) / "first")

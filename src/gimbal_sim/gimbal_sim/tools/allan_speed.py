@@ -25,14 +25,15 @@ from pathlib import Path
 
 import numpy as np
 
+from gimbal_kinematics.ros import messages as m
+
+from ..bag.writer import BagWriter
+
 TARGET_S = 60.0
 
 
 def write_gyro_bag(path: Path, hours: float, rate_hz: float, seed: int = 0) -> int:
     """A static 3-axis gyro on ``/imu`` for ``hours`` at ``rate_hz``; returns the message count."""
-    from gimbal_kinematics.ros import messages as m
-    from ..bag.writer import BagWriter
-
     n = int(round(hours * 3600.0 * rate_hz))
     dt = 1.0 / rate_hz
     rng = np.random.default_rng(seed)

@@ -37,8 +37,18 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
-from ..core.core_stages import EKF_INPUTS
-from ..graph.scenario import ScenarioError, Scenario, load, variant
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.cdr import CdrError, read_stamp
+
+from ..bag.compare import compare_bags
+from ..bag.reader import BagError, find_mcap, read_messages, scan
+from ..core.core_loop import NoCoreError, node_values, run_core_loop
+from ..core.core_stages import EKF_INPUTS, replay_bag
+from ..experiments.flexure import run_flexure_comparison
+from ..graph.orchestrator import run
+from ..graph.registry import NODE_TYPES
+from ..graph.scenario import Scenario, ScenarioError, load, variant
+from .replay_speed import measure
 
 HEADLINE = "sighting_land_vehicle"
 EKF_EXECUTABLE = "gyro_bias_ekf"
@@ -121,9 +131,6 @@ def count_lost(bag: Path, sim_rate_hz: float, end_ns: int) -> tuple[int, int, di
     """(messages recorded, messages missing, per-topic missing) from each topic's stamps:
     a topic published every N steps must have one message per N steps from its first
     stamp to the end of the run. Topics with fewer than three messages are not judged."""
-    from ..bag.reader import read_messages
-    from gimbal_kinematics.ros.cdr import CdrError, read_stamp
-
     messages, contents = read_messages(bag)
     stamps: dict[str, list[int]] = {}
     for msg in messages:
@@ -149,8 +156,6 @@ def count_lost(bag: Path, sim_rate_hz: float, end_ns: int) -> tuple[int, int, di
 
 def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
     """(b) or (c): the orchestrator's run, with its telemetry."""
-    from ..graph.orchestrator import run
-
     t0 = time.monotonic()
     r = run(scenario, out, mode, progress=False)
     total = time.monotonic() - t0
@@ -177,10 +182,6 @@ def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
 def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float, int] | None:
     """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s and
     CPU s including decoding, updates), or None when the bag lacks them."""
-    from ..core.core_loop import node_values
-    from ..core.core_stages import replay_bag
-    from ..graph.registry import NODE_TYPES
-
     values = next((v for exe, v in node_values(scenario).values() if exe == EKF_EXECUTABLE), None)
     if values is None:  # a scenario without the EKF: replay into one with the node's defaults
         values = {p.name: p.default for p in NODE_TYPES[EKF_EXECUTABLE].params}
@@ -190,8 +191,6 @@ def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float,
 def replay_ekf_node(bag: Path) -> tuple[str, Any]:
     """``gimbal-bag play --rate 0`` of the recorded sensor topics into a free-timing
     ``gyro_bias_ekf`` node (:mod:`.replay_speed`): (the line to print, the measurement or None)."""
-    from .replay_speed import measure
-
     try:
         result = measure(bag)
     except Exception as exc:  # noqa: BLE001 - a benchmark prints what failed and goes on
@@ -333,7 +332,6 @@ def bench_run(args: argparse.Namespace) -> int:
         for mode in modes:
             _note(f"{mode}: {scenario.name}, {scenario.duration_s:g} s simulated ...")
             if mode == "core":
-                from ..core.core_loop import NoCoreError
                 try:
                     results[mode] = measure_core(scenario)
                 except (NoCoreError, RuntimeError) as exc:
@@ -344,8 +342,6 @@ def bench_run(args: argparse.Namespace) -> int:
                 _note(f"{mode}: {results[mode].steps_per_s:,.0f} steps/s")
         bags = [results[m].bag for m in ("processes", "container") if m in results]
         if len(bags) == 2:
-            from ..bag.compare import compare_bags
-
             diff = compare_bags(bags[1], bags[0])
             extra.append(("(b) and (c) recorded data", "identical (every message, stamp and field)" if diff.identical
                           else "DIFFERENT: " + "; ".join(line for line in diff.lines() if "identical" not in line)))
@@ -384,10 +380,6 @@ def bench_run(args: argparse.Namespace) -> int:
 
 def _check_commands(scenario: Scenario, bag: Path) -> str:
     """Does the core loop compute the torque commands the graph recorded, bit for bit?"""
-    from gimbal_kinematics.ros import messages as m
-    from ..bag.reader import read_messages
-    from ..core.core_loop import run_core_loop
-
     recorded = [m.joint_state_from_cdr(msg.data).effort for msg in read_messages(bag, {"/gimbal/torque_cmd"})[0]]
     if not recorded:
         return "no /gimbal/torque_cmd in the bag (open loop): nothing to check"
@@ -400,9 +392,6 @@ def _check_commands(scenario: Scenario, bag: Path) -> str:
 # ------------------------------------------------------------------------------ record
 def _record_once(scenario: Scenario, compress: bool) -> dict[str, str]:
     """One processes-mode run recorded with or without zstd chunks: the recorder's figures."""
-    from ..bag.reader import find_mcap, scan
-    from ..graph.orchestrator import run
-
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-") as tmp:
         out = Path(tmp) / "run"
         result = run(scenario, out, "processes", progress=False, compress=compress)
@@ -445,9 +434,6 @@ def bench_record(args: argparse.Namespace) -> int:
 
 
 def bench_compare(args: argparse.Namespace) -> int:
-    from ..bag.compare import compare_bags
-    from ..bag.reader import BagError
-
     try:
         diff = compare_bags(Path(args.a), Path(args.b), rel_tol=args.rel_tol)
     except BagError as exc:
@@ -462,8 +448,6 @@ def bench_compare(args: argparse.Namespace) -> int:
 def bench_flexure(args: argparse.Namespace) -> int:
     """Paper 5's flexure filters fed by the sensor cores without ROS: the filter's cost per
     LGU pair against the 1 ms target (the figure the unit tests used to assert)."""
-    from ..experiments.flexure import run_flexure_comparison
-
     results = run_flexure_comparison(args.duration, args.seed)
     print(f"flexure filters, {args.duration:g} s of LGU pairs at 10 Hz, seed {args.seed}:")
     for model, r in results.items():

@@ -22,7 +22,12 @@ from typing import Any
 import numpy as np
 import yaml
 
+from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
+from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams, PARAMS
+from gimbal_kinematics.ros import messages as m
+
 from ..core.core_stages import EKF_INPUTS, ekf_outputs
+from ..graph.orchestrator import _ros_env, stop_processes
 
 EKF = "gyro_bias_ekf"
 #: Largest difference [rad/s] between node and core estimates that still counts as exact.
@@ -71,8 +76,6 @@ def _cpu_s(pid: int) -> float:
 def ekf_values(bag: Path, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The node's parameter values: its defaults, the run's ``params/gyro_bias_ekf.yaml``
     when the bag is one of our runs, then ``overrides``."""
-    from gimbal_estimators.gyro_bias_ekf_params import PARAMS
-
     values = {p.name: p.default for p in PARAMS}
     run_params = Path(bag) / "params" / f"{EKF}.yaml"
     if run_params.is_file():
@@ -89,12 +92,8 @@ def measure(bag: Path, timeout_s: float = 600.0) -> ReplaySpeed:
     from rclpy.context import Context
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
-    from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
-    from gimbal_kinematics.ros import messages as m
     from gimbal_kinematics.ros.node_main import make_executor
     from ..bag.player import BagPlayer, PlayOptions
-    from ..graph.orchestrator import _ros_env, stop_processes
 
     values = ekf_values(bag, {"timing": "free"})
     env, claim = _ros_env()

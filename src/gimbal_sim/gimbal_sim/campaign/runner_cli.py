@@ -1,0 +1,78 @@
+"""What every experiment runner's command line shares: the campaign options it takes
+(:func:`add_engine_arguments`), where its campaign goes (:func:`campaign_dir`), and its
+campaign run on the engine (:func:`run_for_cli`)."""
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+import tempfile
+from contextlib import contextmanager
+from functools import partial
+from pathlib import Path
+from typing import Iterator
+
+from .engine import Runners, run_campaign
+from .experiment import ExperimentCampaign, plan_experiment, run_experiment_task
+from .report import write_campaign_report
+from .results import CampaignResult
+from .spec import CampaignError, CampaignSpec
+
+
+@contextmanager
+def campaign_dir(out: str | None) -> Iterator[Path]:
+    """Where a runner's campaign goes: ``out`` (kept), or a temporary directory removed after
+    its table is printed (what the runners did before: print, keep nothing)."""
+    if out:
+        yield Path(out)
+        return
+    tmp = Path(tempfile.mkdtemp(prefix="gimbal-experiment-"))
+    try:
+        yield tmp / "campaign"
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def add_engine_arguments(ap: argparse.ArgumentParser, *, graph: bool) -> None:
+    """The campaign options every runner CLI takes (argparse parser ``ap``)."""
+    ap.add_argument("--engine", choices=("core", "graph") if graph else ("core",), default="core",
+                    help="core: this runner's own loop (no ROS, default); graph: the real nodes through "
+                         "gimbal-run (the scenario's report gives the figures)" if graph else
+                         "core: this runner's own loop (no scenario's report carries this table's figures)")
+    ap.add_argument("--mode", choices=("container", "processes"), default="container",
+                    help="graph engine: one process for all nodes (default) or one per node")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="runs at once on a Dask LocalCluster on 127.0.0.1 (default 1: one by one in this process)")
+    ap.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                    help="run on this Dask scheduler instead (workers on other hosts: --out on a shared file system)")
+    ap.add_argument("--out", metavar="DIR", help="keep the campaign directory (runs, results.parquet, report); "
+                                                 "default: a temporary one, removed after the table")
+    ap.add_argument("--resume", action="store_true", help="with --out: skip the runs that have results")
+
+
+def experiment_runners(spec: CampaignSpec, exp: ExperimentCampaign) -> Runners:
+    """What the engine runs an experiment campaign's tasks with: the runner's own loop for
+    ``engine: core``; ``engine: graph`` runs are the scenario's (``gimbal-run``)."""
+    return Runners(run_fn=partial(run_experiment_task, exp)) if spec.engine == "core" else Runners()
+
+
+def run_for_cli(ap: argparse.ArgumentParser, args: argparse.Namespace, spec: CampaignSpec, out: Path,
+                exp: ExperimentCampaign) -> CampaignResult:
+    """Run the campaign ``spec`` of experiment ``exp`` for a runner's CLI: bad input exits 2
+    naming it (through ``ap.error``), a failed run exits 1 naming it; returns the
+    :class:`~.results.CampaignResult`."""
+    if args.jobs < 1:
+        ap.error(f"--jobs must be >= 1, got {args.jobs}")
+    serial = args.jobs == 1 and not args.scheduler
+    try:
+        result = run_campaign(spec, out, plan=partial(plan_experiment, exp=exp), report=write_campaign_report,
+                              runners=experiment_runners(spec, exp), resume=args.resume,
+                              scheduler=args.scheduler, workers=args.jobs, serial=serial)
+    except CampaignError as exc:
+        ap.error(str(exc))
+    if result.failed:
+        for row in result.failed:
+            print(f"run {row['run_id']} ({row['variant'] or '-'}, seed {row['seed']}) failed: {row['reason']}\n"
+                  f"{row['log_tail']}", file=sys.stderr)
+        raise SystemExit(1)
+    return result

@@ -1,0 +1,52 @@
+"""The paper runners' experiment campaigns by name, and how ``gimbal-campaign`` plans and
+runs any campaign: a scenario campaign with :func:`gimbal_sim.campaign.spec.plan`, an
+experiment campaign with its runner's :class:`~gimbal_sim.campaign.experiment.ExperimentCampaign`.
+The one module that imports every runner."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ..campaign import engine, spec as scenario_campaign
+from ..campaign.engine import Runners
+from ..campaign.report import write_campaign_report
+from ..campaign.results import CampaignResult
+from ..campaign.experiment import ExperimentCampaign, plan_experiment
+from ..campaign.runner_cli import experiment_runners
+from ..campaign.spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction
+from ..reports.core_metrics import run_core
+from . import flexure, free_gyro, platform_servo, sighting_loop
+
+#: experiment name -> its campaign
+EXPERIMENTS: dict[str, ExperimentCampaign] = {
+    e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN, platform_servo.CAMPAIGN)}
+
+
+def experiment(name: str) -> ExperimentCampaign:
+    """The experiment campaign called ``name``; :class:`CampaignError` naming the known ones."""
+    if name not in EXPERIMENTS:
+        raise CampaignError(f"experiment: unknown experiment {name!r}; known: {', '.join(sorted(EXPERIMENTS))}")
+    return EXPERIMENTS[name]
+
+
+def plan(spec: CampaignSpec) -> CampaignPlan:
+    """The runs of any campaign: its experiment's plan, or the scenario campaign's."""
+    if spec.experiment:
+        return plan_experiment(spec, experiment(spec.experiment))
+    return scenario_campaign.plan(spec)
+
+
+def runners(spec: CampaignSpec) -> Runners:
+    """What the engine runs ``spec``'s tasks with: an experiment's own loop, or for a
+    scenario campaign's ``engine: core`` the core engine with its report's metrics."""
+    if spec.experiment:
+        return experiment_runners(spec, experiment(spec.experiment))
+    return Runners(core_run=run_core)
+
+
+def run_campaign(spec: CampaignSpec, out_dir: Path, *, run_fn: RunFunction | None = None,
+                 **options: Any) -> CampaignResult:
+    """:func:`gimbal_sim.campaign.engine.run_campaign` handed the plan, runners and report of
+    any campaign (``run_fn``: a caller's own run instead); ``options`` go to the engine."""
+    hooks = Runners(run_fn=run_fn) if run_fn is not None else runners(spec)
+    return engine.run_campaign(spec, out_dir, plan=plan, report=write_campaign_report, runners=hooks, **options)
