@@ -13,7 +13,7 @@ from rosbags.highlevel import AnyReader
 
 from gimbal_sim.bag.compare import compare_bags
 from gimbal_sim.bag.reader import find_mcap, read_messages
-from gimbal_sim.campaign.engine import flatten_metrics
+from gimbal_sim.campaign.results import flatten_metrics
 from gimbal_sim.reports.sighting import load_sighting_series
 
 BIN = Path(sys.executable).parent

@@ -18,7 +18,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
-from gimbal_sim.campaign.engine import flatten_metrics
+from gimbal_sim.campaign.results import flatten_metrics
 
 BIN = Path(sys.executable).parent
 
@@ -234,7 +234,7 @@ def _seeded_mean_run(task, run_dir: Path) -> None:
 def test_run_campaign_api_runs_a_callable_per_run(tmp_path):
     import numpy as np
 
-    from gimbal_sim.campaign.engine import run_campaign
+    from gimbal_sim.experiments.registry import run_campaign
     from gimbal_sim.campaign.spec import spec_from_mapping
 
     spec = spec_from_mapping({"scenario": "sighting_land_vehicle", "variants": ["ekf_on"], "seeds": "1-4",
@@ -260,7 +260,7 @@ def _interrupted_at_seed_3(task, run_dir: Path) -> None:
 
 
 def test_an_interrupted_campaign_keeps_its_finished_runs_and_resume_completes_it(tmp_path):
-    from gimbal_sim.campaign.engine import run_campaign
+    from gimbal_sim.experiments.registry import run_campaign
     from gimbal_sim.campaign.spec import spec_from_mapping
 
     spec = spec_from_mapping({"scenario": "sighting_land_vehicle", "seeds": "1-4",

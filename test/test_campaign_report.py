@@ -10,7 +10,7 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import stats as sps
 
-from gimbal_sim.campaign.engine import flatten_metrics, write_results
+from gimbal_sim.campaign.results import flatten_metrics, write_results
 from gimbal_sim.campaign.report import nees_verdict, stats, summarize, text_summary
 
 

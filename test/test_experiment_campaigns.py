@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from gimbal_sim.experiments import flexure, free_gyro, sighting_loop
-from gimbal_sim.campaign.spec import CampaignError, CampaignSpec, Sweep, plan
+from gimbal_sim.campaign.spec import CampaignError, CampaignSpec, Sweep
+from gimbal_sim.experiments.registry import plan
 
 
 def _drift_line(runs: list, mode: str) -> str:
