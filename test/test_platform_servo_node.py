@@ -21,7 +21,8 @@ from gimbal_control.platform_servo_node import PlatformServoNode
 from gimbal_kinematics.ros import messages as m
 from gimbal_sim.experiments.platform_servo import run_platform_servo
 from gimbal_sim.world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
-from gimbal_sim.world.vehicle import PLATFORM_JOINTS, VehicleConfig, VehicleCore
+from gimbal_kinematics.frames import PLATFORM_JOINTS
+from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 from ros_harness import ros_args, start_refused
 
 pytestmark = pytest.mark.ros

@@ -39,11 +39,6 @@ def message_class(type_name: str) -> type:
         raise ValueError(f"message type {type_name!r} is not installed") from exc
 
 
-def type_name_of(msg_class: type) -> str:
-    """'sensor_msgs/msg/Imu' for a message class."""
-    return f"{msg_class.__module__.split('.')[0]}/msg/{msg_class.__name__}"
-
-
 def _share_dir(pkg: str) -> Path:
     try:
         from ament_index_python.packages import PackageNotFoundError, get_package_share_directory

@@ -1,6 +1,6 @@
 """The experiment runners' Monte Carlo campaigns on the campaign engine (:mod:`.engine`).
 
-Four runners predate ``gimbal-campaign`` and keep their CLIs and printed tables:
+Four runners have their own CLIs and printed tables:
 ``sighting_loop --monte-carlo``, ``flexure --seeds``, ``free_gyro --runs`` and
 ``platform_servo align``. Each is an :class:`ExperimentCampaign`: named variants (the
 runner's modes or cases), a run function for ``engine: core`` (the runner's own loop, no

@@ -22,7 +22,7 @@ from .spec import CampaignError, CampaignSpec
 @contextmanager
 def campaign_dir(out: str | None) -> Iterator[Path]:
     """Where a runner's campaign goes: ``out`` (kept), or a temporary directory removed after
-    its table is printed (what the runners did before: print, keep nothing)."""
+    its table is printed (print, keep nothing)."""
     if out:
         yield Path(out)
         return

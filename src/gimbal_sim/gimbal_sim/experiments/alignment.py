@@ -26,6 +26,7 @@ from gimbal_kinematics.four_gimbal import BidirectionalRotation, platform_misali
 from gimbal_kinematics.free_gyro import dcm_ni
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, rot3
 
+from ..reports.alignment import column_stats
 from ..world.sensors import PAPER3_ACCELEROMETER, AccelerometerModel
 
 # Unit factors, the same expressions as the core's (so the same floats).
@@ -236,15 +237,3 @@ def summarize_alignment(runs: Sequence[AlignmentMetrics]) -> dict[str, dict[str,
         "accel_bias_y_error_ug": [r.accel_bias_error_ug[1] for r in runs],
     }
     return column_stats(cols)
-
-
-def column_stats(cols: dict[str, Sequence[float]]) -> dict[str, dict[str, float]]:
-    """Mean, std (ddof=1, as Table 2), RMS and max |·| of each column of run values."""
-    out = {}
-    for name, vals in cols.items():
-        a = np.asarray(vals, dtype=float)
-        out[name] = {
-            "mean": float(a.mean()), "std": float(a.std(ddof=1)) if a.size > 1 else 0.0,
-            "rms": float(math.sqrt(np.mean(a * a))), "max_abs": float(np.max(np.abs(a))),
-        }
-    return out

@@ -114,17 +114,20 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
                                           gimbal_gyro=gyro, encoder=encoder,
                                           gimbal_gyro_rate_hz=rate, encoder_rate_hz=rate))
     ctl = EncoderFusionController(params)
+    return _metrics(mode, duration_s, seed, settle_s, record_every, ctl, _fly(core, suite, ctl, rate), rate)
+
+
+def _fly(core: VehicleCore, suite: SensorSuite, ctl: EncoderFusionController, rate: float) -> dict[str, np.ndarray]:
+    """Close the loop to the end of the run; every step's LOS direction (n, 3), feedback and
+    true rates, true gyro bias and torques (n, 2)."""
     n = core.config.n_steps
-    los = np.zeros((n, 3))
-    fb = np.zeros((n, 2))
-    true_rate = np.zeros((n, 2))
-    bias = np.zeros((n, 2))
-    torque = np.zeros((n, 2))
+    rec = {"los": np.zeros((n, 3)), "fb": np.zeros((n, 2)), "true_rate": np.zeros((n, 2)),
+           "bias": np.zeros((n, 2)), "torque": np.zeros((n, 2))}
     cmd = (0.0, 0.0)
     k = 0
     while not core.finished:
         truth = core.truth()
-        los[k] = _los_n(truth.quat_nm)
+        rec["los"][k] = _los_n(truth.quat_nm)
         ctl.on_base_rates(truth.t, truth.omega_ib_b)
         samples = suite.update(truth)
         # the encoders of this step before its gyro tick, as the lockstep node feeds them
@@ -136,12 +139,20 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
                 out = ctl.on_gyro(s.t, s.q_m, s.r_m)
                 if out is not None:
                     cmd = (out.torque_azimuth, out.torque_elevation)
-                bias[k] = s.true_bias
-        fb[k] = ctl.feedback
-        true_rate[k] = truth.omega_im_m[1], truth.omega_im_m[2]
-        torque[k] = cmd
+                rec["bias"][k] = s.true_bias
+        rec["fb"][k] = ctl.feedback
+        rec["true_rate"][k] = truth.omega_im_m[1], truth.omega_im_m[2]
+        rec["torque"][k] = cmd
         core.step(cmd)
         k += 1
+    return rec
+
+
+def _metrics(mode: str, duration_s: float, seed: int, settle_s: float, record_every: int,
+             ctl: EncoderFusionController, rec: dict[str, np.ndarray], rate: float) -> dict[str, Any]:
+    """:func:`run_encoder_fusion`'s metrics and series from the run's records ``rec``."""
+    los, fb, true_rate, bias, torque = (rec[k] for k in ("los", "fb", "true_rate", "bias", "torque"))
+    n = len(los)
     t = np.arange(n) / rate
     k_ref = min(int(round(settle_s * rate)), n // 2)
     after = slice(k_ref, None)
@@ -165,6 +176,6 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
         "kf_updates": ctl.kf_q.updates,
         "rejected_nonfinite": ctl.rejected_nonfinite,
         "rejected_out_of_order": ctl.rejected_out_of_order,
-        "series": {"t": t[sl], "error_rad": err_0[sl], "error_held_rad": err_ref[sl], "feedback_rad_s": fb[sl], "true_rate_rad_s": true_rate[sl],
-                   "gyro_bias_rad_s": bias[sl], "torque_nm": torque[sl]},
+        "series": {"t": t[sl], "error_rad": err_0[sl], "error_held_rad": err_ref[sl], "feedback_rad_s": fb[sl],
+                   "true_rate_rad_s": true_rate[sl], "gyro_bias_rad_s": bias[sl], "torque_nm": torque[sl]},
     }

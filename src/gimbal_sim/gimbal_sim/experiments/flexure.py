@@ -89,31 +89,57 @@ def run_flexure_comparison(
     ``flexure``/``lgu1``/``lgu2`` override the simulator's truth parameters.
     Returns ``{label: FlexureExperimentResult}``.
     """
-    base = FlexureKfParams() if params is None else params
-    if isinstance(models, Mapping):
-        filters = {label: FlexureKf(p) for label, p in models.items()}
-    else:
-        filters = {}
-        for m in models:
-            p = replace(base, quasi_static_model=m)
-            if m == "random_constant" and not gate_conventional:
-                p = replace(p, gate_probability=None)
-            filters[m] = FlexureKf(p)
+    filters = _filters(models, FlexureKfParams() if params is None else params, gate_conventional)
     vehicle = VehicleCore(VehicleConfig(profile="paper5_ship", profile_params=dict(profile_params or {}),
                                         plant="host_only", sim_rate_hz=sim_rate_hz, duration_s=duration_s))
-    kw: dict[str, Any] = {}
-    if flexure is not None:
-        kw["flexure"] = flexure
-    if lgu1 is not None:
-        kw["lgu1"] = lgu1
-    if lgu2 is not None:
-        kw["lgu2"] = lgu2
+    truth = {k: v for k, v in (("flexure", flexure), ("lgu1", lgu1), ("lgu2", lgu2)) if v is not None}
     suite = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=sim_rate_hz, lgu_rate_hz=lgu_rate_hz,
-                                          seed=seed, **kw))
-    rows: dict[str, dict[str, list]] = {m: {k: [] for k in SERIES} for m in models}
-    filter_s = dict.fromkeys(models, 0.0)
-    pairs = 0
+                                          seed=seed, **truth))
     wall0 = time.perf_counter()
+    rows, filter_s, pairs = _sail(vehicle, suite, filters)
+    wall = time.perf_counter() - wall0
+    out: dict[str, FlexureExperimentResult] = {}
+    for m, kf in filters.items():
+        full = {k: np.asarray(v, dtype=float) for k, v in rows[m].items()}
+        metrics = flexure_metrics(full, convergence_s, helm_period_s=suite.config.flexure.helm_period_s[0])
+        # Thin to one row per record period for plots and reports.
+        t = full["t"]
+        keep = np.ones(t.shape, bool)
+        if record_period_s > 0.0 and t.size:
+            bins = np.floor((t - t[0]) / record_period_s + 1e-9)
+            keep = np.r_[True, bins[1:] != bins[:-1]]
+        out[m] = FlexureExperimentResult(
+            label=m, model=kf.params.quasi_static_model, metrics=metrics,
+            series={k: v[keep] for k, v in full.items()},
+            counters=dict(kf.counters), reset_reasons=list(kf.reset_reasons), wall_s=wall,
+            filter_us_per_pair=1e6 * filter_s[m] / max(pairs, 1),
+            config={"duration_s": duration_s, "seed": seed, "sim_rate_hz": sim_rate_hz,
+                    "lgu_rate_hz": lgu_rate_hz, "convergence_s": convergence_s, "params": kf.params},
+        )
+    return out
+
+
+def _filters(models: tuple[str, ...] | Mapping[str, FlexureKfParams], base: FlexureKfParams,
+             gate_conventional: bool) -> dict[str, FlexureKf]:
+    """One filter per model label (:func:`run_flexure_comparison`)."""
+    if isinstance(models, Mapping):
+        return {label: FlexureKf(p) for label, p in models.items()}
+    filters = {}
+    for m in models:
+        p = replace(base, quasi_static_model=m)
+        if m == "random_constant" and not gate_conventional:
+            p = replace(p, gate_probability=None)
+        filters[m] = FlexureKf(p)
+    return filters
+
+
+def _sail(vehicle: VehicleCore, suite: SensorSuite,
+          filters: dict[str, FlexureKf]) -> tuple[dict[str, dict[str, list]], dict[str, float], int]:
+    """Step the ship to the end, feeding every LGU pair to every filter: each filter's rows
+    (:data:`SERIES`), its CPU time in the filter [s], and the number of pairs."""
+    rows: dict[str, dict[str, list]] = {m: {k: [] for k in SERIES} for m in filters}
+    filter_s = dict.fromkeys(filters, 0.0)
+    pairs = 0
     clock = time.perf_counter
     while True:
         for sample in suite.update(vehicle.truth()):
@@ -145,32 +171,7 @@ def run_flexure_comparison(
         if vehicle.finished:
             break
         vehicle.step()
-    wall = time.perf_counter() - wall0
-    out: dict[str, FlexureExperimentResult] = {}
-    for m, kf in filters.items():
-        full = {k: np.asarray(v, dtype=float) for k, v in rows[m].items()}
-        metrics = flexure_metrics(full, convergence_s, helm_period_s=suite.config.flexure.helm_period_s[0])
-        # Thin to one row per record period for plots and reports.
-        t = full["t"]
-        keep = np.ones(t.shape, bool)
-        if record_period_s > 0.0 and t.size:
-            bins = np.floor((t - t[0]) / record_period_s + 1e-9)
-            keep = np.r_[True, bins[1:] != bins[:-1]]
-        out[m] = FlexureExperimentResult(
-            label=m, model=kf.params.quasi_static_model, metrics=metrics,
-            series={k: v[keep] for k, v in full.items()},
-            counters=dict(kf.counters), reset_reasons=list(kf.reset_reasons), wall_s=wall,
-            filter_us_per_pair=1e6 * filter_s[m] / max(pairs, 1),
-            config={"duration_s": duration_s, "seed": seed, "sim_rate_hz": sim_rate_hz,
-                    "lgu_rate_hz": lgu_rate_hz, "convergence_s": convergence_s, "params": kf.params},
-        )
-    return out
-
-
-def run_flexure_experiment(model: str = "random_walk_rate", duration_s: float = 7200.0, seed: int = 0,
-                           **kwargs: Any) -> FlexureExperimentResult:
-    """One model's :class:`FlexureExperimentResult` (keywords as :func:`run_flexure_comparison`)."""
-    return run_flexure_comparison(duration_s, seed, models=(model,), **kwargs)[model]
+    return rows, filter_s, pairs
 
 
 def estimator_figures(result: FlexureExperimentResult) -> dict[str, Any]:

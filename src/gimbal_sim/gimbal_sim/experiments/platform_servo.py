@@ -48,7 +48,8 @@ from ..world.plant import paper3_axis_params
 from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
-from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics, column_stats
+from ..reports.alignment import column_stats
+from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli

@@ -50,7 +50,8 @@ from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
-from ..world.vehicle import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS, VehicleConfig, VehicleCore, VehicleTruth
+from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS
+from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 from .vehicle_dynamics_params import DESCRIPTION, PARAMS
 
 

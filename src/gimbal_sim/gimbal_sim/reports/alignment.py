@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 import yaml
@@ -216,6 +217,17 @@ def rotation_comparison(runs: dict[str, Path], out: Path) -> dict:
             "plots": ["alignment_rotation_on_off.png"]}
 
 
+def column_stats(cols: dict[str, Sequence[float]]) -> dict[str, dict[str, float]]:
+    """Table 2's statistics of each column of run values: mean, std (ddof = 1, as the
+    paper), RMS and max |·|."""
+    out = {}
+    for name, vals in cols.items():
+        a = np.asarray(vals, dtype=float)
+        out[name] = {"mean": float(a.mean()), "std": float(a.std(ddof=1)) if a.size > 1 else 0.0,
+                     "rms": float(np.sqrt(np.mean(a * a))), "max_abs": float(np.max(np.abs(a)))}
+    return out
+
+
 def alignment_campaign(runs: dict[str, Path], out: Path) -> dict:
     """Table 2 over seeded runs: per-run final errors, their mean and std (ddof = 1, as the
     paper), RMS and max |·|, and the issue 8 acceptance (RMS over the runs under the limits)."""
@@ -229,11 +241,7 @@ def alignment_campaign(runs: dict[str, Path], out: Path) -> dict:
         "gyro_drift_x_error_deg_h": [f["gyro_drift_error_deg_h"][0] for f in per_run.values()],
         "gyro_drift_y_error_deg_h": [f["gyro_drift_error_deg_h"][1] for f in per_run.values()],
     }
-    stats = {}
-    for name, vals in cols.items():
-        a = np.asarray(vals, dtype=float)
-        stats[name] = {"mean": float(a.mean()), "std": float(a.std(ddof=1)) if a.size > 1 else 0.0,
-                       "rms": float(np.sqrt(np.mean(a * a))), "max_abs": float(np.max(np.abs(a)))}
+    stats = column_stats(cols)
     acceptance = {
         "horizontal_below_3_arcsec": max(stats["east_tilt_error_arcsec"]["rms"],
                                          stats["north_tilt_error_arcsec"]["rms"]) < LIMITS["tilt_arcsec"],

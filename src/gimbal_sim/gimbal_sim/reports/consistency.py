@@ -22,6 +22,7 @@ seconds from the first estimate (the stamps may be epoch times).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -95,18 +96,45 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
     accepted_arr = np.array(accepted)
     # windows over the updates after the initial alignment (its zero innovation is no update)
     updates = np.flatnonzero(accepted_arr)[1:]
+    windows, overall = _nis_windows(t, nis_arr, updates)
+    plots = _plots(out, t, bias, sigma, innov, windows)
+    verdicts = [v for *_, v in windows]
+    return {
+        "bag": str(bag_dir), "closed_cleanly": contents.closed_cleanly, "read_error": contents.error,
+        "parameters": source, "updates": int(accepted_arr.sum()), "outputs": len(stamps),
+        "span_s": float(t[-1]),
+        "bias_final_deg_h": (bias[-1] * _DEG_H).tolist(), "bias_sigma_final_deg_h": (sigma[-1] * _DEG_H).tolist(),
+        "innovation_rms_arcsec": (np.sqrt(np.mean(innov[updates] ** 2, axis=0)) * _ARCSEC).tolist()
+        if len(updates) else None,
+        "nis": {"dof": 3, "mean": overall.mean, "lower_95": overall.lower, "upper_95": overall.upper,
+                "samples": overall.samples, "verdict": overall.verdict, "window": WINDOW, "windows": len(windows),
+                "windows_by_verdict": {v: verdicts.count(v) for v in sorted(set(verdicts))}},
+        "counters": ekf.counters._asdict(),
+        "diagnostics": _diagnostics(bag_dir) if "/diagnostics" in contents.topics else {},
+        "plots": plots,
+    }
+
+
+def _nis_windows(t: np.ndarray, nis: np.ndarray, updates: np.ndarray) -> tuple[list[tuple], Any]:
+    """(t, mean, lower, upper, verdict) of each window of :data:`WINDOW` updates, and the
+    verdict over all of them."""
     windows = []
     for start in range(0, len(updates) - WINDOW + 1, WINDOW):
         idx = updates[start:start + WINDOW]
         w = NisWindow(3, window=WINDOW, min_samples=WINDOW)
-        for value in nis_arr[idx]:
+        for value in nis[idx]:
             w.add(value)
         v = w.verdict()
         windows.append((t[idx[-1]], v.mean, v.lower, v.upper, v.verdict))
     whole = NisWindow(3, window=max(len(updates), 1), min_samples=1)
-    for value in nis_arr[updates]:
+    for value in nis[updates]:
         whole.add(value)
-    overall = whole.verdict()
+    return windows, whole.verdict()
+
+
+def _plots(out: Path, t: np.ndarray, bias: np.ndarray, sigma: np.ndarray, innov: np.ndarray,
+           windows: list[tuple]) -> list[str]:
+    """bias_3sigma.png, innovations.png and (with windows) nis.png; returns their names."""
     plots = []
     fig, axes = stacked(3, 8.0)
     for i, axis in enumerate(("x (roll channel)", "q", "r")):
@@ -138,18 +166,4 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
         save_stacked(fig, axes, out / "nis.png", "Normalised innovation squared against its chi-square bounds",
                      xlabel="time from the first estimate [s]")
         plots.append("nis.png")
-    verdicts = [v for *_, v in windows]
-    return {
-        "bag": str(bag_dir), "closed_cleanly": contents.closed_cleanly, "read_error": contents.error,
-        "parameters": source, "updates": int(accepted_arr.sum()), "outputs": len(stamps),
-        "span_s": float(t[-1]),
-        "bias_final_deg_h": (bias[-1] * _DEG_H).tolist(), "bias_sigma_final_deg_h": (sigma[-1] * _DEG_H).tolist(),
-        "innovation_rms_arcsec": (np.sqrt(np.mean(innov[updates] ** 2, axis=0)) * _ARCSEC).tolist()
-        if len(updates) else None,
-        "nis": {"dof": 3, "mean": overall.mean, "lower_95": overall.lower, "upper_95": overall.upper,
-                "samples": overall.samples, "verdict": overall.verdict, "window": WINDOW, "windows": len(windows),
-                "windows_by_verdict": {v: verdicts.count(v) for v in sorted(set(verdicts))}},
-        "counters": ekf.counters._asdict(),
-        "diagnostics": _diagnostics(bag_dir) if "/diagnostics" in contents.topics else {},
-        "plots": plots,
-    }
+    return plots

@@ -26,6 +26,7 @@ Acceptance (issue 5): steady control error < 40″ (goal 20″), reversal transi
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -123,6 +124,132 @@ def _plot(path: Path, title: str, panels: list[tuple[str, dict[str, tuple[np.nda
     save_stacked(fig, axes, path, title)
 
 
+@dataclass
+class _ServoRun:
+    """The report's series on the modulation ticks ``t`` [s], and its time windows."""
+
+    t: np.ndarray
+    phi: np.ndarray          # commanded modulation angle φz [rad]
+    phi_rate: np.ndarray
+    sensed: np.ndarray       # (Δθ_am, Δθ_qm, Δθ_pm, Δθ_rm) [rad]
+    truth: np.ndarray        # (a, q, p, r, azimuth torque)
+    drift: np.ndarray        # integrated true gyro bias [rad]
+    tracking: np.ndarray     # true azimuth tracking error, gyro drift removed [rad]
+    level_truth: np.ndarray  # true roll and pitch from their start [rad]
+    current_a: np.ndarray    # azimuth torque current [A]
+    reversals: np.ndarray    # times of the modulation's direction reversals [s]
+    in_window: np.ndarray    # within TRANSIENT_WINDOW_S after a reversal
+    steady: np.ndarray       # settled and outside every reversal window
+    start: np.ndarray        # before SETTLE_S
+    settled: np.ndarray      # after SETTLE_S
+
+
+def _servo_run(cols: dict) -> _ServoRun:
+    t, mod = cols[MODULATION]
+    phi, phi_rate = mod[:, 0], mod[:, 1]
+    sensed = _on(*cols[CONTROL_ERROR], t)
+    truth = _on(*cols[TRUTH_JOINTS], t)
+    tb, bias_z = cols[GYRO_BIAS]
+    drift = np.zeros_like(t)
+    if len(tb):
+        b = np.interp(t, tb, bias_z[:, 0])
+        drift[1:] = np.cumsum(0.5 * (b[1:] + b[:-1]) * np.diff(t))
+    sign = np.sign(phi_rate)
+    reversals = t[np.where((sign[1:] * sign[:-1]) < 0)[0] + 1]
+    rel = t - t[0]
+    in_window = np.zeros(len(t), dtype=bool)
+    for tr in reversals:
+        in_window |= (t >= tr) & (t < tr + TRANSIENT_WINDOW_S)
+    return _ServoRun(t, phi, phi_rate, sensed, truth, drift, truth[:, 0] - truth[0, 0] - phi + drift,
+                     truth[:, 1:3] - truth[0, 1:3], truth[:, 4] / PAPER3_TABLE1["a"][1], reversals, in_window,
+                     (rel >= SETTLE_S) & ~in_window, rel < SETTLE_S, rel >= SETTLE_S)
+
+
+def _arcsec(x: dict) -> dict:
+    return {k: (None if v is None else v / ARCSEC) for k, v in x.items()}
+
+
+def _max_arcsec(x: np.ndarray, mask: np.ndarray) -> float | None:
+    return float(np.max(np.abs(x[mask])) / ARCSEC) if mask.any() else None
+
+
+def _servo_figures(r: _ServoRun) -> dict:
+    """Control and level errors [arcsec], torque current [mA] and the acceptance verdicts."""
+    sensed, tracking, steady, win = r.sensed, r.tracking, r.steady, r.in_window
+    control = {
+        "sensed": {"steady": _arcsec(_stats(sensed[:, 0], steady)), "reversal": _arcsec(_stats(sensed[:, 0], win)),
+                   "start": _arcsec(_stats(sensed[:, 0], r.start))},
+        "truth_drift_removed": {"steady": _arcsec(_stats(tracking, steady)),
+                                "reversal": _arcsec(_stats(tracking, win)),
+                                "start": _arcsec(_stats(tracking, r.start))},
+        "truth_with_gyro_drift": {"steady": _arcsec(_stats(tracking - r.drift, steady)),
+                                  "final": float((tracking - r.drift)[-1] / ARCSEC)},
+        "sensed_minus_truth_rms": float(np.sqrt(np.mean((sensed[steady, 0] - tracking[steady]) ** 2)) / ARCSEC)
+        if steady.any() else None,
+    }
+    signals = ((1, "inner_roll"), (2, "pitch"), (3, "outer_roll"))
+    level = {
+        "sensed_steady_max": {name: _max_arcsec(sensed[:, i], steady) for i, name in signals},
+        "sensed_reversal_max": {name: _max_arcsec(sensed[:, i], win) for i, name in signals},
+        "truth_tilt_steady_max": {name: _max_arcsec(r.level_truth[:, i], steady)
+                                  for i, name in ((0, "roll"), (1, "pitch"))},
+    }
+    current_a = r.current_a
+    current = {
+        "steady_mean_abs_ma": float(1e3 * np.mean(np.abs(current_a[steady]))) if steady.any() else None,
+        "steady_rms_ma": float(1e3 * np.sqrt(np.mean(current_a[steady] ** 2))) if steady.any() else None,
+        "reversal_peak_ma": float(1e3 * np.max(np.abs(current_a[win]))) if win.any() else None,
+        "peak_after_settle_ma": float(1e3 * np.max(np.abs(current_a[r.settled]))) if r.settled.any() else None,
+    }
+    acceptance = {}
+    for kind, (paper, goal) in LIMITS_ARCSEC.items():
+        worst = [control[src][kind]["max"] for src in ("sensed", "truth_drift_removed")]
+        if all(w is not None for w in worst):
+            acceptance[f"{kind}_below_{paper:g}_arcsec"] = bool(max(worst) < paper)
+            acceptance[f"{kind}_below_goal_{goal:g}_arcsec"] = bool(max(worst) < goal)
+    acceptance["torque_current_reported"] = current["steady_mean_abs_ma"] is not None
+    return {"control_error_arcsec": control, "level_error_arcsec": level, "torque_current": current,
+            "acceptance": acceptance}
+
+
+def _servo_plots(out: Path, r: _ServoRun) -> list[str]:
+    t, sensed, tracking = r.t, r.sensed, r.tracking
+    plots = []
+    _plot(out / "rotation_angle.png", "Platform rotation (modulation) angle", [
+        ("[deg]", {"commanded φz": (t, np.degrees(r.phi)), "platform azimuth (truth, from start)":
+                   (t, np.degrees(r.truth[:, 0] - r.truth[0, 0]))}),
+    ])
+    plots.append("rotation_angle.png")
+    paper_limits = [LIMITS_ARCSEC["steady"][0], None]
+    _plot(out / "control_error.png", "Azimuth control error (steady limit ±40″ dashed)", [
+        ("[arcsec]", {"sensed Δθ_am (pickoff)": (t, sensed[:, 0] / ARCSEC),
+                      "truth, gyro drift removed": (t, tracking / ARCSEC)}),
+        ("[arcsec]", {"truth incl. gyro drift": (t, (tracking - r.drift) / ARCSEC)}),
+    ], paper_limits)
+    plots.append("control_error.png")
+    if len(r.reversals):
+        tr = r.reversals[0]
+        zoom = (t >= tr - 0.2) & (t < tr + 0.6)
+        _plot(out / "reversal_transient.png", f"Reversal at {tr - t[0]:.2f} s (limit ±240″ dashed)", [
+            ("[arcsec]", {"sensed Δθ_am": (t[zoom], sensed[zoom, 0] / ARCSEC),
+                          "truth, drift removed": (t[zoom], tracking[zoom] / ARCSEC)}),
+            ("[mA]", {"azimuth torque current": (t[zoom], 1e3 * r.current_a[zoom])}),
+        ], [LIMITS_ARCSEC["reversal"][0], None])
+        plots.append("reversal_transient.png")
+    _plot(out / "level_error.png", "Level loops: control signals and truth tilt", [
+        ("sensed [arcsec]", {"Δθ_qm": (t, sensed[:, 1] / ARCSEC), "Δθ_pm": (t, sensed[:, 2] / ARCSEC),
+                             "Δθ_rm": (t, sensed[:, 3] / ARCSEC)}),
+        ("truth [arcsec]", {"roll q − q₀": (t, r.level_truth[:, 0] / ARCSEC),
+                            "pitch p − p₀": (t, r.level_truth[:, 1] / ARCSEC)}),
+    ])
+    plots.append("level_error.png")
+    _plot(out / "torque_current.png", "Azimuth motor torque current", [
+        ("[mA]", {"i_a = τ_a / k_t": (t, 1e3 * r.current_a)}),
+    ])
+    plots.append("torque_current.png")
+    return plots
+
+
 def platform_servo_report(bag_dir: Path, out: Path) -> dict:
     """Paper 3 servo figures (module docstring) into ``out``; returns the metrics."""
     cols, contents = stream_columns(bag_dir, {
@@ -134,108 +261,14 @@ def platform_servo_report(bag_dir: Path, out: Path) -> dict:
     for topic in (MODULATION, CONTROL_ERROR, TRUTH_JOINTS):
         if len(cols[topic][0]) < 2:
             raise BagError(f"{bag_dir}: too few {topic} messages for the platform_servo report")
-    t, mod = cols[MODULATION]
-    phi, phi_rate = mod[:, 0], mod[:, 1]
-    sensed = _on(*cols[CONTROL_ERROR], t)  # (Δθ_am, Δθ_qm, Δθ_pm, Δθ_rm)
-    truth = _on(*cols[TRUTH_JOINTS], t)    # (a, q, p, r, azimuth torque)
-    tb, bias_z = cols[GYRO_BIAS]
-    drift = np.zeros_like(t)
-    if len(tb):
-        b = np.interp(t, tb, bias_z[:, 0])
-        drift[1:] = np.cumsum(0.5 * (b[1:] + b[:-1]) * np.diff(t))
-    tracking = truth[:, 0] - truth[0, 0] - phi + drift
-    level_truth = truth[:, 1:3] - truth[0, 1:3]
-    current_a = truth[:, 4] / PAPER3_TABLE1["a"][1]
-
-    sign = np.sign(phi_rate)
-    flips = np.where((sign[1:] * sign[:-1]) < 0)[0] + 1
-    reversals = t[flips]
-    rel = t - t[0]
-    in_window = np.zeros(len(t), dtype=bool)
-    for tr in reversals:
-        in_window |= (t >= tr) & (t < tr + TRANSIENT_WINDOW_S)
-    steady = (rel >= SETTLE_S) & ~in_window
-    start = rel < SETTLE_S
-
-    def arcsec(x: dict) -> dict:
-        return {k: (None if v is None else v / ARCSEC) for k, v in x.items()}
-
-    control = {
-        "sensed": {"steady": arcsec(_stats(sensed[:, 0], steady)), "reversal": arcsec(_stats(sensed[:, 0], in_window)),
-                   "start": arcsec(_stats(sensed[:, 0], start))},
-        "truth_drift_removed": {"steady": arcsec(_stats(tracking, steady)),
-                                "reversal": arcsec(_stats(tracking, in_window)),
-                                "start": arcsec(_stats(tracking, start))},
-        "truth_with_gyro_drift": {"steady": arcsec(_stats(tracking - drift, steady)),
-                                  "final": float((tracking - drift)[-1] / ARCSEC)},
-        "sensed_minus_truth_rms": float(np.sqrt(np.mean((sensed[steady, 0] - tracking[steady]) ** 2)) / ARCSEC)
-        if steady.any() else None,
-    }
-    def max_arcsec(x: np.ndarray, mask: np.ndarray) -> float | None:
-        return float(np.max(np.abs(x[mask])) / ARCSEC) if mask.any() else None
-
-    signals = ((1, "inner_roll"), (2, "pitch"), (3, "outer_roll"))
-    level = {
-        "sensed_steady_max": {name: max_arcsec(sensed[:, i], steady) for i, name in signals},
-        "sensed_reversal_max": {name: max_arcsec(sensed[:, i], in_window) for i, name in signals},
-        "truth_tilt_steady_max": {name: max_arcsec(level_truth[:, i], steady)
-                                  for i, name in ((0, "roll"), (1, "pitch"))},
-    }
-    current = {
-        "steady_mean_abs_ma": float(1e3 * np.mean(np.abs(current_a[steady]))) if steady.any() else None,
-        "steady_rms_ma": float(1e3 * np.sqrt(np.mean(current_a[steady] ** 2))) if steady.any() else None,
-        "reversal_peak_ma": float(1e3 * np.max(np.abs(current_a[in_window]))) if in_window.any() else None,
-        "peak_after_settle_ma": float(1e3 * np.max(np.abs(current_a[rel >= SETTLE_S]))) if (rel >= SETTLE_S).any()
-        else None,
-    }
-    acceptance = {}
-    for kind, (paper, goal) in LIMITS_ARCSEC.items():
-        worst = [control[src][kind]["max"] for src in ("sensed", "truth_drift_removed")]
-        if all(w is not None for w in worst):
-            acceptance[f"{kind}_below_{paper:g}_arcsec"] = bool(max(worst) < paper)
-            acceptance[f"{kind}_below_goal_{goal:g}_arcsec"] = bool(max(worst) < goal)
-    acceptance["torque_current_reported"] = current["steady_mean_abs_ma"] is not None
+    r = _servo_run(cols)
     metrics = {
-        **bag_summary(bag_dir, contents), "ticks": int(len(t)),
-        "reversal_times_s": [float(v) for v in reversals - t[0]],
+        **bag_summary(bag_dir, contents), "ticks": int(len(r.t)),
+        "reversal_times_s": [float(v) for v in r.reversals - r.t[0]],
         "windows": {"settle_s": SETTLE_S, "transient_window_s": TRANSIENT_WINDOW_S},
-        "rotation": {"max_phi_z_deg": float(np.degrees(phi.max())), "rate_deg_s": float(np.degrees(np.abs(phi_rate).max()))},
-        "control_error_arcsec": control, "level_error_arcsec": level, "torque_current": current,
-        "acceptance": acceptance,
+        "rotation": {"max_phi_z_deg": float(np.degrees(r.phi.max())),
+                     "rate_deg_s": float(np.degrees(np.abs(r.phi_rate).max()))},
+        **_servo_figures(r),
     }
-
-    plots = []
-    _plot(out / "rotation_angle.png", "Platform rotation (modulation) angle", [
-        ("[deg]", {"commanded φz": (t, np.degrees(phi)), "platform azimuth (truth, from start)":
-                   (t, np.degrees(truth[:, 0] - truth[0, 0]))}),
-    ])
-    plots.append("rotation_angle.png")
-    paper_limits = [LIMITS_ARCSEC["steady"][0], None]
-    _plot(out / "control_error.png", "Azimuth control error (steady limit ±40″ dashed)", [
-        ("[arcsec]", {"sensed Δθ_am (pickoff)": (t, sensed[:, 0] / ARCSEC),
-                      "truth, gyro drift removed": (t, tracking / ARCSEC)}),
-        ("[arcsec]", {"truth incl. gyro drift": (t, (tracking - drift) / ARCSEC)}),
-    ], paper_limits)
-    plots.append("control_error.png")
-    if len(reversals):
-        tr = reversals[0]
-        zoom = (t >= tr - 0.2) & (t < tr + 0.6)
-        _plot(out / "reversal_transient.png", f"Reversal at {tr - t[0]:.2f} s (limit ±240″ dashed)", [
-            ("[arcsec]", {"sensed Δθ_am": (t[zoom], sensed[zoom, 0] / ARCSEC),
-                          "truth, drift removed": (t[zoom], tracking[zoom] / ARCSEC)}),
-            ("[mA]", {"azimuth torque current": (t[zoom], 1e3 * current_a[zoom])}),
-        ], [LIMITS_ARCSEC["reversal"][0], None])
-        plots.append("reversal_transient.png")
-    _plot(out / "level_error.png", "Level loops: control signals and truth tilt", [
-        ("sensed [arcsec]", {"Δθ_qm": (t, sensed[:, 1] / ARCSEC), "Δθ_pm": (t, sensed[:, 2] / ARCSEC),
-                             "Δθ_rm": (t, sensed[:, 3] / ARCSEC)}),
-        ("truth [arcsec]", {"roll q − q₀": (t, level_truth[:, 0] / ARCSEC),
-                            "pitch p − p₀": (t, level_truth[:, 1] / ARCSEC)}),
-    ])
-    plots.append("level_error.png")
-    _plot(out / "torque_current.png", "Azimuth motor torque current", [
-        ("[mA]", {"i_a = τ_a / k_t": (t, 1e3 * current_a)}),
-    ])
-    plots.append("torque_current.png")
-    metrics["plots"] = plots
+    metrics["plots"] = _servo_plots(out, r)
     return metrics

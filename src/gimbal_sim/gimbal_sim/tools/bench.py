@@ -447,7 +447,7 @@ def bench_compare(args: argparse.Namespace) -> int:
 
 def bench_flexure(args: argparse.Namespace) -> int:
     """Paper 5's flexure filters fed by the sensor cores without ROS: the filter's cost per
-    LGU pair against the 1 ms target (the figure the unit tests used to assert)."""
+    LGU pair against the 1 ms target (:data:`FLEXURE_TARGET_US`)."""
     results = run_flexure_comparison(args.duration, args.seed)
     print(f"flexure filters, {args.duration:g} s of LGU pairs at 10 Hz, seed {args.seed}:")
     for model, r in results.items():

@@ -27,6 +27,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
 
 from .sensors import (
@@ -34,7 +35,7 @@ from .sensors import (
     AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
     GyroParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
 )
-from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensor, FreeGyroSensorParams, spin_axes_for_site_deg
+from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensor, FreeGyroSensorParams
 from .vehicle import VehicleTruth
 
 #: Sensor name -> the config field holding its output rate [Hz].

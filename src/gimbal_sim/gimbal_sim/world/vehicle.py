@@ -3,7 +3,8 @@
 One ``VehicleCore`` owns the simulation clock (step index k, t = k·dt) and integrates the
 host (analytic profile) and one plant:
 
-* ``two_axis_gimbal``: the paper 1 sighting system (:mod:`.plant.gimbal_dynamics`),
+* ``two_axis_gimbal``: the paper 1 sighting system (:mod:`.plant.gimbal_simulator`, with the
+  rigid-body model of :mod:`gimbal_kinematics.gimbal.gimbal_dynamics`),
   commanded by joint torques (τ_a, τ_e) [N·m];
 * ``four_gimbal_platform``: the paper 3 four-gimbal platform, one single-axis DC-motor
   loop per gimbal joint (:mod:`.plant.platform_loops`), commanded by the gimbal motor
@@ -39,8 +40,7 @@ from gimbal_kinematics.rotations import (
 )
 
 from .plant.gimbal_simulator import GimbalSimulator
-from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS  # noqa: F401  (re-exported)
-from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS
+from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS, PLATFORM_JOINTS
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.gimbal.host_state import inertial_rates_trig
 from .plant.motion_profiles import PROFILE_NAMES, make_profile

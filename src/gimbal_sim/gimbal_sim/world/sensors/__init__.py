@@ -11,8 +11,6 @@ from .free_gyro_sensor import (
     FreeGyroSample,
     FreeGyroSensor,
     FreeGyroSensorParams,
-    spin_axes_for_site_deg,
-    spin_axis_for_site,
 )
 from .gyro import (
     LGU1_GYRO,
@@ -59,6 +57,4 @@ __all__ = [
     "gm1_coefficients",
     "gm2_discrete",
     "lgu2_rate",
-    "spin_axes_for_site_deg",
-    "spin_axis_for_site",
 ]

@@ -31,9 +31,6 @@ import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE
 from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
-# Setting up spin axes for a site is pure geometry that the free_gyro_positioning node needs
-# too, so it lives in gimbal_kinematics; re-exported here for the simulator's callers.
-from gimbal_kinematics.free_gyro import spin_axes_for_site_deg, spin_axis_for_site  # noqa: F401
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from gimbal_kinematics import validate as v
