@@ -96,7 +96,7 @@ class CampaignSpec:
     keep_bags: str = "all"
     timeout_s: float | None = None
     compress: bool = True
-    #: an experiment runner's campaign (:mod:`.experiment_campaigns`) instead of a scenario's
+    #: an experiment runner's campaign (:mod:`.experiment`) instead of a scenario's
     experiment: str = ""
     options: tuple[tuple[str, Any], ...] = ()
 

@@ -1,6 +1,6 @@
 """The ``sensor_models`` node's parameter table and --help text, readable without ROS (the
 node declares them; the config generator and the scenario checks read them). The mapping to
-the suite's config is :meth:`.sensor_suite.SensorSuiteConfig.from_values`.
+the suite's config is :meth:`..world.sensor_suite.SensorSuiteConfig.from_values`.
 """
 from __future__ import annotations
 

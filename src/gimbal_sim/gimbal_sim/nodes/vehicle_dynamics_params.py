@@ -1,6 +1,6 @@
 """The ``vehicle_dynamics`` node's parameter table and --help text, readable without ROS (the
 node declares them; the config generator and the scenario checks read them). The mapping to
-the core's config is :meth:`.vehicle.VehicleConfig.from_values`.
+the core's config is :meth:`..world.vehicle.VehicleConfig.from_values`.
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@
 ``ekf_on``) measured three ways, every speed in lockstep steps per second:
 
 * (a) the limit: the scenario's cores stepped in one Python loop, no ROS
-  (:mod:`.core_loop`, in a subprocess so its memory is its own);
+  (:mod:`..core.core_loop`, in a subprocess so its memory is its own);
 * (b) container mode: every node and the recorder in one process;
 * (c) processes mode: one OS process per node.
 
@@ -18,7 +18,7 @@ recorded the same data and that (a) computed the same torque commands, and, with
 
 ``record``: the recorder's throughput, CPU share and bag size on a scenario run (processes
 mode), with zstd-compressed chunks and without.
-``compare A B``: do two bags hold the same data (:mod:`.bag.compare`)?
+``compare A B``: do two bags hold the same data (:mod:`..bag.compare`)?
 """
 from __future__ import annotations
 
@@ -100,7 +100,7 @@ class ModeResult:
 
 # ------------------------------------------------------------------------------ (a)
 def measure_core(scenario: Scenario) -> ModeResult:
-    """(a): :mod:`.core_loop` in a subprocess (its CPU and peak RSS are then its own)."""
+    """(a): :mod:`..core.core_loop` in a subprocess (its CPU and peak RSS are then its own)."""
     cmd = [sys.executable, "-m", "gimbal_sim.core.core_loop", str(_scenario_file(scenario)), "--json"]
     t0 = time.monotonic()
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)

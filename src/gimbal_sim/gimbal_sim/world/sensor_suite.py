@@ -125,7 +125,7 @@ class SensorSuiteConfig:
     @classmethod
     def from_values(cls, v: dict) -> SensorSuiteConfig:
         """The config from a ``sensor_models`` node's values (name -> value, as declared in
-        :mod:`.sensor_models_params`); :class:`ParameterError` names the parameter refused."""
+        :mod:`..nodes.sensor_models_params`); :class:`ParameterError` names the parameter refused."""
         try:
             return cls(
                 sensors=tuple(v["sensors"]), sim_rate_hz=v["sim_rate_hz"], seed=v["seed"],

@@ -93,7 +93,7 @@ class VehicleConfig:
     @classmethod
     def from_values(cls, values: dict) -> VehicleConfig:
         """The config from a ``vehicle_dynamics`` node's values (name -> value, as declared in
-        :mod:`.vehicle_dynamics_params`; ``profile_params`` a YAML mapping, the initial joints
+        :mod:`..nodes.vehicle_dynamics_params`; ``profile_params`` a YAML mapping, the initial joints
         those of the chosen plant); :class:`ParameterError` names the parameter refused."""
         try:
             profile_params = yaml.safe_load(values["profile_params"]) or {}
