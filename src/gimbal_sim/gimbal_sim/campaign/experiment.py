@@ -28,7 +28,7 @@ from .results import CampaignResult
 from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, RunTask, plan, run_id
 
 #: core engine: (variant, seed, options) -> the run's metrics (a JSON-able mapping)
-CoreRun = Callable[[str, int, dict[str, Any]], dict[str, Any]]
+ExperimentRun = Callable[[str, int, dict[str, Any]], dict[str, Any]]
 
 
 def duration_only(options: dict[str, Any]) -> tuple[float, tuple[tuple[str, Any], ...]]:
@@ -59,7 +59,7 @@ class ExperimentCampaign:
     name: str
     variants: tuple[str, ...]
     defaults: dict[str, Any]
-    run: CoreRun
+    run: ExperimentRun
     graph: GraphEquivalent | None = None
 
 
