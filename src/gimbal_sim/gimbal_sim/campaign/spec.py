@@ -219,13 +219,6 @@ def parse_sweep(target: str, spec: Any, sampling: str = "grid") -> Sweep:
     return Sweep(target, values=tuple(values), text=text)
 
 
-def _split_assignment(text: str, option: str) -> tuple[str, str]:
-    target, sep, value = text.partition("=")
-    if not sep or not target.strip() or not value.strip():
-        raise CampaignError(f"{option} {text!r}: expected node.param=VALUES")
-    return target.strip(), value.strip()
-
-
 def spec_from_mapping(data: Any, where: str = "campaign") -> CampaignSpec:
     """A :class:`CampaignSpec` from a YAML mapping (module docstring)."""
     if not isinstance(data, dict):
