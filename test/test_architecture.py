@@ -55,7 +55,7 @@ def is_ros_edge(pkg: str, path: Path) -> bool:
         return True
     if pkg == "gimbal_sim":
         core_parts = {"plant", "sensors", "experiments"}
-        core_files = {"vehicle.py", "sensor_suite.py", "core_loop.py", "core_stages.py"}
+        core_files = {"vehicle.py", "sensor_suite.py", "core_loop.py", "core_stages.py", "core_ideal.py"}
         return not (rel.parts[0] in core_parts or (len(rel.parts) == 1 and rel.name in core_files))
     return False
 

@@ -76,21 +76,38 @@ class CoreLoopResult:
         return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
-def run_core_loop(scenario: Scenario, keep_commands: bool = False,
-                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
-    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
-
-    ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
-    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
+def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus], None]]]:
+    """The scenario's vehicle core, whether it takes commands, and its nodes' stages in
+    lockstep order; raises :class:`NoCoreError`."""
     values = node_values(scenario)
     vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
     unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
     if len(vehicles) != 1 or unknown:
         raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
-    vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]))
-    controlled = vehicles[0]["controlled"]
     stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
+    return VehicleCore(VehicleConfig.from_values(vehicles[0])), vehicles[0]["controlled"], stages
+
+
+def run_core_loop(scenario: Scenario, keep_commands: bool = False,
+                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
+
+    ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
+    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
+    vehicle, controlled, stages = core_plan(scenario)
+    return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer)
+
+
+def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, controlled: bool = True,
+               keep_commands: bool = False, observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+    """The loop itself: for k = 0 … n, the vehicle's truth of step k, then each stage in
+    order, then ``observer``, then (k < n) the vehicle steps under the step's command (held
+    at zero while no stage made one, or always when not ``controlled``).
+
+    A paper runner that is no graph scenario (an idealised stabilizer or ideal sensors,
+    :mod:`.core_ideal`) calls this with its own vehicle and stages; the stages at k = n see
+    the final truth, which the graph's vehicle also publishes."""
     bus = Bus()
     hold = (0.0,) * vehicle.config.command_size
     commands = [] if keep_commands else None
