@@ -1,12 +1,18 @@
-"""A scenario's pure-Python cores stepped in one loop, with no ROS: the speed limit of its maths.
+"""The no-ROS engine: a scenario's pure-Python cores stepped in one loop, the speed limit of its maths.
 
 Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``,
-``LosRateController``, ``GyroBiasEkf``), built from the same parameter values the
-orchestrator would give the node, and the loop passes between them exactly what the
-nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler conversions of the
-sensor node), in lockstep order: truth k → sensors k → estimator k → command k → step
-k → k+1. So for a seed the loop computes the same numbers as the graph, and its torque
-commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for bit.
+``LosRateController`` with its ``LosHold`` outer loop, ``GyroBiasEkf``), built from the same
+parameter values the orchestrator would give the node, and the loop passes between them
+exactly what the nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler
+conversions of the sensor node), in lockstep order: truth k → sensors k → estimator k →
+command k → step k → k+1. So for a seed the loop computes the same numbers as the graph,
+and its torque commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for
+bit (``gimbal-bench``'s limit (a)).
+
+:func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
+runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
+stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus, as
+``gimbal-campaign --engine core`` does with ``experiments.core_metrics``.
 
 ``python -m gimbal_sim.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
 (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).

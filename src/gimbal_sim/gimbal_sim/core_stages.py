@@ -1,9 +1,11 @@
 """Pure-core stages of the graph's nodes for :mod:`.core_loop` and ``gimbal-bench`` (no ROS).
 
-A stage is built from a node's parameter values (the mapping the node itself uses, each
-core's ``from_values``) and called once per lockstep step with the loop's :class:`Bus`
-(what the step's messages carry); it does what the node does with them, in the node's
-order. :func:`replay_bag` feeds a bag's recorded sensor topics into the gyro-bias EKF core.
+A stage is called once per lockstep step with the loop's :class:`Bus` (what the step's
+messages carry) and does what its node does with them, in the node's order. Each node has
+two factories: one from the node's parameter values (what a scenario gives; each core's
+``from_values``), one from the core object itself (what a paper runner that builds its
+cores from Python objects passes, keeping the core to observe it). :func:`replay_bag` feeds
+a bag's recorded sensor topics into the gyro-bias EKF core.
 """
 from __future__ import annotations
 

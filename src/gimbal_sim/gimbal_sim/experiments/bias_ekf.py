@@ -1,8 +1,10 @@
-"""Open-loop experiment for the gyro-bias EKF: gimbal_sim truth + sensors -> GyroBiasEkf.
+"""Open-loop experiment for the gyro-bias EKF on the no-ROS core engine: truth + sensors -> GyroBiasEkf.
 
-The gimbal is held by an idealised stabilizer that uses the *true* attitude and rates (the
-EKF's accuracy hardly depends on the controller, and keeping it out of the loop makes the
-estimator the only thing measured). The EKF estimates are not fed back ("open loop").
+The sensor and EKF stages are the graph's (:mod:`..core_stages`); the gimbal is held by an
+idealised stabilizer that uses the *true* attitude and rates
+(:class:`..core_ideal.TruthStabilizer`: the EKF's accuracy hardly depends on the
+controller, and keeping it out of the loop makes the estimator the only thing measured).
+The EKF estimates are not fed back ("open loop").
 
     run_open_loop_ekf(seed, duration_s, sensors_config) -> BiasEkfRun
     run_monte_carlo(seeds, duration_s, sensors_config)  -> MonteCarloSummary
@@ -111,6 +113,22 @@ class BiasEkfRun:
     ekf_us_per_gyro: float
 
 
+def paper1_land_vehicle(seed: int, duration_s: float, sensors_config: SensorSuiteConfig | None,
+                        sim_rate_hz: float, ins_rate_hz: float, initial_joints_deg: Sequence[float],
+                        lat_deg: float) -> tuple[VehicleCore, SensorSuiteConfig]:
+    """Paper 1's land vehicle as the runners set it up (the vehicle and sensors of scenario
+    ``sighting_land_vehicle``): the vehicle core, and ``sensors_config`` (default
+    ``SensorSuiteConfig()``) with INS, gimbal gyro and encoders, ``seed``, the gyro and
+    encoders at ``sim_rate_hz`` and the INS at ``ins_rate_hz``."""
+    base = sensors_config if sensors_config is not None else SensorSuiteConfig()
+    sensors = replace(base, sensors=("ins", "gimbal_gyro", "encoders"), seed=seed, sim_rate_hz=sim_rate_hz,
+                      gimbal_gyro_rate_hz=sim_rate_hz, encoder_rate_hz=sim_rate_hz, ins_rate_hz=ins_rate_hz)
+    core = VehicleCore(VehicleConfig(profile="paper1_land_vehicle", profile_params={"lat_deg": lat_deg},
+                                     sim_rate_hz=sim_rate_hz, duration_s=duration_s,
+                                     initial_joints_deg=tuple(initial_joints_deg)))
+    return core, sensors
+
+
 class EkfRecorder:
     """Observer of the run's n steps (k < n): at each EKF output, once per ``record_every_s``,
     the estimate, its σ, the truth (module docstring) and the NEES; the EKF's counters
@@ -199,13 +217,9 @@ def run_open_loop_ekf(
     and rates are replaced by ``seed``, ``sim_rate_hz`` (gyro and encoders at the sim rate)
     and ``ins_rate_hz``. ``ekf_params`` defaults to :func:`ekf_params_from_sensors`.
     """
-    base = sensors_config if sensors_config is not None else SensorSuiteConfig()
-    sensors = replace(base, sensors=("ins", "gimbal_gyro", "encoders"), seed=seed, sim_rate_hz=sim_rate_hz,
-                      gimbal_gyro_rate_hz=sim_rate_hz, encoder_rate_hz=sim_rate_hz, ins_rate_hz=ins_rate_hz)
+    core, sensors = paper1_land_vehicle(seed, duration_s, sensors_config, sim_rate_hz, ins_rate_hz,
+                                        initial_joints_deg, lat_deg)
     params = ekf_params if ekf_params is not None else ekf_params_from_sensors(sensors, lat_deg)
-    core = VehicleCore(VehicleConfig(profile="paper1_land_vehicle", profile_params={"lat_deg": lat_deg},
-                                     sim_rate_hz=sim_rate_hz, duration_s=duration_s,
-                                     initial_joints_deg=tuple(initial_joints_deg)))
     suite = SensorSuite(sensors)
     ekf = GyroBiasEkf(params)
     estimate, ekf_s = timed(ekf_stage(ekf))

@@ -1,13 +1,15 @@
 """Paper 1's headline experiment without ROS: vehicle, sensors, LOS controller and bias EKF
-stepped in one Python loop with the lockstep graph's timing (docs/spec.md §3.1, scenario
-``sighting_land_vehicle``).
+on the core engine (:func:`..core_loop.run_stages`, the stages of the graph's nodes), with
+the lockstep graph's timing (docs/spec.md §3.1, scenarios ``sighting_land_vehicle`` and,
+for the LOS-hold outer loop, ``sighting_los_hold``).
 
-Per step k (t = k·dt): the sensors sample the truth of step k; the EKF takes the encoders,
-the INS (when due) and the gyro of stamp k, and at INS steps returns its estimate stamped k;
-the controller then uses the newest estimate (that of stamp k at INS steps) and its command
-is held over [t_k, t_{k+1}]. This is what the graph does when the controller waits, at INS
-steps, for the EKF's output of the same stamp, so the loop and the graph compute the same
-numbers; the graph adds only messaging. The loop is also the benchmark's limit (a).
+Per step k: the sensors sample the truth of step k; the EKF takes the encoders, the INS
+(when due) and the gyro of stamp k, and at INS steps returns its estimate stamped k; the
+controller then uses the newest estimate (that of stamp k at INS steps) and its command is
+held over [t_k, t_{k+1}]. This is what the graph does when the controller waits, at INS
+steps, for the EKF's output of the same stamp; the runner differs from a scenario run only
+in taking its sensor and EKF parameters as objects (:func:`paper1_sensors`) and in its
+observer (:class:`SightingRecorder`), which keeps the EKF's covariance for the NEES.
 
 LOS drift (truth): the LOS (m-frame x axis) carried to the inertial frame (NED at t = 0,
 :func:`gimbal_kinematics.los.inertial_los`), as azimuth and elevation relative to the
@@ -33,8 +35,8 @@ from ..core_loop import run_stages
 from ..core_stages import Bus, controller_stage, ekf_stage, suite_stage
 from ..sensor_suite import GimbalGyroSample, SensorSuite, SensorSuiteConfig
 from ..sensors import InsParams
-from ..vehicle import VehicleConfig, VehicleCore, VehicleTruth
-from .bias_ekf import ekf_params_from_sensors
+from ..vehicle import VehicleTruth
+from .bias_ekf import ekf_params_from_sensors, paper1_land_vehicle
 from .campaign_spec import CampaignSpec
 from .experiment_campaigns import (ExperimentCampaign, GraphEquivalent, add_engine_arguments, campaign_dir,
                                    run_for_cli, run_metrics)
@@ -133,12 +135,8 @@ def run_sighting(mode: str = "feedback", seed: int = 1, duration_s: float = 120.
     (:mod:`..core_stages`), :class:`SightingRecorder` observing."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    base = sensors_config if sensors_config is not None else SensorSuiteConfig()
-    sensors = replace(base, sensors=("ins", "gimbal_gyro", "encoders"), seed=seed, sim_rate_hz=sim_rate_hz,
-                      gimbal_gyro_rate_hz=sim_rate_hz, encoder_rate_hz=sim_rate_hz, ins_rate_hz=ins_rate_hz)
-    core = VehicleCore(VehicleConfig(profile="paper1_land_vehicle", profile_params={"lat_deg": lat_deg},
-                                     sim_rate_hz=sim_rate_hz, duration_s=duration_s,
-                                     initial_joints_deg=tuple(initial_joints_deg)))
+    core, sensors = paper1_land_vehicle(seed, duration_s, sensors_config, sim_rate_hz, ins_rate_hz,
+                                        initial_joints_deg, lat_deg)
     suite = SensorSuite(sensors)
     ekf = GyroBiasEkf(ekf_params if ekf_params is not None else ekf_params_from_sensors(sensors, lat_deg))
     cparams = controller if controller is not None else LosRateControllerParams(rate_hz=sim_rate_hz)
