@@ -100,14 +100,20 @@ def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
                             hold)
 
 
-def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | None = None) -> Callable[[Bus], None]:
+def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | None = None,
+                     sample_time: Callable[[Bus], float] | None = None) -> Callable[[Bus], None]:
     """What ``los_rate_controller`` does with ``core``: the torque command of step k from the
     gyro, encoders and the latest INS rates (held between INS samples, as the node does),
     and the bias estimate of the step when the EKF made one (the node waits for it at INS
     steps). With ``hold`` (``mode: los_hold``) the EKF's attitude of the step (``bus.ekf``,
     what ``~/attitude`` carries) drives the outer loop, after the bias is taken, as in the
-    node's ``_use_estimates``."""
+    node's ``_use_estimates``. The controller's sample time is the node's k / rate, or
+    ``sample_time(bus)`` [s] when given (``experiments.closed_loop`` keeps the vehicle's k·dt,
+    which its recorded figures were computed with; the two differ in the last bits)."""
     ins_rates: list[tuple[float, float, float] | None] = [None]
+    if sample_time is None:
+        def sample_time(bus: Bus) -> float:
+            return bus.k / rate_hz
 
     def stage(bus: Bus) -> None:
         if bus.ins is not None:
@@ -120,7 +126,7 @@ def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | No
         if bus.gyro is None or enc is None or ins_rates[0] is None:
             bus.command = core.command
             return
-        bus.command = core.step(bus.k / rate_hz, (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
+        bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
     return stage
 
 

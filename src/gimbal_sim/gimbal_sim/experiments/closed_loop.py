@@ -113,7 +113,7 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
         gp = PAPER1_GYRO_ARW_ONLY if gyro == "noise" else PAPER1_GIMBAL_GYRO
         model = GyroModel(gp, 2, np.random.default_rng(seed), core.config.dt)
     n = core.config.n_steps
-    control, ctrl_s = timed(controller_stage(ctrl, rate_hz))
+    control, ctrl_s = timed(controller_stage(ctrl, rate_hz, sample_time=lambda bus: bus.truth.t))
     stages = [ideal_sensor_stage(model), control] + ([command_delay_stage(delay_samples)] if delay_samples else [])
     rec = PointingRecorder(ctrl, n, record_every)
     result = run_stages(core, stages, observer=rec)

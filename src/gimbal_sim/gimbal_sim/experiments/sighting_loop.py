@@ -115,7 +115,9 @@ class SightingRecorder:
         self.ekf_rec.append((out.t, out.bias, out.bias_sigma, b_true, float(e6 @ np.linalg.solve(P6, e6)),
                              float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:]))))
 
-    def run(self, mode: str, seed: int, duration_s: float, omega_in_n, wall_s: float) -> SightingRun:
+    def run(self, mode: str, seed: int, duration_s: float, omega_in_n: Sequence[float], wall_s: float) -> SightingRun:
+        """The run (:class:`SightingRun`); ``omega_in_n`` the n frame's inertial rate that
+        carries the LOS to the inertial frame."""
         t = np.array(self.t)
         los_i = inertial_los(los_from_quat(np.array(self.quat)), t, np.asarray(omega_in_n))
         te, est, sig, tru, nees, nees_b = (np.array([r[i] for r in self.ekf_rec]) for i in range(6))
