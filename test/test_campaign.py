@@ -149,17 +149,17 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
 def test_core_campaign_records_failures_carries_on_and_resumes(tmp_path, ros_domain_env):
     out = tmp_path / "campaign"
     args = ["sighting_land_vehicle", "--variant", "ekf_on", "--seeds", "1-2", "--duration", "1", "--engine", "core",
-            "--sweep", "los_rate_controller.mode=rate,los_hold", "--serial", "--out", str(out)]
+            "--sweep", "los_rate_controller.omega_n_hz=25,300", "--serial", "--out", str(out)]
     first = _campaign(args, ros_domain_env)
     assert first.returncode == 1, first.stdout + first.stderr
-    rows = {(r["seed"], r["sweep.los_rate_controller.mode"]): r for r in _rows(out)}
+    rows = {(r["seed"], r["sweep.los_rate_controller.omega_n_hz"]): r for r in _rows(out)}
     assert len(rows) == 4
     for seed in (1, 2):
-        assert rows[(seed, "rate")]["status"] == "ok"
-        failed = rows[(seed, "los_hold")]
-        # the core loop has no outer-loop stage: the run fails, named, with its traceback tail
-        assert failed["status"] == "failed" and "no core stage for los_rate_controller mode 'los_hold'" \
-            in failed["reason"]
+        assert rows[(seed, 25)]["status"] == "ok"
+        failed = rows[(seed, 300)]
+        # ω_n = 300 Hz passes the parameter's range but not the core's rate_hz / 4 check, which
+        # the core loop meets only when it builds the stage: the run fails, named, with its traceback tail
+        assert failed["status"] == "failed" and "omega_n_hz must be < rate_hz / 4" in failed["reason"]
         assert "Traceback" in failed["log_tail"]
     assert "FAILED" in first.stdout
 
@@ -173,7 +173,7 @@ def test_core_campaign_records_failures_carries_on_and_resumes(tmp_path, ros_dom
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         nowhere = f"tcp://127.0.0.1:{s.getsockname()[1]}"
-        only_ok = [a.replace("rate,los_hold", "rate") for a in args if a != "--serial"]
+        only_ok = [a.replace("=25,300", "=25") for a in args if a != "--serial"]
         done = _campaign([*only_ok, "--resume", "--scheduler", nowhere], ros_domain_env)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "0 runs ran, 2 had results, 0 failed" in done.stdout

@@ -1,12 +1,18 @@
-"""A scenario's pure-Python cores stepped in one loop, with no ROS: the speed limit of its maths.
+"""The no-ROS engine: a scenario's pure-Python cores stepped in one loop, the speed limit of its maths.
 
 Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``,
-``LosRateController``, ``GyroBiasEkf``), built from the same parameter values the
-orchestrator would give the node, and the loop passes between them exactly what the
-nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler conversions of the
-sensor node), in lockstep order: truth k → sensors k → estimator k → command k → step
-k → k+1. So for a seed the loop computes the same numbers as the graph, and its torque
-commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for bit.
+``LosRateController`` with its ``LosHold`` outer loop, ``GyroBiasEkf``), built from the same
+parameter values the orchestrator would give the node, and the loop passes between them
+exactly what the nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler
+conversions of the sensor node), in lockstep order: truth k → sensors k → estimator k →
+command k → step k → k+1. So for a seed the loop computes the same numbers as the graph,
+and its torque commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for
+bit (``gimbal-bench``'s limit (a)).
+
+:func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
+runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
+stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus, as
+``gimbal-campaign --engine core`` does with ``experiments.core_metrics``.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
 (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
@@ -75,21 +81,38 @@ class CoreLoopResult:
         return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
-def run_core_loop(scenario: Scenario, keep_commands: bool = False,
-                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
-    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
-
-    ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
-    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
+def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus], None]]]:
+    """The scenario's vehicle core, whether it takes commands, and its nodes' stages in
+    lockstep order; raises :class:`NoCoreError`."""
     values = node_values(scenario)
     vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
     unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
     if len(vehicles) != 1 or unknown:
         raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
-    vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]))
-    controlled = vehicles[0]["controlled"]
     stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
+    return VehicleCore(VehicleConfig.from_values(vehicles[0])), vehicles[0]["controlled"], stages
+
+
+def run_core_loop(scenario: Scenario, keep_commands: bool = False,
+                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+    """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
+
+    ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
+    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
+    vehicle, controlled, stages = core_plan(scenario)
+    return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer)
+
+
+def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, controlled: bool = True,
+               keep_commands: bool = False, observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+    """The loop itself: for k = 0 … n, the vehicle's truth of step k, then each stage in
+    order, then ``observer``, then (k < n) the vehicle steps under the step's command (held
+    at zero while no stage made one, or always when not ``controlled``).
+
+    A paper runner that is no graph scenario (an idealised stabilizer or ideal sensors,
+    :mod:`.core_ideal`) calls this with its own vehicle and stages; the stages at k = n see
+    the final truth, which the graph's vehicle also publishes."""
     bus = Bus()
     hold = (0.0,) * vehicle.config.command_size
     commands = [] if keep_commands else None

@@ -1,9 +1,11 @@
 """Pure-core stages of the graph's nodes for :mod:`.core_loop` and ``gimbal-bench`` (no ROS).
 
-A stage is built from a node's parameter values (the mapping the node itself uses, each
-core's ``from_values``) and called once per lockstep step with the loop's :class:`Bus`
-(what the step's messages carry); it does what the node does with them, in the node's
-order. :func:`replay_bag` feeds a bag's recorded sensor topics into the gyro-bias EKF core.
+A stage is called once per lockstep step with the loop's :class:`Bus` (what the step's
+messages carry) and does what its node does with them, in the node's order. Each node has
+two factories: one from the node's parameter values (what a scenario gives; each core's
+``from_values``), one from the core object itself (what a paper runner that builds its
+cores from Python objects passes, keeping the core to observe it). :func:`replay_bag` feeds
+a bag's recorded sensor topics into the gyro-bias EKF core.
 """
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
+from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
@@ -41,7 +44,11 @@ class Bus:
 
 def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
     """``sensor_models``: the suite's samples of step k from the vehicle's truth."""
-    suite = SensorSuite(SensorSuiteConfig.from_values(values))
+    return suite_stage(SensorSuite(SensorSuiteConfig.from_values(values)))
+
+
+def suite_stage(suite: SensorSuite) -> Callable[[Bus], None]:
+    """What ``sensor_models`` does with ``suite`` (the stage of :func:`sensor_stage`)."""
 
     def stage(bus: Bus) -> None:
         truth = bus.truth
@@ -61,11 +68,15 @@ def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
 
 
 def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
-    """``gyro_bias_ekf``: INS (Euler angles from its quaternion), gyro and encoders of step k,
-    encoders and INS before the gyro sample of the same stamp (the node's
-    :class:`gimbal_kinematics.sync.StampOrder`); leaves the bias estimate on the bus when an
-    update completed."""
-    ekf = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+    """``gyro_bias_ekf``: the stage of :func:`ekf_stage` on the node's core."""
+    return ekf_stage(GyroBiasEkf(GyroBiasEkfParams.from_values(values)))
+
+
+def ekf_stage(ekf: GyroBiasEkf) -> Callable[[Bus], None]:
+    """What ``gyro_bias_ekf`` does with ``ekf``: INS (Euler angles from its quaternion), gyro
+    and encoders of step k, encoders and INS before the gyro sample of the same stamp (the
+    node's :class:`gimbal_kinematics.sync.StampOrder`); leaves the bias estimate on the bus
+    when an update completed, and the whole output (bias, σ, attitude) in ``bus.ekf``."""
 
     def stage(bus: Bus) -> None:
         t = bus.t
@@ -82,27 +93,53 @@ def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
 
 
 def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
-    """``los_rate_controller``: the torque command of step k from the gyro, encoders and the
-    latest INS rates (held between INS samples, as the node does), and the bias estimate of
-    the step when the EKF made one (the node waits for it at INS steps)."""
-    if values["mode"] != "rate":
-        # its outer loop needs the EKF attitude, which the loop's bus does not carry
-        raise ValueError(f"no core stage for los_rate_controller mode {values['mode']!r} (only 'rate')")
-    core = LosRateController(LosRateControllerParams.from_values(values))
-    rate = values["sim_rate_hz"]
+    """``los_rate_controller``: the stage of :func:`controller_stage` on the node's core, with
+    the LOS-hold outer loop in ``mode: los_hold``."""
+    hold = LosHold(LosHoldParams.from_values(values)) if values["mode"] == "los_hold" else None
+    return controller_stage(LosRateController(LosRateControllerParams.from_values(values)), values["sim_rate_hz"],
+                            hold)
+
+
+def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | None = None,
+                     sample_time: Callable[[Bus], float] | None = None) -> Callable[[Bus], None]:
+    """What ``los_rate_controller`` does with ``core``: the torque command of step k from the
+    gyro, encoders and the latest INS rates (held between INS samples, as the node does),
+    and the bias estimate of the step when the EKF made one (the node waits for it at INS
+    steps). With ``hold`` (``mode: los_hold``) the EKF's attitude of the step (``bus.ekf``,
+    what ``~/attitude`` carries) drives the outer loop, after the bias is taken, as in the
+    node's ``_use_estimates``. The controller's sample time is the node's k / rate, or
+    ``sample_time(bus)`` [s] when given (``experiments.closed_loop`` keeps the vehicle's k·dt,
+    which its recorded figures were computed with; the two differ in the last bits)."""
     ins_rates: list[tuple[float, float, float] | None] = [None]
+    if sample_time is None:
+        def sample_time(bus: Bus) -> float:
+            return bus.k / rate_hz
 
     def stage(bus: Bus) -> None:
         if bus.ins is not None:
             ins_rates[0] = bus.ins.omega_b
         if bus.bias is not None:
             core.set_bias_estimate(bus.t, bus.bias)
+            if hold is not None:
+                core.set_rate_command(*hold.update(bus.t, tuple(bus.ekf.quat_nm), core.bias_estimate_qr))
         enc = bus.encoders
         if bus.gyro is None or enc is None or ins_rates[0] is None:
             bus.command = core.command
             return
-        bus.command = core.step(bus.k / rate, (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
+        bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
     return stage
+
+
+def timed(stage: Callable[[Bus], None]) -> tuple[Callable[[Bus], None], list[float]]:
+    """``stage`` with its wall time summed into the returned one-element list [s]."""
+    spent = [0.0]
+    clock = time.perf_counter
+
+    def timed_stage(bus: Bus) -> None:
+        t0 = clock()
+        stage(bus)
+        spent[0] += clock() - t0
+    return timed_stage, spent
 
 
 #: The node's order within a stamp: encoders and INS before the gyro.

@@ -1,8 +1,10 @@
-"""Open-loop experiment for the gyro-bias EKF: gimbal_sim truth + sensors -> GyroBiasEkf.
+"""Open-loop experiment for the gyro-bias EKF on the no-ROS core engine: truth + sensors -> GyroBiasEkf.
 
-The gimbal is held by an idealised stabilizer that uses the *true* attitude and rates (the
-EKF's accuracy hardly depends on the controller, and keeping it out of the loop makes the
-estimator the only thing measured). The EKF estimates are not fed back ("open loop").
+The sensor and EKF stages are the graph's (:mod:`..core_stages`); the gimbal is held by an
+idealised stabilizer that uses the *true* attitude and rates
+(:class:`..core_ideal.TruthStabilizer`: the EKF's accuracy hardly depends on the
+controller, and keeping it out of the loop makes the estimator the only thing measured).
+The EKF estimates are not fed back ("open loop").
 
     run_open_loop_ekf(seed, duration_s, sensors_config) -> BiasEkfRun
     run_monte_carlo(seeds, duration_s, sensors_config)  -> MonteCarloSummary
@@ -18,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 from dataclasses import dataclass, replace
 from typing import Sequence
 
@@ -27,11 +28,11 @@ from scipy.stats import chi2
 
 from gimbal_estimators.gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
-from gimbal_kinematics.sighting_chain import task_to_joint_rates
 
-from ..world.sensor_suite import (
-    EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig,
-)
+from ..core.core_ideal import TruthStabilizer, truth_stabilizer_stage
+from ..core.core_loop import run_stages
+from ..core.core_stages import Bus, ekf_stage, suite_stage, timed
+from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
 from ..world.sensors import GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
@@ -79,38 +80,6 @@ def ekf_params_from_sensors(sensors: SensorSuiteConfig, lat_deg: float = 0.0, **
     return GyroBiasEkfParams(**kw)  # type: ignore[arg-type]
 
 
-class TruthStabilizer:
-    """Idealised LOS hold from truth: inertial-rate command ω_cmd = −k C_mn ε (ε the n-frame
-    rotation from the held attitude) mapped to joint rates (``task_to_joint_rates``), then a
-    PI on the joint-rate error: τ = k_d e + k_i ∫e. Optional elevation scan (sinusoid)."""
-
-    def __init__(self, dt: float, k_los: float = 2.0, k_d: float = 1.0, k_i: float = 10.0,
-                 scan_amplitude_deg: float = 0.0, scan_period_s: float = 40.0) -> None:
-        self.dt, self.k_los, self.k_d, self.k_i = dt, k_los, k_d, k_i
-        self.scan_rate = math.radians(scan_amplitude_deg) * 2.0 * math.pi / scan_period_s
-        self.scan_w = 2.0 * math.pi / scan_period_s
-        self._target: np.ndarray | None = None
-        self._integ = [0.0, 0.0]
-
-    def command(self, truth: VehicleTruth) -> tuple[float, float]:
-        C = quat_to_dcm(truth.quat_nm)
-        if self._target is None:
-            self._target = C
-        else:
-            # The held attitude turns about m-y for the elevation scan.
-            wy = self.scan_rate * math.cos(self.scan_w * truth.t) * self.dt
-            c, s = math.cos(wy), math.sin(wy)
-            self._target = self._target @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-        eps = rotation_vector_from_dcm(C @ self._target.T)
-        w_cmd = -self.k_los * (C.T @ eps)
-        psi_t, psi_m, theta_m = truth.joint_position
-        qd = task_to_joint_rates(float(w_cmd[1]), float(w_cmd[2]), np.asarray(truth.omega_ib_b), psi_t,
-                                 truth.joint_velocity[0], psi_m, theta_m)
-        e = (qd[0] - truth.joint_velocity[1], qd[1] - truth.joint_velocity[2])
-        self._integ = [self._integ[0] + e[0] * self.dt, self._integ[1] + e[1] * self.dt]
-        return (self.k_d * e[0] + self.k_i * self._integ[0], self.k_d * e[1] + self.k_i * self._integ[1])
-
-
 @dataclass(frozen=True)
 class BiasEkfRun:
     """Metrics of one run. Arrays are sampled at the EKF updates kept (every
@@ -144,6 +113,89 @@ class BiasEkfRun:
     ekf_us_per_gyro: float
 
 
+def paper1_land_vehicle(seed: int, duration_s: float, sensors_config: SensorSuiteConfig | None,
+                        sim_rate_hz: float, ins_rate_hz: float, initial_joints_deg: Sequence[float],
+                        lat_deg: float) -> tuple[VehicleCore, SensorSuiteConfig]:
+    """Paper 1's land vehicle as the runners set it up (the vehicle and sensors of scenario
+    ``sighting_land_vehicle``): the vehicle core, and ``sensors_config`` (default
+    ``SensorSuiteConfig()``) with INS, gimbal gyro and encoders, ``seed``, the gyro and
+    encoders at ``sim_rate_hz`` and the INS at ``ins_rate_hz``."""
+    base = sensors_config if sensors_config is not None else SensorSuiteConfig()
+    sensors = replace(base, sensors=("ins", "gimbal_gyro", "encoders"), seed=seed, sim_rate_hz=sim_rate_hz,
+                      gimbal_gyro_rate_hz=sim_rate_hz, encoder_rate_hz=sim_rate_hz, ins_rate_hz=ins_rate_hz)
+    core = VehicleCore(VehicleConfig(profile="paper1_land_vehicle", profile_params={"lat_deg": lat_deg},
+                                     sim_rate_hz=sim_rate_hz, duration_s=duration_s,
+                                     initial_joints_deg=tuple(initial_joints_deg)))
+    return core, sensors
+
+
+class EkfRecorder:
+    """Observer of the run's n steps (k < n): at each EKF output, once per ``record_every_s``,
+    the estimate, its σ, the truth (module docstring) and the NEES; the EKF's counters
+    after step n − 1."""
+
+    def __init__(self, ekf: GyroBiasEkf, suite: SensorSuite, n: int, record_every_s: float) -> None:
+        self.ekf, self.suite, self.n, self.every = ekf, suite, n, record_every_s
+        self.rec: list[tuple] = []
+        self.next_rec = 0.0
+        self.ins_bias = (0.0, 0.0, 0.0)
+        self.gyro_bias = (0.0, 0.0)
+        self.n_gyro = 0
+        self.counters = ekf.counters
+
+    def __call__(self, bus: Bus) -> None:
+        if bus.gyro is not None:
+            self.n_gyro += 1  # of every step, for the EKF's time per gyro sample
+        if bus.k >= self.n:
+            return
+        if bus.ins is not None:
+            self.ins_bias = bus.ins.true_gyro_bias
+        if bus.gyro is not None:
+            self.gyro_bias = bus.gyro.true_bias
+        if bus.k == self.n - 1:
+            self.counters = self.ekf.counters
+        out = bus.ekf
+        if out is not None and out.t >= self.next_rec - 1e-9:
+            self.next_rec = out.t + self.every
+            self._record(bus.truth, out)
+
+    def _record(self, truth: VehicleTruth, out: EkfOutput) -> None:
+        ekf, ins_bias = self.ekf, self.ins_bias
+        az = truth.joint_position[0] + truth.joint_position[1]
+        b_true = np.array([math.cos(az) * ins_bias[0] + math.sin(az) * ins_bias[1], *self.gyro_bias])
+        psi = rotation_vector_from_dcm(quat_to_dcm(truth.quat_nm) @ quat_to_dcm(out.quat_nm).T)
+        e6 = np.concatenate((psi, b_true - out.bias))
+        P6 = ekf.P[:6, :6]
+        if ekf.n_states == 9:
+            e_all = np.concatenate((e6, self.suite.ins.attitude_error - ekf.ins_error))
+            nees_all = float(e_all @ np.linalg.solve(ekf.P, e_all))
+        else:
+            nees_all = math.nan
+        self.rec.append((out.t, out.bias, out.bias_sigma, b_true, psi, np.sqrt(np.diag(out.attitude_cov)),
+                         float(e6 @ np.linalg.solve(P6, e6)), float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:])),
+                         nees_all))
+
+    def run(self, seed: int, duration_s: float, settle_s: float, ekf_s: float) -> BiasEkfRun:
+        """The run's metrics (:class:`BiasEkfRun`); ``ekf_s`` the EKF's wall time [s]."""
+        rec = self.rec
+        t = np.array([r[0] for r in rec])
+        est, sig, tru = (np.array([r[i] for r in rec]) for i in (1, 2, 3))
+        att, att_sig = np.array([r[4] for r in rec]), np.array([r[5] for r in rec])
+        nees_s, nees_b, nees_f = (np.array([r[i] for r in rec]) for i in (6, 7, 8))
+        late = t >= settle_s
+        within = (np.mean(np.abs(est[late] - tru[late]) <= 3.0 * sig[late], axis=0) if late.any()
+                  else np.full(3, np.nan))
+        return BiasEkfRun(
+            seed=seed, duration_s=duration_s, settle_s=settle_s, t=t, bias_est=est, bias_sigma=sig, bias_true=tru,
+            att_err=att, att_sigma=att_sig, nees_state=nees_s, nees_bias=nees_b, nees_full=nees_f,
+            within_3sigma=within,
+            final_bias_error_deg_h=(est[-1] - tru[-1]) / _DEG_H,
+            mean_nees_state=float(np.mean(nees_s[late])) if late.any() else math.nan,
+            mean_nees_bias=float(np.mean(nees_b[late])) if late.any() else math.nan,
+            counters=self.counters, ekf_us_per_gyro=1e6 * ekf_s / max(self.n_gyro, 1),
+        )
+
+
 def run_open_loop_ekf(
     seed: int,
     duration_s: float = 120.0,
@@ -157,83 +209,24 @@ def run_open_loop_ekf(
     settle_s: float = 30.0,
     record_every_s: float = 0.1,
 ) -> BiasEkfRun:
-    """One paper 1 land-vehicle run with the EKF open loop (module docstring).
+    """One paper 1 land-vehicle run with the EKF open loop (module docstring), on the core
+    engine: the sensor and EKF stages of the graph's nodes, the gimbal held by
+    :func:`..core_ideal.truth_stabilizer_stage`, :class:`EkfRecorder` observing.
 
     ``sensors_config`` defaults to ``SensorSuiteConfig()`` (paper 1's sensors); its seed
     and rates are replaced by ``seed``, ``sim_rate_hz`` (gyro and encoders at the sim rate)
     and ``ins_rate_hz``. ``ekf_params`` defaults to :func:`ekf_params_from_sensors`.
     """
-    base = sensors_config if sensors_config is not None else SensorSuiteConfig()
-    sensors = replace(base, sensors=("ins", "gimbal_gyro", "encoders"), seed=seed, sim_rate_hz=sim_rate_hz,
-                      gimbal_gyro_rate_hz=sim_rate_hz, encoder_rate_hz=sim_rate_hz, ins_rate_hz=ins_rate_hz)
+    core, sensors = paper1_land_vehicle(seed, duration_s, sensors_config, sim_rate_hz, ins_rate_hz,
+                                        initial_joints_deg, lat_deg)
     params = ekf_params if ekf_params is not None else ekf_params_from_sensors(sensors, lat_deg)
-    core = VehicleCore(VehicleConfig(profile="paper1_land_vehicle", profile_params={"lat_deg": lat_deg},
-                                     sim_rate_hz=sim_rate_hz, duration_s=duration_s,
-                                     initial_joints_deg=tuple(initial_joints_deg)))
     suite = SensorSuite(sensors)
-    stab = TruthStabilizer(core.config.dt, scan_amplitude_deg=scan_amplitude_deg)
     ekf = GyroBiasEkf(params)
-    rec: list[tuple] = []
-    next_rec = 0.0
-    ins_bias = (0.0, 0.0, 0.0)
-    gyro_bias = (0.0, 0.0)
-    ekf_time = 0.0
-    n_gyro = 0
-    clock = time.perf_counter
-    while not core.finished:
-        truth = core.truth()
-        out: EkfOutput | None = None
-        samples = suite.update(truth)
-        t0 = clock()
-        for s in samples:
-            if isinstance(s, GimbalGyroSample):
-                r = ekf.on_gyro(s.t, s.q_m, s.r_m)
-                gyro_bias = s.true_bias
-                n_gyro += 1
-            elif isinstance(s, EncoderSample):
-                r = ekf.on_encoders(s.t, s.angles, s.rates)
-            elif isinstance(s, InsSample):
-                r = ekf.on_ins(s.t, s.euler, s.omega_b)
-                ins_bias = s.true_gyro_bias
-            else:
-                r = None
-            out = r if r is not None else out
-        ekf_time += clock() - t0
-        if out is not None and out.t >= next_rec - 1e-9:
-            next_rec = out.t + record_every_s
-            psi_t, psi_m, _ = truth.joint_position
-            az = psi_t + psi_m
-            bx = math.cos(az) * ins_bias[0] + math.sin(az) * ins_bias[1]
-            b_true = np.array([bx, gyro_bias[0], gyro_bias[1]])
-            C_true = quat_to_dcm(truth.quat_nm)
-            psi = rotation_vector_from_dcm(C_true @ quat_to_dcm(out.quat_nm).T)
-            e6 = np.concatenate((psi, b_true - out.bias))
-            P6 = ekf.P[:6, :6]
-            if ekf.n_states == 9:
-                e_all = np.concatenate((e6, suite.ins.attitude_error - ekf.ins_error))
-                nees_all = float(e_all @ np.linalg.solve(ekf.P, e_all))
-            else:
-                nees_all = math.nan
-            rec.append((out.t, out.bias, out.bias_sigma, b_true, psi, np.sqrt(np.diag(out.attitude_cov)),
-                        float(e6 @ np.linalg.solve(P6, e6)),
-                        float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:])), nees_all))
-        core.step(stab.command(truth))
-    t = np.array([r[0] for r in rec])
-    est, sig, tru = (np.array([r[i] for r in rec]) for i in (1, 2, 3))
-    att, att_sig = np.array([r[4] for r in rec]), np.array([r[5] for r in rec])
-    nees_s, nees_b, nees_f = (np.array([r[i] for r in rec]) for i in (6, 7, 8))
-    late = t >= settle_s
-    within = (np.mean(np.abs(est[late] - tru[late]) <= 3.0 * sig[late], axis=0) if late.any()
-              else np.full(3, np.nan))
-    return BiasEkfRun(
-        seed=seed, duration_s=duration_s, settle_s=settle_s, t=t, bias_est=est, bias_sigma=sig, bias_true=tru,
-        att_err=att, att_sigma=att_sig, nees_state=nees_s, nees_bias=nees_b, nees_full=nees_f,
-        within_3sigma=within,
-        final_bias_error_deg_h=(est[-1] - tru[-1]) / _DEG_H,
-        mean_nees_state=float(np.mean(nees_s[late])) if late.any() else math.nan,
-        mean_nees_bias=float(np.mean(nees_b[late])) if late.any() else math.nan,
-        counters=ekf.counters, ekf_us_per_gyro=1e6 * ekf_time / max(n_gyro, 1),
-    )
+    estimate, ekf_s = timed(ekf_stage(ekf))
+    stabilize = truth_stabilizer_stage(TruthStabilizer(core.config.dt, scan_amplitude_deg=scan_amplitude_deg))
+    recorder = EkfRecorder(ekf, suite, core.config.n_steps, record_every_s)
+    run_stages(core, [suite_stage(suite), estimate, stabilize], observer=recorder)
+    return recorder.run(seed, duration_s, settle_s, ekf_s[0])
 
 
 @dataclass(frozen=True)

@@ -1,15 +1,17 @@
-"""Paper 1 closed loop without ROS: VehicleCore + gyro + LosRateController in one loop.
+"""Paper 1's LOS rate loop alone, without ROS: vehicle, gyro and LosRateController on the core
+engine (:func:`..core_loop.run_stages`) with ideal encoders and INS.
 
 Used by the acceptance figure of issue 5 (LOS pointing error over 120 s, ideal gyro and
-paper 1's gyro noise), by the tests at a shorter span, and by the benchmark's "limit"
-measurement (cores stepped in one Python loop, no middleware).
+paper 1's gyro noise; docs/results/paper1.md) and by the tests at a shorter span.
 
-Measurements: the gyro reads the truth's inertial rate of m about y, z at t_k
-(``'ideal'``), plus paper 1's ARW (``'noise'``: ``PAPER1_GIMBAL_GYRO`` without its
-fixed bias and Gauss-Markov terms), or the full paper 1 gyro (``'paper1'``: bias too; with
-no estimator fed back the LOS drifts, docs/spec.md §3.1). Encoders and INS body rates are ideal
-(truth). Timing follows the lockstep graph: the command computed from the samples of
-t_k is held over [t_k, t_{k+1}]; ``delay_samples`` > 0 applies it that many steps later.
+Measurements (:func:`..core_ideal.ideal_sensor_stage`): the gyro reads the truth's inertial
+rate of m about y, z at t_k (``'ideal'``), plus paper 1's ARW (``'noise'``:
+``PAPER1_GIMBAL_GYRO`` without its fixed bias and Gauss-Markov terms), or the full paper 1
+gyro (``'paper1'``: bias too; with no estimator fed back the LOS drifts, docs/spec.md §3.1).
+Encoders and INS body rates are ideal (truth). Timing follows the lockstep graph
+(:func:`..core_stages.controller_stage`): the command computed from the samples of t_k is
+held over [t_k, t_{k+1}]; ``delay_samples`` > 0 applies it that many steps later
+(:func:`..core_ideal.command_delay_stage`).
 
 Pointing error: the angle between the LOS and its initial *inertial* direction. The truth
 is resolved in NED, which turns with the earth (``earth_rate=True``), so the LOS is
@@ -21,8 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
-from collections import deque
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,9 @@ from gimbal_control.los_rate_controller import (
 )
 from gimbal_kinematics.los import inertial_los, pointing_error
 
+from ..core.core_ideal import command_delay_stage, ideal_sensor_stage
+from ..core.core_loop import run_stages
+from ..core.core_stages import Bus, controller_stage, timed
 from ..world.sensors import PAPER1_GIMBAL_GYRO, GyroModel
 from ..world.vehicle import VehicleConfig, VehicleCore
 
@@ -40,6 +43,47 @@ GYRO_MODES = ("ideal", "noise", "paper1")
 #: Paper 1's gimbal gyro with only its angle random walk (no fixed bias, no bias instability).
 PAPER1_GYRO_ARW_ONLY = dataclasses.replace(PAPER1_GIMBAL_GYRO, bias_deg_h=0.0, bias_sigma_deg_h=0.0,
                                            bias_instability_deg_h=0.0, rrw_deg_h_rt_h=0.0)
+
+
+class PointingRecorder:
+    """Observer of the run's n steps (k < n): the LOS (first column of C_nm), the applied
+    command and the controller's rate error every ``record_every`` steps; the sum of the
+    squared commands and the controller's counters after step n − 1."""
+
+    def __init__(self, ctrl: LosRateController, n: int, record_every: int) -> None:
+        self.ctrl, self.n, self.every = ctrl, n, record_every
+        n_rec = (n + record_every - 1) // record_every
+        self.t, self.los = np.empty(n_rec), np.empty((n_rec, 3))
+        self.tau, self.err = np.empty((n_rec, 2)), np.empty((n_rec, 2))
+        self.j = 0
+        self.sum_tau2 = [0.0, 0.0]
+        self.saturated_steps = self.rejected_inputs = 0
+
+    def __call__(self, bus: Bus) -> None:
+        k, tau = bus.k, bus.command
+        if k >= self.n:
+            return
+        if k % self.every == 0:
+            tr, j = bus.truth, self.j
+            x, y, z, w = tr.quat_nm
+            self.t[j] = tr.t
+            self.los[j] = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w))
+            self.tau[j] = tau
+            self.err[j] = self.ctrl.rate_error
+            self.j += 1
+        self.sum_tau2[0] += tau[0] * tau[0]
+        self.sum_tau2[1] += tau[1] * tau[1]
+        if k == self.n - 1:
+            self.saturated_steps, self.rejected_inputs = self.ctrl.saturated_steps, self.ctrl.rejected_inputs
+
+
+def _check(gyro: str, delay_samples: int, record_every: int) -> None:
+    if gyro not in GYRO_MODES:
+        raise ValueError(f"gyro must be one of {GYRO_MODES}, got {gyro!r}")
+    if int(delay_samples) != delay_samples or delay_samples < 0:
+        raise ValueError(f"delay_samples must be an int >= 0, got {delay_samples!r}")
+    if int(record_every) != record_every or record_every < 1:
+        raise ValueError(f"record_every must be an int >= 1, got {record_every!r}")
 
 
 def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
@@ -57,15 +101,9 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
     (whole loop incl. bookkeeping), ``controller_us_per_step``, ``saturated_steps``,
     ``rejected_inputs``, ``torque_rms_nm`` (2,).
     """
-    if gyro not in GYRO_MODES:
-        raise ValueError(f"gyro must be one of {GYRO_MODES}, got {gyro!r}")
-    if int(delay_samples) != delay_samples or delay_samples < 0:
-        raise ValueError(f"delay_samples must be an int >= 0, got {delay_samples!r}")
-    if int(record_every) != record_every or record_every < 1:
-        raise ValueError(f"record_every must be an int >= 1, got {record_every!r}")
+    _check(gyro, delay_samples, record_every)
     core = VehicleCore(VehicleConfig(profile=profile, sim_rate_hz=rate_hz, duration_s=duration_s,
                                      earth_rate=earth_rate))
-    dt = core.config.dt
     ctrl = LosRateController(LosRateControllerParams(rate_hz=rate_hz, omega_n_hz=omega_n_hz, zeta=zeta,
                                                      feedback=False, gravity_m_s2=core.env.gravity_m_s2,
                                                      anti_windup=anti_windup,
@@ -73,46 +111,15 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
     model = None
     if gyro != "ideal":
         gp = PAPER1_GYRO_ARW_ONLY if gyro == "noise" else PAPER1_GIMBAL_GYRO
-        model = GyroModel(gp, 2, np.random.default_rng(seed), dt)
+        model = GyroModel(gp, 2, np.random.default_rng(seed), core.config.dt)
     n = core.config.n_steps
-    n_rec = (n + record_every - 1) // record_every
-    t_rec = np.empty(n_rec)
-    los_rec = np.empty((n_rec, 3))
-    tau_rec = np.empty((n_rec, 2))
-    err_rec = np.empty((n_rec, 2))
-    queue: deque = deque([(0.0, 0.0)] * delay_samples)
-    ctrl_s = 0.0
-    sum_tau2 = [0.0, 0.0]
-    clock = time.perf_counter
-    wall0 = clock()
-    j = 0
-    for k in range(n):
-        tr = core.truth()
-        wm = tr.omega_im_m
-        if model is None:
-            qr = (wm[1], wm[2])
-        else:
-            qr = model.step_rate((wm[1], wm[2]))
-        c0 = clock()
-        tau = ctrl.step(tr.t, qr, tr.joint_position, tr.joint_velocity, tr.omega_ib_b)
-        ctrl_s += clock() - c0
-        if delay_samples:
-            queue.append(tau)
-            tau = queue.popleft()
-        if k % record_every == 0:
-            x, y, z, w = tr.quat_nm  # first column of C_nm: the LOS in n
-            t_rec[j] = tr.t
-            los_rec[j] = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w))
-            tau_rec[j] = tau
-            err_rec[j] = ctrl.rate_error
-            j += 1
-        sum_tau2[0] += tau[0] * tau[0]
-        sum_tau2[1] += tau[1] * tau[1]
-        core.step(tau)
-    wall = clock() - wall0
-    los_i = inertial_los(los_rec, t_rec, np.asarray(core.env.omega_in_n))
+    control, ctrl_s = timed(controller_stage(ctrl, rate_hz, sample_time=lambda bus: bus.truth.t))
+    stages = [ideal_sensor_stage(model), control] + ([command_delay_stage(delay_samples)] if delay_samples else [])
+    rec = PointingRecorder(ctrl, n, record_every)
+    result = run_stages(core, stages, observer=rec)
+    los_i = inertial_los(rec.los, rec.t, np.asarray(core.env.omega_in_n))
     err = pointing_error(los_i)
-    after = err[t_rec >= settle_s]
+    after = err[rec.t >= settle_s]
     metrics = dict(
         duration_s=duration_s, rate_hz=rate_hz, omega_n_hz=omega_n_hz, zeta=zeta, gyro=gyro, seed=seed,
         delay_samples=delay_samples, earth_rate=earth_rate,
@@ -120,12 +127,12 @@ def run_closed_loop(duration_s: float = 10.0, rate_hz: float = DEFAULT_RATE_HZ,
         pointing_rms_after_settle_urad=float(np.sqrt(np.mean(after ** 2)) * 1e6) if after.size else math.nan,
         pointing_max_urad=float(np.max(err) * 1e6),
         final_error_urad=float(err[-1] * 1e6),
-        steps=n, wall_s=wall, steps_per_s=n / wall if wall > 0 else math.inf,
-        controller_us_per_step=ctrl_s / n * 1e6,
-        saturated_steps=ctrl.saturated_steps, rejected_inputs=ctrl.rejected_inputs,
-        torque_rms_nm=(math.sqrt(sum_tau2[0] / n), math.sqrt(sum_tau2[1] / n)),
+        steps=n, wall_s=result.wall_s, steps_per_s=result.steps_per_s,
+        controller_us_per_step=ctrl_s[0] / (n + 1) * 1e6,
+        saturated_steps=rec.saturated_steps, rejected_inputs=rec.rejected_inputs,
+        torque_rms_nm=(math.sqrt(rec.sum_tau2[0] / n), math.sqrt(rec.sum_tau2[1] / n)),
     )
-    return dict(metrics=metrics, t=t_rec, pointing_error_rad=err, los_i=los_i, tau=tau_rec, rate_error=err_rec)
+    return dict(metrics=metrics, t=rec.t, pointing_error_rad=err, los_i=los_i, tau=rec.tau, rate_error=rec.err)
 
 
 def main(argv: list[str] | None = None) -> int:

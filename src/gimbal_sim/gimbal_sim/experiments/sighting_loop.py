@@ -1,13 +1,15 @@
 """Paper 1's headline experiment without ROS: vehicle, sensors, LOS controller and bias EKF
-stepped in one Python loop with the lockstep graph's timing (docs/spec.md §3.1, scenario
-``sighting_land_vehicle``).
+on the core engine (:func:`..core_loop.run_stages`, the stages of the graph's nodes), with
+the lockstep graph's timing (docs/spec.md §3.1, scenarios ``sighting_land_vehicle`` and,
+for the LOS-hold outer loop, ``sighting_los_hold``).
 
-Per step k (t = k·dt): the sensors sample the truth of step k; the EKF takes the encoders,
-the INS (when due) and the gyro of stamp k, and at INS steps returns its estimate stamped k;
-the controller then uses the newest estimate (that of stamp k at INS steps) and its command
-is held over [t_k, t_{k+1}]. This is what the graph does when the controller waits, at INS
-steps, for the EKF's output of the same stamp, so the loop and the graph compute the same
-numbers; the graph adds only messaging. The loop is also the benchmark's limit (a).
+Per step k: the sensors sample the truth of step k; the EKF takes the encoders, the INS
+(when due) and the gyro of stamp k, and at INS steps returns its estimate stamped k; the
+controller then uses the newest estimate (that of stamp k at INS steps) and its command is
+held over [t_k, t_{k+1}]. This is what the graph does when the controller waits, at INS
+steps, for the EKF's output of the same stamp; the runner differs from a scenario run only
+in taking its sensor and EKF parameters as objects (:func:`paper1_sensors`) and in its
+observer (:class:`SightingRecorder`), which keeps the EKF's covariance for the NEES.
 
 LOS drift (truth): the LOS (m-frame x axis) carried to the inertial frame (NED at t = 0,
 :func:`gimbal_kinematics.los.inertial_los`), as azimuth and elevation relative to the
@@ -18,7 +20,6 @@ integral of the true gyro bias (q for elevation, r for azimuth).
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, replace
 from typing import Sequence
 
@@ -26,14 +27,16 @@ import numpy as np
 
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
-from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
 
-from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
+from ..core.core_loop import run_stages
+from ..core.core_stages import Bus, controller_stage, ekf_stage, suite_stage
+from ..world.sensor_suite import GimbalGyroSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import InsParams
-from ..world.vehicle import VehicleConfig, VehicleCore
-from .bias_ekf import ekf_params_from_sensors
+from ..world.vehicle import VehicleTruth
+from .bias_ekf import ekf_params_from_sensors, paper1_land_vehicle
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
@@ -76,6 +79,52 @@ class SightingRun:
         return np.degrees(self.drift[-1] - self.drift[i]) / (self.t[-1] - self.t[i]) * 3600.0
 
 
+class SightingRecorder:
+    """Observer of the run's n steps (k < n): the truth's C_nm and −∫ true gyro bias dt every
+    ``record_every`` steps and at the last; at each EKF output the estimate, σ, the truth
+    (:class:`SightingRun`) and the NEES, with ``ekf``'s covariance."""
+
+    def __init__(self, ekf: GyroBiasEkf, suite: SensorSuite, n: int, dt: float, record_every: int) -> None:
+        self.ekf, self.suite, self.n, self.dt, self.every = ekf, suite, n, dt, record_every
+        self.t: list[float] = []
+        self.quat: list = []
+        self.bias_int: list[tuple[float, float]] = []
+        self.ekf_rec: list[tuple] = []
+        self._int = [0.0, 0.0]
+
+    def __call__(self, bus: Bus) -> None:
+        k, truth, gyro, out = bus.k, bus.truth, bus.gyro, bus.ekf
+        if k >= self.n:
+            return
+        if out is not None:
+            self._record_estimate(truth, gyro, out)
+        self._int[0] -= gyro.true_bias[1] * self.dt  # r -> azimuth
+        self._int[1] -= gyro.true_bias[0] * self.dt  # q -> elevation
+        if k % self.every == 0 or k == self.n - 1:
+            self.t.append(truth.t)
+            self.quat.append(truth.quat_nm)
+            self.bias_int.append(tuple(self._int))
+
+    def _record_estimate(self, truth: VehicleTruth, gyro: GimbalGyroSample, out: EkfOutput) -> None:
+        az = truth.joint_position[0] + truth.joint_position[1]
+        b_ins = self.suite.ins.true_gyro_bias
+        b_true = np.array([math.cos(az) * b_ins[0] + math.sin(az) * b_ins[1], *gyro.true_bias])
+        psi = rotation_vector_from_dcm(quat_to_dcm(truth.quat_nm) @ quat_to_dcm(out.quat_nm).T)
+        e6 = np.concatenate((psi, b_true - out.bias))
+        P6 = self.ekf.P[:6, :6]
+        self.ekf_rec.append((out.t, out.bias, out.bias_sigma, b_true, float(e6 @ np.linalg.solve(P6, e6)),
+                             float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:]))))
+
+    def run(self, mode: str, seed: int, duration_s: float, omega_in_n: Sequence[float], wall_s: float) -> SightingRun:
+        """The run (:class:`SightingRun`); ``omega_in_n`` the n frame's inertial rate that
+        carries the LOS to the inertial frame."""
+        t = np.array(self.t)
+        los_i = inertial_los(los_from_quat(np.array(self.quat)), t, np.asarray(omega_in_n))
+        te, est, sig, tru, nees, nees_b = (np.array([r[i] for r in self.ekf_rec]) for i in range(6))
+        return SightingRun(mode, seed, duration_s, t, los_drift(los_i), np.array(self.bias_int), te, est, sig, tru,
+                           nees, nees_b, self.n, wall_s)
+
+
 def run_sighting(mode: str = "feedback", seed: int = 1, duration_s: float = 120.0, *,
                  sensors_config: SensorSuiteConfig | None = None, ekf_params: GyroBiasEkfParams | None = None,
                  controller: LosRateControllerParams | None = None, hold: LosHoldParams | None = None,
@@ -83,70 +132,22 @@ def run_sighting(mode: str = "feedback", seed: int = 1, duration_s: float = 120.
                  initial_joints_deg: Sequence[float] = (20.0, 10.0), lat_deg: float = 0.0,
                  record_every: int = 10) -> SightingRun:
     """Run the land-vehicle scenario with the EKF ``off`` (estimated but not fed back),
-    fed back (``feedback``), or fed back with the LOS-hold outer loop (``los_hold``)."""
+    fed back (``feedback``), or fed back with the LOS-hold outer loop (``los_hold``), on the
+    core engine: the stages of the graph's sensor, EKF and controller nodes
+    (:mod:`..core_stages`), :class:`SightingRecorder` observing."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    base = sensors_config if sensors_config is not None else SensorSuiteConfig()
-    sensors = replace(base, sensors=("ins", "gimbal_gyro", "encoders"), seed=seed, sim_rate_hz=sim_rate_hz,
-                      gimbal_gyro_rate_hz=sim_rate_hz, encoder_rate_hz=sim_rate_hz, ins_rate_hz=ins_rate_hz)
-    core = VehicleCore(VehicleConfig(profile="paper1_land_vehicle", profile_params={"lat_deg": lat_deg},
-                                     sim_rate_hz=sim_rate_hz, duration_s=duration_s,
-                                     initial_joints_deg=tuple(initial_joints_deg)))
+    core, sensors = paper1_land_vehicle(seed, duration_s, sensors_config, sim_rate_hz, ins_rate_hz,
+                                        initial_joints_deg, lat_deg)
     suite = SensorSuite(sensors)
     ekf = GyroBiasEkf(ekf_params if ekf_params is not None else ekf_params_from_sensors(sensors, lat_deg))
     cparams = controller if controller is not None else LosRateControllerParams(rate_hz=sim_rate_hz)
     ctrl = LosRateController(replace(cparams, feedback=mode != "off", gravity_m_s2=core.env.gravity_m_s2))
     outer = LosHold(hold if hold is not None else LosHoldParams(lat_deg=lat_deg)) if mode == "los_hold" else None
-    n = core.config.n_steps
-    rec_t, rec_los, rec_b = [], [], []
-    ekf_rec = []
-    bias_int = [0.0, 0.0]
-    ins_rates = None
-    wall0 = time.perf_counter()
-    for k in range(n):
-        truth = core.truth()
-        gyro = enc = None
-        out = None
-        for s in suite.update(truth):
-            if isinstance(s, GimbalGyroSample):
-                gyro = s
-            elif isinstance(s, EncoderSample):
-                enc = s
-                out = ekf.on_encoders(s.t, s.angles, s.rates) or out
-            elif isinstance(s, InsSample):
-                ins_rates = s.omega_b
-                out = ekf.on_ins(s.t, s.euler, s.omega_b) or out
-        out = ekf.on_gyro(gyro.t, gyro.q_m, gyro.r_m) or out
-        if out is not None:
-            ctrl.set_bias_estimate(out.t, out.bias)
-            if outer is not None:
-                ctrl.set_rate_command(*outer.update(out.t, out.quat_nm, out.bias[1:]))
-            az = truth.joint_position[0] + truth.joint_position[1]
-            b_ins = suite.ins.true_gyro_bias
-            b_true = np.array([math.cos(az) * b_ins[0] + math.sin(az) * b_ins[1], *gyro.true_bias])
-            psi = rotation_vector_from_dcm(quat_to_dcm(truth.quat_nm) @ quat_to_dcm(out.quat_nm).T)
-            e6 = np.concatenate((psi, b_true - out.bias))
-            P6 = ekf.P[:6, :6]
-            ekf_rec.append((out.t, out.bias, out.bias_sigma, b_true, float(e6 @ np.linalg.solve(P6, e6)),
-                            float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:]))))
-        tau = ctrl.step(truth.t, (gyro.q_m, gyro.r_m), enc.angles, enc.rates, ins_rates)
-        bias_int[0] -= gyro.true_bias[1] * core.config.dt  # r -> azimuth
-        bias_int[1] -= gyro.true_bias[0] * core.config.dt  # q -> elevation
-        if k % record_every == 0 or k == n - 1:
-            rec_t.append(truth.t)
-            rec_los.append(truth.quat_nm)
-            rec_b.append(tuple(bias_int))
-        core.step(tau)
-    wall = time.perf_counter() - wall0
-    t = np.array(rec_t)
-    los_i = inertial_los(los_from_quat(np.array(rec_los)), t, np.asarray(core.env.omega_in_n))
-    te = np.array([r[0] for r in ekf_rec])
-    est = np.array([r[1] for r in ekf_rec])
-    sig = np.array([r[2] for r in ekf_rec])
-    tru = np.array([r[3] for r in ekf_rec])
-    nees, nees_b = np.array([r[4] for r in ekf_rec]), np.array([r[5] for r in ekf_rec])
-    return SightingRun(mode, seed, duration_s, t, los_drift(los_i), np.array(rec_b), te, est, sig, tru, nees, nees_b,
-                       n, wall)
+    recorder = SightingRecorder(ekf, suite, core.config.n_steps, core.config.dt, record_every)
+    result = run_stages(core, [suite_stage(suite), ekf_stage(ekf), controller_stage(ctrl, sim_rate_hz, outer)],
+                        observer=recorder)
+    return recorder.run(mode, seed, duration_s, core.env.omega_in_n, result.wall_s)
 
 
 def paper1_sensors(correlated_ins: bool = False) -> tuple[SensorSuiteConfig, GyroBiasEkfParams]:
