@@ -19,7 +19,7 @@ from gimbal_kinematics.rotations import (
     dcm_from_rotation_vector, quat_to_dcm, rotation_vector_from_dcm, skew, small_angles_from_dcm,
 )
 from gimbal_kinematics.sighting_chain import dcm_bm, dcm_nb, reconstruct_roll_rate
-from gimbal_sim.core_ideal import TruthStabilizer
+from gimbal_sim.core.core_ideal import TruthStabilizer
 from gimbal_sim.experiments.bias_ekf import (
     GENERAL_GIMBAL_GYRO, ekf_params_from_sensors, run_monte_carlo,
 )

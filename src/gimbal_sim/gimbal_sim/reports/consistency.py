@@ -31,7 +31,7 @@ from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS, GyroBiasEkfParams
 from gimbal_estimators.nis import NisWindow
 from ..bag.reader import BagError, read_messages
-from ..core.core_stages import EKF_INPUTS, ekf_outputs
+from ..bag.ekf_replay import EKF_INPUTS, ekf_outputs
 from ..figures import save_stacked, stacked, style
 
 #: Updates per NIS window (the node's default diagnostics window).

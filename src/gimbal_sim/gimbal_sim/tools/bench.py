@@ -43,7 +43,7 @@ from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 from ..bag.compare import compare_bags
 from ..bag.reader import BagError, find_mcap, read_messages, scan
 from ..core.core_loop import NoCoreError, node_values, run_core_loop
-from ..core.core_stages import EKF_INPUTS, replay_bag
+from ..bag.ekf_replay import EKF_INPUTS, replay_bag
 from ..experiments.flexure import run_flexure_comparison
 from ..graph.orchestrator import run
 from ..graph.registry import NODE_TYPES
