@@ -45,7 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import validate
 from .earth import dcm_en, ecef_from_geodetic
+from .free_gyro import wrap_pi
 from .rotations import check_dcm, dcm_to_euler321, skew
 from .sighting_chain import ELEVATION_SINGULAR_COS, dcm_bm
 
@@ -58,7 +60,7 @@ HANDOVER_CHOICES = ("stop", "turret")
 
 def _wrap(angle: float, centre: float = 0.0) -> float:
     """``angle`` [rad] wrapped into [centre − π, centre + π)."""
-    return centre + (angle - centre + math.pi) % (2.0 * math.pi) - math.pi
+    return centre + wrap_pi(angle - centre)
 
 
 def check_geodetic(name: str, llh) -> tuple[float, float, float]:
@@ -69,7 +71,8 @@ def check_geodetic(name: str, llh) -> tuple[float, float, float]:
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected (lat, lon, h), got {llh!r}") from None
     if not all(math.isfinite(v) for v in (lat, lon, h)):
-        raise ValueError(f"{name}: position must be finite, got (lat, lon, h) = ({lat}, {lon}, {h})")
+        raise ValueError(f"{name}: position must be finite, got lat {math.degrees(lat):g}°, "
+                         f"lon {math.degrees(lon):g}°, h {h:g} m")
     if abs(lat) > math.pi / 2:
         raise ValueError(f"{name}: latitude {math.degrees(lat):g}° is outside [-90°, 90°]")
     if abs(lon) > 2.0 * math.pi:
@@ -82,13 +85,6 @@ def _vector3(name: str, vec) -> np.ndarray:
     if v.shape != (3,) or not np.all(np.isfinite(v)):
         raise ValueError(f"{name}: expected 3 finite numbers, got {vec!r}")
     return v
-
-
-def _finite(name: str, value: float) -> float:
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
-    return value
 
 
 @dataclass(frozen=True)
@@ -147,7 +143,7 @@ class GimbalLimits:
 
     def __post_init__(self) -> None:
         for name in ("azimuth_min_rad", "azimuth_max_rad", "elevation_min_rad", "elevation_max_rad"):
-            _finite(name, getattr(self, name))
+            validate.finite(name, getattr(self, name))
         if not self.azimuth_min_rad < self.azimuth_max_rad:
             raise ValueError(f"azimuth limits must have min < max, got [{self.azimuth_min_rad}, "
                              f"{self.azimuth_max_rad}] rad")
@@ -201,8 +197,8 @@ def joint_angles_for_los(
     norm = float(np.linalg.norm(u_n))
     if norm < 1e-12:
         raise ValueError("los_n: direction is zero")
-    psi_t = _finite("psi_t", psi_t)
-    psi_m_hold = _finite("psi_m_hold", psi_m_hold)
+    psi_t = validate.finite("psi_t", float(psi_t))
+    psi_m_hold = validate.finite("psi_m_hold", float(psi_m_hold))
     u_b = C_nb.T @ (u_n / norm)
     horiz = math.hypot(u_b[0], u_b[1])
     el_b = math.atan2(-u_b[2], horiz)
@@ -243,9 +239,7 @@ class PointingSigmas:
 
     def __post_init__(self) -> None:
         for name in self.__dataclass_fields__:
-            value = _finite(name, getattr(self, name))
-            if value < 0.0:
-                raise ValueError(f"{name} must be >= 0, got {value}")
+            validate.nonneg_finite(name, getattr(self, name))
 
 
 #: The budget's terms, in the order a report lists them.
