@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from gimbal_estimators.platform_navigator import HandOff, PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PARAMS, PlatformNavigatorParams
+from gimbal_estimators.rotation_alignment import AlignmentEstimate
 from gimbal_kinematics.params import ParameterError, defaults
 
 # WGS-84 defining constants and Somigliana normal gravity, written out here (not the code under test)
@@ -177,6 +178,29 @@ def test_rotation_modulates_level_errors_but_not_the_vertical_drift():
     assert peak["gyro_z", False] > 100.0  # the vertical drift does contribute
 
 
+def test_vertical_channel_is_damped_by_the_reference_height():
+    """A vertical accelerometer bias b into the third-order loop (triple pole at −1/τ, the
+    gravity gradient cancelled by k2) gives e(s) = −b/(s + 1/τ)³: h − h_ref = −b t² e^(−t/τ)/2,
+    peak 2bτ²/e² at t = 2τ, then back to the reference (a free channel would diverge)."""
+    bias, tau = 100.0 * UG, 100.0
+    nav = PlatformNavigator(PlatformNavigatorParams(lat_deg=40.0, vertical_tau_s=tau))
+    truth = StaticBaseTruth(bias_s=(0.0, 0.0, bias))
+    t, h = [], []
+    for k in range(int(1800.0 / DT) + 1):
+        f, th = truth.sense()
+        o = nav.step(k * DT_NS, f, th)
+        t.append(truth.t)
+        h.append(o.height)
+        truth.step(o.command_rate_n, DT)
+    t, h = np.array(t), np.array(h)
+    law = -bias * t**2 * np.exp(-t / tau) / 2.0
+    peak = 2.0 * bias * tau**2 / math.e**2
+    assert float(np.max(np.abs(h - law))) < 0.02 * peak
+    assert abs(h[-1]) < 0.01 * peak
+    print(f"vertical: peak {-h.min():.3f} m at {t[np.argmin(h)]:.0f} s (closed form {peak:.3f} m at {2 * tau:.0f} s), "
+          f"worst deviation {np.max(np.abs(h - law)) / peak:.4f} of the peak")
+
+
 # --------------------------------------------------------------------------- hand-off
 def test_drift_estimates_in_the_command_cancel_the_drifts():
     eps_s = (0.03 * DEG_H, -0.02 * DEG_H, 0.01 * DEG_H)
@@ -209,6 +233,24 @@ def test_misalignment_is_torqued_out_by_the_pulse():
     assert abs(res[0]) == pytest.approx(coupling, rel=0.2)
     assert abs(res[1]) < 0.2 and abs(res[2]) < 0.2
     print(f"residual misalignment after the pulse (E, N, U) = {res.round(3)} arcsec; ω_N δφU0 T/2 = {coupling:.3f}")
+
+
+def test_hand_off_from_the_alignment_estimate():
+    """The alignment's level drifts, north drift, level biases and its misalignment propagated to
+    the hand-off time (what the platform must be torqued back by) are what the navigator takes."""
+    x = np.array([1e-5, 2e-5, 3e-4, 4e-8, 5e-4, 6e-4, 7e-8, 8e-8])
+    z3, z8 = np.zeros(3), np.zeros(8)
+    est = AlignmentEstimate(t=600.0, age_s=600.0, n_updates=600, x=x, P=np.eye(8), sigma=z8,
+                            misalignment0_enu=x[:3], misalignment0_sigma_enu=z3,
+                            misalignment_enu=np.array([1.5e-5, 2.5e-5, 3.1e-4]), misalignment_sigma_enu=z3,
+                            north_drift=4e-8, north_drift_sigma=0.0, gyro_drift_xy=x[6:8],
+                            gyro_drift_sigma_xy=np.zeros(2), accel_bias_xy=x[4:6],
+                            accel_bias_sigma_xy=np.zeros(2), converged=True)
+    h = HandOff.from_alignment(est, LAT, 0.1, 20.0)
+    assert h == HandOff(LAT, 0.1, 20.0, (0.0, 0.0, 0.0), (7e-8, 8e-8, 0.0), 4e-8, (5e-4, 6e-4, 0.0),
+                        (1.5e-5, 2.5e-5, 3.1e-4))
+    nav = PlatformNavigator(PlatformNavigatorParams(lat_deg=40.0), h)
+    assert (nav.lat, nav.lon, nav.height, nav.vn) == (LAT, 0.1, 20.0, 0.0)
 
 
 # --------------------------------------------------------------------------- command rate

@@ -14,6 +14,9 @@ level platform has C_sn = rot3(ψ̂). The specific force is resolved through it 
 into the t-frame"): f_N = cos ψ̂ f_x − sin ψ̂ f_y, f_E = sin ψ̂ f_x + cos ψ̂ f_y, f_D = f_z, after
 the hand-off accelerometer-bias estimate is taken off f_s. The platform's tilt is not known
 to the navigator: it appears as g × tilt in f_N, f_E, which is what closes the Schuler loop.
+The resolver plus a known base heading gives the platform azimuth on a static base (paper 3's
+laboratory experiment); on a moving base the heading is not known, and ψ̂ would have to be the
+servo's rotation angle φz instead.
 
 Mechanisation (:mod:`gimbal_kinematics.earth` for the WGS-84 radii, rates and gravity)
 ------------------------------------------------------------------------------------
@@ -52,7 +55,8 @@ It is the rate at which the platform's gyro reference must turn so that it stays
 local level frame, without the modulation rate. **The servo follows it in NED**: it resolves
 it through its own commanded rotation angle φz and adds the modulation rate,
 ω_c^s = rot3(φz) ω_c^n + φ̇z e3 (the form of
-:func:`gimbal_kinematics.four_gimbal.command_rate_s`). The modulation schedule (φz, φ̇z, the
+:func:`gimbal_kinematics.four_gimbal.command_rate_s`; with the navigator in the loop the
+servo's own earth rate and drift compensation give way to ω_c^n). The modulation schedule (φz, φ̇z, the
 integrator presets at reversals) stays the servo's, and the gyro reference stays the azimuth
 reference, as in any platform INS: a vertical gyro drift turns the reference and the earth
 rate is then applied about the wrong axes, an error that rotation about the vertical cannot
