@@ -247,7 +247,7 @@ class PlatformNavigator:
     # -- the step ----------------------------------------------------------------------------
     def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> NavigatorOutput | None:
         """One sample: specific force ``f_s`` (3,) [m/s²] in platform axes, azimuth resolver
-        angle ``theta_a`` [rad] (None when the resolver sample is missing) at stamp ``t_ns``
+        angle ``theta_a`` [rad] (None when the resolver sample is missing or stale) at stamp ``t_ns``
         [int ns]. Returns None for a refused sample (counted)."""
         sample = self._admit(t_ns, f_s, theta_a)
         if sample is None:

@@ -123,7 +123,7 @@ DESCRIPTION = (
 _D = PlatformNavigatorParams()
 PARAMS = (
     TIMING_PARAM,
-    Param("lat_deg", _D.lat_deg, "hand-off latitude, geodetic [deg]", -89.0, 89.0),
+    Param("lat_deg", _D.lat_deg, "hand-off latitude, geodetic [deg]", -88.999, 88.999),
     Param("lon_deg", _D.lon_deg, "hand-off longitude [deg]", -360.0, 360.0),
     Param("height_m", _D.height_m, "hand-off height above the ellipsoid, also the vertical channel's "
           "reference altitude [m]", -1e4, 1e5),
