@@ -1,0 +1,319 @@
+"""Local-level platform INS navigator of paper 3's rotational INS (§4.3; docs/spec.md §3.3).
+
+After the fine alignment (:mod:`.rotation_alignment`) the platform keeps turning about the
+local vertical while this core navigates: per sample it takes the stable element's
+specific force f_s (platform axes s), the azimuth resolver angle θ_a and the stamp, and it
+returns the NED velocity, the position (latitude, longitude, height) and the platform
+command rate. Pure Python, no rclpy; a node wraps it.
+
+Frames and conventions (those of :mod:`gimbal_kinematics.four_gimbal` and the alignment)
+---------------------------------------------------------------------------------------
+n = local-level NED. The platform azimuth ψ̂ = θ_a + base heading is about NED down, and a
+level platform has C_sn = rot3(ψ̂). The specific force is resolved through it (paper 3:
+"the acceleration of the measurement axis needs to be resolved through the rotation angle
+into the t-frame"): f_N = cos ψ̂ f_x − sin ψ̂ f_y, f_E = sin ψ̂ f_x + cos ψ̂ f_y, f_D = f_z, after
+the hand-off accelerometer-bias estimate is taken off f_s. The platform's tilt is not known
+to the navigator: it appears as g × tilt in f_N, f_E, which is what closes the Schuler loop.
+The resolver plus a known base heading gives the platform azimuth on a static base (paper 3's
+laboratory experiment); on a moving base the heading is not known, and ψ̂ would have to be the
+servo's rotation angle φz instead.
+
+Mechanisation (:mod:`gimbal_kinematics.earth` for the WGS-84 radii, rates and gravity)
+------------------------------------------------------------------------------------
+    v̇ = f_n + g_n(L, h) − (2 ω_ie^n + ω_en^n) × v
+    L̇ = v_N / (R_M + h),   λ̇ = v_E / ((R_N + h) cos L)
+
+Velocity steps with the new sample's specific force and the previous velocity's Coriolis
+term, position by the trapezoid of the old and new velocity. In the closed loop (platform
+tilted by the previous command, then sensed, then integrated) this is the semi-implicit
+Euler scheme, which keeps the undamped Schuler oscillation's amplitude instead of letting it
+grow as explicit Euler would.
+
+Vertical channel: damped by a reference altitude. A free vertical channel is unstable: the
+gravity gradient ∂g/∂h ≈ −2g/R feeds a height error back positively, e^{t/τ} with
+τ = √(R/2g) ≈ 570 s, so a 100 µg vertical bias alone leaves kilometres after 3 h. A real
+platform INS damps it with an altimeter (barometric on aircraft) or, at sea and on a static
+base, a known reference height. This core runs the classical third-order loop against the
+reference height h_ref (the hand-off height; :meth:`PlatformNavigator.set_reference_height`
+takes an external altimeter):
+
+    e = h − h_ref,   ḣ = v_U − k1 e,   v̇_U = a_U − k2 e − δa,   δȧ = k3 e
+
+(v_U = −v_D). With the gradient in g(h) the error's characteristic polynomial is
+s³ + k1 s² + (k2 − 2g/R) s + k3; k1 = 3/τ_v, k2 = 3/τ_v² + 2g/R, k3 = 1/τ_v³ place a triple
+pole at −1/τ_v, and the integral state δa takes up a constant vertical accelerometer error
+with no steady height error. Holding h (v_D = 0) would also do on a static base, but gives
+no vertical velocity to the Coriolis term and no estimate of the vertical channel on a
+moving one.
+
+Platform command rate (paper 3 eq. 2–4), resolved in NED
+--------------------------------------------------------
+    ω_c^n = ω_ie^n(L) + ω_en^n(v, L, h) − ε̂^n + ω_torque^n
+    ε̂^n = ε̂_N e_N + rot3(ψ̂_c)ᵀ ε̂_s       (ψ̂_c: see below)
+
+It is the rate at which the platform's gyro reference must turn so that it stays on the
+local level frame, without the modulation rate. **The servo follows it in NED**: it resolves
+it through its own commanded rotation angle φz and adds the modulation rate,
+ω_c^s = rot3(φz) ω_c^n + φ̇z e3 (the form of
+:func:`gimbal_kinematics.four_gimbal.command_rate_s`; with the navigator in the loop the
+servo's own earth rate and drift compensation give way to ω_c^n). The modulation schedule (φz, φ̇z, the
+integrator presets at reversals) stays the servo's, and the gyro reference stays the azimuth
+reference, as in any platform INS: a vertical gyro drift turns the reference and the earth
+rate is then applied about the wrong axes, an error that rotation about the vertical cannot
+modulate. The drift estimates ε̂_s are fixed in the platform; resolved here through ψ̂ and
+back by the servo through φz, they come back to first order (ψ̂ − φz is the azimuth
+misalignment, ~1′ after the alignment: 3e-4 of 0.03 °/h). The servo holds each command until
+the next sample while the platform turns on, so ε̂_s is resolved at the azimuth half an
+interval ahead, ψ̂ + ½ (ψ̂ − ψ̂_previous): resolved where the interval starts, the held
+compensation would lag by half the turn per sample and leave a residual ε̂ ω_r Δt/2 across
+the drift (at 2 Hz and 1.2 °/s, 0.5 % of ε̂). ε̂_N is the alignment's north drift, fixed in
+NED. A positive ω_c^n about an NED axis turns the platform, and its
+misalignment φ (C_ns,true = exp([φ×]) C_ns,ideal), positively about that axis.
+
+Hand-off (paper 3 l. 580–582 and 707–709): navigation starts at the site with zero velocity,
+the drift estimates go into ω_c^n, the accelerometer-bias estimate is subtracted from f_s,
+and the misalignment φ is **torqued out by a one-time command-rate pulse**
+ω_torque^n = −φ^n / T for the samples stamped less than T after the first one. A reset of the
+navigator's reference instead would leave the stable element physically tilted (the
+accelerometers would go on reading g × tilt, a bias the mechanisation cannot tell from
+acceleration) and the gyro reference off in azimuth (the earth rate applied about the wrong
+axes); torquing the gyros is what a platform INS does. Spread over T (default 10 s: 1000″
+of azimuth is 0.03 °/s) the rate stays within what the servo tracks; a single-sample impulse
+would step the pickoffs. The servo holds each command until the next, so the angle torqued
+is φ × (time held)/T: exact when the sample period divides T. The level residual during T
+costs ~g φ T/2 of velocity (1 mm/s for 5″).
+
+Bad input is counted and never integrated: a non-finite stamp or value, a stamp at or
+before the previous one (repeat or out of order; :func:`gimbal_kinematics.sync.check_stamp`),
+a missing resolver angle (None). A stamp more than ``backward_jump_s`` back (a bag looping)
+restarts navigation from the hand-off, the sample being the first of the new run.
+
+Accuracy figure: none. The core is a mechanisation without a filter; its error comes from
+sensor errors it does not observe (that is the experiment's measurement), so any covariance it
+published would be an assumed error budget, not a property of the solution.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Sequence
+
+from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.sync import Stamp, check_stamp
+
+from .platform_navigator_params import PlatformNavigatorParams
+
+
+class HandOff(NamedTuple):
+    """Navigation start values, SI: ``lat``, ``lon`` [rad], ``height`` [m]; ``velocity_n``
+    NED [m/s] (zero on a static base); ``gyro_drift_s`` (x, y, z) [rad/s] in platform axes;
+    ``north_drift`` ε̂_N [rad/s]; ``accel_bias_s`` (x, y, z) [m/s²]; ``misalignment_enu``
+    (δφE, δφN, δφU) [rad] to torque out."""
+
+    lat: float
+    lon: float
+    height: float
+    velocity_n: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gyro_drift_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    north_drift: float = 0.0
+    accel_bias_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    misalignment_enu: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @classmethod
+    def from_params(cls, p: PlatformNavigatorParams) -> HandOff:
+        return cls(p.lat_rad, p.lon_rad, float(p.height_m), (0.0, 0.0, 0.0), p.gyro_drift_rad_s,
+                   p.north_drift_rad_s, p.accel_bias_m_s2, p.misalignment_enu_rad)
+
+    @classmethod
+    def from_alignment(cls, estimate, lat: float, lon: float, height: float) -> HandOff:
+        """From a :class:`.rotation_alignment.AlignmentEstimate` at the end of the alignment:
+        its level drifts (it has no vertical one), north drift, level accelerometer biases
+        and the misalignment propagated to its time; navigation starts at rest at
+        (``lat``, ``lon`` [rad], ``height`` [m])."""
+        ex, ey = (float(v) for v in estimate.gyro_drift_xy)
+        bx, by = (float(v) for v in estimate.accel_bias_xy)
+        return cls(float(lat), float(lon), float(height), (0.0, 0.0, 0.0), (ex, ey, 0.0),
+                   float(estimate.north_drift), (bx, by, 0.0),
+                   tuple(float(v) for v in estimate.misalignment_enu))  # type: ignore[arg-type]
+
+
+class NavigatorOutput(NamedTuple):
+    """One navigation step at stamp ``t_ns`` [ns]: ``velocity_n`` NED [m/s]; ``lat``,
+    ``lon`` [rad], ``height`` [m]; ``command_rate_n`` ω_c^n NED [rad/s] (module docstring)
+    to hold until the next step; ``azimuth`` ψ̂ [rad] used to resolve f_s; ``torquing``:
+    the hand-off pulse is in ``command_rate_n``."""
+
+    t_ns: int
+    velocity_n: tuple[float, float, float]
+    lat: float
+    lon: float
+    height: float
+    command_rate_n: tuple[float, float, float]
+    azimuth: float
+    torquing: bool
+
+
+class PlatformNavigator:
+    """Platform INS mechanisation core (module docstring). Feed :meth:`step` per IMU sample."""
+
+    def __init__(self, params: PlatformNavigatorParams | None = None, hand_off: HandOff | None = None) -> None:
+        self.params = params if params is not None else PlatformNavigatorParams()
+        if not isinstance(self.params, PlatformNavigatorParams):
+            raise TypeError(f"params must be PlatformNavigatorParams, got {type(self.params).__name__}")
+        self.accepted = 0
+        self.rejected_nonfinite = 0
+        self.rejected_out_of_order = 0
+        self.rejected_no_resolver = 0
+        self.resets = 0
+        self.reset_reasons: list[str] = []
+        self.hand_off(hand_off if hand_off is not None else HandOff.from_params(self.params))
+
+    # -- hand-off and restarts ---------------------------------------------------------------
+    def hand_off(self, h: HandOff) -> None:
+        """Start navigating from ``h`` (the alignment's result); the next sample is the first."""
+        vals = (h.lat, h.lon, h.height, h.north_drift, *h.velocity_n, *h.gyro_drift_s, *h.accel_bias_s,
+                *h.misalignment_enu)
+        if len(vals) != 16 or not all(math.isfinite(float(v)) for v in vals):
+            raise ValueError(f"hand_off: every value must be finite, 3 per vector, got {h!r}")
+        if abs(h.lat) >= math.radians(89.0):
+            raise ValueError(f"hand_off: latitude {math.degrees(h.lat):.3f}° is within 1° of a pole")
+        self._handoff = h
+        self.h_ref = float(h.height)
+        g0 = normal_gravity(h.lat, h.height)
+        r0 = math.sqrt(meridian_radius(h.lat) * prime_vertical_radius(h.lat)) + h.height
+        tau = self.params.vertical_tau_s
+        self._k = (3.0 / tau, 3.0 / tau**2 + 2.0 * g0 / r0, 1.0 / tau**3)
+        e, n, u = (float(v) for v in h.misalignment_enu)
+        T = self.params.torque_out_s
+        self._torque_n = (-n / T, -e / T, u / T)  # −φ^n / T with φ^n = (δφN, δφE, −δφU)
+        self._start()
+
+    def _start(self) -> None:
+        h = self._handoff
+        self.lat, self.lon, self.height = float(h.lat), float(h.lon), float(h.height)
+        self.vn, self.ve, self.vd = (float(v) for v in h.velocity_n)
+        self._da = 0.0  # vertical loop's integral state [m/s²]
+        self._t_last_ns: int | None = None
+        self._t0_ns: int | None = None
+        self._psi_last = 0.0
+
+    def reset(self, reason: str) -> None:
+        """Restart from the hand-off values; ``reason`` goes to ``reset_reasons``."""
+        self.resets += 1
+        self.reset_reasons.append(str(reason))
+        self._start()
+
+    def set_reference_height(self, h_ref: float) -> None:
+        """Reference altitude [m] of the vertical channel (an external altimeter)."""
+        h_ref = float(h_ref)
+        if not math.isfinite(h_ref):
+            raise ValueError(f"reference height must be finite, got {h_ref!r}")
+        self.h_ref = h_ref
+
+    # -- input checks ----------------------------------------------------------------------
+    def _stamp_verdict(self, t_ns: int) -> Stamp:
+        # the project's one stamp check, in float seconds (duplicates compare equal)
+        last = None if self._t_last_ns is None else self._t_last_ns * 1e-9
+        return check_stamp(t_ns * 1e-9, last, self.params.backward_jump_s)
+
+    def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | None:
+        """(f_x, f_y, f_z, θ_a) as floats, or None after counting why the sample is refused."""
+        try:
+            f = [float(v) for v in f_s]
+            t_ok = math.isfinite(float(t_ns))
+        except (TypeError, ValueError):
+            self.rejected_nonfinite += 1
+            return None
+        if len(f) != 3 or not t_ok or not all(math.isfinite(v) for v in f):
+            self.rejected_nonfinite += 1
+            return None
+        verdict = self._stamp_verdict(int(t_ns))
+        if verdict is Stamp.OUT_OF_ORDER:
+            self.rejected_out_of_order += 1
+            return None
+        if theta_a is None:
+            self.rejected_no_resolver += 1
+            return None
+        try:
+            a = float(theta_a)
+        except (TypeError, ValueError):
+            a = math.nan
+        if not math.isfinite(a):
+            self.rejected_nonfinite += 1
+            return None
+        if verdict is Stamp.JUMPED_BACK:
+            self.reset(f"stamp jumped back {(self._t_last_ns - int(t_ns)) * 1e-9:.3f} s to t={int(t_ns)} ns")
+        return f[0], f[1], f[2], a
+
+    # -- the step ----------------------------------------------------------------------------
+    def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> NavigatorOutput | None:
+        """One sample: specific force ``f_s`` (3,) [m/s²] in platform axes, azimuth resolver
+        angle ``theta_a`` [rad] (None when the resolver sample is missing or stale) at stamp ``t_ns``
+        [int ns]. Returns None for a refused sample (counted)."""
+        sample = self._admit(t_ns, f_s, theta_a)
+        if sample is None:
+            return None
+        t_ns = int(t_ns)
+        self.accepted += 1
+        h = self._handoff
+        fx, fy, fz = (sample[0] - h.accel_bias_s[0], sample[1] - h.accel_bias_s[1],
+                      sample[2] - h.accel_bias_s[2])
+        psi = sample[3] + self.params.base_heading_rad
+        c, s = math.cos(psi), math.sin(psi)
+        # the command is held until the next sample: resolve the platform-fixed drift at the
+        # azimuth half an interval ahead (the last interval's turn), not where it starts
+        psi_c = psi
+        if self._t_last_ns is None:
+            self._t0_ns = t_ns
+        else:
+            self._integrate((t_ns - self._t_last_ns) * 1e-9, c * fx - s * fy, s * fx + c * fy, fz)
+            psi_c += 0.5 * math.remainder(psi - self._psi_last, math.tau)
+        self._t_last_ns, self._psi_last = t_ns, psi
+        torquing = (t_ns - self._t0_ns) * 1e-9 < self.params.torque_out_s
+        return NavigatorOutput(t_ns, (self.vn, self.ve, self.vd), self.lat, self.lon, self.height,
+                               self._command_rate(math.cos(psi_c), math.sin(psi_c), torquing), psi, torquing)
+
+    def _integrate(self, dt: float, f_n: float, f_e: float, f_d: float) -> None:
+        lat, hgt = self.lat, self.height
+        vn, ve, vd = self.vn, self.ve, self.vd
+        cl, sl = math.cos(lat), math.sin(lat)
+        rm = meridian_radius(lat) + hgt
+        rn = prime_vertical_radius(lat) + hgt
+        # w = 2 ω_ie^n + ω_en^n; the Coriolis term is w × v
+        wx = 2.0 * OMEGA_IE * cl + ve / rn
+        wy = -vn / rm
+        wz = -2.0 * OMEGA_IE * sl - ve * sl / (cl * rn)
+        vn1 = vn + dt * (f_n - (wy * vd - wz * ve))
+        ve1 = ve + dt * (f_e - (wz * vn - wx * vd))
+        # vertical channel, damped by the reference height (module docstring)
+        k1, k2, k3 = self._k
+        err = hgt - self.h_ref
+        a_up = -(f_d + normal_gravity(lat, hgt) - (wx * ve - wy * vn))
+        vu1 = -vd + dt * (a_up - k2 * err - self._da)
+        self._da += dt * k3 * err
+        self.height = hgt + dt * (0.5 * (vu1 - vd) - k1 * err)
+        self.lat = lat + dt * 0.5 * (vn + vn1) / rm
+        self.lon = math.remainder(self.lon + dt * 0.5 * (ve + ve1) / (rn * cl), math.tau)
+        self.vn, self.ve, self.vd = vn1, ve1, -vu1
+
+    def _command_rate(self, c: float, s: float, torquing: bool) -> tuple[float, float, float]:
+        lat, hgt = self.lat, self.height
+        cl, sl = math.cos(lat), math.sin(lat)
+        rm = meridian_radius(lat) + hgt
+        rn = prime_vertical_radius(lat) + hgt
+        h = self._handoff
+        ex, ey, ez = h.gyro_drift_s
+        # ω_ie^n + ω_en^n − ε̂^n (ε̂_s resolved through ψ̂: rot3(ψ̂)ᵀ)
+        wn = OMEGA_IE * cl + self.ve / rn - (h.north_drift + c * ex - s * ey)
+        we = -self.vn / rm - (s * ex + c * ey)
+        wd = -OMEGA_IE * sl - self.ve * sl / (cl * rn) - ez
+        if torquing:
+            tn, te, td = self._torque_n
+            return wn + tn, we + te, wd + td
+        return wn, we, wd
+
+    # -- outputs -----------------------------------------------------------------------------
+    def counters(self) -> dict[str, int]:
+        """The counters by name (for /diagnostics)."""
+        return {"accepted": self.accepted, "rejected_nonfinite": self.rejected_nonfinite,
+                "rejected_out_of_order": self.rejected_out_of_order,
+                "rejected_no_resolver": self.rejected_no_resolver, "resets": self.resets}
