@@ -121,13 +121,13 @@ N_ATTITUDE = 21
 
 class AttitudeSample(NamedTuple):
     """Nominal motion at one time: ``omega_ib_b`` (3,) body inertial rate [rad/s],
-    ``omega_in_n`` (3,) navigation-frame inertial rate [rad/s], ``C_ib`` (3, 3) inertial to
-    body (= C_g^b with g ≡ i), ``C_bn`` (3, 3) body to NED."""
+    ``omega_in_n`` (3,) navigation-frame inertial rate [rad/s], ``C_bi`` (3, 3) maps i to b
+    (the paper's C_g^b with g ≡ i), ``C_nb`` (3, 3) maps b to NED (the paper's C_b^n)."""
 
     omega_ib_b: np.ndarray
     omega_in_n: np.ndarray
-    C_ib: np.ndarray
-    C_bn: np.ndarray
+    C_bi: np.ndarray
+    C_nb: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -143,14 +143,15 @@ class AttitudeError:
         object.__setattr__(self, "z", _matrix("z", self.z, (N_ATTITUDE,)))
         object.__setattr__(self, "P", _covariance("P", self.P, N_ATTITUDE))
 
-    def spin_axis_errors_n(self, C_bn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Error angles η_k = γ + C_b^n ξ_k (3,) [rad] of the two spin axes in NED."""
-        C = _matrix("C_bn", C_bn, (3, 3))
+    def spin_axis_errors_n(self, C_nb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Error angles η_k = γ + C_b^n ξ_k (3,) [rad] of the two spin axes in NED (``C_nb``
+        (3, 3) maps b to n)."""
+        C = _matrix("C_nb", C_nb, (3, 3))
         return self.z[6:9] + C @ self.z[0:3], self.z[6:9] + C @ self.z[3:6]
 
-    def spin_axis_error_covs_n(self, C_bn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def spin_axis_error_covs_n(self, C_nb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Covariances (3, 3) [rad²] of η_a, η_b."""
-        C = _matrix("C_bn", C_bn, (3, 3))
+        C = _matrix("C_nb", C_nb, (3, 3))
         out = []
         for k in (0, 3):
             T = np.zeros((3, N_ATTITUDE))
@@ -164,15 +165,15 @@ def attitude_error_matrix(s: AttitudeSample) -> np.ndarray:
     """A (21, 21) of ż = A z (eq. 19 for each gyro, eq. 20; inputs constant)."""
     w_b = _matrix("omega_ib_b", s.omega_ib_b, (3,))
     w_n = _matrix("omega_in_n", s.omega_in_n, (3,))
-    C_ib = _matrix("C_ib", s.C_ib, (3, 3))
-    C_bn = _matrix("C_bn", s.C_bn, (3, 3))
+    C_bi = _matrix("C_bi", s.C_bi, (3, 3))
+    C_nb = _matrix("C_nb", s.C_nb, (3, 3))
     A = np.zeros((N_ATTITUDE, N_ATTITUDE))
     for k in (0, 3):  # eq. 19: ξ̇ = −ω_ib^b × ξ − C_g^b δω_ig^g + δω_ib^b
         A[k:k + 3, k:k + 3] = -skew(w_b)
-        A[k:k + 3, 9 + k:12 + k] = -C_ib
+        A[k:k + 3, 9 + k:12 + k] = -C_bi
         A[k:k + 3, 15:18] = np.eye(3)
     A[6:9, 6:9] = -skew(w_n)      # eq. 20: γ̇ = −ω_in^n × γ − C_b^n δω_ib^b + δω_in^n
-    A[6:9, 15:18] = -C_bn
+    A[6:9, 15:18] = -C_nb
     A[6:9, 18:21] = np.eye(3)
     return A
 
@@ -181,16 +182,20 @@ def propagate_attitude_error(state: AttitudeError, t0: float, t1: float,
                              trajectory: Callable[[float], AttitudeSample],
                              max_step_s: float = 1.0) -> AttitudeError:
     """``state`` at ``t0`` [s] propagated to ``t1`` [s] along the nominal motion
-    ``trajectory(t)``: steps of at most ``max_step_s``, each z ← Φ z, P ← Φ P Φᵀ with
-    Φ = expm(A dt) and A held at the step's midpoint (second order in the step)."""
+    ``trajectory(t)``: steps of at most ``max_step_s``, each z ← Φ z, P ← Φ P Φᵀ with the
+    fourth-order Magnus transition Φ = expm(dt (A₁ + A₂)/2 + √3 dt² [A₂, A₁]/12), A₁, A₂ at
+    the step's two Gauss points."""
     t0, t1 = finite("t0", t0), finite("t1", t1)
     if t1 < t0:
         raise ValueError(f"t1 must be >= t0, got {t1} < {t0}")
     n = max(1, math.ceil((t1 - t0) / positive("max_step_s", max_step_s) - 1e-9))
     dt = (t1 - t0) / n
+    c = math.sqrt(3.0) / 6.0
     z, P = state.z.copy(), state.P.copy()
     for k in range(n):
-        Phi = expm(attitude_error_matrix(trajectory(t0 + (k + 0.5) * dt)) * dt)
+        A1 = attitude_error_matrix(trajectory(t0 + (k + 0.5 - c) * dt))
+        A2 = attitude_error_matrix(trajectory(t0 + (k + 0.5 + c) * dt))
+        Phi = expm(0.5 * dt * (A1 + A2) + (math.sqrt(3.0) / 12.0) * dt * dt * (A2 @ A1 - A1 @ A2))
         z = Phi @ z
         P = Phi @ P @ Phi.T
     return AttitudeError(z, 0.5 * (P + P.T))
@@ -222,11 +227,19 @@ def level_error_angle_l(pitch: float) -> np.ndarray:
     return -np.array([[cp, 0.0], [0.0, 1.0], [-sp, 0.0]])
 
 
-def earth_rate_heading_jacobian(lat: float, roll: float, pitch: float, heading: float) -> np.ndarray:
+def earth_rate_heading_jacobian(lat: float, roll: float, pitch: float, heading: float,
+                                yaw_rate: float = 0.0) -> np.ndarray:
     """(5,) derivatives of the earth-rate heading (eq. 3–4) with respect to (δroll, δpitch)
     [rad/rad] and the triad error δω_ib^b (3,) [rad/(rad/s)] (eq. 29, through
-    :func:`gimbal_kinematics.free_gyro.heading_error`), at rest."""
-    w_b = euler321_to_dcm(roll, pitch, heading).T @ earth_rate_n(lat)
+    :func:`gimbal_kinematics.free_gyro.heading_error`).
+
+    ``yaw_rate`` [rad/s] is the ship's mean yaw rate over the heading window: the core
+    removes the level rates but not the yaw rate, which stays on the levelled vertical, and a
+    levelling error Γ turns it into the horizontal (eq. 28's −Γ C_b^n ω_b term with the
+    ship's rate in ω_b): δψ ≈ tilt · ψ̇ / (Ω cos φ), far above tan φ · tilt once ψ̇ ≳ Ω.
+    """
+    w_n = earth_rate_n(lat) + np.array([0.0, 0.0, finite("yaw_rate", yaw_rate)])
+    w_b = euler321_to_dcm(roll, pitch, heading).T @ w_n
     cols = [heading_error(w_b, (0.0, 0.0, 0.0), roll, pitch, 1.0, 0.0),
             heading_error(w_b, (0.0, 0.0, 0.0), roll, pitch, 0.0, 1.0)]
     cols += [heading_error(w_b, e, roll, pitch) for e in np.eye(3)]
@@ -315,9 +328,10 @@ class FixErrorModel:
 
     The nominal fix: spin axes ``u_a_i``, ``u_b_i`` (unit, inertial), true site ``lat``,
     ``lon`` [rad] and height ``height_m``, fix time ``t`` [s] (the window's mean time),
-    ship attitude ``roll``, ``pitch``, ``heading`` [rad] (at rest), ``drift_elapsed_s`` since
-    the spin axes were set (ε = d · that), ``samples_per_fix`` read-outs averaged and the
-    earth-rate heading's ``heading_window_s`` [s].
+    ship attitude ``roll``, ``pitch``, ``heading`` [rad] (the window means; the ship at
+    rest), ``drift_elapsed_s`` since the spin axes were set (ε = d · that),
+    ``samples_per_fix`` read-outs averaged, and the earth-rate heading's window
+    ``heading_window_s`` [s] and the ship's mean ``yaw_rate_rad_s`` over it.
 
     ``H`` (6, 11) maps the random constants :data:`INPUTS` (δroll, δpitch [rad]; ε_a, ε_b
     [rad] in i; δω_ib^b [rad/s]) to :data:`OUTPUTS`; ``H_white`` (6, 4) maps one fix's
@@ -326,8 +340,8 @@ class FixErrorModel:
 
     def __init__(self, u_a_i: Vector3, u_b_i: Vector3, lat: float, lon: float, t: float, *,
                  roll: float = 0.0, pitch: float = 0.0, heading: float = 0.0, drift_elapsed_s: float = 0.0,
-                 samples_per_fix: int = 1, heading_window_s: float = 60.0, height_m: float = 0.0,
-                 omega_ie: float = OMEGA_IE) -> None:
+                 samples_per_fix: int = 1, heading_window_s: float = 60.0, yaw_rate_rad_s: float = 0.0,
+                 height_m: float = 0.0, omega_ie: float = OMEGA_IE) -> None:
         self.u = (np.array(unit_vector(u_a_i, "u_a_i")), np.array(unit_vector(u_b_i, "u_b_i")))
         self.lat, self.lon, self.t = finite("lat", lat), finite("lon", lon), finite("t", t)
         self.roll, self.pitch, self.heading = finite("roll", roll), finite("pitch", pitch), finite("heading", heading)
@@ -336,6 +350,7 @@ class FixErrorModel:
             raise ValueError(f"samples_per_fix must be an int >= 1, got {samples_per_fix!r}")
         self.samples_per_fix = samples_per_fix
         self.heading_window_s = positive("heading_window_s", heading_window_s)
+        self.yaw_rate_rad_s = finite("yaw_rate_rad_s", yaw_rate_rad_s)
         self.height_m = finite("height_m", height_m)
         self.geometry = fix_geometry(self.u[0], self.u[1], self.lat, self.lon, self.t, omega_ie=omega_ie)
         C_ni = dcm_ni(self.lat, self.lon, self.t, omega_ie)
@@ -378,7 +393,7 @@ class FixErrorModel:
         w = np.sin(th) ** 2 / np.sum(np.sin(th) ** 2)
         rows += [w @ (Z + A @ x)]
         rows_w += [w @ (Zw + A @ xw)]
-        J = earth_rate_heading_jacobian(self.lat, self.roll, self.pitch, self.heading)
+        J = earth_rate_heading_jacobian(self.lat, self.roll, self.pitch, self.heading, self.yaw_rate_rad_s)
         er = np.zeros(11)
         er[0:2], er[8:11] = J[0:2], J[2:5]
         rows += [er]
