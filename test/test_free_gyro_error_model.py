@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.linalg import expm
 
 from gimbal_estimators.free_gyro_error_model import (
     ARCSEC, DEG_H, N_ATTITUDE, AttitudeError, AttitudeSample, ErrorSources, FixErrorModel, circle_probability,
-    fdop_circle_probability, propagate_attitude_error, spin_drift_error_cov_i)
+    expm_augmented, fdop_circle_probability, propagate_attitude_error, spin_drift_error_cov_i)
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
 from gimbal_kinematics.free_gyro import dcm_ni, nadir_angle, spin_axes_for_site_deg
@@ -91,6 +92,16 @@ def test_attitude_error_dynamics_match_nonlinear_integration():
             print(f"t={t:.0f} s {name}: |nonlinear| {np.linalg.norm(nl[sl]) / ARCSEC:.1f}″, "
                   f"linear−nonlinear {rel:.2e} of it")
             assert rel < 0.01
+
+
+def test_closed_form_transition_equals_scipy_expm():
+    rng = np.random.default_rng(19)
+    for scale in (1e-6, 1e-3, 0.5, 2.0):
+        Om = np.zeros((N_ATTITUDE, N_ATTITUDE))
+        for k in (0, 3, 6):
+            Om[k:k + 3, k:k + 3] = skew(rng.standard_normal(3) * scale)
+        Om[:9, 9:] = rng.standard_normal((9, 12))
+        assert np.max(np.abs(expm_augmented(Om) - expm(Om))) < 1e-12
 
 
 def test_triad_bias_cancels_and_drift_propagates_as_closed_form():
@@ -250,6 +261,7 @@ CASES = {
                           ErrorSources(spin_drift_deg_h=20.0)),
     "levelling 10″": ({"triad": GyroParams()}, 10.0, ErrorSources(level_error_arcsec=10.0)),
     "triad bias 0.05 °/h": ({"triad": GyroParams(bias_sigma_deg_h=0.05)}, 0.0, ErrorSources(triad_bias_deg_h=0.05)),
+    "triad ARW 0.005 °/√h": ({"triad": GyroParams(arw_deg_rt_h=0.005)}, 0.0, ErrorSources(triad_arw_deg_rt_h=0.005)),
 }
 
 
@@ -273,3 +285,18 @@ def test_monte_carlo_sigma_within_15_percent_of_model(ship_truth, case):
             assert abs(ratio - 1.0) < 0.15
         else:  # the mechanisation does not couple this source into this output
             assert mc[key] == 0.0
+
+
+def test_bad_inputs_are_refused_naming_them():
+    with pytest.raises(ValueError, match="level_error_arcsec"):
+        ErrorSources(level_error_arcsec=-1.0)
+    with pytest.raises(ValueError, match="spin_drift_deg_h"):
+        ErrorSources(spin_drift_deg_h=float("nan"))
+    with pytest.raises(ValueError, match="z must have shape"):
+        AttitudeError(np.zeros(N_ATTITUDE - 1), np.zeros((N_ATTITUDE, N_ATTITUDE)))
+    with pytest.raises(ValueError, match="positive semi-definite"):
+        circle_probability(np.diag([1.0, -1.0]), 1.0)
+    with pytest.raises(ValueError, match="shape"):
+        fdop_circle_probability(np.eye(3))
+    with pytest.raises(ValueError, match="samples_per_fix"):
+        FixErrorModel(U_A, U_B, LAT, LON, 0.0, samples_per_fix=0)

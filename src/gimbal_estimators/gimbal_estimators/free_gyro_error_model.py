@@ -55,6 +55,13 @@ A computed vector is then v̂ = v − (error angle) × v.
    of the measured θ. The free-gyro heading is ψ = α − ζ (Fig. 4), combined over the two
    gyros with weights sin²θ as the core does.
 
+   Earth-rate heading (eq. 3–4, 27–29): δψ = (ω_ly δω_lx − ω_lx δω_ly)/(ω_lx² + ω_ly²) of
+   the levelled rate averaged over the heading window, whose error is the triad error plus
+   the levelling error turning the levelled rate (eq. 28's −Γ C_b^n ω_b). The core removes
+   the level rates but not the yaw rate, so that ω holds the earth rate and the ship's mean
+   yaw rate over the window: a levelling error couples the yaw rate into the heading
+   (:func:`earth_rate_heading_jacobian`). White triad noise averages to (N/√T)/(Ω cos φ).
+
 3. Position (eq. 30–38): W δx = e_θ with W from
    :func:`gimbal_kinematics.free_gyro.fix_geometry`. The paper assumes i.i.d. nadir errors
    (eq. 34) to get cov = σ² (WᵀW)⁻¹ and fd = FDOP σ (eq. 38). A levelling error is common
@@ -63,8 +70,10 @@ A computed vector is then v̂ = v − (error angle) × v.
    the FDOP circle (after eq. 38) is 1 − e⁻¹: for a circular distribution FDOP σ = drms =
    √2 σ per axis (:func:`fdop_circle_probability`).
 
-Not modelled: the clock error δt of eq. 30 and the velocity/position feedback δω_in^n of
-eq. 20 (kept as an input of the dynamics, zero in the fix map), white levelling noise.
+Not modelled: the clock error δt of eq. 30; the velocity/position feedback δω_in^n of
+eq. 20 (kept as an input of the dynamics, zero in the fix map); white levelling noise; the
+attitude's variation within a window (the map is taken at the window-mean attitude, and
+only the mean yaw rate of the ship's rates enters the earth-rate heading).
 
 SI inside (rad, rad/s, s, m); the error sources' σ in °/h, ″ and °/√h at the edge.
 """
@@ -76,14 +85,15 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy.integrate import quad
-from scipy.linalg import expm
 from scipy.special import erf
 
 from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
 from gimbal_kinematics.free_gyro import (
     FixGeometry, Vector3, dcm_ni, fix_geometry, gyro_vector_n, heading_error, unit_vector)
-from gimbal_kinematics.rotations import euler321_to_dcm, skew
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, skew, unskew
 from gimbal_kinematics.validate import finite, nonneg_finite, positive
+
+from .kalman import check_state, predict, symmetrize
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 DEG_H = math.pi / (180.0 * 3600.0)
@@ -106,11 +116,10 @@ def _matrix(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def _covariance(name: str, value: object, n: int) -> np.ndarray:
-    P = _matrix(name, value, (n, n))
-    if not np.allclose(P, P.T, rtol=1e-9, atol=1e-300):
-        raise ValueError(f"{name} must be symmetric")
-    if np.min(np.linalg.eigvalsh(0.5 * (P + P.T))) < -1e-9 * max(float(np.max(np.abs(P))), 1e-300):
-        raise ValueError(f"{name} must be positive semi-definite")
+    """A (n, n) covariance: ``kalman.check_state``'s checks, and positive semi-definite."""
+    _, P = check_state(np.zeros(n), value, name)
+    if np.min(np.linalg.eigvalsh(symmetrize(P))) < -1e-9 * max(float(np.max(np.abs(P))), 1e-300):
+        raise ValueError(f"{name}: covariance is not positive semi-definite")
     return P
 
 
@@ -178,13 +187,32 @@ def attitude_error_matrix(s: AttitudeSample) -> np.ndarray:
     return A
 
 
+def expm_augmented(Om: np.ndarray) -> np.ndarray:
+    """expm of Ω = [[S, B], [0, 0]] with S block-diagonal of three skew (3, 3) blocks (the
+    form of A and of its Magnus commutator): [[e^S, φ(S) B], [0, I]], each block's e^S by
+    Rodrigues and φ(S) = ∫₀¹ e^{S s} ds = I + (1 − cos θ)/θ² S + (θ − sin θ)/θ³ S²."""
+    Phi = np.eye(N_ATTITUDE)
+    for k in (0, 3, 6):
+        S = Om[k:k + 3, k:k + 3]
+        a = unskew(S)
+        t2 = float(a @ a)
+        if t2 < 1e-8:
+            c1, c2 = 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+        else:
+            t = math.sqrt(t2)
+            c1, c2 = (1.0 - math.cos(t)) / t2, (t - math.sin(t)) / (t2 * t)
+        Phi[k:k + 3, k:k + 3] = dcm_from_rotation_vector(a)
+        Phi[k:k + 3, 9:] = (np.eye(3) + c1 * S + c2 * (S @ S)) @ Om[k:k + 3, 9:]
+    return Phi
+
+
 def propagate_attitude_error(state: AttitudeError, t0: float, t1: float,
                              trajectory: Callable[[float], AttitudeSample],
                              max_step_s: float = 1.0) -> AttitudeError:
     """``state`` at ``t0`` [s] propagated to ``t1`` [s] along the nominal motion
     ``trajectory(t)``: steps of at most ``max_step_s``, each z ← Φ z, P ← Φ P Φᵀ with the
-    fourth-order Magnus transition Φ = expm(dt (A₁ + A₂)/2 + √3 dt² [A₂, A₁]/12), A₁, A₂ at
-    the step's two Gauss points."""
+    fourth-order Magnus transition Φ = exp(dt (A₁ + A₂)/2 + √3 dt² [A₂, A₁]/12), A₁, A₂ at
+    the step's two Gauss points (the exponential in closed form, :func:`expm_augmented`)."""
     t0, t1 = finite("t0", t0), finite("t1", t1)
     if t1 < t0:
         raise ValueError(f"t1 must be >= t0, got {t1} < {t0}")
@@ -195,10 +223,9 @@ def propagate_attitude_error(state: AttitudeError, t0: float, t1: float,
     for k in range(n):
         A1 = attitude_error_matrix(trajectory(t0 + (k + 0.5 - c) * dt))
         A2 = attitude_error_matrix(trajectory(t0 + (k + 0.5 + c) * dt))
-        Phi = expm(0.5 * dt * (A1 + A2) + (math.sqrt(3.0) / 12.0) * dt * dt * (A2 @ A1 - A1 @ A2))
-        z = Phi @ z
-        P = Phi @ P @ Phi.T
-    return AttitudeError(z, 0.5 * (P + P.T))
+        Phi = expm_augmented(0.5 * dt * (A1 + A2) + (math.sqrt(3.0) / 12.0) * dt * dt * (A2 @ A1 - A1 @ A2))
+        z, P = predict(z, P, Phi, np.zeros_like(P))
+    return AttitudeError(z, P)
 
 
 def spin_drift_error_cov_i(u_i: Vector3, sigma_drift_rad_s: float, elapsed_s: float) -> np.ndarray:
@@ -421,7 +448,7 @@ class FixErrorModel:
         cov += s_pick**2 * self.H_white @ self.H_white.T
         arw = sources.triad_arw_deg_rt_h * DEG_RT_H
         cov[5, 5] += (arw / math.sqrt(self.heading_window_s) / (OMEGA_IE * math.cos(self.lat))) ** 2
-        return ErrorPrediction(0.5 * (cov + cov.T), self.geometry, self.height_m)
+        return ErrorPrediction(symmetrize(cov), self.geometry, self.height_m)
 
 
 # --- FDOP circle (eq. 38) ------------------------------------------------------------------------
