@@ -1,0 +1,318 @@
+"""Operator LOS rate command shaper: what the LOS rate controller adds to its stabilisation
+reference when a person slews the sight (issue 24; paper 1's operator, §1 and §6).
+
+Input. A commanded inertial LOS rate in the sight frame m, (q, r) [rad/s] about m-y
+(elevation, +q raises the LOS) and m-z (azimuth, +r turns it right), the order of the
+controller's ``rate_command_qr``, stamped in integer nanoseconds (:meth:`set_rate`,
+``geometry_msgs/Vector3Stamped`` y, z: a two-axis gimbal cannot roll the LOS, so x is not
+commandable). Or a ``sensor_msgs/Joy`` axes array (:meth:`set_joy`), mapped as ROS teleop
+nodes do: rate = scale × axis, full deflection ±1 giving ±``joy_scale_rad_s`` (rad/s, the
+unit of teleop_twist_joy's ``scale_angular``, so a teleop configuration carries over). The
+joy node's convention is stick up = +1 and stick left = +1; left is −r in the FRD sight
+frame, hence ``joy_invert_azimuth`` defaults to True. The dead zone is joy_node's own
+``deadzone`` parameter, not repeated here.
+
+Output. At each controller step (:meth:`step`, its stamp in ns) the shaped command: each
+axis follows the command in force with its acceleration limited to ``max_accel_deg_s2``,
+exactly as a continuous-time slew-rate limiter would for the piecewise-constant command.
+A command takes effect at its own stamp, not at the next step: the interval since the last
+step is split at every command stamp and at the dead-man deadline, and each piece moves
+the output towards the target then in force by at most a·Δt. For a step command v stamped
+t_c the output is therefore min(|v|, a (t − t_c)) · sign v, wherever t_c falls between
+steps. The limit is per axis because each axis has its own torque authority (paper 1's
+gimbal: azimuth and elevation torquers with different limits and inertias).
+
+Rate limit and bad input. A command with an axis above ``max_rate_deg_s`` is rejected and
+counted, not clipped: the issue's acceptance lists "a rate above the limit" among the bad
+input that is counted and never acted on, and a rate beyond the limit means the sender's
+scaling disagrees with ours (a deg-for-rad error is 57×), so clipping would turn a wrong
+message into a full-rate slew; the previous valid command stays in force and the dead-man
+retires it. The joystick path cannot exceed the limit: a ``joy_scale_rad_s`` above it is
+refused at construction. Also rejected and counted: non-finite rates, a joystick message
+too short for the configured axes or with an axis outside [−1, 1], a command stamp at or
+before the newest accepted one (duplicate or out of order), a command already older than
+``timeout_s`` at the newest step (stale: it would stop at once), and one stamped more than
+``timeout_s`` ahead of it (a different clock; holding it would defeat the dead-man). Step
+stamps follow the project's stamp rule: at or before the last step and within
+``clock_jump_s`` of it, rejected and counted (the output is returned unchanged); further
+back, the clock jumped (a bag loop) and the shaper resets (output and commands forgotten).
+
+Dead-man. A command older than ``timeout_s`` stops the slew: the target becomes zero at
+stamp + timeout and the output ramps to zero under the acceleration limit, so a slew at v
+stops by stamp + timeout + |v|/a (``last_stop_ns`` records when, ``deadman_stops`` counts
+the lapses of a moving command). The controller is then back to holding (:attr:`holding`).
+
+Defaults (argued; the paper gives none):
+
+* ``max_rate_deg_s`` = 10: twice the issue's 5 °/s acceptance slew, ten times the simulated
+  operator's and the automatic LOS hold's 1 °/s ceilings, so neither is ever rejected.
+* ``max_accel_deg_s2`` = 100 (1.75 rad/s²): paper 1's gimbal at rest has joint inertias
+  M(0) of 0.110 and 0.060 kg·m² (azimuth, elevation), so the slew asks for 0.19 and
+  0.11 N·m, under 7 % of the 3 and 2 N·m torquers: the stabilisation keeps its authority;
+  a 5 °/s slew is reached in 50 ms.
+* ``timeout_s`` = 0.5: ten periods of joy_node's default 20 Hz autorepeat, twist_mux's
+  customary input timeout.
+* ``clock_jump_s`` = 0.5: the other cores' value.
+
+Pure Python, scalar maths (the controller calls :meth:`step` at its loop rate).
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from numbers import Integral
+
+from gimbal_kinematics.validate import positive
+
+#: Relative slack on the rate limit, for a sender converting the same limit from degrees.
+RATE_LIMIT_SLACK = 1e-9
+#: Slack on a joystick axis beyond ±1 (joy_node normalises; float rounding only).
+JOY_RANGE_SLACK = 1e-6
+
+
+@dataclass(frozen=True)
+class OperatorCommandParams:
+    """Shaper parameters (validated, immutable); module docstring for the defaults.
+
+    Attributes:
+        max_rate_deg_s: largest commanded LOS rate per axis [°/s]; above: rejected.
+        max_accel_deg_s2: acceleration limit of the shaped command per axis [°/s²].
+        timeout_s: dead-man: a command older than this stops the slew [s].
+        clock_jump_s: a step stamp this much before the last one resets the shaper [s].
+        joy_azimuth_axis, joy_elevation_axis: Joy ``axes`` indices (distinct, >= 0).
+        joy_scale_rad_s: rate at full deflection [rad/s], <= the rate limit; None: the
+            rate limit.
+        joy_invert_azimuth, joy_invert_elevation: flip an axis' sign.
+    """
+
+    max_rate_deg_s: float = 10.0
+    max_accel_deg_s2: float = 100.0
+    timeout_s: float = 0.5
+    clock_jump_s: float = 0.5
+    joy_azimuth_axis: int = 0
+    joy_elevation_axis: int = 1
+    joy_scale_rad_s: float | None = None
+    joy_invert_azimuth: bool = True
+    joy_invert_elevation: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("max_rate_deg_s", "max_accel_deg_s2", "timeout_s", "clock_jump_s"):
+            positive(name, getattr(self, name))
+        for name in ("joy_azimuth_axis", "joy_elevation_axis"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, Integral) or value < 0:
+                raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
+        if self.joy_azimuth_axis == self.joy_elevation_axis:
+            raise ValueError(f"joy_azimuth_axis and joy_elevation_axis must differ, both are {self.joy_azimuth_axis}")
+        if self.joy_scale_rad_s is not None:
+            positive("joy_scale_rad_s", self.joy_scale_rad_s)
+            limit = math.radians(self.max_rate_deg_s)
+            if self.joy_scale_rad_s > limit * (1.0 + RATE_LIMIT_SLACK):
+                raise ValueError(f"joy_scale_rad_s must be <= the rate limit max_rate_deg_s = {limit} rad/s "
+                                 f"(full deflection would be refused), got {self.joy_scale_rad_s!r}")
+        for name in ("joy_invert_azimuth", "joy_invert_elevation"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
+
+
+def _stamp(stamp_ns: object) -> int:
+    """A stamp must be an integer [ns]; anything else is a caller's bug, not data."""
+    if isinstance(stamp_ns, bool) or not isinstance(stamp_ns, Integral):
+        raise TypeError(f"stamps are integer nanoseconds, got {stamp_ns!r}")
+    return int(stamp_ns)
+
+
+class OperatorCommand:
+    """Rate- and acceleration-limited operator LOS rate command with a dead-man (module
+    docstring). :meth:`set_rate` / :meth:`set_joy` per message, :meth:`step` per loop."""
+
+    def __init__(self, params: OperatorCommandParams | None = None) -> None:
+        self.params = params if params is not None else OperatorCommandParams()
+        p = self.params
+        self.max_rate = math.radians(p.max_rate_deg_s)
+        self.max_accel = math.radians(p.max_accel_deg_s2)
+        self._rate_bound = self.max_rate * (1.0 + RATE_LIMIT_SLACK)
+        self._timeout_ns = int(round(p.timeout_s * 1e9))
+        self._jump_ns = int(round(p.clock_jump_s * 1e9))
+        scale = self.max_rate if p.joy_scale_rad_s is None else float(p.joy_scale_rad_s)
+        self._joy_gain = (-scale if p.joy_invert_elevation else scale, -scale if p.joy_invert_azimuth else scale)
+        self._joy_len = max(p.joy_azimuth_axis, p.joy_elevation_axis) + 1
+        self.commands_accepted = 0
+        self.rejected_nonfinite = 0
+        self.rejected_over_limit = 0
+        self.rejected_joy = 0
+        self.rejected_duplicate = 0
+        self.rejected_out_of_order = 0
+        self.rejected_stale = 0
+        self.rejected_future = 0
+        self.rejected_step_stamps = 0
+        self.deadman_stops = 0
+        self.resets = 0
+        self.last_reset_reason = ""
+        self._clear()
+
+    def _clear(self) -> None:
+        self._out = [0.0, 0.0]               # shaped (q, r) at the last step [rad/s]
+        self._target = (0.0, 0.0)            # command in force at the last step [rad/s]
+        self._cmd_ns: int | None = None      # stamp of the command in force (None: none)
+        self._pending: deque[tuple[int, tuple[float, float]]] = deque()  # accepted, not yet in force
+        self._last_cmd_ns: int | None = None  # newest accepted command stamp
+        self._t_ns: int | None = None        # last step stamp
+        self._stopping = False               # a dead-man lapse is ramping the output down
+        self.last_stop_ns: int | None = None  # when the output reached zero after the last lapse
+
+    def reset(self, reason: str = "") -> None:
+        """Forget the output, the commands and the clock (counters are kept)."""
+        self._clear()
+        if reason:
+            self.resets += 1
+            self.last_reset_reason = reason
+
+    # ------------------------------------------------------------------ inputs
+    @property
+    def output(self) -> tuple[float, float]:
+        """Shaped (q, r) [rad/s] at the last step."""
+        return (self._out[0], self._out[1])
+
+    @property
+    def holding(self) -> bool:
+        """No slew: the output and the command in force are zero (the controller holds)."""
+        return self._out[0] == 0.0 and self._out[1] == 0.0 and self._target == (0.0, 0.0) and not self._pending
+
+    def set_rate(self, stamp_ns: int, q: float, r: float) -> bool:
+        """Commanded LOS rate (q about m-y, r about m-z) [rad/s] stamped ``stamp_ns``;
+        returns whether it was accepted (module docstring for the rejections)."""
+        t = _stamp(stamp_ns)
+        try:
+            q, r = float(q), float(r)
+        except (TypeError, ValueError):
+            self.rejected_nonfinite += 1
+            return False
+        if not (math.isfinite(q) and math.isfinite(r)):
+            self.rejected_nonfinite += 1
+            return False
+        if abs(q) > self._rate_bound or abs(r) > self._rate_bound:
+            self.rejected_over_limit += 1
+            return False
+        return self._accept(t, (q, r))
+
+    def set_joy(self, stamp_ns: int, axes: Sequence[float]) -> bool:
+        """A ``sensor_msgs/Joy`` axes array stamped ``stamp_ns``; returns acceptance."""
+        t = _stamp(stamp_ns)
+        p = self.params
+        try:
+            el, az = float(axes[p.joy_elevation_axis]), float(axes[p.joy_azimuth_axis])
+        except (TypeError, ValueError, IndexError):
+            self.rejected_joy += 1
+            return False
+        if not (math.isfinite(el) and math.isfinite(az)):
+            self.rejected_nonfinite += 1
+            return False
+        if abs(el) > 1.0 + JOY_RANGE_SLACK or abs(az) > 1.0 + JOY_RANGE_SLACK:
+            self.rejected_joy += 1
+            return False
+        el, az = max(-1.0, min(1.0, el)), max(-1.0, min(1.0, az))
+        return self._accept(t, (self._joy_gain[0] * el, self._joy_gain[1] * az))
+
+    def _accept(self, t: int, rate: tuple[float, float]) -> bool:
+        now = self._t_ns
+        if now is not None:
+            if t - now > self._timeout_ns:
+                self.rejected_future += 1
+                return False
+            if t + self._timeout_ns <= now:
+                self.rejected_stale += 1
+                return False
+        last = self._last_cmd_ns
+        if last is not None and t <= last:
+            if t == last:
+                self.rejected_duplicate += 1
+            else:
+                self.rejected_out_of_order += 1
+            return False
+        self._pending.append((t, rate))
+        self._last_cmd_ns = t
+        self.commands_accepted += 1
+        return True
+
+    # ------------------------------------------------------------------ step
+    def step(self, stamp_ns: int) -> tuple[float, float]:
+        """Advance the shaped command to the step stamped ``stamp_ns``; returns (q, r) [rad/s]."""
+        t = _stamp(stamp_ns)
+        last = self._t_ns
+        if last is not None and t <= last:
+            if last - t <= self._jump_ns:
+                self.rejected_step_stamps += 1
+                return self.output
+            self.reset(f"step stamp jumped back {(last - t) * 1e-9:.3f} s (to {t} ns)")
+            last = None
+        if last is None:
+            self._first_step(t)
+            last = t
+        s = last
+        while True:
+            deadline = None if self._cmd_ns is None else self._cmd_ns + self._timeout_ns
+            nxt = self._pending[0][0] if self._pending and self._pending[0][0] <= t else None
+            if deadline is not None and deadline <= t and (nxt is None or deadline < nxt):
+                s = self._advance(s, deadline)
+                self._lapse()
+            elif nxt is not None:
+                s = self._advance(s, nxt)
+                self._cmd_ns, self._target = self._pending.popleft()
+                self._stopping = False
+            else:
+                self._advance(s, t)
+                break
+        self._t_ns = t
+        return self.output
+
+    def _first_step(self, t: int) -> None:
+        """The first step after construction or a reset: drop the commands accepted before
+        it that are already stale or too far ahead (there was no clock to judge them by)."""
+        kept = deque()
+        for stamp, rate in self._pending:
+            if stamp + self._timeout_ns <= t:
+                self.rejected_stale += 1
+            elif stamp - t > self._timeout_ns:
+                self.rejected_future += 1
+            else:
+                kept.append((stamp, rate))
+        self._pending = kept
+        self._last_cmd_ns = kept[-1][0] if kept else None
+
+    def _lapse(self) -> None:
+        """Dead-man: the command in force timed out; the target becomes zero."""
+        if self._target != (0.0, 0.0) or self._out != [0.0, 0.0]:
+            self.deadman_stops += 1
+            self._stopping = True
+        self._cmd_ns = None
+        self._target = (0.0, 0.0)
+
+    def _advance(self, s: int, e: int) -> int:
+        """Move the output towards the target over [s, e] (a late command's stamp before s
+        takes effect at s); returns the new segment start."""
+        if e <= s:
+            return s
+        dv = self.max_accel * (e - s) * 1e-9
+        if self._stopping:
+            need = max(abs(self._out[0]), abs(self._out[1]))
+            if need <= dv:
+                self.last_stop_ns = s + int(round(need / self.max_accel * 1e9))
+                self._stopping = False
+        for i in (0, 1):
+            diff = self._target[i] - self._out[i]
+            self._out[i] = self._target[i] if -dv <= diff <= dv else self._out[i] + (dv if diff > 0.0 else -dv)
+        return e
+
+    def counters(self) -> dict[str, int | str]:
+        """Counters for /diagnostics (name -> value)."""
+        return {
+            "commands_accepted": self.commands_accepted, "rejected_nonfinite": self.rejected_nonfinite,
+            "rejected_over_limit": self.rejected_over_limit, "rejected_joy": self.rejected_joy,
+            "rejected_duplicate": self.rejected_duplicate, "rejected_out_of_order": self.rejected_out_of_order,
+            "rejected_stale": self.rejected_stale, "rejected_future": self.rejected_future,
+            "rejected_step_stamps": self.rejected_step_stamps, "deadman_stops": self.deadman_stops,
+            "resets": self.resets, "last_reset_reason": self.last_reset_reason,
+        }
