@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_sim.operator_model import OperatorModel, OperatorModelParams, sight_error
+from gimbal_sim.world.operator_model import OperatorModel, OperatorModelParams, sight_error
 
 RATE_HZ = 200
 DT_NS = 1_000_000_000 // RATE_HZ
