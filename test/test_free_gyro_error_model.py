@@ -20,8 +20,8 @@ from gimbal_kinematics.free_gyro import dcm_ni, nadir_angle, spin_axes_for_site_
 from gimbal_kinematics.rotations import (
     dcm_from_rotation_vector, euler321_to_dcm, euler_rates_to_body_rates, rotation_vector_from_dcm, skew)
 from gimbal_sim.experiments.free_gyro import run_free_gyro_experiment, simulate_truth
-from gimbal_sim.sensors.free_gyro_sensor import FreeGyroSensorParams
-from gimbal_sim.sensors.gyro import GyroParams
+from gimbal_sim.world.sensors.free_gyro_sensor import FreeGyroSensorParams
+from gimbal_sim.world.sensors.gyro import GyroParams
 
 LAT_DEG, LON_DEG = 35.0, 129.0
 LAT, LON = math.radians(LAT_DEG), math.radians(LON_DEG)

@@ -1,4 +1,4 @@
-"""Simulated sight operator (gimbal_sim.operator_model) against closed forms, closing the
+"""Simulated sight operator (gimbal_sim.world.operator_model) against closed forms, closing the
 loop on a kinematic LOS integrated here with scipy's rotations: the sight frame turns at the
 operator's command plus a known constant drift d away from the target.
 
