@@ -145,7 +145,7 @@ def test_outputs_follow_an_independent_truth_in_ned_with_sigma(ros_domain_env):
 
 def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
     g = 9.80
-    with alignment_node(ros_domain_env, {"reset_backjump_s": 0.5}) as (node, sent):
+    with alignment_node(ros_domain_env, {"clock_jump_s": 0.5}) as (node, sent):
         for i in range(12):
             f = (math.nan, 0.0, -g) if i == 4 else (0.0, 0.0, -g)
             _feed(node, 100 * i, 0.0, 0.0, f)

@@ -71,7 +71,7 @@ class EncoderFusionControllerNode(Node):
         if timing == "free":
             p = self.core.params
             self.free = FreeLoop(self, self.io, "gyro", {"enc": v["max_input_age_s"], "base": v["max_input_age_s"]},
-                                 1.0 / self.rate, p.backward_jump_s, v["diagnostics_period_s"])
+                                 1.0 / self.rate, p.clock_jump_s, v["diagnostics_period_s"])
             self._fed = {"enc": None, "base": None}  # stamps already given to the core
             on_input = self._on_free_input
         self.io.subscribe(Imu, "/gimbal/imu", lambda msg: on_input("gyro", msg), timing)

@@ -25,7 +25,7 @@ publishes (topics under ``/free_gyro_positioning/``):
 Degenerate geometry (parallel spin axes, tangent or non-intersecting nadir circles, FDOP
 above ``max_fdop``) is counted, warned about at most once a second, reported on
 ``geometry`` with status 1, and no fix is published. Out-of-order stamps and non-finite or
-non-unit inputs are rejected and counted; a stamp more than ``reset_backjump_s`` behind the
+non-unit inputs are rejected and counted; a stamp more than ``clock_jump_s`` behind the
 last read-out (a bag looping) resets the node. The node must see every read-out, so it
 reports the next step it needs on ``~/progress`` (the lockstep pacing protocol).
 
@@ -82,7 +82,7 @@ class FreeGyroPositioningNode(Node):
         self.rate = v["sim_rate_hz"]
         self.height_m = v["height_m"]
         self.height_sigma_m = v["height_sigma_m"]
-        self.backjump_ns = int(round(v["reset_backjump_s"] * 1e9))
+        self.backjump_ns = int(round(v["clock_jump_s"] * 1e9))
         self.progress_every = v["progress_every_steps"]
         self.wait_for_subscribers = v["wait_for_subscribers"]
         self.sync = StampSync((SPIN_A, SPIN_B, IMU))

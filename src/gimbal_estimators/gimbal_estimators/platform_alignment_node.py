@@ -29,7 +29,7 @@ frame the filter believes to the true one, NED components, frame ``map_ned``):
 It must see every sample, so it takes part in pacing: ``~/progress`` (rosgraph_msgs/Clock)
 carries the next step it needs. Bad input: NaN/inf samples and stamps at or before the last
 step are rejected and counted (warned at most once a second); a stamp more than
-``reset_backjump_s`` back (a bag looping) restarts the alignment.
+``clock_jump_s`` back (a bag looping) restarts the alignment.
 
 Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
 
@@ -92,7 +92,7 @@ class PlatformAlignmentNode(Node):
         self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(v))
         self.azimuth_joint = v["azimuth_joint"]
         self.heading = math.radians(v["base_heading_deg"])
-        self.sync = StepGroups(self._needs, v["reset_backjump_s"] * self.rate)
+        self.sync = StepGroups(self._needs, v["clock_jump_s"] * self.rate)
         self.progress_every = v["progress_every_steps"]
         self.wait_for_subscribers = v["wait_for_subscribers"]
         self.rejected_off_grid = 0
@@ -102,7 +102,7 @@ class PlatformAlignmentNode(Node):
         self.free = timing == "free"
         self.t0_ns: int | None = None  # free timing: the first stamp (the core's time origin)
         self.order = StampOrder(("joint", "imu"), int(round(v["max_sync_wait_s"] * 1e9)))
-        jump_ns = int(round(v["reset_backjump_s"] * 1e9))
+        jump_ns = int(round(v["clock_jump_s"] * 1e9))
         self.stats = {s: StreamStats(jump_ns) for s in ("imu", "joint")}
         self.nis = NisWindow(2, window=v["nis_window"])
         self._updates_seen = 0

@@ -34,7 +34,7 @@ from typing import Any, Callable, Iterable, NamedTuple, Sequence
 # ----------------------------------------------------------------------------------------
 # Stamp verdicts, shared by every message-driven core. A stamp that is not finite is
 # rejected; one at or before the previous stamp is rejected as out of order unless it lies
-# more than ``backward_jump_s`` before it: a clock jump (a bag looping) that calls for a reset.
+# more than ``clock_jump_s`` before it: a clock jump (a bag looping) that calls for a reset.
 # ----------------------------------------------------------------------------------------
 class Stamp(Enum):
     OK = "ok"
@@ -43,22 +43,22 @@ class Stamp(Enum):
     JUMPED_BACK = "jumped_back"
 
 
-def check_stamp(t: float, last: float | None, backward_jump_s: float) -> Stamp:
+def check_stamp(t: float, last: float | None, clock_jump_s: float) -> Stamp:
     """Classify stamp ``t`` [s] against the previous accepted stamp ``last`` [s]."""
     if not math.isfinite(t):
         return Stamp.NONFINITE
     if last is not None and t <= last:
-        return Stamp.JUMPED_BACK if last - t > backward_jump_s else Stamp.OUT_OF_ORDER
+        return Stamp.JUMPED_BACK if last - t > clock_jump_s else Stamp.OUT_OF_ORDER
     return Stamp.OK
 
 
 class StampGate:
     """Mixin for a core with ``rejected_nonfinite`` and ``rejected_out_of_order`` counters,
-    ``reset(reason)`` and ``params.backward_jump_s``: counts a rejected stamp and resets on a
+    ``reset(reason)`` and ``params.clock_jump_s``: counts a rejected stamp and resets on a
     clock jump (the stamp is then accepted as the first of a new run)."""
 
     def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
-        verdict = check_stamp(t, last, self.params.backward_jump_s)
+        verdict = check_stamp(t, last, self.params.clock_jump_s)
         if verdict is Stamp.NONFINITE:
             self.rejected_nonfinite += 1
         elif verdict is Stamp.OUT_OF_ORDER:
