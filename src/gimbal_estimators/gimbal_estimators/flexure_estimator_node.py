@@ -58,7 +58,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.stream_stats import GAP_PERIODS, StreamStats, Verdict
+from gimbal_kinematics.stamps import Stamp, is_gap
+from gimbal_kinematics.stream_stats import StreamStats
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
@@ -160,16 +161,16 @@ class FlexureEstimatorNode(Node):
         stamps (module docstring), or None for a duplicate or late sample or one whose
         interval is unknown (after a gap)."""
         verdict = self.stats[unit].offer(t_ns)
-        if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
+        if verdict is Stamp.DUPLICATE or verdict is Stamp.OUT_OF_ORDER:
             self.get_logger().warning(f"LGU{unit + 1} sample at {t_ns * 1e-9:.6f} s dropped: {verdict.value} "
                                       "stamp", throttle_duration_sec=1.0)
             return None
         if self.t0_ns is None:
             self.t0_ns = t_ns
         last, self._last_ns[unit] = self._last_ns[unit], t_ns
-        if verdict is Verdict.JUMPED_BACK or last is None:
+        if verdict is Stamp.JUMPED_BACK or last is None:
             return self.dt  # first sample, or a new run (the core resets)
-        if t_ns - last > GAP_PERIODS * self.dt_ns:
+        if is_gap(t_ns - last, self.dt_ns):
             self.interval_unknown[unit] += 1
             self.get_logger().warning(f"LGU{unit + 1} sample at {t_ns * 1e-9:.6f} s after a gap of "
                                       f"{(t_ns - last) * 1e-9:.3f} s: its interval is unknown, not integrated",

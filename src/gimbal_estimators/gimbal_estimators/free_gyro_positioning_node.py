@@ -62,7 +62,8 @@ from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import Stamp, StampSync, check_stamp
+from gimbal_kinematics.stamps import Stamp, judge
+from gimbal_kinematics.sync import StampSync
 from gimbal_kinematics.frames import BASE_FRAME
 
 from . import messages as m
@@ -144,8 +145,7 @@ class FreeGyroPositioningNode(Node):
     # -- inputs ----------------------------------------------------------------------------
     def _on_input(self, topic: str, msg) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
-        if self._last_ns is not None and check_stamp(t_ns * 1e-9, self._last_ns * 1e-9,
-                                                     self.backjump_ns * 1e-9) is Stamp.JUMPED_BACK:
+        if judge(t_ns, self._last_ns, self.backjump_ns) is Stamp.JUMPED_BACK:
             self._reset(f"read-out stamp jumped back {(self._last_ns - t_ns) * 1e-9:.3f} s (clock reset or bag loop)")
         group = self.sync.add(topic, t_ns, msg)
         if group is None:

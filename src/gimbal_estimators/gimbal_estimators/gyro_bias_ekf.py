@@ -146,7 +146,7 @@ from .gyro_bias_ekf_model import (  # noqa: F401  (re-exported: the model helper
     roll_rate_matrix,
 )
 from .gyro_bias_ekf_params import GyroBiasEkfParams
-from gimbal_kinematics.sync import Stamp, check_stamp
+from gimbal_kinematics.stamps import Stamp, judge
 
 _DEG = math.pi / 180.0
 _DEG_H = _DEG / 3600.0
@@ -343,7 +343,7 @@ class GyroBiasEkf:
             if t > self._t_newest:
                 self._t_newest = t
             return True
-        verdict = check_stamp(t, last, self.params.clock_jump_s)
+        verdict = judge(t, last, self.params.clock_jump_s)
         if verdict is Stamp.JUMPED_BACK:
             self.reset(f"clock jumped back on {stream}: {last:.6f} s -> {t:.6f} s", t)
         elif verdict is not Stamp.OK:  # finiteness was checked with the payload

@@ -82,7 +82,8 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.views import decoder
-from gimbal_kinematics.stream_stats import StreamStats, Verdict
+from gimbal_kinematics.stamps import Stamp
+from gimbal_kinematics.stream_stats import StreamStats
 from gimbal_kinematics.sync import StampOrder
 
 from . import messages as m
@@ -146,9 +147,9 @@ class GyroBiasEkfNode(Node):
         t_ns = m.stamp_ns(msg.header.stamp)
         if self.free:
             verdict = self.stats[stream].offer(t_ns)
-            if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
+            if verdict is Stamp.DUPLICATE or verdict is Stamp.OUT_OF_ORDER:
                 return  # counted; the filter already used a later sample of this stream
-            if verdict is Verdict.JUMPED_BACK:
+            if verdict is Stamp.JUMPED_BACK:
                 self._restart(stream, t_ns)
             if self.t0_ns is None:
                 self.t0_ns = t_ns

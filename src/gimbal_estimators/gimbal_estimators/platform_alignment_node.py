@@ -65,7 +65,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.stream_stats import StreamStats, Verdict
+from gimbal_kinematics.stamps import Stamp
+from gimbal_kinematics.stream_stats import StreamStats
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
@@ -148,7 +149,7 @@ class PlatformAlignmentNode(Node):
         """Free timing: judge the stamp, then feed the core in stamp order (module docstring)."""
         t_ns = m.stamp_ns(msg.header.stamp)
         verdict = self.stats[kind].offer(t_ns)
-        if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
+        if verdict is Stamp.DUPLICATE or verdict is Stamp.OUT_OF_ORDER:
             self._warn(f"{kind} sample at {t_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
             return
         if self.t0_ns is None:
