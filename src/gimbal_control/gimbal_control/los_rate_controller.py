@@ -282,6 +282,8 @@ class LosRateController:
             self.rejected_inputs += 1
             return self.command
         last = self.last_t
+        # gimbal_kinematics.stamps.judge inline (per-sample hot path), same clock_jump_s:
+        # JUMPED_BACK resets, DUPLICATE and OUT_OF_ORDER are rejected (t is finite: checked above)
         if last is not None and t <= last:
             if last - t > self.params.clock_jump_s:
                 self.reset(f"time jumped back from {last:.6f} s to {t:.6f} s")

@@ -80,3 +80,14 @@ def jittered(interval: float, period: float) -> bool:
     """Whether an interval that is not a gap is off ``period`` by more than
     :data:`JITTER_FRACTION` of it."""
     return not is_gap(interval, period) and abs(interval - period) > JITTER_FRACTION * period
+
+
+def step_stamp_ns(k: int, rate_hz: float) -> int:
+    """Stamp [ns] of lockstep step ``k`` at ``rate_hz`` (``round(k·1e9 / rate_hz)``: stamps
+    never accumulate floating-point error)."""
+    return int(round(k * 1e9 / rate_hz))
+
+
+def step_of_stamp(stamp_ns: int, rate_hz: float) -> int:
+    """Lockstep step of a stamp [ns] at ``rate_hz`` (inverse of :func:`step_stamp_ns`)."""
+    return int(round(stamp_ns * rate_hz / 1e9))
