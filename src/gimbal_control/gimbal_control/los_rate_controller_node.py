@@ -50,7 +50,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import StepGroups
 
 from . import messages as m
-from .free_loop import FreeLoop
+from gimbal_kinematics.ros.free_loop import FreeLoop
 from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
 from .los_rate_controller_params import DESCRIPTION, PARAMS

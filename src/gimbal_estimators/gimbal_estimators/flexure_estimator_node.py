@@ -56,6 +56,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 from diagnostic_msgs.msg import DiagnosticArray
 
+from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.stamps import Stamp, is_gap
@@ -232,8 +233,8 @@ class FlexureEstimatorNode(Node):
         fields.update(self.nis.as_dict())
         warn = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
                 "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos")
-        return m.free_health_msg(t_ns, self.get_name(), fields, self.core.initialized, warn,
-                                 self.nis.verdict().verdict)
+        return health_msg(t_ns, self.get_name(), fields, ready=self.core.initialized, not_ready="no estimate yet",
+                          warn=warn, nis_verdict=self.nis.verdict().verdict)
 
 
 def main(argv: list[str] | None = None) -> int:

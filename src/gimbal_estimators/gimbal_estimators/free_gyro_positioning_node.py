@@ -58,6 +58,7 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from diagnostic_msgs.msg import DiagnosticArray
 
+from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -183,7 +184,7 @@ class FreeGyroPositioningNode(Node):
                       incompatible_qos=self.io.incompatible_qos)
         warn = ("rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
                 "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos")
-        return m.free_health_msg(t_ns, self.get_name(), fields, c.fixes > 0, warn, None)
+        return health_msg(t_ns, self.get_name(), fields, ready=c.fixes > 0, not_ready="no estimate yet", warn=warn)
 
     def _progress(self, k: int) -> None:
         """Report the next step needed: the next read-out's, one learned interval ahead."""

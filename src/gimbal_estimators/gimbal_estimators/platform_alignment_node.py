@@ -63,6 +63,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from diagnostic_msgs.msg import DiagnosticArray
 
+from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.stamps import Stamp
@@ -193,8 +194,8 @@ class PlatformAlignmentNode(Node):
         warn = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
                 "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos")
-        return m.free_health_msg(t_ns, self.get_name(), fields, self.core.n_updates > 0, warn,
-                                 self.nis.verdict().verdict)
+        return health_msg(t_ns, self.get_name(), fields, ready=self.core.n_updates > 0, not_ready="no estimate yet",
+                          warn=warn, nis_verdict=self.nis.verdict().verdict)
 
     def _feed_joint(self, t: float, msg, where: str) -> None:
         joint = m.joint_position_velocity(msg, self.azimuth_joint)
