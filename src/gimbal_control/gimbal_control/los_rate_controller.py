@@ -271,6 +271,8 @@ class LosRateController:
             rate_command_qr: (q_md, r_md) [rad/s] for this step; None uses
                 :meth:`set_rate_command`'s (default 0, 0).
         """
+        # long: the per-sample hot path (1 kHz, scalar maths): split into calls it would cost
+        # a Python call per stage on every gyro sample, and it reads top to bottom as paper 1's loop
         q_g, r_g = gyro_qr[0], gyro_qr[1]
         psi_t, psi_m, th = joint_angles[0], joint_angles[1], joint_angles[2]
         psi_t_d, psi_m_d, th_d = joint_rates[0], joint_rates[1], joint_rates[2]
