@@ -152,7 +152,7 @@ class GyroBiasEkfNode(Node):
         w = msg.angular_velocity
         self.core.on_gyro(step.t, w.y, w.z)
         self._after()
-        progress = self.policy.progress(step.stamp_ns)
+        progress = self.policy.progress(step)
         if progress is not None:
             self.pub_progress.publish(wire.clock_cdr(progress))
 

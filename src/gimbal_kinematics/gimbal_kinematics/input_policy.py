@@ -9,19 +9,20 @@ here, behind one interface:
 * ``add(kind, stamp_ns, msg) -> list[Step]``: the steps the message makes ready, in the
   order the core must see them; each carries the core's time ``t`` [s];
 * ``stamp_of(t) -> int``: the absolute stamp [ns] of a core time (what outputs carry);
-* ``progress(stamp_ns) -> int | None``: after a step of the pacing stream, the stamp to
+* ``progress(step) -> int | None``: after a step of the pacing stream, the stamp to
   report on ``~/progress`` (None: nothing to report yet);
-* ``report(core, node, nis, nis_verdict) -> (fields, nis_verdict) | None``: what
-  ``/diagnostics`` carries (None: the node publishes none);
+* ``report(core, node, nis, nis_verdict) -> (fields, nis_verdict)``: what ``/diagnostics``
+  carries; ``diagnostics``: whether the node advertises /diagnostics at all (a lockstep
+  node that never did keeps its bags as they were);
 * ``counters() -> dict``: the policy's own counters.
 
 Two timings (:data:`gimbal_kinematics.params.TIMING_CHOICES`):
 
-* lockstep (:class:`LockstepOrder`): the orchestrator's graph. Stamps are simulation time
+* lockstep (:class:`LockstepOrder`, :class:`LockstepSamples`): the orchestrator's graph. Stamps are simulation time
   from 0 (the core's time is the stamp in seconds), ``~/progress`` names the next step on
   the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only, so the
   scenario bags stay as they were;
-* free (:class:`FreeOrder`): a driver or a bag. Each stream's stamps are judged
+* free (:class:`FreeOrder`, :class:`FreeSamples`): a driver or a bag. Each stream's stamps are judged
   (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples are
   dropped and counted, a clock jump back restarts: the node's ``on_restart`` resets the
   core); the core runs on seconds since the run's first stamp (integer ns kept: a float64
@@ -29,26 +30,29 @@ Two timings (:data:`gimbal_kinematics.params.TIMING_CHOICES`):
   ``progress_every`` steps of the pacing stream; ``/diagnostics`` adds the input
   counters, the node's and the NIS window.
 
-In both, the streams reach the core in stamp order (:class:`gimbal_kinematics.sync.StampOrder`),
-so a replay at any speed computes what the run computed.
+The ordered policies release the streams to the core in stamp order
+(:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any speed computes what the
+run computed; the sampled ones release each sample at once with the interval it covers
+(a core that pairs the streams itself, by stamp).
 """
 from __future__ import annotations
 
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
-from .stamps import Stamp, step_of_stamp, step_stamp_ns
+from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
 from .stream_stats import StreamStats
 from .sync import StampOrder
 
 
 class Step(NamedTuple):
     """One input released to the core: its stream, absolute stamp [ns], the core's time
-    of it [s] and the message."""
+    of it [s], the message and, for a sampled stream, the interval it covers [s]."""
 
     kind: str
     stamp_ns: int
     t: float
     msg: Any
+    dt: float = 0.0
 
 
 Fields = Mapping[str, Any]
@@ -57,17 +61,16 @@ Fields = Mapping[str, Any]
 class LockstepOrder:
     """Lockstep input policy (module docstring): ``streams`` in stamp order (within a
     stamp in the order given), released when every stream has reached the stamp or after
-    ``max_wait_ns``; ``~/progress`` every ``progress_every`` steps of ``rate_hz``.
-    ``diagnostics``: whether the node publishes /diagnostics (its core counters) at all."""
+    ``max_wait_ns``; ``~/progress`` every ``progress_every`` steps of ``rate_hz``;
+    /diagnostics with the core's counters."""
 
     timing = "lockstep"
+    diagnostics = True
 
-    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int,
-                 diagnostics: bool = True) -> None:
+    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int) -> None:
         self.order = StampOrder(streams, max_wait_ns)
         self.rate_hz = rate_hz
         self.progress_every = int(progress_every)
-        self.diagnostics = diagnostics
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         return [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
@@ -75,17 +78,17 @@ class LockstepOrder:
     def stamp_of(self, t: float) -> int:
         return int(round(t * 1e9))
 
-    def progress(self, stamp_ns: int) -> int | None:
+    def progress(self, step: Step) -> int | None:
         """The next step's stamp when it starts a new block of ``progress_every`` steps."""
-        k = step_of_stamp(stamp_ns, self.rate_hz) + 1
+        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
         return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
 
     def counters(self) -> dict[str, int]:
         return {}
 
     def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
-               ) -> tuple[dict[str, Any], str | None] | None:
-        return (dict(core), None) if self.diagnostics else None
+               ) -> tuple[dict[str, Any], str | None]:
+        return dict(core), None
 
 
 class FreeOrder:
@@ -95,6 +98,7 @@ class FreeOrder:
     every ``progress_every`` steps of the pacing stream."""
 
     timing = "free"
+    diagnostics = True
 
     def __init__(self, streams: Sequence[str], max_wait_ns: int, clock_jump_ns: int, progress_every: int,
                  on_restart: Callable[[str], None]) -> None:
@@ -130,10 +134,10 @@ class FreeOrder:
     def stamp_of(self, t: float) -> int:
         return self.t0_ns + int(round(t * 1e9))
 
-    def progress(self, stamp_ns: int) -> int | None:
+    def progress(self, step: Step) -> int | None:
         """This stamp, every ``progress_every`` steps of the pacing stream."""
         self._paced += 1
-        return stamp_ns if self._paced % self.progress_every == 0 else None
+        return step.stamp_ns if self._paced % self.progress_every == 0 else None
 
     def counters(self) -> dict[str, float | int]:
         out: dict[str, float | int] = {}
@@ -142,17 +146,135 @@ class FreeOrder:
         return out
 
     def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
-               ) -> tuple[dict[str, Any], str | None] | None:
+               ) -> tuple[dict[str, Any], str | None]:
+        return {**core, **self.counters(), **node, **nis}, nis_verdict
+
+
+class LockstepSamples:
+    """Lockstep policy of a sampled node (module docstring): each sample is a step at once,
+    covering the nominal ``period_s``; ``~/progress`` names the step one sample after the
+    older of the streams' newest, every ``progress_every`` steps of ``rate_hz``. No
+    /diagnostics."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, streams: Sequence[str], rate_hz: float, sample_rate_hz: float, progress_every: int) -> None:
+        self.rate_hz = rate_hz
+        self.period_s = 1.0 / sample_rate_hz
+        self.steps_per_sample = int(round(rate_hz / sample_rate_hz))
+        self.progress_every = int(progress_every)
+        self._newest: dict[str, int | None] = dict.fromkeys(streams)
+        self._reported = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        return [Step(kind, stamp_ns, stamp_ns * 1e-9, msg, self.period_s)]
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        newest = self._newest[step.kind]
+        if newest is None or step.stamp_ns > newest:
+            self._newest[step.kind] = step.stamp_ns
+        if None in self._newest.values():
+            return None
+        k = step_of_stamp(min(self._newest.values()), self.rate_hz) + self.steps_per_sample  # type: ignore[type-var]
+        if k < self._reported + self.progress_every:
+            return None
+        self._reported = k
+        return step_stamp_ns(k, self.rate_hz)
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return dict(core), None
+
+
+class FreeSamples:
+    """Free-timing policy of a sampled node (module docstring): each stream's stamps judged
+    (duplicates and late samples dropped, counted); a sample's interval is its stamp minus
+    its stream's previous accepted one when that is no gap (the drop rule of
+    :mod:`gimbal_kinematics.stamps` at ``period_ns``, so jitter is followed), the nominal
+    period for a stream's first sample or the first after a clock jump (the core resets on
+    the jump itself); after a gap the interval is unknown, so the sample is not released
+    (counted, ``<stream>_interval_unknown``). The core's time runs from the first stamp.
+    ``~/progress``: the older stream's newest stamp every ``progress_every`` samples.
+    ``warn(text)`` hears of each sample dropped."""
+
+    timing = "free"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], sample_rate_hz: float, clock_jump_ns: int, progress_every: int,
+                 warn: Callable[[str], None]) -> None:
+        self.stats = {s: StreamStats(clock_jump_ns) for s in streams}
+        self.period_s = 1.0 / sample_rate_hz
+        self.period_ns = 1e9 / sample_rate_hz
+        self.progress_every = int(progress_every)
+        self.warn = warn
+        self.t0_ns: int | None = None
+        self._last: dict[str, int | None] = dict.fromkeys(streams)
+        self.interval_unknown = dict.fromkeys(streams, 0)
+        self._samples = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        verdict = self.stats[kind].offer(stamp_ns)
+        if not verdict.accepted:
+            self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp")
+            return []
+        if self.t0_ns is None:
+            self.t0_ns = stamp_ns
+        last, self._last[kind] = self._last[kind], stamp_ns
+        if verdict is Stamp.JUMPED_BACK or last is None:
+            dt = self.period_s  # first sample, or a new run (the core resets)
+        elif is_gap(stamp_ns - last, self.period_ns):
+            self.interval_unknown[kind] += 1
+            self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s after a gap of {(stamp_ns - last) * 1e-9:.3f} s: "
+                      "its interval is unknown, not integrated")
+            return []
+        else:
+            dt = (stamp_ns - last) * 1e-9
+        return [Step(kind, stamp_ns, (stamp_ns - self.t0_ns) * 1e-9, msg, dt)]
+
+    def stamp_of(self, t: float) -> int:
+        return self.t0_ns + int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        self._samples += 1
+        if self._samples % self.progress_every or None in self._last.values():
+            return None
+        return min(self._last.values())  # type: ignore[type-var]
+
+    def counters(self) -> dict[str, float | int]:
+        out: dict[str, float | int] = {}
+        for name, st in self.stats.items():
+            out.update(st.as_dict(name))
+            out[f"{name}_interval_unknown"] = self.interval_unknown[name]
+        return out
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
         return {**core, **self.counters(), **node, **nis}, nis_verdict
 
 
 def order_policy(timing: str, streams: Sequence[str], *, max_wait_ns: int, rate_hz: float, progress_every: int,
-                 clock_jump_ns: int, on_restart: Callable[[str], None],
-                 diagnostics: bool = True) -> LockstepOrder | FreeOrder:
-    """The stamp-ordered input policy of ``timing`` (a node's one choice, in its constructor);
-    ``diagnostics``: whether the node publishes /diagnostics in lockstep too."""
+                 clock_jump_ns: int, on_restart: Callable[[str], None]) -> LockstepOrder | FreeOrder:
+    """The stamp-ordered input policy of ``timing`` (a node's one choice, in its constructor)."""
     if timing == "lockstep":
-        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every, diagnostics)
+        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every)
     if timing == "free":
         return FreeOrder(streams, max_wait_ns, clock_jump_ns, progress_every, on_restart)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample_rate_hz: float,
+                  progress_every: int, clock_jump_ns: int, warn: Callable[[str], None]) -> LockstepSamples | FreeSamples:
+    """The sampled input policy of ``timing`` (a node's one choice, in its constructor):
+    streams sampled at ``sample_rate_hz``, lockstep steps at ``rate_hz``."""
+    if timing == "lockstep":
+        return LockstepSamples(streams, rate_hz, sample_rate_hz, progress_every)
+    if timing == "free":
+        return FreeSamples(streams, sample_rate_hz, clock_jump_ns, progress_every, warn)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")

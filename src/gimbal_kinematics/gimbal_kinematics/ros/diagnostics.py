@@ -49,3 +49,17 @@ def health_msg(t_ns: int, name: str, fields: Mapping[str, Any], **level: Any) ->
     arr = DiagnosticArray(status=[status])
     arr.header.stamp = time_msg(t_ns)
     return arr
+
+
+class _NotAdvertised:
+    """The /diagnostics of a node whose input policy has none: nothing goes out."""
+
+    def publish(self, msg: Any) -> None:
+        pass
+
+
+def advertise_diagnostics(io: Any, timing: str, policy: Any) -> Any:
+    """A node's /diagnostics publisher (through its :class:`~.node_io.NodeIo`), or, when its
+    input policy has no diagnostics (``policy.diagnostics``), one that is never advertised
+    and drops what it is given, so the node's body publishes the same way in every timing."""
+    return io.advertise(DiagnosticArray, "/diagnostics", timing) if policy.diagnostics else _NotAdvertised()

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bag.reader import BagError
-from .common import inertial_los, load_series, times, vectors, vehicle_site
+from .common import load_series, site_rate_n, times, vectors, vehicle_site
 from .figures import save_stacked, stacked, style
 from .generic import generic_report
 
@@ -85,11 +85,11 @@ def analyse(bag_dir: Path) -> dict:
 def analyse_series(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
     """Series and figures of one run from its :class:`SightingSeries`, at latitude ``lat``
     [rad] with or without the earth rate (the run's vehicle site)."""
-    from gimbal_kinematics.los import los_drift
+    from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
 
     t0 = s.t_truth[0]
     t = s.t_truth - t0
-    drift = los_drift(inertial_los(t, s.quat_nm, lat, earth_rate))
+    drift = los_drift(inertial_los(los_from_quat(s.quat_nm), t, site_rate_n(lat, earth_rate)))
     tb = s.t_bias - t0
     b_true = s.bias_true
     # −∫b dt by trapezoids on the bias samples (az from r = z, el from q = y)
