@@ -41,18 +41,20 @@ from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
 from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
 from .stream_stats import StreamStats
-from .sync import StampOrder
+from .sync import StampOrder, StepGroups
 
 
 class Step(NamedTuple):
     """One input released to the core: its stream, absolute stamp [ns], the core's time
-    of it [s], the message and, for a sampled stream, the interval it covers [s]."""
+    of it [s], the message, for a sampled stream the interval it covers [s], and whether it
+    is the last input of its lockstep step."""
 
     kind: str
     stamp_ns: int
     t: float
     msg: Any
     dt: float = 0.0
+    ends_step: bool = True
 
 
 Fields = Mapping[str, Any]
@@ -91,21 +93,81 @@ class LockstepOrder:
         return dict(core), None
 
 
+class LockstepGroups:
+    """Lockstep policy of a node whose inputs are grouped by step
+    (:class:`gimbal_kinematics.sync.StepGroups`): an input stamped off the steps its stream
+    samples at (``needs(k)``) is rejected and counted (``off_grid``); a complete step is
+    released as one step per input, in the order of ``streams``, at the core time k /
+    ``rate_hz``; after a step's last input ``~/progress`` names ``next_due(k)`` when that
+    starts a new block of ``progress_every`` steps. No /diagnostics. ``logger`` (rclpy's, or
+    anything with ``warning``/``info``) hears of rejections and restarts."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, streams: Sequence[str], needs: Callable[[int], tuple[str, ...]], rate_hz: float,
+                 clock_jump_s: float, next_due: Callable[[int], int], progress_every: int, logger: Any) -> None:
+        self.streams = tuple(streams)
+        self.needs = needs
+        self.rate_hz = rate_hz
+        self.sync = StepGroups(needs, clock_jump_s * rate_hz)
+        self.next_due = next_due
+        self.progress_every = int(progress_every)
+        self.logger = logger
+        self.off_grid = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        k = step_of_stamp(stamp_ns, self.rate_hz)
+        if kind not in self.needs(k):
+            self.off_grid += 1
+            self.logger.warning(f"{kind} stamped for step {k}, not one of its sample steps: ignored "
+                                f"({self.off_grid} off the rate grid)", throttle_duration_sec=1.0)
+            return []
+        out: list[Step] = []
+        for step, group in self.sync.add(kind, k, msg, self.logger):
+            stamp, t = step_stamp_ns(step, self.rate_hz), step / self.rate_hz
+            kinds = [s for s in self.streams if s in group]
+            out.extend(Step(s, stamp, t, group[s], ends_step=s == kinds[-1]) for s in kinds)
+        return out
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        if not step.ends_step:
+            return None
+        k = step_of_stamp(step.stamp_ns, self.rate_hz)
+        nxt = self.next_due(k)
+        return step_stamp_ns(nxt, self.rate_hz) if nxt // self.progress_every > k // self.progress_every else None
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return dict(core), None
+
+
 class FreeOrder:
     """Free-timing input policy (module docstring): each stream's stamps judged, a stamp
     more than ``clock_jump_ns`` back restarts (``on_restart(reason)``: the node resets its
-    core), then the streams in stamp order as in :class:`LockstepOrder`; ``~/progress``
-    every ``progress_every`` steps of the pacing stream."""
+    core; None: the core judges the jump itself, the stamp goes on in order and the time
+    origin stays), then the streams in stamp order as in :class:`LockstepOrder`;
+    ``~/progress`` every ``progress_every`` steps of the pacing stream ``paced`` (None:
+    every step the node reports)."""
 
     timing = "free"
     diagnostics = True
 
     def __init__(self, streams: Sequence[str], max_wait_ns: int, clock_jump_ns: int, progress_every: int,
-                 on_restart: Callable[[str], None]) -> None:
+                 on_restart: Callable[[str], None] | None, paced: str | None = None,
+                 warn: Callable[[str], None] | None = None) -> None:
         self.order = StampOrder(streams, max_wait_ns)
         self.stats = {s: StreamStats(clock_jump_ns) for s in streams}
         self.progress_every = int(progress_every)
         self.on_restart = on_restart
+        self.paced = paced
+        self.warn = warn
         #: the run's first stamp [ns], the origin of the core's time
         self.t0_ns: int | None = None
         self._paced = 0
@@ -113,8 +175,10 @@ class FreeOrder:
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         verdict = self.stats[kind].offer(stamp_ns)
         if not verdict.accepted:
+            if self.warn is not None:
+                self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
             return []  # counted; the core already used a later sample of this stream
-        if verdict is Stamp.JUMPED_BACK:
+        if verdict is Stamp.JUMPED_BACK and self.on_restart is not None:
             self._restart(kind, stamp_ns)
         if self.t0_ns is None:
             self.t0_ns = stamp_ns
@@ -136,6 +200,8 @@ class FreeOrder:
 
     def progress(self, step: Step) -> int | None:
         """This stamp, every ``progress_every`` steps of the pacing stream."""
+        if self.paced is not None and step.kind != self.paced:
+            return None
         self._paced += 1
         return step.stamp_ns if self._paced % self.progress_every == 0 else None
 
@@ -277,4 +343,19 @@ def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample
         return LockstepSamples(streams, rate_hz, sample_rate_hz, progress_every)
     if timing == "free":
         return FreeSamples(streams, sample_rate_hz, clock_jump_ns, progress_every, warn)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int], tuple[str, ...]], rate_hz: float,
+                   next_due: Callable[[int], int], progress_every: int, clock_jump_s: float, max_wait_ns: int,
+                   paced: str, logger: Any) -> LockstepGroups | FreeOrder:
+    """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step:
+    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, the core judges
+    clock jumps, ``~/progress`` on the ``paced`` stream)."""
+    if timing == "lockstep":
+        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger)
+    if timing == "free":
+        def warn(text: str) -> None:
+            logger.warning(text, throttle_duration_sec=1.0)
+        return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, None, paced, warn)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
