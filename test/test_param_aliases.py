@@ -71,7 +71,7 @@ def test_node_given_the_old_name_behaves_as_with_the_new_one(context):
     try:
         old, new = nodes
         assert old.core.params == new.core.params and old.core.params.clock_jump_s == 0.25
-        assert old.policy.sync.backjump_steps == new.policy.sync.backjump_steps
+        assert old.policy.stats["imu"].jump_ns == new.policy.stats["imu"].jump_ns == 250_000_000
     finally:
         for n in nodes:
             n.destroy_node()
