@@ -41,7 +41,7 @@ from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
 from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
 from .stream_stats import StreamStats
-from .sync import StampOrder, StepGroups
+from .sync import StampOrder, StampSync, StepGroups
 
 
 class Step(NamedTuple):
@@ -358,4 +358,99 @@ def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int]
         def warn(text: str) -> None:
             logger.warning(text, throttle_duration_sec=1.0)
         return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, None, paced, warn)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+class _Synced:
+    """One step per complete exact-stamp group of ``streams``
+    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]; the
+    node calls :meth:`restart` when its stamps jump back. ``rejected``: stamps refused
+    (late or repeated) over every run."""
+
+    def __init__(self, streams: Sequence[str]) -> None:
+        self.streams = tuple(streams)
+        self.sync = StampSync(self.streams)
+        self._rejected_before = 0
+
+    @property
+    def rejected(self) -> int:
+        return self._rejected_before + self.sync.rejected
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        group = self.sync.add(kind, stamp_ns, msg)
+        return [] if group is None else [Step("group", stamp_ns, stamp_ns * 1e-9, group)]
+
+    def restart(self) -> None:
+        self._rejected_before += self.sync.rejected
+        self.sync = StampSync(self.streams)
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return {**core, **node, **nis}, nis_verdict
+
+
+class LockstepSynced(_Synced):
+    """Lockstep policy of a node stepping on exact-stamp groups: ``~/progress`` names the
+    next group's step, one learned interval (in steps of ``rate_hz``) ahead, every
+    ``progress_every`` steps. No /diagnostics."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, streams: Sequence[str], rate_hz: float, progress_every: int) -> None:
+        super().__init__(streams)
+        self.rate_hz = rate_hz
+        self.progress_every = int(progress_every)
+        self._clear()
+
+    def _clear(self) -> None:
+        self._last_step: int | None = None
+        self._interval_steps = 1
+        self._report_at = 0
+
+    def restart(self) -> None:
+        super().restart()
+        self._clear()
+
+    def progress(self, step: Step) -> int | None:
+        k = step_of_stamp(step.stamp_ns, self.rate_hz)
+        if self._last_step is not None and k > self._last_step:
+            self._interval_steps = k - self._last_step
+        self._last_step = k
+        if k < self._report_at:
+            return None
+        self._report_at = k + self.progress_every
+        return step_stamp_ns(k + self._interval_steps, self.rate_hz)
+
+
+class FreeSynced(_Synced):
+    """Free-timing policy of a node stepping on exact-stamp groups: ``~/progress`` reports
+    the group's stamp every ``progress_every`` groups; /diagnostics."""
+
+    timing = "free"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], progress_every: int) -> None:
+        super().__init__(streams)
+        self.progress_every = int(progress_every)
+        self._groups = 0
+
+    def progress(self, step: Step) -> int | None:
+        self._groups += 1
+        return step.stamp_ns if self._groups % self.progress_every == 0 else None
+
+
+def synced_policy(timing: str, streams: Sequence[str], *, rate_hz: float,
+                  progress_every: int) -> LockstepSynced | FreeSynced:
+    """The exact-stamp-group input policy of ``timing`` (a node's one choice, in its constructor)."""
+    if timing == "lockstep":
+        return LockstepSynced(streams, rate_hz, progress_every)
+    if timing == "free":
+        return FreeSynced(streams, progress_every)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
