@@ -174,12 +174,13 @@ class FreeOrder:
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         verdict = self.stats[kind].offer(stamp_ns)
-        if not verdict.accepted:
-            if self.warn is not None:
-                self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
-            return []  # counted; the core already used a later sample of this stream
-        if verdict is Stamp.JUMPED_BACK and self.on_restart is not None:
-            self._restart(kind, stamp_ns)
+        if verdict is not Stamp.OK:
+            if verdict is not Stamp.JUMPED_BACK:
+                if self.warn is not None:
+                    self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
+                return []  # counted; the core already used a later sample of this stream
+            if self.on_restart is not None:
+                self._restart(kind, stamp_ns)
         if self.t0_ns is None:
             self.t0_ns = stamp_ns
         t0 = self.t0_ns
