@@ -16,17 +16,28 @@ here, behind one interface:
   node that never did keeps its bags as they were);
 * ``counters() -> dict``: the policy's own counters.
 
-Two timings (:data:`gimbal_kinematics.params.TIMING_CHOICES`):
+Two timings (:data:`gimbal_kinematics.params.TIMING_CHOICES`), four shapes of input, each
+with a factory that picks the timing's policy:
 
-* lockstep (:class:`LockstepOrder`, :class:`LockstepSamples`): the orchestrator's graph. Stamps are simulation time
-  from 0 (the core's time is the stamp in seconds), ``~/progress`` names the next step on
-  the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only, so the
-  scenario bags stay as they were;
-* free (:class:`FreeOrder`, :class:`FreeSamples`): a driver or a bag. Each stream's stamps are judged
+========================  ==================  ================  ==========================
+inputs                    lockstep            free              factory
+========================  ==================  ================  ==========================
+streams in stamp order    LockstepOrder       FreeOrder         :func:`order_policy`
+sampled streams           LockstepSamples     FreeSamples       :func:`sample_policy`
+grouped by lockstep step  LockstepGroups      FreeOrder         :func:`grouped_policy`
+exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_policy`
+========================  ==================  ================  ==========================
+
+* lockstep: the orchestrator's graph. Stamps are simulation time from 0 (the core's time is
+  the stamp in seconds, or k / ``sim_rate_hz`` for a step), ``~/progress`` names the next
+  step on the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only
+  (or is not advertised, for a node that never had it), so the scenario bags stay as they
+  were;
+* free: a driver or a bag. Each stream's stamps are judged
   (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples are
-  dropped and counted, a clock jump back restarts: the node's ``on_restart`` resets the
-  core); the core runs on seconds since the run's first stamp (integer ns kept: a float64
-  near 1.8e9 s resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every
+  dropped and counted; a clock jump back restarts, or is left to the core); the core runs
+  on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
+  resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every
   ``progress_every`` steps of the pacing stream; ``/diagnostics`` adds the input
   counters, the node's and the NIS window.
 
@@ -34,6 +45,9 @@ The ordered policies release the streams to the core in stamp order
 (:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any speed computes what the
 run computed; the sampled ones release each sample at once with the interval it covers
 (a core that pairs the streams itself, by stamp).
+
+The controllers' free timing (fresh inputs, the stale-input policy) is
+:class:`gimbal_kinematics.ros.free_loop.FreeLoop` on :class:`gimbal_kinematics.sync.FreshInputs`.
 """
 from __future__ import annotations
 
