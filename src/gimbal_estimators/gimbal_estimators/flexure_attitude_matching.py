@@ -37,27 +37,29 @@ written per unit); φ0 is a random constant. Only φ0 − θr + θr' (the simpli
 computation the simplification removes. With per-unit bias priors and random walks of
 σ_diff/√2 (the default) the two filters model the same flexure and estimate it alike.
 
-Messages, pairing by stamp, rejection and counting of bad input (non-finite, malformed,
-duplicate, out-of-order), gaps (re-anchor: φ0 := Φ + θ, θr = θr' := 0), clock jumps
-(reset) and the chi-square gate behave as in :class:`.flexure_kf.FlexureKf`, with the same
-counters and the same :class:`.flexure_kf.FlexureEstimate` output.
+Messages
+--------
+:class:`AttitudeMatchingKf` is a :class:`.flexure_kf.FlexureKf` with another state, model and
+observation: it inherits the message handling (pairing by stamp; rejection and counting of
+non-finite, malformed, duplicate and out-of-order samples; attitude integration; gaps,
+clock jumps and the gate) and its outputs (:class:`.flexure_kf.FlexureEstimate`, with
+ε1 − ε2 as the bias difference and φ0 − θr + θr' as the relative attitude). Re-anchoring
+starts new initial frames: φ0 := Φ_k + θ_k, θr = θr' := 0.
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
 
 import numpy as np
 from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize
 from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
 from . import kalman
-from .flexure_kf import COUNTERS, FlexureEstimate, FlexureKfParams, ar2_coefficients, match_attitudes
+from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams, ar2_coefficients, match_attitudes
 
 N_STATES = 27
-#: Slices of the state vector.
+#: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).
 PHI_K, PHI_K1, THETA_K, THETA_K1, PHI_0, THETA_R1, THETA_R2, EPS1, EPS2 = (
     slice(3 * i, 3 * i + 3) for i in range(9))
 #: Largest attitude-matching angle |Z| accepted [rad]; beyond it the filter resets.
@@ -71,13 +73,11 @@ _DEG_H_RT_H = _DEG_H / 60.0
 
 
 @dataclass(frozen=True)
-class AttitudeMatchingParams:
-    """Parameters of the original filter.
+class AttitudeMatchingParams(FlexureKfParams):
+    """The simplified filter's parameters (same names and meaning: flexure models,
+    measurement, gate, robustness) plus each unit's bias model.
 
     Attributes:
-        model: flexure models, measurement, gate and robustness settings, shared with the
-            simplified filter (same names and meaning; its ``bias_diff_*`` fields set the
-            per-unit bias model when the two fields below are None).
         lgu_bias_initial_sigma_deg_h: prior σ of each unit's gyro bias [°/h], scalar or
             (roll, pitch, yaw); None: ``bias_diff_initial_sigma_deg_h``/√2 (the same prior
             on ε1 − ε2 as the simplified filter).
@@ -85,15 +85,13 @@ class AttitudeMatchingParams:
             ``bias_diff_rw_deg_h_rt_h``/√2.
     """
 
-    model: FlexureKfParams = field(default_factory=FlexureKfParams)
     lgu_bias_initial_sigma_deg_h: float | tuple[float, ...] | None = None
     lgu_bias_rw_deg_h_rt_h: float | tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
-        if not isinstance(self.model, FlexureKfParams):
-            raise TypeError(f"model must be FlexureKfParams, got {type(self.model).__name__}")
-        for name, diff, strict in (("lgu_bias_initial_sigma_deg_h", self.model.bias_diff_initial_sigma_deg_h, True),
-                                   ("lgu_bias_rw_deg_h_rt_h", self.model.bias_diff_rw_deg_h_rt_h, False)):
+        super().__post_init__()
+        for name, diff, strict in (("lgu_bias_initial_sigma_deg_h", self.bias_diff_initial_sigma_deg_h, True),
+                                   ("lgu_bias_rw_deg_h_rt_h", self.bias_diff_rw_deg_h_rt_h, False)):
             value = getattr(self, name)
             if value is None:
                 vals = tuple(x / math.sqrt(2.0) for x in diff)  # type: ignore[union-attr]
@@ -108,9 +106,11 @@ class AttitudeMatchingParams:
         """From a ``flexure_estimator`` node's values (:meth:`FlexureKfParams.from_values`'s
         names, plus the two per-unit bias names; absent or 0 means None).
         :class:`ParameterError` names the parameter refused."""
-        model = FlexureKfParams.from_values(v)
+        base = FlexureKfParams.from_values(v)
         try:
-            return cls(model, v.get("lgu_bias_initial_sigma_deg_h") or None, v.get("lgu_bias_rw_deg_h_rt_h") or None)
+            return cls(**{f.name: getattr(base, f.name) for f in fields(FlexureKfParams)},
+                       lgu_bias_initial_sigma_deg_h=v.get("lgu_bias_initial_sigma_deg_h") or None,
+                       lgu_bias_rw_deg_h_rt_h=v.get("lgu_bias_rw_deg_h_rt_h") or None)
         except ValueError as exc:
             raise ParameterError(f"parameter {exc}") from exc
 
@@ -137,103 +137,40 @@ def predicted_observation(C_i1b1: np.ndarray, x: np.ndarray) -> np.ndarray:
     return phi + u + 0.5 * np.cross(u, phi)
 
 
-class AttitudeMatchingKf:
-    """Message-driven 27-state flexure filter by eq. 1 (module docstring); the same calls
-    and outputs as :class:`.flexure_kf.FlexureKf`. Time is the messages' stamps [s]."""
+class AttitudeMatchingKf(FlexureKf):
+    """Message-driven 27-state flexure filter by eq. 1 (module docstring): the calls,
+    counters and outputs of :class:`.flexure_kf.FlexureKf`, whose message handling it
+    inherits; ``state`` is (27,) and ``covariance`` (27, 27). Time is the messages' stamps."""
 
     def __init__(self, params: AttitudeMatchingParams | None = None) -> None:
         params = AttitudeMatchingParams() if params is None else params
         if not isinstance(params, AttitudeMatchingParams):
             raise TypeError(f"params must be AttitudeMatchingParams, got {type(params).__name__}")
-        self.params = params
-        m = params.model
-        self._q_rw = np.array([(x * _ARCSEC) ** 2 for x in m.qs_rw_arcsec_rt_s])  # type: ignore[union-attr]
-        self._q_rate = np.array([(x * _ARCSEC) ** 2 for x in m.qs_rate_rw_arcsec_s_rt_s])  # type: ignore[union-attr]
-        self._q_arw = (m.lgu_arw_deg_rt_h * _DEG_RT_H) ** 2
+        super().__init__(params)
+        self.params: AttitudeMatchingParams = params
+        self._q_arw = (params.lgu_arw_deg_rt_h * _DEG_RT_H) ** 2  # each unit's
         self._q_eps = np.array([(x * _DEG_H_RT_H) ** 2 for x in params.lgu_bias_rw_deg_h_rt_h])  # type: ignore[union-attr]
-        self._dyn = [(b, f, s * _ARCSEC) for b, f, s in zip(m.dynamic_beta_per_s, m.dynamic_freq_rad_s,  # type: ignore[arg-type]
-                                                          m.dynamic_rms_arcsec)]  # type: ignore[arg-type]
-        self._R = np.eye(3) * (m.meas_noise_arcsec * _ARCSEC) ** 2
-        self._gate = math.inf if m.gate_probability is None else kalman.chi2_gate(3, m.gate_probability)
         # (Re-)anchoring: φ0 := Φ_k + θ_k, θr = θr' := 0, identity elsewhere.
         self._anchor_map = np.eye(N_STATES)
         for s in (PHI_0, THETA_R1, THETA_R2):
             self._anchor_map[s, s] = 0.0
         self._anchor_map[PHI_0, PHI_K] = np.eye(3)
         self._anchor_map[PHI_0, THETA_K] = np.eye(3)
-        self._model_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self.counters: dict[str, int] = dict.fromkeys(COUNTERS, 0)
-        #: Reasons of the resets so far (newest last, at most 20 kept).
-        self.reset_reasons: list[str] = []
-        self._pending: tuple[dict[int, tuple], dict[int, tuple]] = ({}, {})
-        self._clear()
-
-    # ------------------------------------------------------------------ public API
-    def on_lgu1(self, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
-        """LGU1 incremental angle ``dalpha`` [rad] (3,) over ``dt`` [s] ending at stamp ``t``
-        [s]. Returns the estimate when this completes a pair that ends a filter step."""
-        return self._on_sample(0, t, dalpha, dt)
-
-    def on_lgu2(self, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
-        """LGU2 counterpart of :meth:`on_lgu1`."""
-        return self._on_sample(1, t, dalpha, dt)
-
-    def reset(self, reason: str) -> None:
-        """Forget everything (state, attitudes, pending samples); record ``reason``."""
-        self.counters["resets"] += 1
-        self.reset_reasons.append(reason)
-        del self.reset_reasons[:-20]
-        self._clear()
-
-    @property
-    def last_reset_reason(self) -> str | None:
-        return self.reset_reasons[-1] if self.reset_reasons else None
-
-    @property
-    def initialized(self) -> bool:
-        return self._x is not None
-
-    @property
-    def state(self) -> np.ndarray | None:
-        """State X (27,) (copy), or None before the first pair."""
-        return None if self._x is None else self._x.copy()
-
-    @property
-    def covariance(self) -> np.ndarray | None:
-        """Covariance (27, 27) (copy), or None before the first pair."""
-        return None if self._P is None else self._P.copy()
-
-    @property
-    def attitudes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Integrated ``(Ĉ_i1b1, Ĉ_i2b2)`` (copies), each (3, 3)."""
-        return self._C1.copy(), self._C2.copy()
-
-    def flexure_covariance(self) -> np.ndarray | None:
-        """Covariance (3, 3) of the total flexure Φ_k + θ_k, or None before the first pair."""
-        if self._P is None:
-            return None
-        P = self._P
-        return P[PHI_K, PHI_K] + P[THETA_K, THETA_K] + P[PHI_K, THETA_K] + P[THETA_K, PHI_K]
-
-    def estimate(self) -> FlexureEstimate | None:
-        """The current estimate (no innovation: zeros, d2 = nan), or None before the first pair."""
-        if self._x is None:
-            return None
-        return self._output(self._t_kf, np.zeros(3), math.nan, False)
 
     # ------------------------------------------------------------------ model
-    def discrete_model(self, dt: float, C1_mean: np.ndarray, C2_mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(F, Q)`` (27, 27) of one step ``dt`` [s], with ``F[θr, ε1] = −C̄1 dt`` and
-        ``F[θr', ε2] = −C̄2 dt`` from the units' mean attitudes over the step (3, 3)."""
+    def discrete_model(self, dt: float, C1_mean: np.ndarray | None = None,
+                       C2_mean: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(F, Q)`` (27, 27) of one step ``dt`` [s]; ``F[θr, ε1] = −C̄1 dt`` and
+        ``F[θr', ε2] = −C̄2 dt`` from the units' mean attitudes over the step (3, 3) when
+        given, zero otherwise. Copies."""
         F, Q = self._model(dt)
         F = F.copy()
-        F[THETA_R1, EPS1] = -dt * C1_mean
-        F[THETA_R2, EPS2] = -dt * C2_mean
+        F[THETA_R1, EPS1] = 0.0 if C1_mean is None else -dt * C1_mean
+        F[THETA_R2, EPS2] = 0.0 if C2_mean is None else -dt * C2_mean
         return F, Q.copy()
 
     def _model(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Cached ``(F, Q)`` with the attitude-dependent blocks at zero (filled in place by
-        :meth:`_propagate`)."""
+        """Cached ``(F, Q)``; :meth:`_propagate` fills the attitude-dependent blocks in place."""
         key = round(dt * 1e6)  # stamp differences carry float noise far below 1 µs
         cached = self._model_cache.get(key)
         if cached is not None:
@@ -241,20 +178,18 @@ class AttitudeMatchingKf:
         F = np.eye(N_STATES)
         Q = np.zeros((N_STATES, N_STATES))
         I3 = np.eye(3)
-        if self.params.model.quasi_static_model == "random_walk_rate":
+        if self.params.quasi_static_model == "random_walk_rate":
             F[PHI_K, PHI_K] = 2.0 * I3
             F[PHI_K, PHI_K1] = -I3
             Q[PHI_K, PHI_K] = np.diag(self._q_rate * dt ** 3)
         else:
             Q[PHI_K, PHI_K] = np.diag(self._q_rw * dt)
-        F[PHI_K1, PHI_K1] = 0.0 * I3
+        F[PHI_K1] = 0.0
         F[PHI_K1, PHI_K] = I3
-        F[THETA_K1, THETA_K1] = 0.0 * I3
+        F[THETA_K1] = 0.0
         for i, (beta, freq, sigma) in enumerate(self._dyn):
             a1, a2, var_e = ar2_coefficients(beta, freq, sigma, dt)
-            F[6 + i, 6 + i] = a1
-            F[6 + i, 9 + i] = a2
-            F[9 + i, 6 + i] = 1.0
+            F[6 + i, 6 + i], F[6 + i, 9 + i], F[9 + i, 6 + i] = a1, a2, 1.0
             Q[6 + i, 6 + i] = var_e
         Q[THETA_R1, THETA_R1] = Q[THETA_R2, THETA_R2] = self._q_arw * dt * I3
         Q[EPS1, EPS1] = Q[EPS2, EPS2] = np.diag(self._q_eps * dt)
@@ -264,25 +199,23 @@ class AttitudeMatchingKf:
         return F, Q
 
     def _initial(self) -> tuple[np.ndarray, np.ndarray]:
-        m = self.params.model
-        T = m.filter_period_s
+        p = self.params
+        T = p.filter_period_s
         P = np.zeros((N_STATES, N_STATES))
         for i in range(3):
-            s0 = (m.qs_initial_sigma_deg[i] * _DEG) ** 2  # type: ignore[index]
-            if m.quasi_static_model == "random_walk_rate":
-                extra = (m.qs_rate_initial_sigma_deg_h[i] * _DEG_H * T) ** 2  # type: ignore[index]
+            s0 = (p.qs_initial_sigma_deg[i] * _DEG) ** 2  # type: ignore[index]
+            if p.quasi_static_model == "random_walk_rate":
+                extra = (p.qs_rate_initial_sigma_deg_h[i] * _DEG_H * T) ** 2  # type: ignore[index]
             else:
                 extra = self._q_rw[i] * T
-            P[i, i] = s0
-            P[i, 3 + i] = P[3 + i, i] = s0
+            P[i, i] = P[i, 3 + i] = P[3 + i, i] = s0
             P[3 + i, 3 + i] = s0 + extra
             beta, freq, sigma = self._dyn[i]
             a1, a2, _ = ar2_coefficients(beta, freq, sigma, T)
             P[6 + i, 6 + i] = P[9 + i, 9 + i] = sigma * sigma
             P[6 + i, 9 + i] = P[9 + i, 6 + i] = a1 / (1.0 - a2) * sigma * sigma
-            for s in (EPS1, EPS2):
-                j = s.start + i
-                P[j, j] = (self.params.lgu_bias_initial_sigma_deg_h[i] * _DEG_H) ** 2  # type: ignore[index]
+            for j in (EPS1.start + i, EPS2.start + i):
+                P[j, j] = (p.lgu_bias_initial_sigma_deg_h[i] * _DEG_H) ** 2  # type: ignore[index]
         x, P = self._anchor(np.zeros(N_STATES), P)
         return kalman.check_state(x, P, "AttitudeMatchingKf")
 
@@ -290,131 +223,27 @@ class AttitudeMatchingKf:
         """New initial frames at the current body frames: φ0 := Φ_k + θ_k, θr = θr' := 0."""
         T = self._anchor_map
         P = T @ P @ T.T
-        P[PHI_0, PHI_0] += np.eye(3) * (self.params.model.anchor_sigma_arcsec * _ARCSEC) ** 2
+        P[PHI_0, PHI_0] += np.eye(3) * (self.params.anchor_sigma_arcsec * _ARCSEC) ** 2
         return T @ x, kalman.symmetrize(P)
 
-    # ------------------------------------------------------------------ message handling
+    # ------------------------------------------------------------------ steps
     def _clear(self) -> None:
-        self._x: np.ndarray | None = None
-        self._P: np.ndarray | None = None
-        self._C1 = np.eye(3)
-        self._C2 = np.eye(3)
-        self._C1_kf = np.eye(3)
+        super()._clear()
         self._C2_kf = np.eye(3)
-        self._t_kf = math.nan  # time of the filter state
-        self._t_att = math.nan  # time of the integrated attitudes (end of the last pair)
-        self._n_att = 0
-        self._rejections = 0
-        self._gate_reanchored = False
-        self._pending[0].clear()
-        self._pending[1].clear()
-        self._t_newest: float | None = None
-
-    def _on_sample(self, unit: int, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
-        m = self.params.model
-        c = self.counters
-        c["samples"] += 1
-        try:
-            t, dt = float(t), float(dt)
-            if len(dalpha) != 3:
-                raise ValueError
-            d = (float(dalpha[0]), float(dalpha[1]), float(dalpha[2]))
-        except (TypeError, ValueError):
-            c["malformed"] += 1
-            return None
-        if not (math.isfinite(t) and math.isfinite(dt) and math.isfinite(d[0] + d[1] + d[2])):
-            c["nonfinite"] += 1
-            return None
-        if not 0.0 < dt <= m.max_gap_s:
-            c["bad_dt"] += 1
-            return None
-        if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.0:  # over 1 rad in one sample is not a ship's
-            c["malformed"] += 1
-            return None
-        if self._t_newest is not None and t < self._t_newest - m.clock_jump_s:
-            self.reset(f"backward clock jump from {self._t_newest:.6f} s to {t:.6f} s")
-        elif not math.isnan(self._t_att) and t <= self._t_att:
-            c["out_of_order"] += 1
-            return None
-        key = round(t * 1e9)
-        mine, other = self._pending[unit], self._pending[1 - unit]
-        if key in mine:
-            c["duplicates"] += 1
-            return None
-        if self._t_newest is None or t > self._t_newest:
-            self._t_newest = t
-        partner = other.pop(key, None)
-        if partner is None:
-            mine[key] = (t, d, dt)
-            if len(mine) > m.max_pending:
-                del mine[min(mine)]
-                c["unpaired"] += 1
-            return None
-        for pending in self._pending:  # older samples will never pair: their rotation is lost
-            stale = [k for k in pending if k < key]
-            for k in stale:
-                del pending[k]
-            c["unpaired"] += len(stale)
-        if unit == 0:
-            return self._on_pair(t, d, partner[1], dt, partner[2])
-        return self._on_pair(t, partner[1], d, partner[2], dt)
-
-    def _on_pair(self, t: float, d1: tuple, d2: tuple, dt1: float, dt2: float) -> FlexureEstimate | None:
-        m = self.params.model
-        c = self.counters
-        c["pairs"] += 1
-        tol = m.dt_tolerance * dt1
-        if abs(dt1 - dt2) > tol:
-            c["bad_dt"] += 1
-            return None
-        t_start = t - dt1
-        if self._x is None:
-            self._start(t_start)
-        else:
-            gap = t_start - self._t_att
-            if gap < -tol:  # overlapping intervals: the stamps contradict the samples' dt
-                c["bad_dt"] += 1
-                return None
-            if gap > tol:
-                c["gaps"] += 1
-                if t_start - self._t_kf > m.max_gap_s:
-                    self.reset(f"data gap of {gap:.3f} s exceeds max_gap_s")
-                    self._t_newest = t
-                    self._start(t_start)
-                else:
-                    self._propagate(t_start)
-                    self._reanchor()
-                    self._t_att = t_start
-        self._C1 = self._C1 @ dcm_from_rotation_vector(d1)
-        self._C2 = self._C2 @ dcm_from_rotation_vector(d2)
-        self._t_att = t
-        self._n_att += 1
-        if self._n_att % 1000 == 0:  # rounding drift ~1e-16 per step
-            self._C1 = orthonormalize(self._C1)
-            self._C2 = orthonormalize(self._C2)
-        if t - self._t_kf < m.filter_period_s - tol:
-            return None
-        return self._epoch(t)
-
-    def _start(self, t_start: float) -> None:
-        self._x, self._P = self._initial()
-        self._t_kf = self._t_att = t_start
 
     def _reanchor(self) -> None:
-        """Restart both attitudes at I at the filter time (= the attitude time)."""
-        self._x, self._P = self._anchor(self._x, self._P)
-        self._C1 = self._C1_kf = np.eye(3)
-        self._C2 = self._C2_kf = np.eye(3)
-        self.counters["reanchors"] += 1
+        super()._reanchor()
+        self._C2_kf = self._C2
 
     def _propagate(self, t: float) -> None:
         """Time update from the filter time to ``t`` in whole nominal steps."""
         span = t - self._t_kf
         if span <= 0.0:
             return
-        n = max(1, int(round(span / self.params.model.filter_period_s)))
+        n = max(1, int(round(span / self.params.filter_period_s)))
         h = span / n
         F, Q = self._model(h)
+        # Mean attitudes over the interval for θ̇r = −Ĉ_i1b1 ε1, θ̇r' = −Ĉ_i2b2 ε2.
         F[THETA_R1, EPS1] = (-0.5 * h) * (self._C1_kf + self._C1)
         F[THETA_R2, EPS2] = (-0.5 * h) * (self._C2_kf + self._C2)
         x, P = self._x, self._P
@@ -431,26 +260,34 @@ class AttitudeMatchingKf:
             self.reset(f"attitude matching angle {math.sqrt(float(z @ z)):.4g} rad exceeds the small-angle limit")
             return None
         H = observation_matrix(self._C1, self._C2)
-        h_x = predicted_observation(self._C1, self._x) if self.params.model.second_order_observation else None
+        h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
         up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
-        c = self.counters
         if up.accepted:
             self._x, self._P = up.x, up.P
+        if not self._count_gate(up.accepted, up.d2):
+            return None
+        return self._output(t, up.y, up.d2, up.accepted)
+
+    def _count_gate(self, accepted: bool, d2: float) -> bool:
+        """:class:`.flexure_kf.FlexureKf`'s gate policy: count; after ``max_gate_rejections``
+        in a row re-anchor, and reset if they go on. False when it reset."""
+        c = self.counters
+        if accepted:
             c["updates"] += 1
             self._rejections = 0
             self._gate_reanchored = False
-        else:
-            c["gated"] += 1
-            self._rejections += 1
-            if self._rejections >= self.params.model.max_gate_rejections:
-                if self._gate_reanchored:
-                    self.reset(f"{self._rejections} consecutive measurements beyond the gate after a re-anchor "
-                               f"(last d2 = {up.d2:.3g})")
-                    return None
-                self._reanchor()
-                self._gate_reanchored = True
-                self._rejections = 0
-        return self._output(t, up.y, up.d2, up.accepted)
+            return True
+        c["gated"] += 1
+        self._rejections += 1
+        if self._rejections >= self.params.max_gate_rejections:
+            if self._gate_reanchored:
+                self.reset(f"{self._rejections} consecutive measurements beyond the gate after a re-anchor "
+                           f"(last d2 = {d2:.3g})")
+                return False
+            self._reanchor()
+            self._gate_reanchored = True
+            self._rejections = 0
+        return True
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
         x, P = self._x, self._P

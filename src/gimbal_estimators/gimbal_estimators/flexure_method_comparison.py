@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
+from dataclasses import fields
 from typing import NamedTuple
 
 import numpy as np
@@ -47,14 +48,14 @@ class MethodFigures(NamedTuple):
     epochs: int
 
 
-def flexure_covariance_simplified(kf: FlexureKf) -> np.ndarray:
-    """Covariance (3, 3) of Φ_k + θ_k in the simplified filter."""
+def flexure_covariance(kf: FlexureKf) -> np.ndarray:
+    """Covariance (3, 3) of the total flexure Φ_k + θ_k of either filter (the original's
+    first 12 states are laid out as the simplified one's)."""
     P = kf.covariance
     return P[PHI_K, PHI_K] + P[THETA_K, THETA_K] + P[PHI_K, THETA_K] + P[THETA_K, PHI_K]
 
 
-def _run_method(make: Callable[[], object], cov: Callable[[object], np.ndarray], runs: list[LguRun],
-                convergence_s: float) -> MethodFigures:
+def _run_method(make: Callable[[], FlexureKf], runs: list[LguRun], convergence_s: float) -> MethodFigures:
     clock = time.process_time
     cpu = 0.0
     pairs = 0
@@ -74,7 +75,7 @@ def _run_method(make: Callable[[], object], cov: Callable[[object], np.ndarray],
             if est is None:
                 continue
             err = est.flexure - run.truth[k]
-            last = kalman.nees(err, cov(kf))
+            last = kalman.nees(err, flexure_covariance(kf))
             if est.t - t0 >= convergence_s:
                 sq += err * err
                 nees.append(last)
@@ -84,17 +85,14 @@ def _run_method(make: Callable[[], object], cov: Callable[[object], np.ndarray],
                          np.asarray(final), 1e6 * cpu / max(pairs, 1), pairs, n)
 
 
-def compare_methods(runs: Iterable[LguRun], original: AttitudeMatchingParams | None = None,
-                    simplified: FlexureKfParams | None = None,
+def compare_methods(runs: Iterable[LguRun], params: AttitudeMatchingParams | None = None,
                     convergence_s: float = 0.0) -> dict[str, MethodFigures]:
-    """Run a fresh filter of each method over each run (the same samples for both) and
-    score it against the truth after ``convergence_s`` [s] of each run. Returns
-    ``{"original": MethodFigures, "simplified": MethodFigures}``."""
+    """Run a fresh filter of each method over each run (the same samples for both; the
+    simplified filter takes ``params``' shared fields) and score it against the truth after
+    ``convergence_s`` [s] of each run. Returns ``{"original": MethodFigures,
+    "simplified": MethodFigures}``."""
     runs = list(runs)
-    original = AttitudeMatchingParams() if original is None else original
-    simplified = FlexureKfParams() if simplified is None else simplified
-    return {
-        "original": _run_method(lambda: AttitudeMatchingKf(original), lambda kf: kf.flexure_covariance(), runs,
-                                convergence_s),
-        "simplified": _run_method(lambda: FlexureKf(simplified), flexure_covariance_simplified, runs, convergence_s),
-    }
+    original = AttitudeMatchingParams() if params is None else params
+    simplified = FlexureKfParams(**{f.name: getattr(original, f.name) for f in fields(FlexureKfParams)})
+    return {"original": _run_method(lambda: AttitudeMatchingKf(original), runs, convergence_s),
+            "simplified": _run_method(lambda: FlexureKf(simplified), runs, convergence_s)}
