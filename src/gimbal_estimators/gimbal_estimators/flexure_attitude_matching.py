@@ -56,20 +56,20 @@ from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
 from . import kalman
-from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams, ar2_coefficients, match_attitudes
+from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams, match_attitudes
 
 N_STATES = 27
 #: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).
 PHI_K, PHI_K1, THETA_K, THETA_K1, PHI_0, THETA_R1, THETA_R2, EPS1, EPS2 = (
     slice(3 * i, 3 * i + 3) for i in range(9))
+#: The flexure states [Φ_k, Φ_{k−1}, θ_k, θ_{k−1}].
+FLEXURE = slice(0, 12)
 #: Largest attitude-matching angle |Z| accepted [rad]; beyond it the filter resets.
 _MAX_MATCH_ANGLE = 0.1
 
 _DEG = math.pi / 180.0
 _ARCSEC = _DEG / 3600.0
 _DEG_H = _DEG / 3600.0
-_DEG_RT_H = _DEG / 60.0
-_DEG_H_RT_H = _DEG_H / 60.0
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,10 @@ class AttitudeMatchingParams(FlexureKfParams):
                 for x in vals:
                     (positive if strict else nonneg_finite)(name, x)
             object.__setattr__(self, name, vals)
+
+    def simplified(self) -> FlexureKfParams:
+        """The shared fields, as the simplified filter's parameters."""
+        return FlexureKfParams(**{f.name: getattr(self, f.name) for f in fields(FlexureKfParams)})
 
     @classmethod
     def from_values(cls, v: dict) -> AttitudeMatchingParams:
@@ -148,8 +152,11 @@ class AttitudeMatchingKf(FlexureKf):
             raise TypeError(f"params must be AttitudeMatchingParams, got {type(params).__name__}")
         super().__init__(params)
         self.params: AttitudeMatchingParams = params
-        self._q_arw = (params.lgu_arw_deg_rt_h * _DEG_RT_H) ** 2  # each unit's
-        self._q_eps = np.array([(x * _DEG_H_RT_H) ** 2 for x in params.lgu_bias_rw_deg_h_rt_h])  # type: ignore[union-attr]
+        # The simplified filter on the same fields: its flexure model and prior are ours.
+        self._simplified = FlexureKf(params.simplified())
+        self._q_arw = (params.lgu_arw_deg_rt_h * _DEG / 60.0) ** 2  # each unit's [rad²/s]
+        rw = params.lgu_bias_rw_deg_h_rt_h
+        self._q_eps = np.array([(x * _DEG_H / 60.0) ** 2 for x in rw])  # type: ignore[union-attr]
         # (Re-)anchoring: φ0 := Φ_k + θ_k, θr = θr' := 0, identity elsewhere.
         self._anchor_map = np.eye(N_STATES)
         for s in (PHI_0, THETA_R1, THETA_R2):
@@ -170,28 +177,17 @@ class AttitudeMatchingKf(FlexureKf):
         return F, Q.copy()
 
     def _model(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Cached ``(F, Q)``; :meth:`_propagate` fills the attitude-dependent blocks in place."""
+        """Cached ``(F, Q)``; :meth:`_propagate` fills the attitude-dependent blocks in place.
+        The flexure blocks are the simplified filter's."""
         key = round(dt * 1e6)  # stamp differences carry float noise far below 1 µs
         cached = self._model_cache.get(key)
         if cached is not None:
             return cached
         F = np.eye(N_STATES)
         Q = np.zeros((N_STATES, N_STATES))
-        I3 = np.eye(3)
-        if self.params.quasi_static_model == "random_walk_rate":
-            F[PHI_K, PHI_K] = 2.0 * I3
-            F[PHI_K, PHI_K1] = -I3
-            Q[PHI_K, PHI_K] = np.diag(self._q_rate * dt ** 3)
-        else:
-            Q[PHI_K, PHI_K] = np.diag(self._q_rw * dt)
-        F[PHI_K1] = 0.0
-        F[PHI_K1, PHI_K] = I3
-        F[THETA_K1] = 0.0
-        for i, (beta, freq, sigma) in enumerate(self._dyn):
-            a1, a2, var_e = ar2_coefficients(beta, freq, sigma, dt)
-            F[6 + i, 6 + i], F[6 + i, 9 + i], F[9 + i, 6 + i] = a1, a2, 1.0
-            Q[6 + i, 6 + i] = var_e
-        Q[THETA_R1, THETA_R1] = Q[THETA_R2, THETA_R2] = self._q_arw * dt * I3
+        F_s, Q_s = self._simplified.discrete_model(dt)
+        F[FLEXURE, FLEXURE], Q[FLEXURE, FLEXURE] = F_s[FLEXURE, FLEXURE], Q_s[FLEXURE, FLEXURE]
+        Q[THETA_R1, THETA_R1] = Q[THETA_R2, THETA_R2] = self._q_arw * dt * np.eye(3)
         Q[EPS1, EPS1] = Q[EPS2, EPS2] = np.diag(self._q_eps * dt)
         if len(self._model_cache) > 16:
             self._model_cache.clear()
@@ -199,23 +195,11 @@ class AttitudeMatchingKf(FlexureKf):
         return F, Q
 
     def _initial(self) -> tuple[np.ndarray, np.ndarray]:
-        p = self.params
-        T = p.filter_period_s
+        """The simplified filter's prior on the flexure, each unit's on its bias, then anchored."""
         P = np.zeros((N_STATES, N_STATES))
-        for i in range(3):
-            s0 = (p.qs_initial_sigma_deg[i] * _DEG) ** 2  # type: ignore[index]
-            if p.quasi_static_model == "random_walk_rate":
-                extra = (p.qs_rate_initial_sigma_deg_h[i] * _DEG_H * T) ** 2  # type: ignore[index]
-            else:
-                extra = self._q_rw[i] * T
-            P[i, i] = P[i, 3 + i] = P[3 + i, i] = s0
-            P[3 + i, 3 + i] = s0 + extra
-            beta, freq, sigma = self._dyn[i]
-            a1, a2, _ = ar2_coefficients(beta, freq, sigma, T)
-            P[6 + i, 6 + i] = P[9 + i, 9 + i] = sigma * sigma
-            P[6 + i, 9 + i] = P[9 + i, 6 + i] = a1 / (1.0 - a2) * sigma * sigma
-            for j in (EPS1.start + i, EPS2.start + i):
-                P[j, j] = (p.lgu_bias_initial_sigma_deg_h[i] * _DEG_H) ** 2  # type: ignore[index]
+        P[FLEXURE, FLEXURE] = self._simplified._initial()[1][FLEXURE, FLEXURE]
+        sigma = self.params.lgu_bias_initial_sigma_deg_h
+        P[EPS1, EPS1] = P[EPS2, EPS2] = np.diag([(x * _DEG_H) ** 2 for x in sigma])  # type: ignore[union-attr]
         x, P = self._anchor(np.zeros(N_STATES), P)
         return kalman.check_state(x, P, "AttitudeMatchingKf")
 

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import fields
 from typing import NamedTuple
 
 import numpy as np
 
 from . import kalman
 from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
-from .flexure_kf import PHI_K, THETA_K, FlexureKf, FlexureKfParams
+from .flexure_kf import PHI_K, THETA_K, FlexureKf
 
 _ARCSEC = np.pi / 180.0 / 3600.0
 
@@ -93,6 +92,6 @@ def compare_methods(runs: Iterable[LguRun], params: AttitudeMatchingParams | Non
     "simplified": MethodFigures}``."""
     runs = list(runs)
     original = AttitudeMatchingParams() if params is None else params
-    simplified = FlexureKfParams(**{f.name: getattr(original, f.name) for f in fields(FlexureKfParams)})
+    simplified = original.simplified()
     return {"original": _run_method(lambda: AttitudeMatchingKf(original), runs, convergence_s),
             "simplified": _run_method(lambda: FlexureKf(simplified), runs, convergence_s)}
