@@ -9,9 +9,9 @@ i2 = b2(t0), with initial DCMs I, exactly as in :mod:`.flexure_kf`. Eq. 1 reads
     Z = φ − A φ0 + Ĉ_i1b1ᵀ θr − Ĉ_i2b2ᵀ θr',
 
 with φ the flexure at t_k, φ0 the flexure at t0 and θr, θr' the two units' own attitude
-errors. The paper gives neither its sign convention nor A; both follow from re-deriving
-eq. 1. With the usual INS attitude error, ``Ĉ_ib = exp(−[θ×]) C_ib`` (θ in the unit's
-i-frame), and ``C_i1i2 = exp([φ0×])``, ``C_b1b2 = exp([φ×])``:
+errors. The paper defines neither θr's sign nor A; both follow from re-deriving eq. 1.
+With the INS attitude error on the left, as in eq. 2, ``Ĉ_ib = exp(−[θ×]) C_ib`` (θ in
+the unit's i-frame), and ``C_i1i2 = exp([φ0×])``, ``C_b1b2 = exp([φ×])``:
 
     M = Ĉ_i1b1ᵀ Ĉ_i2b2 = exp([u×]) exp([φ×]),
     u = A (θr − θr' − φ0 + ½ (θr×θr' + θr×φ0 + θr'×φ0)),    A = Ĉ_i1b1ᵀ,
@@ -32,10 +32,11 @@ dynamic flexure (eq. 12) as the simplified filter, so that the two differ only i
 attitude matching. Eq. 1 names φ, φ0, θr, θr'; the paper does not list ref. [10]'s states.
 We take each unit's gyro bias as the driver of its attitude error (``θ̇r = −Ĉ_i1b1 ε1 + n1``,
 ``θ̇r' = −Ĉ_i2b2 ε2 + n2``, n the angle random walk) and each bias as a random walk (eq. 11
-written per unit); φ0 is a random constant. Only φ0 − θr + θr' (the simplified filter's
-θ_d) and ε1 − ε2 are observable: the other 9 directions keep their prior, which is the
-computation the simplification removes. With per-unit bias priors and random walks of
-σ_diff/√2 (the default) the two filters model the same flexure and estimate it alike.
+written per unit); φ0 is a random constant. To first order (Ĉ_i2b2ᵀ = A + O(φ)) Z sees
+only φ0 − θr + θr' (the simplified filter's θ_d) and ε1 − ε2: the other 9 directions are
+never observed, and carrying them is the computation the simplification removes (paper 5
+§1-2). With per-unit bias priors and random walks of σ_diff/√2 (the default) the two
+filters model the same flexure and estimate it alike.
 
 Messages
 --------
@@ -103,7 +104,7 @@ class AttitudeMatchingParams(FlexureKfParams):
 
     def simplified(self) -> FlexureKfParams:
         """The shared fields, as the simplified filter's parameters."""
-        return FlexureKfParams(**{f.name: getattr(self, f.name) for f in fields(FlexureKfParams)})
+        return FlexureKfParams(**_shared_fields(self))
 
     @classmethod
     def from_values(cls, v: dict) -> AttitudeMatchingParams:
@@ -112,11 +113,15 @@ class AttitudeMatchingParams(FlexureKfParams):
         :class:`ParameterError` names the parameter refused."""
         base = FlexureKfParams.from_values(v)
         try:
-            return cls(**{f.name: getattr(base, f.name) for f in fields(FlexureKfParams)},
+            return cls(**_shared_fields(base),
                        lgu_bias_initial_sigma_deg_h=v.get("lgu_bias_initial_sigma_deg_h") or None,
                        lgu_bias_rw_deg_h_rt_h=v.get("lgu_bias_rw_deg_h_rt_h") or None)
         except ValueError as exc:
             raise ParameterError(f"parameter {exc}") from exc
+
+
+def _shared_fields(p: FlexureKfParams) -> dict:
+    return {f.name: getattr(p, f.name) for f in fields(FlexureKfParams)}
 
 
 def observation_matrix(C_i1b1: np.ndarray, C_i2b2: np.ndarray) -> np.ndarray:
@@ -135,10 +140,16 @@ def predicted_observation(C_i1b1: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``h(X) = φ + u + ½ u×φ`` [rad], (3,): eq. 1 to second order (module docstring), with
     φ = Φ_k + θ_k and u = A(θr − θr' − φ0 + ½(θr×θr' + θr×φ0 + θr'×φ0))."""
     phi0, r1, r2 = x[PHI_0], x[THETA_R1], x[THETA_R2]
-    w = r1 - r2 - phi0 + 0.5 * (np.cross(r1, r2) + np.cross(r1, phi0) + np.cross(r2, phi0))
+    w = r1 - r2 - phi0 + 0.5 * (_cross(r1, r2) + _cross(r1 + r2, phi0))
     u = C_i1b1.T @ w
     phi = x[PHI_K] + x[THETA_K]
-    return phi + u + 0.5 * np.cross(u, phi)
+    return phi + u + 0.5 * _cross(u, phi)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for (3,) vectors (np.cross costs several times more at this size)."""
+    a0, a1, a2, b0, b1, b2 = float(a[0]), float(a[1]), float(a[2]), float(b[0]), float(b[1]), float(b[2])
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 class AttitudeMatchingKf(FlexureKf):
