@@ -4,12 +4,13 @@ the simplified (eq. 5, :class:`.flexure_kf.FlexureKf`).
 
 Pure: the caller supplies the runs (LGU pairs and the flexure truth at each stamp), e.g.
 from the simulator. CPU time is ``time.process_time`` around each pair's two filter calls,
-so it counts this process only, but a busy machine still slows it (caches, frequency).
+so it counts this process only, but a busy machine still slows it (shared caches and
+cores): report it with the machine's load, never assert it.
 """
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from typing import NamedTuple
 
 import numpy as np
@@ -54,34 +55,36 @@ def flexure_covariance(kf: FlexureKf) -> np.ndarray:
     return P[PHI_K, PHI_K] + P[THETA_K, THETA_K] + P[PHI_K, THETA_K] + P[THETA_K, PHI_K]
 
 
-def _run_method(make: Callable[[], FlexureKf], runs: list[LguRun], convergence_s: float) -> MethodFigures:
-    clock = time.process_time
-    cpu = 0.0
-    pairs = 0
-    sq = np.zeros(3)
-    nees: list[float] = []
-    final: list[float] = []
-    for run in runs:
-        kf = make()
-        last = np.nan
-        t0 = run.t[0]
-        for k in range(run.t.size):
-            c0 = clock()
-            kf.on_lgu1(run.t[k], run.dalpha1[k], run.dt[k])
-            est = kf.on_lgu2(run.t[k], run.dalpha2[k], run.dt[k])
-            cpu += clock() - c0
-            pairs += 1
-            if est is None:
-                continue
-            err = est.flexure - run.truth[k]
-            last = kalman.nees(err, flexure_covariance(kf))
-            if est.t - t0 >= convergence_s:
-                sq += err * err
-                nees.append(last)
-        final.append(last)
-    n = len(nees)
-    return MethodFigures(np.sqrt(sq / max(n, 1)) / _ARCSEC, float(np.mean(nees)) if n else float("nan"),
-                         np.asarray(final), 1e6 * cpu / max(pairs, 1), pairs, n)
+class _Score:
+    """One method's running figures."""
+
+    def __init__(self) -> None:
+        self.cpu = 0.0
+        self.sq = np.zeros(3)
+        self.nees: list[float] = []
+        self.final: list[float] = []
+
+    def figures(self, pairs: int) -> MethodFigures:
+        n = len(self.nees)
+        return MethodFigures(np.sqrt(self.sq / max(n, 1)) / _ARCSEC, float(np.mean(self.nees)) if n else float("nan"),
+                             np.asarray(self.final), 1e6 * self.cpu / max(pairs, 1), pairs, n)
+
+
+def _step(kf: FlexureKf, run: LguRun, k: int, score: _Score, convergence_s: float) -> float:
+    """Feed pair ``k`` to ``kf``, add its CPU time to ``score`` and score its estimate;
+    returns the estimate's NEES (nan when the pair ended no filter step)."""
+    c0 = time.process_time()
+    kf.on_lgu1(run.t[k], run.dalpha1[k], run.dt[k])
+    est = kf.on_lgu2(run.t[k], run.dalpha2[k], run.dt[k])
+    score.cpu += time.process_time() - c0
+    if est is None:
+        return float("nan")
+    err = est.flexure - run.truth[k]
+    d2 = kalman.nees(err, flexure_covariance(kf))
+    if est.t - run.t[0] >= convergence_s:
+        score.sq += err * err
+        score.nees.append(d2)
+    return d2
 
 
 def compare_methods(runs: Iterable[LguRun], params: AttitudeMatchingParams | None = None,
@@ -89,9 +92,23 @@ def compare_methods(runs: Iterable[LguRun], params: AttitudeMatchingParams | Non
     """Run a fresh filter of each method over each run (the same samples for both; the
     simplified filter takes ``params``' shared fields) and score it against the truth after
     ``convergence_s`` [s] of each run. Returns ``{"original": MethodFigures,
-    "simplified": MethodFigures}``."""
-    runs = list(runs)
+    "simplified": MethodFigures}``.
+
+    The two filters take each pair in turn, in alternating order, so that a change of the
+    machine's load during the run weighs on both CPU figures alike.
+    """
     original = AttitudeMatchingParams() if params is None else params
     simplified = original.simplified()
-    return {"original": _run_method(lambda: AttitudeMatchingKf(original), runs, convergence_s),
-            "simplified": _run_method(lambda: FlexureKf(simplified), runs, convergence_s)}
+    scores = {"original": _Score(), "simplified": _Score()}
+    pairs = 0
+    for run in runs:
+        filters = {"original": AttitudeMatchingKf(original), "simplified": FlexureKf(simplified)}
+        last = dict.fromkeys(filters, float("nan"))
+        for k in range(run.t.size):
+            for name in (("original", "simplified") if k % 2 == 0 else ("simplified", "original")):
+                d2 = _step(filters[name], run, k, scores[name], convergence_s)
+                last[name] = d2 if d2 == d2 else last[name]
+        for name, score in scores.items():
+            score.final.append(last[name])
+        pairs += run.t.size
+    return {name: score.figures(pairs) for name, score in scores.items()}
