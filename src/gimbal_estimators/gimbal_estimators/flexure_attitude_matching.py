@@ -57,7 +57,7 @@ from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
 from . import kalman
-from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams, match_attitudes
+from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams, match_attitudes
 
 N_STATES = 27
 #: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).
@@ -65,11 +65,12 @@ PHI_K, PHI_K1, THETA_K, THETA_K1, PHI_0, THETA_R1, THETA_R2, EPS1, EPS2 = (
     slice(3 * i, 3 * i + 3) for i in range(9))
 #: The flexure states [Φ_k, Φ_{k−1}, θ_k, θ_{k−1}].
 FLEXURE = slice(0, 12)
+# φ0 takes θ_d's place, so that the simplified filter's anchoring applies to it.
+assert PHI_0 == THETA_D
 #: Largest attitude-matching angle |Z| accepted [rad]; beyond it the filter resets.
 _MAX_MATCH_ANGLE = 0.1
 
 _DEG = math.pi / 180.0
-_ARCSEC = _DEG / 3600.0
 _DEG_H = _DEG / 3600.0
 
 
@@ -168,7 +169,8 @@ class AttitudeMatchingKf(FlexureKf):
         self._q_arw = (params.lgu_arw_deg_rt_h * _DEG / 60.0) ** 2  # each unit's [rad²/s]
         rw = params.lgu_bias_rw_deg_h_rt_h
         self._q_eps = np.array([(x * _DEG_H / 60.0) ** 2 for x in rw])  # type: ignore[union-attr]
-        # (Re-)anchoring: φ0 := Φ_k + θ_k, θr = θr' := 0, identity elsewhere.
+        # (Re-)anchoring: φ0 := Φ_k + θ_k, θr = θr' := 0, identity elsewhere; applied by the
+        # inherited _anchor, which adds anchor_sigma_arcsec to φ0 (at θ_d's place).
         self._anchor_map = np.eye(N_STATES)
         for s in (PHI_0, THETA_R1, THETA_R2):
             self._anchor_map[s, s] = 0.0
@@ -213,13 +215,6 @@ class AttitudeMatchingKf(FlexureKf):
         P[EPS1, EPS1] = P[EPS2, EPS2] = np.diag([(x * _DEG_H) ** 2 for x in sigma])  # type: ignore[union-attr]
         x, P = self._anchor(np.zeros(N_STATES), P)
         return kalman.check_state(x, P, "AttitudeMatchingKf")
-
-    def _anchor(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """New initial frames at the current body frames: φ0 := Φ_k + θ_k, θr = θr' := 0."""
-        T = self._anchor_map
-        P = T @ P @ T.T
-        P[PHI_0, PHI_0] += np.eye(3) * (self.params.anchor_sigma_arcsec * _ARCSEC) ** 2
-        return T @ x, kalman.symmetrize(P)
 
     # ------------------------------------------------------------------ steps
     def _clear(self) -> None:
@@ -285,13 +280,10 @@ class AttitudeMatchingKf(FlexureKf):
         return True
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
+        """The simplified filter's output (the flexure states are laid out alike) with ε1 − ε2
+        as the bias difference and φ0 − θr + θr' as the relative attitude."""
         x, P = self._x, self._P
-        var = P.diagonal()
-        var_flex = var[PHI_K] + var[THETA_K] + 2.0 * P[PHI_K, THETA_K].diagonal()
-        var_eps = var[EPS1] + var[EPS2] - 2.0 * P[EPS1, EPS2].diagonal()
-        sd = np.sqrt(var)
-        return FlexureEstimate(
-            t, x[PHI_K] + x[THETA_K], np.sqrt(np.maximum(var_flex, 0.0)), x[PHI_K].copy(), sd[PHI_K],
-            x[THETA_K].copy(), sd[THETA_K], x[EPS1] - x[EPS2], np.sqrt(np.maximum(var_eps, 0.0)),
-            x[PHI_0] - x[THETA_R1] + x[THETA_R2], y, float(d2), bool(accepted),
-        )
+        var_eps = P[EPS1, EPS1].diagonal() + P[EPS2, EPS2].diagonal() - 2.0 * P[EPS1, EPS2].diagonal()
+        return super()._output(t, y, d2, accepted)._replace(
+            bias_diff=x[EPS1] - x[EPS2], bias_diff_sigma=np.sqrt(np.maximum(var_eps, 0.0)),
+            relative_attitude=x[PHI_0] - x[THETA_R1] + x[THETA_R2])
