@@ -13,9 +13,9 @@ from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, Atti
 from gimbal_estimators.flexure_kf import FlexureKfParams
 from gimbal_estimators.flexure_method_comparison import LguRun, compare_methods, flexure_covariance
 from gimbal_kinematics.params import ParameterError
-from gimbal_sim.sensors import FlexureParams
-from gimbal_sim.sensors.flexure import ShipFlexureTruth
-from gimbal_sim.sensors.lgu import LguPair
+from gimbal_sim.world.sensors import FlexureParams
+from gimbal_sim.world.sensors.flexure import ShipFlexureTruth
+from gimbal_sim.world.sensors.lgu import LguPair
 
 AS = math.pi / 180.0 / 3600.0
 DEG = math.pi / 180.0
