@@ -84,8 +84,8 @@ is φ × (time held)/T: exact when the sample period divides T. The level residu
 costs ~g φ T/2 of velocity (1 mm/s for 5″).
 
 Bad input is counted and never integrated: a non-finite stamp or value, a stamp at or
-before the previous one (repeat or out of order; :func:`gimbal_kinematics.sync.check_stamp`),
-a missing resolver angle (None). A stamp more than ``backward_jump_s`` back (a bag looping)
+before the previous one (repeat or out of order; :func:`gimbal_kinematics.stamps.judge`),
+a missing resolver angle (None). A stamp more than ``clock_jump_s`` back (a bag looping)
 restarts navigation from the hand-off, the sample being the first of the new run.
 
 Accuracy figure: none. The core is a mechanisation without a filter; its error comes from
@@ -98,7 +98,7 @@ import math
 from typing import NamedTuple, Sequence
 
 from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, normal_gravity, prime_vertical_radius
-from gimbal_kinematics.sync import Stamp, check_stamp
+from gimbal_kinematics.stamps import Stamp, judge
 
 from .platform_navigator_params import PlatformNavigatorParams
 
@@ -211,9 +211,8 @@ class PlatformNavigator:
 
     # -- input checks ----------------------------------------------------------------------
     def _stamp_verdict(self, t_ns: int) -> Stamp:
-        # the project's one stamp check, in float seconds (duplicates compare equal)
-        last = None if self._t_last_ns is None else self._t_last_ns * 1e-9
-        return check_stamp(t_ns * 1e-9, last, self.params.backward_jump_s)
+        # the project's one stamp check, on integer ns (epoch stamps keep every ns)
+        return judge(t_ns, self._t_last_ns, int(round(self.params.clock_jump_s * 1e9)))
 
     def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | None:
         """(f_x, f_y, f_z, θ_a) as floats, or None after counting why the sample is refused."""
@@ -227,7 +226,7 @@ class PlatformNavigator:
             self.rejected_nonfinite += 1
             return None
         verdict = self._stamp_verdict(int(t_ns))
-        if verdict is Stamp.OUT_OF_ORDER:
+        if verdict is Stamp.OUT_OF_ORDER or verdict is Stamp.DUPLICATE:
             self.rejected_out_of_order += 1
             return None
         if theta_a is None:

@@ -40,7 +40,7 @@ class PlatformNavigatorParams:
     convention, torqued out over ``torque_out_s`` [s] after the first sample.
 
     ``vertical_tau_s`` [s]: time constant of the triple pole of the damped vertical channel.
-    ``backward_jump_s`` [s]: a stamp this far before the last one restarts navigation from the
+    ``clock_jump_s`` [s]: a stamp this far before the last one restarts navigation from the
     hand-off (a bag looping); smaller reversals and repeats are rejected and counted.
     """
 
@@ -54,7 +54,7 @@ class PlatformNavigatorParams:
     misalignment_arcsec: tuple[float, float, float] = (0.0, 0.0, 0.0)
     torque_out_s: float = 10.0
     vertical_tau_s: float = 100.0
-    backward_jump_s: float = 1.0
+    clock_jump_s: float = 1.0
 
     def __post_init__(self) -> None:
         lat = finite("lat_deg", self.lat_deg)
@@ -66,7 +66,7 @@ class PlatformNavigatorParams:
         finite("north_drift_deg_h", self.north_drift_deg_h)
         for name in ("gyro_drift_deg_h", "accel_bias_ug", "misalignment_arcsec"):
             object.__setattr__(self, name, per_axis(name, getattr(self, name), 3))
-        for name in ("torque_out_s", "vertical_tau_s", "backward_jump_s"):
+        for name in ("torque_out_s", "vertical_tau_s", "clock_jump_s"):
             positive(name, getattr(self, name))
 
     @classmethod
@@ -141,6 +141,6 @@ PARAMS = (
           "misalignment out [s]", 1e-3, 1e4),
     Param("vertical_tau_s", _D.vertical_tau_s, "time constant of the damped vertical channel's triple "
           "pole [s]", 1.0, 1e5),
-    Param("backward_jump_s", _D.backward_jump_s, "a stamp this far before the last one restarts navigation "
+    Param("clock_jump_s", _D.clock_jump_s, "a stamp this far before the last one restarts navigation "
           "from the hand-off [s]", 1e-9, 1e9),
 )
