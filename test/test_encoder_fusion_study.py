@@ -155,3 +155,14 @@ def test_headline_core_run_gives_the_reports_figures_and_fusion_wins():
     fused = study.headline_run("fused", 4, options)
     assert enc["mode"] == "encoder" and fused["mode"] == "fused"
     assert fused["stabilization_error_urad"]["rms_after_settle"] * 4 < enc["stabilization_error_urad"]["rms_after_settle"]
+
+
+@pytest.mark.parametrize("args, named", [
+    (["rq", "--engine", "graph", "--seeds", "1"], "engine graph is not available"),
+    (["headline", "--engine", "graph", "--seeds", "1", "--random-phases"], "random_phases"),
+    (["headline", "--seeds", "one"], "--seeds"),
+])
+def test_cli_refuses_what_it_cannot_run_naming_it(args, named, capsys):
+    with pytest.raises(SystemExit) as exc:
+        study.main(args)
+    assert exc.value.code == 2 and named in capsys.readouterr().err
