@@ -40,7 +40,7 @@ def free_run(messages, **params) -> tuple[object, dict[str, dict[int, np.ndarray
         return lambda msg: out[topic].__setitem__(m.stamp_ns(msg.header.stamp), np.array(m.vec_of(msg.vector)))
 
     try:
-        assert node.free and node.pub_diag is not None
+        assert node.policy.timing == "free" and node.pub_diag is not None
         for topic, pub in node.pubs.items():
             pub.publish = recorder(topic)
         node.pub_diag.publish = lambda msg: diags.extend({kv.key: kv.value for kv in s.values} for s in msg.status)

@@ -8,6 +8,7 @@ from scipy.linalg import solve_discrete_lyapunov
 from scipy.spatial.transform import Rotation
 
 from gimbal_estimators import flexure_kf as fk
+from gimbal_estimators import flexure_model as fm
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, small_angles_from_dcm
 from gimbal_sim.experiments.flexure import run_flexure_comparison
@@ -106,13 +107,13 @@ def test_attitude_integration_matches_scipy_composition():
     np.testing.assert_allclose(C1, R1.as_matrix(), atol=1e-12)
     np.testing.assert_allclose(C2, R2.as_matrix(), atol=1e-12)
     # The inline extraction is small_angles_from_dcm.
-    np.testing.assert_allclose(fk.match_attitudes(C1, C2), small_angles_from_dcm(C1.T @ C2), atol=1e-15)
+    np.testing.assert_allclose(fm.match_attitudes(C1, C2), small_angles_from_dcm(C1.T @ C2), atol=1e-15)
 
 
 @pytest.mark.parametrize("beta, lam, dt", [(0.1, 0.5, 0.1), (0.1, 0.5, 0.02), (0.3, 1.2, 0.1), (0.2, 0.0, 0.1)])
 def test_ar2_matches_second_order_markov(beta, lam, dt):
     sigma = 40.0 * AS
-    a1, a2, var_e = fk.ar2_coefficients(beta, lam, sigma, dt)
+    a1, a2, var_e = fm.ar2_coefficients(beta, lam, sigma, dt)
     # Poles are the exact ones exp((−β ± jλ)dt).
     np.testing.assert_allclose(np.sort_complex(np.roots([1.0, -a1, -a2])),
                                np.sort_complex(np.exp(np.array([-beta - 1j * lam, -beta + 1j * lam]) * dt)), atol=1e-12)
@@ -127,7 +128,7 @@ def test_ar2_matches_second_order_markov(beta, lam, dt):
         closed = np.exp(-beta * tau) * (np.cos(lam * tau) + (beta / lam) * np.sin(lam * tau))
     else:
         closed = np.exp(-beta * tau) * (1.0 + beta * tau)
-    rho = fk.ar2_autocorrelation(a1, a2, lags)
+    rho = fm.ar2_autocorrelation(a1, a2, lags)
     assert np.max(np.abs(rho - closed)) < 2e-3
     assert Pc[0, 1] / Pc[0, 0] == pytest.approx(rho[1], rel=1e-12)
 
@@ -148,7 +149,7 @@ def test_discrete_model_blocks_follow_eq_10_and_12():
     np.testing.assert_array_equal(F2[0:3, 3:6], 0 * I3)
     np.testing.assert_allclose(np.diag(Q2[0:3, 0:3]), (0.5 * AS) ** 2 * T)
     for i, s in enumerate((20.0, 60.0, 40.0)):
-        a1, a2, ve = fk.ar2_coefficients(0.1, 0.5, s * AS, T)
+        a1, a2, ve = fm.ar2_coefficients(0.1, 0.5, s * AS, T)
         assert (F[6 + i, 6 + i], F[6 + i, 9 + i], Q[6 + i, 6 + i]) == pytest.approx((a1, a2, ve))
     np.testing.assert_array_equal(F[15:18, 15:18], I3)
     np.testing.assert_array_equal(F[12:15, 15:18], 0 * I3)  # filled per step with C̄ dt
@@ -163,12 +164,12 @@ def test_observation_matrix_matches_numerical_derivative():
     def z_of(x):
         C_b1b2 = dcm_from_rotation_vector(x[0:3] + x[6:9])
         C_i2i1 = dcm_from_rotation_vector(x[12:15]).T
-        return fk.match_attitudes(C1, C_i2i1 @ C1 @ C_b1b2)
+        return fm.match_attitudes(C1, C_i2i1 @ C1 @ C_b1b2)
 
     x0 = rng.normal(0.0, 1e-3, 18)
     h = 1e-7
     J = np.column_stack([(z_of(x0 + h * e) - z_of(x0 - h * e)) / (2 * h) for e in np.eye(18)])
-    H = fk.observation_matrix(C1)
+    H = fm.observation_matrix(C1)
     np.testing.assert_allclose(J, H, atol=5e-3)  # second-order terms at |x| ~ 1e-3
     J0 = np.column_stack([(z_of(h * e) - z_of(-h * e)) / (2 * h) for e in np.eye(18)])
     np.testing.assert_allclose(J0, H, atol=1e-7)
@@ -176,7 +177,7 @@ def test_observation_matrix_matches_numerical_derivative():
     # The second-order prediction leaves third order only.
     x1 = rng.normal(0.0, 5e-3, 18)
     assert np.max(np.abs(z_of(x1) - H @ x1)) > 1e-5
-    assert np.max(np.abs(z_of(x1) - fk.predicted_observation(C1, x1))) < 1e-6
+    assert np.max(np.abs(z_of(x1) - fm.predicted_observation(C1, x1))) < 1e-6
 
 
 def test_observation_model_against_the_ship_simulation():
@@ -201,11 +202,11 @@ def test_observation_model_against_the_ship_simulation():
             C1, C2 = kf.attitudes
             eps = ss.lgu.lgu1.true_bias - ss.lgu.lgu2.true_bias
             theta_d = theta_d + 0.5 * (C_old + C1) @ eps * s.dt
-            z = fk.match_attitudes(C1, C2)
+            z = fm.match_attitudes(C1, C2)
             worst = max(worst, float(np.max(np.abs(z - (np.array(s.flexure) - C1.T @ theta_d)))))
             x = np.zeros(18)
             x[0:3], x[12:15] = s.flexure, theta_d
-            worst2 = max(worst2, float(np.max(np.abs(z - fk.predicted_observation(C1, x)))))
+            worst2 = max(worst2, float(np.max(np.abs(z - fm.predicted_observation(C1, x)))))
         if vc.finished:
             break
         vc.step()

@@ -30,7 +30,7 @@ def test_epoch_stamped_readouts_fix_like_the_core_and_bad_ones_are_counted():
         type(params[0])("spin_reference_time_s", value=EPOCH_NS * 1e-9)])
     out: dict[str, list] = {"fix": [], "heading": [], "progress": [], "diag": []}
     try:
-        assert node.free
+        assert node.policy.timing == "free"
         node.pub_fix.publish = out["fix"].append
         node.pub_heading.publish = out["heading"].append
         node.pub_progress.publish = out["progress"].append

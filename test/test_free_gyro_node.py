@@ -126,7 +126,7 @@ def test_node_equals_the_core_and_rejects_nan_and_out_of_order_inputs(rig):
     stale = m.vector3_msg(m.step_stamp_ns(118, RATE), "base_link_frd", samples[118].spin_b_b)
     rig.send(msgs[:121] + [(None, stale, None)] + msgs[121:])
     assert rig.node.rejected == 2
-    assert rig.node.core.counters.rejected_nonfinite == 1 and rig.node.sync.rejected == 1
+    assert rig.node.core.counters.rejected_nonfinite == 1 and rig.node.policy.sync.rejected == 1
 
     core = FreeGyroPositioning(rig.node.core.params)
     fixes = []

@@ -1,4 +1,4 @@
-"""The controllers' free-timing stale-input policy (:class:`gimbal_control.free_loop.FreeLoop`):
+"""The controllers' free-timing stale-input policy (:class:`gimbal_kinematics.ros.free_loop.FreeLoop`):
 a stale or missing measurement zeroes the command and restarts the loop when it is fresh
 again; a stale or missing estimate (held stream) keeps the loop running on the last estimate.
 Fed by hand-made stamps; the node and its publisher are stand-ins that record what the loop
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from gimbal_control.free_loop import FreeLoop
+from gimbal_kinematics.ros.free_loop import FreeLoop
 
 MS = 1_000_000
 

@@ -10,9 +10,10 @@ import pytest
 from scipy.stats import chi2
 
 from gimbal_estimators import kalman
-from gimbal_estimators.gyro_bias_ekf import (
-    GyroBiasEkf, GyroBiasEkfParams, discretize_error_model, encoder_error_jacobian, ins_error_jacobian,
-    measured_quat_nm, quat_nb_from_euler, roll_rate_matrix,
+from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_model import (
+    discretize_error_model, encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
+    roll_rate_matrix,
 )
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
 from gimbal_kinematics.rotations import (

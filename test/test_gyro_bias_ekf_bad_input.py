@@ -155,7 +155,7 @@ def test_bad_inputs_are_counted_on_diagnostics_and_never_fused(ros_domain_env):
                                                    Parameter("ins_error_states", value=False)])
         executor.add_node(ekf)
         try:
-            assert ekf.free, "free timing is the default outside gimbal-run"
+            assert ekf.policy.timing == "free", "free timing is the default outside gimbal-run"
             pubs = {"gyro": harness.create_publisher(Imu, "/gimbal/imu", 1000),
                     "encoders": harness.create_publisher(JointState, "/gimbal/joint_states", 1000),
                     "ins": harness.create_publisher(Imu, "/ins/imu", 1000)}
@@ -175,11 +175,11 @@ def test_bad_inputs_are_counted_on_diagnostics_and_never_fused(ros_domain_env):
                 sent[stream] += 1
                 # one at a time, each seen by the node before the next (best effort on loopback)
                 n = sent[stream]
-                assert spin_until(executor, lambda: ekf.stats[stream].received >= n, 10.0), (stream, n)
+                assert spin_until(executor, lambda: ekf.policy.stats[stream].received >= n, 10.0), (stream, n)
             last_ins = EPOCH_NS + (N_STEPS - INS_EVERY) * GYRO_PERIOD_NS
             assert spin_until(executor, lambda: last_ins in bias and diags
                               and int(diags[-1]["ins_received"]) == sent["ins"], 10.0), \
-                (sorted(bias)[-3:], last_ins, diags[-1] if diags else None, ekf.order.pending)
+                (sorted(bias)[-3:], last_ins, diags[-1] if diags else None, ekf.policy.order.pending)
             params = ekf.core.params
             node_counters = ekf.core.counters
         finally:

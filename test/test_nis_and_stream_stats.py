@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from gimbal_estimators.nis import NisWindow
-from gimbal_kinematics.stream_stats import StreamStats, Verdict
+from gimbal_kinematics.stamps import Stamp as Verdict
+from gimbal_kinematics.stream_stats import StreamStats
 
 
 def _window_verdicts(scale: float, windows: int, n: int, rng) -> list[str]:

@@ -145,7 +145,7 @@ def test_outputs_follow_an_independent_truth_in_ned_with_sigma(ros_domain_env):
 
 def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
     g = 9.80
-    with alignment_node(ros_domain_env, {"reset_backjump_s": 0.5}) as (node, sent):
+    with alignment_node(ros_domain_env, {"clock_jump_s": 0.5}) as (node, sent):
         for i in range(12):
             f = (math.nan, 0.0, -g) if i == 4 else (0.0, 0.0, -g)
             _feed(node, 100 * i, 0.0, 0.0, f)
@@ -155,14 +155,14 @@ def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
         # a stale stamp is rejected, not fused; one off the 10 Hz grid is rejected too
         node._on_input("imu", m.imu_msg(m.step_stamp_ns(1000, SIM_HZ), "platform_frd", linear_acceleration=(0, 0, -g)))
         node._on_input("imu", m.imu_msg(m.step_stamp_ns(1150, SIM_HZ), "platform_frd", linear_acceleration=(0, 0, -g)))
-        assert node.sync.rejected == 1 and node.rejected_off_grid == 1 and core.counters.accepted == 11
+        assert node.policy.sync.rejected == 1 and node.policy.off_grid == 1 and core.counters.accepted == 11
         # a joint message without the azimuth joint is counted (the step's accelerometer
         # sample then uses the previous joint sample, 0.1 s old, within max_joint_age_s)
         _feed(node, 1200, 0.0, 0.0, (0.0, 0.0, -g), joint_name="elsewhere")
         assert node.rejected_joints == 1 and core.counters.accepted == 12
         # the bag loops: everything restarts at t = 0
         _feed(node, 0, 0.0, 0.0, (0.0, 0.0, -g))
-        assert node.sync.restarts == 1 and core.counters.resets == 1
+        assert node.policy.sync.restarts == 1 and core.counters.resets == 1
         assert core.started and core.n_updates == 0
 
 

@@ -124,7 +124,7 @@ def test_bad_resolver_message_is_ignored_and_counted(ros_domain_env):
 def test_slower_gyro_holds_the_command_on_clock_ticks_and_a_loop_restarts(ros_domain_env):
     """imu_rate_hz = sim/2: odd steps have only /clock and repeat the last command. A bag
     looping back restarts the servo."""
-    params = {"imu_rate_hz": 500.0, "resolver_rate_hz": 500.0, "backward_jump_s": 0.002}
+    params = {"imu_rate_hz": 500.0, "resolver_rate_hz": 500.0, "clock_jump_s": 0.002}
     with servo_node(ros_domain_env, params) as (node, sent):
         for k in range(6):
             if k % 2 == 0:

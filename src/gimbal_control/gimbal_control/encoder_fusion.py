@@ -56,7 +56,7 @@ as the lockstep graph orders them; the gyro sample is the control tick. Bad inpu
 * NaN/inf inputs and non-increasing stamps are rejected and counted. A bad gyro sample
   returns the last command with ``held`` set; so does :meth:`~EncoderFusionController.step`
   for a bad value in any of its inputs.
-* A backward stamp jump larger than ``backward_jump_s`` (a bag loop) resets the
+* A backward stamp jump larger than ``clock_jump_s`` (a bag loop) resets the
   controller and records the reason.
 * A gap longer than ``max_gap_s`` restarts the gate without integrating across it.
 
@@ -119,7 +119,7 @@ class EncoderFusionParams:
         min_cos_elevation: floor of cos θm in τ_a = u_r / cos θm (near θm = ±90° the
             azimuth motor no longer turns the LOS about m-z).
         max_gap_s: a longer gap between control ticks restarts the gate and derivative [s].
-        backward_jump_s: a stamp this far behind the last one resets the controller [s].
+        clock_jump_s: a stamp this far behind the last one resets the controller [s].
     """
 
     mode: str = "fused"
@@ -131,12 +131,12 @@ class EncoderFusionParams:
     kf: FusionKfParams = field(default_factory=FusionKfParams)
     min_cos_elevation: float = 0.2
     max_gap_s: float = 0.05
-    backward_jump_s: float = 1.0
+    clock_jump_s: float = 1.0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-        for name in ("encoder_gate_s", "max_gap_s", "backward_jump_s"):
+        for name in ("encoder_gate_s", "max_gap_s", "clock_jump_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"{name} must be > 0, got {v!r}")
@@ -179,7 +179,7 @@ class EncoderFusionParams:
                 encoder_elevation_pid=gains("elevation_inertia_kg_m2", "encoder_loop_bandwidth_hz"),
                 encoder_azimuth_pid=gains("azimuth_inertia_kg_m2", "encoder_loop_bandwidth_hz"),
                 kf=kf, min_cos_elevation=v["min_cos_elevation"], max_gap_s=v["max_gap_s"],
-                backward_jump_s=v["backward_jump_s"])
+                clock_jump_s=v["clock_jump_s"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 

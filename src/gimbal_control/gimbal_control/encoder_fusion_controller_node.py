@@ -21,7 +21,7 @@ second); invalid modes, gains and rates are refused at startup naming the parame
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each gyro sample makes one command, stamped like it, with the
 newest encoder and base-rate samples no older than ``max_input_age_s``; a stale or missing
-one zeroes the command, counted (:mod:`.free_loop` says why and what else is counted, on
+one zeroes the command, counted (:mod:`gimbal_kinematics.ros.free_loop` says why and what else is counted, on
 ``/diagnostics``). The encoder angle is the newest sample's, not interpolated to the gyro
 stamp: the filter's gate integrates the gyro between encoder stamps itself.
 """
@@ -41,7 +41,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import EagerStepGroups
 
 from . import messages as m
-from .free_loop import FreeLoop
+from gimbal_kinematics.ros.free_loop import FreeLoop
 from .encoder_fusion import EncoderFusionController, EncoderFusionParams
 from .encoder_fusion_controller_params import DESCRIPTION, PARAMS
 
@@ -71,7 +71,7 @@ class EncoderFusionControllerNode(Node):
         if timing == "free":
             p = self.core.params
             self.free = FreeLoop(self, self.io, "gyro", {"enc": v["max_input_age_s"], "base": v["max_input_age_s"]},
-                                 1.0 / self.rate, p.backward_jump_s, v["diagnostics_period_s"])
+                                 1.0 / self.rate, p.clock_jump_s, v["diagnostics_period_s"])
             self._fed = {"enc": None, "base": None}  # stamps already given to the core
             on_input = self._on_free_input
         self.io.subscribe(Imu, "/gimbal/imu", lambda msg: on_input("gyro", msg), timing)

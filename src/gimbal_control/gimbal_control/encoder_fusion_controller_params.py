@@ -5,7 +5,7 @@ them). The mapping to the core's parameters is
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import TIMING_PARAM, Param
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
 
 from .encoder_fusion import (
     ENCODER_LOOP_BANDWIDTH_HZ, LOOP_BANDWIDTH_HZ, MODES, TORQUE_LIMIT_NM, UAV_AZIMUTH_INERTIA_KG_M2,
@@ -54,8 +54,8 @@ PARAMS = (
           1e-3, 1.0),
     Param("max_gap_s", _CORE.max_gap_s, "a longer gap between gyro samples restarts the gate and D term [s]",
           1e-6, 1e3),
-    Param("backward_jump_s", _CORE.backward_jump_s, "a stamp this far behind the last resets the controller "
-          "(bag loop) [s]", 1e-6, 1e6),
+    Param("clock_jump_s", _CORE.clock_jump_s, "a stamp this far behind the last resets the controller "
+          "(bag loop) [s]", 1e-6, 1e6, aliases=CLOCK_JUMP_ALIASES),
     Param("kf_q_angle_deg_rt_s", _KF.q_angle_deg_rt_s, "KF Q: gyro angle-random-walk density [deg/sqrt(s)]",
           0.0, 1e3),
     Param("kf_q_scale_rt_s", _KF.q_scale_rt_s, "KF Q: scale-factor random-walk density [1/sqrt(s)]", 0.0, 1e3),

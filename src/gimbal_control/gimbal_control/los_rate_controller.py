@@ -51,7 +51,7 @@ once but forgets all of that angle (255 µrad offset at ω_n = 100 Hz, 4 kHz).
 Bad input: a non-finite measurement or rate command, or a stamp that is not after the last
 accepted one, is rejected: the last command is returned, the event counted
 (``rejected_inputs`` / ``rejected_stamps``), nothing is integrated. A stamp going back by
-more than ``reset_backjump_s`` (a bag loop) resets the integrator and records the reason.
+more than ``clock_jump_s`` (a bag loop) resets the integrator and records the reason.
 
 Gyro bias: :meth:`LosRateController.set_bias_estimate` stores the EKF's 3-axis bias
 estimate (m frame, rad/s); with ``feedback`` its y, z components are subtracted from q_m,
@@ -105,7 +105,7 @@ class LosRateControllerParams:
             θm = ±90°); below it the gain is limited and ``singular_steps`` counts.
         max_dt_factor: largest integration step as a multiple of 1/rate_hz (a gap in
             the stamps does not make one huge integrator step).
-        reset_backjump_s: a stamp more than this [s] before the last one (a bag loop)
+        clock_jump_s: a stamp more than this [s] before the last one (a bag loop)
             resets the integrator; a smaller step back is rejected as out of order.
     """
 
@@ -121,7 +121,7 @@ class LosRateControllerParams:
     gravity_m_s2: float = STANDARD_GRAVITY
     min_cos_elevation: float = 0.05
     max_dt_factor: float = 2.0
-    reset_backjump_s: float = 0.5
+    clock_jump_s: float = 0.5
 
     def __post_init__(self) -> None:
         positive("rate_hz", self.rate_hz)
@@ -147,8 +147,8 @@ class LosRateControllerParams:
             raise ValueError(f"min_cos_elevation must be in (0, 1), got {self.min_cos_elevation!r}")
         if not (math.isfinite(self.max_dt_factor) and self.max_dt_factor >= 1.0):
             raise ValueError(f"max_dt_factor must be >= 1, got {self.max_dt_factor!r}")
-        if not (math.isfinite(self.reset_backjump_s) and self.reset_backjump_s >= 0.0):
-            raise ValueError(f"reset_backjump_s must be >= 0, got {self.reset_backjump_s!r}")
+        if not (math.isfinite(self.clock_jump_s) and self.clock_jump_s >= 0.0):
+            raise ValueError(f"clock_jump_s must be >= 0, got {self.clock_jump_s!r}")
 
     @classmethod
     def from_values(cls, v: dict) -> LosRateControllerParams:
@@ -271,6 +271,8 @@ class LosRateController:
             rate_command_qr: (q_md, r_md) [rad/s] for this step; None uses
                 :meth:`set_rate_command`'s (default 0, 0).
         """
+        # long: the per-sample hot path (1 kHz, scalar maths): split into calls it would cost
+        # a Python call per stage on every gyro sample, and it reads top to bottom as paper 1's loop
         q_g, r_g = gyro_qr[0], gyro_qr[1]
         psi_t, psi_m, th = joint_angles[0], joint_angles[1], joint_angles[2]
         psi_t_d, psi_m_d, th_d = joint_rates[0], joint_rates[1], joint_rates[2]
@@ -282,8 +284,10 @@ class LosRateController:
             self.rejected_inputs += 1
             return self.command
         last = self.last_t
+        # gimbal_kinematics.stamps.judge inline (per-sample hot path), same clock_jump_s:
+        # JUMPED_BACK resets, DUPLICATE and OUT_OF_ORDER are rejected (t is finite: checked above)
         if last is not None and t <= last:
-            if last - t > self.params.reset_backjump_s:
+            if last - t > self.params.clock_jump_s:
                 self.reset(f"time jumped back from {last:.6f} s to {t:.6f} s")
                 last = None
             else:

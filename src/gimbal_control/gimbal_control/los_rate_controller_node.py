@@ -50,7 +50,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import StepGroups
 
 from . import messages as m
-from .free_loop import FreeLoop
+from gimbal_kinematics.ros.free_loop import FreeLoop
 from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
 from .los_rate_controller_params import DESCRIPTION, PARAMS
@@ -83,14 +83,14 @@ class LosRateControllerNode(Node):
             # What an INS step waits for besides the sensors.
             self._estimates = (("bias",) if self.feedback else ()) + (("att",) if self.hold_mode else ())
             self._ins_step_needs = ("gyro", "enc", "ins") + self._estimates
-            # a step back of more than reset_backjump_s is a bag loop: start over (the core resets on the stamp)
-            self.sync = StepGroups(self._needs, params.reset_backjump_s * self.rate)
+            # a step back of more than clock_jump_s is a bag loop: start over (the core resets on the stamp)
+            self.sync = StepGroups(self._needs, params.clock_jump_s * self.rate)
             self._ins_rates: tuple[float, float, float] | None = None
             on_input = self._on_input
         else:
             ages = {kind: v["max_estimate_age_s"] if kind in ("bias", "att") else v["max_input_age_s"]
                     for kind, *_ in inputs[1:]}
-            self.free = FreeLoop(self, self.io, "gyro", ages, 1.0 / self.rate, params.reset_backjump_s,
+            self.free = FreeLoop(self, self.io, "gyro", ages, 1.0 / self.rate, params.clock_jump_s,
                                  v["diagnostics_period_s"], held=tuple(k for k in ("bias", "att") if k in ages))
             on_input = self._on_free_input
         for kind, msg_type, topic, decode in inputs:

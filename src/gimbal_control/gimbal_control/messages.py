@@ -2,7 +2,6 @@
 ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_kinematics.ros.messages`."""
 from __future__ import annotations
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import JointState
 
@@ -55,18 +54,3 @@ def platform_control_error_msg(t_ns: int, signals: tuple[float, ...]) -> JointSt
 def modulation_msg(t_ns: int, phi_z: float, phi_z_rate: float) -> JointState:
     """Commanded modulation angle φz [rad] (about NED down, from the start) and rate [rad/s]."""
     return joint_state_msg(t_ns, (MODULATION_JOINT,), position=(phi_z,), velocity=(phi_z_rate,))
-
-
-# --- free timing ---------------------------------------------------------------------------
-def controller_diagnostics_msg(t_ns: int, name: str, stale: bool, counters: dict[str, int]) -> DiagnosticArray:
-    """A controller's counters as one DiagnosticStatus (diagnostic_msgs/DiagnosticArray):
-    WARN while an input is stale (the command is zeroed), else OK; every counter a value."""
-    status = DiagnosticStatus(name=f"{name}: inputs", hardware_id=name)
-    if stale:
-        status.level, status.message = DiagnosticStatus.WARN, "an input is stale: command zeroed"
-    else:
-        status.level, status.message = DiagnosticStatus.OK, "running"
-    status.values = [KeyValue(key=k, value=str(v)) for k, v in counters.items()]
-    arr = DiagnosticArray(status=[status])
-    arr.header.stamp.sec, arr.header.stamp.nanosec = divmod(t_ns, 1_000_000_000)
-    return arr

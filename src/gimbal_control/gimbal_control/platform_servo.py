@@ -53,7 +53,7 @@ schedule starts (φz = 0) at the first tick. Bad input:
 * NaN/inf gyro sample, or resolvers within 1° of gimbal lock (eq. 1 singular): the last
   command is held and the event counted.
 * NaN/inf resolver sample, non-finite or non-increasing stamps: rejected and counted.
-* Backward stamp jump beyond ``backward_jump_s``: the servo resets (reason recorded).
+* Backward stamp jump beyond ``clock_jump_s``: the servo resets (reason recorded).
 * Gap longer than ``max_gap_s``: the pickoff integration restarts from the held state.
 """
 from __future__ import annotations
@@ -142,7 +142,7 @@ class PlatformServoParams:
         friction: the friction model behind the preset.
         drift_deg_h: gyro drift estimate ε̂ (x, y, z in s) subtracted from the command [°/h].
         max_gap_s: a longer gap between ticks restarts the pickoff integration [s].
-        backward_jump_s: a stamp this far behind the last one resets the servo [s].
+        clock_jump_s: a stamp this far behind the last one resets the servo [s].
     """
 
     lat_deg: float = 45.0
@@ -158,7 +158,7 @@ class PlatformServoParams:
     friction: FrictionModel = field(default_factory=FrictionModel)
     drift_deg_h: tuple[float, float, float] = (0.0, 0.0, 0.0)
     max_gap_s: float = 0.05
-    backward_jump_s: float = 1.0
+    clock_jump_s: float = 1.0
 
     def __post_init__(self) -> None:
         if (isinstance(self.lat_deg, bool) or not isinstance(self.lat_deg, (int, float))
@@ -180,7 +180,7 @@ class PlatformServoParams:
         d = self.drift_deg_h
         if len(d) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in d):
             raise ValueError(f"drift_deg_h must be 3 finite numbers, got {d!r}")
-        for name in ("max_gap_s", "backward_jump_s"):
+        for name in ("max_gap_s", "clock_jump_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"{name} must be > 0, got {v!r}")
@@ -211,7 +211,7 @@ class PlatformServoParams:
                 friction=FrictionModel(coulomb_nm=v["friction_coulomb_nm"],
                                        viscous_nm_s_rad=v["friction_viscous_nm_s_rad"],
                                        smoothing_rad_s=v["friction_smoothing_rad_s"]),
-                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], backward_jump_s=v["backward_jump_s"])
+                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 

@@ -18,12 +18,12 @@ For the report it also publishes, every ``diagnostics_every_steps`` steps:
 Bad input: a NaN/inf gyro sample (or resolvers at gimbal lock) holds the last command; a
 NaN/inf or malformed resolver sample is ignored (the last angles are kept); both are counted
 and warned about at most once a second. A stamp at or before the last step is rejected and
-counted; one more than ``backward_jump_s`` back (a replayed bag looping) restarts the servo.
+counted; one more than ``clock_jump_s`` back (a replayed bag looping) restarts the servo.
 
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each platform gyro sample makes one command, stamped like it,
 with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
-zeroes the voltages, counted (:mod:`.free_loop` says why and what else is counted, on
+zeroes the voltages, counted (:mod:`gimbal_kinematics.ros.free_loop` says why and what else is counted, on
 ``/diagnostics``).
 """
 from __future__ import annotations
@@ -41,7 +41,7 @@ from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
-from .free_loop import FreeLoop
+from gimbal_kinematics.ros.free_loop import FreeLoop
 from .platform_servo import PlatformServo, PlatformServoParams
 from .platform_servo_params import DESCRIPTION, PARAMS
 
@@ -55,7 +55,7 @@ class PlatformServoNode(Node):
         self.res_every = steps_per_sample(v, "resolver_rate_hz")
         self.core = PlatformServo(PlatformServoParams.from_values(v))
         self.diag_every = v["diagnostics_every_steps"]
-        self.sync = StepGroups(self._needs, v["backward_jump_s"] * self.rate)
+        self.sync = StepGroups(self._needs, v["clock_jump_s"] * self.rate)
         self._ticks = 0
         self.rejected_resolvers = 0
         self._seen = (0, 0, 0)  # core counters already warned about
@@ -67,7 +67,7 @@ class PlatformServoNode(Node):
         on_input = self._on_input
         if timing == "free":
             self.free = FreeLoop(self, self.io, "imu", {"res": v["max_input_age_s"]}, 1.0 / v["imu_rate_hz"],
-                                 v["backward_jump_s"], v["diagnostics_period_s"])
+                                 v["clock_jump_s"], v["diagnostics_period_s"])
             self._fed_res: int | None = None
             on_input = self._on_free_input
         self.io.subscribe(Imu, "/platform/imu", lambda msg: on_input("imu", msg), timing)

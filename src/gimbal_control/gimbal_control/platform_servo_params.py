@@ -4,7 +4,7 @@ the core's parameters is :meth:`.platform_servo.PlatformServoParams.from_values`
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import TIMING_PARAM, Param
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 3 four-gimbal platform servo: four PID loops (azimuth, inner roll, pitch, outer roll) on the "
@@ -42,6 +42,7 @@ PARAMS = (
     Param("drift_deg_h", [0.0, 0.0, 0.0], "platform drift estimate (the negative of the gyro rate bias, as "
           "platform_alignment's ~/gyro_drift) subtracted from the command, platform x, y, z [deg/h]"),
     Param("max_gap_s", 0.05, "a longer gap between gyro samples restarts the pickoff integration [s]", 1e-6, INF),
-    Param("backward_jump_s", 1.0, "a stamp this far before the last one restarts the servo (bag loop) [s]", 1e-6, INF),
+    Param("clock_jump_s", 1.0, "a stamp this far before the last one restarts the servo (bag loop) [s]", 1e-6, INF,
+          aliases=CLOCK_JUMP_ALIASES),
     Param("diagnostics_every_steps", 1, "publish ~/control_error and ~/modulation every N control ticks", 1, 10**6),
 )

@@ -22,11 +22,13 @@ attitudes, so the filter does not fuse across it: it re-anchors both attitudes a
 complete pair (θ_d := Φ + θ, covariance carried over) and the node logs it; a gap longer
 than ``max_gap_s`` resets. Every reset is logged with its reason.
 
-Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
+Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`), chosen once in the
+constructor as the input policy (:func:`gimbal_kinematics.input_policy.sample_policy`); the
+node's body is the same in both:
 
 * ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS`` everywhere, each sample's interval
   is 1/``lgu_rate_hz``, ``~/progress`` reports the next lockstep step needed, no
-  /diagnostics: exactly the behaviour before free timing existed (byte-identical bags).
+  /diagnostics (byte-identical bags).
 * ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs; the
   node never waits on a step grid, ``/clock`` or a progress topic. Stamps are kept as
   integer nanoseconds and the core runs on seconds relative to the first stamp seen (a
@@ -54,15 +56,15 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
-from diagnostic_msgs.msg import DiagnosticArray
 
+from gimbal_kinematics.frames import LGU1_FRAME
+from gimbal_kinematics.input_policy import Step, sample_policy
+from gimbal_kinematics.params import ParameterError, steps_per_sample
+from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.stream_stats import GAP_PERIODS, StreamStats, Verdict
-from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.frames import LGU1_FRAME
+from gimbal_kinematics.ros.readiness import announce_when_connected
 
 from . import messages as m
 from .flexure_estimator_params import DESCRIPTION, PARAMS
@@ -71,39 +73,34 @@ from .nis import NisWindow
 
 #: Output topic stems, each published with a ``_sigma`` companion.
 OUTPUTS = ("flexure", "quasi_static", "dynamic", "bias_diff")
+#: The two input streams (LGU1, LGU2).
+UNITS = ("lgu1", "lgu2")
 #: Counters whose increase means a sample was rejected, with the log text.
 _REJECTIONS = {"nonfinite": "non-finite value", "malformed": "malformed (rates not provided or > 1 rad)",
                "bad_dt": "interval inconsistent with lgu_rate_hz or its partner",
                "out_of_order": "stamp not after the last fused pair", "duplicates": "duplicate stamp"}
+#: Counters whose non-zero value is a WARN on /diagnostics.
+WARN_COUNTERS = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
+                 "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos")
 
 
 class FlexureEstimatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("flexure_estimator", **node_kwargs)
         v = declare_and_read(self, PARAMS)
-        self.rate = v["sim_rate_hz"]
-        self.steps_per_sample = steps_per_sample(v, "lgu_rate_hz")
+        steps_per_sample(v, "lgu_rate_hz")  # refuses a rate that does not divide sim_rate_hz
         if v["filter_period_s"] * v["lgu_rate_hz"] < 1.0 - 1e-9:
             raise ParameterError(f"parameter 'filter_period_s' = {v['filter_period_s']} s is shorter than one "
                                  f"LGU sample (1/lgu_rate_hz = {1.0 / v['lgu_rate_hz']:g} s)")
-        self.dt = 1.0 / v["lgu_rate_hz"]
         self.core = FlexureKf(FlexureKfParams.from_values(v))
+        timing = v["timing"]
+        # the one choice of timing (module docstring)
+        self.policy = sample_policy(timing, UNITS, rate_hz=v["sim_rate_hz"], sample_rate_hz=v["lgu_rate_hz"],
+                                    progress_every=v["progress_every_steps"],
+                                    clock_jump_ns=int(round(v["clock_jump_s"] * 1e9)), warn=self._warn)
         self.publish_period_ns = int(round(v["publish_period_s"] * 1e9))
         self._last_bin: int | None = None
-        self.progress_every = v["progress_every_steps"]
         self.wait_for_subscribers = v["wait_for_subscribers"]
-        # Newest stamp [ns] seen per unit (for ~/progress) and the step last reported.
-        self._newest: list[int | None] = [None, None]
-        self._reported = 0
-        timing = v["timing"]
-        self.free = timing == "free"
-        #: origin of the core's time [ns]: 0 in lockstep (sim time from 0), the first stamp in free timing
-        self.t0_ns: int | None = None if self.free else 0
-        self.dt_ns = 1e9 / v["lgu_rate_hz"]
-        self._last_ns: list[int | None] = [None, None]  # each unit's last accepted stamp (free timing)
-        self.interval_unknown = [0, 0]  # samples after a gap, not integrated (free timing)
-        self._samples = 0
-        self.stats = [StreamStats(int(round(v["clock_jump_s"] * 1e9))) for _ in (0, 1)]
         self.nis = NisWindow(3, window=v["nis_window"])
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
@@ -113,75 +110,34 @@ class FlexureEstimatorNode(Node):
             for topic in (name, f"{name}_sigma"):
                 self.pubs[topic] = io.advertise(Vector3Stamped, f"~/{topic}", timing)
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
-        # lockstep publishes no /diagnostics (its bags stay as they were)
-        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing) if self.free else None
+        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [io.subscribe(Imu, f"/ship/lgu{u + 1}/imu", lambda msg, u=u: self._on_lgu(u, msg), timing)
                      for u in (0, 1)]
         # ready once both LGU streams have a publisher and every output its readers
         announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
 
-    # ------------------------------------------------------------------ readiness and pacing
-    def _report_progress(self, unit: int, t_ns: int) -> None:
-        """The next step needed is one sample after the older of the two units' newest."""
-        if self._newest[unit] is None or t_ns > self._newest[unit]:
-            self._newest[unit] = t_ns
-        if None in self._newest:
-            return
-        step = m.step_of_stamp(min(self._newest), self.rate) + self.steps_per_sample  # type: ignore[type-var]
-        if step >= self._reported + self.progress_every:
-            self._reported = step
-            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(step, self.rate)))
+    def _warn(self, text: str) -> None:
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
 
     # ------------------------------------------------------------------ input
     def _on_lgu(self, unit: int, msg: Imu) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
-        dt = self.dt
-        if self.free:
-            dt = self._free_interval(unit, t_ns)
-            if dt is None:
-                return  # duplicate, late or after a gap: counted, never fused
+        for step in self.policy.add(UNITS[unit], m.stamp_ns(msg.header.stamp), msg):
+            self._step(unit, step)
+
+    def _step(self, unit: int, step: Step) -> None:
         before = dict(self.core.counters)
-        dalpha = m.lgu_increment(msg, dt)
+        dalpha = m.lgu_increment(step.msg, step.dt)
         feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
         # rates marked not provided go in as an empty increment, which the core counts as malformed
-        est = feed((t_ns - self.t0_ns) * 1e-9, () if dalpha is None else dalpha, dt)
-        self._log_events(unit, t_ns, before)
+        est = feed(step.t, () if dalpha is None else dalpha, step.dt)
+        self._log_events(unit, step.stamp_ns, before)
         if est is not None:
-            if self.free and not (est.d2 != est.d2):  # an update (accepted or gated); NaN: no innovation
+            if not (est.d2 != est.d2):  # an update (accepted or gated); NaN: no innovation
                 self.nis.add(est.d2)
-            self._publish(t_ns, est)
-        if self.free:
-            self._free_progress(t_ns)
-        else:
-            self._report_progress(unit, t_ns)
-
-    def _free_interval(self, unit: int, t_ns: int) -> float | None:
-        """Free timing: judge the stamp (StreamStats); the sample's interval [s] from the
-        stamps (module docstring), or None for a duplicate or late sample or one whose
-        interval is unknown (after a gap)."""
-        verdict = self.stats[unit].offer(t_ns)
-        if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
-            self.get_logger().warning(f"LGU{unit + 1} sample at {t_ns * 1e-9:.6f} s dropped: {verdict.value} "
-                                      "stamp", throttle_duration_sec=1.0)
-            return None
-        if self.t0_ns is None:
-            self.t0_ns = t_ns
-        last, self._last_ns[unit] = self._last_ns[unit], t_ns
-        if verdict is Verdict.JUMPED_BACK or last is None:
-            return self.dt  # first sample, or a new run (the core resets)
-        if t_ns - last > GAP_PERIODS * self.dt_ns:
-            self.interval_unknown[unit] += 1
-            self.get_logger().warning(f"LGU{unit + 1} sample at {t_ns * 1e-9:.6f} s after a gap of "
-                                      f"{(t_ns - last) * 1e-9:.3f} s: its interval is unknown, not integrated",
-                                      throttle_duration_sec=1.0)
-            return None
-        return (t_ns - last) * 1e-9
-
-    def _free_progress(self, t_ns: int) -> None:
-        """Free timing: the older unit's newest stamp, every ``progress_every_steps`` samples."""
-        self._samples += 1
-        if self._samples % self.progress_every == 0 and None not in self._last_ns:
-            self.pub_progress.publish(m.clock_msg(min(self._last_ns)))
+            self._publish(step.stamp_ns, est)
+        progress = self.policy.progress(step)
+        if progress is not None:
+            self.pub_progress.publish(m.clock_msg(progress))
 
     def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
         c = self.core.counters
@@ -216,23 +172,12 @@ class FlexureEstimatorNode(Node):
                   "bias_diff": est.bias_diff, "bias_diff_sigma": est.bias_diff_sigma}
         for topic, vec in values.items():
             self.pubs[topic].publish(m.vector3_msg(t_ns, frame, vec))
-        if self.free and t_ns >= self._next_diag_ns:
+        if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
-            self.pub_diag.publish(self.health(t_ns))
-
-    def health(self, t_ns: int) -> DiagnosticArray:
-        """Free-timing /diagnostics: the core's counters, each unit's input counters
-        (``lgu1_*``, ``lgu2_*``), ``incompatible_qos`` and the NIS window (``nis_*``)."""
-        fields: dict = dict(self.core.counters)
-        for u, st in enumerate(self.stats):
-            fields.update(st.as_dict(f"lgu{u + 1}"))
-            fields[f"lgu{u + 1}_interval_unknown"] = self.interval_unknown[u]
-        fields["incompatible_qos"] = self.io.incompatible_qos
-        fields.update(self.nis.as_dict())
-        warn = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
-                "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos")
-        return m.free_health_msg(t_ns, self.get_name(), fields, self.core.initialized, warn,
-                                 self.nis.verdict().verdict)
+            fields, nis_verdict = self.policy.report(self.core.counters, {"incompatible_qos": self.io.incompatible_qos},
+                                                     self.nis.as_dict(), self.nis.verdict().verdict)
+            self.pub_diag.publish(health_msg(t_ns, self.get_name(), fields, ready=self.core.initialized,
+                                             not_ready="no estimate yet", warn=WARN_COUNTERS, nis_verdict=nis_verdict))
 
 
 def main(argv: list[str] | None = None) -> int:

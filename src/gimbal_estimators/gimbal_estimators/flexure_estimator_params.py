@@ -4,7 +4,7 @@ mapping to the core's parameters is :meth:`.flexure_kf.FlexureKfParams.from_valu
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import TIMING_PARAM, Param
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
 
 from .flexure_kf import QS_MODELS
 
@@ -54,5 +54,6 @@ PARAMS = (
     Param("gate_probability", 0.99999, "chi-square gate probability (3 dof); 0 disables the gate", 0.0, 1.0),
     Param("max_gate_rejections", 200, "gated measurements in a row that re-anchor (then reset)", 1, 10**9),
     Param("max_gap_s", 5.0, "a data gap longer than this resets instead of re-anchoring [s]", 1e-3, 1e6),
-    Param("clock_jump_s", 1.0, "a stamp this far behind the newest is a clock jump (reset) [s]", 1e-6, 1e9),
+    Param("clock_jump_s", 1.0, "a stamp this far behind the newest is a clock jump (reset) [s]", 1e-6, 1e9,
+          aliases=CLOCK_JUMP_ALIASES),
 )

@@ -49,7 +49,7 @@ Heading, two ways:
   triad noise. Yaw oscillation within the window averages to the mean heading.
 
 All angles rad, rates rad/s, times s, distances m. Non-finite inputs, non-unit spin axes and
-non-increasing stamps are rejected and counted; a stamp more than ``reset_backjump_s``
+non-increasing stamps are rejected and counted; a stamp more than ``clock_jump_s``
 behind the stream's last one resets the core (reason recorded).
 """
 from __future__ import annotations
@@ -94,7 +94,7 @@ class FreeGyroPositioningParams:
         min_sin_gyro_separation, min_sin_crossing_angle: ``FixTolerances`` of the fix.
         height_m: height used for the metric covariance [m].
         max_level_age_s: oldest vertical-reference sample [s] used to level a read-out.
-        reset_backjump_s: a stamp this far [s] behind its stream's last resets the core.
+        clock_jump_s: a stamp this far [s] behind its stream's last resets the core.
     """
 
     u_a_i: tuple[float, float, float]
@@ -109,7 +109,7 @@ class FreeGyroPositioningParams:
     min_sin_crossing_angle: float = 1e-6
     height_m: float = 0.0
     max_level_age_s: float = 0.2
-    reset_backjump_s: float = 1.0
+    clock_jump_s: float = 1.0
     omega_ie_rad_s: float = OMEGA_IE
 
     def __post_init__(self) -> None:
@@ -118,7 +118,7 @@ class FreeGyroPositioningParams:
         object.__setattr__(self, "u_a_i", a)
         object.__setattr__(self, "u_b_i", b)
         for name in ("nadir_noise_arcsec", "fix_interval_s", "heading_window_s", "triad_arw_deg_rt_h",
-                     "max_level_age_s", "reset_backjump_s", "omega_ie_rad_s"):
+                     "max_level_age_s", "clock_jump_s", "omega_ie_rad_s"):
             positive(name, getattr(self, name))
         if positive("max_fdop", self.max_fdop) < math.sqrt(2.0):
             raise ValueError(f"max_fdop must be >= √2 (the best two-gyro FDOP), got {self.max_fdop}")
@@ -155,7 +155,7 @@ class FreeGyroPositioningParams:
                 u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],
                 min_samples=v["min_samples"], heading_window_s=v["heading_window_s"],
                 triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"],
-                reset_backjump_s=v["reset_backjump_s"])
+                clock_jump_s=v["clock_jump_s"])
         except ValueError as exc:
             text = str(exc)
             if "u_a_i" in text or "u_b_i" in text:  # the axes are the spin angles' doing
@@ -286,7 +286,7 @@ class FreeGyroPositioning:
             return None
         last = self._t_last.get(stream)
         if last is not None and t <= last:
-            if last - t > self.params.reset_backjump_s:
+            if last - t > self.params.clock_jump_s:
                 self.reset(f"{stream} time jumped back by {last - t:.3f} s")
             else:
                 self.counters.rejected_out_of_order += 1

@@ -25,14 +25,15 @@ publishes (topics under ``/free_gyro_positioning/``):
 Degenerate geometry (parallel spin axes, tangent or non-intersecting nadir circles, FDOP
 above ``max_fdop``) is counted, warned about at most once a second, reported on
 ``geometry`` with status 1, and no fix is published. Out-of-order stamps and non-finite or
-non-unit inputs are rejected and counted; a stamp more than ``reset_backjump_s`` behind the
+non-unit inputs are rejected and counted; a stamp more than ``clock_jump_s`` behind the
 last read-out (a bag looping) resets the node. The node must see every read-out, so it
 reports the next step it needs on ``~/progress`` (the lockstep pacing protocol).
 
-Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
+Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`), chosen once in the
+constructor as the input policy (:func:`gimbal_kinematics.input_policy.synced_policy`):
 
 * ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS`` everywhere, ``~/progress`` on the
-  step grid, no /diagnostics: the behaviour before free timing existed (byte-identical bags).
+  step grid, no /diagnostics (byte-identical bags).
 * ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs, no
   wait on a step grid, ``/clock`` or a progress topic: read-outs are grouped by exact stamp
   and processed as they complete. The core keeps absolute seconds here (unlike the filters):
@@ -58,11 +59,13 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from diagnostic_msgs.msg import DiagnosticArray
 
+from gimbal_kinematics.input_policy import Step, synced_policy
+from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import Stamp, StampSync, check_stamp
+from gimbal_kinematics.stamps import Stamp, judge
 from gimbal_kinematics.frames import BASE_FRAME
 
 from . import messages as m
@@ -79,25 +82,19 @@ class FreeGyroPositioningNode(Node):
         super().__init__("free_gyro_positioning", **node_kwargs)
         v = declare_and_read(self, PARAMS)
         self.core = FreeGyroPositioning(FreeGyroPositioningParams.from_values(v))
-        self.rate = v["sim_rate_hz"]
         self.height_m = v["height_m"]
         self.height_sigma_m = v["height_sigma_m"]
-        self.backjump_ns = int(round(v["reset_backjump_s"] * 1e9))
-        self.progress_every = v["progress_every_steps"]
+        self.backjump_ns = int(round(v["clock_jump_s"] * 1e9))
         self.wait_for_subscribers = v["wait_for_subscribers"]
-        self.sync = StampSync((SPIN_A, SPIN_B, IMU))
-        self.rejected_stamps = 0   # out-of-order / duplicate stamps of earlier sync objects
+        timing = v["timing"]
+        # the one choice of timing (module docstring)
+        self.policy = synced_policy(timing, (SPIN_A, SPIN_B, IMU), rate_hz=v["sim_rate_hz"],
+                                    progress_every=v["progress_every_steps"])
         self.degenerate = 0
         self.resets = 0
         self._rejected_seen = 0
         self._last_ns: int | None = None      # stamp of the last completed read-out
-        self._last_step: int | None = None
-        self._interval_steps = 1               # steps between read-outs (learned from the stamps)
-        self._report_at = 0                    # next step at which ~/progress reports
         self._er_t: float | None = None        # stamp of the last earth-rate heading published
-        timing = v["timing"]
-        self.free = timing == "free"
-        self._readouts = 0
         self.io = io = NodeIo(self)
         pub = lambda typ, name: io.advertise(typ, f"~/{name}", timing)  # noqa: E731
         self.pub_fix = pub(NavSatFix, "fix")
@@ -107,8 +104,7 @@ class FreeGyroPositioningNode(Node):
         self.pub_heading_er = pub(Vector3Stamped, "heading_earth_rate")
         self.outputs = (self.pub_fix, self.pub_heading, self.pub_geometry, self.pub_nadir, self.pub_heading_er)
         self.pub_progress = pub(Clock, "progress")
-        # lockstep publishes no /diagnostics (its bags stay as they were)
-        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing) if self.free else None
+        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
             io.subscribe(Vector3Stamped, SPIN_A, lambda msg: self._on_input(SPIN_A, msg), timing),
             io.subscribe(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), timing),
@@ -121,7 +117,7 @@ class FreeGyroPositioningNode(Node):
     def rejected(self) -> int:
         """Inputs rejected so far: stamps out of order and non-finite/non-unit/unlevelled data."""
         c = self.core.counters
-        return (self.rejected_stamps + self.sync.rejected + c.rejected_nonfinite + c.rejected_not_unit
+        return (self.policy.rejected + c.rejected_nonfinite + c.rejected_not_unit
                 + c.rejected_out_of_order + c.rejected_no_level + c.rejected_stale_level)
 
     def _warn_rejected(self) -> None:
@@ -133,29 +129,22 @@ class FreeGyroPositioningNode(Node):
 
     def _reset(self, reason: str) -> None:
         self.resets += 1
-        self.rejected_stamps += self.sync.rejected
-        self.sync = StampSync((SPIN_A, SPIN_B, IMU))
+        self.policy.restart()
         self.core.reset(reason)
-        self._last_ns = self._last_step = self._er_t = None
-        self._interval_steps = 1
-        self._report_at = 0
+        self._last_ns = self._er_t = None
         self.get_logger().info(f"reset: {reason}")
 
     # -- inputs ----------------------------------------------------------------------------
     def _on_input(self, topic: str, msg) -> None:
         t_ns = m.stamp_ns(msg.header.stamp)
-        if self._last_ns is not None and check_stamp(t_ns * 1e-9, self._last_ns * 1e-9,
-                                                     self.backjump_ns * 1e-9) is Stamp.JUMPED_BACK:
+        if judge(t_ns, self._last_ns, self.backjump_ns) is Stamp.JUMPED_BACK:
             self._reset(f"read-out stamp jumped back {(self._last_ns - t_ns) * 1e-9:.3f} s (clock reset or bag loop)")
-        group = self.sync.add(topic, t_ns, msg)
-        if group is None:
-            self._warn_rejected()
-            return
-        self._process(t_ns, group)
+        for step in self.policy.add(topic, t_ns, msg):
+            self._step(step)
         self._warn_rejected()
 
-    def _process(self, t_ns: int, group: dict) -> None:
-        t = t_ns * 1e-9
+    def _step(self, step: Step) -> None:
+        t_ns, t, group = step.stamp_ns, step.t, step.msg
         imu = group[IMU]
         roll, pitch = m.level_of(imu)
         self.core.on_level(t, roll, pitch)
@@ -164,35 +153,22 @@ class FreeGyroPositioningNode(Node):
         self._last_ns = t_ns
         if fix is not None:
             self._publish_fix(fix, t)
-            if self.free:
-                self.pub_diag.publish(self.health(t_ns))
-        if self.free:
-            self._readouts += 1
-            if self._readouts % self.progress_every == 0:
-                self.pub_progress.publish(m.clock_msg(t_ns))
-            return
-        self._progress(m.step_of_stamp(t_ns, self.rate))
+            self.pub_diag.publish(self.health(t_ns))
+        progress = self.policy.progress(step)
+        if progress is not None:
+            self.pub_progress.publish(m.clock_msg(progress))
 
     def health(self, t_ns: int) -> DiagnosticArray:
-        """Free-timing /diagnostics (module docstring)."""
+        """/diagnostics: what the input policy reports (module docstring)."""
         c = self.core.counters
-        fields = {k: getattr(c, k) for k in ("spin_accepted", "rates_accepted", "rejected_nonfinite",
-                                             "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
-                                             "rejected_stale_level", "fixes", "degenerate", "resets")}
-        fields.update(rejected_stamps=self.rejected_stamps + self.sync.rejected, node_resets=self.resets,
-                      incompatible_qos=self.io.incompatible_qos)
+        core = {k: getattr(c, k) for k in ("spin_accepted", "rates_accepted", "rejected_nonfinite",
+                                           "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
+                                           "rejected_stale_level", "fixes", "degenerate", "resets")}
+        fields, _ = self.policy.report(core, {"rejected_stamps": self.policy.rejected, "node_resets": self.resets,
+                                              "incompatible_qos": self.io.incompatible_qos}, {}, None)
         warn = ("rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
                 "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos")
-        return m.free_health_msg(t_ns, self.get_name(), fields, c.fixes > 0, warn, None)
-
-    def _progress(self, k: int) -> None:
-        """Report the next step needed: the next read-out's, one learned interval ahead."""
-        if self._last_step is not None and k > self._last_step:
-            self._interval_steps = k - self._last_step
-        self._last_step = k
-        if k >= self._report_at:
-            self._report_at = k + self.progress_every
-            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + self._interval_steps, self.rate)))
+        return health_msg(t_ns, self.get_name(), fields, ready=c.fixes > 0, not_ready="no estimate yet", warn=warn)
 
     # -- outputs ---------------------------------------------------------------------------
     def _publish_fix(self, fix: FreeGyroFix, t_close: float) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from gimbal_kinematics.params import TIMING_PARAM, Param
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free "
@@ -45,6 +45,6 @@ PARAMS = (
           "[m] (free gyros do not observe it)", -1e4, 1e5),
     Param("height_sigma_m", 100.0, "1-sigma of that height [m] (the vertical element of the NavSatFix "
           "covariance)", 0.0, INF),
-    Param("reset_backjump_s", 1.0, "a read-out stamp this far [s] behind the last one resets the node "
-          "(bag loop)", 1e-9, INF),
+    Param("clock_jump_s", 1.0, "a read-out stamp this far [s] behind the last one resets the node "
+          "(bag loop)", 1e-9, INF, aliases=CLOCK_JUMP_ALIASES),
 )

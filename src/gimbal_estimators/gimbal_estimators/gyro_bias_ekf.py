@@ -6,8 +6,7 @@ Message-driven, pure Python (no rclpy). Feed it the three sensor streams with th
     ekf.on_encoders(t, angles, rates)     (ψt, ψm, θm) [rad], rates [rad/s]   (e.g. 1 kHz)
     ekf.on_ins(t, euler, omega_b)         INS (φ, θ, ψ) [rad], (p, q, r) [rad/s] (e.g. 100 Hz)
 
-Each call returns an :class:`EkfOutput` when it completed a measurement update (or the
-initial alignment), else ``None``.
+Each call returns an :class:`EkfOutput` when it completed a measurement update (or the alignment), else ``None``.
 
 Mechanization (gyro rate)
 -------------------------
@@ -27,65 +26,8 @@ its third component,
 
 The INS body rates are interpolated to the gyro stamps (see "Synchronisation").
 
-State and error model
----------------------
-Error state ``x = [ψ (3), δb (3), e (3)]`` (the last block only with ``ins_error_states``):
-
-* ψ: attitude error resolved in n, ``Ĉ = (I − [ψ×]) C`` (so
-  ``ψ = small_angles_from_dcm(C Ĉᵀ)``, as in :mod:`gimbal_kinematics.rotations`);
-  reset to zero after each update by ``Ĉ ← exp([ψ̂×]) Ĉ``.
-* δb = b − b̂, b = (b_x, b_q, b_r) [rad/s]. b_q, b_r are the gyro biases. There is no roll
-  gyro: b_x is the error of w1 (the INS-rate part of eq. 4), i.e. the INS gyro bias
-  projected on the outer-gimbal x axis, ``b_x = cos(ψt+ψm) b_p + sin(ψt+ψm) b_q^INS``.
-  The r-gyro bias reaches the reconstructed roll rate through eq. 4 itself, so the
-  roll-rate error is δp_m = (δb_x − sin θm δb_r)/cos θm; this coupling is in F (matrix M
-  below) rather than lumped into an independent "x bias", which would lose the link to b_r.
-* e = (e_φ, e_θ, e_ψ): the INS Euler-angle errors (see "INS errors").
-
-With δω = ω̂ − ω = M (δb + n), ``M = [[1/c, 0, −s/c], [0, 1, 0], [0, 0, 1]]`` (c, s = cos,
-sin θm), n = white rate noise (INS ARW on w1; gyro ARW on q, r), the linear error model is
-
-    ψ̇ = −ω_in^n × ψ − C_nm M (δb + n)
-    ḃ = w_b                     (lumped bias: random walk, see below)
-    ė = −e / τ_e + w_e          (first-order Gauss-Markov per Euler angle)
-
-discretised once per covariance step T (each INS update, at least every
-``covariance_period_s``) with Ā = ½(C M|_{t0} + C M|_{t1}):
-Φ_ψψ = exp(−[ω_in T ×]), Φ_ψb = −(I − ½[ω_in×]T) Ā T, Φ_ee = e^{−T/τ_e} I;
-Q_ψψ = Ā N Āᵀ T + Ā Q_b Āᵀ T³/3, Q_ψb = −Ā Q_b T²/2, Q_bb = Q_b T, Q_ee = σ_e²(1 − e^{−2T/τ_e}).
-
-Lumped bias model (paper 1 eq. 17–21). The truth is a random constant (the turn-on bias)
-plus a first-order Gauss-Markov bias instability (σ_gm, τ). One state per axis cannot carry
-both exactly, so the lumped state is a random walk whose PSD ``q_b = 2 σ_gm² / τ`` matches
-the Gauss-Markov increments at lags ≪ τ (var[b(t+L) − b(t)] = 2σ_gm²(1 − e^{−L/τ}) ≈ q_b L);
-its prior 1σ ``*_bias_sigma_deg_h`` covers turn-on bias + instability. A lumped
-Gauss-Markov state would instead pull the large constant bias towards zero. The filter
-memory (about 15 s on paper 1's numbers, 70 s at τ = 300 s) is well below τ, where the two
-models agree, which is what keeps the bias NEES consistent.
-
-Measurement
------------
-C(n,m)_meas = C_nb(INS Euler) C_bm(encoders) (``sighting_chain.dcm_nb``, ``dcm_bm``, built
-here as the equivalent quaternion product, :func:`measured_quat_nm`),
-z = log(C_meas Ĉᵀ) ≈ ψ + δα, δα the n-frame rotation error of C_meas. To first order
-
-    δα = J_e e + u (ε_t + ε_m) + v ε_θ,
-    J_e = [C_nb e1, rot3(ψ)ᵀ e2, e3],  u = C_nb e3,  v = C_nm e2,
-
-(ε_t, ε_m, ε_θ the encoder errors; turret and gimbal azimuth turn about the same axis u).
-H = [I, 0, J_e], R = σ_enc² (2 u uᵀ + v vᵀ) + σ_floor² I.
-
-INS errors. Paper 1 treats the INS angles as white noise. They are not: the simulated INS (and a
-real one) has slowly varying errors (Gauss-Markov, τ = 300 s, 0.05°/0.05°/0.2° RMS). Fused
-at 100 Hz as white noise they make the filter believe the attitude to ~0.005° while the
-true error stays ~0.1°, and the slow INS wander is read as gyro bias with too much
-confidence: on 16 runs × 60 s of paper 1's scenario the 6-state NEES averaged 866 (6
-expected) and the (b_q, b_r) NEES 6.3 (2 expected; b_r error 2.3σ RMS). With
-``ins_error_states=True`` (default) they are three Gauss-Markov states (above), so
-H = [I, 0, J_e]; the filter then knows the gimbal attitude only as well as the INS does,
-and over 20 runs × 120 s the NEES averages 5.75 (6 states) and 1.89 (biases).
-``ins_error_states=False`` is paper 1's form: H = [I 0], R = J_e diag(σ_e²) J_eᵀ + R_enc
-(white); the bias accuracy is about the same, only its stated σ is wrong.
+State, error model and measurement: :mod:`.gyro_bias_ekf_model` (the 9-state error model,
+the lumped bias, the measured attitude and the INS error states).
 
 Synchronisation
 ---------------
@@ -138,15 +80,14 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
+from gimbal_kinematics.stamps import Stamp, judge
 from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat
 
 from . import kalman
-from .gyro_bias_ekf_model import (  # noqa: F401  (re-exported: the model helpers)
+from .gyro_bias_ekf_model import (
     discretize_error_model, encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
-    roll_rate_matrix,
 )
 from .gyro_bias_ekf_params import GyroBiasEkfParams
-from gimbal_kinematics.sync import Stamp, check_stamp
 
 _DEG = math.pi / 180.0
 _DEG_H = _DEG / 3600.0
@@ -343,7 +284,7 @@ class GyroBiasEkf:
             if t > self._t_newest:
                 self._t_newest = t
             return True
-        verdict = check_stamp(t, last, self.params.clock_jump_s)
+        verdict = judge(t, last, self.params.clock_jump_s)
         if verdict is Stamp.JUMPED_BACK:
             self.reset(f"clock jumped back on {stream}: {last:.6f} s -> {t:.6f} s", t)
         elif verdict is not Stamp.OK:  # finiteness was checked with the payload

@@ -23,7 +23,7 @@ Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
 * ``lockstep`` (what ``gimbal-run`` sets): inputs and outputs with ``GRAPH_QOS``; the node
   reports on ``~/progress`` (rosgraph_msgs/Clock) the next lockstep step it needs, so the
   vehicle or the bag player does not outrun it. /diagnostics carries the filter counters
-  only, as it always did, so scenario bags stay byte-identical.
+  only, so scenario bags stay byte-identical.
 * ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs.
   The node never waits on a step grid, ``/clock`` or a progress topic: the filter
   propagates on each gyro sample with dt from consecutive gyro stamps, and updates on each
@@ -38,11 +38,16 @@ Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
   re-bases the relative time. ``~/progress`` still reports the newest gyro stamp
   processed (absolute), every ``progress_every_steps`` gyro samples, for a pacing player.
 
-In both timings the three streams are fed to the filter in stamp order
-(:class:`gimbal_kinematics.sync.StampOrder`), the encoders and INS of a stamp before its gyro
-sample, whatever order the middleware delivers them in; so a replay at any speed computes
-exactly what the run computed, and a bag replayed into the node gives what its messages
-fed to the core in stamp order give.
+The node chooses its input policy once, in its constructor
+(:mod:`gimbal_kinematics.input_policy`: :class:`~gimbal_kinematics.input_policy.LockstepOrder`
+or :class:`~gimbal_kinematics.input_policy.FreeOrder`); the rest of the node is the same in
+both timings. In both the three streams are fed to the filter in stamp order, the encoders
+and INS of a stamp before its gyro sample, whatever order the middleware delivers them in;
+so a replay at any speed computes exactly what the run computed, and a bag replayed into
+the node gives what its messages fed to the core in stamp order give. Outputs are
+serialized by the struct encoders (:mod:`gimbal_kinematics.ros.messages`, ``*_cdr``):
+building rclpy message objects took a third of the node's time on a bag replayed at full
+speed.
 
 Encoder readings are linearly interpolated, to each gyro stamp (for eq. 4's roll rate) and
 to each INS stamp (for the measured attitude), never taken at the nearest stamp: the
@@ -76,51 +81,52 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
+from gimbal_kinematics.input_policy import Step, order_policy
 from gimbal_kinematics.ros import messages as wire
+from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.views import decoder
-from gimbal_kinematics.stream_stats import StreamStats, Verdict
-from gimbal_kinematics.sync import StampOrder
 
 from . import messages as m
 from .gyro_bias_ekf import GyroBiasEkf
 from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
 from .nis import NisWindow
 
+#: The input streams, in the order the filter takes them within one stamp: encoders and
+#: INS before the gyro sample that completes the step.
+STREAMS = ("encoders", "ins", "gyro")
+#: Filter counters whose increase is a WARN on /diagnostics (with the input-check counters).
+WARN_COUNTERS = ("resets", "realignments", "gated", "rejected_nonfinite", "rejected_out_of_order",
+                 *m.BAD_INPUT_KEYS, "incompatible_qos")
+
 
 class GyroBiasEkfNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("gyro_bias_ekf", **node_kwargs)
-        values = declare_and_read(self, PARAMS)
-        self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
-        timing = values["timing"]
-        self.free = timing == "free"
-        self.rate = values["sim_rate_hz"]
-        self.progress_every = values["progress_every_steps"]
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
+        v = declare_and_read(self, PARAMS)
+        self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(v))
+        timing = v["timing"]
+        # the one choice of timing (module docstring)
+        self.policy = order_policy(timing, STREAMS, max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)),
+                                   rate_hz=v["sim_rate_hz"], progress_every=v["progress_every_steps"],
+                                   clock_jump_ns=int(round(v["clock_jump_s"] * 1e9)),
+                                   on_restart=lambda reason: self.core.reset(reason, 0.0))
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self._resets_seen = 0
         self._warned = 0
-        #: origin of the filter's time [ns]: 0 in lockstep (stamps are sim time from 0), the
-        #: first stamp in free timing (epoch stamps)
-        self.t0_ns: int | None = None if self.free else 0
-        jump_ns = int(round(values["clock_jump_s"] * 1e9))
-        self.stats = {s: StreamStats(jump_ns) for s in ("gyro", "encoders", "ins")}
         self.bad = {k: 0 for k in m.BAD_INPUT_KEYS}
-        self.nis = NisWindow(3, window=values["nis_window"])
-        self._gyro_samples = 0
+        self.nis = NisWindow(3, window=v["nis_window"])
         self.io = io = NodeIo(self)
         self.pub_bias = io.advertise(m.Vector3Stamped, "~/bias", timing)
         self.pub_sigma = io.advertise(m.Vector3Stamped, "~/bias_sigma", timing)
         self.pub_attitude = io.advertise(Imu, "~/attitude", timing)
         self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing)
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
-        # Encoders and INS before the gyro of the same stamp: the gyro sample completes a step.
-        self._handlers = {"encoders": self._on_encoders, "ins": self._on_ins, "gyro": self._on_gyro}
-        self.order = StampOrder(tuple(self._handlers), int(round(values["max_sync_wait_s"] * 1e9)))
+        self._validate = {"encoders": self._encoders, "ins": self._ins, "gyro": self._gyro}
         imu, joint_state = decoder(Imu), decoder(JointState)
         self.subs = [
             # raw bytes decoded into views with the messages' field names (gimbal_kinematics.ros.views):
@@ -132,68 +138,35 @@ class GyroBiasEkfNode(Node):
         ]
         announce_when_connected(self, self.pub_progress, inputs=self.subs)
 
-    # ----------------------------------------------------------------- time
-    def _t(self, t_ns: int) -> float:
-        """Filter time [s] of an absolute stamp [ns] (relative to :attr:`t0_ns`)."""
-        return (t_ns - self.t0_ns) * 1e-9
-
-    def _stamp(self, t: float) -> int:
-        """Absolute stamp [ns] of a filter time [s]."""
-        return self.t0_ns + int(round(t * 1e9))
-
     # ----------------------------------------------------------------- inputs
     def _on_input(self, stream: str, msg) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
-        if self.free:
-            verdict = self.stats[stream].offer(t_ns)
-            if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
-                return  # counted; the filter already used a later sample of this stream
-            if verdict is Verdict.JUMPED_BACK:
-                self._restart(stream, t_ns)
-            if self.t0_ns is None:
-                self.t0_ns = t_ns
-        for kind, item in self.order.add(stream, t_ns, msg):
-            self._handlers[kind](item)
+        for step in self.policy.add(stream, m.stamp_ns(msg.header.stamp), msg):
+            self._validate[step.kind](step)
 
-    def _restart(self, stream: str, t_ns: int) -> None:
-        """A clock jump back (bag loop, restarted driver): forget the old run's buffered
-        messages, reset the filter, and take this stamp as the new time origin."""
-        self.core.reset(f"clock jumped back on {stream} to {t_ns * 1e-9:.6f} s", 0.0)
-        self.order = StampOrder(self.order.streams, self.order.max_wait_ns)
-        for other, st in self.stats.items():
-            if other != stream:
-                st.last_ns = None  # the other streams' next stamps belong to the new run
-        self.t0_ns = None
-
-    def _on_gyro(self, msg: Imu) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
+    def _gyro(self, step: Step) -> None:
+        msg = step.msg
         if not m.gyro_rates_provided(msg):
             self.bad["gyro_not_provided"] += 1
             self._warn("gimbal gyro message with angular velocity marked not provided ignored")
             return
         w = msg.angular_velocity
-        self.core.on_gyro(self._t(t_ns), w.y, w.z)
+        self.core.on_gyro(step.t, w.y, w.z)
         self._after()
-        if self.free:
-            self._gyro_samples += 1
-            if self._gyro_samples % self.progress_every == 0:
-                self.pub_progress.publish(wire.clock_cdr(t_ns))
-            return
-        k = m.step_of_stamp(t_ns, self.rate)
-        if (k + 1) % self.progress_every == 0:
-            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(k + 1, self.rate)))
+        progress = self.policy.progress(step)
+        if progress is not None:
+            self.pub_progress.publish(wire.clock_cdr(progress))
 
-    def _on_encoders(self, msg: JointState) -> None:
-        readings = m.encoder_angles(msg)
+    def _encoders(self, step: Step) -> None:
+        readings = m.encoder_angles(step.msg)
         if readings is None:
             self.bad["joint_names_missing"] += 1
             self._warn(f"encoder message without the joints {list(m.GIMBAL_ENCODER_JOINTS)} ignored")
             return
-        self.core.on_encoders(self._t(m.stamp_ns(msg.header.stamp)), *readings)
+        self.core.on_encoders(step.t, *readings)
         self._after()
 
-    def _on_ins(self, msg: Imu) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
+    def _ins(self, step: Step) -> None:
+        msg, t_ns = step.msg, step.stamp_ns
         if not m.field_provided(msg.angular_velocity_covariance):
             self.bad["ins_rates_not_provided"] += 1
             self._warn(f"INS sample at {t_ns * 1e-9:.3f} s without body rates (eq. 4 needs them) ignored; "
@@ -204,10 +177,10 @@ class GyroBiasEkfNode(Node):
         if euler is None:
             self.bad["ins_attitude_not_provided"] += 1
         before = self.core.counters
-        self.core.on_ins(self._t(t_ns), euler, m.vec_of(msg.angular_velocity))
+        self.core.on_ins(step.t, euler, m.vec_of(msg.angular_velocity))
         after = self.core.counters
-        if not self._after() and (euler is None or after.rejected_nonfinite > before.rejected_nonfinite \
-                or after.rejected_out_of_order > before.rejected_out_of_order):
+        if not self._after() and (euler is None or after.rejected_nonfinite > before.rejected_nonfinite
+                                  or after.rejected_out_of_order > before.rejected_out_of_order):
             # No update will come for this stamp: publish the current estimate so a controller
             # waiting for it carries on. (An accepted sample whose gyro has not arrived yet
             # is answered by the update, when it does.)
@@ -230,9 +203,9 @@ class GyroBiasEkfNode(Node):
             self._next_diag_ns = 0
         outs = self.core.take_outputs()
         for out in outs:
-            if self.free and (out.d2 > 0.0 or not out.accepted):
+            if out.d2 > 0.0 or not out.accepted:
                 self.nis.add(out.d2)  # an update (accepted or gated), not an alignment
-            self._publish(self._stamp(out.t), out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
+            self._publish(self.policy.stamp_of(out.t), out.bias, out.bias_sigma, out.quat_nm, out.attitude_cov)
         return bool(outs)
 
     def _publish_current(self, t_ns: int) -> None:
@@ -243,36 +216,22 @@ class GyroBiasEkfNode(Node):
             self._publish(t_ns, core.bias, core.bias_sigma, None, None)
 
     def _publish(self, t_ns: int, bias, sigma, quat, att_cov) -> None:
-        rate = self.core.corrected_rate
-        if self.free:
-            # serialized by the struct encoders: building rclpy message objects took a third of
-            # the node's time on a bag replayed at full speed (lockstep keeps the objects)
-            self.pub_bias.publish(wire.vector3_cdr(t_ns, m.GIMBAL_FRAME, bias))
-            self.pub_sigma.publish(wire.vector3_cdr(t_ns, m.GIMBAL_FRAME, sigma))
-            cov = m.NOT_PROVIDED if att_cov is None else tuple(float(v) for row in att_cov for v in row)
-            self.pub_attitude.publish(wire.imu_cdr(t_ns, m.NAV_FRAME, orientation=quat, orientation_cov=cov,
-                                                  angular_velocity=rate))
-        else:
-            self.pub_bias.publish(m.vector3_msg(t_ns, m.GIMBAL_FRAME, bias))
-            self.pub_sigma.publish(m.vector3_msg(t_ns, m.GIMBAL_FRAME, sigma))
-            self.pub_attitude.publish(m.attitude_msg(t_ns, quat, att_cov, rate))
+        self.pub_bias.publish(wire.vector3_cdr(t_ns, m.GIMBAL_FRAME, bias))
+        self.pub_sigma.publish(wire.vector3_cdr(t_ns, m.GIMBAL_FRAME, sigma))
+        cov = m.NOT_PROVIDED if att_cov is None else tuple(float(v) for row in att_cov for v in row)
+        self.pub_attitude.publish(wire.imu_cdr(t_ns, m.NAV_FRAME, orientation=quat, orientation_cov=cov,
+                                              angular_velocity=self.core.corrected_rate))
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             self.pub_diag.publish(self.health(t_ns))
 
     def health(self, t_ns: int) -> DiagnosticArray:
-        """The /diagnostics message (module docstring); free timing adds the input counters,
-        the incompatible-QoS peers and the NIS window."""
-        if not self.free:
-            return m.health_msg(t_ns, self.get_name(), self.core.counters, self.core.aligned)
-        extra: dict = {}
-        for name, st in self.stats.items():
-            extra.update(st.as_dict(name))
-        extra.update(self.bad)
-        extra["incompatible_qos"] = self.io.incompatible_qos
-        extra.update(self.nis.as_dict())
-        return m.health_msg(t_ns, self.get_name(), self.core.counters, self.core.aligned, extra,
-                            self.nis.verdict().verdict)
+        """The /diagnostics message: what the input policy reports (module docstring)."""
+        fields, nis_verdict = self.policy.report(self.core.counters._asdict(),
+                                                 {**self.bad, "incompatible_qos": self.io.incompatible_qos},
+                                                 self.nis.as_dict(), self.nis.verdict().verdict)
+        return health_msg(t_ns, self.get_name(), fields, ready=self.core.aligned, warn=WARN_COUNTERS,
+                          nis_verdict=nis_verdict)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-from gimbal_kinematics.params import TIMING_PARAM, Param, ParameterError
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param, ParameterError
 from gimbal_kinematics.validate import finite, nonneg_finite, positive
 
 
@@ -162,7 +162,7 @@ PARAMS = (
     Param("max_consecutive_gated", _EKF_DEFAULTS.max_consecutive_gated,
           "gated updates in a row before the attitude is re-aligned", 1, 10**9),
     Param("clock_jump_s", _EKF_DEFAULTS.clock_jump_s, "a stamp this far [s] behind resets the filter (bag loop)",
-          1e-9, 1e9),
+          1e-9, 1e9, aliases=CLOCK_JUMP_ALIASES),
     Param("max_gyro_gap_s", _EKF_DEFAULTS.max_gyro_gap_s, "gyro gap [s] that forces a re-alignment", 1e-6, 1e6),
     Param("covariance_period_s", _EKF_DEFAULTS.covariance_period_s,
           "longest interval between covariance propagations [s]", 1e-6, 1e6),

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
@@ -41,57 +40,6 @@ def attitude_msg(t_ns: int, quat_nm: Sequence[float] | None, cov_n: Sequence[Seq
     acceleration. A field that is None is marked not provided."""
     cov = NOT_PROVIDED if cov_n is None else tuple(float(cov_n[i][j]) for i in range(3) for j in range(3))
     return imu_msg(t_ns, NAV_FRAME, orientation=quat_nm, orientation_cov=cov, angular_velocity=rate_m)
-
-
-def _health_array(t_ns: int, name: str, fields: dict, verdicts: Sequence[tuple[bool, int, str]]) -> DiagnosticArray:
-    """One DiagnosticStatus named ``<name>: health`` with ``fields`` as key/values; its level
-    and message are those of the first true ``(condition, level, message)`` of ``verdicts``,
-    else OK "running"."""
-    status = DiagnosticStatus(name=f"{name}: health", hardware_id=name)
-    status.level, status.message = next(((level, text) for true, level, text in verdicts if true),
-                                        (DiagnosticStatus.OK, "running"))
-    status.values = [KeyValue(key=k, value=str(v)) for k, v in fields.items()]
-    arr = DiagnosticArray(status=[status])
-    arr.header.stamp = time_msg(t_ns)
-    return arr
-
-
-def _nis_warns(nis_verdict: str | None) -> tuple[bool, int, str]:
-    return (nis_verdict in ("overconfident", "conservative"), DiagnosticStatus.WARN,
-            f"running; NIS {nis_verdict} (see nis_*)")
-
-
-def health_msg(t_ns: int, name: str, counters, aligned: bool, extra: dict | None = None,
-               nis_verdict: str | None = None) -> DiagnosticArray:
-    """One DiagnosticStatus with an estimator's counters (a NamedTuple of ints): OK when
-    aligned with no resets, WARN after resets/re-alignments or gated updates, STALE before
-    alignment. ``extra`` (free timing): more key/values after the counters (input
-    counters, incompatible-QoS peers, the NIS window); a NIS verdict other than
-    consistent or insufficient, or a non-zero input counter, is a WARN too."""
-    fields = counters._asdict()
-    if extra:
-        fields = {**fields, **extra}
-    return _health_array(t_ns, name, fields, (
-        (not aligned, DiagnosticStatus.STALE, "not aligned"),
-        (any(fields.get(k, 0) for k in ("resets", "realignments", "gated", "rejected_nonfinite",
-                                        "rejected_out_of_order")),
-         DiagnosticStatus.WARN, "running; inputs rejected or filter reset (see values)"),
-        _nis_warns(nis_verdict),
-        (bool(extra) and any(extra.get(k, 0) for k in BAD_INPUT_KEYS + ("incompatible_qos",)),
-         DiagnosticStatus.WARN, "running; inputs not fused or QoS mismatch (see values)")))
-
-
-def free_health_msg(t_ns: int, name: str, fields: dict, ready: bool, warn_keys: Sequence[str],
-                    nis_verdict: str | None) -> DiagnosticArray:
-    """An estimator's free-timing /diagnostics (one DiagnosticStatus named ``<name>: health``,
-    like :func:`health_msg`): ``fields`` as key/values; STALE until ``ready`` (no estimate
-    yet), WARN when a ``warn_keys`` counter is non-zero or the NIS verdict is overconfident
-    or conservative, OK otherwise."""
-    return _health_array(t_ns, name, fields, (
-        (not ready, DiagnosticStatus.STALE, "no estimate yet"),
-        (any(fields.get(k, 0) for k in warn_keys), DiagnosticStatus.WARN,
-         "running; inputs rejected or filter reset (see values)"),
-        _nis_warns(nis_verdict)))
 
 
 _NAN = float("nan")
@@ -174,8 +122,8 @@ def north_only(value: float, sigma: bool = False) -> tuple[float, float, float]:
 
 
 # --- free timing: what a driver or another tool may send -----------------------------------
-#: Input-check counters of an estimator node (free timing), by name; each counts messages
-#: or samples that were not fused.
+#: Input-check counters of the gyro-bias EKF node, by name; each counts messages or samples
+#: that were not fused.
 BAD_INPUT_KEYS = ("gyro_not_provided", "ins_rates_not_provided", "ins_attitude_not_provided",
                   "joint_names_missing")
 

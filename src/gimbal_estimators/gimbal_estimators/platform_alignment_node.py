@@ -29,13 +29,15 @@ frame the filter believes to the true one, NED components, frame ``map_ned``):
 It must see every sample, so it takes part in pacing: ``~/progress`` (rosgraph_msgs/Clock)
 carries the next step it needs. Bad input: NaN/inf samples and stamps at or before the last
 step are rejected and counted (warned at most once a second); a stamp more than
-``reset_backjump_s`` back (a bag looping) restarts the alignment.
+``clock_jump_s`` back (a bag looping) restarts the alignment.
 
-Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
+Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`), chosen once in the
+constructor as the input policy (:func:`gimbal_kinematics.input_policy.grouped_policy`); the
+node's body is the same in both:
 
 * ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS``, inputs grouped by step on the
   ``sim_rate_hz`` grid (off-grid stamps rejected), ``~/progress`` on the grid, no
-  /diagnostics: the behaviour before free timing existed (byte-identical bags).
+  /diagnostics (byte-identical bags).
 * ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs, no
   step grid, no wait on ``/clock`` or a progress topic. The two streams are fed to the core
   in stamp order (:class:`gimbal_kinematics.sync.StampOrder`, the joint before the
@@ -61,15 +63,13 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from diagnostic_msgs.msg import DiagnosticArray
-
+from gimbal_kinematics.input_policy import Step, grouped_policy
+from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.stream_stats import StreamStats, Verdict
-from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import StampOrder, StepGroups
+from gimbal_kinematics.ros.readiness import announce_when_connected
 
 from . import messages as m
 from .nis import NisWindow
@@ -80,48 +80,49 @@ from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, Rota
 OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initial_misalignment_sigma",
            "north_drift", "north_drift_sigma", "gyro_drift", "gyro_drift_sigma", "accel_bias", "accel_bias_sigma",
            "status")
+#: The core's counters on /diagnostics.
+CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
+                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets")
+#: Counters whose non-zero value is a WARN on /diagnostics.
+WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
+                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
+                 "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos")
 
 
 class PlatformAlignmentNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_alignment", **node_kwargs)
         v = declare_and_read(self, PARAMS)
-        self.rate = v["sim_rate_hz"]
         self.imu_every = steps_per_sample(v, "imu_rate_hz")
         self.joint_every = steps_per_sample(v, "joint_rate_hz")
         self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(v))
         self.azimuth_joint = v["azimuth_joint"]
         self.heading = math.radians(v["base_heading_deg"])
-        self.sync = StepGroups(self._needs, v["reset_backjump_s"] * self.rate)
-        self.progress_every = v["progress_every_steps"]
+        timing = v["timing"]
+        # the one choice of timing (module docstring); within a step the joint goes first
+        self.policy = grouped_policy(timing, ("joint", "imu"), needs=self._needs, rate_hz=v["sim_rate_hz"],
+                                     next_due=self._next_due, progress_every=v["progress_every_steps"],
+                                     clock_jump_s=v["clock_jump_s"],
+                                     max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)), paced="imu",
+                                     logger=self.get_logger())
         self.wait_for_subscribers = v["wait_for_subscribers"]
-        self.rejected_off_grid = 0
         self.rejected_joints = 0
         self._seen: tuple[int, ...] = ()
-        timing = v["timing"]
-        self.free = timing == "free"
-        self.t0_ns: int | None = None  # free timing: the first stamp (the core's time origin)
-        self.order = StampOrder(("joint", "imu"), int(round(v["max_sync_wait_s"] * 1e9)))
-        jump_ns = int(round(v["reset_backjump_s"] * 1e9))
-        self.stats = {s: StreamStats(jump_ns) for s in ("imu", "joint")}
         self.nis = NisWindow(2, window=v["nis_window"])
         self._updates_seen = 0
-        self._imu_samples = 0
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
         self.pubs = {name: io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
-        # lockstep publishes no /diagnostics (its bags stay as they were)
-        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", timing) if self.free else None
-        on_input = self._on_free_input if self.free else self._on_input
+        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
-            io.subscribe(Imu, "/platform/imu", lambda msg: on_input("imu", msg), timing),
-            io.subscribe(JointState, v["joint_topic"], lambda msg: on_input("joint", msg), timing),
+            io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing),
+            io.subscribe(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
 
-    # --- readiness and pacing ------------------------------------------------------------
+    # --- the lockstep grid ---------------------------------------------------------------
     def _needs(self, k: int) -> tuple[str, ...]:
         return (("joint",) if k % self.joint_every == 0 else ()) + (("imu",) if k % self.imu_every == 0 else ())
 
@@ -134,68 +135,41 @@ class PlatformAlignmentNode(Node):
         self.get_logger().warning(text, throttle_duration_sec=1.0)
 
     def _on_input(self, kind: str, msg) -> None:
-        k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
-        if kind not in self._needs(k):
-            self.rejected_off_grid += 1
-            self._warn(f"{kind} stamped for step {k}, not one of its sample steps: ignored "
-                       f"({self.rejected_off_grid} off the rate grid)")
-            return
-        groups = self.sync.add(kind, k, msg, self.get_logger())
-        for step, group in groups:
-            self._process(step, group)
+        for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), msg):
+            self._step(step)
 
-    def _on_free_input(self, kind: str, msg) -> None:
-        """Free timing: judge the stamp, then feed the core in stamp order (module docstring)."""
-        t_ns = m.stamp_ns(msg.header.stamp)
-        verdict = self.stats[kind].offer(t_ns)
-        if verdict is Verdict.DUPLICATE or verdict is Verdict.OUT_OF_ORDER:
-            self._warn(f"{kind} sample at {t_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
-            return
-        if self.t0_ns is None:
-            self.t0_ns = t_ns
-        for stream, item in self.order.add(kind, t_ns, msg):
-            self._process_free(stream, item)
-
-    def _process_free(self, kind: str, msg) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
-        t = (t_ns - self.t0_ns) * 1e-9
+    def _step(self, step: Step) -> None:
+        where = f"{step.stamp_ns * 1e-9:.6f} s"
         est = None
-        if kind == "joint":
-            self._feed_joint(t, msg, f"{t_ns * 1e-9:.6f} s")
+        if step.kind == "joint":
+            self._validate_joint(step.t, step.msg, where)
         else:
-            est = self.core.on_accel(t, m.vec_of(msg.linear_acceleration))
-            self._imu_samples += 1
-            if self._imu_samples % self.progress_every == 0:
-                self.pub_progress.publish(m.clock_msg(t_ns))
-        self._warn_counters(f"{t_ns * 1e-9:.6f} s")
+            est = self.core.on_accel(step.t, m.vec_of(step.msg.linear_acceleration))
+        self._warn_counters(where)
         if self.core.n_updates != self._updates_seen:
             if self.core.n_updates > self._updates_seen:
                 self.nis.add(self.core.last_nis)
             self._updates_seen = self.core.n_updates
         if est is not None:
-            self._publish(t_ns, est)
-            if t_ns >= self._next_diag_ns:
-                self._next_diag_ns = t_ns + self.diag_period_ns
-                self.pub_diag.publish(self.health(t_ns))
+            self._publish(step.stamp_ns, est)
+            if step.stamp_ns >= self._next_diag_ns:
+                self._next_diag_ns = step.stamp_ns + self.diag_period_ns
+                self.pub_diag.publish(self.health(step.stamp_ns))
+        progress = self.policy.progress(step)
+        if progress is not None:
+            self.pub_progress.publish(m.clock_msg(progress))
 
-    def health(self, t_ns: int) -> DiagnosticArray:
-        """Free-timing /diagnostics (module docstring)."""
+    def health(self, t_ns: int):
+        """/diagnostics: what the input policy reports (module docstring)."""
         c = self.core.counters
-        fields: dict = {k: getattr(c, k) for k in (
-            "accepted", "rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
-            "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets")}
-        fields.update(updates=self.core.n_updates, rejected_joints=self.rejected_joints)
-        for name, st in self.stats.items():
-            fields.update(st.as_dict(name))
-        fields["incompatible_qos"] = self.io.incompatible_qos
-        fields.update(self.nis.as_dict())
-        warn = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
-                "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
-                "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos")
-        return m.free_health_msg(t_ns, self.get_name(), fields, self.core.n_updates > 0, warn,
-                                 self.nis.verdict().verdict)
+        core = {k: getattr(c, k) for k in CORE_COUNTERS}
+        core.update(updates=self.core.n_updates, rejected_joints=self.rejected_joints)
+        fields, nis_verdict = self.policy.report(core, {"incompatible_qos": self.io.incompatible_qos},
+                                                 self.nis.as_dict(), self.nis.verdict().verdict)
+        return health_msg(t_ns, self.get_name(), fields, ready=self.core.n_updates > 0, not_ready="no estimate yet",
+                          warn=WARN_COUNTERS, nis_verdict=nis_verdict)
 
-    def _feed_joint(self, t: float, msg, where: str) -> None:
+    def _validate_joint(self, t: float, msg, where: str) -> None:
         joint = m.joint_position_velocity(msg, self.azimuth_joint)
         if joint is None:
             self.rejected_joints += 1
@@ -213,21 +187,6 @@ class PlatformAlignmentNode(Node):
                        f"order, {seen[2] + seen[3]} without a joint angle; joint {seen[4]} non-finite, "
                        f"{seen[5]} out of order")
         self._seen = seen
-
-    def _process(self, k: int, group: dict) -> None:
-        t = k / self.rate
-        core = self.core
-        if "joint" in group:
-            self._feed_joint(t, group["joint"], f"step {k}")
-        est = None
-        if "imu" in group:
-            est = core.on_accel(t, m.vec_of(group["imu"].linear_acceleration))
-        self._warn_counters(f"step {k}")
-        if est is not None:
-            self._publish(m.step_stamp_ns(k, self.rate), est)
-        nxt = self._next_due(k)
-        if nxt // self.progress_every > k // self.progress_every:
-            self.pub_progress.publish(m.clock_msg(m.step_stamp_ns(nxt, self.rate)))
 
     # --- outputs ---------------------------------------------------------------------------
     def _publish(self, t_ns: int, e: AlignmentEstimate) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from gimbal_kinematics.params import TIMING_PARAM, Param
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 3 rotation-modulated fine alignment: 8-state recursive least squares on the platform's level "
@@ -41,7 +41,8 @@ PARAMS = (
     Param("converged_tilt_arcsec", 5.0, "tilt sigma below which the estimate counts as converged [arcsec]",
           1e-9, INF),
     Param("converged_azimuth_arcmin", 2.0, "azimuth sigma below which it counts as converged [arcmin]", 1e-9, INF),
-    Param("reset_backjump_s", 1.0, "a stamp this far before the last one restarts the alignment [s]", 1e-9, INF),
+    Param("clock_jump_s", 1.0, "a stamp this far before the last one restarts the alignment [s]", 1e-9, INF,
+          aliases=CLOCK_JUMP_ALIASES),
     Param("max_sync_wait_s", 0.05, "free timing: longest a sample waits for the other stream's stamp to pass "
           "it (stamp order) [s]", 0.0, 10.0),
     Param("diagnostics_period_s", 1.0, "free timing: counters and NIS on /diagnostics every this much stamp "

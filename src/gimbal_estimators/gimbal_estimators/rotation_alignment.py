@@ -120,7 +120,7 @@ class RotationAlignmentParams:
             with its rate; older joint data rejects the accelerometer sample.
         converged_tilt_arcsec, converged_azimuth_arcmin: σ of δφE0/δφN0 and of δφU0 below
             which the estimate is flagged converged.
-        reset_backjump_s: a timestamp this far [s] before the last one resets the filter
+        clock_jump_s: a timestamp this far [s] before the last one resets the filter
             (bag loop); smaller reversals are rejected and counted.
         rank_rel_tol: eigenvalues of the information matrix below this fraction of the
             largest count as unobservable directions.
@@ -138,7 +138,7 @@ class RotationAlignmentParams:
     max_joint_age_s: float = 0.1
     converged_tilt_arcsec: float = 5.0
     converged_azimuth_arcmin: float = 2.0
-    reset_backjump_s: float = 1.0
+    clock_jump_s: float = 1.0
     rank_rel_tol: float = 1e-9
     omega_ie_rad_s: float = OMEGA_IE
 
@@ -151,7 +151,7 @@ class RotationAlignmentParams:
         for name in ("accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
                      "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h",
                      "max_joint_age_s", "converged_tilt_arcsec", "converged_azimuth_arcmin",
-                     "reset_backjump_s", "rank_rel_tol", "omega_ie_rad_s"):
+                     "clock_jump_s", "rank_rel_tol", "omega_ie_rad_s"):
             positive(name, getattr(self, name))
         if self.rank_rel_tol >= 1.0:
             raise ValueError(f"rank_rel_tol must be < 1, got {self.rank_rel_tol}")
@@ -169,7 +169,7 @@ class RotationAlignmentParams:
                 north_drift_scale_deg_h=v["north_drift_scale_deg_h"], accel_bias_scale_ug=v["accel_bias_scale_ug"],
                 gyro_drift_scale_deg_h=v["gyro_drift_scale_deg_h"], max_joint_age_s=v["max_joint_age_s"],
                 converged_tilt_arcsec=v["converged_tilt_arcsec"],
-                converged_azimuth_arcmin=v["converged_azimuth_arcmin"], reset_backjump_s=v["reset_backjump_s"])
+                converged_azimuth_arcmin=v["converged_azimuth_arcmin"], clock_jump_s=v["clock_jump_s"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
@@ -267,7 +267,7 @@ class RotationAlignmentRls:
     Each accelerometer sample that completes an averaging block returns the new
     :class:`AlignmentEstimate`; others return None. Non-finite input and non-increasing
     timestamps are rejected and counted in :attr:`counters`; a jump back by more than
-    ``reset_backjump_s`` restarts the alignment (reason in ``counters.reset_reasons``).
+    ``clock_jump_s`` restarts the alignment (reason in ``counters.reset_reasons``).
     """
 
     def __init__(self, params: RotationAlignmentParams) -> None:
@@ -328,7 +328,7 @@ class RotationAlignmentRls:
             self.counters.joint_rejected_nonfinite += 1
             return
         if self._joint is not None and t <= self._joint[0]:
-            if self._joint[0] - t > self.params.reset_backjump_s:
+            if self._joint[0] - t > self.params.clock_jump_s:
                 self.reset(f"joint state time jumped back by {self._joint[0] - t:.3f} s")
             else:
                 self.counters.joint_rejected_out_of_order += 1
@@ -363,7 +363,7 @@ class RotationAlignmentRls:
             return None
         t_last = self._t_last
         if t_last is not None and t <= t_last:
-            if t_last - t > self.params.reset_backjump_s:
+            if t_last - t > self.params.clock_jump_s:
                 joint = self._joint
                 self.reset(f"accelerometer time jumped back by {t_last - t:.3f} s")
                 if joint is not None and joint[0] <= t:

@@ -21,7 +21,11 @@ class Param:
     units, and for numbers an inclusive range [low, high]; for strings a set of choices.
 
     An empty-list default cannot carry its element type, so it needs ``array_type`` (one of
-    :data:`ARRAY_TYPES`); unset, such a parameter reads as ``[]``."""
+    :data:`ARRAY_TYPES`); unset, such a parameter reads as ``[]``.
+
+    ``aliases``: deprecated names of the same parameter. A node given one uses its value
+    and logs one warning naming the new name (:func:`gimbal_kinematics.ros.params.declare_and_read`);
+    the config generator writes only :attr:`name`."""
 
     name: str
     default: Any
@@ -30,6 +34,7 @@ class Param:
     high: float | None = None
     choices: tuple[str, ...] = ()
     array_type: str | None = None
+    aliases: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if isinstance(self.default, list) and not self.default and self.array_type is None:
@@ -37,6 +42,10 @@ class Param:
         if self.array_type is not None and self.array_type not in ARRAY_TYPES:
             raise ValueError(f"Param {self.name!r}: array_type must be one of {ARRAY_TYPES}")
 
+
+#: Deprecated names of ``clock_jump_s`` (the backward stamp step [s] beyond which a stream's
+#: clock counts as jumped back: a bag looping, a restarted driver), aliases for one release.
+CLOCK_JUMP_ALIASES = ("reset_backjump_s", "backward_jump_s")
 
 #: The two timings of an estimator or controller node (:mod:`gimbal_kinematics.ros.node_io`).
 TIMING_CHOICES = ("free", "lockstep")

@@ -2,7 +2,8 @@
 
 A driver's or a bag's stamps are absolute (wall clock or epoch, ~1.8e9 s) and irregular:
 jitter, dropped samples, duplicates, samples out of order. :class:`StreamStats` judges each
-stamp against the stream's last accepted one and counts what it saw, for ``/diagnostics``:
+stamp against the stream's last accepted one (the verdicts and the drop rule of
+:mod:`gimbal_kinematics.stamps`) and counts what it saw, for ``/diagnostics``:
 
 * ``received``: every stamp offered;
 * ``duplicates``: a stamp equal to the last accepted one (rejected);
@@ -10,12 +11,10 @@ stamp against the stream's last accepted one and counts what it saw, for ``/diag
   (rejected: the sample is late, its successor was already used);
 * ``jumps``: a stamp more than ``jump_ns`` before the last one (a bag loop, a clock reset:
   accepted, as the first of a new run; the consumer resets);
-* ``dropped``: samples missing from the gaps, ``round(gap / period) - 1`` for a gap longer
-  than 1.5 nominal periods, the nominal period being the median of the last
-  :data:`PERIOD_WINDOW` accepted intervals (so it follows the sensor's real rate, and ±30 %
-  interval jitter is never read as a drop; a dropped sample's two intervals of up to
-  ±30 % each fall below 1.5 periods 1.4 % of the time and are then missed; a late sample
-  rejected as out of order leaves a gap and counts here too);
+* ``dropped``: samples missing from the gaps (the drop rule), the nominal period being the
+  median of the last :data:`PERIOD_WINDOW` accepted intervals that were not gaps (so it
+  follows the sensor's real rate; a late sample rejected as out of order leaves a gap and
+  counts here too);
 * ``jitter_rms``: RMS of (interval / period − 1) over the accepted intervals that are not
   gaps [-].
 
@@ -27,19 +26,11 @@ from __future__ import annotations
 import math
 import statistics
 from collections import deque
-from enum import Enum
+
+from .stamps import Stamp, dropped_samples, is_gap, judge
 
 #: Accepted intervals the nominal period is the median of.
 PERIOD_WINDOW = 51
-#: A gap longer than this many nominal periods counts its missing samples as dropped.
-GAP_PERIODS = 1.5
-
-
-class Verdict(Enum):
-    OK = "ok"
-    DUPLICATE = "duplicate"
-    OUT_OF_ORDER = "out_of_order"
-    JUMPED_BACK = "jumped_back"
 
 
 class StreamStats:
@@ -69,36 +60,36 @@ class StreamStats:
         """RMS relative deviation of the intervals from the nominal period [-]."""
         return math.sqrt(self._jitter_sq / self._jitter_n) if self._jitter_n else 0.0
 
-    def offer(self, stamp_ns: int) -> Verdict:
+    def offer(self, stamp_ns: int) -> Stamp:
         """Judge ``stamp_ns`` [ns] and count it; OK and JUMPED_BACK are accepted (the stamp
-        becomes the last one), DUPLICATE and OUT_OF_ORDER are not."""
+        becomes the last one), DUPLICATE and OUT_OF_ORDER are not (stamps are integers:
+        never NONFINITE)."""
         self.received += 1
         last = self.last_ns
-        if last is None:
-            self.last_ns = stamp_ns
-            return Verdict.OK
-        if stamp_ns == last:
+        # the usual case first (a bag replayed at full speed goes through here per message)
+        verdict = Stamp.OK if last is not None and stamp_ns > last else judge(stamp_ns, last, self.jump_ns)
+        if verdict is Stamp.DUPLICATE:
             self.duplicates += 1
-            return Verdict.DUPLICATE
-        if stamp_ns < last:
-            if last - stamp_ns <= self.jump_ns:
-                self.out_of_order += 1
-                return Verdict.OUT_OF_ORDER
-            self.jumps += 1
-            self.last_ns = stamp_ns
-            self._intervals.clear()
-            return Verdict.JUMPED_BACK
-        dt = stamp_ns - last
+            return verdict
+        if verdict is Stamp.OUT_OF_ORDER:
+            self.out_of_order += 1
+            return verdict
         self.last_ns = stamp_ns
+        if verdict is Stamp.JUMPED_BACK:
+            self.jumps += 1
+            self._intervals.clear()
+        if last is None or verdict is Stamp.JUMPED_BACK:
+            return verdict
+        dt = stamp_ns - last
         period = self.period_ns
-        if period is not None and dt > GAP_PERIODS * period:
-            self.dropped += max(0, int(round(dt / period)) - 1)
-            return Verdict.OK  # a gap: neither a period sample nor jitter
+        if period is not None and is_gap(dt, period):
+            self.dropped += dropped_samples(dt, period)
+            return Stamp.OK  # a gap: neither a period sample nor jitter
         if period is not None:
             self._jitter_sq += (dt / period - 1.0) ** 2
             self._jitter_n += 1
         self._intervals.append(dt)
-        return Verdict.OK
+        return Stamp.OK
 
     def as_dict(self, prefix: str) -> dict[str, float | int]:
         """The counters named ``<prefix>_<counter>``, for a diagnostics KeyValue list."""

@@ -3,8 +3,8 @@
 A node's inputs arrive on separate topics in whatever order the middleware delivers them;
 what the node computes must not depend on that order, or a replay would not reproduce a run.
 
-* :func:`check_stamp` / :class:`StampGate`: the verdict on one stamp (non-finite, out of
-  order, or a backward clock jump that calls for a reset), shared by the cores.
+* :class:`StampGate`: a core's stamp check, on the verdicts of :mod:`gimbal_kinematics.stamps`
+  (non-finite, duplicate, out of order, or a backward clock jump that calls for a reset).
 * :class:`StampOrder`: release several streams in stamp order (a filter fed at any replay
   speed sees the same sequence), with a bounded wait for a stream that stopped.
 * :class:`StepGroups`: group inputs by lockstep step and release the steps in order, each
@@ -25,43 +25,26 @@ loop) flushes the buffer and is released at once, for the filter to judge.
 """
 from __future__ import annotations
 
-import math
 from collections import deque
-from enum import Enum
 from typing import Any, Callable, Iterable, NamedTuple, Sequence
 
+from .stamps import Stamp, dropped_samples, jittered, judge
+
 
 # ----------------------------------------------------------------------------------------
-# Stamp verdicts, shared by every message-driven core. A stamp that is not finite is
-# rejected; one at or before the previous stamp is rejected as out of order unless it lies
-# more than ``backward_jump_s`` before it: a clock jump (a bag looping) that calls for a reset.
+# StampGate: a core's stamp check (the verdicts of gimbal_kinematics.stamps).
 # ----------------------------------------------------------------------------------------
-class Stamp(Enum):
-    OK = "ok"
-    NONFINITE = "nonfinite"
-    OUT_OF_ORDER = "out_of_order"
-    JUMPED_BACK = "jumped_back"
-
-
-def check_stamp(t: float, last: float | None, backward_jump_s: float) -> Stamp:
-    """Classify stamp ``t`` [s] against the previous accepted stamp ``last`` [s]."""
-    if not math.isfinite(t):
-        return Stamp.NONFINITE
-    if last is not None and t <= last:
-        return Stamp.JUMPED_BACK if last - t > backward_jump_s else Stamp.OUT_OF_ORDER
-    return Stamp.OK
-
-
 class StampGate:
     """Mixin for a core with ``rejected_nonfinite`` and ``rejected_out_of_order`` counters,
-    ``reset(reason)`` and ``params.backward_jump_s``: counts a rejected stamp and resets on a
-    clock jump (the stamp is then accepted as the first of a new run)."""
+    ``reset(reason)`` and ``params.clock_jump_s``: counts a rejected stamp (a duplicate as
+    out of order) and resets on a clock jump (the stamp is then accepted as the first of a
+    new run)."""
 
     def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
-        verdict = check_stamp(t, last, self.params.backward_jump_s)
+        verdict = judge(t, last, self.params.clock_jump_s)
         if verdict is Stamp.NONFINITE:
             self.rejected_nonfinite += 1
-        elif verdict is Stamp.OUT_OF_ORDER:
+        elif verdict is Stamp.OUT_OF_ORDER or verdict is Stamp.DUPLICATE:
             self.rejected_out_of_order += 1
         elif verdict is Stamp.JUMPED_BACK:
             self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
@@ -303,10 +286,8 @@ class FreshInputs:
     never steps back in time). One more than ``backjump_ns`` earlier is a clock jump (a
     replayed bag looping): every stream is forgotten, the time origin starts again and
     ``restarts`` counts it. Driving intervals are checked against ``period_ns``, the
-    nominal driving period: one longer than 1.5 periods counts ``round(gap / period) − 1``
-    samples as dropped (an estimate: ±30 % jitter and a drop overlap between 1.4 and 1.6
-    periods); one off the period by more than 30 % counts as jittered. Nothing here waits:
-    each driving sample is a step at once.
+    nominal driving period, by the drop rule of :mod:`gimbal_kinematics.stamps` (dropped
+    samples, jittered intervals). Nothing here waits: each driving sample is a step at once.
     """
 
     def __init__(self, driver: str, max_age_ns: dict[str, int], period_ns: int, backjump_ns: int) -> None:
@@ -328,18 +309,15 @@ class FreshInputs:
         self.jittered = 0
         self.stale_steps = 0
 
-    def _admit(self, stream: str, stamp_ns: int) -> bool | None:
-        """True: accept; False: reject (counted); None: a clock jump, restart first."""
+    def _admit(self, stream: str, stamp_ns: int) -> Stamp:
+        """The stamp's verdict; a rejected one counted."""
         newest = self._newest.get(stream)
-        if newest is None or stamp_ns > newest[0]:
-            return True
-        if newest[0] - stamp_ns > self.backjump_ns:
-            return None
-        if stamp_ns == newest[0]:
+        verdict = judge(stamp_ns, None if newest is None else newest[0], self.backjump_ns)
+        if verdict is Stamp.DUPLICATE:
             self.duplicates += 1
-        else:
+        elif verdict is Stamp.OUT_OF_ORDER:
             self.out_of_order += 1
-        return False
+        return verdict
 
     def add(self, stream: str, stamp_ns: int, item: Any) -> FreeStep | None:
         """Take ``item`` of ``stream`` stamped ``stamp_ns`` (absolute, int ns); returns the
@@ -347,13 +325,13 @@ class FreshInputs:
         if stream not in self.accepted:
             raise ValueError(f"unknown stream {stream!r}")
         verdict = self._admit(stream, stamp_ns)
-        restarted = verdict is None
+        if not verdict.accepted:
+            return None
+        restarted = verdict is Stamp.JUMPED_BACK
         if restarted:
             self._newest.clear()
             self.t0_ns = None
             self.restarts += 1
-        elif not verdict:
-            return None
         if self.t0_ns is None:
             self.t0_ns = stamp_ns
         self.accepted[stream] += 1
@@ -363,10 +341,8 @@ class FreshInputs:
             return None
         dt = 0 if previous is None else stamp_ns - previous[0]
         if dt:
-            if 2 * dt > 3 * self.period_ns:
-                self.dropped += max(0, round(dt / self.period_ns) - 1)
-            elif 10 * abs(dt - self.period_ns) > 3 * self.period_ns:
-                self.jittered += 1
+            self.dropped += dropped_samples(dt, self.period_ns)
+            self.jittered += jittered(dt, self.period_ns)
         inputs: dict[str, Any] = {}
         stale = []
         for other, max_age in self.max_age_ns.items():

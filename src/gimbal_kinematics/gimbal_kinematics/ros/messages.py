@@ -24,6 +24,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, NAV_FRAME  # noqa: F401  (re-exported)
+from gimbal_kinematics.stamps import step_of_stamp, step_stamp_ns  # noqa: F401  (re-exported)
 
 from . import cdr
 
@@ -37,16 +38,6 @@ ZERO_COV = (0.0,) * 9
 #: where 1e9 (also seen in drivers) would leave barely two digits.
 UNMEASURED_VARIANCE = 1e6
 
-
-
-def step_stamp_ns(k: int, rate_hz: float) -> int:
-    """Stamp [ns] of step ``k`` at ``rate_hz``."""
-    return int(round(k * 1e9 / rate_hz))
-
-
-def step_of_stamp(stamp_ns: int, rate_hz: float) -> int:
-    """Step index of a stamp [ns] at ``rate_hz`` (inverse of :func:`step_stamp_ns`)."""
-    return int(round(stamp_ns * rate_hz / 1e9))
 
 
 def time_msg(stamp_ns: int) -> Time:

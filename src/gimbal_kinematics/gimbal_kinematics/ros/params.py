@@ -47,14 +47,25 @@ def descriptor(p: Param) -> ParameterDescriptor:
     return desc
 
 
+def _alias_descriptor(p: Param, alias: str) -> ParameterDescriptor:
+    desc = descriptor(p)
+    desc.description = f"deprecated alias of {p.name!r}: {p.description}"
+    return desc
+
+
 def declare_and_read(node: Node, params: Sequence[Param]) -> dict[str, Any]:
     """Declare ``params`` in one call and return their values by name.
 
-    Raises :class:`ParameterError` naming the parameter for a value rclpy refuses (range,
-    type) or one outside its choices.
+    A deprecated alias (``Param.aliases``) is declared without a value; when the node is
+    given one, its value is the parameter's (the new name's is ignored) and the node logs
+    one warning naming the new name. Raises :class:`ParameterError` naming the parameter
+    for a value rclpy refuses (range, type) or one outside its choices.
     """
+    aliases = [(a, p) for p in params for a in p.aliases]
     try:
         node.declare_parameters("", [(p.name, declared_value(p), descriptor(p)) for p in params])
+        node.declare_parameters("", [(a, Parameter.Type.from_parameter_value(p.default), _alias_descriptor(p, a))
+                                     for a, p in aliases])
     except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
         raise ParameterError(str(exc)) from exc
     values = {}
@@ -63,6 +74,13 @@ def declare_and_read(node: Node, params: Sequence[Param]) -> dict[str, Any]:
             values[p.name] = node.get_parameter(p.name).value
         except ParameterUninitializedException:
             values[p.name] = []
+    for alias, p in aliases:
+        try:
+            values[p.name] = node.get_parameter(alias).value
+        except ParameterUninitializedException:
+            continue
+        node.get_logger().warning(f"parameter {alias!r} is deprecated: use {p.name!r} "
+                                  f"(taking {alias} = {values[p.name]!r})")
     for p in params:
         if p.choices and values[p.name] not in p.choices:
             raise ParameterError(f"parameter {p.name!r} = {values[p.name]!r} is not one of {list(p.choices)}")

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from gimbal_kinematics.ros.messages import step_stamp_ns
+from gimbal_kinematics.stamps import step_stamp_ns
 
 from .core_stages import Bus, gyro_bias_ekf_stage, los_rate_controller_stage, sensor_stage
 from ..graph.plan import plan_nodes, process_stats

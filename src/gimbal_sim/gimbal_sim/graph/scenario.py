@@ -104,7 +104,7 @@ def _number(where: str, value: Any, positive: bool = True) -> float:
 def check_param(node: str, executable: str, name: str, value: Any) -> Any:
     """Validate one node parameter against its declaration; returns the value typed as
     declared (an int is accepted for a float parameter)."""
-    table = {p.name: p for p in NODE_TYPES[executable].params}
+    table = {n: p for p in NODE_TYPES[executable].params for n in (p.name, *p.aliases)}
     if name not in table:
         raise ScenarioError(f"node {node!r} ({executable}) has no parameter {name!r}; "
                             f"known: {', '.join(sorted(table))}")

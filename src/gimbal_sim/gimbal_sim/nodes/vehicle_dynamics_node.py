@@ -1,14 +1,14 @@
 """``vehicle_dynamics`` node: owns ``/clock`` and steps the :class:`.vehicle.VehicleCore`.
 
-Stepping is driven by events, never by timers (except in ``realtime`` mode, whose point is
+Stepping is driven by events, never by timers (except in ``realtime`` timing, whose point is
 the wall clock):
 
-* ``controlled: true``, ``mode: lockstep`` (what scenarios use): after publishing the
+* ``controlled: true``, ``timing: lockstep`` (what scenarios use): after publishing the
   truth of step k, the node integrates k → k+1 only when the command stamped k arrives.
   The same inputs therefore give the same outputs, however slow any node is.
 * ``controlled: false``: no controller; the node runs open loop at full speed, re-arming
   itself through a guard condition so other callbacks interleave.
-* ``mode: realtime``: a wall-clock timer at the simulation rate times
+* ``timing: realtime``: a wall-clock timer at the simulation rate times
   ``real_time_factor`` (below 1 on a loaded machine: the stamps stay sim time, so the
   free-timing nodes see the same data); a command that is late is replaced by the last
   one and counted. The command subscription then uses the
@@ -16,7 +16,7 @@ the wall clock):
   volatile), so a free-timing controller (reliable, volatile) or a driver-like publisher
   matches it; the truth publishers stay reliable + transient-local, which every
   subscription matches (best effort or reliable, volatile or transient-local). A command
-  stamped for an earlier step than the current one is not thrown away in realtime mode:
+  stamped for an earlier step than the current one is not thrown away in realtime timing:
   the newest one is held for the next step (a real plant applies the newest command it
   has), and that step is still counted late.
 
@@ -62,7 +62,7 @@ class VehicleDynamicsNode(Node):
         self.config = VehicleConfig.from_values(values)
         self.core = VehicleCore(self.config, GIMBAL_MODELS[values["gimbal_model"]])
         self.controlled = values["controlled"]
-        self.realtime = values["mode"] == "realtime"
+        self.realtime = values["timing"] == "realtime"
         self.real_time_factor = float(values["real_time_factor"])
         self.exit_at_end = values["exit_at_end"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
@@ -73,9 +73,9 @@ class VehicleDynamicsNode(Node):
         self._command_names = {"two_axis_gimbal": GIMBAL_COMMAND_JOINTS,
                                "four_gimbal_platform": PLATFORM_JOINTS}.get(plant, ())
         self.rejected_commands = 0   # NaN/inf, wrong size or names, stale or future stamps
-        self.late_commands = 0       # realtime mode: step taken with the held command
+        self.late_commands = 0       # realtime timing: step taken with the held command
         self._started = False
-        self._free_running = False
+        self._open_loop_running = False
 
         self.pub_clock = self.create_publisher(Clock, "/clock", GRAPH_QOS)
         self.pub_host = self.create_publisher(Imu, "/truth/host/imu", GRAPH_QOS)
@@ -100,7 +100,7 @@ class VehicleDynamicsNode(Node):
         self._needed = self._subscriber_counts(values["subscriber_counts"])
         # topic -> subscriptions the graph must show before step 0
         self._graph_needed = topic_counts(values["topic_subscriber_counts"], "topic_subscriber_counts")
-        self._rearm = None  # open loop: zero-period timer that re-runs _free_run_step (see there)
+        self._rearm = None  # open loop: zero-period timer that re-runs _open_loop_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
         self._plant_frame = GIMBAL_FRAME if plant == "two_axis_gimbal" else PLATFORM_FRAME
 
@@ -135,7 +135,7 @@ class VehicleDynamicsNode(Node):
             # the stamps stay k·dt: only the wall-clock period between steps scales
             self.create_timer(self.config.dt / self.real_time_factor, self._realtime_step)
         elif not self.controlled:
-            self._rearm = self.create_timer(0.0, self._free_run_step)
+            self._rearm = self.create_timer(0.0, self._open_loop_step)
 
     # --- commands --------------------------------------------------------------------------
     def _on_command(self, data: bytes) -> None:
@@ -172,8 +172,8 @@ class VehicleDynamicsNode(Node):
         if self._started and not self.realtime:
             if self.controlled:
                 self._advance()
-            elif not self._free_running:
-                self._free_run_step()
+            elif not self._open_loop_running:
+                self._open_loop_step()
 
     def _command_values(self, msg: m.JointStateData) -> tuple[float, ...] | None:
         """The command in plant order, or None (counted, logged) if it must not be used."""
@@ -216,13 +216,13 @@ class VehicleDynamicsNode(Node):
                 self.done.set_result(True)
         return True
 
-    def _free_run_step(self) -> None:
+    def _open_loop_step(self) -> None:
         # One step per callback of a zero-period timer ("again as soon as the executor is
         # idle", not a clock: what is computed never depends on when), so other callbacks
         # run between steps. When paced the timer stops and the next progress message
         # restarts it. (A guard condition would do, but the EventsExecutor has none.)
-        self._free_running = self._advance() and not self.core.finished
-        if self._free_running:
+        self._open_loop_running = self._advance() and not self.core.finished
+        if self._open_loop_running:
             if self._rearm.is_canceled():
                 self._rearm.reset()
         elif not self._rearm.is_canceled():

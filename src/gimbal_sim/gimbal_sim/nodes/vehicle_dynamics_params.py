@@ -29,9 +29,9 @@ PARAMS = (
     Param("initial_gimbal_deg", [0.0, 0.0], "initial gimbal azimuth psi_m and elevation theta_m [deg]"),
     Param("initial_platform_deg", [0.0, 0.0, 0.0, 0.0],
           "initial platform loop angles azimuth, inner roll, pitch, outer roll [deg]"),
-    Param("mode", "lockstep", "lockstep: step on commands/events; realtime: pace to the wall clock",
-          choices=("lockstep", "realtime")),
-    Param("real_time_factor", 1.0, "realtime mode: simulated seconds per wall-clock second [s/s] (1: real time; "
+    Param("timing", "lockstep", "lockstep: step on commands/events; realtime: pace to the wall clock",
+          choices=("lockstep", "realtime"), aliases=("mode",)),
+    Param("real_time_factor", 1.0, "realtime timing: simulated seconds per wall-clock second [s/s] (1: real time; "
           "below 1 slows the wall clock down, giving a loaded machine headroom; stamps stay sim time)",
           0.01, 10.0),
     Param("controlled", False, "a controller commands the plant (lockstep waits for its command)"),

@@ -9,7 +9,6 @@ import numpy as np
 import yaml
 
 from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.los import inertial_los as carry, los_from_quat
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.views import VIEWS
 
@@ -84,7 +83,8 @@ def vehicle_site(bag_dir: Path) -> tuple[float, bool]:
     return math.radians(float(profile_params.get("lat_deg", 0.0))), bool(params.get("earth_rate", True))
 
 
-def inertial_los(t: np.ndarray, quats: np.ndarray, lat: float, earth_rate: bool) -> np.ndarray:
-    """LOS unit vectors (N, 3) in the inertial frame that coincides with NED at t = 0, from
-    C(n,m) quaternions (N, 4) at times ``t`` [s] from the start, at latitude ``lat`` [rad]."""
-    return carry(los_from_quat(quats), t, earth_rate_n(lat) if earth_rate else np.zeros(3))
+def site_rate_n(lat: float, earth_rate: bool) -> np.ndarray:
+    """ω_in^n [rad/s] (3,) of a fixed site at latitude ``lat`` [rad]: the earth rate, or zero
+    when the run's NED is inertial (``earth_rate: false``); for
+    :func:`gimbal_kinematics.los.inertial_los`."""
+    return earth_rate_n(lat) if earth_rate else np.zeros(3)

@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from gimbal_kinematics.ros.messages import step_stamp_ns
+from gimbal_kinematics.stamps import step_stamp_ns
 from ..core.core_loop import run_core_loop
 from ..graph.scenario import Scenario
 from .common import vehicle_site

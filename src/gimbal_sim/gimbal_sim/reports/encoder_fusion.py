@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from gimbal_kinematics.los import inertial_los, los_from_quat
 
 from ..bag.reader import BagError
-from .common import inertial_los, load_series, plot, vehicle_site
+from .common import load_series, plot, site_rate_n, vehicle_site
 from ..figures import pyplot, save, save_stacked, stacked, style
 from .generic import generic_report
 
@@ -96,7 +97,7 @@ def load_run(bag_dir: Path) -> FusionRun:
     t = (stamps - stamps[0]) * 1e-9
     quats = np.array([[g.orientation.x, g.orientation.y, g.orientation.z, g.orientation.w] for _, g in gimbal])
     lat, earth_rate = vehicle_site(bag_dir)
-    los = inertial_los(t, quats, lat, earth_rate)
+    los = inertial_los(los_from_quat(quats), t, site_rate_n(lat, earth_rate))
     # atan2 form: accurate for the µrad angles of a good loop, where arccos is not
     error = np.arctan2(np.linalg.norm(np.cross(los, los[0]), axis=1), los @ los[0])
     true_rate = np.array([[g.angular_velocity.y, g.angular_velocity.z] for _, g in gimbal])

@@ -4,9 +4,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from gimbal_kinematics.los import inertial_los, los_from_quat
 
 from ..bag.reader import BagError
-from .common import inertial_los, load_series, plot, vehicle_site
+from .common import load_series, plot, site_rate_n, vehicle_site
 from .generic import generic_report
 
 
@@ -21,7 +22,7 @@ def los_pointing_report(bag_dir: Path, out: Path) -> dict:
     t = np.array([s for s, _ in gimbal])
     quats = np.array([[m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w] for _, m in gimbal])
     lat, earth_rate = vehicle_site(bag_dir)
-    los = inertial_los(t - t[0], quats, lat, earth_rate)
+    los = inertial_los(los_from_quat(quats), t - t[0], site_rate_n(lat, earth_rate))
     err = np.arccos(np.clip(los @ los[0], -1.0, 1.0))
     settled = t - t[0] >= 1.0
     metrics["pointing_error_urad"] = {

@@ -24,11 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_kinematics.los import los_drift
+from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style
-from .common import inertial_los, load_series, times, vectors, vehicle_site
+from .common import load_series, site_rate_n, times, vectors, vehicle_site
 from .generic import generic_report
 
 SETTLE_S = 30.0
@@ -89,7 +89,7 @@ def analyse_series(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
     [rad] with or without the earth rate (the run's vehicle site)."""
     t0 = s.t_truth[0]
     t = s.t_truth - t0
-    drift = los_drift(inertial_los(t, s.quat_nm, lat, earth_rate))
+    drift = los_drift(inertial_los(los_from_quat(s.quat_nm), t, site_rate_n(lat, earth_rate)))
     tb = s.t_bias - t0
     b_true = s.bias_true
     # −∫b dt by trapezoids on the bias samples (az from r = z, el from q = y)

@@ -1,5 +1,6 @@
 """Free timing's bookkeeping, shared by the controller nodes (it publishes through the node's
-:class:`NodeIo` and builds messages only through :mod:`.messages`).
+:class:`~gimbal_kinematics.ros.node_io.NodeIo` and reports through the one diagnostics
+builder, :mod:`gimbal_kinematics.ros.diagnostics`).
 
 A controller in ``timing: free`` steps on each sample of its driving gyro with the newest
 other inputs (:class:`gimbal_kinematics.sync.FreshInputs`). This class holds that gate, the
@@ -17,18 +18,21 @@ counters of inputs that could not be used, the stale-input policy and ``/diagnos
   degree of LOS in a tenth of a second);
 * when the inputs are fresh again the loop restarts (the core reset: it was open), counted
   in ``restarts_after_stale``; a clock jump back (a bag looping) resets it too;
-* every ``diagnostics_period_s`` of stamp time one DiagnosticStatus carries every counter.
+* every ``diagnostics_period_s`` of stamp time one DiagnosticStatus carries every counter
+  (WARN while an input is stale: the command is zeroed).
 """
 from __future__ import annotations
 
 from typing import Any, Callable
 
+from diagnostic_msgs.msg import DiagnosticArray
+
 from gimbal_kinematics.sync import FreeStep, FreshInputs
 
-from . import messages as m
+from .diagnostics import health_msg
 
-COUNTERS = ("stale_commands", "stale_estimate_steps", "restarts_after_stale", "malformed", "rejected_no_rates", "rejected_nonfinite",
-            "rejected_joint_names")
+COUNTERS = ("stale_commands", "stale_estimate_steps", "restarts_after_stale", "malformed", "rejected_no_rates",
+            "rejected_nonfinite", "rejected_joint_names")
 
 
 class FreeLoop:
@@ -48,7 +52,7 @@ class FreeLoop:
         self.was_stale = False
         self._diag_period_ns = int(round(diagnostics_period_s * 1e9))
         self._next_diag_ns: int | None = None
-        self.pub_diag = io.advertise(m.DiagnosticArray, "/diagnostics", "free")
+        self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", "free")
 
     def count(self, counter: str, text: str) -> None:
         """Count an input not used (or a command zeroed) and warn, at most once a second."""
@@ -85,4 +89,4 @@ class FreeLoop:
             return
         self._next_diag_ns = t_ns + self._diag_period_ns
         counters = {**self.gate.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos, **extra}
-        self.pub_diag.publish(m.controller_diagnostics_msg(t_ns, self.node.get_name(), self.was_stale, counters))
+        self.pub_diag.publish(health_msg(t_ns, self.node.get_name(), counters, stale=self.was_stale))

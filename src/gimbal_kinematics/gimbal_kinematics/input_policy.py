@@ -1,0 +1,471 @@
+"""The input policies of a controller or estimator node (pure Python, no rclpy).
+
+A node chooses its policy once, in its constructor, from its ``timing`` parameter (as
+:class:`gimbal_kinematics.ros.node_io.NodeIo` chooses its QoS); its body then feeds every
+input message to ``policy.add(kind, stamp_ns, msg)`` and runs its one ``_step`` on each
+:class:`Step` that returns, whatever the timing. What differs between the timings lives
+here, behind one interface:
+
+* ``add(kind, stamp_ns, msg) -> list[Step]``: the steps the message makes ready, in the
+  order the core must see them; each carries the core's time ``t`` [s];
+* ``stamp_of(t) -> int``: the absolute stamp [ns] of a core time (what outputs carry);
+* ``progress(step) -> int | None``: after a step of the pacing stream, the stamp to
+  report on ``~/progress`` (None: nothing to report yet);
+* ``report(core, node, nis, nis_verdict) -> (fields, nis_verdict)``: what ``/diagnostics``
+  carries; ``diagnostics``: whether the node advertises /diagnostics at all (a lockstep
+  node that never did keeps its bags as they were);
+* ``counters() -> dict``: the policy's own counters.
+
+Two timings (:data:`gimbal_kinematics.params.TIMING_CHOICES`), four shapes of input, each
+with a factory that picks the timing's policy:
+
+========================  ==================  ================  ==========================
+inputs                    lockstep            free              factory
+========================  ==================  ================  ==========================
+streams in stamp order    LockstepOrder       FreeOrder         :func:`order_policy`
+sampled streams           LockstepSamples     FreeSamples       :func:`sample_policy`
+grouped by lockstep step  LockstepGroups      FreeOrder         :func:`grouped_policy`
+exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_policy`
+========================  ==================  ================  ==========================
+
+* lockstep: the orchestrator's graph. Stamps are simulation time from 0 (the core's time is
+  the stamp in seconds, or k / ``sim_rate_hz`` for a step), ``~/progress`` names the next
+  step on the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only
+  (or is not advertised, for a node that never had it), so the scenario bags stay as they
+  were;
+* free: a driver or a bag. Each stream's stamps are judged
+  (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples are
+  dropped and counted; a clock jump back restarts, or is left to the core); the core runs
+  on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
+  resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every
+  ``progress_every`` steps of the pacing stream; ``/diagnostics`` adds the input
+  counters, the node's and the NIS window.
+
+The ordered policies release the streams to the core in stamp order
+(:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any speed computes what the
+run computed; the sampled ones release each sample at once with the interval it covers
+(a core that pairs the streams itself, by stamp).
+
+The controllers' free timing (fresh inputs, the stale-input policy) is
+:class:`gimbal_kinematics.ros.free_loop.FreeLoop` on :class:`gimbal_kinematics.sync.FreshInputs`.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping, NamedTuple, Sequence
+
+from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
+from .stream_stats import StreamStats
+from .sync import StampOrder, StampSync, StepGroups
+
+
+class Step(NamedTuple):
+    """One input released to the core: its stream, absolute stamp [ns], the core's time
+    of it [s], the message, for a sampled stream the interval it covers [s], and whether it
+    is the last input of its lockstep step."""
+
+    kind: str
+    stamp_ns: int
+    t: float
+    msg: Any
+    dt: float = 0.0
+    ends_step: bool = True
+
+
+Fields = Mapping[str, Any]
+
+
+class LockstepOrder:
+    """Lockstep input policy (module docstring): ``streams`` in stamp order (within a
+    stamp in the order given), released when every stream has reached the stamp or after
+    ``max_wait_ns``; ``~/progress`` every ``progress_every`` steps of ``rate_hz``;
+    /diagnostics with the core's counters."""
+
+    timing = "lockstep"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int) -> None:
+        self.order = StampOrder(streams, max_wait_ns)
+        self.rate_hz = rate_hz
+        self.progress_every = int(progress_every)
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        return [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        """The next step's stamp when it starts a new block of ``progress_every`` steps."""
+        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
+        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return dict(core), None
+
+
+class LockstepGroups:
+    """Lockstep policy of a node whose inputs are grouped by step
+    (:class:`gimbal_kinematics.sync.StepGroups`): an input stamped off the steps its stream
+    samples at (``needs(k)``) is rejected and counted (``off_grid``); a complete step is
+    released as one step per input, in the order of ``streams``, at the core time k /
+    ``rate_hz``; after a step's last input ``~/progress`` names ``next_due(k)`` when that
+    starts a new block of ``progress_every`` steps. No /diagnostics. ``logger`` (rclpy's, or
+    anything with ``warning``/``info``) hears of rejections and restarts."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, streams: Sequence[str], needs: Callable[[int], tuple[str, ...]], rate_hz: float,
+                 clock_jump_s: float, next_due: Callable[[int], int], progress_every: int, logger: Any) -> None:
+        self.streams = tuple(streams)
+        self.needs = needs
+        self.rate_hz = rate_hz
+        self.sync = StepGroups(needs, clock_jump_s * rate_hz)
+        self.next_due = next_due
+        self.progress_every = int(progress_every)
+        self.logger = logger
+        self.off_grid = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        k = step_of_stamp(stamp_ns, self.rate_hz)
+        if kind not in self.needs(k):
+            self.off_grid += 1
+            self.logger.warning(f"{kind} stamped for step {k}, not one of its sample steps: ignored "
+                                f"({self.off_grid} off the rate grid)", throttle_duration_sec=1.0)
+            return []
+        out: list[Step] = []
+        for step, group in self.sync.add(kind, k, msg, self.logger):
+            stamp, t = step_stamp_ns(step, self.rate_hz), step / self.rate_hz
+            kinds = [s for s in self.streams if s in group]
+            out.extend(Step(s, stamp, t, group[s], ends_step=s == kinds[-1]) for s in kinds)
+        return out
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        if not step.ends_step:
+            return None
+        k = step_of_stamp(step.stamp_ns, self.rate_hz)
+        nxt = self.next_due(k)
+        return step_stamp_ns(nxt, self.rate_hz) if nxt // self.progress_every > k // self.progress_every else None
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return dict(core), None
+
+
+class FreeOrder:
+    """Free-timing input policy (module docstring): each stream's stamps judged, a stamp
+    more than ``clock_jump_ns`` back restarts (``on_restart(reason)``: the node resets its
+    core; None: the core judges the jump itself, the stamp goes on in order and the time
+    origin stays), then the streams in stamp order as in :class:`LockstepOrder`;
+    ``~/progress`` every ``progress_every`` steps of the pacing stream ``paced`` (None:
+    every step the node reports)."""
+
+    timing = "free"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], max_wait_ns: int, clock_jump_ns: int, progress_every: int,
+                 on_restart: Callable[[str], None] | None, paced: str | None = None,
+                 warn: Callable[[str], None] | None = None) -> None:
+        self.order = StampOrder(streams, max_wait_ns)
+        self.stats = {s: StreamStats(clock_jump_ns) for s in streams}
+        self.progress_every = int(progress_every)
+        self.on_restart = on_restart
+        self.paced = paced
+        self.warn = warn
+        #: the run's first stamp [ns], the origin of the core's time
+        self.t0_ns: int | None = None
+        self._paced = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        verdict = self.stats[kind].offer(stamp_ns)
+        if verdict is not Stamp.OK:
+            if verdict is not Stamp.JUMPED_BACK:
+                if self.warn is not None:
+                    self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
+                return []  # counted; the core already used a later sample of this stream
+            if self.on_restart is not None:
+                self._restart(kind, stamp_ns)
+        if self.t0_ns is None:
+            self.t0_ns = stamp_ns
+        t0 = self.t0_ns
+        return [Step(k, s, (s - t0) * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+
+    def _restart(self, stream: str, stamp_ns: int) -> None:
+        """A clock jump back (bag loop, restarted driver): forget the old run's buffered
+        messages, let the node reset its core, and take this stamp as the new origin."""
+        self.on_restart(f"clock jumped back on {stream} to {stamp_ns * 1e-9:.6f} s")
+        self.order = StampOrder(self.order.streams, self.order.max_wait_ns)
+        for other, st in self.stats.items():
+            if other != stream:
+                st.last_ns = None  # the other streams' next stamps belong to the new run
+        self.t0_ns = None
+
+    def stamp_of(self, t: float) -> int:
+        return self.t0_ns + int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        """This stamp, every ``progress_every`` steps of the pacing stream."""
+        if self.paced is not None and step.kind != self.paced:
+            return None
+        self._paced += 1
+        return step.stamp_ns if self._paced % self.progress_every == 0 else None
+
+    def counters(self) -> dict[str, float | int]:
+        out: dict[str, float | int] = {}
+        for name, st in self.stats.items():
+            out.update(st.as_dict(name))
+        return out
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return {**core, **self.counters(), **node, **nis}, nis_verdict
+
+
+class LockstepSamples:
+    """Lockstep policy of a sampled node (module docstring): each sample is a step at once,
+    covering the nominal ``period_s``; ``~/progress`` names the step one sample after the
+    older of the streams' newest, every ``progress_every`` steps of ``rate_hz``. No
+    /diagnostics."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, streams: Sequence[str], rate_hz: float, sample_rate_hz: float, progress_every: int) -> None:
+        self.rate_hz = rate_hz
+        self.period_s = 1.0 / sample_rate_hz
+        self.steps_per_sample = int(round(rate_hz / sample_rate_hz))
+        self.progress_every = int(progress_every)
+        self._newest: dict[str, int | None] = dict.fromkeys(streams)
+        self._reported = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        return [Step(kind, stamp_ns, stamp_ns * 1e-9, msg, self.period_s)]
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        newest = self._newest[step.kind]
+        if newest is None or step.stamp_ns > newest:
+            self._newest[step.kind] = step.stamp_ns
+        if None in self._newest.values():
+            return None
+        k = step_of_stamp(min(self._newest.values()), self.rate_hz) + self.steps_per_sample  # type: ignore[type-var]
+        if k < self._reported + self.progress_every:
+            return None
+        self._reported = k
+        return step_stamp_ns(k, self.rate_hz)
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return dict(core), None
+
+
+class FreeSamples:
+    """Free-timing policy of a sampled node (module docstring): each stream's stamps judged
+    (duplicates and late samples dropped, counted); a sample's interval is its stamp minus
+    its stream's previous accepted one when that is no gap (the drop rule of
+    :mod:`gimbal_kinematics.stamps` at ``period_ns``, so jitter is followed), the nominal
+    period for a stream's first sample or the first after a clock jump (the core resets on
+    the jump itself); after a gap the interval is unknown, so the sample is not released
+    (counted, ``<stream>_interval_unknown``). The core's time runs from the first stamp.
+    ``~/progress``: the older stream's newest stamp every ``progress_every`` samples.
+    ``warn(text)`` hears of each sample dropped."""
+
+    timing = "free"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], sample_rate_hz: float, clock_jump_ns: int, progress_every: int,
+                 warn: Callable[[str], None]) -> None:
+        self.stats = {s: StreamStats(clock_jump_ns) for s in streams}
+        self.period_s = 1.0 / sample_rate_hz
+        self.period_ns = 1e9 / sample_rate_hz
+        self.progress_every = int(progress_every)
+        self.warn = warn
+        self.t0_ns: int | None = None
+        self._last: dict[str, int | None] = dict.fromkeys(streams)
+        self.interval_unknown = dict.fromkeys(streams, 0)
+        self._samples = 0
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        verdict = self.stats[kind].offer(stamp_ns)
+        if not verdict.accepted:
+            self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp")
+            return []
+        if self.t0_ns is None:
+            self.t0_ns = stamp_ns
+        last, self._last[kind] = self._last[kind], stamp_ns
+        if verdict is Stamp.JUMPED_BACK or last is None:
+            dt = self.period_s  # first sample, or a new run (the core resets)
+        elif is_gap(stamp_ns - last, self.period_ns):
+            self.interval_unknown[kind] += 1
+            self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s after a gap of {(stamp_ns - last) * 1e-9:.3f} s: "
+                      "its interval is unknown, not integrated")
+            return []
+        else:
+            dt = (stamp_ns - last) * 1e-9
+        return [Step(kind, stamp_ns, (stamp_ns - self.t0_ns) * 1e-9, msg, dt)]
+
+    def stamp_of(self, t: float) -> int:
+        return self.t0_ns + int(round(t * 1e9))
+
+    def progress(self, step: Step) -> int | None:
+        self._samples += 1
+        if self._samples % self.progress_every or None in self._last.values():
+            return None
+        return min(self._last.values())  # type: ignore[type-var]
+
+    def counters(self) -> dict[str, float | int]:
+        out: dict[str, float | int] = {}
+        for name, st in self.stats.items():
+            out.update(st.as_dict(name))
+            out[f"{name}_interval_unknown"] = self.interval_unknown[name]
+        return out
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return {**core, **self.counters(), **node, **nis}, nis_verdict
+
+
+def order_policy(timing: str, streams: Sequence[str], *, max_wait_ns: int, rate_hz: float, progress_every: int,
+                 clock_jump_ns: int, on_restart: Callable[[str], None]) -> LockstepOrder | FreeOrder:
+    """The stamp-ordered input policy of ``timing`` (a node's one choice, in its constructor)."""
+    if timing == "lockstep":
+        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every)
+    if timing == "free":
+        return FreeOrder(streams, max_wait_ns, clock_jump_ns, progress_every, on_restart)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample_rate_hz: float,
+                  progress_every: int, clock_jump_ns: int, warn: Callable[[str], None]) -> LockstepSamples | FreeSamples:
+    """The sampled input policy of ``timing`` (a node's one choice, in its constructor):
+    streams sampled at ``sample_rate_hz``, lockstep steps at ``rate_hz``."""
+    if timing == "lockstep":
+        return LockstepSamples(streams, rate_hz, sample_rate_hz, progress_every)
+    if timing == "free":
+        return FreeSamples(streams, sample_rate_hz, clock_jump_ns, progress_every, warn)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int], tuple[str, ...]], rate_hz: float,
+                   next_due: Callable[[int], int], progress_every: int, clock_jump_s: float, max_wait_ns: int,
+                   paced: str, logger: Any) -> LockstepGroups | FreeOrder:
+    """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step:
+    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, the core judges
+    clock jumps, ``~/progress`` on the ``paced`` stream)."""
+    if timing == "lockstep":
+        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger)
+    if timing == "free":
+        def warn(text: str) -> None:
+            logger.warning(text, throttle_duration_sec=1.0)
+        return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, None, paced, warn)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+class _Synced:
+    """One step per complete exact-stamp group of ``streams``
+    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]; the
+    node calls :meth:`restart` when its stamps jump back. ``rejected``: stamps refused
+    (late or repeated) over every run."""
+
+    def __init__(self, streams: Sequence[str]) -> None:
+        self.streams = tuple(streams)
+        self.sync = StampSync(self.streams)
+        self._rejected_before = 0
+
+    @property
+    def rejected(self) -> int:
+        return self._rejected_before + self.sync.rejected
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        group = self.sync.add(kind, stamp_ns, msg)
+        return [] if group is None else [Step("group", stamp_ns, stamp_ns * 1e-9, group)]
+
+    def restart(self) -> None:
+        self._rejected_before += self.sync.rejected
+        self.sync = StampSync(self.streams)
+
+    def stamp_of(self, t: float) -> int:
+        return int(round(t * 1e9))
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
+               ) -> tuple[dict[str, Any], str | None]:
+        return {**core, **node, **nis}, nis_verdict
+
+
+class LockstepSynced(_Synced):
+    """Lockstep policy of a node stepping on exact-stamp groups: ``~/progress`` names the
+    next group's step, one learned interval (in steps of ``rate_hz``) ahead, every
+    ``progress_every`` steps. No /diagnostics."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, streams: Sequence[str], rate_hz: float, progress_every: int) -> None:
+        super().__init__(streams)
+        self.rate_hz = rate_hz
+        self.progress_every = int(progress_every)
+        self._clear()
+
+    def _clear(self) -> None:
+        self._last_step: int | None = None
+        self._interval_steps = 1
+        self._report_at = 0
+
+    def restart(self) -> None:
+        super().restart()
+        self._clear()
+
+    def progress(self, step: Step) -> int | None:
+        k = step_of_stamp(step.stamp_ns, self.rate_hz)
+        if self._last_step is not None and k > self._last_step:
+            self._interval_steps = k - self._last_step
+        self._last_step = k
+        if k < self._report_at:
+            return None
+        self._report_at = k + self.progress_every
+        return step_stamp_ns(k + self._interval_steps, self.rate_hz)
+
+
+class FreeSynced(_Synced):
+    """Free-timing policy of a node stepping on exact-stamp groups: ``~/progress`` reports
+    the group's stamp every ``progress_every`` groups; /diagnostics."""
+
+    timing = "free"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], progress_every: int) -> None:
+        super().__init__(streams)
+        self.progress_every = int(progress_every)
+        self._groups = 0
+
+    def progress(self, step: Step) -> int | None:
+        self._groups += 1
+        return step.stamp_ns if self._groups % self.progress_every == 0 else None
+
+
+def synced_policy(timing: str, streams: Sequence[str], *, rate_hz: float,
+                  progress_every: int) -> LockstepSynced | FreeSynced:
+    """The exact-stamp-group input policy of ``timing`` (a node's one choice, in its constructor)."""
+    if timing == "lockstep":
+        return LockstepSynced(streams, rate_hz, progress_every)
+    if timing == "free":
+        return FreeSynced(streams, progress_every)
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
