@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.stamps import step_stamp_ns
 
 from .core_stages import Bus, gyro_bias_ekf_stage, los_rate_controller_stage, sensor_stage
@@ -91,7 +92,8 @@ def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus
         raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
     stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
-    return VehicleCore(VehicleConfig.from_values(vehicles[0])), vehicles[0]["controlled"], stages
+    vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]), GIMBAL_MODELS[vehicles[0]["gimbal_model"]])
+    return vehicle, vehicles[0]["controlled"], stages
 
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False,

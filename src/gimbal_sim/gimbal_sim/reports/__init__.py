@@ -19,6 +19,7 @@ from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
 from .flexure import flexure_report
 from .free_gyro import free_gyro_report
 from .generic import generic_report
+from .gyro_encoder import gyro_encoder_report
 from .los_pointing import los_pointing_report
 from .platform_servo import platform_servo_report
 from .sighting import sighting_comparison, sighting_report
@@ -35,6 +36,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "alignment": alignment_report,
     "allan": allan_report,
     "consistency": consistency_report,
+    "gyro_encoder": gyro_encoder_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics
