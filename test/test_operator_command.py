@@ -106,6 +106,7 @@ def test_deadman_stops_the_slew_within_timeout_plus_v_over_a_and_counts_it():
     assert shaper.holding
     c = shaper.counters()
     assert c["deadman_stops"] == 1
+    print(f"dead-man stop at {shaper.last_stop_ns * 1e-9:.6f} s (t_L + T + v/a = {t_stop * 1e-9:.6f} s)")
     assert abs(shaper.last_stop_ns - t_stop) <= 1
     # a new command takes over; a zero command that lapses is no slew to stop
     assert shaper.set_rate(2_001 * MS, 0.0, 0.0)

@@ -55,6 +55,10 @@ def check_cycle(model, d, duration_s, rel=0.01, **kw):
     period, first, off = cycle(d, **kw)
     n = int((duration_s - first) / period) + 1
     s = model.statistics()
+    print(f"d = {d * 1e3:.3f} mrad/s over {duration_s:.2f} s: period {s['mean_time_between_corrections_s']:.4f} s "
+          f"(closed form {period:.4f}), {s['corrections']} corrections (closed form {n}), "
+          f"{s['corrections_per_min']:.2f}/min, time on target {s['time_on_target_fraction']:.4f} "
+          f"(closed form {1.0 - n * off / duration_s:.4f})")
     assert s["corrections"] == n
     assert s["mean_time_between_corrections_s"] == pytest.approx(period, rel=rel)
     assert s["corrections_per_min"] == pytest.approx(60.0 * n / duration_s, rel=1e-3)
