@@ -120,6 +120,42 @@ class LockstepControl:
         return {}
 
 
+class StaleRule:
+    """The stale-input rule of free timing (module docstring), on the streams a step found
+    ``stale``: a stale measurement zeroes the command (``stale_commands``), a stale ``held``
+    estimate keeps the loop running (``stale_estimate_steps``), the first step fresh again
+    after a zeroed one restarts the loop (``restarts_after_stale``). Counts into ``counts``
+    (a dict of its own by default); ``warn(text)`` hears of each step counted."""
+
+    def __init__(self, held: Sequence[str], warn: Callable[[str], None],
+                 counts: dict[str, int] | None = None) -> None:
+        self.held = frozenset(held)
+        self.warn = warn
+        self.counts = dict.fromkeys(FREE_COUNTERS, 0) if counts is None else counts
+        self.was_stale = False
+
+    def judge(self, stale: Sequence[str]) -> tuple[bool, bool]:
+        """(zero the command, restart the loop first) for a step whose ``stale`` streams these are."""
+        zeroing = [s for s in stale if s not in self.held]
+        if len(zeroing) < len(stale):
+            self._count("stale_estimate_steps", f"{', '.join(s for s in stale if s in self.held)} older "
+                        "than its maximum age or missing: the last estimate kept")
+        if zeroing:
+            self._count("stale_commands", f"{', '.join(zeroing)} older than its maximum age or missing: "
+                        "command zeroed")
+            self.was_stale = True
+            return True, False
+        if self.was_stale:
+            self.was_stale = False
+            self.counts["restarts_after_stale"] += 1
+            return False, True
+        return False, False
+
+    def _count(self, counter: str, text: str) -> None:
+        self.counts[counter] += 1
+        self.warn(f"{text} ({self.counts[counter]} {counter})")
+
+
 class FreeControl:
     """Free-timing controller policy (module docstring): steps on each sample of ``driver``
     with the inputs of ``max_age_s`` (kind -> maximum age [s]) no older than that;
@@ -145,14 +181,12 @@ class FreeControl:
         self.gate = FreshInputs(driver, {k: int(round(a * 1e9)) for k, a in max_age_s.items()},
                                 int(round(period_s * 1e9)), int(round(clock_jump_s * 1e9)))
         self.driver = driver
-        self.held = frozenset(held)
         self.on_arrival = frozenset(on_arrival)
         self.once = tuple(once)
         self.finite = frozenset(finite)
         self.on_nonfinite = on_nonfinite
-        self.warn = warn
-        self.counts = dict.fromkeys(FREE_COUNTERS, 0)
-        self.was_stale = False
+        self.rule = StaleRule(held, warn)
+        self.counts = self.rule.counts
         self._fed: dict[str, int | None] = dict.fromkeys(self.once)
 
     def seconds(self, stamp_ns: int) -> float:
@@ -180,19 +214,11 @@ class FreeControl:
         if step.restarted:
             self._fed = dict.fromkeys(self.once)
         t = step.t_ns * 1e-9
-        zeroing = [s for s in step.stale if s not in self.held]
-        if len(zeroing) < len(step.stale):
-            self._count("stale_estimate_steps", f"{', '.join(s for s in step.stale if s in self.held)} older "
-                        "than its maximum age or missing: the last estimate kept")
-        if zeroing:
-            self._count("stale_commands", f"{', '.join(zeroing)} older than its maximum age or missing: "
-                        "command zeroed")
-            self.was_stale = True
+        zero, resumed = self.rule.judge(step.stale)
+        if zero:
             self._fed = dict.fromkeys(self.once)
             return [ControlStep(stamp_ns, t, {}, zero_command=True, resets=resets)]
-        if self.was_stale:
-            self.was_stale = False
-            self.counts["restarts_after_stale"] += 1
+        if resumed:
             resets += (RESTART_FRESH,)
         inputs = {self.driver: Sample(t, value)}
         for other, item in step.inputs.items():
@@ -206,10 +232,6 @@ class FreeControl:
                 self._fed[other] = t_in
             inputs[other] = Sample(self.seconds(t_in), v)
         return [ControlStep(stamp_ns, t, inputs, resets=resets)]
-
-    def _count(self, counter: str, text: str) -> None:
-        self.counts[counter] += 1
-        self.warn(f"{text} ({self.counts[counter]} {counter})")
 
     def counters(self) -> dict[str, int]:
         return {**self.gate.counters(), **self.counts}
