@@ -5,6 +5,7 @@ their raw subscriptions deliver them): the three gyro covariance forms a reader 
 from __future__ import annotations
 
 import math
+from collections import ChainMap
 
 import pytest
 import rclpy
@@ -37,9 +38,9 @@ def test_bad_inputs_are_counted_and_not_fused(ros_domain_env):
                                  use_global_arguments=False)
     sent: list[bytes] = []
     node.pub.publish = sent.append
-    node.free.pub_diag.publish = lambda msg: None
+    node.pub_diag.publish = lambda msg: None
     imu, joints = m.imu_from_cdr, m.joint_state_from_cdr
-    feed = node._on_free_input
+    feed = node._on_input
 
     def gyro(k, cov, q=1e-3):
         feed("gyro", m.imu_cdr(EPOCH_NS + k * T_NS, "gimbal_inner_frd", angular_velocity=(0.0, q, 0.0),
@@ -53,8 +54,8 @@ def test_bad_inputs_are_counted_and_not_fused(ros_domain_env):
                               angular_velocity=(rate, 0.0, 0.0), angular_velocity_cov=cov), imu)
 
     try:
-        c = node.free.counts
-        gate = node.free.gate
+        c = ChainMap(node.counts, node.policy.counts)
+        gate = node.policy.gate
         enc(0)
         ins(0)
         # the three accepted forms: one command each, none zeroed (inputs fresh)

@@ -95,7 +95,7 @@ def test_one_command_per_step_whatever_the_arrival_order_and_nan_holds(ros_domai
             volts = [_volts(c) for c in sent["cmd"]]
             assert volts[5] == volts[4] and volts[6] != volts[5]
             assert node.core.held_commands == 1 and node.core.rejected_nonfinite == 1
-            assert node.sync.rejected == 1
+            assert node.policy.sync.rejected == 1
             # diagnostics every tick (the held one repeats its signals); φz starts at 0, +1.2 °/s
             assert len(sent["error"]) == len(sent["mod"]) == 8
             assert sent["error"][5].position == sent["error"][4].position
@@ -141,7 +141,7 @@ def test_slower_gyro_holds_the_command_on_clock_ticks_and_a_loop_restarts(ros_do
         node._on_input("res", res)
         node._on_input("imu", imu)
         node._on_input("clock", m.clock_msg(0))
-        assert node.sync.rejected == 0 and len(sent["cmd"]) == 7
+        assert node.policy.sync.rejected == 0 and len(sent["cmd"]) == 7
         assert any("jumped back" in r for r in node.core.reset_reasons)
 
 

@@ -357,9 +357,18 @@ class EncoderFusionController(StampGate):
         [rad/s], encoder angles [rad], gyro rates [rad/s]. A non-finite value in any of
         them holds the last command (``held``, counted in ``held_commands``) without
         ticking the loop, so no stale angle or rate enters the gate or the PID."""
+        return self.tick(t, q_m, r_m, (t, omega_b), (t, psi_m, theta_m))
+
+    def tick(self, t: float, q_m: float, r_m: float, base: tuple[float, Sequence[float]] | None = None,
+             encoders: tuple[float, float, float] | None = None) -> FusionCommand | None:
+        """A control tick on a gyro sample stamped ``t`` [s] (:meth:`on_gyro`), after the
+        inputs new since the last tick: ``base`` (t_b, omega_b) and ``encoders`` (t_e, ψm, θm)
+        (None: none new). A non-finite one holds the last command as in :meth:`step`."""
         bad_before = self.rejected_nonfinite
-        self.on_base_rates(t, omega_b)
-        self.on_encoders(t, psi_m, theta_m)
+        if base is not None:
+            self.on_base_rates(*base)
+        if encoders is not None:
+            self.on_encoders(*encoders)
         if self.rejected_nonfinite > bad_before:
             self.held_commands += 1
             return FusionCommand(t, self._cmd[0], self._cmd[1], self.feedback[0], self.feedback[1], True)

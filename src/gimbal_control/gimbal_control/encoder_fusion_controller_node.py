@@ -24,64 +24,85 @@ newest encoder and base-rate samples no older than ``max_input_age_s``; a stale 
 one zeroes the command, counted (:mod:`gimbal_kinematics.ros.free_loop` says why and what else is counted, on
 ``/diagnostics``). The encoder angle is the newest sample's, not interpolated to the gyro
 stamp: the filter's gate integrates the gyro between encoder stamps itself.
+
+The node chooses its input policy once, in its constructor
+(:mod:`gimbal_kinematics.control_policy`); each input is validated once, as it arrives, and
+every step the policy releases runs the same ``_step``, whatever the timing. In lockstep
+each step feeds the core the newest encoder and base-rate samples at the step's stamp; in
+free timing each is fed once, at its own stamp.
 """
 from __future__ import annotations
 
-import math
 import sys
 
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
+from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import EagerStepGroups
 
 from . import messages as m
-from gimbal_kinematics.ros.free_loop import FreeLoop
 from .encoder_fusion import EncoderFusionController, EncoderFusionParams
 from .encoder_fusion_controller_params import DESCRIPTION, PARAMS
 
 #: An incomplete step this many steps older than a complete one is given up.
 _STALE_STEPS = 1000
+#: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
+COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
+ZERO = (0.0, 0.0)
 
 
 class EncoderFusionControllerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("encoder_fusion_controller", **node_kwargs)
         v = declare_and_read(self, PARAMS)
+        timing = v["timing"]
         self.enc_every = steps_per_sample(v, "encoder_rate_hz")
         self.base_every = steps_per_sample(v, "base_rate_hz")
-        self.rate = v["sim_rate_hz"]
+        self.rate = rate = v["sim_rate_hz"]
         self.core = EncoderFusionController(EncoderFusionParams.from_values(v))
-        self.sync = EagerStepGroups(self._needs, _STALE_STEPS)
-        self._omega_b: tuple[float, float, float] | None = None
-        self._angles: tuple[float, float] | None = None
+        clock_jump_s = self.core.params.clock_jump_s
         self._kf_updates = 0
         self.held = 0  # steps whose command was held (bad or missing input)
-        self.timing = timing = v["timing"]
+        self.counts = dict.fromkeys(COUNTERS, 0)
         self.io = NodeIo(self)
         self.pub_cmd = self.io.advertise(JointState, "/gimbal/torque_cmd", timing)
         self.pub_feedback = self.io.advertise(Vector3Stamped, "~/feedback_velocity", timing)
         self.pub_correction = self.io.advertise(Vector3Stamped, "~/drift_correction", timing)
-        on_input = self._on_input
-        if timing == "free":
-            p = self.core.params
-            self.free = FreeLoop(self, self.io, "gyro", {"enc": v["max_input_age_s"], "base": v["max_input_age_s"]},
-                                 1.0 / self.rate, p.clock_jump_s, v["diagnostics_period_s"])
-            self._fed = {"enc": None, "base": None}  # stamps already given to the core
-            on_input = self._on_free_input
-        self.io.subscribe(Imu, "/gimbal/imu", lambda msg: on_input("gyro", msg), timing)
-        self.io.subscribe(JointState, "/gimbal/joint_states", lambda msg: on_input("enc", msg), timing)
-        self.io.subscribe(Imu, "/truth/host/imu", lambda msg: on_input("base", msg), timing)
+        # the one choice of timing (module docstring). Lockstep: a complete step runs at once,
+        # so an older step still waiting for a lost input cannot stall the loop behind it.
+        self.policy = control_policy(
+            timing,
+            lockstep=lambda: LockstepControl(self._needs, rate, clock_jump_s, eager_stale_steps=_STALE_STEPS,
+                                             sample_hold=("base", "enc"), stamp_time=True, logger=self.get_logger()),
+            free=lambda: FreeControl("gyro", {"enc": v["max_input_age_s"], "base": v["max_input_age_s"]},
+                                     1.0 / rate, clock_jump_s, once=("base", "enc"), finite=("base", "enc"),
+                                     on_nonfinite=lambda kind: self._count("rejected_nonfinite",
+                                                                           f"non-finite {kind} sample; not fused"),
+                                     warn=self._log))
+        self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        self.io.subscribe(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), timing)
+        self.io.subscribe(JointState, "/gimbal/joint_states", lambda msg: self._on_input("enc", msg), timing)
+        self.io.subscribe(Imu, "/truth/host/imu", lambda msg: self._on_input("base", msg), timing)
 
-    def _hold(self, k: int, why: str) -> None:
+    def _log(self, text: str) -> None:
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    def _count(self, counter: str, text: str) -> None:
+        self.counts[counter] += 1
+        self._log(f"{text} ({self.counts[counter]} {counter})")
+
+    def _hold(self, step: ControlStep, why: str) -> tuple[float, float]:
         self.held += 1
-        self.get_logger().warning(f"step {k}: {why}; holding the last command ({self.held} held)",
-                                  throttle_duration_sec=1.0)
+        self._log(f"step at {step.t:.6f} s: {why}; holding the last command ({self.held} held)")
+        return self.core.command
 
     def _needs(self, step: int) -> tuple[str, ...]:
         """The inputs step ``step`` waits for: the gyro, and the encoders and base rates at
@@ -90,33 +111,42 @@ class EncoderFusionControllerNode(Node):
                 + (("base",) if step % self.base_every == 0 else ()))
 
     def _on_input(self, kind: str, msg) -> None:
-        k = m.step_of_stamp(m.stamp_ns(msg.header.stamp), self.rate)
-        # A complete step runs at once: an older step still waiting for an input (lost, or a
-        # stray message from another graph) must not stall the loop behind it. In lockstep the
-        # steps complete in order anyway. Steps that stay incomplete are forgotten after a while.
-        group = self.sync.add(kind, k, msg, self.get_logger())
-        if group is not None:
-            self._control(k, group)
+        for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), self._validate(kind, msg)):
+            self._step(step)
 
-    def _control(self, k: int, group: dict) -> None:
-        t_ns = m.step_stamp_ns(k, self.rate)
-        if "base" in group:
-            self._omega_b = m.vec_of(group["base"].angular_velocity)
-        if "enc" in group:
-            readings = m.encoder_readings(group["enc"])
-            self._angles = None if readings is None else (readings[0][1], readings[0][2])
-        if self._omega_b is None or self._angles is None:
-            self._hold(k, "encoder joints or base rates missing")
-            tau = self.core.command
+    def _validate(self, kind: str, msg):
+        """What the loop takes from a message, or None (counted) when it cannot be used; a
+        gyro NaN is the core's to reject (it holds the command)."""
+        if kind == "enc":
+            readings = m.encoder_readings(msg)
+            if readings is None:
+                self._count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
+                return None
+            return readings[0][1], readings[0][2]
+        if not (m.gyro_qr_provided if kind == "gyro" else m.field_provided)(msg.angular_velocity_covariance):
+            self._count("rejected_no_rates", f"{kind} angular velocity marked not provided; not fused")
+            return None
+        w = msg.angular_velocity
+        return (w.y, w.z) if kind == "gyro" else (w.x, w.y, w.z)  # gyro: (q, r)
+
+    def _step(self, step: ControlStep) -> None:
+        core, inputs = self.core, step.inputs
+        for reason in step.resets:
+            core.reset(reason)
+        t_ns = step.stamp_ns
+        if step.zero_command:
+            tau = ZERO
+        elif None in inputs.values():
+            tau = self._hold(step, "encoder joints or base rates missing")
         else:
-            gyro = group["gyro"].angular_velocity
-            out = self.core.step(t_ns * 1e-9, self._omega_b, *self._angles, gyro.y, gyro.z)
-            if out is None:
-                self._hold(k, "input rejected (stamp out of order)")
-                tau = self.core.command
+            base, enc, gyro = inputs.get("base"), inputs.get("enc"), inputs["gyro"].value
+            out = core.tick(step.t, gyro[0], gyro[1], base, None if enc is None else (enc.t, *enc.value))
+            if out is None:  # a stamp the core refused (counted there)
+                tau = self._hold(step, "input rejected (stamp out of order)")
+            elif out.held:
+                self._count("rejected_nonfinite", "non-finite measurement")
+                tau = self._hold(step, "non-finite measurement")
             else:
-                if out.held:
-                    self._hold(k, "non-finite measurement")
                 tau = (out.torque_azimuth, out.torque_elevation)
                 self.pub_feedback.publish(m.gimbal_axes_msg(t_ns, out.velocity_q, out.velocity_r))
         self.pub_cmd.publish(m.torque_command_msg(t_ns, tau))
@@ -124,62 +154,17 @@ class EncoderFusionControllerNode(Node):
         if updates != self._kf_updates:
             self._kf_updates = updates
             self.pub_correction.publish(m.gimbal_axes_msg(t_ns, *self.core.corrections))
+        if t_ns >= self._next_diag_ns:
+            self._next_diag_ns = t_ns + self.diag_period_ns
+            self.pub_diag.publish(self.health(step))
 
-
-    # ------------------------------------------------------------------ free timing
-    def _usable(self, kind: str, msg):
-        """What the loop takes from a message, or None (counted) when it cannot be used."""
-        count = self.free.count
-        if kind == "enc":
-            readings = m.encoder_readings(msg)
-            if readings is None:
-                count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
-                return None
-            value = (readings[0][1], readings[0][2])
-        else:
-            if not (m.gyro_qr_provided if kind == "gyro" else m.field_provided)(msg.angular_velocity_covariance):
-                count("rejected_no_rates", f"{kind} angular velocity marked not provided; not fused")
-                return None
-            value = m.vec_of(msg.angular_velocity)
-            if kind == "gyro":
-                return value[1:]  # (q, r); NaN is the core's to reject (it holds the command)
-        if not all(map(math.isfinite, value)):
-            count("rejected_nonfinite", f"non-finite {kind} sample; not fused")
-            return None
-        return value
-
-    def _on_free_input(self, kind: str, msg) -> None:
-        value = self._usable(kind, msg)
-        if value is None:
-            return
-        stamp = m.stamp_ns(msg.header.stamp)
-        free, core = self.free, self.core
-        step = free.gate.add(kind, stamp, (stamp, value))
-        if step is None:
-            return
-        if not free.fresh(step, core.reset):
-            tau = (0.0, 0.0)
-            self._fed = {"enc": None, "base": None}
-        else:
-            if step.restarted:
-                self._fed = {"enc": None, "base": None}
-            for other, feed in (("base", core.on_base_rates), ("enc", lambda t, a: core.on_encoders(t, *a))):
-                t_in, val = step.inputs[other]
-                if self._fed[other] is None or t_in > self._fed[other]:
-                    self._fed[other] = t_in
-                    feed(free.seconds(t_in), val)
-            out = core.on_gyro(step.t_ns * 1e-9, *value)
-            if out is None or out.held:  # None: a stamp the core refused (counted there)
-                if out is not None:
-                    free.count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
-                tau = core.command
-            else:
-                tau = (out.torque_azimuth, out.torque_elevation)
-                self.pub_feedback.publish(m.gimbal_axes_msg(stamp, out.velocity_q, out.velocity_r))
-        self.pub_cmd.publish(m.torque_command_msg(stamp, tau))
-        free.diagnostics(stamp, {"held_commands": core.held_commands, "core_rejected_nonfinite":
-                                 core.rejected_nonfinite, "core_rejected_out_of_order": core.rejected_out_of_order,
-                                 "resets": len(core.reset_reasons)})
+    def health(self, step: ControlStep):
+        """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
+        core = self.core
+        fields = {**self.policy.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
+                  "held_commands": core.held_commands, "core_rejected_nonfinite": core.rejected_nonfinite,
+                  "core_rejected_out_of_order": core.rejected_out_of_order, "resets": len(core.reset_reasons)}
+        return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -25,6 +25,10 @@ driver or a bag) never waits: each platform gyro sample makes one command, stamp
 with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
 zeroes the voltages, counted (:mod:`gimbal_kinematics.ros.free_loop` says why and what else is counted, on
 ``/diagnostics``).
+
+The node chooses its input policy once, in its constructor
+(:mod:`gimbal_kinematics.control_policy`); each input is validated once, as it arrives, and
+every step the policy releases runs the same ``_step``, whatever the timing.
 """
 from __future__ import annotations
 
@@ -34,49 +38,66 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.sync import StepGroups
-from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
+from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 
 from . import messages as m
-from gimbal_kinematics.ros.free_loop import FreeLoop
 from .platform_servo import PlatformServo, PlatformServoParams
 from .platform_servo_params import DESCRIPTION, PARAMS
+
+#: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
+COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
+ZERO = (0.0, 0.0, 0.0, 0.0)
 
 
 class PlatformServoNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_servo", **node_kwargs)
         v = declare_and_read(self, PARAMS)
+        timing = v["timing"]
         self.rate = v["sim_rate_hz"]
         self.imu_every = steps_per_sample(v, "imu_rate_hz")
         self.res_every = steps_per_sample(v, "resolver_rate_hz")
         self.core = PlatformServo(PlatformServoParams.from_values(v))
         self.diag_every = v["diagnostics_every_steps"]
-        self.sync = StepGroups(self._needs, v["clock_jump_s"] * self.rate)
         self._ticks = 0
-        self.rejected_resolvers = 0
+        self.counts = dict.fromkeys(COUNTERS, 0)
         self._seen = (0, 0, 0)  # core counters already warned about
-        self.timing = timing = v["timing"]
         self.io = NodeIo(self)
         self.pub = self.io.advertise(JointState, "/platform/voltage_cmd", timing)
         self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
         self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
-        on_input = self._on_input
-        if timing == "free":
-            self.free = FreeLoop(self, self.io, "imu", {"res": v["max_input_age_s"]}, 1.0 / v["imu_rate_hz"],
-                                 v["clock_jump_s"], v["diagnostics_period_s"])
-            self._fed_res: int | None = None
-            on_input = self._on_free_input
-        self.io.subscribe(Imu, "/platform/imu", lambda msg: on_input("imu", msg), timing)
-        self.io.subscribe(JointState, "/platform/resolvers", lambda msg: on_input("res", msg), timing)
-        if self.imu_every > 1 and timing == "lockstep":  # steps without a gyro sample still need their command
-            self.io.subscribe(Clock, "/clock", lambda msg: self._on_input("clock", msg), timing)
+        # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
+        self.policy = control_policy(
+            timing,
+            lockstep=lambda: LockstepControl(self._needs, self.rate, v["clock_jump_s"],
+                                             ticks=("clock",) if self.imu_every > 1 else (),
+                                             logger=self.get_logger()),
+            free=lambda: FreeControl("imu", {"res": v["max_input_age_s"]}, 1.0 / v["imu_rate_hz"],
+                                     v["clock_jump_s"], once=("res",), warn=self._log))
+        self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        self.io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing)
+        self.io.subscribe(JointState, "/platform/resolvers", lambda msg: self._on_input("res", msg), timing)
+        for tick in self.policy.ticks:  # steps without a gyro sample still need their command
+            self.io.subscribe(Clock, "/clock", lambda msg, k=tick: self._on_input(k, msg), timing)
 
-    def _warn(self, text: str) -> None:
+    @property
+    def rejected_resolvers(self) -> int:
+        """Resolver messages without the four platform joints."""
+        return self.counts["rejected_joint_names"]
+
+    def _log(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    def _count(self, counter: str, text: str) -> None:
+        self.counts[counter] += 1
+        self._log(f"{text} ({self.counts[counter]} {counter})")
 
     def _needs(self, k: int) -> tuple[str, ...]:
         need = ("imu",) if k % self.imu_every == 0 else ("clock",)
@@ -84,79 +105,61 @@ class PlatformServoNode(Node):
 
     def _on_input(self, kind: str, msg) -> None:
         stamp = msg.clock if kind == "clock" else msg.header.stamp
-        k = m.step_of_stamp(m.stamp_ns(stamp), self.rate)
-        if kind == "clock" and kind not in self._needs(k):
-            return  # a step with a gyro sample ticks on the gyro
-        groups = self.sync.add(kind, k, msg, self.get_logger())
-        for step, group in groups:
-            self._control(step, group)
+        for step in self.policy.add(kind, m.stamp_ns(stamp), self._validate(kind, msg)):
+            self._step(step)
 
-    def _control(self, k: int, group: dict) -> None:
-        t = k / self.rate
-        core = self.core
-        if "res" in group:
-            angles = m.platform_joint_positions(group["res"])
+    def _validate(self, kind: str, msg):
+        """What the servo takes from an input message, or None (counted) when it cannot be
+        used; a non-finite value is the core's to reject (counted there)."""
+        if kind == "res":
+            angles = m.platform_joint_positions(msg)
             if angles is None:
-                self.rejected_resolvers += 1
-                self._warn(f"step {k}: resolver message without the four platform joints ignored "
-                           f"({self.rejected_resolvers} rejected)")
-            else:
-                core.on_resolvers(t, angles)
+                self._count("rejected_joint_names", "resolver message without the four platform joints ignored")
+            return angles
+        if kind == "imu":
+            if not m.field_provided(msg.angular_velocity_covariance):
+                self._count("rejected_no_rates", "platform gyro angular velocity marked not provided; not fused")
+                return None
+            return m.vec_of(msg.angular_velocity)
+        return msg  # a clock tick
+
+    def _step(self, step: ControlStep) -> None:
+        core, inputs = self.core, step.inputs
+        for reason in step.resets:
+            core.reset(reason)
         out = None
-        if "imu" in group:
-            w = group["imu"].angular_velocity
-            out = core.on_gyro(t, (w.x, w.y, w.z))
+        if step.zero_command:
+            volts = ZERO
+        else:
+            res, imu = inputs.get("res"), inputs.get("imu")
+            if res is not None:
+                core.on_resolvers(res.t, res.value)
+            if imu is not None:
+                out = core.on_gyro(step.t, imu.value)
+            volts = out.voltages if out is not None else core.command_voltages
         seen = (core.rejected_nonfinite, core.held_commands, core.rejected_gimbal_lock)
         if seen != self._seen:
             self._seen = seen
-            self._warn(f"step {k}: bad measurement; {core.rejected_nonfinite} non-finite samples rejected, "
-                       f"{core.held_commands} commands held, {core.rejected_gimbal_lock} at gimbal lock")
-        t_ns = m.step_stamp_ns(k, self.rate)
-        volts = out.voltages if out is not None else core.command_voltages
+            self._log(f"step at {step.t:.6f} s: bad measurement; {core.rejected_nonfinite} non-finite samples "
+                      f"rejected, {core.held_commands} commands held, {core.rejected_gimbal_lock} at gimbal lock")
+        t_ns = step.stamp_ns
         self.pub.publish(m.platform_voltage_msg(t_ns, volts))
         if out is not None:
             self._ticks += 1
             if (self._ticks - 1) % self.diag_every == 0:
                 self.pub_error.publish(m.platform_control_error_msg(t_ns, out.control_signals))
                 self.pub_mod.publish(m.modulation_msg(t_ns, out.phi_z, out.phi_z_rate))
+        if t_ns >= self._next_diag_ns:
+            self._next_diag_ns = t_ns + self.diag_period_ns
+            self.pub_diag.publish(self.health(step))
 
-
-    # ------------------------------------------------------------------ free timing
-    def _on_free_input(self, kind: str, msg) -> None:
-        free, core = self.free, self.core
-        if kind == "res":
-            value = m.platform_joint_positions(msg)
-            if value is None:
-                free.count("rejected_joint_names", "resolver message without the four platform joints")
-                return
-        else:
-            if not m.field_provided(msg.angular_velocity_covariance):
-                free.count("rejected_no_rates", "platform gyro angular velocity marked not provided; not fused")
-                return
-            value = m.vec_of(msg.angular_velocity)
-        stamp = m.stamp_ns(msg.header.stamp)
-        step = free.gate.add(kind, stamp, (stamp, value))
-        if step is None:
-            return
-        out = None
-        if not free.fresh(step, core.reset):
-            volts = (0.0, 0.0, 0.0, 0.0)
-            self._fed_res = None
-        else:
-            t_res, angles = step.inputs["res"]
-            if step.restarted or self._fed_res is None or t_res > self._fed_res:
-                self._fed_res = t_res
-                core.on_resolvers(free.seconds(t_res), angles)  # the core counts a non-finite one
-            out = core.on_gyro(step.t_ns * 1e-9, value)
-            volts = out.voltages if out is not None else core.command_voltages
-        self.pub.publish(m.platform_voltage_msg(stamp, volts))
-        if out is not None:
-            self._ticks += 1
-            if (self._ticks - 1) % self.diag_every == 0:
-                self.pub_error.publish(m.platform_control_error_msg(stamp, out.control_signals))
-                self.pub_mod.publish(m.modulation_msg(stamp, out.phi_z, out.phi_z_rate))
-        free.diagnostics(stamp, {"core_rejected_nonfinite": core.rejected_nonfinite, "held_commands":
-                                 core.held_commands, "rejected_gimbal_lock": core.rejected_gimbal_lock})
+    def health(self, step: ControlStep):
+        """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
+        core = self.core
+        fields = {**self.policy.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
+                  "core_rejected_nonfinite": core.rejected_nonfinite, "held_commands": core.held_commands,
+                  "rejected_gimbal_lock": core.rejected_gimbal_lock}
+        return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 
 
 def main(argv: list[str] | None = None) -> int:

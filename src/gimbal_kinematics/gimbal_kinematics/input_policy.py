@@ -46,8 +46,8 @@ The ordered policies release the streams to the core in stamp order
 run computed; the sampled ones release each sample at once with the interval it covers
 (a core that pairs the streams itself, by stamp).
 
-The controllers' free timing (fresh inputs, the stale-input policy) is
-:class:`gimbal_kinematics.ros.free_loop.FreeLoop` on :class:`gimbal_kinematics.sync.FreshInputs`.
+The controllers' policies (fresh inputs, the stale-input policy) are in
+:mod:`gimbal_kinematics.control_policy`.
 """
 from __future__ import annotations
 

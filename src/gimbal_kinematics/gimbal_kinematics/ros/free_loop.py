@@ -1,6 +1,9 @@
-"""Free timing's bookkeeping, shared by the controller nodes (it publishes through the node's
-:class:`~gimbal_kinematics.ros.node_io.NodeIo` and reports through the one diagnostics
-builder, :mod:`gimbal_kinematics.ros.diagnostics`).
+"""Free timing's stale-input policy, and why (the controllers' input policy
+:class:`gimbal_kinematics.control_policy.FreeControl` applies the same rule,
+:class:`gimbal_kinematics.control_policy.StaleRule`; this class is its ROS-edge form for a
+node that steps on a :class:`gimbal_kinematics.sync.FreshInputs` gate itself, publishing
+through its :class:`~gimbal_kinematics.ros.node_io.NodeIo` and the one diagnostics builder,
+:mod:`gimbal_kinematics.ros.diagnostics`).
 
 A controller in ``timing: free`` steps on each sample of its driving gyro with the newest
 other inputs (:class:`gimbal_kinematics.sync.FreshInputs`). This class holds that gate, the
@@ -27,6 +30,7 @@ from typing import Any, Callable
 
 from diagnostic_msgs.msg import DiagnosticArray
 
+from gimbal_kinematics.control_policy import RESTART_FRESH, RESTART_JUMP, StaleRule
 from gimbal_kinematics.sync import FreeStep, FreshInputs
 
 from .diagnostics import health_msg
@@ -44,12 +48,12 @@ class FreeLoop:
         if unknown:
             raise ValueError(f"held streams {sorted(unknown)} are not inputs")
         self.node = node
-        self.held = frozenset(held)
         self.io = io
         self.gate = FreshInputs(driver, {k: int(round(a * 1e9)) for k, a in max_age_s.items()},
                                 int(round(period_s * 1e9)), int(round(backjump_s * 1e9)))
         self.counts = dict.fromkeys(COUNTERS, 0)
-        self.was_stale = False
+        self.rule = StaleRule(held, lambda text: node.get_logger().warning(text, throttle_duration_sec=1.0),
+                              self.counts)
         self._diag_period_ns = int(round(diagnostics_period_s * 1e9))
         self._next_diag_ns: int | None = None
         self.pub_diag = io.advertise(DiagnosticArray, "/diagnostics", "free")
@@ -67,21 +71,16 @@ class FreeLoop:
         """Whether the core may run on ``step``; False (counted): zero the command. Held
         streams that are stale are counted but do not stop it (module docstring)."""
         if step.restarted:
-            reset("stamps jumped back (a bag looping?): restarted")
-        zeroing = [s for s in step.stale if s not in self.held]
-        if len(zeroing) < len(step.stale):
-            self.count("stale_estimate_steps", f"{', '.join(s for s in step.stale if s in self.held)} older "
-                       "than its maximum age or missing: the last estimate kept")
-        if zeroing:
-            self.count("stale_commands", f"{', '.join(zeroing)} older than its maximum age or missing: "
-                       "command zeroed")
-            self.was_stale = True
-            return False
-        if self.was_stale:
-            self.was_stale = False
-            self.counts["restarts_after_stale"] += 1
-            reset("inputs fresh again after a stale period: loop restarted")
-        return True
+            reset(RESTART_JUMP)
+        zero, resumed = self.rule.judge(step.stale)
+        if resumed:
+            reset(RESTART_FRESH)
+        return not zero
+
+    @property
+    def was_stale(self) -> bool:
+        """Whether the last step's command was zeroed."""
+        return self.rule.was_stale
 
     def diagnostics(self, t_ns: int, extra: dict[str, int]) -> None:
         """Publish the counters (and the core's ``extra`` ones) when a period has passed."""

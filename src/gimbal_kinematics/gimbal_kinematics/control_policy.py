@@ -1,0 +1,248 @@
+"""The input policies of the controller nodes (pure Python, no rclpy): the controllers'
+side of :mod:`gimbal_kinematics.input_policy`, one interface, two timings.
+
+A controller node validates each input once, as it arrives (an input it cannot use becomes
+``None``, counted by the node), hands it to ``policy.add(kind, stamp_ns, value)`` and runs
+its one ``_step`` on each :class:`ControlStep` returned, whatever the timing. What differs
+between the timings lives here:
+
+* lockstep (:class:`LockstepControl`): the orchestrator's graph. A step k is released when
+  the inputs it needs (``needs(k)``) stamped k are in (:class:`~gimbal_kinematics.sync.StepGroups`,
+  or :class:`~gimbal_kinematics.sync.EagerStepGroups` for a loop that must not stall behind
+  a lost input); an input that could not be used is in the step as ``None``, so the node
+  holds its last command. An estimate stamped off the steps that wait for it is released
+  at once as a step without a command (``command`` false). Nothing is ever zeroed.
+* free (:class:`FreeControl`): a driver or a bag. Each sample of the driving stream is a
+  command step with the newest fresh inputs (:class:`~gimbal_kinematics.sync.FreshInputs`);
+  an input that could not be used is not taken. A stale or missing measurement sets
+  ``zero_command`` (counted, ``stale_commands``); a stale or missing estimate (``held``)
+  is left out of the step, so the core keeps the last one (``stale_estimate_steps``); the
+  loop restarts (``resets``) after a clock jump back and when the inputs are fresh again
+  after a stale period (``restarts_after_stale``). Why zero and why hold:
+  :mod:`gimbal_kinematics.ros.free_loop`.
+
+``counters()`` is what ``/diagnostics`` adds to the node's own counters; ``diagnostics``
+says whether the node advertises /diagnostics at all (a lockstep controller never did).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Mapping, NamedTuple, Sequence
+
+from .stamps import step_of_stamp, step_stamp_ns
+from .sync import EagerStepGroups, FreshInputs, StepGroups
+
+#: the free policy's own counters, in /diagnostics order
+FREE_COUNTERS = ("stale_commands", "stale_estimate_steps", "restarts_after_stale")
+RESTART_JUMP = "stamps jumped back (a bag looping?): restarted"
+RESTART_FRESH = "inputs fresh again after a stale period: loop restarted"
+
+
+class Sample(NamedTuple):
+    """A validated input as the core takes it: its core time [s] and value."""
+
+    t: float
+    value: Any
+
+
+class ControlStep(NamedTuple):
+    """What the node's ``_step`` does once: the command's stamp [ns] and core time [s]; the
+    inputs of the step (kind -> :class:`Sample`, or None for one that could not be used; a
+    kind absent was not sampled, or is a stale estimate); whether it makes a command (False:
+    an estimate to use as it comes); whether the command is zeroed; the reasons to reset the
+    core first, in order."""
+
+    stamp_ns: int
+    t: float
+    inputs: Mapping[str, Sample | None]
+    command: bool = True
+    zero_command: bool = False
+    resets: tuple[str, ...] = ()
+
+
+class LockstepControl:
+    """Lockstep controller policy (module docstring). ``needs(k)``: the inputs step k waits
+    for; ``estimates``: kinds used at once when stamped off the steps that wait for them;
+    ``ticks``: kinds that only pace steps (``/clock``, the node subscribes to them), ignored
+    at steps that do not need them; ``eager_stale_steps``: release each step the moment it is complete
+    (:class:`~gimbal_kinematics.sync.EagerStepGroups`, incomplete steps that many steps older
+    forgotten) instead of in order with late inputs rejected; ``sample_hold``: kinds whose
+    newest sample (or None, for one that could not be used or none yet) is in every step,
+    at the step's time (a core fed each input every step); ``stamp_time``: a step's core time
+    is its stamp in seconds (default: k / ``rate_hz``). A clock jump back of more than
+    ``clock_jump_s`` starts the steps over (the core judges the stamps itself). ``logger``
+    hears of rejections and restarts."""
+
+    timing = "lockstep"
+    diagnostics = False
+
+    def __init__(self, needs: Callable[[int], tuple[str, ...]], rate_hz: float, clock_jump_s: float, *,
+                 estimates: Sequence[str] = (), ticks: Sequence[str] = (), eager_stale_steps: int | None = None,
+                 sample_hold: Sequence[str] = (), stamp_time: bool = False, logger: Any = None) -> None:
+        self.needs = needs
+        self.rate_hz = rate_hz
+        self.estimates = frozenset(estimates)
+        self.ticks = tuple(ticks)
+        self.logger = logger
+        self.stamp_time = stamp_time
+        self._held: dict[str, Sample | None] = dict.fromkeys(sample_hold)
+        self.eager = eager_stale_steps is not None
+        self.sync: StepGroups | EagerStepGroups = (EagerStepGroups(needs, eager_stale_steps) if self.eager
+                                                   else StepGroups(needs, clock_jump_s * rate_hz))
+
+    def add(self, kind: str, stamp_ns: int, value: Any) -> list[ControlStep]:
+        k = step_of_stamp(stamp_ns, self.rate_hz)
+        sample = None if value is None else Sample(stamp_ns * 1e-9, value)
+        if (kind in self.ticks or kind in self.estimates) and kind not in self.needs(k):
+            # a tick a gyro sample paces anyway; an estimate at a step that does not wait for one
+            if kind in self.ticks or not self.sync.admit(kind, k, self.logger) or sample is None:  # type: ignore[union-attr]
+                return []
+            return [ControlStep(stamp_ns, sample.t, {kind: sample}, command=False)]
+        if self.eager:
+            group = self.sync.add(kind, k, sample, self.logger)
+            done = [] if group is None else [(k, group)]
+        else:
+            done = self.sync.add(kind, k, sample, self.logger)
+        return [self._step(step, group) for step, group in done]
+
+    def _step(self, k: int, group: dict[str, Sample | None]) -> ControlStep:
+        stamp = step_stamp_ns(k, self.rate_hz)
+        t = stamp * 1e-9 if self.stamp_time else k / self.rate_hz
+        held = self._held
+        if held:
+            for kind in held:
+                if kind in group:
+                    held[kind] = group[kind]
+            group.update((kind, None if s is None else Sample(t, s.value)) for kind, s in held.items())
+        return ControlStep(stamp, t, group)
+
+    def counters(self) -> dict[str, int]:
+        return {}
+
+
+class StaleRule:
+    """The stale-input rule of free timing (module docstring), on the streams a step found
+    ``stale``: a stale measurement zeroes the command (``stale_commands``), a stale ``held``
+    estimate keeps the loop running (``stale_estimate_steps``), the first step fresh again
+    after a zeroed one restarts the loop (``restarts_after_stale``). Counts into ``counts``
+    (a dict of its own by default); ``warn(text)`` hears of each step counted."""
+
+    def __init__(self, held: Sequence[str], warn: Callable[[str], None],
+                 counts: dict[str, int] | None = None) -> None:
+        self.held = frozenset(held)
+        self.warn = warn
+        self.counts = dict.fromkeys(FREE_COUNTERS, 0) if counts is None else counts
+        self.was_stale = False
+
+    def judge(self, stale: Sequence[str]) -> tuple[bool, bool]:
+        """(zero the command, restart the loop first) for a step whose ``stale`` streams these are."""
+        zeroing = [s for s in stale if s not in self.held]
+        if len(zeroing) < len(stale):
+            self._count("stale_estimate_steps", f"{', '.join(s for s in stale if s in self.held)} older "
+                        "than its maximum age or missing: the last estimate kept")
+        if zeroing:
+            self._count("stale_commands", f"{', '.join(zeroing)} older than its maximum age or missing: "
+                        "command zeroed")
+            self.was_stale = True
+            return True, False
+        if self.was_stale:
+            self.was_stale = False
+            self.counts["restarts_after_stale"] += 1
+            return False, True
+        return False, False
+
+    def _count(self, counter: str, text: str) -> None:
+        self.counts[counter] += 1
+        self.warn(f"{text} ({self.counts[counter]} {counter})")
+
+
+class FreeControl:
+    """Free-timing controller policy (module docstring): steps on each sample of ``driver``
+    with the inputs of ``max_age_s`` (kind -> maximum age [s]) no older than that;
+    ``period_s``: the driver's nominal period (drop and jitter counts); ``held``: the
+    estimates whose staleness keeps the loop running; ``on_arrival``: estimates used as they
+    come (a step without a command), never in a command step; ``once``: inputs given to the
+    core only in the first command step after they arrive (and again after a restart);
+    ``finite``: inputs whose non-finite samples are not taken (``on_nonfinite(kind)``: the
+    node counts them; other inputs' are the core's to judge). ``warn(text)`` hears of each
+    step counted."""
+
+    timing = "free"
+    diagnostics = True
+    ticks: tuple[str, ...] = ()  # a gyro sample is a step: nothing else paces the loop
+
+    def __init__(self, driver: str, max_age_s: Mapping[str, float], period_s: float, clock_jump_s: float, *,
+                 held: Sequence[str] = (), on_arrival: Sequence[str] = (), once: Sequence[str] = (),
+                 finite: Sequence[str] = (), on_nonfinite: Callable[[str], None] = lambda kind: None,
+                 warn: Callable[[str], None] = lambda text: None) -> None:
+        unknown = (set(held) | set(on_arrival) | set(once)) - set(max_age_s)
+        if unknown:
+            raise ValueError(f"streams {sorted(unknown)} are not inputs")
+        self.gate = FreshInputs(driver, {k: int(round(a * 1e9)) for k, a in max_age_s.items()},
+                                int(round(period_s * 1e9)), int(round(clock_jump_s * 1e9)))
+        self.driver = driver
+        self.on_arrival = frozenset(on_arrival)
+        self.once = tuple(once)
+        self.finite = frozenset(finite)
+        self.on_nonfinite = on_nonfinite
+        self.rule = StaleRule(held, warn)
+        self.counts = self.rule.counts
+        self._fed: dict[str, int | None] = dict.fromkeys(self.once)
+
+    def seconds(self, stamp_ns: int) -> float:
+        """A stamp as seconds after the first stamp seen [s]."""
+        return (stamp_ns - self.gate.t0_ns) * 1e-9
+
+    def add(self, kind: str, stamp_ns: int, value: Any) -> list[ControlStep]:
+        if value is None:
+            return []  # not usable: counted by the node, never fused
+        if kind in self.finite and not all(map(math.isfinite, value)):
+            self.on_nonfinite(kind)
+            return []
+        gate = self.gate
+        if kind in self.on_arrival:
+            accepted = gate.accepted[kind]
+            gate.add(kind, stamp_ns, (stamp_ns, value))
+            if gate.accepted[kind] == accepted:
+                return []
+            t = self.seconds(stamp_ns)
+            return [ControlStep(stamp_ns, t, {kind: Sample(t, value)}, command=False)]
+        step = gate.add(kind, stamp_ns, (stamp_ns, value))
+        if step is None:
+            return []
+        resets = (RESTART_JUMP,) if step.restarted else ()
+        if step.restarted:
+            self._fed = dict.fromkeys(self.once)
+        t = step.t_ns * 1e-9
+        zero, resumed = self.rule.judge(step.stale)
+        if zero:
+            self._fed = dict.fromkeys(self.once)
+            return [ControlStep(stamp_ns, t, {}, zero_command=True, resets=resets)]
+        if resumed:
+            resets += (RESTART_FRESH,)
+        inputs = {self.driver: Sample(t, value)}
+        for other, item in step.inputs.items():
+            if other in self.on_arrival or other in step.stale:
+                continue  # a stale estimate: the core keeps the last one
+            t_in, v = item
+            if other in self._fed:
+                fed = self._fed[other]
+                if fed is not None and t_in <= fed:
+                    continue
+                self._fed[other] = t_in
+            inputs[other] = Sample(self.seconds(t_in), v)
+        return [ControlStep(stamp_ns, t, inputs, resets=resets)]
+
+    def counters(self) -> dict[str, int]:
+        return {**self.gate.counters(), **self.counts}
+
+
+def control_policy(timing: str, *, lockstep: Callable[[], LockstepControl],
+                   free: Callable[[], FreeControl]) -> LockstepControl | FreeControl:
+    """The controller policy of ``timing`` (a node's one choice, in its constructor), built
+    by the matching factory."""
+    if timing == "lockstep":
+        return lockstep()
+    if timing == "free":
+        return free()
+    raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
