@@ -21,7 +21,7 @@ second); invalid modes, gains and rates are refused at startup naming the parame
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each gyro sample makes one command, stamped like it, with the
 newest encoder and base-rate samples no older than ``max_input_age_s``; a stale or missing
-one zeroes the command, counted (:mod:`gimbal_kinematics.ros.free_loop` says why and what else is counted, on
+one zeroes the command, counted (:mod:`gimbal_kinematics.control_policy` says why and what else is counted, on
 ``/diagnostics``). The encoder angle is the newest sample's, not interpolated to the gyro
 stamp: the filter's gate integrates the gyro between encoder stamps itself.
 

@@ -23,7 +23,7 @@ counted; one more than ``clock_jump_s`` back (a replayed bag looping) restarts t
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each platform gyro sample makes one command, stamped like it,
 with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
-zeroes the voltages, counted (:mod:`gimbal_kinematics.ros.free_loop` says why and what else is counted, on
+zeroes the voltages, counted (:mod:`gimbal_kinematics.control_policy` says why and what else is counted, on
 ``/diagnostics``).
 
 The node chooses its input policy once, in its constructor

@@ -18,8 +18,21 @@ between the timings lives here:
   ``zero_command`` (counted, ``stale_commands``); a stale or missing estimate (``held``)
   is left out of the step, so the core keeps the last one (``stale_estimate_steps``); the
   loop restarts (``resets``) after a clock jump back and when the inputs are fresh again
-  after a stale period (``restarts_after_stale``). Why zero and why hold:
-  :mod:`gimbal_kinematics.ros.free_loop`.
+  after a stale period (``restarts_after_stale``).
+
+Why zero and why hold, in free timing:
+
+* a stale or missing measurement *zeroes* the command: zero torque or voltage lets the
+  gimbal coast, while a command computed from inputs that no longer hold can drive it into
+  a stop (the papers say nothing about lost inputs);
+* a stale or missing *estimate* (another node's gyro-bias or attitude estimate) does not:
+  the loop goes on with the last estimate it took (none yet: no correction, as the lockstep
+  loop before the filter's first output). A bias changes over hours, so the last estimate
+  is still the best correction, and the rate loop stays closed on the gyro; zeroing torque
+  instead lets the gimbal follow the vehicle (an estimator starting a few samples late cost
+  the real-time rehearsal over a degree of LOS in a tenth of a second);
+* when the inputs are fresh again the loop restarts (the core reset: it was open); a clock
+  jump back (a bag looping) resets it too.
 
 ``counters()`` is what ``/diagnostics`` adds to the node's own counters; ``diagnostics``
 says whether the node advertises /diagnostics at all (a lockstep controller never did).
