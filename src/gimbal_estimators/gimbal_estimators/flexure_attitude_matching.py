@@ -258,27 +258,6 @@ class AttitudeMatchingKf(FlexureKf):
             return None
         return self._output(t, up.y, up.d2, up.accepted)
 
-    def _count_gate(self, accepted: bool, d2: float) -> bool:
-        """:class:`.flexure_kf.FlexureKf`'s gate policy: count; after ``max_gate_rejections``
-        in a row re-anchor, and reset if they go on. False when it reset."""
-        c = self.counters
-        if accepted:
-            c["updates"] += 1
-            self._rejections = 0
-            self._gate_reanchored = False
-            return True
-        c["gated"] += 1
-        self._rejections += 1
-        if self._rejections >= self.params.max_gate_rejections:
-            if self._gate_reanchored:
-                self.reset(f"{self._rejections} consecutive measurements beyond the gate after a re-anchor "
-                           f"(last d2 = {d2:.3g})")
-                return False
-            self._reanchor()
-            self._gate_reanchored = True
-            self._rejections = 0
-        return True
-
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
         """The simplified filter's output (the flexure states are laid out alike) with ε1 − ε2
         as the bias difference and φ0 − θr + θr' as the relative attitude."""

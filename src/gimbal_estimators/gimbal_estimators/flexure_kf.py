@@ -497,24 +497,32 @@ class FlexureKf:
         H = observation_matrix(self._C1, self._H)
         h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
         up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
-        c = self.counters
         if up.accepted:
             self._x, self._P = up.x, up.P
+        if not self._count_gate(up.accepted, up.d2):
+            return None
+        return self._output(t, up.y, up.d2, up.accepted)
+
+    def _count_gate(self, accepted: bool, d2: float) -> bool:
+        """The gate policy: count the update or the gated measurement; after
+        ``max_gate_rejections`` in a row re-anchor, and reset if they go on. False when it reset."""
+        c = self.counters
+        if accepted:
             c["updates"] += 1
             self._rejections = 0
             self._gate_reanchored = False
-        else:
-            c["gated"] += 1
-            self._rejections += 1
-            if self._rejections >= self.params.max_gate_rejections:
-                if self._gate_reanchored:
-                    self.reset(f"{self._rejections} consecutive measurements beyond the gate after a re-anchor "
-                               f"(last d2 = {up.d2:.3g})")
-                    return None
-                self._reanchor()
-                self._gate_reanchored = True
-                self._rejections = 0
-        return self._output(t, up.y, up.d2, up.accepted)
+            return True
+        c["gated"] += 1
+        self._rejections += 1
+        if self._rejections >= self.params.max_gate_rejections:
+            if self._gate_reanchored:
+                self.reset(f"{self._rejections} consecutive measurements beyond the gate after a re-anchor "
+                           f"(last d2 = {d2:.3g})")
+                return False
+            self._reanchor()
+            self._gate_reanchored = True
+            self._rejections = 0
+        return True
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
         x, P = self._x, self._P
