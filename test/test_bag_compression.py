@@ -53,7 +53,8 @@ def test_reports_rosbags_and_mcap_give_the_same_values_from_both(bags):
     for name, bag in bags.items():
         with AnyReader([bag]) as reader:
             # log-time order; messages of one log time (two nodes' step-0 progress) in any order
-            raw = sorted((t, c.topic, bytes(data)) for c, t, data in reader.messages())
+            raw = sorted(((c.topic, t, bytes(data)) for c, t, data in reader.messages()),
+                         key=lambda msg: (msg[1], msg[0], msg[2]))
             imu = [c for c in reader.connections if c.topic == "/truth/gimbal/imu"]
             last = None
             for c, _, data in reader.messages(connections=imu):
