@@ -480,3 +480,44 @@ def fdop_circle_probability(P: np.ndarray) -> float:
     "about 0.63"), up to erf(1/√2) ≈ 0.683 for a degenerate (1-D) one."""
     P = _covariance("P", P, 2)
     return circle_probability(P, math.sqrt(max(float(np.trace(P)), 0.0)))
+
+
+# --- the node's prediction per fix ---------------------------------------------------------------
+class FixPredictor:
+    """The predicted errors of each fix of a running positioning core: the spin axes
+    ``u_a_i``, ``u_b_i``, the error sources ``sources``, the spin axes' setting time
+    ``t_set`` [s] (drift elapsed = fix time − t_set), ``heading_window_s`` [s] and
+    ``height_m``. :meth:`add_level` takes every read-out's roll and pitch [rad];
+    :meth:`predict` the model at a fix's estimated position, mean time, window-mean attitude
+    and heading. The ship's yaw rate over the earth-rate window is taken as 0 (the core does
+    not keep it): a levelling error's coupling of a turning ship's yaw rate is left out."""
+
+    def __init__(self, u_a_i: Vector3, u_b_i: Vector3, sources: ErrorSources, *, t_set: float = 0.0,
+                 heading_window_s: float = 60.0, height_m: float = 0.0) -> None:
+        if not isinstance(sources, ErrorSources):
+            raise TypeError(f"sources must be ErrorSources, got {type(sources).__name__}")
+        self.u = (unit_vector(u_a_i, "u_a_i"), unit_vector(u_b_i, "u_b_i"))
+        self.sources = sources
+        self.t_set = finite("t_set", t_set)
+        self.heading_window_s = positive("heading_window_s", heading_window_s)
+        self.height_m = finite("height_m", height_m)
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget the attitude of the read-outs so far (a fix window closed, or a reset)."""
+        self._sum = [0.0, 0.0, 0]
+
+    def add_level(self, roll: float, pitch: float) -> None:
+        if math.isfinite(roll) and math.isfinite(pitch):
+            self._sum = [self._sum[0] + roll, self._sum[1] + pitch, self._sum[2] + 1]
+
+    def predict(self, lat: float, lon: float, t: float, heading: float, samples: int) -> ErrorPrediction:
+        """:class:`ErrorPrediction` of a fix at (``lat``, ``lon``) [rad], mean time ``t`` [s],
+        heading [rad] from ``samples`` read-outs; clears the attitude sums."""
+        n = max(self._sum[2], 1)
+        roll, pitch = self._sum[0] / n, self._sum[1] / n
+        self.clear()
+        model = FixErrorModel(self.u[0], self.u[1], lat, lon, t, roll=roll, pitch=pitch, heading=heading,
+                              drift_elapsed_s=max(t - self.t_set, 0.0), samples_per_fix=samples,
+                              heading_window_s=self.heading_window_s, height_m=self.height_m)
+        return model.predict(self.sources)

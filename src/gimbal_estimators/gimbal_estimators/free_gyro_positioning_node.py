@@ -22,6 +22,18 @@ publishes (topics under ``/free_gyro_positioning/``):
 * ``heading_earth_rate`` (Vector3Stamped), each time an earth-rate window completes (Fig. 3,
   eq. 3–4): x = ψ [rad], y = 1σ [rad], z = the window length [s], stamped at its centre.
 
+With ``velocity_input`` the node also takes ``/free_gyro/velocity`` (Vector3Stamped, the
+ship's NED ground velocity [m/s], in the read-out group: one per read-out, same stamp) for
+the transport rate the earth-rate heading removes. With ``predict_error`` it publishes, with
+each valid fix, the linear error model's σ
+(:class:`.free_gyro_error_model.FixPredictor`, paper 4 eq. 19–38; inputs the ``error_*``
+parameters, the pickoff noise and the triad ARW), all Vector3Stamped at the fix's stamp:
+
+* ``predicted_nadir``: x, y = σ of θ_a, θ_b [rad], z = their correlation;
+* ``predicted_position``: x, y = σ north, σ east [m], z = their correlation;
+* ``predicted_heading``: x = σ of the free-gyro heading [rad], y = σ of the earth-rate
+  heading [rad], z = eq. 38's fd = FDOP σ_θ [m].
+
 Degenerate geometry (parallel spin axes, tangent or non-intersecting nadir circles, FDOP
 above ``max_fdop``) is counted, warned about at most once a second, reported on
 ``geometry`` with status 1, and no fix is published. Out-of-order stamps and non-finite or
@@ -69,10 +81,12 @@ from gimbal_kinematics.stamps import Stamp, judge
 from gimbal_kinematics.frames import BASE_FRAME
 
 from . import messages as m
+from .free_gyro_error_model import ErrorPrediction, ErrorSources, FixPredictor
 from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams
 from .free_gyro_positioning_params import DESCRIPTION, PARAMS
 
 SPIN_A, SPIN_B, IMU = "/free_gyro/spin_axis_a", "/free_gyro/spin_axis_b", "/free_gyro/imu"
+VELOCITY = "/free_gyro/velocity"
 FRAME_ID = BASE_FRAME
 STATUS_FIX, STATUS_DEGENERATE = 0.0, 1.0
 
@@ -87,9 +101,16 @@ class FreeGyroPositioningNode(Node):
         self.backjump_ns = int(round(v["clock_jump_s"] * 1e9))
         self.wait_for_subscribers = v["wait_for_subscribers"]
         timing = v["timing"]
+        self.velocity_input = v["velocity_input"]
+        inputs = (SPIN_A, SPIN_B, IMU) + ((VELOCITY,) if self.velocity_input else ())
         # the one choice of timing (module docstring)
-        self.policy = synced_policy(timing, (SPIN_A, SPIN_B, IMU), rate_hz=v["sim_rate_hz"],
-                                    progress_every=v["progress_every_steps"])
+        self.policy = synced_policy(timing, inputs, rate_hz=v["sim_rate_hz"], progress_every=v["progress_every_steps"])
+        p = self.core.params
+        self.predictor = FixPredictor(
+            p.u_a_i, p.u_b_i, ErrorSources(v["error_triad_bias_deg_h"], v["error_level_arcsec"],
+                                           v["error_spin_drift_deg_h"], p.nadir_noise_arcsec, p.triad_arw_deg_rt_h),
+            t_set=v["spin_reference_time_s"], heading_window_s=p.heading_window_s,
+            height_m=p.height_m) if v["predict_error"] else None
         self.degenerate = 0
         self.resets = 0
         self._rejected_seen = 0
@@ -103,6 +124,9 @@ class FreeGyroPositioningNode(Node):
         self.pub_nadir = pub(Vector3Stamped, "nadir")
         self.pub_heading_er = pub(Vector3Stamped, "heading_earth_rate")
         self.outputs = (self.pub_fix, self.pub_heading, self.pub_geometry, self.pub_nadir, self.pub_heading_er)
+        if self.predictor is not None:
+            self.pub_predicted = tuple(pub(Vector3Stamped, f"predicted_{k}") for k in ("nadir", "position", "heading"))
+            self.outputs += self.pub_predicted
         self.pub_progress = pub(Clock, "progress")
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
@@ -110,6 +134,8 @@ class FreeGyroPositioningNode(Node):
             io.subscribe(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), timing),
             io.subscribe(Imu, IMU, lambda msg: self._on_input(IMU, msg), timing),
         ]
+        if self.velocity_input:
+            self.subs.append(io.subscribe(Vector3Stamped, VELOCITY, lambda msg: self._on_input(VELOCITY, msg), timing))
         announce_when_connected(self, self.pub_progress, outputs=self.outputs, readers=self.wait_for_subscribers)
 
     # -- readiness and bookkeeping ---------------------------------------------------------
@@ -131,6 +157,8 @@ class FreeGyroPositioningNode(Node):
         self.resets += 1
         self.policy.restart()
         self.core.reset(reason)
+        if self.predictor is not None:
+            self.predictor.clear()
         self._last_ns = self._er_t = None
         self.get_logger().info(f"reset: {reason}")
 
@@ -147,7 +175,11 @@ class FreeGyroPositioningNode(Node):
         t_ns, t, group = step.stamp_ns, step.t, step.msg
         imu = group[IMU]
         roll, pitch = m.level_of(imu)
+        if self.velocity_input:
+            self.core.on_velocity(t, m.vec_of(group[VELOCITY].vector))
         self.core.on_level(t, roll, pitch)
+        if self.predictor is not None:
+            self.predictor.add_level(roll, pitch)
         self.core.on_body_rates(t, m.vec_of(imu.angular_velocity))
         fix = self.core.on_spin_axes(t, m.vec_of(group[SPIN_A].vector), m.vec_of(group[SPIN_B].vector))
         self._last_ns = t_ns
@@ -181,6 +213,9 @@ class FreeGyroPositioningNode(Node):
             # uniform read-outs: the window is symmetric about its mean time
             span = 2.0 * (t_close - fix.t)
             self.pub_heading.publish(m.vector3_msg(stamp, FRAME_ID, (fix.heading, fix.heading_sigma, span)))
+            if self.predictor is not None:
+                self._publish_prediction(stamp, self.predictor.predict(fix.lat, fix.lon, fix.t, fix.heading,
+                                                                       fix.n_samples))
         else:
             self.degenerate += 1
             self.get_logger().warning(f"degenerate fix geometry, no fix published: {fix.reason} "
@@ -191,6 +226,17 @@ class FreeGyroPositioningNode(Node):
             self.pub_heading_er.publish(m.vector3_msg(
                 m.seconds_ns(t_er), FRAME_ID,
                 (fix.heading_earth_rate, fix.heading_earth_rate_sigma, self.core.params.heading_window_s)))
+
+
+    def _publish_prediction(self, stamp: int, pred: ErrorPrediction) -> None:
+        """The model's σ of the fix (module docstring)."""
+        c = pred.cov
+        corr = lambda i, j: float(c[i, j] / math.sqrt(c[i, i] * c[j, j])) if c[i, i] > 0 and c[j, j] > 0 else 0.0  # noqa: E731
+        sn, sh = pred.sigma_nadir, (pred.sigma_heading, pred.sigma_heading_earth_rate, pred.position_fdop_m)
+        nadir, position, heading = self.pub_predicted
+        nadir.publish(m.vector3_msg(stamp, FRAME_ID, (sn[0], sn[1], corr(0, 1))))
+        position.publish(m.vector3_msg(stamp, FRAME_ID, (math.sqrt(c[2, 2]), math.sqrt(c[3, 3]), corr(2, 3))))
+        heading.publish(m.vector3_msg(stamp, FRAME_ID, sh))
 
 
 def main(argv: list[str] | None = None) -> int:

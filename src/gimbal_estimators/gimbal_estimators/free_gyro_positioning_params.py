@@ -45,6 +45,17 @@ PARAMS = (
           "[m] (free gyros do not observe it)", -1e4, 1e5),
     Param("height_sigma_m", 100.0, "1-sigma of that height [m] (the vertical element of the NavSatFix "
           "covariance)", 0.0, INF),
+    Param("velocity_input", False, "take the ship's NED ground velocity from /free_gyro/velocity "
+          "(geometry_msgs/Vector3Stamped [m/s], one per read-out, same stamp) for the transport rate of the "
+          "earth-rate heading (false: the ship is at rest)"),
+    Param("predict_error", False, "publish the linear error model's predicted errors of each fix on "
+          "~/predicted_nadir, ~/predicted_position and ~/predicted_heading (paper 4 eq. 19-38)"),
+    Param("error_triad_bias_deg_h", 0.0, "model input: 1-sigma per axis of the triad's constant bias [deg/h]",
+          0.0, INF),
+    Param("error_level_arcsec", 0.0, "model input: 1-sigma of the vertical reference's constant roll and pitch "
+          "errors [arcsec]", 0.0, INF),
+    Param("error_spin_drift_deg_h", 0.0, "model input: 1-sigma per axis of each spin axis's constant drift since "
+          "spin_reference_time_s [deg/h]", 0.0, INF),
     Param("clock_jump_s", 1.0, "a read-out stamp this far [s] behind the last one resets the node "
           "(bag loop)", 1e-9, INF, aliases=CLOCK_JUMP_ALIASES),
 )

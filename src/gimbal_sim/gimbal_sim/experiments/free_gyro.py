@@ -19,7 +19,7 @@ from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyr
 from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
 from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
 
-from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
+from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams, sailing_position
 from ..world.vehicle import VehicleConfig, VehicleCore
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
@@ -73,7 +73,9 @@ def simulate_truth(profile: str = "paper5_ship", lat_deg: float = 35.0, lon_deg:
 def run_free_gyro_experiment(seed: int, truth: Sequence, lat_deg: float, lon_deg: float, sensor_params,
                              core_params: FreeGyroPositioningParams | None = None) -> FreeGyroRun:
     """Feed a truth sequence through ``FreeGyroSensor`` (seeded) into the core; compare the
-    fixes with the true site (the host-only vehicle stays at (lat, lon))."""
+    fixes with the true site: (lat, lon), where the host-only vehicle stays, or the sailing
+    ship's position at the fix time (``sensor_params.speed_m_s`` > 0; the core is then given
+    the ship's velocity)."""
     lat, lon = math.radians(lat_deg), math.radians(lon_deg)
     dt = truth[1].t - truth[0].t
     sensor = FreeGyroSensor(sensor_params, np.random.default_rng([int(seed) & 0xFFFFFFFF, 8]), dt)
@@ -86,9 +88,12 @@ def run_free_gyro_experiment(seed: int, truth: Sequence, lat_deg: float, lon_deg
     rn = (prime_vertical_radius(lat) + core_params.height_m) * math.cos(lat)
     fixes, errs, covs, nees, hd, hd_er, reasons = [], [], [], [], [], [], []
     yaw_hist: list[tuple[float, float]] = []
+    sailing = sensor_params.speed_m_s > 0.0
     for tr in truth:
         s = sensor.update_from_truth(tr, lat, lon, dt)
         yaw_hist.append((tr.t, tr.euler[2]))
+        if sailing:
+            core.on_velocity(s.t, s.velocity_n)
         core.on_level(s.t, s.roll, s.pitch)
         core.on_body_rates(s.t, s.omega_ib_b)
         fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b)
@@ -97,7 +102,8 @@ def run_free_gyro_experiment(seed: int, truth: Sequence, lat_deg: float, lon_deg
         if not fix.valid:
             reasons.append(fix.reason)
             continue
-        e = np.array([(fix.lat - lat) * rm, math.remainder(fix.lon - lon, math.tau) * rn])
+        lat_t, lon_t = sailing_position(lat, lon, sensor_params.velocity_n, fix.t) if sailing else (lat, lon)
+        e = np.array([(fix.lat - lat_t) * rm, math.remainder(fix.lon - lon_t, math.tau) * rn])
         fixes.append(fix)
         errs.append(e)
         covs.append(fix.cov_ne_m)

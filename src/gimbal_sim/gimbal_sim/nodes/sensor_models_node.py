@@ -109,6 +109,8 @@ class SensorModelsNode(Node):
                                       pub(Vector3Stamped, "/free_gyro/spin_axis_b"), pub(Imu, "/free_gyro/imu"),
                                       pub(NavSatFix, "/truth/free_gyro/position"),
                                       pub(Vector3Stamped, "/truth/free_gyro/triad_bias"))
+            if values["free_gyro_publish_velocity"]:
+                self.pubs["free_gyro_velocity"] = (pub(Vector3Stamped, "/free_gyro/velocity"),)
         if "resolvers" in on:
             self.pubs["resolvers"] = (pub(JointState, "/platform/resolvers"),)
         self._noise_cov = self._white_noise_covariances()
@@ -206,9 +208,10 @@ class SensorModelsNode(Node):
             imu.publish(m.imu_msg(t_ns, BASE_FRAME, orientation=euler321_to_quat(s.roll, s.pitch, 0.0),
                                   orientation_cov=cov["fg_level"], angular_velocity=s.omega_ib_b,
                                   angular_velocity_cov=cov["fg_rate"]))
-            lat, lon = (math.radians(x) for x in self.config.free_gyro_site_deg)
-            position.publish(m.navsat_fix_msg(t_ns, BASE_FRAME, lat, lon, 0.0, m.ZERO_COV))
+            position.publish(m.navsat_fix_msg(t_ns, BASE_FRAME, s.true_lat, s.true_lon, 0.0, m.ZERO_COV))
             bias.publish(m.vector3_msg(t_ns, BASE_FRAME, s.true_triad_bias))
+            if "free_gyro_velocity" in self.pubs:
+                self.pubs["free_gyro_velocity"][0].publish(m.vector3_msg(t_ns, BASE_FRAME, s.velocity_n))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -96,6 +96,11 @@ PARAMS = (
     Param("free_gyro_triad_arw_deg_rt_h", 0.002, "body gyro triad angle random walk [deg/sqrt(h)]", 0.0, INF),
     Param("free_gyro_triad_bias_deg_h", [0.0, 0.0, 0.0], "body gyro triad fixed bias (x, y, z) [deg/h]"),
     Param("free_gyro_triad_bias_sigma_deg_h", 0.0, "body gyro triad run-to-run bias 1-sigma [deg/h]", 0.0, INF),
+    Param("free_gyro_speed_m_s", 0.0, "ship's speed over ground [m/s]: it sails from the site at t = 0 on a rhumb "
+          "line (0: stays at the site)", 0.0, 100.0),
+    Param("free_gyro_course_deg", 0.0, "ship's course [deg from north toward east]", -360.0, 360.0),
+    Param("free_gyro_publish_velocity", False, "publish the ship's NED ground velocity on /free_gyro/velocity "
+          "(geometry_msgs/Vector3Stamped [m/s]) with each read-out"),
     Param("resolver_rate_hz", 1000.0, "platform gimbal resolver output rate [Hz]", 1e-3, 100000.0),
     Param("resolver_bits", 19, "resolver-to-digital converter resolution [bits per turn] (0: unquantised)", 0, 30),
     Param("resolver_noise_arcsec", 0.0, "resolver white readout noise RMS [arcsec]", 0.0, INF),

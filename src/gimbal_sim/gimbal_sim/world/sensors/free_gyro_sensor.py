@@ -18,6 +18,11 @@ body gyro triad (earth rate + ship rate), and the vertical reference that levels
 * Vertical reference: roll and pitch with a fixed bias and white noise (arcsec). A levelling
   error is common to both gyros, so it correlates their nadir-angle errors — outside paper 4's
   i.i.d. FDOP model; the default is an exact vertical.
+* Sailing (``speed_m_s`` > 0): the ship leaves the site it is given (the vehicle's, whose
+  body rates hold the earth rate there) at t = 0 on a rhumb line of ``course_deg``
+  (:func:`sailing_position`). The spin axes are read out at the ship's position at t, and
+  the triad also senses C_b^n (ω_ie^n(φ(t)) − ω_ie^n(φ₀) + ω_en^n), the transport rate and
+  the change of the earth rate along the track, which the host-only vehicle leaves out.
 
 Everything is seeded from the caller's ``numpy.random.Generator``; angles rad, rates rad/s.
 """
@@ -29,7 +34,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.earth import OMEGA_IE
+from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius, transport_rate_n
 from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
@@ -54,6 +59,8 @@ class FreeGyroSensorParams:
         level_noise_arcsec: white noise σ of the vertical reference's roll and pitch [″].
         level_bias_arcsec: fixed (roll, pitch) error of the vertical reference [″].
         triad: body gyro triad error parameters.
+        speed_m_s, course_deg: the ship's speed over ground [m/s] and course [deg from
+            north toward east] (0: the ship stays at its site).
     """
 
     u_a_i: tuple[float, float, float]
@@ -63,6 +70,8 @@ class FreeGyroSensorParams:
     level_noise_arcsec: float = 0.0
     level_bias_arcsec: tuple[float, float] = (0.0, 0.0)
     triad: GyroParams = field(default_factory=lambda: FREE_GYRO_TRIAD)
+    speed_m_s: float = 0.0
+    course_deg: float = 0.0
 
     def __post_init__(self) -> None:
         a = unit_vector(self.u_a_i, "u_a_i")
@@ -78,6 +87,29 @@ class FreeGyroSensorParams:
         object.__setattr__(self, "level_bias_arcsec", v.per_axis("level_bias_arcsec", self.level_bias_arcsec, 2))
         if not isinstance(self.triad, GyroParams):
             raise ValueError(f"triad must be GyroParams, got {type(self.triad).__name__}")
+        v.nonneg_finite("speed_m_s", self.speed_m_s)
+        v.finite("course_deg", self.course_deg)
+
+    @property
+    def velocity_n(self) -> tuple[float, float, float]:
+        """The ship's NED ground velocity [m/s] (level: the course is a rhumb line)."""
+        c = math.radians(self.course_deg)
+        return self.speed_m_s * math.cos(c), self.speed_m_s * math.sin(c), 0.0
+
+
+def sailing_position(lat0: float, lon0: float, v_n: Sequence[float], t: float) -> tuple[float, float]:
+    """Geodetic (lat, lon) [rad] at ``t`` [s] of a ship that left (lat0, lon0) [rad] at t = 0
+    with constant NED ground velocity ``v_n`` [m/s] (a rhumb line at the surface): dφ/dt =
+    v_N / R_M (R_M taken at φ₀: the track is a few km), and dλ/dt = v_E / (R_N cos φ)
+    integrated in closed form, λ − λ₀ = v_E/(R_N φ̇) (atanh sin φ − atanh sin φ₀)."""
+    rate = float(v_n[0]) / meridian_radius(lat0)
+    lat = lat0 + rate * t
+    rn = prime_vertical_radius(lat0)
+    if abs(rate * t) < 1e-12:
+        dlon = float(v_n[1]) * t / (rn * math.cos(lat0))
+    else:
+        dlon = float(v_n[1]) / (rn * rate) * (math.atanh(math.sin(lat)) - math.atanh(math.sin(lat0)))
+    return lat, lon0 + dlon
 
 
 class FreeGyroSample(NamedTuple):
@@ -87,7 +119,9 @@ class FreeGyroSample(NamedTuple):
     rate [rad/s] (step average); ``roll``, ``pitch`` vertical reference [rad].
     Truth: ``true_spin_a_b``/``true_spin_b_b``, ``true_nadir`` (θ_a, θ_b) and
     ``true_azimuth`` (α_a, α_b) [rad] at the true position, ``true_euler`` (roll, pitch, yaw),
-    ``true_omega_ie_b`` earth rate resolved in b [rad/s], ``true_triad_bias`` [rad/s].
+    ``true_omega_ie_b`` earth rate resolved in b [rad/s], ``true_triad_bias`` [rad/s],
+    ``true_lat``, ``true_lon`` [rad] the ship's position and ``velocity_n`` its NED ground
+    velocity [m/s].
     """
 
     t: float
@@ -103,6 +137,9 @@ class FreeGyroSample(NamedTuple):
     true_euler: tuple[float, float, float]
     true_omega_ie_b: tuple[float, float, float]
     true_triad_bias: tuple[float, float, float]
+    true_lat: float = float("nan")
+    true_lon: float = float("nan")
+    velocity_n: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 class FreeGyroSensor:
@@ -162,15 +199,22 @@ class FreeGyroSensor:
 
     def update(self, t: float, lat: float, lon: float, euler: Sequence[float],
                omega_ib_b: Sequence[float], dt: float | None = None) -> FreeGyroSample:
-        """Read-out at ``t`` [s] for a ship at geodetic (lat, lon) [rad] with attitude
-        ``euler`` = (roll, pitch, yaw) [rad] and step-average inertial rate ``omega_ib_b`` (3,)
-        [rad/s] over the step ending at t. Times must increase."""
+        """Read-out at ``t`` [s] for a ship with attitude ``euler`` = (roll, pitch, yaw)
+        [rad] and step-average inertial rate ``omega_ib_b`` (3,) [rad/s] over the step ending
+        at t, at geodetic (lat, lon) [rad], or sailing from there at t = 0 (module
+        docstring). Times must increase."""
         if self._t_last is not None and not t > self._t_last:
             raise ValueError(f"t must increase: {t} after {self._t_last}")
         self._t_last = t
         roll, pitch, yaw = (float(e) for e in euler)
-        C_ni = dcm_ni(lat, lon, t)
         C_bn = euler321_to_dcm(roll, pitch, yaw).T
+        v_n = self.params.velocity_n
+        if self.params.speed_m_s > 0.0:
+            lat0 = lat
+            lat, lon = sailing_position(lat, lon, v_n, t)
+            extra_n = earth_rate_n(lat) - earth_rate_n(lat0) + transport_rate_n(lat, 0.0, np.array(v_n))
+            omega_ib_b = np.asarray(omega_ib_b, dtype=float) + C_bn @ extra_n
+        C_ni = dcm_ni(lat, lon, t)
         u_a, u_b = self.spin_axes_i(t)
         un_a, un_b = C_ni @ u_a, C_ni @ u_b
         ua_b, ub_b = C_bn @ un_a, C_bn @ un_b
@@ -189,7 +233,8 @@ class FreeGyroSensor:
             true_spin_a_b=tuple(float(c) for c in ua_b), true_spin_b_b=tuple(float(c) for c in ub_b),
             true_nadir=(float(nadir[0]), float(nadir[1])), true_azimuth=(float(azimuth[0]), float(azimuth[1])),
             true_euler=(roll, pitch, yaw), true_omega_ie_b=tuple(float(c) for c in w_ie_b),
-            true_triad_bias=tuple(float(c) for c in self.triad.true_bias),
+            true_triad_bias=tuple(float(c) for c in self.triad.true_bias), true_lat=float(lat), true_lon=float(lon),
+            velocity_n=v_n,
         )
 
     def update_from_truth(self, truth, lat: float, lon: float, dt: float) -> FreeGyroSample:
