@@ -44,7 +44,8 @@ NADIR, AZIMUTH = (60.0, 50.0), (-40.0, 50.0)
 NODE = "/free_gyro_positioning"
 ARCSEC = math.radians(1.0 / 3600.0)
 OUTPUTS = {"fix": NavSatFix, "heading": Vector3Stamped, "geometry": Vector3Stamped, "nadir": Vector3Stamped,
-           "heading_earth_rate": Vector3Stamped, "progress": Clock}
+           "heading_earth_rate": Vector3Stamped, "progress": Clock, "predicted_nadir": Vector3Stamped,
+           "predicted_position": Vector3Stamped, "predicted_heading": Vector3Stamped}
 
 
 def node_params(**overrides) -> list[Parameter]:
@@ -79,6 +80,8 @@ class Rig:
         self.pubs = [harness.create_publisher(Vector3Stamped, "/free_gyro/spin_axis_a", GRAPH_QOS),
                      harness.create_publisher(Vector3Stamped, "/free_gyro/spin_axis_b", GRAPH_QOS),
                      harness.create_publisher(Imu, "/free_gyro/imu", GRAPH_QOS)]
+        if node.velocity_input:
+            self.pubs.append(harness.create_publisher(Vector3Stamped, "/free_gyro/velocity", GRAPH_QOS))
         self.got: dict[str, list] = {k: [] for k in OUTPUTS}
         for name, typ in OUTPUTS.items():
             harness.create_subscription(typ, f"{NODE}/{name}", lambda msg, n=name: self.got[n].append(msg), GRAPH_QOS)
@@ -164,6 +167,41 @@ def test_node_equals_the_core_and_rejects_nan_and_out_of_order_inputs(rig):
     yaws = [s.true_euler[2] for s in samples if abs(s.t - t_er) <= 0.5 * er.vector.z]
     mean_yaw = math.atan2(sum(map(math.sin, yaws)), sum(map(math.cos, yaws)))
     assert abs(math.remainder(er.vector.x - mean_yaw, math.tau)) < 4.0 * er.vector.y
+
+
+@pytest.mark.parametrize("rig", [{"velocity_input": True, "predict_error": True, "triad_arw_deg_rt_h": 0.002}],
+                         indirect=True)
+def test_sailing_velocity_input_and_predicted_errors(rig):
+    """A ship sailing 10 m/s on 70°, its velocity sent with each read-out: the earth-rate
+    heading equals the core's given the same velocities, and the predicted errors (no bias
+    source set) are FDOP²σ² with σ = 5″/√n per axis and eq. 29's (N/√T)/(Ω cos φ)."""
+    truth = simulate_truth("paper5_ship", LAT, LON, 31.0, RATE, {"mean_heading_deg": 40.0})
+    u_a, u_b = make_spin_axes(LAT, LON, 0.0, NADIR, AZIMUTH)
+    sp = FreeGyroSensorParams(u_a, u_b, pickoff_noise_arcsec=5.0, speed_m_s=10.0, course_deg=70.0)
+    sensor = FreeGyroSensor(sp, np.random.default_rng(3), 1.0 / RATE)
+    samples = [sensor.update_from_truth(tr, math.radians(LAT), math.radians(LON), 1.0 / RATE) for tr in truth]
+    msgs = [messages_of(s, m.step_stamp_ns(k, RATE)) + (m.vector3_msg(m.step_stamp_ns(k, RATE), "base_link_frd",
+                                                                       s.velocity_n),) for k, s in enumerate(samples)]
+    rig.send(msgs)
+    core = FreeGyroPositioning(rig.node.core.params)
+    fixes = []
+    for k, s in enumerate(samples):
+        t = m.step_stamp_ns(k, RATE) * 1e-9
+        roll, pitch, _ = euler321_from_quat(euler321_to_quat(s.roll, s.pitch, 0.0))
+        core.on_velocity(t, s.velocity_n)
+        core.on_level(t, roll, pitch)
+        core.on_body_rates(t, s.omega_ib_b)
+        fix = core.on_spin_axes(t, s.spin_a_b, s.spin_b_b)
+        fixes += [fix] if fix is not None else []
+    assert spin_until(rig.executor, lambda: len(rig.got["predicted_heading"]) == 3, 30.0)
+    assert rig.got["heading_earth_rate"][0].vector.x == pytest.approx(fixes[-1].heading_earth_rate, abs=1e-15)
+    lat = math.radians(LAT)
+    arw = 0.002 * math.radians(1.0) / 60.0 / math.sqrt(20.0) / (OMEGA_IE * math.cos(lat))
+    for fix, pos, head in zip(fixes, rig.got["predicted_position"], rig.got["predicted_heading"]):
+        sigma = 5.0 * ARCSEC / math.sqrt(fix.n_samples) * meridian_radius(lat)  # FDOP √2: σ·R per axis
+        assert (pos.vector.x, pos.vector.y) == pytest.approx((sigma, sigma), rel=1e-2)
+        assert head.vector.y == pytest.approx(arw, rel=1e-2)
+        assert head.vector.z == pytest.approx(math.sqrt(2.0) * sigma, rel=1e-2)  # eq. 38: FDOP σ_θ
 
 
 @pytest.mark.parametrize("rig", [{"spin_azimuth_deg": [30.0, 30.0]}], indirect=True)
