@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -33,6 +34,7 @@ from gimbal_kinematics.free_gyro import nadir_angle
 from ..campaign.experiment import ExperimentCampaign, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 from ..campaign.spec import CampaignSpec
+from ..reports.free_gyro_errors import circle_plot, ratio_plot
 from ..world.sensors.free_gyro_sensor import FreeGyroSensorParams, sailing_position
 from ..world.sensors.gyro import GyroParams
 from .free_gyro import make_spin_axes, run_free_gyro_experiment, simulate_truth
@@ -202,6 +204,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--variants", help=f"comma-separated, of {', '.join(VARIANTS)} (default all)")
     ap.add_argument("--speed-m-s", type=float, default=DEFAULTS["speed_m_s"], help="sailing variant's speed [m/s]")
     ap.add_argument("--course-deg", type=float, default=DEFAULTS["course_deg"], help="its course [deg]")
+    ap.add_argument("--plots", metavar="DIR", help="write the ratio and FDOP-circle plots here")
     add_engine_arguments(ap, graph=False)
     a = ap.parse_args(argv)
     if a.seeds < 2:
@@ -213,6 +216,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     with campaign_dir(a.out) as out:
         by_variant = {v: [m for _, m in runs] for v, runs in run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN)).items()}
     print(f"free_gyro_errors: {a.seeds} seeds per variant, options {options}\n{format_tables(by_variant)}")
+    if a.plots:
+        out_dir = Path(a.plots)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        ratio_plot(out_dir / "free_gyro_errors_ratio.png", {v: variant_table(r) for v, r in by_variant.items()},
+                   OUTPUTS)
+        written = [out_dir / "free_gyro_errors_ratio.png"]
+        for v, runs in by_variant.items():
+            written.append(out_dir / f"free_gyro_errors_circle_{v}.png")
+            circle_plot(written[-1], runs, v)
+        print("plots:", ", ".join(str(p) for p in written))
 
 
 if __name__ == "__main__":
