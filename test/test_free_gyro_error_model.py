@@ -20,6 +20,7 @@ from gimbal_kinematics.free_gyro import dcm_ni, nadir_angle, spin_axes_for_site_
 from gimbal_kinematics.rotations import (
     dcm_from_rotation_vector, euler321_to_dcm, euler_rates_to_body_rates, rotation_vector_from_dcm, skew)
 from gimbal_sim.experiments.free_gyro import run_free_gyro_experiment, simulate_truth
+from gimbal_sim.experiments.free_gyro_errors import fix_model
 from gimbal_sim.world.sensors.free_gyro_sensor import FreeGyroSensorParams
 from gimbal_sim.world.sensors.gyro import GyroParams
 
@@ -253,14 +254,8 @@ def _monte_carlo(truth, sensor_kwargs, level_sigma_arcsec: float = 0.0) -> tuple
 
 
 def _model_for(truth, fix) -> FixErrorModel:
-    e = np.array([tr.euler for tr in truth if abs(tr.t - fix.t) <= 5.0])
-    yaw = math.atan2(np.mean(np.sin(e[:, 2])), np.mean(np.cos(e[:, 2])))
-    # the earth-rate window's mean yaw rate: its yaw change over its length
-    window = [tr.euler[2] for tr in truth if abs(tr.t - fix.heading_earth_rate_t) <= 2.5 + 1e-9]
-    yaw_rate = math.remainder(window[-1] - window[0], math.tau) / 5.0
-    return FixErrorModel(U_A, U_B, LAT, LON, fix.t, roll=float(np.mean(e[:, 0])), pitch=float(np.mean(e[:, 1])),
-                         heading=yaw, drift_elapsed_s=fix.t, samples_per_fix=fix.n_samples, heading_window_s=5.0,
-                         yaw_rate_rad_s=yaw_rate)
+    """The model at the fix, as the error-study campaign builds it (5 s earth-rate window)."""
+    return fix_model(truth, fix, U_A, U_B, LAT, LON, 5.0)
 
 
 CASES = {
