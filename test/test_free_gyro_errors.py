@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from geometry_msgs.msg import Vector3Stamped
 from scipy.special import j0
 
 from gimbal_estimators.free_gyro_error_model import ARCSEC, DEG_RT_H, ErrorSources, FixPredictor
@@ -21,6 +22,7 @@ from gimbal_kinematics.rotations import euler321_to_dcm
 from gimbal_sim.experiments import free_gyro_errors as fe
 from gimbal_sim.experiments.free_gyro import run_free_gyro_experiment, simulate_truth
 from gimbal_sim.experiments.registry import EXPERIMENTS
+from gimbal_sim.reports.free_gyro import prediction_consistency
 from gimbal_sim.world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams, sailing_position
 from gimbal_sim.world.sensors.gyro import GyroParams
 
@@ -142,3 +144,24 @@ def test_campaign_fdop_circle_and_levelling_against_the_model():
     lev = fe.variant_table([fe.campaign_run("levelling", s, opts) for s in range(1, 31)])["position_drms_m"]
     print(f"levelling 10″, 30 runs: position drms Monte Carlo {lev['mc']:.1f} m, model {lev['model']:.1f} m")
     assert lev["ratio"] == pytest.approx(1.0, abs=0.3)
+
+
+def test_report_scores_fixes_against_the_predictions_published_with_them():
+    """The ``free_gyro`` report's ``predicted`` figures on hand-made messages: errors of 3, 4
+    and 12 m against a predicted σ of (3, 4) m (drms 5) and an FDOP·σ_θ radius of 5 m, so
+    two of three inside and RMS √((9 + 16 + 144)/3) / 5; a prediction with another stamp
+    is not matched."""
+    def msg(t: float, x: float, y: float, z: float) -> Vector3Stamped:
+        v = Vector3Stamped()
+        v.header.stamp.sec, v.header.stamp.nanosec = int(t), int(round((t - int(t)) * 1e9))
+        v.vector.x, v.vector.y, v.vector.z = x, y, z
+        return v
+
+    t = np.array([5.0, 15.0, 25.0])
+    errors = np.array([[3.0, 0.0], [0.0, 4.0], [12.0, 0.0]])
+    position = [msg(tk, 3.0, 4.0, 0.0) for tk in t] + [msg(35.0, 1.0, 1.0, 0.0)]
+    heading = [msg(tk, 0.0, 0.0, 5.0) for tk in t]
+    got = prediction_consistency(t, errors, position, heading)
+    assert got["n"] == 3 and got["predicted_drms_m"] == pytest.approx(5.0)
+    assert got["inside_fdop_circle"] == pytest.approx(2.0 / 3.0)
+    assert got["rms_over_predicted"] == pytest.approx(math.sqrt((9 + 16 + 144) / 3.0) / 5.0)

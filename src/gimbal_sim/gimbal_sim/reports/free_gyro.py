@@ -2,7 +2,8 @@
 
 From the bag alone: the fixes (``/free_gyro_positioning/fix``, NavSatFix), the headings and
 the geometry the node published, against the ship's true position
-(``/truth/free_gyro/position``) and attitude (``/truth/host/imu``). Figures: north/east fix
+(``/truth/free_gyro/position``) and attitude (``/truth/host/imu``), and, when the node
+published them (``predict_error``), against the error model's predictions. Figures: north/east fix
 error vs time with the ±1σ the NavSatFix covariance claims, heading errors (free-gyro and
 earth-rate) with their σ, FDOP vs time, and the error scatter against the FDOP²σ² ellipse.
 Everything is timed by the messages' header stamps (a fix is stamped at its window's mean
@@ -26,6 +27,7 @@ from .generic import generic_report
 
 NODE = "/free_gyro_positioning"
 TOPICS = {f"{NODE}/fix", f"{NODE}/heading", f"{NODE}/heading_earth_rate", f"{NODE}/geometry",
+          f"{NODE}/predicted_position", f"{NODE}/predicted_heading",
           "/truth/free_gyro/position", "/truth/free_gyro/triad_bias", "/truth/host/imu"}
 ARCSEC = math.pi / (180.0 * 3600.0)
 
@@ -118,6 +120,22 @@ def covariance_consistency(errors: np.ndarray, covs: np.ndarray) -> dict:
     }
 
 
+def prediction_consistency(t: np.ndarray, errors: np.ndarray, position: list, heading: list) -> dict:
+    """The fixes' north/east errors (stamps ``t`` (k,), ``errors`` (k, 2) [m]) against the
+    error model's predictions the node published with them (``predicted_position``: x, y =
+    σ north, east [m], z = correlation; ``predicted_heading``: z = eq. 38's FDOP·σ_θ [m]):
+    RMS error over predicted drms, and the fraction of fixes inside the FDOP·σ_θ circle."""
+    by_stamp = {_stamp(p): p.vector for p in position}
+    radius = {_stamp(h): h.vector.z for h in heading}
+    rows = [(e, by_stamp[tk], radius[tk]) for tk, e in zip(t, errors) if tk in by_stamp and tk in radius]
+    if not rows:
+        return {"n": 0}
+    drms = np.sqrt(np.mean([v.x**2 + v.y**2 for _, v, _ in rows]))
+    rms = np.sqrt(np.mean([e @ e for e, _, _ in rows]))
+    return {"n": len(rows), "predicted_drms_m": float(drms), "rms_over_predicted": float(rms / drms),
+            "inside_fdop_circle": float(np.mean([math.hypot(*e) <= r for e, _, r in rows]))}
+
+
 def _band_plot(path: Path, title: str, t: np.ndarray, panels: list[tuple[str, np.ndarray, np.ndarray]],
                ylabel: str, reference: tuple[str, np.ndarray] | None = None) -> None:
     """One panel per (label, error, σ): the error against the ±1σ band the node claimed;
@@ -174,6 +192,9 @@ def free_gyro_report(bag_dir: Path, out: Path) -> dict:
         result["position"]["claimed_drms_m"] = float(np.sqrt(np.mean(cov[:, 0, 0] + cov[:, 1, 1])))
         _band_plot(out / "fix_error.png", "Free-gyro fix error and the NavSatFix covariance's 1σ", t,
                    [("north", err[:, 0], np.sqrt(cov[:, 0, 0])), ("east", err[:, 1], np.sqrt(cov[:, 1, 1]))], "[m]")
+        if msgs[f"{NODE}/predicted_position"]:
+            result["predicted"] = prediction_consistency(t, err, msgs[f"{NODE}/predicted_position"],
+                                                         msgs[f"{NODE}/predicted_heading"])
         _scatter(out / "fix_error_scatter.png", err, cov.mean(axis=0))
         metrics["plots"] += ["fix_error.png", "fix_error_scatter.png"]
     attitude = msgs["/truth/host/imu"]
