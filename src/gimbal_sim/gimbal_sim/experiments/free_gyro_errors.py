@@ -209,6 +209,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     a = ap.parse_args(argv)
     if a.seeds < 2:
         ap.error("--seeds must be >= 2")
+    if not (0.0 <= a.speed_m_s < math.inf and math.isfinite(a.course_deg)):
+        ap.error("--speed-m-s must be finite and >= 0, --course-deg finite")
     options = {**DEFAULTS, "speed_m_s": a.speed_m_s, "course_deg": a.course_deg}
     variants = tuple(a.variants.split(",")) if a.variants else ()
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.seeds + 1)), engine="core",
