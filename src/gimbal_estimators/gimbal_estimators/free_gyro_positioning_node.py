@@ -64,6 +64,8 @@ from __future__ import annotations
 import math
 import sys
 
+import numpy as np
+
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -231,12 +233,12 @@ class FreeGyroPositioningNode(Node):
     def _publish_prediction(self, stamp: int, pred: ErrorPrediction) -> None:
         """The model's σ of the fix (module docstring)."""
         c = pred.cov
-        corr = lambda i, j: float(c[i, j] / math.sqrt(c[i, i] * c[j, j])) if c[i, i] > 0 and c[j, j] > 0 else 0.0  # noqa: E731
-        sn, sh = pred.sigma_nadir, (pred.sigma_heading, pred.sigma_heading_earth_rate, pred.position_fdop_m)
+        sd = np.sqrt(np.diag(c))
+        corr = [float(c[i, i + 1] / (sd[i] * sd[i + 1])) if sd[i] > 0.0 and sd[i + 1] > 0.0 else 0.0 for i in (0, 2)]
         nadir, position, heading = self.pub_predicted
-        nadir.publish(m.vector3_msg(stamp, FRAME_ID, (sn[0], sn[1], corr(0, 1))))
-        position.publish(m.vector3_msg(stamp, FRAME_ID, (math.sqrt(c[2, 2]), math.sqrt(c[3, 3]), corr(2, 3))))
-        heading.publish(m.vector3_msg(stamp, FRAME_ID, sh))
+        nadir.publish(m.vector3_msg(stamp, FRAME_ID, (sd[0], sd[1], corr[0])))
+        position.publish(m.vector3_msg(stamp, FRAME_ID, (sd[2], sd[3], corr[1])))
+        heading.publish(m.vector3_msg(stamp, FRAME_ID, (sd[4], sd[5], pred.position_fdop_m)))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -156,8 +156,9 @@ def variant_table(runs: Sequence[dict]) -> dict[str, Any]:
     for j, name in enumerate(OUTPUTS):
         x, s = err[:, j], float(np.sqrt(np.mean(sig[:, j] ** 2)))
         std = float(np.std(x, ddof=1))
-        out[name] = {"mc_std": std, "mc_mean": float(np.mean(x)), "model_sigma": s,
-                     "ratio": std / s if s > 0 else math.nan, "mean_over_sigma": float(np.mean(x)) / s if s > 0 else math.nan}
+        mean = float(np.mean(x))
+        out[name] = {"mc_std": std, "mc_mean": mean, "model_sigma": s, "ratio": std / s if s > 0 else math.nan,
+                     "mean_over_sigma": mean / s if s > 0 else math.nan}
     ne = err[:, 2:4] - np.mean(err[:, 2:4], axis=0)
     out["position_drms_m"] = {"mc": float(math.sqrt(np.mean(np.sum(ne**2, axis=1)))),
                               "model": float(math.sqrt(np.mean(sig[:, 2] ** 2 + sig[:, 3] ** 2)))}
@@ -181,10 +182,11 @@ def format_tables(by_variant: dict[str, list[dict]]) -> str:
     for v, t in tables.items():
         for name in OUTPUTS:
             f, unit = t[name], ("m" if name.endswith("_m") else "″")
-            lines.append(f"| {v} | {t['n_fixes']} | {name} | {_fmt(f['mc_std'], unit)} | {_fmt(f['model_sigma'], unit)} "
-                         f"| {f['ratio']:.3f} | {f['mean_over_sigma']:+.3f} |")
+            lines.append(f"| {v} | {t['n_fixes']} | {name} | {_fmt(f['mc_std'], unit)} "
+                         f"| {_fmt(f['model_sigma'], unit)} | {f['ratio']:.3f} | {f['mean_over_sigma']:+.3f} |")
         d = t["position_drms_m"]
-        lines.append(f"| {v} | {t['n_fixes']} | position drms | {d['mc']:.3g} m | {d['model']:.3g} m | {d['ratio']:.3f} | |")
+        lines.append(f"| {v} | {t['n_fixes']} | position drms | {d['mc']:.3g} m | {d['model']:.3g} m "
+                     f"| {d['ratio']:.3f} | |")
     lines += ["", "| variant | fixes | FDOP | inside FDOP·σ_θ | covariance implies | paper (1 − e⁻¹) |",
               "|---|---:|---|---|---|---|"]
     for v, t in tables.items():
@@ -216,7 +218,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.seeds + 1)), engine="core",
                         variants=variants, options=tuple(options.items()))
     with campaign_dir(a.out) as out:
-        by_variant = {v: [m for _, m in runs] for v, runs in run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN)).items()}
+        result = run_for_cli(ap, a, spec, out, CAMPAIGN)
+        by_variant = {v: [m for _, m in runs] for v, runs in run_metrics(result).items()}
     print(f"free_gyro_errors: {a.seeds} seeds per variant, options {options}\n{format_tables(by_variant)}")
     if a.plots:
         out_dir = Path(a.plots)
