@@ -94,7 +94,7 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
     from distributed import Client
 
     out = tmp_path / "campaign"
-    cmd = [str(BIN / "gimbal-campaign"), "sighting_land_vehicle", "--seeds", "1-3", "--duration", "5",
+    cmd = [str(BIN / "gimbal-campaign"), "sighting_land_vehicle", "--seeds", "1-2", "--duration", "3",
            "--mode", "container", "--scheduler", dask_cluster, "--out", str(out), "--no-progress"]
     campaign = subprocess.Popen(cmd, env=ros_domain_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     killed = None
@@ -107,7 +107,7 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
                 now = time.monotonic()
                 for worker, keys in client.processing().items():
                     for key in keys:
-                        if now - seen.setdefault((worker, key), now) > 4.0:  # a run well under way
+                        if now - seen.setdefault((worker, key), now) > 2.0:  # a run well under way
                             os.kill(pids[worker], signal.SIGKILL)
                             killed = (worker, key, pids[worker])
                             break
@@ -120,7 +120,7 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
     assert killed is not None, "no run was seen in progress to kill its worker"
     assert campaign.returncode == 0, output
     rows = _rows(out)
-    assert len(rows) == 6 and all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+    assert len(rows) == 4 and all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
     killed_run = killed[1].rsplit("-", 1)[1]
     assert killed_run in {r["run_id"] for r in rows}  # the killed worker's run was done again, elsewhere
     assert not (out / "runs" / ".attempts").exists()  # its half-done attempt was cleaned away
@@ -130,10 +130,10 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
     assert not _processes_mentioning(str(out / "runs" / ".attempts"))
 
     # the same runs, serially, by gimbal-run itself: every metric of every run is the same
-    for seed in (1, 2, 3):
+    for seed in (1, 2):
         serial = tmp_path / f"serial{seed}"
         result = subprocess.run([str(BIN / "gimbal-run"), "sighting_land_vehicle", "--seed", str(seed),
-                                 "--duration", "5", "--mode", "container", "--out", str(serial), "--no-progress"],
+                                 "--duration", "3", "--mode", "container", "--out", str(serial), "--no-progress"],
                                 env=ros_domain_env, capture_output=True, text=True, timeout=600)
         assert result.returncode == 0, result.stderr[-3000:]
         for variant in ("ekf_off", "ekf_on"):
