@@ -14,6 +14,7 @@ from gimbal_estimators.flexure_kf import QS_MODELS, FlexureKfParams
 from gimbal_sim.experiments.flexure import (TURN_FLEXURE, TURN_FLEXURE_DEG, TURN_HEADING_DEG, TURN_PERIOD_S,
                                             TURN_PROFILE, model_params, run_flexure_comparison)
 from gimbal_sim.graph.scenario import load
+from gimbal_sim.tools import bench
 from gimbal_sim.world.sensors import FlexureParams
 from gimbal_sim.world.sensors.flexure import ShipFlexureTruth
 from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
@@ -95,3 +96,17 @@ def test_both_methods_estimate_the_turning_ship_alike(through_the_turns):
         rms = {method: np.asarray(through_the_turns[model if method == "simplified" else f"{model}_{method}"]
                                   .metrics["total_rms_arcsec"]) for method in METHODS}
         np.testing.assert_allclose(rms["original"], rms["simplified"], rtol=0.05, err_msg=model)
+
+
+
+@pytest.mark.parametrize("duration", ["600", "inf"])
+def test_bench_flexure_refuses_a_run_no_longer_than_the_convergence_time(duration, capsys):
+    assert bench.main(["flexure", "--duration", duration, "--seeds", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--duration" in err and "Traceback" not in err
+
+
+def test_bench_flexure_refuses_an_unknown_quasi_static_model(capsys):
+    with pytest.raises(SystemExit) as exc:
+        bench.main(["flexure", "--models", "random_walk"])
+    assert exc.value.code == 2 and "--models" in capsys.readouterr().err
