@@ -68,7 +68,7 @@ class FlexureExperimentResult:
     ``metrics``: figures after convergence (keys documented in :func:`flexure_metrics`);
     ``series``: the :data:`SERIES` arrays [rad, rad/s, s] thinned to ``record_period_s``;
     ``counters``: the filter's counters; ``wall_s``: wall time of the whole run (shared
-    simulation included); ``filter_us_per_pair``: filter cost per LGU pair [µs].
+    simulation included); ``filter_us_per_pair``: filter CPU time per LGU pair [µs].
     """
 
     label: str
@@ -179,13 +179,15 @@ def method_models(params: FlexureKfParams) -> dict[str, FlexureKfParams]:
 def _sail(vehicle: VehicleCore, suite: SensorSuite,
           filters: dict[str, FlexureKf]) -> tuple[dict[str, dict[str, list]], dict[str, float], int]:
     """Step the ship to the end, feeding every LGU pair to every filter: each filter's rows
-    (:data:`SERIES`), its time in the filter [s], and the number of pairs. The filters take
+    (:data:`SERIES`), its CPU time in the filter [s], and the number of pairs. The filters take
     the pairs in turn, in alternating order, so that a change of the machine's load weighs
     on every filter's time alike."""
     rows: dict[str, dict[str, list]] = {m: {k: [] for k in SERIES} for m in filters}
     filter_s = dict.fromkeys(filters, 0.0)
     pairs = 0
-    clock = time.perf_counter
+    # CPU time of this process, not wall time: on a shared machine other processes' turns
+    # would count as filter time otherwise
+    clock = time.process_time
     orders = (tuple(filters.items()), tuple(reversed(filters.items())))
     while True:
         for sample in suite.update(vehicle.truth()):

@@ -4,8 +4,9 @@ table (``gimbal-bench flexure``; ``--turn`` on the turning manoeuvre of ``ship_f
 
 Each seed is one ship simulation whose every LGU pair goes to both filters, in alternating
 order (:func:`.flexure.run_flexure_comparison`), so the two methods see the same samples and
-the same machine load. The time per pair is wall time around the filter calls in this one
-process: a busy machine slows both, so the table gives the load average with it.
+the same machine load. The time per pair is this process's CPU time around the filter calls
+(``time.process_time``): a busy machine still slows both (shared caches and cores), so the
+table gives the load average with it.
 """
 from __future__ import annotations
 
