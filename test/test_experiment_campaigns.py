@@ -69,6 +69,7 @@ def test_flexure_single_seed_prints_each_models_figures(tmp_path, capsys):
     (sighting_loop.main, ["--engine", "graph", "--correlated-ins"], "correlated_ins"),
     (sighting_loop.main, ["--monte-carlo", "0"], "--monte-carlo"),
     (flexure.main, ["--engine", "graph", "--sim-rate", "50"], "sim_rate_hz"),
+    (flexure.main, ["--engine", "graph", "--turn"], "turn"),
     (free_gyro.main, ["--engine", "graph", "--lat-deg", "40"], "lat_deg"),
     (free_gyro.main, ["--runs", "2", "--jobs", "0"], "--jobs"),
 ])

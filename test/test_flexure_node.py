@@ -18,6 +18,7 @@ from rosbags.highlevel import AnyReader
 from conftest import VENV_BIN
 from ros_harness import spin_until
 from gimbal_estimators.flexure_estimator_node import OUTPUTS, FlexureEstimatorNode
+from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
@@ -73,8 +74,9 @@ def stream(samples, drop=(), nan=(), replay_old=(), jump_at=None):
 
 
 def core_run(params: FlexureKfParams, messages) -> tuple[FlexureKf, dict[int, np.ndarray]]:
-    """The core fed the same messages directly: (core, {stamp ns: total flexure})."""
-    kf = FlexureKf(params)
+    """The core fed the same messages directly: (core, {stamp ns: total flexure}); the
+    original eq. 1 filter for :class:`AttitudeMatchingParams`."""
+    kf = AttitudeMatchingKf(params) if isinstance(params, AttitudeMatchingParams) else FlexureKf(params)
     out = {}
     for unit, msg in messages:
         w = msg.angular_velocity
@@ -228,10 +230,26 @@ def test_backward_clock_jump_resets_and_starts_over(lgu_samples):
     assert np.array_equal(got[last], fresh[last])
 
 
+def test_model_original_runs_the_eq1_filter_on_the_same_messages(clean, lgu_samples):
+    """``model: original`` publishes what the eq. 1 core fed the same messages directly
+    publishes (per-unit bias models from σ_diff/√2), and not the simplified filter's."""
+    msgs = list(stream(lgu_samples[:300]))
+    core, received = node_run(msgs, name="flex_original", model="original")
+    assert isinstance(core, AttitudeMatchingKf) and core.state.shape == (27,)
+    _, ref = core_run(AttitudeMatchingParams.from_simplified(KF_PARAMS), msgs)
+    got = received["/flex_original/flexure"]
+    assert len(got) == 300 and sorted(got) == sorted(ref)
+    assert all(np.array_equal(got[t], ref[t]) for t in ref)
+    simplified = clean[2]["/flex_test/flexure"]
+    assert max(float(np.max(np.abs(got[t] - simplified[t]))) for t in got) > 0.0
+
+
 @pytest.mark.parametrize("args,named", [
     (["-p", "quasi_static_model:=random_constants"], "quasi_static_model"),
     (["-p", "sim_rate_hz:=10.0", "-p", "lgu_rate_hz:=4.0"], "lgu_rate_hz"),
     (["-p", "dynamic_rms_arcsec:=[20.0, 60.0]"], "dynamic_rms_arcsec"),
+    (["-p", "model:=eq1"], "model"),
+    (["-p", "model:=original", "-p", "lgu_bias_rw_deg_h_rt_h:=-0.001"], "lgu_bias_rw_deg_h_rt_h"),
 ])
 def test_bad_parameters_are_refused_naming_them(args, named, ros_domain_env):
     result = subprocess.run([str(VENV_BIN / "flexure_estimator"), "--ros-args", *args], env=ros_domain_env,

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 from gimbal_kinematics.params import ParameterError
@@ -108,15 +109,20 @@ class AttitudeMatchingParams(FlexureKfParams):
         return FlexureKfParams(**_shared_fields(self))
 
     @classmethod
+    def from_simplified(cls, p: FlexureKfParams, **bias: Any) -> AttitudeMatchingParams:
+        """The original filter on the simplified one's parameters ``p`` (its flexure models,
+        measurement, gate), with the per-unit bias fields ``bias`` (default: from σ_diff)."""
+        return cls(**_shared_fields(p), **bias)
+
+    @classmethod
     def from_values(cls, v: dict) -> AttitudeMatchingParams:
         """From a ``flexure_estimator`` node's values (:meth:`FlexureKfParams.from_values`'s
         names, plus the two per-unit bias names; absent or 0 means None).
         :class:`ParameterError` names the parameter refused."""
         base = FlexureKfParams.from_values(v)
         try:
-            return cls(**_shared_fields(base),
-                       lgu_bias_initial_sigma_deg_h=v.get("lgu_bias_initial_sigma_deg_h") or None,
-                       lgu_bias_rw_deg_h_rt_h=v.get("lgu_bias_rw_deg_h_rt_h") or None)
+            return cls.from_simplified(base, lgu_bias_initial_sigma_deg_h=v.get("lgu_bias_initial_sigma_deg_h") or None,
+                                       lgu_bias_rw_deg_h_rt_h=v.get("lgu_bias_rw_deg_h_rt_h") or None)
         except ValueError as exc:
             raise ParameterError(f"parameter {exc}") from exc
 

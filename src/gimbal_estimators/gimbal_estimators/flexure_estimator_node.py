@@ -1,5 +1,9 @@
-"""``flexure_estimator`` node: paper 5's ship angular-flexure Kalman filter
-(:class:`~gimbal_estimators.flexure_kf.FlexureKf`) on the two LGUs.
+"""``flexure_estimator`` node: paper 5's ship angular-flexure Kalman filter on the two LGUs,
+by the attitude-matching method of parameter ``model`` (chosen once, in the constructor):
+``simplified`` (the default, paper 5 eq. 5: :class:`~gimbal_estimators.flexure_kf.FlexureKf`)
+or ``original`` (paper 5 eq. 1: :class:`~gimbal_estimators.flexure_attitude_matching.AttitudeMatchingKf`,
+with the per-unit bias parameters ``lgu_bias_*``). Both take the same messages and publish
+the same outputs.
 
 Inputs: ``/ship/lgu1/imu`` and ``/ship/lgu2/imu`` (sensor_msgs/Imu whose
 ``angular_velocity`` is the incremental angle over the sample divided by the sample
@@ -67,6 +71,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
 
 from . import messages as m
+from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from .flexure_estimator_params import DESCRIPTION, PARAMS
 from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams
 from .nis import NisWindow
@@ -92,7 +97,9 @@ class FlexureEstimatorNode(Node):
         if v["filter_period_s"] * v["lgu_rate_hz"] < 1.0 - 1e-9:
             raise ParameterError(f"parameter 'filter_period_s' = {v['filter_period_s']} s is shorter than one "
                                  f"LGU sample (1/lgu_rate_hz = {1.0 / v['lgu_rate_hz']:g} s)")
-        self.core = FlexureKf(FlexureKfParams.from_values(v))
+        # the attitude-matching method: paper 5's simplified filter or the original (eq. 1)
+        self.core = (AttitudeMatchingKf(AttitudeMatchingParams.from_values(v)) if v["model"] == "original"
+                     else FlexureKf(FlexureKfParams.from_values(v)))
         timing = v["timing"]
         # the one choice of timing (module docstring)
         self.policy = sample_policy(timing, UNITS, rate_hz=v["sim_rate_hz"], sample_rate_hz=v["lgu_rate_hz"],

@@ -8,9 +8,14 @@ from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
 
 from .flexure_kf import QS_MODELS
 
+#: Attitude-matching methods (parameter ``model``): paper 5's simplified 18-state filter
+#: (:mod:`.flexure_kf`) or the original eq. 1 filter it replaces (:mod:`.flexure_attitude_matching`).
+METHODS = ("simplified", "original")
+
 DESCRIPTION = (
     "Paper 5 ship angular-flexure Kalman filter: integrates the two LGUs' attitudes from "
-    "their incremental angles, matches them (Z = phi - A theta_d) in an 18-state filter "
+    "their incremental angles, matches them (model simplified: Z = phi - A theta_d, 18 states; "
+    "model original: paper 5 eq. 1, 27 states with each unit's attitude error and bias) "
     "with a random-constant or random-walk-rate quasi-static model, second-order Markov "
     "dynamic flexure and the bias difference; publishes the total flexure, its quasi-static "
     "and dynamic parts and the bias difference with 1-sigma companions on private topics."
@@ -19,6 +24,8 @@ INF = float("inf")
 
 PARAMS = (
     TIMING_PARAM,
+    Param("model", "simplified", "attitude matching: simplified (paper 5 eq. 5, 18 states) or original "
+          "(paper 5 eq. 1, 27 states)", choices=METHODS),
     Param("quasi_static_model", "random_walk_rate", "quasi-static flexure model: random_constant (conventional) "
           "or random_walk_rate (paper 5 eq. 10)", choices=QS_MODELS),
     Param("lgu_rate_hz", 10.0, "LGU sample rate [Hz]; each sample's interval is 1/lgu_rate_hz", 1e-3, 100000.0),
@@ -48,6 +55,10 @@ PARAMS = (
           "[rad/s] (0: critically damped)"),
     Param("bias_diff_initial_sigma_deg_h", 0.1, "prior 1-sigma of the bias difference [deg/h]", 1e-12, INF),
     Param("bias_diff_rw_deg_h_rt_h", 0.001, "bias difference random walk [deg/h/sqrt(h)]", 0.0, INF),
+    Param("lgu_bias_initial_sigma_deg_h", 0.0, "model original: prior 1-sigma of each LGU's bias [deg/h] "
+          "(0: bias_diff_initial_sigma_deg_h / sqrt 2)", 0.0, INF),
+    Param("lgu_bias_rw_deg_h_rt_h", 0.0, "model original: random walk of each LGU's bias [deg/h/sqrt(h)] "
+          "(0: bias_diff_rw_deg_h_rt_h / sqrt 2)", 0.0, INF),
     Param("lgu_arw_deg_rt_h", 0.001, "angle random walk of each LGU [deg/sqrt(h)]", 0.0, INF),
     Param("meas_noise_arcsec", 1.0, "1-sigma of the attitude-matching measurement [arcsec]", 1e-9, INF),
     Param("second_order_observation", True, "predict Z to second order (BCH term) instead of the paper's H x"),

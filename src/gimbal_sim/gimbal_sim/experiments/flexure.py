@@ -6,6 +6,7 @@ Command line (prints the metrics of both models; with several seeds, a Monte Car
 
     python -m gimbal_sim.experiments.flexure --duration 7200 --seeds 0
     python -m gimbal_sim.experiments.flexure --seeds 0 1 2 3 4 5 6 7 --dynamic-freq 0.5
+    python -m gimbal_sim.experiments.flexure --turn --methods simplified original
 
 ``--dynamic-beta``/``--dynamic-freq`` set the dynamic-flexure band of the truth and of the
 filters alike (a matched model: what is left is the information the LGUs carry).
@@ -16,6 +17,7 @@ Errors are estimate − truth; statistics use the filter epochs after ``converge
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from dataclasses import dataclass, field, replace
 from collections.abc import Mapping
@@ -23,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
+from gimbal_estimators.flexure_estimator_params import METHODS
 from gimbal_estimators.flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
 
 from ..reports.flexure import flexure_metrics
@@ -33,6 +37,23 @@ from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
+
+#: The turning manoeuvre (``ship_flexure_turn``, paper 5 Fig. 1): the paper 5 ship's rocking
+#: (``paper5_ship``'s defaults) on a zigzag course, heading −20° → +20° and back every
+#: ``TURN_PERIOD_S`` (a 40° turn in 100 s, at most 0.63 °/s), as ``sinusoids`` profile
+#: parameters. The truth's helm flexure (:class:`FlexureParams` ``helm_*``) is the turn's
+#: bending: same period, phased with the turn rate (helm phase 0: sin, yaw: −cos), of the 7′
+#: amplitude paper 5 reports from Fig. 1.
+TURN_PERIOD_S = 200.0
+TURN_HEADING_DEG = 20.0
+TURN_FLEXURE_DEG = 7.0 / 60.0
+TURN_PROFILE = {
+    "roll": {"terms": [{"amplitude_deg": 5.0, "period_s": 10.0}]},
+    "pitch": {"terms": [{"amplitude_deg": 3.0, "period_s": 6.0}]},
+    "yaw": {"terms": [{"amplitude_deg": 3.0, "period_s": 15.0},
+                      {"amplitude_deg": TURN_HEADING_DEG, "period_s": TURN_PERIOD_S, "phase_rad": -math.pi / 2}]},
+}
+TURN_FLEXURE = {"helm_amplitude_deg": TURN_FLEXURE_DEG, "helm_period_s": TURN_PERIOD_S, "helm_phase_rad": 0.0}
 
 #: Per-epoch series kept (each (n, 3) except ``t`` and ``d2``).
 SERIES = ("t", "truth_flexure", "truth_quasi_static", "truth_bias_diff", "flexure", "flexure_sigma",
@@ -47,7 +68,7 @@ class FlexureExperimentResult:
     ``metrics``: figures after convergence (keys documented in :func:`flexure_metrics`);
     ``series``: the :data:`SERIES` arrays [rad, rad/s, s] thinned to ``record_period_s``;
     ``counters``: the filter's counters; ``wall_s``: wall time of the whole run (shared
-    simulation included); ``filter_us_per_pair``: filter cost per LGU pair [µs].
+    simulation included); ``filter_us_per_pair``: filter CPU time per LGU pair [µs].
     """
 
     label: str
@@ -76,21 +97,24 @@ def run_flexure_comparison(
     profile_params: dict[str, Any] | None = None,
     record_period_s: float = 1.0,
     gate_conventional: bool = False,
+    profile: str = "paper5_ship",
 ) -> dict[str, FlexureExperimentResult]:
     """Run one ship simulation (paper 5 profile, host only, LGUs only) for ``duration_s``
     [s] with ``seed`` and one filter per entry of ``models`` on the same LGU samples.
 
     ``params`` is the base filter configuration (its ``quasi_static_model`` is replaced
-    per model); ``models`` may instead map labels to complete parameter sets (tuning runs).
+    per model); ``models`` may instead map labels to complete parameter sets (tuning runs;
+    an :class:`AttitudeMatchingParams` runs the original eq. 1 filter, see :func:`method_models`).
     The conventional ``random_constant`` model runs ungated unless ``gate_conventional``:
     its innovations are inconsistent by construction (the paper's point), so a gate would
     reject them and the filter would keep re-anchoring and resetting instead of showing
     the paper's error.
-    ``flexure``/``lgu1``/``lgu2`` override the simulator's truth parameters.
+    ``flexure``/``lgu1``/``lgu2`` override the simulator's truth parameters; ``profile`` and
+    ``profile_params`` the ship's motion (:data:`TURN_PROFILE`: the turning manoeuvre).
     Returns ``{label: FlexureExperimentResult}``.
     """
     filters = _filters(models, FlexureKfParams() if params is None else params, gate_conventional)
-    vehicle = VehicleCore(VehicleConfig(profile="paper5_ship", profile_params=dict(profile_params or {}),
+    vehicle = VehicleCore(VehicleConfig(profile=profile, profile_params=dict(profile_params or {}),
                                         plant="host_only", sim_rate_hz=sim_rate_hz, duration_s=duration_s))
     truth = {k: v for k, v in (("flexure", flexure), ("lgu1", lgu1), ("lgu2", lgu2)) if v is not None}
     suite = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=sim_rate_hz, lgu_rate_hz=lgu_rate_hz,
@@ -122,32 +146,56 @@ def run_flexure_comparison(
 def _filters(models: tuple[str, ...] | Mapping[str, FlexureKfParams], base: FlexureKfParams,
              gate_conventional: bool) -> dict[str, FlexureKf]:
     """One filter per model label (:func:`run_flexure_comparison`)."""
-    if isinstance(models, Mapping):
-        return {label: FlexureKf(p) for label, p in models.items()}
-    filters = {}
+    if not isinstance(models, Mapping):
+        models = model_params(models, base, gate_conventional)
+    return {label: (AttitudeMatchingKf(p) if isinstance(p, AttitudeMatchingParams) else FlexureKf(p))
+            for label, p in models.items()}
+
+
+def model_params(models: tuple[str, ...], base: FlexureKfParams, gate_conventional: bool = False,
+                 methods: tuple[str, ...] = ("simplified",)) -> dict[str, FlexureKfParams]:
+    """``base`` with each quasi-static model of ``models`` by each attitude-matching method of
+    ``methods`` (:data:`METHODS`), labelled ``<model>`` (simplified) or ``<model>_original``;
+    ``random_constant`` runs ungated unless ``gate_conventional`` (:func:`run_flexure_comparison`)."""
+    out: dict[str, FlexureKfParams] = {}
     for m in models:
         p = replace(base, quasi_static_model=m)
         if m == "random_constant" and not gate_conventional:
             p = replace(p, gate_probability=None)
-        filters[m] = FlexureKf(p)
-    return filters
+        for method in methods:
+            if method not in METHODS:
+                raise ValueError(f"methods: {method!r} is not one of {METHODS}")
+            out[m if method == "simplified" else f"{m}_{method}"] = method_models(p)[method]
+    return out
+
+
+def method_models(params: FlexureKfParams) -> dict[str, FlexureKfParams]:
+    """Both attitude-matching methods on ``params``' flexure model: ``{"simplified": params,
+    "original": AttitudeMatchingParams}`` (per-unit bias models of σ_diff/√2), for the
+    ``models`` of :func:`run_flexure_comparison`."""
+    return {"simplified": params, "original": AttitudeMatchingParams.from_simplified(params)}
 
 
 def _sail(vehicle: VehicleCore, suite: SensorSuite,
           filters: dict[str, FlexureKf]) -> tuple[dict[str, dict[str, list]], dict[str, float], int]:
     """Step the ship to the end, feeding every LGU pair to every filter: each filter's rows
-    (:data:`SERIES`), its CPU time in the filter [s], and the number of pairs."""
+    (:data:`SERIES`), its CPU time in the filter [s], and the number of pairs. The filters take
+    the pairs in turn, in alternating order, so that a change of the machine's load weighs
+    on every filter's time alike."""
     rows: dict[str, dict[str, list]] = {m: {k: [] for k in SERIES} for m in filters}
     filter_s = dict.fromkeys(filters, 0.0)
     pairs = 0
-    clock = time.perf_counter
+    # CPU time of this process, not wall time: on a shared machine other processes' turns
+    # would count as filter time otherwise
+    clock = time.process_time
+    orders = (tuple(filters.items()), tuple(reversed(filters.items())))
     while True:
         for sample in suite.update(vehicle.truth()):
             if not isinstance(sample, LguSample):
                 continue
             pairs += 1
             truth_eps = None
-            for m, kf in filters.items():
+            for m, kf in orders[pairs % 2]:
                 c0 = clock()
                 kf.on_lgu1(sample.t, sample.dalpha1, sample.dt)
                 est = kf.on_lgu2(sample.t, sample.dalpha2, sample.dt)
@@ -217,24 +265,28 @@ def _band_kwargs(options: dict[str, Any]) -> dict[str, Any]:
 
 def campaign_run(variant: str, seed: int, options: dict[str, Any]) -> dict[str, Any]:
     """The campaign engine's core run (:data:`CAMPAIGN`): one ship simulation feeding one
-    filter per model; the figures under the ``flexure`` report's names
-    (``estimators.flexure_<model>``)."""
+    filter per model and method (:func:`model_params`), on the turning manoeuvre when
+    ``turn``; the figures under the ``flexure`` report's names (``estimators.flexure_<label>``)."""
     band = _band_kwargs(options)
-    results = run_flexure_comparison(options["duration_s"], seed, models=tuple(options["models"]),
+    turn = bool(options["turn"])
+    models = model_params(tuple(options["models"]), FlexureKfParams(**band), methods=tuple(options["methods"]))
+    results = run_flexure_comparison(options["duration_s"], seed, models=models,
                                      sim_rate_hz=options["sim_rate_hz"], lgu_rate_hz=options["lgu_rate_hz"],
-                                     convergence_s=options["convergence_s"], params=FlexureKfParams(**band),
-                                     flexure=FlexureParams(**band))
+                                     convergence_s=options["convergence_s"],
+                                     flexure=FlexureParams(**band, **(TURN_FLEXURE if turn else {})),
+                                     **({"profile": "sinusoids", "profile_params": TURN_PROFILE} if turn else {}))
     return {"duration_s": options["duration_s"], "convergence_s": options["convergence_s"],
             "estimators": {f"flexure_{m}": estimator_figures(r) for m, r in results.items()}}
 
 
 #: Seeds as a campaign: ``engine: core`` runs :func:`campaign_run`; ``engine: graph`` runs
-#: scenario ``ship_flexure`` (both models, 10 Hz, the default band; its estimators publish at
-#: 1 Hz, so its figures are scored on those epochs).
+#: scenario ``ship_flexure`` (both models, simplified method, no turn, 10 Hz, the default
+#: band; its estimators publish at 1 Hz, so its figures are scored on those epochs).
 CAMPAIGN = ExperimentCampaign(
     name="flexure", variants=("",),
-    defaults={"duration_s": 7200.0, "models": list(QS_MODELS), "sim_rate_hz": 10.0, "lgu_rate_hz": 10.0,
-              "convergence_s": 600.0, "dynamic_beta_per_s": None, "dynamic_freq_rad_s": None},
+    defaults={"duration_s": 7200.0, "models": list(QS_MODELS), "methods": ["simplified"], "turn": False,
+              "sim_rate_hz": 10.0, "lgu_rate_hz": 10.0, "convergence_s": 600.0, "dynamic_beta_per_s": None,
+              "dynamic_freq_rad_s": None},
     run=campaign_run, graph=GraphEquivalent("ship_flexure", {"": None}))
 
 
@@ -271,6 +323,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seeds", "--seed", type=int, nargs="+", default=[0], help="seeds to run (default 0)")
     ap.add_argument("--models", nargs="+", choices=QS_MODELS, default=list(QS_MODELS),
                     help="quasi-static models to run (default both)")
+    ap.add_argument("--methods", nargs="+", choices=METHODS, default=["simplified"],
+                    help="attitude-matching methods (default simplified; original: paper 5 eq. 1)")
+    ap.add_argument("--turn", action="store_true",
+                    help="the turning manoeuvre (scenario ship_flexure_turn): zigzag course ±20° every 200 s, "
+                         "7′ turn flexure")
     ap.add_argument("--sim-rate", type=float, default=10.0,
                     help="simulation rate [Hz] (default 10, as the ship_flexure scenario)")
     ap.add_argument("--lgu-rate", type=float, default=10.0, help="LGU sample rate [Hz] (default 10)")
@@ -300,7 +357,8 @@ def main(argv: list[str] | None = None) -> None:
         FlexureKfParams(**band)
     except ValueError as exc:
         ap.error(str(exc))
-    options = {"duration_s": a.duration, "models": list(a.models), "sim_rate_hz": a.sim_rate,
+    options = {"duration_s": a.duration, "models": list(a.models), "methods": list(a.methods), "turn": a.turn,
+               "sim_rate_hz": a.sim_rate,
                "lgu_rate_hz": a.lgu_rate, "convergence_s": a.convergence,
                **{k: (list(v) if isinstance(v, tuple) else v) for k, v in band.items()}}
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(a.seeds), engine=a.engine, mode=a.mode,
@@ -308,7 +366,7 @@ def main(argv: list[str] | None = None) -> None:
     with campaign_dir(a.out) as out:
         runs = run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN))[""]
     print(f"dynamic flexure band: beta {flexure.dynamic_beta_per_s} 1/s, lambda {flexure.dynamic_freq_rad_s} rad/s")
-    models = list(a.models)
+    models = list(model_params(tuple(a.models), FlexureKfParams(), methods=tuple(a.methods)))
     if len(runs) == 1:
         for m in models:
             print(format_metrics(m, runs[0][1]["estimators"][f"flexure_{m}"]))

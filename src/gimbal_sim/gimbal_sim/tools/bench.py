@@ -44,7 +44,7 @@ from ..bag.compare import compare_bags
 from ..bag.reader import BagError, find_mcap, read_messages, scan
 from ..core.core_loop import NoCoreError, node_values, run_core_loop
 from ..bag.ekf_replay import EKF_INPUTS, replay_bag
-from ..experiments.flexure import run_flexure_comparison
+from ..experiments.flexure_methods import QS_MODELS, method_table, run_method_study
 from ..graph.orchestrator import run
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load, variant
@@ -446,19 +446,18 @@ def bench_compare(args: argparse.Namespace) -> int:
 
 
 def bench_flexure(args: argparse.Namespace) -> int:
-    """Paper 5's flexure filters fed by the sensor cores without ROS: the filter's cost per
-    LGU pair against the 1 ms target (:data:`FLEXURE_TARGET_US`)."""
-    results = run_flexure_comparison(args.duration, args.seed)
-    print(f"flexure filters, {args.duration:g} s of LGU pairs at 10 Hz, seed {args.seed}:")
-    for model, r in results.items():
-        verdict = "met" if r.filter_us_per_pair < FLEXURE_TARGET_US else "NOT MET"
-        print(f"  {model:<18} {r.filter_us_per_pair:8.1f} us per pair (target < {FLEXURE_TARGET_US:g} us: "
-              f"{verdict}); whole run {r.wall_s:.1f} s wall")
+    """Paper 5's two attitude-matching methods, original (eq. 1) and simplified, fed the same
+    LGU pairs by the sensor cores without ROS: accuracy and cost per pair in one table
+    (:mod:`..experiments.flexure_methods`)."""
+    if not args.duration > 600.0 or args.duration == float("inf"):
+        print(f"gimbal-bench flexure: --duration must be finite and > 600 s (the convergence time), "
+              f"got {args.duration}", file=sys.stderr)
+        return 2
+    course = "the turning manoeuvre (ship_flexure_turn)" if args.turn else "ship_flexure"
+    print(f"flexure attitude matching, original vs simplified: {args.duration:g} s of {course} per seed, "
+          f"LGU pairs at 10 Hz, seeds {' '.join(map(str, args.seeds))}, scored after 600 s:")
+    print(method_table(run_method_study(args.duration, args.seeds, tuple(args.models), args.turn), args.turn))
     return 0
-
-
-#: the flexure filter's cost per LGU pair [µs]: 1 % of the 100 ms between 10 Hz pairs
-FLEXURE_TARGET_US = 1000.0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -484,9 +483,13 @@ def main(argv: list[str] | None = None) -> int:
     rec.add_argument("--compress", choices=("both", "on", "off"), default="both",
                      help="record with zstd chunks, without, or both one after the other (default both)")
     rec.set_defaults(func=bench_record)
-    flex = sub.add_parser("flexure", help="paper 5 flexure filters' cost per LGU pair (cores, no ROS)")
-    flex.add_argument("--duration", type=float, default=7200.0, help="simulated seconds (default 7200)")
-    flex.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    flex = sub.add_parser("flexure", help="paper 5 flexure attitude matching, original vs simplified: accuracy "
+                                          "and CPU per LGU pair on the same runs (cores, no ROS)")
+    flex.add_argument("--duration", type=float, default=7200.0, help="simulated seconds per seed (default 7200)")
+    flex.add_argument("--seeds", "--seed", type=int, nargs="+", default=[0], help="seeds (default 0)")
+    flex.add_argument("--models", nargs="+", choices=QS_MODELS, default=["random_walk_rate"],
+                      help="quasi-static models, each by both methods (default random_walk_rate)")
+    flex.add_argument("--turn", action="store_true", help="on the turning manoeuvre of ship_flexure_turn")
     flex.set_defaults(func=bench_flexure)
     cmp_ = sub.add_parser("compare", help="do two bags hold the same data? (exit 0 yes, 1 no)")
     cmp_.add_argument("a")
