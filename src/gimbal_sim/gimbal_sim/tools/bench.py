@@ -37,6 +37,7 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
+from gimbal_kinematics.cli_boundary import cli_boundary, finite
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 
@@ -461,6 +462,16 @@ def bench_flexure(args: argparse.Namespace) -> int:
 FLEXURE_TARGET_US = 1000.0
 
 
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Durations and factors finite and positive, before anything runs."""
+    for option in ("duration", "memory_factor"):
+        if getattr(args, option, None) is not None:
+            finite(getattr(args, option), f"--{option.replace('_', '-')}", 0.0, strict=True)
+    if getattr(args, "rel_tol", None) is not None:
+        finite(args.rel_tol, "--rel-tol", 0.0)
+
+
+@cli_boundary("gimbal-bench", interrupted="stopped the benchmark before its report; only --keep keeps its runs")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gimbal-bench", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -498,11 +509,8 @@ def main(argv: list[str] | None = None) -> int:
     if not argv or argv[0] not in ("run", "record", "flexure", "compare", "-h", "--help"):
         argv = ["run", *argv]
     args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except ScenarioError as exc:
-        print(f"gimbal-bench: {exc}", file=sys.stderr)
-        return 2
+    _check_numbers(args)
+    return args.func(args)
 
 
 if __name__ == "__main__":
