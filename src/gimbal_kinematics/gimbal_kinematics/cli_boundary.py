@@ -6,7 +6,8 @@ path, a file that is not text, YAML that does not parse, a value out of range, a
 bag) exits 2; a run that started and failed exits 1; Ctrl-C exits 130 after saying what it
 stopped. Anything else is a bug: its traceback is kept, followed by a line saying so.
 
-Project errors that mean "bad input" derive from :class:`ValueError` (``ScenarioError``,
+An :class:`OSError` is a path's problem when it names the path (else, like
+``io.UnsupportedOperation``, it is unexpected). Project errors that mean "bad input" derive from :class:`ValueError` (``ScenarioError``,
 ``BagError``, ``CampaignError``, ``ParameterError``, ...), as do ``UnicodeDecodeError`` and
 the errors of ``float('x')``; a failed run raises :class:`RunFailed` or another
 :class:`RuntimeError`.
@@ -65,7 +66,8 @@ def outcome(prog: str, exc: BaseException, interrupted: str) -> int:
     if isinstance(exc, KeyboardInterrupt):
         print(f"{prog}: interrupted: {str(exc) or interrupted}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    if isinstance(exc, (ValueError, OSError, *_yaml_error())):
+    if isinstance(exc, OSError) and exc.filename is not None or \
+            not isinstance(exc, OSError) and isinstance(exc, (ValueError, *_yaml_error())):
         print(f"{prog}: {describe(exc)}", file=sys.stderr)
         return EXIT_USAGE
     if isinstance(exc, RuntimeError) and not isinstance(exc, (NotImplementedError, RecursionError)):

@@ -24,9 +24,13 @@ from pathlib import Path
 from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
-from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run
+from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
 from .reports.dispatch import write_comparison, write_report
+
+
+#: How long a child ``gimbal-run`` (--jobs) may take to keep its run after Ctrl-C [s].
+CHILD_STOP_GRACE_S = 60.0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -111,8 +115,15 @@ def main(argv: list[str] | None = None) -> int:
 
     rows, ok = [], True
     if args.jobs > 1 and len(runs) > 1:
-        if not _run_concurrently(runs, out, args, rows):
-            return 1
+        active: list = []
+        try:
+            if not _run_concurrently(runs, out, args, rows, active):
+                return 1
+        except KeyboardInterrupt:
+            stop_processes([proc for _, proc, *_ in active], grace_s=CHILD_STOP_GRACE_S)
+            raise Interrupted(f"stopped the variants still running ({', '.join(n for n, *_ in active) or 'none'}); "
+                              f"each keeps its bag, run.json (interrupted: true) and report in {out}/<variant>") \
+                from None
     else:
         for i, (name, single) in enumerate(runs):
             bag = out / name if name else out
@@ -143,14 +154,15 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argparse.Namespace,
-                      rows: list[tuple[str, str]]) -> bool:
+                      rows: list[tuple[str, str]], active: list) -> bool:
     """Each variant as a child ``gimbal-run`` of its single scenario into ``out/<name>``, up to
     ``args.jobs`` at a time, each in a ROS domain claimed here; appends the children's summary
-    rows to ``rows``. False when a child failed (its log is printed)."""
+    rows to ``rows``; ``active`` holds the running children (name, process, ...). False when
+    a child failed (its log is printed)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True)
-    pending, active, failed, done = list(runs), [], [], {}
+    pending, failed, done = list(runs), [], {}
     # one bar per variant, fed from the sim time each child keeps in a file
     bars = {name: tqdm(total=round(single.duration_s, 3), desc=name, position=i, unit="sim s", file=sys.stderr,
                        disable=None if not args.no_progress else True, leave=True,

@@ -182,7 +182,7 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
     sigint = signal.getsignal(signal.SIGINT) if main_thread else None
     try:
         runner = _run_processes if mode == "processes" else _run_container
-        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s)
+        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s, _StopRequest())
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, sigint)
@@ -193,7 +193,7 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
 
 
 def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_timeout_s: float,
-           check_nodes, pids: dict[str, int | str]) -> tuple[float, bool]:
+           check_nodes, pids: dict[str, int | str], stop: _StopRequest) -> tuple[float, bool]:
     """Spin until the recorder has the last step or Ctrl-C; returns the wall time [s] and
     whether Ctrl-C stopped it (the graph is then stopped like at the end, the bag closed).
 
@@ -203,26 +203,33 @@ def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_time
     """
     t0 = time.monotonic()
     monitor.pids = pids
-    try:
-        _watch_loop(monitor, spin, bar, stall_timeout_s, check_nodes, pids)
-    except KeyboardInterrupt:
-        _hold_sigint()
-        return time.monotonic() - t0, True
-    return time.monotonic() - t0, False
+    _watch_loop(monitor, spin, bar, stall_timeout_s, check_nodes, pids, stop)
+    return time.monotonic() - t0, stop.requested
 
 
-def _hold_sigint() -> None:
-    """After the first Ctrl-C, a second one must not abort the orderly stop that closes the bag."""
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, lambda *_: print("gimbal-run: still stopping the nodes and closing the bag; "
-                                                      "please wait", file=sys.stderr))
+class _StopRequest:
+    """Ctrl-C (SIGINT) during the run asks the watch to stop, as its end would: a flag read
+    between spin slices, never an exception raised inside a node's callback (rclpy logs
+    that as [FATAL]). A second Ctrl-C must not abort the orderly stop that closes the bag.
+    Only the main thread receives signals; elsewhere nothing is installed (``run`` puts the
+    previous handler back)."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, self._on_sigint)
+
+    def _on_sigint(self, *_) -> None:
+        if self.requested:
+            print("gimbal-run: still stopping the nodes and closing the bag; please wait", file=sys.stderr)
+        self.requested = True
 
 
 def _watch_loop(monitor: Monitor, spin, bar: Progress, stall_timeout_s: float, check_nodes,
-                pids: dict[str, int | str]) -> None:
+                pids: dict[str, int | str], stop: _StopRequest) -> None:
     last_change, last_state = time.monotonic(), None
     next_rss = last_change
-    while not monitor.finished:
+    while not monitor.finished and not stop.requested:
         spin(0.1)
         check_nodes()
         bar.update(monitor.sim_ns / 1e9)
@@ -256,7 +263,7 @@ def _result(out_dir: Path, wall: float, monitor: Monitor, **kw) -> RunResult:
                      rss_samples=monitor.rss_samples, cpu_at_start=monitor.cpu_at_start, **kw)
 
 
-def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
+def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, stop) -> RunResult:
     import rclpy
     from rclpy.context import Context
 
@@ -291,7 +298,8 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
                                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                                     process_group=0)
         wall, interrupted = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
-                      bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()})
+                      bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()},
+                                   stop)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
             executor.spin_once(timeout_sec=0.05)
@@ -327,7 +335,7 @@ def _stop(procs: dict[str, subprocess.Popen], first: list[str], last: list[str])
         stop_processes(procs.get(name) for name in group)
 
 
-def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
+def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s, stop) -> RunResult:
     import rclpy
     from rclpy.context import Context
 
@@ -361,7 +369,8 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
             except Exception as exc:  # noqa: BLE001 - any node's failure ends the run, named
                 raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
 
-        wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, lambda: None, {"container": "self"})
+        wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, lambda: None, {"container": "self"},
+                                   stop)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
             spin(0.05, until_done=False)
