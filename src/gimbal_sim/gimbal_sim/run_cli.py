@@ -24,6 +24,7 @@ from pathlib import Path
 from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
+from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
 from .reports.dispatch import write_comparison, write_report
@@ -223,6 +224,11 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     """Run one scenario into ``out``, write its run.json and report; returns the report's
     metrics and the summary rows."""
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress)
+    if result.interrupted:
+        # the nodes stepped on while they were being stopped: the run is what the bag holds
+        contents = scan(out)
+        if contents.start_ns is not None:
+            result.sim_s = (contents.end_ns - contents.start_ns) * 1e-9
     (out / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,
         "sim_s": result.sim_s, "interrupted": result.interrupted,
