@@ -159,6 +159,8 @@ def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
     """(b) or (c): the orchestrator's run, with its telemetry."""
     t0 = time.monotonic()
     r = run(scenario, out, mode, progress=False)
+    if r.interrupted:  # the graph stopped in order; the benchmark stops with it
+        raise KeyboardInterrupt(f"stopped the benchmark in its {mode} run; only --keep keeps its runs")
     total = time.monotonic() - t0
     step_ns = 1e9 / scenario.sim_rate_hz
     stamps, walls = r.clock_stamp, r.clock_wall
@@ -396,6 +398,8 @@ def _record_once(scenario: Scenario, compress: bool) -> dict[str, str]:
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-") as tmp:
         out = Path(tmp) / "run"
         result = run(scenario, out, "processes", progress=False, compress=compress)
+        if result.interrupted:
+            raise KeyboardInterrupt("stopped the recorder benchmark; nothing was kept")
         contents = scan(out)
         size = find_mcap(out)[0].stat().st_size
     rec = result.processes["bag_recorder"]
