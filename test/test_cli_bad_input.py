@@ -138,10 +138,12 @@ ROWS: list[tuple[str, Callable, list, list[str]]] = [
     ("geometry/inf", geometry_cli.main, ["fdop", "--lat-deg", "inf", "--lon-deg", "0", "--gyro-a", "1", "0", "0",
                                          "--gyro-b", "0", "1", "0"], ["--lat-deg", "finite"]),
     # gimbal-allan
-    ("allan/missing bag", allan_cli.main, [_p("missing"), "--topic", "/imu", "--out", _p("root", "/allan1")], ["no_such_thing"]),
-    ("allan/random bytes", allan_cli.main, [_p("random"), "--topic", "/imu", "--out", _p("root", "/allan2")], ["random_bag"]),
-    ("allan/existing out", allan_cli.main, [_p("good"), "--topic", "/imu", "--out", _p("existing"), "--json", _p("existing", "/keep.txt")],
-     ["keep.txt"]),
+    ("allan/missing bag", allan_cli.main, [_p("missing"), "--topic", "/imu", "--out", _p("root", "/allan1")],
+     ["no_such_thing"]),
+    ("allan/random bytes", allan_cli.main, [_p("random"), "--topic", "/imu", "--out", _p("root", "/allan2")],
+     ["random_bag"]),
+    ("allan/existing out", allan_cli.main, [_p("good"), "--topic", "/imu", "--out", _p("existing"), "--json",
+                                            _p("existing", "/keep.txt")], ["keep.txt"]),
 ]
 
 

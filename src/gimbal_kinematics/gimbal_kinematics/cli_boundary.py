@@ -6,11 +6,11 @@ path, a file that is not text, YAML that does not parse, a value out of range, a
 bag) exits 2; a run that started and failed exits 1; Ctrl-C exits 130 after saying what it
 stopped. Anything else is a bug: its traceback is kept, followed by a line saying so.
 
-An :class:`OSError` is a path's problem when it names the path (else, like
-``io.UnsupportedOperation``, it is unexpected). Project errors that mean "bad input" derive from :class:`ValueError` (``ScenarioError``,
+Project errors that mean "bad input" derive from :class:`ValueError` (``ScenarioError``,
 ``BagError``, ``CampaignError``, ``ParameterError``, ...), as do ``UnicodeDecodeError`` and
 the errors of ``float('x')``; a failed run raises :class:`RunFailed` or another
-:class:`RuntimeError`.
+:class:`RuntimeError`. An :class:`OSError` is a path's problem when it names the path;
+one that names none (``io.UnsupportedOperation``) is unexpected.
 """
 from __future__ import annotations
 

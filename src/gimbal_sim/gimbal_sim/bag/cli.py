@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary, finite
+from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary
 from gimbal_kinematics.ros.ros_domain import localhost_env
 
 from .reader import recover, scan
@@ -73,7 +73,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_recover(args: argparse.Namespace) -> int:
-    out, contents = recover(Path(args.bag), args.out)  # nothing readable: a BagError, no bag written
+    out, contents = recover(Path(args.bag), args.out)
     print(f"recovered {contents.message_count} messages ({len(contents.topics)} topics) from every complete chunk "
           f"of {args.bag} into {out}" + (f"; the original stopped: {contents.error}" if contents.error else ""))
     return 0
@@ -92,7 +92,8 @@ def cmd_play(args: argparse.Namespace) -> int:
                           start_offset_s=args.start_offset, playback_duration_s=args.playback_duration,
                           start_paused=args.start_paused, loop=args.loop,
                           wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace,
-                          wait_timeout_s=args.wait_timeout, qos_overrides=load_qos_overrides(args.qos_profile_overrides_path))
+                          wait_timeout_s=args.wait_timeout,
+                          qos_overrides=load_qos_overrides(args.qos_profile_overrides_path))
     localhost_env()
     rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
     player = None
@@ -166,9 +167,6 @@ def build_parser() -> argparse.ArgumentParser:
 @cli_boundary("gimbal-bag")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    for option in ("rate", "start_offset", "playback_duration"):
-        if getattr(args, option, None) is not None:
-            finite(getattr(args, option), f"--{option.replace('_', '-')}")
     return args.func(args)
 
 

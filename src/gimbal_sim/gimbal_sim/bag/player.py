@@ -139,8 +139,8 @@ class PlayOptions:
             raise BagError("--playback-duration must be a number of seconds (< 0: to the end)")
         if not 0.0 < self.wait_timeout_s < float("inf"):
             raise BagError(f"--wait-timeout must be a finite number of seconds > 0, got {self.wait_timeout_s}")
-        for name in ("rate", "start_offset_s", "clock_hz"):
-            if getattr(self, name) == float("inf"):
+        for name in ("rate", "start_offset_s", "clock_hz", "playback_duration_s"):
+            if abs(getattr(self, name)) == float("inf"):
                 raise BagError(f"--{name.removesuffix('_s').removesuffix('_hz').replace('_', '-')} must be finite")
 
 
