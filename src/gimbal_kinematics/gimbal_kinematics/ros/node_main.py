@@ -61,10 +61,18 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
         return 2
     executor = make_executor()
     executor.add_node(node)
-    # Ctrl-C / the orchestrator's SIGINT ends the spin between slices: a KeyboardInterrupt
-    # raised inside a callback would be logged by rclpy as [FATAL]
+    # Ctrl-C / the orchestrator's SIGINT ends the spin between slices, in place of rclpy's
+    # handler: that one shuts the context down under a running callback, whose next publish
+    # fails, and a KeyboardInterrupt raised inside a callback is no better (both are logged
+    # as [FATAL]). A second Ctrl-C aborts at once (a flooded EventsExecutor may not return).
     stopping: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, _frame: stopping.append(signum))
+
+    def on_sigint(signum, _frame) -> None:
+        if stopping:
+            raise KeyboardInterrupt
+        stopping.append(signum)
+
+    signal.signal(signal.SIGINT, on_sigint)
     try:
         done = getattr(node, "done", None) or Future()
         # In slices: rclpy 7.1.6's EventsExecutor never dispatches when spun without a
