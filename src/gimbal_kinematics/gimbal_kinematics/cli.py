@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 
+from .cli_boundary import UsageError, cli_boundary
 from .free_gyro import fix_geometry, gyro_azimuth, nadir_angle
 from .geo_pointing import GimbalLimits, PointingSigmas, geo_point, pointing_budget
 from .sighting_chain import dcm_nb, dcm_nm, los_azimuth_elevation
@@ -50,10 +51,6 @@ def _flag(value: bool) -> str:
 
 
 def _point(args: argparse.Namespace) -> int:
-    for name in ("euler_deg", "turret_deg", "lever_arm_m", "azimuth_limits_deg", "elevation_limits_deg",
-                 "sigma_attitude_deg", "sigma_vehicle_m", "sigma_target_m"):
-        if not all(math.isfinite(v) for v in np.atleast_1d(getattr(args, name))):
-            raise ValueError(f"--{name.replace('_', '-')} must be finite, got {getattr(args, name)}")
     vehicle = (math.radians(args.vehicle[0]), math.radians(args.vehicle[1]), args.vehicle[2])
     target = (math.radians(args.target[0]), math.radians(args.target[1]), args.target[2])
     C_nb = dcm_nb(*(math.radians(v) for v in args.euler_deg))
@@ -135,13 +132,20 @@ def _add_point_parser(sub: argparse._SubParsersAction) -> None:
     point.set_defaults(func=_point)
 
 
+def _check_finite(args: argparse.Namespace) -> None:
+    """Every number given finite: NaN or inf in, NaN out is no answer."""
+    for name, value in vars(args).items():
+        values = value if isinstance(value, (list, tuple)) else [value]
+        for v in values:
+            if isinstance(v, float) and not math.isfinite(v):
+                raise UsageError(f"--{name.replace('_', '-')} must be finite, got {value}")
+
+
+@cli_boundary("gimbal-geometry")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except ValueError as exc:
-        print(f"gimbal-geometry: {exc}", file=sys.stderr)
-        return 2
+    _check_finite(args)
+    return args.func(args)
 
 
 if __name__ == "__main__":

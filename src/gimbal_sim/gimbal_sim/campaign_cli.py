@@ -14,7 +14,8 @@ runs one single-threaded worker process per core. The campaign directory holds
 
 Exit codes: 0 every run ok; 1 a run failed (the others still ran; each failure is in the
 results with its reason); 2 bad input (unknown scenario, variant or parameter, malformed
-range, unreachable scheduler, existing directory without --resume), nothing started.
+range, unreachable scheduler, existing directory without --resume), nothing started; 130
+Ctrl-C (the runs that finished are tabulated and reported; --resume runs the rest).
 """
 from __future__ import annotations
 
@@ -27,9 +28,11 @@ from typing import Any
 
 import yaml
 
+from gimbal_kinematics.cli_boundary import cli_boundary, finite, read_text, writable_dir
+
 from .campaign.report import diff_results
-from .campaign.spec import ENGINES, KEEP_BAGS, MODES, SAMPLINGS, CampaignError, CampaignSpec, load_spec_file, \
-    spec_from_mapping
+from .campaign.spec import ENGINES, KEEP_BAGS, LARGE_RUNS, MODES, SAMPLINGS, CampaignError, CampaignSpec, \
+    load_spec_file, spec_from_mapping
 from .experiments.registry import run_campaign
 
 
@@ -63,6 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, metavar="N", help="LocalCluster worker processes (default: the cores)")
     p.add_argument("--serial", action="store_true", help="run the tasks one by one in this process (no Dask)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--large", action="store_true", help=f"allow a campaign of more than {LARGE_RUNS:,} runs")
     return p
 
 
@@ -71,7 +75,7 @@ def _is_campaign_file(text: str) -> bool:
     if path.suffix not in (".yaml", ".yml") or not path.is_file():
         return False
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(read_text(path, "campaign file"))
     except yaml.YAMLError:
         return False
     return isinstance(data, dict) and "scenario" in data and "nodes" not in data
@@ -95,7 +99,7 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
     elif args.campaign:
         data["scenario"] = args.campaign
     elif args.resume and args.out is not None and (args.out / "campaign.yaml").is_file():
-        data = (yaml.safe_load((args.out / "campaign.yaml").read_text()) or {}).get("campaign", {})
+        data = (yaml.safe_load(read_text(args.out / "campaign.yaml", "--resume")) or {}).get("campaign", {})
     else:
         raise CampaignError("no campaign: give a scenario or a campaign YAML file (or --resume --out DIR)")
     for flag, key in (("seeds", "seeds"), ("sampling", "sampling"), ("samples", "samples"),
@@ -144,29 +148,30 @@ def _diff(argv: list[str]) -> int:
     return 0 if ok and out["shared_runs"] else 1
 
 
+@cli_boundary("gimbal-campaign", interrupted="stopped the campaign; the runs that finished are in its directory; "
+                                         "--resume --out DIR continues it")
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "diff":
         return _diff(argv[1:])
     args = build_parser().parse_args(argv)
-    try:
-        spec = spec_from_args(args)
-        if args.workers is not None and args.workers < 1:
-            raise CampaignError(f"--workers must be >= 1, got {args.workers}")
-        if args.scheduler and (args.serial or args.workers):
-            raise CampaignError("--scheduler uses that cluster's workers: drop --serial / --workers")
-        if args.resume and args.out is None:
-            raise CampaignError("--resume needs --out DIR (the campaign to continue)")
-        out = args.out or Path("bags") / "campaigns" / f"{time.strftime('%Y%m%d-%H%M%S')}_{Path(spec.scenario).stem}"
-        result = run_campaign(spec, out, resume=args.resume, scheduler=args.scheduler, workers=args.workers,
-                              serial=args.serial, progress=not args.no_progress)
-    except CampaignError as exc:
-        print(f"gimbal-campaign: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("gimbal-campaign: interrupted; the finished runs are in results.parquet and report/; "
-              "--resume continues it", file=sys.stderr)
-        return 130
+    if args.resume and args.out is None:
+        raise CampaignError("--resume needs --out DIR (the campaign to continue)")
+    if args.resume and not args.out.is_dir():
+        raise CampaignError(f"--resume: {args.out}: no such campaign directory; without --resume a new one starts")
+    for option in ("duration", "timeout"):
+        if getattr(args, option) is not None:
+            finite(getattr(args, option), f"--{option}", 0.0, strict=True)
+    spec = spec_from_args(args)
+    if args.workers is not None and args.workers < 1:
+        raise CampaignError(f"--workers must be >= 1, got {args.workers}")
+    if args.scheduler and (args.serial or args.workers):
+        raise CampaignError("--scheduler uses that cluster's workers: drop --serial / --workers")
+    out = args.out or Path("bags") / "campaigns" / f"{time.strftime('%Y%m%d-%H%M%S')}_{Path(spec.scenario).stem}"
+    if not args.resume and not out.exists():
+        writable_dir(out, "--out")
+    result = run_campaign(spec, out, resume=args.resume, scheduler=args.scheduler, workers=args.workers,
+                          serial=args.serial, progress=not args.no_progress, large=args.large)
     summary = json.loads((result.directory / "report" / "summary.json").read_text())
     print(summary.get("table", ""))
     print(f"campaign {result.directory}: {result.ran} runs ran, {result.skipped} had results, "

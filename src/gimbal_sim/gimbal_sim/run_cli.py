@@ -7,7 +7,8 @@ variant with a ROS domain id of its own (claimed here, so concurrent runs never 
 
 Exit codes: 0 success; 1 the run failed (a node died or stalled; the bag is still
 finalized); 2 bad input (unknown scenario or node, malformed --set, output exists), with
-nothing started and nothing overwritten.
+nothing started and nothing overwritten; 130 Ctrl-C (the graph stopped in order, the bag
+closed, run.json with ``interrupted: true`` and the report of the simulated time written).
 """
 from __future__ import annotations
 
@@ -20,11 +21,17 @@ import sys
 import time
 from pathlib import Path
 
+from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
-from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run
-from .graph.scenario import Scenario, ScenarioError, apply_params_file, apply_set, describe_builtins, load, variant
+from .bag.reader import scan
+from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
+from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
 from .reports.dispatch import write_comparison, write_report
+
+
+#: How long a child ``gimbal-run`` (--jobs) may take to keep its run after Ctrl-C [s].
+CHILD_STOP_GRACE_S = 60.0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -71,47 +78,53 @@ def summary_table(rows: list[tuple[str, str]]) -> str:
     return "\n".join(f"  {k:<{width}}  {v}" for k, v in rows)
 
 
+def _check_inputs(args: argparse.Namespace) -> None:
+    """The files and numbers the user gave, checked before anything is read or started."""
+    if Path(args.scenario).suffix in (".yaml", ".yml") or Path(args.scenario).exists():
+        read_text(args.scenario, "scenario file")
+    for path in args.params_file:
+        read_text(path, "--params-file")
+    if args.duration is not None:
+        finite(args.duration, "--duration", 0.0, strict=True)
+
+
+@cli_boundary("gimbal-run")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.list or args.scenario is None:
         _print_list()
         return 0
-    try:
-        scenario = load(args.scenario)
-        if args.duration is not None:
-            if not args.duration > 0:
-                raise ScenarioError(f"--duration must be > 0, got {args.duration}")
-            scenario = dataclasses.replace(scenario, duration_s=args.duration)
-        if args.seed is not None:
-            if args.seed < 0:
-                raise ScenarioError(f"--seed must be >= 0, got {args.seed}")
-            scenario = dataclasses.replace(scenario, seed=args.seed)
-        for path in args.params_file:
-            scenario = apply_params_file(scenario, path)
-        for assignment in args.set:
-            scenario = apply_set(scenario, assignment)
-    except ScenarioError as exc:
-        print(f"gimbal-run: {exc}", file=sys.stderr)
-        return 2
-    out = args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}"
-    if out.exists():
-        print(f"gimbal-run: output directory {out} already exists; not overwriting it", file=sys.stderr)
-        return 2
-    try:
-        names = args.variant or list(scenario.variants)
-        runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
-        if args.variant and not scenario.variants:
-            raise ScenarioError(f"scenario {scenario.name!r} has no variants; drop --variant")
-        if args.jobs < 1:
-            raise ScenarioError(f"--jobs must be >= 1, got {args.jobs}")
-    except ScenarioError as exc:
-        print(f"gimbal-run: {exc}", file=sys.stderr)
-        return 2
+    _check_inputs(args)
+    scenario = load(args.scenario)
+    if args.duration is not None:
+        scenario = dataclasses.replace(scenario, duration_s=args.duration)
+    if args.seed is not None:
+        if args.seed < 0:
+            raise UsageError(f"--seed must be >= 0, got {args.seed}")
+        scenario = dataclasses.replace(scenario, seed=args.seed)
+    for path in args.params_file:
+        scenario = apply_params_file(scenario, path)
+    for assignment in args.set:
+        scenario = apply_set(scenario, assignment)
+    out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")
+    names = args.variant or list(scenario.variants)
+    runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
+    if args.variant and not scenario.variants:
+        raise UsageError(f"scenario {scenario.name!r} has no variants; drop --variant")
+    if args.jobs < 1:
+        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
 
     rows, ok = [], True
     if args.jobs > 1 and len(runs) > 1:
-        if not _run_concurrently(runs, out, args, rows):
-            return 1
+        active: list = []
+        try:
+            if not _run_concurrently(runs, out, args, rows, active):
+                return 1
+        except KeyboardInterrupt:
+            stop_processes([proc for _, proc, *_ in active], grace_s=CHILD_STOP_GRACE_S)
+            raise Interrupted(f"stopped the variants still running ({', '.join(n for n, *_ in active) or 'none'}); "
+                              f"each keeps its bag, run.json (interrupted: true) and report in {out}/<variant>") \
+                from None
     else:
         for i, (name, single) in enumerate(runs):
             bag = out / name if name else out
@@ -124,6 +137,13 @@ def main(argv: list[str] | None = None) -> int:
                 return 1
             ok = ok and metrics["closed_cleanly"]
             rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
+            if metrics.get("interrupted"):
+                print(summary_table(rows))
+                closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
+                raise Interrupted(f"stopped the run at {metrics['sim_s']:g} s of {single.duration_s:g} s simulated; "
+                                  f"kept the bag ({closed}), run.json (interrupted: true) and the report in {bag}"
+                                  + (f"; variants not run: {', '.join(n for n, _ in runs[i + 1:])}"
+                                     if runs[i + 1:] else ""))
     if scenario.variants:
         (out / "scenario.yaml").write_text(scenario.to_yaml())
         report_dir, comparison = write_comparison(out, scenario.comparison, {n: out / n for n, _ in runs})
@@ -135,14 +155,15 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argparse.Namespace,
-                      rows: list[tuple[str, str]]) -> bool:
+                      rows: list[tuple[str, str]], active: list) -> bool:
     """Each variant as a child ``gimbal-run`` of its single scenario into ``out/<name>``, up to
     ``args.jobs`` at a time, each in a ROS domain claimed here; appends the children's summary
-    rows to ``rows``. False when a child failed (its log is printed)."""
+    rows to ``rows``; ``active`` holds the running children (name, process, ...). False when
+    a child failed (its log is printed)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True)
-    pending, active, failed, done = list(runs), [], [], {}
+    pending, failed, done = list(runs), [], {}
     # one bar per variant, fed from the sim time each child keeps in a file
     bars = {name: tqdm(total=round(single.duration_s, 3), desc=name, position=i, unit="sim s", file=sys.stderr,
                        disable=None if not args.no_progress else True, leave=True,
@@ -203,15 +224,22 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     """Run one scenario into ``out``, write its run.json and report; returns the report's
     metrics and the summary rows."""
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress)
+    if result.interrupted:
+        # the nodes stepped on while they were being stopped: the run is what the bag holds
+        contents = scan(out)
+        if contents.start_ns is not None:
+            result.sim_s = (contents.end_ns - contents.start_ns) * 1e-9
     (out / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,
-        "sim_s": result.sim_s,
+        "sim_s": result.sim_s, "interrupted": result.interrupted,
         "wall_s": result.wall_s, "real_time_factor": result.real_time_factor,
         "steps_per_s": result.sim_s * scenario.sim_rate_hz / result.wall_s if result.wall_s > 0 else None,
         "processes": {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v
                       for k, v in (result.processes or {}).items()},
     }, indent=2, default=str) + "\n")
     report_dir, metrics = write_report(out)
+    if result.interrupted:
+        metrics = dict(metrics, interrupted=True, sim_s=result.sim_s)
     return metrics, [
         ("scenario", f"{scenario.name} ({args.mode} mode, seed {scenario.seed})"),
         ("simulated", f"{result.sim_s:.3f} s at {scenario.sim_rate_hz:g} Hz"),

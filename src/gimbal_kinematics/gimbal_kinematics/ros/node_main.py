@@ -7,6 +7,7 @@ Ctrl-C, an external shutdown, or (if it has one) its ``done`` future completes.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from typing import Callable
 
@@ -17,6 +18,9 @@ from rclpy.task import Future
 from rclpy.utilities import remove_ros_args
 
 from .ros_domain import localhost_env
+
+#: How long one spin slice lasts [s]: a SIGINT is acted on within it.
+SPIN_SLICE_S = 1.0
 
 ROS_ARGS_EPILOG = (
     "ROS arguments follow --ros-args, e.g. "
@@ -57,12 +61,24 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
         return 2
     executor = make_executor()
     executor.add_node(node)
+    # Ctrl-C / the orchestrator's SIGINT ends the spin between slices, in place of rclpy's
+    # handler: that one shuts the context down under a running callback, whose next publish
+    # fails, and a KeyboardInterrupt raised inside a callback is no better (both are logged
+    # as [FATAL]). A second Ctrl-C aborts at once (a flooded EventsExecutor may not return).
+    stopping: list[int] = []
+
+    def on_sigint(signum, _frame) -> None:
+        if stopping:
+            raise KeyboardInterrupt
+        stopping.append(signum)
+
+    signal.signal(signal.SIGINT, on_sigint)
     try:
         done = getattr(node, "done", None) or Future()
         # In slices: rclpy 7.1.6's EventsExecutor never dispatches when spun without a
         # timeout (spin(), or spin_until_future_complete(f) with none), and holds the GIL.
-        while not done.done():
-            executor.spin_until_future_complete(done, timeout_sec=1.0)
+        while not done.done() and not stopping:
+            executor.spin_until_future_complete(done, timeout_sec=SPIN_SLICE_S)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

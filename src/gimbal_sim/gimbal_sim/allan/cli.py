@@ -15,6 +15,8 @@ import json
 import sys
 from pathlib import Path
 
+from gimbal_kinematics.cli_boundary import cli_boundary
+
 from ..bag.any_reader import AnyBagError
 from .analyze import ACCEL_SIGMA_PREFIX, AXES, AnalysisError, SIGMA_PREFIX, UNITS, analyze, to_json
 from .params import ACCEL_TARGETS, GYRO_TARGETS, filters_yaml, sensor_models_yaml, set_arguments
@@ -84,6 +86,7 @@ def summary(doc: dict) -> str:
     return "\n".join(lines)
 
 
+@cli_boundary("gimbal-allan")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     target = args.simulate_as or ("gimbal_gyro" if args.field == "angular_velocity" else "platform_accel")

@@ -11,9 +11,10 @@ import json
 import sys
 from pathlib import Path
 
+from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary
 from gimbal_kinematics.ros.ros_domain import localhost_env
 
-from .reader import BagError, recover, scan
+from .reader import recover, scan
 
 
 def _fmt_time(ns: int | None) -> str:
@@ -91,6 +92,7 @@ def cmd_play(args: argparse.Namespace) -> int:
                           start_offset_s=args.start_offset, playback_duration_s=args.playback_duration,
                           start_paused=args.start_paused, loop=args.loop,
                           wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace,
+                          wait_timeout_s=args.wait_timeout,
                           qos_overrides=load_qos_overrides(args.qos_profile_overrides_path))
     localhost_env()
     rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
@@ -104,7 +106,9 @@ def cmd_play(args: argparse.Namespace) -> int:
               + (f", {player.clocks} /clock" if player.clocks else "") + ")")
         return 0
     except (KeyboardInterrupt, ExternalShutdownException):
-        return 0
+        done = f"after {player.published} of {len(player.messages)} messages" if player is not None else \
+            "before playing"
+        raise Interrupted(f"stopped playing {args.bag} {done}") from None
     finally:
         if player is not None:
             player.destroy_node()
@@ -149,6 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="wait until every topic has N matched subscriptions")
     play.add_argument("--pace", nargs="+", default=[], metavar="TOPIC",
                       help="progress topics (rosgraph_msgs/Clock) of readers not to outrun")
+    play.add_argument("--wait-timeout", type=float, default=30.0, metavar="S",
+                      help="give up (exit 1) when --wait-for-subscribers / --pace readers do not come, or a paced "
+                           "reader reports no progress, for S seconds (default 30)")
     play.set_defaults(func=cmd_play)
     rec = sub.add_parser("recover", help="write every complete chunk of a damaged bag to a new bag beside it")
     rec.add_argument("bag", help="bag directory")
@@ -157,13 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@cli_boundary("gimbal-bag")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except BagError as exc:
-        print(f"gimbal-bag: {exc}", file=sys.stderr)
-        return 2
+    return args.func(args)
 
 
 if __name__ == "__main__":

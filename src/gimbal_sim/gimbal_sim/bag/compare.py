@@ -19,13 +19,15 @@ reader cannot hide a difference.
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
 
+from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from .reader import find_mcap
+from .reader import BagError, find_mcap
 from .schemas import message_class
 
 
@@ -91,10 +93,14 @@ def _raw(bag: Path) -> tuple[dict[str, list[tuple[int, int, bytes]]], dict[str, 
     out: dict[str, list[tuple[int, int, bytes]]] = {}
     types: dict[str, str] = {}
     with open(mcap_path, "rb") as f:
-        for schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
-            out.setdefault(channel.topic, []).append((message.log_time, message.publish_time, message.data))
-            if schema is not None:
-                types[channel.topic] = schema.name
+        try:
+            for schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
+                out.setdefault(channel.topic, []).append((message.log_time, message.publish_time, message.data))
+                if schema is not None:
+                    types[channel.topic] = schema.name
+        except (McapError, EOFError, KeyError, ValueError, struct.error) as exc:
+            raise BagError(f"{mcap_path}: a damaged bag, not compared ({type(exc).__name__}: {exc}); "
+                           f"`gimbal-bag recover` keeps its complete chunks") from None
     return out, types
 
 

@@ -38,8 +38,10 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
+from gimbal_kinematics.cli_boundary import RunFailed, read_text
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
+
 from .qos_yaml import qos_from_dict
 from .reader import BagContents, BagError, RawMessage, read_messages
 from .schemas import message_class
@@ -72,10 +74,11 @@ def load_qos_overrides(path: Path | None) -> dict[str, QoSProfile]:
     the player would have used. Raises :class:`BagError` naming the option on a bad file."""
     if path is None:
         return {}
+    text = read_text(path, "--qos-profile-overrides-path")
     try:
-        data = yaml.safe_load(Path(path).read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise BagError(f"--qos-profile-overrides-path {path}: {exc}") from exc
+        data = yaml.safe_load(text) or {}
+    except yaml.YAMLError as exc:
+        raise BagError(f"--qos-profile-overrides-path {path}: not YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict) or not all(isinstance(k, str) and isinstance(v, dict) for k, v in data.items()):
         raise BagError(f"--qos-profile-overrides-path {path}: expected a mapping /topic -> {{reliability, "
                        f"durability, history, depth}}")
@@ -83,8 +86,12 @@ def load_qos_overrides(path: Path | None) -> dict[str, QoSProfile]:
                "durability": ("volatile", "transient_local", "system_default"),
                "history": ("keep_last", "keep_all", "system_default")}
     out = {}
+    known = (*allowed, "depth")
     for topic, entry in data.items():
         for key, value in entry.items():
+            if key not in known:
+                raise BagError(f"--qos-profile-overrides-path {path}: {topic}.{key}: unknown key; "
+                               f"the known keys are {', '.join(known)}")
             if key in allowed and str(value).lower() not in allowed[key]:
                 raise BagError(f"--qos-profile-overrides-path {path}: {topic}.{key} = {value!r}, "
                                f"expected one of {allowed[key]}")
@@ -116,6 +123,7 @@ class PlayOptions:
     wait_for_subscribers: int = 0     # matched subscriptions each topic needs before playing
     pace_topics: list[str] = field(default_factory=list)
     pace_window_s: float = 0.05
+    wait_timeout_s: float = 30.0      # give up waiting for readers or their progress after this [s]
     qos_overrides: dict[str, dict] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -129,6 +137,11 @@ class PlayOptions:
             raise BagError(f"--clock must be a rate > 0 Hz, got {self.clock_hz}")
         if self.playback_duration_s != self.playback_duration_s:
             raise BagError("--playback-duration must be a number of seconds (< 0: to the end)")
+        if not 0.0 < self.wait_timeout_s < float("inf"):
+            raise BagError(f"--wait-timeout must be a finite number of seconds > 0, got {self.wait_timeout_s}")
+        for name in ("rate", "start_offset_s", "clock_hz", "playback_duration_s"):
+            if abs(getattr(self, name)) == float("inf"):
+                raise BagError(f"--{name.removesuffix('_s').removesuffix('_hz').replace('_', '-')} must be finite")
 
 
 def parse_remaps(items: list[str]) -> dict[str, str]:
@@ -169,8 +182,12 @@ class BagPlayer(Node):
         if wanted is not None:
             wanted -= set(options.exclude_topics)
         messages, contents = read_messages(Path(bag_dir), wanted)
+        if contents.message_count == 0:
+            raise BagError(f"{bag_dir}: nothing to play: " + (f"no message can be read ({contents.error})"
+                                                             if contents.error else "the bag holds no messages"))
         for option, names in (("--topics", set(options.topics or ())),
                               ("--exclude-topics", set(options.exclude_topics)),
+                              ("--remap", set(options.remap)),
                               ("--qos-profile-overrides-path", set(options.qos_overrides))):
             missing = names - set(contents.topics)
             if missing:
@@ -184,6 +201,11 @@ class BagPlayer(Node):
         self.messages: list[RawMessage] = sorted(
             (x for x in messages if x.log_time_ns >= start and (stop is None or x.log_time_ns <= stop)
              and x.topic not in excluded), key=lambda x: x.log_time_ns)
+        if not self.messages:
+            span = (contents.end_ns - contents.start_ns) * 1e-9
+            raise BagError(f"nothing to play: --topics / --exclude-topics, --start-offset {options.start_offset_s:g} s "
+                           f"and --playback-duration {options.playback_duration_s:g} s select no message of a bag "
+                           f"of {span:.3f} s")
         self.pubs = {}
         self.qos = {}
         for topic in sorted({x.topic for x in self.messages}):
@@ -198,6 +220,8 @@ class BagPlayer(Node):
         self._paced: dict[str, int | None] = {t: None for t in options.pace_topics}
         self._pace_subs: dict[str, object] = {}
         self.t_bag0 = self.messages[0].log_time_ns if self.messages else 0
+        self._warned_best_effort = False
+        self._best_effort_check = 0.0
         self.published = 0
         self.retries = 0
         self.clocks = 0
@@ -246,16 +270,45 @@ class BagPlayer(Node):
                 self.retries += 1
         raise BagError(f"could not deliver a message on {pub.topic_name} after {PUBLISH_RETRY_LIMIT} attempts")
 
-    def wait_for_readers(self, executor, timeout_s: float = 30.0) -> None:
-        deadline = time.monotonic() + timeout_s
+    def _awaited(self) -> list[str]:
+        """What the player still waits for before it plays: subscribers and progress reports."""
         need = self.options.wait_for_subscribers
-        while any(p.get_subscription_count() < need for p in self.pubs.values()) or \
-                any(v is None for v in self._paced.values()):
+        out = [f"{need} subscriber(s) on {topic} (has {pub.get_subscription_count()})"
+               for topic, pub in self.pubs.items() if pub.get_subscription_count() < need]
+        return out + [f"progress on {topic}" for topic, v in self._paced.items() if v is None]
+
+    def wait_for_readers(self, executor) -> None:
+        """``--wait-for-subscribers`` / ``--pace``: say at once what is awaited; give up after
+        ``wait_timeout_s`` (a :class:`RunFailed`: nobody came)."""
+        timeout_s = self.options.wait_timeout_s
+        deadline = time.monotonic() + timeout_s
+        said = False
+        while awaited := self._awaited():
             self._subscribe_progress()
+            if not said:
+                print(f"gimbal-bag play: waiting up to {timeout_s:g} s (--wait-timeout) for {'; '.join(awaited)}",
+                      file=sys.stderr, flush=True)
+                said = True
             if time.monotonic() > deadline:
-                raise BagError(f"readers did not appear within {timeout_s:g} s (need {need} per topic and "
-                               f"progress on {sorted(self._paced)})")
+                raise RunFailed(f"no reader came within {timeout_s:g} s (--wait-timeout): still waiting for "
+                                f"{'; '.join(awaited)}; nothing was played")
             self._spin(executor, 0.05)
+        self.warn_best_effort()
+
+    def warn_best_effort(self) -> None:
+        """A best-effort reader of an unpaced replay drops what it cannot keep up with, as ROS does."""
+        if self._paced or self._warned_best_effort:
+            return
+        for topic in self.pubs:
+            remapped = self.options.remap.get(topic, topic)
+            lossy = sorted(i.node_name for i in self.get_subscriptions_info_by_topic(remapped)
+                           if i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT)
+            if lossy:
+                self._warned_best_effort = True
+                print(f"gimbal-bag play: warning: {', '.join(lossy)} read(s) {remapped} best effort: messages it "
+                      f"cannot keep up with are dropped; --pace <its progress topic> plays no faster than it "
+                      f"reads", file=sys.stderr, flush=True)
+                return
 
     def wait_for_resume(self, executor, key_source=None) -> None:
         """``--start-paused``: keep the graph alive until a key (or a newline) arrives."""
@@ -283,6 +336,10 @@ class BagPlayer(Node):
         warn_at = started + PACE_STALL_WARN_S
         while min(self._paced.values()) + window_ns < t_ns:
             self._spin(executor, 0.01)
+            if time.monotonic() > started + self.options.wait_timeout_s:
+                raise RunFailed(f"paced: no progress for {self.options.wait_timeout_s:g} s (--wait-timeout) from "
+                                f"{sorted(self._paced)}; stopped after {self.published} of {len(self.messages)} "
+                                f"messages")
             if time.monotonic() > warn_at:
                 warn_at += PACE_STALL_WARN_S
                 behind = {topic: f"{(v - self.t_bag0) * 1e-9:.3f} s" for topic, v in self._paced.items()
@@ -321,6 +378,9 @@ class BagPlayer(Node):
                 self.published += 1
                 if i % SPIN_EVERY == 0:
                     self._spin(executor)
+                    if not paced and time.monotonic() > self._best_effort_check:
+                        self._best_effort_check = time.monotonic() + 1.0
+                        self.warn_best_effort()
             if not self.options.loop:
                 self.drain()
                 return self.published

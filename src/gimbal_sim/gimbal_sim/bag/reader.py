@@ -235,6 +235,18 @@ def scan(directory: Path) -> BagContents:
     raise AssertionError("stream always ends with its summary")
 
 
+def require_messages(directory: Path) -> None:
+    """Raise :class:`BagError` unless a first message of the bag can be read (reads no further)."""
+    items = stream(directory)
+    try:
+        first = next(items)
+    finally:
+        items.close()
+    if isinstance(first, BagContents):
+        raise BagError(f"{directory}: no message can be read from this bag"
+                       + (f" ({first.error})" if first.error else " (it holds none)"))
+
+
 def read_messages(directory: Path, topics: set[str] | None = None) -> tuple[list[RawMessage], BagContents]:
     messages: list[RawMessage] = []
     for item in stream(directory, topics):
@@ -258,6 +270,9 @@ def recover(directory: Path, output: Path | None = None) -> tuple[Path, BagConte
         raise BagError(f"{directory}: a sqlite3 bag has no chunks to recover: sqlite commits every message, "
                        f"and a killed recording only lacks metadata.yaml, which `ros2 bag reindex` rebuilds")
     messages, contents = read_messages(directory)
+    if not messages:
+        raise BagError(f"{directory}: nothing to recover: " + (f"no complete chunk can be read ({contents.error})"
+                                                               if contents.error else "the bag holds no messages"))
     writer = BagWriter(output)
     for topic in contents.topics.values():
         writer.add_topic(topic.name, topic.type_name, topic.qos_profiles)

@@ -47,7 +47,7 @@ from gimbal_kinematics.ros.ros_domain import claim_domain_id
 
 from ..graph.scenario import Scenario, validate
 from .results import RESULT_FILE, CampaignResult, flatten_metrics, write_results
-from .spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask
+from .spec import LARGE_RUNS, CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask
 
 CONNECT_TIMEOUT_S = 5.0           # an unreachable scheduler is refused within this
 STOP_GRACE_S = 20.0               # a timed-out gimbal-run gets this long to close its bag after SIGINT
@@ -364,17 +364,43 @@ def _execute(todo: list[RunTask], runners: Runners, client: Any, bar: _Progress)
         bar.bar.close()
 
 
+def _check_size(runs: int, large: bool) -> None:
+    if runs > LARGE_RUNS and not large:
+        raise CampaignError(f"{runs:,} runs: more than {LARGE_RUNS:,}; add --large if that many is meant")
+
+
+def _finished_rows(out_dir: Path, campaign: CampaignPlan, rows: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every run with a result on disk or received, in plan order: a worker may have written
+    its result after the client stopped listening (Ctrl-C), and that run is done too."""
+    for run in campaign.runs:
+        if run.run_id not in rows and (row := _load_row(out_dir, run.run_id)) is not None:
+            rows[run.run_id] = row
+    return [rows[r.run_id] for r in campaign.runs if r.run_id in rows]
+
+
+def _report_is_current(out_dir: Path, rows: list[dict[str, Any]]) -> bool:
+    """Does ``report/summary.json`` count exactly these runs (and as many ok)?"""
+    try:
+        summary = json.loads((out_dir / "report" / "summary.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return summary.get("runs") == len(rows) and summary.get("ok") == sum(r.get("status") == "ok" for r in rows)
+
+
 def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignSpec], CampaignPlan],
                  report: Callable[[Path], Any], runners: Runners = Runners(), resume: bool = False,
                  scheduler: str | None = None, workers: int | None = None, serial: bool = False,
-                 progress: bool = True) -> CampaignResult:
+                 progress: bool = True, large: bool = False) -> CampaignResult:
     """Run the campaign ``spec`` into ``out_dir`` (module docstring): ``plan(spec)`` expands
     it into runs, ``runners`` run them, ``report(out_dir)`` writes the campaign report.
     ``serial`` runs the tasks one by one in this process (no Dask). Raises
-    :class:`CampaignError` for bad input, before anything is started or written."""
+    :class:`CampaignError` for bad input, before anything is started or written; a campaign
+    of more than :data:`LARGE_RUNS` runs is one unless ``large``."""
     t0 = time.monotonic()
     out_dir = Path(out_dir).absolute()
+    _check_size(len(spec.seeds), large)
     campaign = plan(spec)
+    _check_size(len(campaign.runs), large)
     if spec.engine == "core" and runners.run_fn is None and runners.core_run is None:
         raise CampaignError("engine core: no core run was handed to the engine")
     check_directory(out_dir, campaign, resume)
@@ -395,11 +421,13 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignS
             _cleanup(out_dir)
     except KeyboardInterrupt:
         # the finished runs are tabulated and reported; --resume runs the rest
-        done = [rows[r.run_id] for r in campaign.runs if r.run_id in rows]
+        done = _finished_rows(out_dir, campaign, rows)
         write_results(out_dir, done, targets)
         if done:
             report(out_dir)
-        raise
+        raise KeyboardInterrupt(f"stopped the campaign after {len(done)} of {len(campaign.runs)} runs; their "
+                                f"results are in {out_dir / 'results.parquet'} and report/; `--resume --out "
+                                f"{out_dir}` runs the rest") from None
     finally:
         if client is not None:
             client.close()
@@ -407,7 +435,7 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignS
             cluster.close()
     ordered = [rows[r.run_id] for r in campaign.runs]
     write_results(out_dir, ordered, targets)
-    if todo or not (out_dir / "report").is_dir():
+    if todo or not _report_is_current(out_dir, ordered):
         report(out_dir)
     result = CampaignResult(out_dir, ordered, len(todo), skipped, time.monotonic() - t0)
     with open(out_dir / "invocations.jsonl", "a") as log:  # when, where and how long each call ran

@@ -34,6 +34,7 @@ resumed campaign must have the same one.
 from __future__ import annotations
 
 import copy
+from collections import Counter
 import dataclasses
 import hashlib
 import itertools
@@ -46,6 +47,8 @@ from typing import Any, Callable
 
 import numpy as np
 import yaml
+
+from gimbal_kinematics.cli_boundary import read_text
 
 from ..core.core_loop import STAGES, node_values
 from ..graph.registry import NODE_TYPES
@@ -135,6 +138,11 @@ class CampaignPlan:
 
 
 # ------------------------------------------------------------------------ parsing
+#: Seeds one campaign may list at all; :data:`LARGE_RUNS` more runs need ``--large``.
+MAX_SEEDS = 1_000_000
+LARGE_RUNS = 10_000
+
+
 def parse_seeds(text: Any, where: str = "--seeds") -> tuple[int, ...]:
     """Seeds from ``"1-20"``, ``"1,4,7-9"``, an integer or a list of integers; no repeats."""
     if isinstance(text, bool):
@@ -158,10 +166,13 @@ def parse_seeds(text: Any, where: str = "--seeds") -> tuple[int, ...]:
             raise CampaignError(f"{where}: malformed seed range {item!r} (expected N or A-B, integers >= 0)")
         if lo < 0 or hi < lo:
             raise CampaignError(f"{where}: malformed seed range {item!r} (needs 0 <= A <= B)")
+        if len(seeds) + hi - lo + 1 > MAX_SEEDS:
+            raise CampaignError(f"{where}: {item!r} makes more than {MAX_SEEDS:,} seeds, the most a campaign "
+                                f"plans; split it into campaigns")
         seeds.extend(range(lo, hi + 1))
     if not seeds:
         raise CampaignError(f"{where}: no seeds")
-    repeated = sorted({s for s in seeds if seeds.count(s) > 1})
+    repeated = sorted(s for s, n in Counter(seeds).items() if n > 1)
     if repeated:
         raise CampaignError(f"{where}: seed(s) {repeated} given twice")
     return tuple(seeds)
@@ -273,9 +284,9 @@ def load_spec_file(path: Path) -> CampaignSpec:
     if not path.is_file():
         raise CampaignError(f"campaign file {path}: no such file")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(read_text(path, "campaign file"))
     except yaml.YAMLError as exc:
-        raise CampaignError(f"campaign file {path}: not valid YAML: {exc}") from exc
+        raise CampaignError(f"campaign file {path}: not valid YAML: {' '.join(str(exc).split())}") from None
     return spec_from_mapping(data, str(path))
 
 

@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from array import array
 from dataclasses import dataclass, field
@@ -51,6 +52,8 @@ class RunResult:
     rss_samples: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: process name -> CPU seconds it had used when the first step was seen (start-up cost)
     cpu_at_start: dict[str, float] = field(default_factory=dict)
+    #: Ctrl-C (SIGINT) stopped the run before its end; ``sim_s`` is the time it reached
+    interrupted: bool = False
 
     @property
     def real_time_factor(self) -> float:
@@ -175,10 +178,14 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
     nodes = plan_nodes(scenario, out_dir, compress)
     write_run_files(scenario, nodes, out_dir)
     env, claim = _ros_env()
+    main_thread = threading.current_thread() is threading.main_thread()
+    sigint = signal.getsignal(signal.SIGINT) if main_thread else None
     try:
         runner = _run_processes if mode == "processes" else _run_container
-        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s)
+        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s, _StopRequest())
     finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, sigint)
         if claim is not None:
             # the id is free again: a later run in this process must claim its own
             os.environ.pop("ROS_DOMAIN_ID", None)
@@ -186,18 +193,43 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
 
 
 def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_timeout_s: float,
-           check_nodes, pids: dict[str, int | str]) -> float:
-    """Spin until the recorder has the last step; returns the wall time [s].
+           check_nodes, pids: dict[str, int | str], stop: _StopRequest) -> tuple[float, bool]:
+    """Spin until the recorder has the last step or Ctrl-C; returns the wall time [s] and
+    whether Ctrl-C stopped it (the graph is then stopped like at the end, the bag closed).
 
     ``spin(timeout)`` handles callbacks until the run is done or ``timeout`` [s] passed;
     between slices the nodes are checked, the progress bar drawn and, about once a second,
     the resident memory of each process in ``pids`` sampled.
     """
     t0 = time.monotonic()
-    last_change, last_state = t0, None
-    next_rss = t0
     monitor.pids = pids
-    while not monitor.finished:
+    _watch_loop(monitor, spin, bar, stall_timeout_s, check_nodes, pids, stop)
+    return time.monotonic() - t0, stop.requested
+
+
+class _StopRequest:
+    """Ctrl-C (SIGINT) during the run asks the watch to stop, as its end would: a flag read
+    between spin slices, never an exception raised inside a node's callback (rclpy logs
+    that as [FATAL]). A second Ctrl-C must not abort the orderly stop that closes the bag.
+    Only the main thread receives signals; elsewhere nothing is installed (``run`` puts the
+    previous handler back)."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, self._on_sigint)
+
+    def _on_sigint(self, *_) -> None:
+        if self.requested:
+            print("gimbal-run: still stopping the nodes and closing the bag; please wait", file=sys.stderr)
+        self.requested = True
+
+
+def _watch_loop(monitor: Monitor, spin, bar: Progress, stall_timeout_s: float, check_nodes,
+                pids: dict[str, int | str], stop: _StopRequest) -> None:
+    last_change, last_state = time.monotonic(), None
+    next_rss = last_change
+    while not monitor.finished and not stop.requested:
         spin(0.1)
         check_nodes()
         bar.update(monitor.sim_ns / 1e9)
@@ -211,7 +243,6 @@ def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_time
         elif now - last_change > stall_timeout_s:
             raise RunError(f"no progress for {stall_timeout_s:g} s (sim time {monitor.sim_ns / 1e9:g} s, "
                            f"recorded {monitor.recorded_ns / 1e9:g} s): a node is stuck or never became ready")
-    return time.monotonic() - t0
 
 
 def _spin_slice(executor, monitor: Monitor, timeout: float) -> None:
@@ -232,7 +263,7 @@ def _result(out_dir: Path, wall: float, monitor: Monitor, **kw) -> RunResult:
                      rss_samples=monitor.rss_samples, cpu_at_start=monitor.cpu_at_start, **kw)
 
 
-def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
+def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, stop) -> RunResult:
     import rclpy
     from rclpy.context import Context
 
@@ -261,16 +292,20 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
             if not exe.exists():
                 raise RunError(f"executable {node.executable} not found in {bin_dir}; run `make venv`")
             with open(logs[node.name], "w") as log:
+                # a process group of its own: a terminal's Ctrl-C reaches the orchestrator only,
+                # which stops the nodes in order (the recorder last)
                 procs[node.name] = subprocess.Popen([str(exe), *node.ros_args()], env=env, stdout=log,
-                                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-        wall = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
-                      bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()})
+                                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                                    process_group=0)
+        wall, interrupted = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
+                      bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()},
+                                   stop)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
             executor.spin_once(timeout_sec=0.05)
             check_nodes()
         stats = {name: process_stats(proc.pid) for name, proc in procs.items()}
-        return _result(out_dir, wall, monitor, logs=logs, processes=stats)
+        return _result(out_dir, wall, monitor, logs=logs, processes=stats, interrupted=interrupted)
     finally:
         bar.close()
         _stop(procs, first=[n.name for n in nodes if n.name != RECORDER], last=[RECORDER])
@@ -300,7 +335,7 @@ def _stop(procs: dict[str, subprocess.Popen], first: list[str], last: list[str])
         stop_processes(procs.get(name) for name in group)
 
 
-def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> RunResult:
+def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s, stop) -> RunResult:
     import rclpy
     from rclpy.context import Context
 
@@ -334,11 +369,12 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s) -> 
             except Exception as exc:  # noqa: BLE001 - any node's failure ends the run, named
                 raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
 
-        wall = _watch(scenario, monitor, spin, bar, stall_timeout_s, lambda: None, {"container": "self"})
+        wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, lambda: None, {"container": "self"},
+                                   stop)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until:
             spin(0.05, until_done=False)
-        return _result(out_dir, wall, monitor, processes={"container": process_stats()})
+        return _result(out_dir, wall, monitor, processes={"container": process_stats()}, interrupted=interrupted)
     finally:
         bar.close()
         recorder = built.pop(RECORDER, None)

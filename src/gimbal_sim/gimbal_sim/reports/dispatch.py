@@ -15,7 +15,9 @@ from pathlib import Path
 
 import yaml
 
-from ..bag.reader import BagError
+from gimbal_kinematics.cli_boundary import cli_boundary, read_text
+
+from ..bag.reader import BagError, require_messages
 from ..campaign.report import regenerate
 from . import COMPARISONS, REPORTS, comparison_function, report_function
 
@@ -37,7 +39,7 @@ def _variant_runs(run_dir: Path) -> tuple[str, dict[str, Path]] | None:
     scenario_file = run_dir / "scenario.yaml"
     if (run_dir / "metadata.yaml").is_file() or not scenario_file.is_file():
         return None
-    data = yaml.safe_load(scenario_file.read_text()) or {}
+    data = yaml.safe_load(read_text(scenario_file, "scenario file")) or {}
     runs = {name: run_dir / name for name in data.get("variants") or {} if (run_dir / name).is_dir()}
     return (str(data.get("comparison", "")), runs) if runs else None
 
@@ -46,10 +48,14 @@ def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
     """Write ``<bag_dir>/report/`` with the scenario's report (from ``scenario.yaml`` when
     ``name`` is None); returns the report directory and its metrics."""
     bag_dir = Path(bag_dir)
+    if not bag_dir.is_dir():
+        raise BagError(f"{bag_dir}: " + ("a file; give the bag's directory (the report goes into DIR/report/)"
+                                         if bag_dir.exists() else "no such directory"))
+    require_messages(bag_dir)
     if name is None:
         scenario_file = bag_dir / "scenario.yaml"
-        name = yaml.safe_load(scenario_file.read_text()).get("report", "generic") if scenario_file.is_file() \
-            else "generic"
+        name = (yaml.safe_load(read_text(scenario_file, "scenario file")) or {}).get("report", "generic") \
+            if scenario_file.is_file() else "generic"
     if name not in REPORTS:
         raise BagError(f"unknown report {name!r}; known: {', '.join(sorted(REPORTS))}")
     out = bag_dir / "report"
@@ -72,6 +78,7 @@ def _campaign_main(campaign_dir: Path) -> int:
     return 0
 
 
+@cli_boundary("gimbal-report")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="gimbal-report",

@@ -37,6 +37,7 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
+from gimbal_kinematics.cli_boundary import cli_boundary, finite
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 
@@ -158,6 +159,8 @@ def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
     """(b) or (c): the orchestrator's run, with its telemetry."""
     t0 = time.monotonic()
     r = run(scenario, out, mode, progress=False)
+    if r.interrupted:  # the graph stopped in order; the benchmark stops with it
+        raise KeyboardInterrupt(f"stopped the benchmark in its {mode} run; only --keep keeps its runs")
     total = time.monotonic() - t0
     step_ns = 1e9 / scenario.sim_rate_hz
     stamps, walls = r.clock_stamp, r.clock_wall
@@ -395,6 +398,8 @@ def _record_once(scenario: Scenario, compress: bool) -> dict[str, str]:
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-") as tmp:
         out = Path(tmp) / "run"
         result = run(scenario, out, "processes", progress=False, compress=compress)
+        if result.interrupted:
+            raise KeyboardInterrupt("stopped the recorder benchmark; nothing was kept")
         contents = scan(out)
         size = find_mcap(out)[0].stat().st_size
     rec = result.processes["bag_recorder"]
@@ -460,6 +465,16 @@ def bench_flexure(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Durations and factors finite and positive, before anything runs."""
+    for option in ("duration", "memory_factor"):
+        if getattr(args, option, None) is not None:
+            finite(getattr(args, option), f"--{option.replace('_', '-')}", 0.0, strict=True)
+    if getattr(args, "rel_tol", None) is not None:
+        finite(args.rel_tol, "--rel-tol", 0.0)
+
+
+@cli_boundary("gimbal-bench", interrupted="stopped the benchmark before its report; only --keep keeps its runs")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gimbal-bench", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -501,11 +516,8 @@ def main(argv: list[str] | None = None) -> int:
     if not argv or argv[0] not in ("run", "record", "flexure", "compare", "-h", "--help"):
         argv = ["run", *argv]
     args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except ScenarioError as exc:
-        print(f"gimbal-bench: {exc}", file=sys.stderr)
-        return 2
+    _check_numbers(args)
+    return args.func(args)
 
 
 if __name__ == "__main__":

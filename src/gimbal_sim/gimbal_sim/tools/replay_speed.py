@@ -108,7 +108,8 @@ def measure(bag: Path, timeout_s: float = 600.0) -> ReplaySpeed:
         rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
         try:
             player = BagPlayer(Path(bag), PlayOptions(rate=0.0, topics=list(EKF_INPUTS), wait_for_subscribers=1,
-                                                      pace_topics=[f"/{EKF}/progress"]), context=context)
+                                                      pace_topics=[f"/{EKF}/progress"], wait_timeout_s=120.0),
+                               context=context)
             ins = {x.log_time_ns for x in player.messages if x.topic == "/ins/imu"}
             ins_stamps = {m.imu_from_cdr(x.data).stamp_ns for x in player.messages if x.topic == "/ins/imu"}
             sub = player.create_subscription(
@@ -120,7 +121,7 @@ def measure(bag: Path, timeout_s: float = 600.0) -> ReplaySpeed:
             deadline = time.monotonic() + 120.0
             while sub.get_publisher_count() < 1 and time.monotonic() < deadline:
                 executor.spin_once(timeout_sec=0.05)
-            player.wait_for_readers(executor, timeout_s=120.0)
+            player.wait_for_readers(executor)
             t0, cpu0, node_cpu0 = time.monotonic(), time.process_time(), _cpu_s(proc.pid)
             player.play(executor)
             deadline = time.monotonic() + timeout_s

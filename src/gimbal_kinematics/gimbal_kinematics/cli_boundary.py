@@ -1,0 +1,126 @@
+"""The one error boundary every console command runs inside.
+
+Expected failures become one line on stderr, ``<command>: <what went wrong>``, and an exit
+code the shell can act on (:data:`EXIT_CODES`): bad usage or input (a missing or unreadable
+path, a file that is not text, YAML that does not parse, a value out of range, a damaged
+bag) exits 2; a run that started and failed exits 1; Ctrl-C exits 130 after saying what it
+stopped. Anything else is a bug: its traceback is kept, followed by a line saying so.
+
+Project errors that mean "bad input" derive from :class:`ValueError` (``ScenarioError``,
+``BagError``, ``CampaignError``, ``ParameterError``, ...), as do ``UnicodeDecodeError`` and
+the errors of ``float('x')``; a failed run raises :class:`RunFailed` or another
+:class:`RuntimeError`. An :class:`OSError` is a path's problem when it names the path;
+one that names none (``io.UnsupportedOperation``) is unexpected.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import os
+import sys
+import traceback
+from pathlib import Path
+from typing import Callable
+
+#: exit code -> meaning, the table docs/usage.md shows
+EXIT_CODES = {0: "success", 1: "the run or check failed (a node died or stalled, a bag differs, a run of the "
+                                "campaign failed, a wait timed out)",
+              2: "bad usage or input, refused before anything was changed", 130: "interrupted (Ctrl-C / SIGINT)"}
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+BUG_LINE = ("{prog}: this is a bug, not a problem with your input: please report it, with the traceback above and "
+            "the command line, on the project's issue tracker (README.md)")
+
+
+class UsageError(ValueError):
+    """Bad usage or input (exit 2); the message names the file, option or parameter."""
+
+
+class RunFailed(RuntimeError):
+    """The command started and failed (exit 1)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, caught where the command knows what it stopped and kept (exit 130)."""
+
+
+def _yaml_error() -> tuple[type[BaseException], ...]:
+    try:
+        import yaml
+    except ImportError:  # pragma: no cover - yaml is a pinned dependency
+        return ()
+    return (yaml.YAMLError,)
+
+
+def describe(exc: BaseException) -> str:
+    """One line for an expected failure."""
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+    if isinstance(exc, UnicodeDecodeError):
+        return f"not a text file ({exc.encoding} cannot decode byte {exc.start})"
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def outcome(prog: str, exc: BaseException, interrupted: str) -> int:
+    """Print the line for ``exc`` (a traceback and the bug line when it is unexpected); the exit code."""
+    if isinstance(exc, KeyboardInterrupt):
+        print(f"{prog}: interrupted: {str(exc) or interrupted}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if isinstance(exc, OSError) and exc.filename is not None or \
+            not isinstance(exc, OSError) and isinstance(exc, (ValueError, *_yaml_error())):
+        print(f"{prog}: {describe(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    if isinstance(exc, RuntimeError) and not isinstance(exc, (NotImplementedError, RecursionError)):
+        print(f"{prog}: {describe(exc)}", file=sys.stderr)
+        return EXIT_FAILED
+    traceback.print_exception(exc)
+    print(BUG_LINE.format(prog=prog), file=sys.stderr)
+    return EXIT_FAILED
+
+
+def cli_boundary(prog: str, interrupted: str = "stopped before the end; nothing was kept") -> Callable:
+    """Decorate a console ``main(argv) -> int``: expected failures become one line and an exit code."""
+    def wrap(main: Callable[..., int]) -> Callable[..., int]:
+        @functools.wraps(main)
+        def bounded(*args, **kwargs) -> int:
+            try:
+                return main(*args, **kwargs)
+            except (SystemExit, GeneratorExit):
+                raise
+            except BaseException as exc:  # noqa: BLE001 - the one place every failure is sorted
+                return outcome(prog, exc, interrupted)
+        return bounded
+    return wrap
+
+
+def read_text(path: Path | str, what: str) -> str:
+    """The text of ``path``; a missing, unreadable or non-text file is a :class:`UsageError` naming ``what``."""
+    path = Path(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except IsADirectoryError:
+        raise UsageError(f"{what} {path}: is a directory, not a file") from None
+    except OSError as exc:
+        raise UsageError(f"{what} {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{what} {path}: not a text file (byte {exc.start} is not UTF-8)") from None
+
+
+def finite(value: float, option: str, minimum: float | None = None, strict: bool = False) -> float:
+    """``value`` when finite (and >= / > ``minimum``); else a :class:`UsageError` naming ``option``."""
+    if not math.isfinite(value):
+        raise UsageError(f"{option} must be a finite number, got {value}")
+    if minimum is not None and (value <= minimum if strict else value < minimum):
+        raise UsageError(f"{option} must be {'>' if strict else '>='} {minimum:g}, got {value:g}")
+    return value
+
+
+def writable_dir(path: Path | str, option: str) -> Path:
+    """``path`` as an output directory to create: refused when it exists or its parent cannot be written."""
+    path = Path(path)
+    if path.exists():
+        raise UsageError(f"{option} {path}: already exists; not overwriting it")
+    parent = next((p for p in path.absolute().parents if p.exists()), None)
+    if parent is None or not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path}: cannot create it ({parent} is not a writable directory)")
+    return path
