@@ -19,7 +19,7 @@ and its error (``control_*_arcsec``: the pickoff δ, measured per run and report
 arc-seconds, while a 100 µg accelerometer bias alone is 20″ of tilt; the Schuler period
 (84 min) is 25,000 samples, a leg of the modulation (300 s) 1,500. The paper's 1 kHz loops
 are the servo experiment's (:mod:`.platform_servo`), not needed for navigation. Below ~2 Hz
-the sampled rotation itself leaks: at 1 Hz a north gyro drift leaves 30× more position
+the sampled rotation itself leaks: at 1 Hz a north gyro drift leaves 28× more position
 error after an hour with rotation on than at 2 Hz.
 
 Start. Both variants start perfectly aligned: platform level at azimuth 0 over a base at
@@ -31,14 +31,17 @@ navigated latitude and longitude through the WGS-84 radii, radial = their norm; 
 error = the navigated NED velocity. CEP rate: radial error at the end / duration, in n mile/h.
 
     python -m gimbal_sim.experiments.navigation run --duration 10800 --seed 1 --no-rotation
-    python -m gimbal_sim.experiments.navigation cep --seeds 1-20        # the campaign (gimbal-campaign too)
+    gimbal-campaign rotational_ins_navigation --seeds 1-20 --serial --out DIR      # the CEP campaign
+    python -m gimbal_sim.experiments.navigation cep DIR                 # its CEP50 table
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
 """
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -167,12 +170,11 @@ def median_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[
     coverage P(j ≤ B(n, ½) ≤ n − j) is at least ``confidence``."""
     x = np.sort(np.asarray(values, dtype=float))
     n = len(x)
-    j = 0
-    for cand in range(1, n // 2 + 1):
-        if stats.binom.cdf(n - cand, n, 0.5) - stats.binom.cdf(cand - 1, n, 0.5) >= confidence:
-            j = cand
-    if j == 0:
+    ranks = np.arange(1, n // 2 + 1)
+    ok = ranks[stats.binom.cdf(n - ranks, n, 0.5) - stats.binom.cdf(ranks - 1, n, 0.5) >= confidence]
+    if ok.size == 0:
         return float(np.median(x)), -math.inf, math.inf
+    j = int(ok[-1])
     return float(np.median(x)), float(x[j - 1]), float(x[n - j])
 
 
@@ -188,3 +190,81 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
     if "rotation_on" in out and "rotation_off" in out:
         out["ratio_off_on"] = out["rotation_off"]["cep50_nmi_h"] / out["rotation_on"]["cep50_nmi_h"]
     return out
+
+
+# ------------------------------------------------------------------------------ commands
+#: The closed-form cases at 3 h (test_navigation_closed_forms checks shorter windows): one
+#: error source each, no noise.
+CLOSED_FORM_CASES = {"north_gyro_0.03deg_h": {"gyro": GyroParams(bias_deg_h=(0.03, 0.0, 0.0))},
+                     "north_accel_100ug": {"accel": AccelerometerParams(bias_ug=(100.0, 0.0, 0.0))},
+                     "vertical_gyro_0.03deg_h": {"gyro": GyroParams(bias_deg_h=(0.0, 0.0, 0.03))}}
+
+
+def closed_form_figures(duration_s: float = 10800.0, rate_hz: float = NAV_RATE_HZ) -> dict[str, dict[str, float]]:
+    """Per :data:`CLOSED_FORM_CASES` case the radial error at the end [m] with rotation off
+    and on, and their ratio."""
+    out = {}
+    for name, sensors in CLOSED_FORM_CASES.items():
+        r = {}
+        for rotate in (False, True):
+            kw = {"gyro": GyroParams(), "accel": AccelerometerParams(), **sensors}
+            r[rotate] = run_navigation(duration_s, 0, rotate=rotate, rate_hz=rate_hz, resolver=EncoderParams(),
+                                       record_every_s=60.0, **kw)["radial_error_m"]
+        out[name] = {"rotation_off_m": r[False], "rotation_on_m": r[True], "off_over_on": r[False] / r[True]}
+    return out
+
+
+def _campaign_table(summary: dict[str, Any]) -> str:
+    rows = [f"{'variant':<14} {'runs':>4} {'CEP50 [n mile/h]':>17} {'95 % interval':>20} {'control rms [″]':>16}"]
+    for v in VARIANTS:
+        if v in summary:
+            s = summary[v]
+            lo, hi = s["cep50_ci95_nmi_h"]
+            rows.append(f"{v:<14} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {f'[{lo:.3f}, {hi:.3f}]':>20} "
+                        f"{s['control_rms_arcsec_median']:>16.2f}")
+    if "ratio_off_on" in summary:
+        rows.append(f"ratio rotation_off / rotation_on: {summary['ratio_off_on']:.2f}   (paper 3: 2 / 0.38 = 5.3)")
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.navigation",
+                                     description="Paper 3 navigation on a static base, no ROS (module docstring).")
+    sub = parser.add_subparsers(dest="what", required=True)
+    one = sub.add_parser("run", help="one run's figures")
+    one.add_argument("--duration", type=float, default=10800.0)
+    one.add_argument("--seed", type=int, default=1)
+    one.add_argument("--rate", type=float, default=NAV_RATE_HZ, help="IMU/servo/navigator rate [Hz]")
+    one.add_argument("--no-rotation", action="store_true")
+    cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
+                                     "rotational_ins_navigation --seeds 1-20 --out DIR)")
+    cep.add_argument("campaign_dir")
+    cf = sub.add_parser("closed-forms", help="one error source at a time, rotation off and on, radial error at the end")
+    cf.add_argument("--duration", type=float, default=10800.0)
+    cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
+    args = parser.parse_args(argv)
+    if args.what == "run":
+        m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate)
+        for key, value in m.items():
+            if key != "series":
+                print(f"{key:36s} {value}")
+        return 0
+    if args.what == "closed-forms":
+        for name, r in closed_form_figures(args.duration, args.rate).items():
+            print(f"{name:26s} off {r['rotation_off_m']:10.1f} m   on {r['rotation_on_m']:10.1f} m   "
+                  f"off/on {r['off_over_on']:8.2f}")
+        return 0
+    runs_dir = Path(args.campaign_dir) / "runs"
+    if not runs_dir.is_dir():
+        print(f"navigation cep: {args.campaign_dir}: no runs/ directory; not a campaign directory", file=sys.stderr)
+        return 2
+    runs: dict[str, list[dict]] = {}
+    for path in sorted(runs_dir.glob("*/report/metrics.json")):
+        m = json.loads(path.read_text())["navigation"]
+        runs.setdefault("rotation_on" if m["rotate"] else "rotation_off", []).append(m)
+    print(_campaign_table(cep_summary(runs)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
