@@ -326,6 +326,25 @@ def platform_rate_s(
     return np.array((x, y, z + da))
 
 
+def outer_member_rates(
+    omega_b_b: Sequence[float], angles: Sequence[float], rates: Sequence[float]
+) -> tuple[float, float, float, float]:
+    """Inertial rate [rad/s] of each joint's outer member about that joint's axis, in (a, q, p, r)
+    order: the inner-roll gimbal about q-z, the pitch gimbal about p-x, the outer-roll gimbal
+    about r-y, the base about b-x (the recursion of :func:`platform_rate_s`, stopped before
+    each joint's own rate). What a moving base feeds into each gimbal loop."""
+    x, y, z = _unpack(omega_b_b, 3, "omega_b_b")
+    a, q, p, r = _unpack(angles, 4, "angles")
+    _, dq, dp, dr = _unpack(rates, 4, "rates")
+    w_r = x
+    x, y, z = _r1(math.cos(r), math.sin(r), x, y, z)
+    w_p = y
+    x, y, z = _r2(math.cos(p), math.sin(p), x + dr, y, z)
+    w_q = x
+    x, y, z = _r1(math.cos(q), math.sin(q), x, y + dp, z)
+    return z, w_q, w_p, w_r
+
+
 def _pitch_gimbal_carried(
     omega_b_b: Sequence[float], p: float, r: float, dr: float
 ) -> tuple[float, float, float]:

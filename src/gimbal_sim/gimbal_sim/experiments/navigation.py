@@ -86,13 +86,16 @@ def navigation_servo_params(lat_deg: float, rotate: bool, rate_hz: float = NAV_R
 
 def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool = True, rate_hz: float = NAV_RATE_HZ,
                    lat_deg: float = 40.0, gyro: GyroParams = PAPER3_NAV_GYRO, accel: AccelerometerParams = PAPER3_NAV_ACCEL,
-                   resolver: EncoderParams = PAPER3_RESOLVER, record_every_s: float = 10.0) -> dict[str, Any]:
-    """One static-base navigation run (module docstring); returns its metrics and ``series``
+                   resolver: EncoderParams = PAPER3_RESOLVER, record_every_s: float = 10.0,
+                   ship: bool = False) -> dict[str, Any]:
+    """One navigation run (module docstring), on a static base or (``ship``) on paper 5's
+    moored ship (roll 5° / 10 s, pitch 3° / 6 s, heading 3° / 15 s) whose motion enters each
+    gimbal loop (``platform_base_motion``); returns its metrics and ``series``
     (every ``record_every_s``: t, north/east/radial error [m], NED velocity [m/s], platform
     tilt (east, north) [rad] from the truth, servo pickoff [rad])."""
-    core = VehicleCore(VehicleConfig(profile="static", profile_params={"lat_deg": lat_deg},
+    core = VehicleCore(VehicleConfig(profile="paper5_ship" if ship else "static", profile_params={"lat_deg": lat_deg},
                                      plant="four_gimbal_platform", sim_rate_hz=rate_hz, duration_s=duration_s,
-                                     platform_integrator="quasi_static"))
+                                     platform_integrator="quasi_static", platform_base_motion=ship))
     suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=rate_hz, seed=seed,
                                           platform_imu_rate_hz=rate_hz, resolver_rate_hz=rate_hz,
                                           platform_gyro=gyro, platform_accel=accel, resolver=resolver))
@@ -236,6 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     one.add_argument("--seed", type=int, default=1)
     one.add_argument("--rate", type=float, default=NAV_RATE_HZ, help="IMU/servo/navigator rate [Hz]")
     one.add_argument("--no-rotation", action="store_true")
+    one.add_argument("--ship", action="store_true", help="paper 5's moored ship instead of the static base")
     cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
                                      "rotational_ins_navigation --seeds 1-20 --out DIR)")
     cep.add_argument("campaign_dir")
@@ -244,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
     args = parser.parse_args(argv)
     if args.what == "run":
-        m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate)
+        m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship)
         for key, value in m.items():
             if key != "series":
                 print(f"{key:36s} {value}")
