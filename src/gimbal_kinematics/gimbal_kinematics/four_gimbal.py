@@ -326,6 +326,25 @@ def platform_rate_s(
     return np.array((x, y, z + da))
 
 
+def outer_member_rates(
+    omega_b_b: Sequence[float], angles: Sequence[float], rates: Sequence[float]
+) -> tuple[float, float, float, float]:
+    """Inertial rate [rad/s] of each joint's outer member about that joint's axis, in (a, q, p, r)
+    order: the inner-roll gimbal about q-z, the pitch gimbal about p-x, the outer-roll gimbal
+    about r-y, the base about b-x (the recursion of :func:`platform_rate_s`, stopped before
+    each joint's own rate). What a moving base feeds into each gimbal loop."""
+    x, y, z = _unpack(omega_b_b, 3, "omega_b_b")
+    a, q, p, r = _unpack(angles, 4, "angles")
+    _, dq, dp, dr = _unpack(rates, 4, "rates")
+    w_r = x
+    x, y, z = _r1(math.cos(r), math.sin(r), x, y, z)
+    w_p = y
+    x, y, z = _r2(math.cos(p), math.sin(p), x + dr, y, z)
+    w_q = x
+    x, y, z = _r1(math.cos(q), math.sin(q), x, y + dp, z)
+    return z, w_q, w_p, w_r
+
+
 def _pitch_gimbal_carried(
     omega_b_b: Sequence[float], p: float, r: float, dr: float
 ) -> tuple[float, float, float]:
@@ -464,11 +483,19 @@ def command_rate_s(
     w = earth_rate_n(lat)
     if v_n is not None:
         w = w + transport_rate_n(lat, h, np.asarray(v_n, dtype=float))
-    x, y, z = _r3(math.cos(phi_z), math.sin(phi_z), float(w[0]), float(w[1]), float(w[2]))
-    out = np.array((x, y, z + phi_z_dot))
+    out = np.array(command_rate_from_n(w, phi_z, phi_z_dot))
     if drift_s is not None:
         out -= np.asarray(_unpack(drift_s, 3, "drift_s"))
     return out
+
+
+def command_rate_from_n(omega_n: Sequence[float], phi_z: float, phi_z_dot: float) -> tuple[float, float, float]:
+    """ω_c^s = rot3(φz) ω_c^n + φ̇z e3 [rad/s]: a level command rate ω_c^n (NED) resolved into
+    the platform turned by φz [rad] about NED down, plus the modulation rate φ̇z [rad/s] (the
+    form of :func:`command_rate_s`; a navigator's ω_c^n carries its own earth and transport
+    rates and drift compensation)."""
+    x, y, z = _r3(math.cos(phi_z), math.sin(phi_z), float(omega_n[0]), float(omega_n[1]), float(omega_n[2]))
+    return x, y, z + phi_z_dot
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,8 @@ from gimbal_kinematics.cli_boundary import cli_boundary, finite, read_text, writ
 
 from .campaign.report import diff_results
 from .campaign.spec import ENGINES, KEEP_BAGS, LARGE_RUNS, MODES, SAMPLINGS, CampaignError, CampaignSpec, \
-    load_spec_file, spec_from_mapping
-from .experiments.registry import run_campaign
+    load_spec_file, parse_seeds, spec_from_mapping
+from .experiments.registry import EXPERIMENTS, run_campaign
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -91,9 +91,24 @@ def _assignments(items: list[str] | None, option: str) -> dict[str, str]:
     return out
 
 
+def _experiment_spec(args: argparse.Namespace) -> CampaignSpec:
+    """An experiment runner's campaign named like its scenario (``rotational_ins_navigation``):
+    the runner's own loop (``--engine core``, the default) or the scenario's nodes."""
+    for flag in ("sweep", "set", "sampling", "samples"):
+        if getattr(args, flag):
+            raise CampaignError(f"--{flag}: experiment {args.campaign} takes seeds, variants, --duration and --engine")
+    options = (("duration_s", float(args.duration)),) if args.duration is not None else ()
+    return CampaignSpec(scenario="", experiment=args.campaign, seeds=parse_seeds(args.seeds or "0", "--seeds"),
+                        variants=tuple(args.variant or ()), engine=args.engine or "core",
+                        mode=args.mode or "container", options=options)
+
+
 def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
     """The campaign the flags (and file) ask for; None for a bare ``--resume --out DIR``."""
     data: dict[str, Any] = {}
+    if args.campaign and not _is_campaign_file(args.campaign) and args.campaign in EXPERIMENTS \
+            and EXPERIMENTS[args.campaign].graph is not None and EXPERIMENTS[args.campaign].graph.scenario == args.campaign:
+        return _experiment_spec(args)
     if args.campaign and _is_campaign_file(args.campaign):
         data = load_spec_file(Path(args.campaign)).to_dict()
     elif args.campaign:
@@ -167,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         raise CampaignError(f"--workers must be >= 1, got {args.workers}")
     if args.scheduler and (args.serial or args.workers):
         raise CampaignError("--scheduler uses that cluster's workers: drop --serial / --workers")
-    out = args.out or Path("bags") / "campaigns" / f"{time.strftime('%Y%m%d-%H%M%S')}_{Path(spec.scenario).stem}"
+    out = args.out or Path("bags") / "campaigns" / f"{time.strftime('%Y%m%d-%H%M%S')}_{spec.experiment or Path(spec.scenario).stem}"
     if not args.resume and not out.exists():
         writable_dir(out, "--out")
     result = run_campaign(spec, out, resume=args.resume, scheduler=args.scheduler, workers=args.workers,

@@ -28,12 +28,15 @@ class Bus:
     estimate (None when not produced this step), with the estimator's whole output of the
     step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers."""
 
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf")
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf",
+                 "platform_imu", "resolvers", "nav")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
         self.ekf = None
+        # paper 3's platform (:mod:`.platform_stages`): its IMU and resolver samples, the navigator's output
+        self.platform_imu = self.resolvers = self.nav = None
 
 
 def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:

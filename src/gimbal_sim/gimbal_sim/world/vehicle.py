@@ -32,7 +32,7 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from gimbal_kinematics.four_gimbal import dcm_sb, platform_rate_s
+from gimbal_kinematics.four_gimbal import dcm_sb, outer_member_rates, platform_rate_s
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import (
     dcm_to_quat, euler321_to_dcm, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
@@ -59,7 +59,15 @@ class VehicleConfig:
     ``profile_params`` is the mapping :func:`.plant.motion_profiles.make_profile` takes.
     ``initial_joints_deg``: (ψm, θm) for the gimbal; (θ_a, θ_q, θ_p, θ_r) for the platform.
     ``platform_substeps``: RK4 substeps per simulation step of the DC-motor loops (their
-    electrical time constant is about 1 ms).
+    electrical time constant is about 1 ms). ``platform_integrator``: ``rk4`` (those substeps)
+    or ``quasi_static`` (one implicit step per simulation step with the armature current at
+    its quasi-static value, :meth:`.plant.platform_loops.PlatformAxis.step_quasi_static`: for
+    control rates of tens of Hz, where RK4 would need a substep per 2 ms).
+    ``platform_base_motion``: the host's motion enters each gimbal loop (paper 3 Fig. 2): the
+    joint states stay relative to the outer member, whose inertial rate ω_A about the joint
+    axis (:func:`gimbal_kinematics.four_gimbal.outer_member_rates`) accelerates and so torques
+    the gimbal by −J ω̇_A (differenced over the last step), while the bearing friction and the
+    back-EMF see the relative rate; off (default), the joints see no base motion.
     """
 
     profile: str = "paper1_land_vehicle"
@@ -70,6 +78,8 @@ class VehicleConfig:
     earth_rate: bool = True
     initial_joints_deg: tuple[float, ...] = ()
     platform_substeps: int = 4
+    platform_integrator: str = "rk4"
+    platform_base_motion: bool = False
 
     def __post_init__(self) -> None:
         if self.profile not in PROFILE_NAMES:
@@ -89,6 +99,8 @@ class VehicleConfig:
             raise ValueError("initial_joints_deg must be finite")
         if self.platform_substeps < 1:
             raise ValueError(f"platform_substeps must be >= 1, got {self.platform_substeps}")
+        if self.platform_integrator not in ("rk4", "quasi_static"):
+            raise ValueError(f"platform_integrator must be rk4 or quasi_static, got {self.platform_integrator!r}")
 
     @classmethod
     def from_values(cls, values: dict) -> VehicleConfig:
@@ -179,6 +191,18 @@ class VehicleCore:
             self._platform_x = [(angle, 0.0, 0.0) for angle in init]
         self._q_nb = quat_canonical(quat_from_euler321(self._host.roll, self._host.pitch, self._host.yaw))
         self._delta = (0.0, 0.0, 0.0)
+        self._outer_rates: tuple[float, ...] | None = None  # ω_A of the last step (platform_base_motion)
+
+    def _base_torques(self) -> tuple[float, ...]:
+        """−J ω̇_A per platform joint (a, q, p, r) [N·m], ω̇_A differenced from the last step."""
+        host = self._host
+        omega_b = inertial_rates_trig(host, self.env.omega_in_n, math.cos(host.roll), math.sin(host.roll),
+                                      math.cos(host.pitch), math.sin(host.pitch))[:3]
+        w = outer_member_rates(omega_b, [x[0] for x in self._platform_x], [x[1] for x in self._platform_x])
+        last = self._outer_rates if self._outer_rates is not None else w
+        self._outer_rates = w
+        dt = self.config.dt
+        return tuple(-axis.params.inertia_kg_m2 * (w1 - w0) / dt for axis, w1, w0 in zip(self._platform, w, last))
 
     @property
     def t(self) -> float:
@@ -207,10 +231,15 @@ class VehicleCore:
             host1 = self.profile.sample((self.k + 1) * dt)
         if self._platform:
             self._applied = self.saturate(command)
-            self._platform_x = [
-                axis.step(x, v, dt, substeps=self.config.platform_substeps)
-                for axis, x, v in zip(self._platform, self._platform_x, self._applied)
-            ]
+            torques = self._base_torques() if self.config.platform_base_motion else (0.0, 0.0, 0.0, 0.0)
+            if self.config.platform_integrator == "quasi_static":
+                self._platform_x = [axis.step_quasi_static(x, v, dt, disturbance_nm=d) for axis, x, v, d
+                                    in zip(self._platform, self._platform_x, self._applied, torques)]
+            else:
+                self._platform_x = [
+                    axis.step(x, v, dt, disturbance_nm=d, substeps=self.config.platform_substeps)
+                    for axis, x, v, d in zip(self._platform, self._platform_x, self._applied, torques)
+                ]
         q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
         # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
         self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
