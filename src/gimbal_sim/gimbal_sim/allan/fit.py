@@ -17,18 +17,20 @@ x = 1.893 (the bump a correlation time shows at τ ≈ 1.89 T). The flicker ("bi
 instability") floor of IEEE 952, σ² = (2 ln 2/π) B², is reported as read off the curve:
 B = min ADEV / 0.664.
 
-The fit (:func:`fit_noise_terms`) is weighted least squares on the AVAR with non-negative
-coefficients (``scipy.optimize.nnls``). The weight of each τ is the inverse variance of its
-estimate, ``Var[σ̂²] = 2 σ⁴ / edf``, with the equivalent degrees of freedom of Greenhall
-(``allantools.edf_greenhall``, overlapping estimator) for the noise type that dominates the
-model at that τ, and σ⁴ from the model itself (iteratively reweighted: weights from the
-measured values would favour the τ that happen to come out low). The correlation time is
-found by minimising χ² over log T (profile); terms are then removed one at a time, the
-least useful first, while removing one raises χ² by less than ``DROP_CHI2`` (a term the
-data cannot see is reported as 0 with the 1σ it could have had). Uncertainties are the
-1σ of the linearised fit, ``(Jᵀ W J)⁻¹`` over the coefficients and log T, scaled up by the
-reduced χ² when it exceeds 1. Neighbouring octave points of an overlapping ADEV share
-data, so these are approximate; the round-trip experiment measures the actual scatter.
+The fit (:func:`fit_noise_terms`) is generalised least squares on the AVAR with non-negative
+coefficients (``scipy.optimize.nnls`` on the whitened system). Neighbouring octave points of
+an overlapping ADEV share data, so their errors correlate (0.5 to 0.9 between neighbours):
+the first pass weights them as independent, with the variance ``2 σ⁴ / edf`` of Greenhall's
+equivalent degrees of freedom (``allantools.edf_greenhall``, overlapping estimator) for the
+noise type that dominates there; later passes use the full covariance of the points under
+the fitted model (:mod:`.covariance`), iterated until the model settles. The correlation time
+is found by minimising χ² over log T (profile). Terms are chosen by forward selection: from
+none, the term whose χ² drop most exceeds the χ² quantile of ``1 - ALPHA`` for the parameters
+it adds (two for the Gauss-Markov σ and T), scaled by the reduced χ² when above 1, is added
+while one does, and only if it passes the same test with the covariance of the model without
+it (the null hypothesis). A term the data do not support is reported as not detected, with
+the 1σ it could have had. Uncertainties are the 1σ of the linearised fit, ``(Jᵀ C⁻¹ J)⁻¹``
+over the coefficients and log T, scaled up by the reduced χ² when it exceeds 1.
 """
 from __future__ import annotations
 
@@ -285,9 +287,7 @@ def fit_noise_terms(curve: AllanCurve, terms: tuple[str, ...] = TERMS, iteration
     # first weights: independent points of Greenhall's EDF; then the model's full covariance
     wh = np.diag(np.sqrt(curve.edf_for(alpha) / (2.0 * np.maximum(model, 1e-6 * y.max()) ** 2)))
     for _ in range(iterations):
-        active = list(cols)
-        tc, c, x2 = _fit_cols(curve, wh, active, tc_bounds)
-        active, tc, c, x2 = _eliminate(curve, wh, active, tc, c, x2, tc_bounds)
+        active, tc, c = _select(curve, wh, cols, tc_bounds)
         new_model = term_basis(taus, tc) @ c
         new_alpha = slope_alpha(taus, new_model)
         done = np.allclose(new_model, model, rtol=1e-4, atol=0.0) and np.array_equal(new_alpha, alpha)
@@ -313,26 +313,38 @@ def term_dof(j: int) -> int:
     return 2 if TERMS[j] == "gauss_markov" else 1
 
 
-def _eliminate(curve: AllanCurve, wh, active: list[int], tc, c, x2, tc_bounds):
-    """Backward elimination: drop the term whose removal costs least while the rise of the
-    (generalised) χ² is below the χ² quantile of ``1 - ALPHA`` for the parameters it adds,
-    scaled by the reduced χ² when the model misfits (module docstring)."""
+def _select(curve: AllanCurve, wh, cols: list[int], tc_bounds) -> tuple[list[int], float | None, np.ndarray]:
+    """Forward selection: from no term, add the candidate whose χ² drop exceeds its threshold
+    (:func:`drop_threshold`, times the reduced χ² of the larger model when above 1) by the
+    most, while one does and it passes the same test under the null (module docstring).
+    Adding, not removing: terms that mimic another together (a ramp and a long correlation
+    time look like a rate random walk over a short record) are never both needed."""
     n = len(curve.taus)
-    while len(active) > 1:
-        scale = max(1.0, x2 / max(n - sum(term_dof(j) for j in active), 1))
-        trials = [(_fit_cols(curve, wh, [k for k in active if k != j], tc_bounds), j) for j in active]
-        (tc_r, c_r, x2_r), j = min(trials, key=lambda t: t[0][2] - drop_threshold(t[1]))
-        if x2_r - x2 >= drop_threshold(j) * scale and _supported_under_null(curve, active, j, tc_r, c_r, tc_bounds):
+    active: list[int] = []
+    tc, c, x2 = None, np.zeros(len(TERMS)), _solve(term_basis(curve.taus, None), curve.avar, wh, [])[1]
+    while True:
+        trials = []
+        for j in (k for k in cols if k not in active):
+            tc_j, c_j, x2_j = _fit_cols(curve, wh, sorted(active + [j]), tc_bounds)
+            if j == 2 and tc_j is None:
+                continue  # no identifiable correlation time: nothing new
+            scale = max(1.0, x2_j / max(n - sum(term_dof(k) for k in active + [j]), 1))
+            trials.append(((x2 - x2_j) / scale - drop_threshold(j), j, tc_j, c_j, x2_j))
+        if not trials:
             break
-        active.remove(j)
-        tc, c, x2 = tc_r, c_r, x2_r
-    return active, tc, c, x2
+        margin, j, tc_j, c_j, x2_j = max(trials, key=lambda t: t[0])
+        if margin <= 0.0 or not _supported_under_null(curve, sorted(active + [j]), j, tc, c, tc_bounds):
+            break
+        active, tc, c, x2 = sorted(active + [j]), tc_j, c_j, x2_j
+    return active, tc, c
 
 
 def _supported_under_null(curve: AllanCurve, active: list[int], j: int, tc_r, c_r, tc_bounds) -> bool:
     """Term ``j`` still passes the test when the points' covariance is that of the model without
     it (the null hypothesis): a covariance that already holds the term would weight the τ where
-    it shows as better known, and so argue for it."""
+    it shows as better known, and so argue for it. The first term has no null model to test."""
+    if not np.any(c_r > 0.0):
+        return True
     wh0 = _whitening(curve, c_r, tc_r, term_basis(curve.taus, tc_r) @ c_r)
     n = len(curve.taus)
     _, _, x2_full = _fit_cols(curve, wh0, active, tc_bounds)
