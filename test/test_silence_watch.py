@@ -84,3 +84,38 @@ def test_saved_params_files_hold_no_orchestrator_timing(tmp_path: Path):
     for name, timing in chosen.items():
         doc = yaml.safe_load((tmp_path / "run2" / "params" / f"{name}.yaml").read_text())
         assert doc[name]["ros__parameters"]["timing"] == timing
+
+
+def test_a_lockstep_node_started_alone_says_it_gets_no_step(ros_domain_env, tmp_path):
+    """A controller told timing:=lockstep hears gyro samples (nothing else, no /clock) and
+    releases no step: within a few seconds it logs a warning naming the parameter."""
+    import subprocess
+
+    from sensor_msgs.msg import Imu
+
+    from conftest import VENV_BIN
+    from gimbal_kinematics.ros.qos import GRAPH_QOS
+    from gimbal_sim.graph.orchestrator import stop_processes
+    from ros_harness import harness_node, spin_until
+
+    log_path = tmp_path / "node.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen([str(VENV_BIN / "los_rate_controller"), "--ros-args", "-p", "timing:=lockstep"],
+                                env=ros_domain_env, stdout=log, stderr=subprocess.STDOUT)
+        try:
+            with harness_node(int(ros_domain_env["ROS_DOMAIN_ID"]), "gyro_feeder") as (node, executor):
+                pub = node.create_publisher(Imu, "/gimbal/imu", GRAPH_QOS)
+                assert spin_until(executor, lambda: pub.get_subscription_count() > 0, 60.0)
+                sent = [0]
+
+                def publish_and_check() -> bool:
+                    msg = Imu()
+                    sent[0] += 1
+                    msg.header.stamp.nanosec = sent[0] * 1_000_000  # 1 kHz steps, never complete
+                    pub.publish(msg)
+                    return "parameter 'timing'" in log_path.read_text()
+                # the warning comes SILENCE_S after the first sample; the bound is for a loaded machine
+                assert spin_until(executor, publish_and_check, 6 * SILENCE_S), log_path.read_text()[-2000:]
+        finally:
+            stop_processes([proc])
+    assert "timing:=free" in log_path.read_text()
