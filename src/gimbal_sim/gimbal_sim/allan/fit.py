@@ -26,7 +26,8 @@ noise type that dominates there; later passes use the full covariance of the poi
 the fitted model (:mod:`.covariance`), iterated until the model settles. The correlation time
 is found by minimising χ² over log T (profile). Terms are chosen by forward selection: from
 none, the term whose χ² drop most exceeds the χ² quantile of ``1 - ALPHA`` for the parameters
-it adds (two for the Gauss-Markov σ and T), scaled by the reduced χ² when above 1, is added
+it adds (two for the Gauss-Markov σ and T), scaled by the reduced χ² of the model with every
+candidate term when above 1, is added
 while one does, and only if it passes the same test with the covariance of the model without
 it (the null hypothesis). A term the data do not support is reported as not detected, with
 the 1σ it could have had. Uncertainties are the 1σ of the linearised fit, ``(Jᵀ C⁻¹ J)⁻¹``
@@ -315,42 +316,51 @@ def term_dof(j: int) -> int:
 
 def _select(curve: AllanCurve, wh, cols: list[int], tc_bounds) -> tuple[list[int], float | None, np.ndarray]:
     """Forward selection: from no term, add the candidate whose χ² drop exceeds its threshold
-    (:func:`drop_threshold`, times the reduced χ² of the larger model when above 1) by the
-    most, while one does and it passes the same test under the null (module docstring).
+    (:func:`drop_threshold`, times :func:`_misfit_scale`) by the
+    most among those that also pass the test under the null, while one does (module
+    docstring).
     Adding, not removing: terms that mimic another together (a ramp and a long correlation
     time look like a rate random walk over a short record) are never both needed."""
-    n = len(curve.taus)
     active: list[int] = []
     tc, c, x2 = None, np.zeros(len(TERMS)), _solve(term_basis(curve.taus, None), curve.avar, wh, [])[1]
+    scale = _misfit_scale(curve, wh, cols, tc_bounds)
     while True:
         trials = []
         for j in (k for k in cols if k not in active):
             tc_j, c_j, x2_j = _fit_cols(curve, wh, sorted(active + [j]), tc_bounds)
             if j == 2 and tc_j is None:
                 continue  # no identifiable correlation time: nothing new
-            scale = max(1.0, x2_j / max(n - sum(term_dof(k) for k in active + [j]), 1))
             trials.append(((x2 - x2_j) / scale - drop_threshold(j), j, tc_j, c_j, x2_j))
-        if not trials:
+        # the best candidate that passes both tests; none: the model is complete
+        passing = (t for t in sorted(trials, key=lambda t: -t[0])
+                   if t[0] > 0.0 and _supported_under_null(curve, cols, sorted(active + [t[1]]), t[1], tc, c,
+                                                           tc_bounds))
+        best = next(passing, None)
+        if best is None:
             break
-        margin, j, tc_j, c_j, x2_j = max(trials, key=lambda t: t[0])
-        if margin <= 0.0 or not _supported_under_null(curve, sorted(active + [j]), j, tc, c, tc_bounds):
-            break
-        active, tc, c, x2 = sorted(active + [j]), tc_j, c_j, x2_j
+        _, j, tc, c, x2 = best
+        active = sorted(active + [j])
     return active, tc, c
 
 
-def _supported_under_null(curve: AllanCurve, active: list[int], j: int, tc_r, c_r, tc_bounds) -> bool:
+def _misfit_scale(curve: AllanCurve, wh, cols: list[int], tc_bounds) -> float:
+    """The reduced χ² of the model with every candidate term, when above 1: the misfit no
+    selection can remove (a smaller model's would count a missing term as noise)."""
+    x2 = _fit_cols(curve, wh, cols, tc_bounds)[2]
+    return max(1.0, x2 / max(len(curve.taus) - sum(term_dof(k) for k in cols), 1))
+
+
+def _supported_under_null(curve: AllanCurve, cols: list[int], active: list[int], j: int, tc_r, c_r,
+                          tc_bounds) -> bool:
     """Term ``j`` still passes the test when the points' covariance is that of the model without
     it (the null hypothesis): a covariance that already holds the term would weight the τ where
     it shows as better known, and so argue for it. The first term has no null model to test."""
     if not np.any(c_r > 0.0):
         return True
     wh0 = _whitening(curve, c_r, tc_r, term_basis(curve.taus, tc_r) @ c_r)
-    n = len(curve.taus)
-    _, _, x2_full = _fit_cols(curve, wh0, active, tc_bounds)
-    _, _, x2_rest = _fit_cols(curve, wh0, [k for k in active if k != j], tc_bounds)
-    scale = max(1.0, x2_full / max(n - sum(term_dof(k) for k in active), 1))
-    return x2_rest - x2_full >= drop_threshold(j) * scale
+    _, _, x2_with = _fit_cols(curve, wh0, active, tc_bounds)
+    _, _, x2_without = _fit_cols(curve, wh0, [k for k in active if k != j], tc_bounds)
+    return x2_without - x2_with >= drop_threshold(j) * _misfit_scale(curve, wh0, cols, tc_bounds)
 
 
 def drop_threshold(j: int) -> float:

@@ -134,6 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for done in pool.map(one_record, *zip(*jobs)):
             rows.extend(done)
+            print(json.dumps(done), file=sys.stderr, flush=True)  # one line per record: a partial study survives
     summary = summarise(rows)
     print(table(summary, args.records, args.hours))
     print(f"({len(jobs)} records in {time.perf_counter() - t0:.0f} s)")
