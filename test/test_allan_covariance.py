@@ -27,7 +27,7 @@ def test_diagonal_is_greenhalls_edf(term, alpha):
 
 def test_whole_matrix_matches_a_monte_carlo():
     rng = np.random.default_rng(7)
-    n, runs, ms = 1024, 1500, [1, 2, 4, 8, 16, 32]
+    n, runs, ms = 1024, 800, [1, 2, 4, 8, 16, 32]
     N, K = 1.0, 0.05
     curves = []
     for _ in range(runs):
@@ -35,9 +35,9 @@ def test_whole_matrix_matches_a_monte_carlo():
         curves.append(allan_curve([y], TAU0, ms[-1] * TAU0).avar)
     mc = np.cov(np.array(curves).T)
     cov = avar_covariance([n], ms, TAU0, {"white": N, "rrw": K}, None)
-    # variances to the Monte Carlo's own scatter (about sqrt(2/runs) = 4 % for a variance of a
+    # variances to the Monte Carlo's own scatter (about sqrt(2/runs) = 5 % for a variance of a
     # variance, more for the skewed long-τ points); correlations to 3/sqrt(runs)
-    np.testing.assert_allclose(np.diag(cov), np.diag(mc), rtol=0.15)
+    np.testing.assert_allclose(np.diag(cov), np.diag(mc), rtol=0.2)
     corr = cov / np.sqrt(np.outer(np.diag(cov), np.diag(cov)))
     mc_corr = mc / np.sqrt(np.outer(np.diag(mc), np.diag(mc)))
     np.testing.assert_allclose(corr, mc_corr, atol=3.0 / math.sqrt(runs) + 0.02)
