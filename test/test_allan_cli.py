@@ -185,3 +185,32 @@ def test_accelerometer_field_in_si_units(tmp_path, capsys):
     mean = np.mean([a["vrw_m_s2_rt_hz"] for a in doc["axes"].values()])
     assert params == {"platform_accel_noise_ug_rt_hz": pytest.approx(mean / 9.80665e-6)}
     assert "no filter" in (tmp_path / "o" / "filters.yaml").read_text()
+
+
+@pytest.mark.parametrize("rate_hz", [100.0, 1000.0])
+def test_a_three_second_bag_is_refused_naming_the_minimum_length(tmp_path, capsys, rate_hz):
+    n = int(3.0 * rate_hz)
+    stamps = EPOCH_NS + np.arange(n, dtype=np.int64) * int(1e9 / rate_hz)
+    b = write_imu_bag(tmp_path / "short", stamps, _gyro(n))
+    code, out, err = _run(capsys, b, "--topic", "/imu", "--out", tmp_path / "o", "--no-progress")
+    # ten octave tau values (2^9 samples) and ten times the longest of them: 5120 samples
+    assert code == 2 and f"minimum length is {5120 / rate_hz:g} s" in err and "lasts 3 s" in err, err
+    assert "Traceback" not in err and not (tmp_path / "o").exists()
+
+
+def test_a_dead_axis_is_not_detected_and_not_averaged_as_zero(tmp_path, capsys):
+    g = _gyro()
+    g[:, 1] = 7e-5  # stuck: the output never changes
+    b = write_imu_bag(tmp_path / "dead", _stamps(), g)
+    code, out, err = _run(capsys, b, "--topic", "/imu", "--out", tmp_path / "o", "--no-progress")
+    assert code == 0, err
+    doc = json.loads((tmp_path / "o" / "allan.json").read_text())
+    dead = doc["axes"]["y"]
+    assert dead["dead"] and dead["detected"] == [] and dead["arw_deg_rt_h"] is None
+    assert "arw_deg_rt_h" in dead["not_detected"] and "y: dead" in out
+    live = [doc["axes"][a]["arw_deg_rt_h"] for a in ("x", "z")]
+    assert all(v == pytest.approx(ARW * 60 * 180 / math.pi, rel=0.1) for v in live)
+    # the simulator gets the mean of the axes that detected the term, not a 0 for the dead one
+    text = (tmp_path / "o" / "sensor_models.yaml").read_text()
+    assert f"gimbal_gyro_arw_deg_rt_h: {float(np.mean(live))!r}"[:40] in text, text
+    assert "axis y: dead" in text

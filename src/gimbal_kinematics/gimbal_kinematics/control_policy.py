@@ -42,6 +42,7 @@ from __future__ import annotations
 import math
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
+from .input_policy import SilenceWatch
 from .stamps import step_of_stamp, step_stamp_ns
 from .sync import EagerStepGroups, FreshInputs, StepGroups
 
@@ -102,8 +103,14 @@ class LockstepControl:
         self.eager = eager_stale_steps is not None
         self.sync: StepGroups | EagerStepGroups = (EagerStepGroups(needs, eager_stale_steps) if self.eager
                                                    else StepGroups(needs, clock_jump_s * rate_hz))
+        self.silence = SilenceWatch()
 
     def add(self, kind: str, stamp_ns: int, value: Any) -> list[ControlStep]:
+        out = self._add(kind, stamp_ns, value)
+        self.silence.heard(len(out))
+        return out
+
+    def _add(self, kind: str, stamp_ns: int, value: Any) -> list[ControlStep]:
         k = step_of_stamp(stamp_ns, self.rate_hz)
         sample = None if value is None else Sample(stamp_ns * 1e-9, value)
         if (kind in self.ticks or kind in self.estimates) and kind not in self.needs(k):

@@ -51,11 +51,53 @@ The controllers' policies (fresh inputs, the stale-input policy) are in
 """
 from __future__ import annotations
 
+import time
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
 from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
 from .stream_stats import StreamStats
 from .sync import StampOrder, StampSync, StepGroups
+
+
+#: Seconds a lockstep node hears inputs without releasing a step before it says so.
+SILENCE_S = 5.0
+
+
+class SilenceWatch:
+    """Notices a lockstep node that hears inputs but releases no step (started alone, with
+    no step grid: a saved ``timing: lockstep`` replayed by a player). ``heard(released)``
+    after each input (``released``: the steps it made ready) returns, once per silence, the
+    text to log; ``now_ns`` is the clock (steady time in a node, injected by tests)."""
+
+    def __init__(self, after_s: float = SILENCE_S, now_ns: Callable[[], int] = time.monotonic_ns) -> None:
+        self.after_ns = int(round(after_s * 1e9))
+        self.now_ns = now_ns
+        self._since: int | None = None
+        self._inputs = 0
+        self._warned = False
+        self.alarm: str | None = None
+
+    def heard(self, released: int) -> str | None:
+        if released:
+            self._since, self._inputs, self._warned = None, 0, False
+            return None
+        now = self.now_ns()
+        self._inputs += 1
+        if self._since is None:
+            self._since = now
+        if self._warned or now - self._since < self.after_ns:
+            return None
+        self._warned = True
+        self.alarm = (f"{self._inputs} inputs in {(now - self._since) * 1e-9:.1f} s and no step released: parameter "
+                      "'timing' is 'lockstep', which steps only on the orchestrator's step grid (/clock and every "
+                      "input of a step). Started alone (a driver, gimbal-bag play), run with timing free: "
+                      "--ros-args -p timing:=free")
+        return self.alarm
+
+    def take(self) -> str | None:
+        """The alarm not yet logged, once."""
+        text, self.alarm = self.alarm, None
+        return text
 
 
 class Step(NamedTuple):
@@ -87,9 +129,12 @@ class LockstepOrder:
         self.order = StampOrder(streams, max_wait_ns)
         self.rate_hz = rate_hz
         self.progress_every = int(progress_every)
+        self.silence = SilenceWatch()
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
-        return [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+        out = [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+        self.silence.heard(len(out))
+        return out
 
     def stamp_of(self, t: float) -> int:
         return int(round(t * 1e9))
@@ -129,6 +174,7 @@ class LockstepGroups:
         self.progress_every = int(progress_every)
         self.logger = logger
         self.off_grid = 0
+        self.silence = SilenceWatch()
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         k = step_of_stamp(stamp_ns, self.rate_hz)
@@ -136,12 +182,14 @@ class LockstepGroups:
             self.off_grid += 1
             self.logger.warning(f"{kind} stamped for step {k}, not one of its sample steps: ignored "
                                 f"({self.off_grid} off the rate grid)", throttle_duration_sec=1.0)
+            self.silence.heard(0)
             return []
         out: list[Step] = []
         for step, group in self.sync.add(kind, k, msg, self.logger):
             stamp, t = step_stamp_ns(step, self.rate_hz), step / self.rate_hz
             kinds = [s for s in self.streams if s in group]
             out.extend(Step(s, stamp, t, group[s], ends_step=s == kinds[-1]) for s in kinds)
+        self.silence.heard(len(out))
         return out
 
     def stamp_of(self, t: float) -> int:

@@ -8,6 +8,7 @@ without rclpy, and the config generator writes ``config/<node>.yaml`` from it.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -41,6 +42,20 @@ class Param:
             raise ValueError(f"Param {self.name!r}: an empty-list default needs array_type")
         if self.array_type is not None and self.array_type not in ARRAY_TYPES:
             raise ValueError(f"Param {self.name!r}: array_type must be one of {ARRAY_TYPES}")
+
+    def refusal(self, value: Any) -> str | None:
+        """Why the node would refuse ``value`` (already of the parameter's type) at startup:
+        outside the range its descriptor carries (a NaN is in no range) or not one of its
+        choices; None if it would take it. Cross-parameter rules are checked by the node."""
+        if self.choices and isinstance(value, str) and value not in self.choices:
+            return f"{value!r} is not one of {list(self.choices)}"
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if number and (self.low is not None or self.high is not None):
+            low = -math.inf if self.low is None else self.low
+            high = math.inf if self.high is None else self.high
+            if not low <= value <= high:
+                return f"{value!r} is outside [{low:g}, {high:g}]"
+        return None
 
 
 #: Deprecated names of ``clock_jump_s`` (the backward stamp step [s] beyond which a stream's

@@ -130,11 +130,22 @@ class NodeIo:
             self._on_incompatible(id(holder), name, "subscription", holder.get("qos", profile), event)
 
         sub = self.node.create_subscription(
-            msg_type, topic, callback, profile, raw=raw,
+            msg_type, topic, self._watched(callback) if timing == "lockstep" else callback, profile, raw=raw,
             event_callbacks=SubscriptionEventCallbacks(incompatible_qos=on_event),
             qos_overriding_options=QoSOverridingOptions(policy_kinds=OVERRIDABLE_POLICIES))
         holder["qos"] = sub.qos_profile
         return sub
+
+    def _watched(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
+        """``callback``, then the warning of the node's lockstep policy when inputs come but no
+        step (:class:`gimbal_kinematics.input_policy.SilenceWatch`)."""
+        def watched(msg: Any) -> None:
+            callback(msg)
+            watch = getattr(getattr(self.node, "policy", None), "silence", None)
+            text = watch.take() if watch is not None else None
+            if text:
+                self.node.get_logger().warning(text)
+        return watched
 
     def advertise(self, msg_type: Any, topic: str, timing: str) -> Publisher:
         """A publisher with :func:`output_qos` of ``timing``, overridable by parameters."""

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fit import FLICKER_FACTOR, AllanCurve, NoiseFit, allan_curve, fit_noise_terms
+from .fit import FLICKER_FACTOR, AllanCurve, NoiseFit, allan_curve, dead_fit, fit_noise_terms
 from .stream import AXES, ImuField, Sampling, sampling
 
 DEG = math.pi / 180.0
@@ -21,6 +21,13 @@ DEG = math.pi / 180.0
 MAX_NONFINITE_FRACTION = 0.01
 #: The record must last at least this many times the longest τ.
 MIN_DURATION_PER_TAU = 10.0
+#: Octave τ values the fit needs at least: up to six unknowns (five coefficients and the
+#: correlation time) leave four degrees of freedom.
+MIN_OCTAVES = 10
+#: A detected term whose 1σ exceeds this fraction of its value is flagged as not determined.
+MAX_RELATIVE_SIGMA = 0.5
+#: An undetected term's bound: this many of the 1σ it could have had.
+BOUND_SIGMAS = 2.0
 
 
 class AnalysisError(ValueError):
@@ -73,6 +80,24 @@ class AxisResult:
     axis: str
     curve: AllanCurve
     fit: NoiseFit
+    #: the output never changes (not one sample differs): nothing is fitted
+    dead: bool = False
+
+
+def implausible(res: AxisResult) -> dict[str, str]:
+    """Detected terms the record cannot pin down: term -> why. A 1σ above
+    :data:`MAX_RELATIVE_SIGMA` of the value means the record is too short (or the τ range too
+    narrow) for it; a correlation time needs its bump (1.89 T) well inside the τ range."""
+    out = {}
+    taus = res.curve.taus
+    for name, est in res.fit.terms.items():
+        if est.detected and not est.sigma <= MAX_RELATIVE_SIGMA * est.value:
+            out[name] = (f"not determined by this record (1σ {est.sigma / est.value:.0%} of the value, tau "
+                         f"{taus[0]:.3g}-{taus[-1]:.3g} s)")
+    tc = res.fit.tc
+    if tc is not None and not (res.fit.tc_sigma is not None and res.fit.tc_sigma <= MAX_RELATIVE_SIGMA * tc):
+        out.setdefault("gauss_markov", f"correlation time {tc:.3g} s not determined by this record")
+    return out
 
 
 @dataclass
@@ -122,6 +147,29 @@ def choose_axes(data: ImuField, requested: list[str] | None) -> tuple[list[str],
     return axes, skipped
 
 
+def minimum_tau_max(tau0: float) -> float:
+    """The shortest longest-τ [s] that gives the fit :data:`MIN_OCTAVES` octave points."""
+    return 2.0 ** (MIN_OCTAVES - 1) * tau0
+
+
+def _check_length(topic: str, duration: float, tau0: float, tau_max_s: float | None) -> None:
+    """Refuse a τ range the fit cannot use and a record too short for the range asked, naming
+    the minimum record length."""
+    least = minimum_tau_max(tau0)
+    if tau_max_s is not None:
+        if not (math.isfinite(tau_max_s) and tau_max_s > 0.0):
+            raise AnalysisError(f"--tau-max-s must be > 0, got {tau_max_s}", "--tau-max-s")
+        if tau_max_s < least:
+            raise AnalysisError(f"--tau-max-s {tau_max_s:g} s gives fewer than {MIN_OCTAVES} octave tau values above "
+                                f"the sample interval {tau0:g} s; ask for at least {least:.6g} s", "--tau-max-s")
+    need = MIN_DURATION_PER_TAU * max(tau_max_s or least, least)
+    if duration < need:
+        asked = f"the longest tau asked for ({tau_max_s:g} s)" if tau_max_s else \
+            f"the shortest tau range the fit can use ({MIN_OCTAVES} octaves: up to {least:.6g} s at {1 / tau0:.6g} Hz)"
+        raise AnalysisError(f"{topic}: the record lasts {duration:.6g} s; the minimum length is {need:.6g} s "
+                            f"({MIN_DURATION_PER_TAU:g} x {asked})", "--tau-max-s" if tau_max_s else "BAG")
+
+
 def analyze(data: ImuField, axes: list[str] | None = None, tau_max_s: float | None = None,
             gaps: str = "split") -> Characterisation:
     """Characterise ``data`` (see the module docstring); ``gaps`` is "split" or "refuse"."""
@@ -153,18 +201,10 @@ def analyze(data: ImuField, axes: list[str] | None = None, tau_max_s: float | No
                             "--gaps")
     tau0 = samp.tau0
     duration = float((stamps[-1] - stamps[0]) * 1e-9) + tau0
+    _check_length(data.topic, duration, tau0, tau_max_s)
     longest = max(b - a for a, b in samp.segments) * tau0
     if tau_max_s is None:
         tau_max_s = duration / MIN_DURATION_PER_TAU
-    elif not (math.isfinite(tau_max_s) and tau_max_s > 0.0):
-        raise AnalysisError(f"--tau-max-s must be > 0, got {tau_max_s}", "--tau-max-s")
-    if duration < MIN_DURATION_PER_TAU * tau_max_s:
-        raise AnalysisError(f"{data.topic}: the record lasts {duration:.6g} s, under {MIN_DURATION_PER_TAU:g} x the "
-                            f"longest tau asked for ({tau_max_s:g} s); ask for at most {duration / 10:.6g} s",
-                            "--tau-max-s")
-    if tau_max_s < 4.0 * tau0:
-        raise AnalysisError(f"--tau-max-s {tau_max_s:g} s leaves fewer than 3 octaves above the sample interval "
-                            f"{tau0:g} s", "--tau-max-s")
     result = Characterisation(topic=data.topic, field=data.field, msgtype=data.msgtype, sample_rate_hz=1.0 / tau0,
                               duration_s=duration, tau_max_s=min(tau_max_s, longest / 2.0), sampling=samp,
                               stamp_source=data.stamp_source, messages=data.count, nonfinite_dropped=dropped,
@@ -175,7 +215,8 @@ def analyze(data: ImuField, axes: list[str] | None = None, tau_max_s: float | No
             curve = allan_curve(segments, tau0, result.tau_max_s)
         except ValueError as exc:
             raise AnalysisError(f"{data.topic} axis {axis}: {exc}", "--tau-max-s") from exc
-        result.axes[axis] = AxisResult(axis, curve, fit_noise_terms(curve))
+        dead = not np.ptp(values[:, col])
+        result.axes[axis] = AxisResult(axis, curve, dead_fit(curve) if dead else fit_noise_terms(curve), dead)
     return result
 
 
@@ -191,11 +232,16 @@ def axis_json(res: AxisResult, field_name: str) -> dict:
     out: dict = {}
     for term in ("white", "gauss_markov", "rrw", "quantization", "ramp"):
         est = fit.terms[term]
-        out[units[term].key] = est.value * units[term].per_si
+        out[units[term].key] = est.value * units[term].per_si if est.detected else None
         out[f"{prefix[term]}_sigma"] = _num(est.sigma * units[term].per_si)
         if term == "gauss_markov":
             out["bias_tau_s"] = _num(fit.tc)
             out["bias_tau_sigma"] = _num(fit.tc_sigma)
+    out["dead"] = res.dead
+    out["not_detected"] = {units[t].key: _num(BOUND_SIGMAS * fit.terms[t].sigma * units[t].per_si)
+                           for t in ("white", "gauss_markov", "rrw", "quantization", "ramp")
+                           if not fit.terms[t].detected}
+    out["flagged"] = {units[t].key: why for t, why in implausible(res).items()}
     f = units["flicker"]
     out[f.key] = fit.flicker_floor * f.per_si
     out["flicker_floor_sigma"] = fit.flicker_sigma * f.per_si

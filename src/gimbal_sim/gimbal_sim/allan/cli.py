@@ -79,10 +79,16 @@ def summary(doc: dict) -> str:
     pairs = [(UNITS[field][t].key, f"{prefix[t]}_sigma") for t in ("white", "gauss_markov", "rrw", "quantization",
                                                                     "ramp")]
     for axis, terms in doc["axes"].items():
-        parts = [f"{key} {terms[key]:.4g} ± {terms[sig]:.2g}" for key, sig in pairs if terms[key]]
+        if terms["dead"]:
+            lines.append(f"  {axis}: dead (the output never changes): no term detected")
+            continue
+        parts = [f"{key} {terms[key]:.4g} ± {terms[sig]:.2g}" for key, sig in pairs if terms[key] is not None]
         if terms.get("bias_tau_s"):
             parts.append(f"bias_tau_s {terms['bias_tau_s']:.4g} ± {terms['bias_tau_sigma']:.2g}")
         lines.append(f"  {axis}: " + ", ".join(parts))
+        absent = [f"{key} < {bound:.2g}" if bound is not None else key for key, bound in terms["not_detected"].items()]
+        lines.append("     not detected: " + ", ".join(absent))
+        lines += [f"     FLAGGED {key}: {why}" for key, why in terms["flagged"].items()]
     return "\n".join(lines)
 
 

@@ -17,18 +17,21 @@ x = 1.893 (the bump a correlation time shows at τ ≈ 1.89 T). The flicker ("bi
 instability") floor of IEEE 952, σ² = (2 ln 2/π) B², is reported as read off the curve:
 B = min ADEV / 0.664.
 
-The fit (:func:`fit_noise_terms`) is weighted least squares on the AVAR with non-negative
-coefficients (``scipy.optimize.nnls``). The weight of each τ is the inverse variance of its
-estimate, ``Var[σ̂²] = 2 σ⁴ / edf``, with the equivalent degrees of freedom of Greenhall
-(``allantools.edf_greenhall``, overlapping estimator) for the noise type that dominates the
-model at that τ, and σ⁴ from the model itself (iteratively reweighted: weights from the
-measured values would favour the τ that happen to come out low). The correlation time is
-found by minimising χ² over log T (profile); terms are then removed one at a time, the
-least useful first, while removing one raises χ² by less than ``DROP_CHI2`` (a term the
-data cannot see is reported as 0 with the 1σ it could have had). Uncertainties are the
-1σ of the linearised fit, ``(Jᵀ W J)⁻¹`` over the coefficients and log T, scaled up by the
-reduced χ² when it exceeds 1. Neighbouring octave points of an overlapping ADEV share
-data, so these are approximate; the round-trip experiment measures the actual scatter.
+The fit (:func:`fit_noise_terms`) is generalised least squares on the AVAR with non-negative
+coefficients (``scipy.optimize.nnls`` on the whitened system). Neighbouring octave points of
+an overlapping ADEV share data, so their errors correlate (0.5 to 0.9 between neighbours):
+the first pass weights them as independent, with the variance ``2 σ⁴ / edf`` of Greenhall's
+equivalent degrees of freedom (``allantools.edf_greenhall``, overlapping estimator) for the
+noise type that dominates there; later passes use the full covariance of the points under
+the fitted model (:mod:`.covariance`), iterated until the model settles. The correlation time
+is found by minimising χ² over log T (profile). Terms are chosen by forward selection: from
+none, the term whose χ² drop most exceeds the χ² quantile of ``1 - ALPHA`` for the parameters
+it adds (two for the Gauss-Markov σ and T), scaled by the reduced χ² of the model with every
+candidate term when above 1, is added
+while one does, and only if it passes the same test with the covariance of the model without
+it (the null hypothesis). A term the data do not support is reported as not detected, with
+the 1σ it could have had. Uncertainties are the 1σ of the linearised fit, ``(Jᵀ C⁻¹ J)⁻¹``
+over the coefficients and log T, scaled up by the reduced χ² when it exceeds 1.
 """
 from __future__ import annotations
 
@@ -38,6 +41,9 @@ from dataclasses import dataclass, field
 import allantools
 import numpy as np
 from scipy.optimize import minimize_scalar, nnls
+from scipy.stats import chi2 as chi2_dist
+
+from .covariance import avar_covariance
 
 #: Term names in column order of the design matrix.
 TERMS = ("quantization", "white", "gauss_markov", "rrw", "ramp")
@@ -46,8 +52,12 @@ FLICKER_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 #: Where the Gauss-Markov Allan variance peaks: τ = GM_PEAK_X · T, value GM_PEAK_G · σ².
 GM_PEAK_X = 1.8926
 GM_PEAK_G = 0.38114
-#: χ² rise (in units of the reduced χ², at least 1) below which a term is dropped.
-DROP_CHI2 = 16.0
+#: Significance of the test that keeps a term: its χ² drop must exceed the χ² quantile of
+#: 1 - ALPHA for the parameters it adds.
+ALPHA = 0.01
+#: Added to the correlation matrix's diagonal before it is inverted (adjacent octave points
+#: of a rate random walk correlate at 0.89; neighbours of neighbours higher still).
+CORR_JITTER = 1e-9
 #: Noise types (allantools' α for frequency data) the EDF table holds.
 ALPHAS = (2, 1, 0, -1, -2)
 #: A fitted correlation time within this factor of either end of its range is not identified.
@@ -95,7 +105,8 @@ class AllanCurve:
 
     ``taus`` (n,) [s]; ``avar`` (n,) [u²]; ``terms`` (n,) the number of second differences
     summed at each τ; ``edf`` maps α of :data:`ALPHAS` to the (n,) equivalent degrees of
-    freedom (summed over segments, which are independent); ``tau0`` [s]; ``n_samples``.
+    freedom (summed over segments, which are independent); ``tau0`` [s]; ``n_samples``;
+    ``segment_lengths``: the samples of each segment.
     """
 
     taus: np.ndarray
@@ -104,6 +115,7 @@ class AllanCurve:
     edf: dict[int, np.ndarray]
     tau0: float
     n_samples: int
+    segment_lengths: list[int] = field(default_factory=list)
 
     @property
     def adev(self) -> np.ndarray:
@@ -165,7 +177,8 @@ def allan_curve(segments: list[np.ndarray], tau0: float, tau_max: float) -> Alla
         raise ValueError("fewer than 3 octave τ values have data: the record is too short")
     return AllanCurve(taus=np.array(ms, dtype=float)[keep] * tau0, avar=sums[keep] / counts[keep],
                       terms=counts[keep], edf={a: v[keep] for a, v in edf.items()}, tau0=tau0,
-                      n_samples=int(sum(len(s) for s in segments)))
+                      n_samples=int(sum(len(s) for s in segments)),
+                      segment_lengths=[len(s) for s in segments])
 
 
 @dataclass
@@ -211,26 +224,26 @@ class NoiseFit:
         return term_basis(np.asarray(taus, dtype=float), self.tc) @ self.coefficients
 
 
-def _solve(A: np.ndarray, y: np.ndarray, w: np.ndarray, cols: list[int]) -> tuple[np.ndarray, float]:
-    """NNLS of ``y ≈ A[:, cols] c`` with weights ``w``; returns the full coefficient vector and χ²."""
+def _solve(A: np.ndarray, y: np.ndarray, wh: np.ndarray, cols: list[int]) -> tuple[np.ndarray, float]:
+    """NNLS of ``y ≈ A[:, cols] c`` whitened by ``wh`` (n, n): χ² = |wh (y - A c)|²; returns the
+    full coefficient vector and χ²."""
     c = np.zeros(A.shape[1])
     if cols:
-        sw = np.sqrt(w)
-        B = A[:, cols] * sw[:, None]
+        B = wh @ A[:, cols]
         scale = np.linalg.norm(B, axis=0)
         scale[scale == 0.0] = 1.0
-        sol, _ = nnls(B / scale, y * sw, maxiter=50 * len(cols))
+        sol, _ = nnls(B / scale, wh @ y, maxiter=50 * len(cols))
         c[cols] = sol / scale
-    r = y - A @ c
-    return c, float(np.sum(w * r * r))
+    r = wh @ (y - A @ c)
+    return c, float(r @ r)
 
 
-def _best_tc(taus, y, w, cols, tc_bounds) -> tuple[float, np.ndarray, float]:
+def _best_tc(taus, y, wh, cols, tc_bounds) -> tuple[float, np.ndarray, float]:
     """Gauss-Markov correlation time minimising χ² (grid, then bounded refinement on log T)."""
     lo, hi = (math.log(b) for b in tc_bounds)
 
     def chi2(log_tc: float) -> float:
-        return _solve(term_basis(taus, math.exp(log_tc)), y, w, cols)[1]
+        return _solve(term_basis(taus, math.exp(log_tc)), y, wh, cols)[1]
 
     grid = np.linspace(lo, hi, 48)
     values = [chi2(g) for g in grid]
@@ -238,20 +251,20 @@ def _best_tc(taus, y, w, cols, tc_bounds) -> tuple[float, np.ndarray, float]:
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     res = minimize_scalar(chi2, bounds=(a, b), method="bounded", options={"xatol": 1e-4})
     log_tc = float(res.x) if res.fun <= values[k] else float(grid[k])
-    c, x2 = _solve(term_basis(taus, math.exp(log_tc)), y, w, cols)
+    c, x2 = _solve(term_basis(taus, math.exp(log_tc)), y, wh, cols)
     return math.exp(log_tc), c, x2
 
 
-def _fit_cols(curve: AllanCurve, w: np.ndarray, cols: list[int], tc_bounds) -> tuple[float | None, np.ndarray, float]:
+def _fit_cols(curve: AllanCurve, wh: np.ndarray, cols: list[int], tc_bounds) -> tuple[float | None, np.ndarray, float]:
     if 2 in cols:
-        tc, c, x2 = _best_tc(curve.taus, curve.avar, w, cols, tc_bounds)
+        tc, c, x2 = _best_tc(curve.taus, curve.avar, wh, cols, tc_bounds)
         # A correlation time at an edge of its range is not identified: at the long end the
         # term is a rate random walk, at the short end white noise, which the other columns
         # already are. The Gauss-Markov term is then left out.
         if tc_bounds[0] * TC_EDGE < tc < tc_bounds[1] / TC_EDGE:
             return tc, c, x2
         cols = [k for k in cols if k != 2]
-    c, x2 = _solve(term_basis(curve.taus, None), curve.avar, w, cols)
+    c, x2 = _solve(term_basis(curve.taus, None), curve.avar, wh, cols)
     return None, c, x2
 
 
@@ -262,6 +275,8 @@ def fit_noise_terms(curve: AllanCurve, terms: tuple[str, ...] = TERMS, iteration
         raise ValueError(f"unknown terms {sorted(unknown)}; known: {list(TERMS)}")
     taus, y = curve.taus, curve.avar
     n = len(taus)
+    if not np.any(y > 0.0):
+        return dead_fit(curve)
     # A correlation time is identifiable only if its bump (1.89 T) and some roll-off past it
     # lie inside the curve; a longer one is indistinguishable from rate random walk.
     tc_bounds = (curve.tau0, taus[-1] / 4.0)
@@ -270,38 +285,110 @@ def fit_noise_terms(curve: AllanCurve, terms: tuple[str, ...] = TERMS, iteration
         cols.remove(2)
     alpha = np.zeros(n, dtype=int)
     model = y.copy()
+    # first weights: independent points of Greenhall's EDF; then the model's full covariance
+    wh = np.diag(np.sqrt(curve.edf_for(alpha) / (2.0 * np.maximum(model, 1e-6 * y.max()) ** 2)))
     for _ in range(iterations):
-        w = curve.edf_for(alpha) / (2.0 * np.maximum(model, 1e-6 * y.max()) ** 2)
-        active = list(cols)
-        tc, c, x2 = _fit_cols(curve, w, active, tc_bounds)
-        # Backward elimination: drop the term whose removal costs least, while it costs little.
-        while len(active) > 1:
-            scale = max(1.0, x2 / max(n - len(active) - (2 in active), 1))
-            trials = []
-            for j in active:
-                rest = [k for k in active if k != j]
-                trials.append((_fit_cols(curve, w, rest, tc_bounds), j))
-            (tc_r, c_r, x2_r), j = min(trials, key=lambda t: t[0][2])
-            if x2_r - x2 >= DROP_CHI2 * scale:
-                break
-            active.remove(j)
-            tc, c, x2 = tc_r, c_r, x2_r
+        active, tc, c = _select(curve, wh, cols, tc_bounds)
         new_model = term_basis(taus, tc) @ c
         new_alpha = slope_alpha(taus, new_model)
         done = np.allclose(new_model, model, rtol=1e-4, atol=0.0) and np.array_equal(new_alpha, alpha)
         model, alpha = new_model, new_alpha
         if done:
             break
-    return _finish(curve, tc, c, active, w, alpha, model)
+        wh = _whitening(curve, c, tc, model)
+    return _finish(curve, tc, c, active, wh, alpha, model)
 
 
-def _finish(curve: AllanCurve, tc, c, active, w, alpha, model) -> NoiseFit:
+def dead_fit(curve: AllanCurve) -> NoiseFit:
+    """An output that never changes (every Allan variance 0): no term is detected, and none
+    could have been (bound 0)."""
+    n = len(curve.taus)
+    zero = np.zeros(n)
+    return NoiseFit(terms={t: TermEstimate(0.0, 0.0, False) for t in TERMS}, tc=None, tc_sigma=None,
+                    flicker_floor=0.0, flicker_sigma=0.0, flicker_tau=float(curve.taus[0]), chi2=0.0, dof=max(n, 1),
+                    model=zero, alpha=np.zeros(n, dtype=int), coefficients=np.zeros(len(TERMS)))
+
+
+def term_dof(j: int) -> int:
+    """Parameters a term adds: the Gauss-Markov term its σ and its correlation time."""
+    return 2 if TERMS[j] == "gauss_markov" else 1
+
+
+def _select(curve: AllanCurve, wh, cols: list[int], tc_bounds) -> tuple[list[int], float | None, np.ndarray]:
+    """Forward selection: from no term, add the candidate whose χ² drop exceeds its threshold
+    (:func:`drop_threshold`, times :func:`_misfit_scale`) by the
+    most among those that also pass the test under the null, while one does (module
+    docstring).
+    Adding, not removing: terms that mimic another together (a ramp and a long correlation
+    time look like a rate random walk over a short record) are never both needed."""
+    active: list[int] = []
+    tc, c, x2 = None, np.zeros(len(TERMS)), _solve(term_basis(curve.taus, None), curve.avar, wh, [])[1]
+    scale = _misfit_scale(curve, wh, cols, tc_bounds)
+    while True:
+        trials = []
+        for j in (k for k in cols if k not in active):
+            tc_j, c_j, x2_j = _fit_cols(curve, wh, sorted(active + [j]), tc_bounds)
+            if j == 2 and tc_j is None:
+                continue  # no identifiable correlation time: nothing new
+            trials.append(((x2 - x2_j) / scale - drop_threshold(j), j, tc_j, c_j, x2_j))
+        # the best candidate that passes both tests; none: the model is complete
+        passing = (t for t in sorted(trials, key=lambda t: -t[0])
+                   if t[0] > 0.0 and _supported_under_null(curve, cols, sorted(active + [t[1]]), t[1], tc, c,
+                                                           tc_bounds))
+        best = next(passing, None)
+        if best is None:
+            break
+        _, j, tc, c, x2 = best
+        active = sorted(active + [j])
+    return active, tc, c
+
+
+def _misfit_scale(curve: AllanCurve, wh, cols: list[int], tc_bounds) -> float:
+    """The reduced χ² of the model with every candidate term, when above 1: the misfit no
+    selection can remove (a smaller model's would count a missing term as noise)."""
+    x2 = _fit_cols(curve, wh, cols, tc_bounds)[2]
+    return max(1.0, x2 / max(len(curve.taus) - sum(term_dof(k) for k in cols), 1))
+
+
+def _supported_under_null(curve: AllanCurve, cols: list[int], active: list[int], j: int, tc_r, c_r,
+                          tc_bounds) -> bool:
+    """Term ``j`` still passes the test when the points' covariance is that of the model without
+    it (the null hypothesis): a covariance that already holds the term would weight the τ where
+    it shows as better known, and so argue for it. The first term has no null model to test."""
+    if not np.any(c_r > 0.0):
+        return True
+    wh0 = _whitening(curve, c_r, tc_r, term_basis(curve.taus, tc_r) @ c_r)
+    _, _, x2_with = _fit_cols(curve, wh0, active, tc_bounds)
+    _, _, x2_without = _fit_cols(curve, wh0, [k for k in active if k != j], tc_bounds)
+    return x2_without - x2_with >= drop_threshold(j) * _misfit_scale(curve, wh0, cols, tc_bounds)
+
+
+def drop_threshold(j: int) -> float:
+    """χ² rise below which term ``j`` is not supported by the data."""
+    return float(chi2_dist.ppf(1.0 - ALPHA, term_dof(j)))
+
+
+def _whitening(curve: AllanCurve, c: np.ndarray, tc: float | None, model: np.ndarray) -> np.ndarray:
+    """``wh`` with whᵀwh = C⁻¹, C the covariance of the curve's points under the fitted model
+    (:mod:`.covariance`)."""
+    coeffs = {name: math.sqrt(c[j]) for j, name in enumerate(TERMS) if c[j] > 0.0}
+    ms = [int(round(t / curve.tau0)) for t in curve.taus]
+    cov = avar_covariance(curve.segment_lengths, ms, curve.tau0, coeffs, tc)
+    d = np.sqrt(np.diag(cov))
+    if not np.all(d > 0.0):
+        return np.diag(1.0 / np.maximum(model, 1e-300))
+    corr = cov / np.outer(d, d) + CORR_JITTER * np.eye(len(d))
+    return np.linalg.inv(np.linalg.cholesky(corr)) / d[None, :]
+
+
+def _finish(curve: AllanCurve, tc, c, active, wh, alpha, model) -> NoiseFit:
     taus, y = curve.taus, curve.avar
     active = [j for j in active if c[j] > 0.0]
     if 2 not in active:
         tc = None
     dof = max(len(taus) - len(active) - (1 if tc is not None else 0), 1)
-    chi2 = float(np.sum(w * (y - model) ** 2))
+    r = wh @ (y - model)
+    chi2 = float(r @ r)
     scale = max(1.0, chi2 / dof)
     basis = term_basis(taus, tc if tc is not None else 1.0)
 
@@ -313,10 +400,11 @@ def _finish(curve: AllanCurve, tc, c, active, w, alpha, model) -> NoiseFit:
             J.append(dg * c[2])
         J = np.column_stack(J)
         # columns differ by many orders of magnitude: invert the normalised information matrix
-        d = np.linalg.norm(J * np.sqrt(w)[:, None], axis=0)
+        Jw = wh @ J
+        d = np.linalg.norm(Jw, axis=0)
         d[d == 0.0] = 1.0
-        Jn = J / d
-        return np.linalg.pinv((Jn * w[:, None]).T @ Jn) / np.outer(d, d) * scale
+        Jn = Jw / d
+        return np.linalg.pinv(Jn.T @ Jn) / np.outer(d, d) * scale
 
     cov = covariance(active)
     out: dict[str, TermEstimate] = {}

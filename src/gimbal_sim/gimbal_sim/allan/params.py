@@ -2,9 +2,10 @@
 matching noise parameters of the filters.
 
 Per-axis fits become one value per parameter (the models take one value for all axes):
-the simulator gets the mean over the analysed axes (each axis is a noisy estimate of the
-same kind of sensor), the filters get the largest (a filter told less noise than an axis
-has is overconfident on that axis).
+the simulator gets the mean over the axes that detected the term (each axis is a noisy
+estimate of the same kind of sensor), the filters get the largest (a filter told less noise
+than an axis has is overconfident on that axis). Each file's header names the terms some axis
+did not detect, with that axis's bound.
 
 Filters model the bias as a random walk of PSD ``q_b``: the Gauss-Markov term contributes
 ``2σ²/T`` at lags shorter than T and the rate random walk ``K²``, so ``q_b = 2σ²/T + K²``.
@@ -19,7 +20,7 @@ import math
 
 import yaml
 
-from .analyze import DEG, Characterisation
+from .analyze import DEG, Characterisation, axis_json
 
 #: Sensors of ``sensor_models`` a gyro characterisation can be written for: parameter prefix.
 GYRO_TARGETS = {"gimbal_gyro": "gimbal_gyro", "ins_gyro": "ins_gyro"}
@@ -28,15 +29,34 @@ UG = 9.80665e-6  # m/s² per µg
 
 
 def _terms(result: Characterisation, reduce) -> dict[str, float]:
-    """SI value of each term over the axes (``reduce`` = mean or max); undetected terms are 0."""
+    """SI value of each term over the axes that detected it (``reduce`` = mean or max); an axis
+    that did not detect a term does not count as 0 in it (its value is unknown, below a bound).
+    A term no axis detected is 0: nothing to simulate or to tell a filter."""
     out = {}
     for name in ("quantization", "white", "gauss_markov", "rrw", "ramp"):
-        out[name] = reduce([r.fit.terms[name].value if r.fit.terms[name].detected else 0.0
-                            for r in result.axes.values()])
+        values = [r.fit.terms[name].value for r in result.axes.values() if r.fit.terms[name].detected]
+        out[name] = reduce(values) if values else 0.0
     tcs = [r.fit.tc for r in result.axes.values() if r.fit.tc is not None]
     # the correlation time of the axes that have one (geometric mean: it is a scale)
     out["tc"] = math.exp(sum(math.log(t) for t in tcs) / len(tcs)) if tcs else None
     return out
+
+
+def caveats(result: Characterisation) -> list[str]:
+    """Header lines: terms an axis did not detect (with its bound) and fitted values flagged."""
+    from_json = {axis: axis_json(res, result.field) for axis, res in result.axes.items()}
+    lines = []
+    for axis, doc in from_json.items():
+        if doc["dead"]:
+            lines.append(f"axis {axis}: dead (its output never changes); no term detected")
+            continue
+        missing = ", ".join(f"{key} < {bound:.3g}" if bound is not None else key
+                            for key, bound in doc["not_detected"].items())
+        if missing:
+            lines.append(f"axis {axis}: not detected: {missing}")
+        for key, why in doc["flagged"].items():
+            lines.append(f"axis {axis}: FLAGGED {key}: {why}")
+    return lines
 
 
 def _mean(values: list[float]) -> float:
@@ -101,7 +121,8 @@ def sensor_models_yaml(result: Characterisation, target: str, source: str) -> st
     """A ``--params-file`` for ``sensor_models`` that simulates the characterised sensor."""
     params = sensor_models_params(result, target)
     header = [f"sensor_models parameters fitted by gimbal-allan from {source}",
-              f"({result.topic} {result.field}, axes {' '.join(result.axes)}: mean over the axes)."]
+              f"({result.topic} {result.field}, axes {' '.join(result.axes)}: mean over the axes that detected "
+              f"each term)."] + caveats(result)
     if result.is_gyro:
         header += ["Not simulated: the rate ramp (sensor_models has none); the turn-on bias, which one",
                    "record cannot separate from the earth rate and the mounting: keep the datasheet's."]
@@ -118,6 +139,7 @@ def filters_yaml(result: Characterisation, target: str, source: str) -> str:
         return (f"# gimbal-allan, {source}: no filter of this toolkit takes accelerometer noise parameters\n"
                 f"# (platform_alignment's least squares has none); the fitted terms are in allan.json.\n")
     header = [f"Filter noise parameters fitted by gimbal-allan from {source} (largest over the axes).",
+              *caveats(result),
               "The bias walk PSD q_b = 2 sigma_gm^2 / T + K^2 (Gauss-Markov and rate random walk):",
               "gyro_bias_ekf uses 2 sigma^2 / tau = q_b; flexure_estimator's LGU bias difference walks with",
               "2 q_b (two such gyros); encoder_fusion_controller's drift density is sqrt(q_b).",

@@ -18,17 +18,29 @@ RECORDER = "bag_recorder"
 
 @dataclass
 class PlannedNode:
+    """A node to start: ``params`` every final value; ``graph_only`` the names among them that
+    belong to the orchestrator's graph rather than to the node's configuration (the lockstep
+    timing): passed as ``-p`` arguments, not written into the run's params file, so that file
+    replays into the node started alone."""
+
     name: str
     executable: str
     params: dict[str, Any]
     remap: dict[str, str]
     params_file: Path | None = None
+    graph_only: tuple[str, ...] = ()
 
     def ros_args(self) -> list[str]:
         args = ["--ros-args", "-r", f"__node:={self.name}", "--params-file", str(self.params_file)]
+        for name in self.graph_only:
+            args += ["-p", f"{name}:={self.params[name]}"]
         for old, new in self.remap.items():
             args += ["-r", f"{old}:={new}"]
         return args
+
+    def file_params(self) -> dict[str, Any]:
+        """What the run's ``params/<node>.yaml`` holds: every value but the graph's own."""
+        return {k: v for k, v in self.params.items() if k not in self.graph_only}
 
 
 @dataclass(frozen=True)
@@ -74,13 +86,15 @@ def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list
     for name, spec in scenario.nodes.items():
         declared = {p.name for p in NODE_TYPES[spec["executable"]].params}
         params = dict(spec["params"])
+        graph_only: tuple[str, ...] = ()
         if "sim_rate_hz" in declared:
             params["sim_rate_hz"] = scenario.sim_rate_hz
         if "seed" in declared:
             params["seed"] = scenario.seed
-        if "timing" in declared:
+        if "timing" in declared and "timing" not in params:
             # the deterministic graph (a scenario may still ask a node for free timing)
-            params.setdefault("timing", "lockstep")
+            params["timing"] = "lockstep"
+            graph_only = ("timing",)
         if spec["executable"] == "vehicle_dynamics":
             params["duration_s"] = scenario.duration_s
             params["pace_topics"] = [f"/{n}/progress" for n in paced + [RECORDER]]
@@ -91,7 +105,7 @@ def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list
             # free-timing readers (no readiness of their own: a sample sent before they
             # matched is lost)
             params.setdefault("wait_for_subscribers", 1)
-        planned.append(PlannedNode(name, spec["executable"], params, spec["remap"]))
+        planned.append(PlannedNode(name, spec["executable"], params, spec["remap"], graph_only=graph_only))
     recorder = {"output_dir": str(out_dir), "compress": compress,
                 "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
                 "topics": [] if scenario.record == "all" else list(scenario.record),
@@ -106,4 +120,5 @@ def write_run_files(scenario: Scenario, nodes: list[PlannedNode], out_dir: Path)
     (out_dir / "scenario.yaml").write_text(scenario.to_yaml())
     for node in nodes:
         node.params_file = out_dir / "params" / f"{node.name}.yaml"
-        node.params_file.write_text(yaml.safe_dump({node.name: {"ros__parameters": node.params}}, sort_keys=False))
+        node.params_file.write_text(yaml.safe_dump({node.name: {"ros__parameters": node.file_params()}},
+                                                   sort_keys=False))

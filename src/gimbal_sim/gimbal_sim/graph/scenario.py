@@ -32,6 +32,7 @@ from typing import Any
 
 import yaml
 
+from .params_file import ParamsFileError, blocks
 from .registry import NODE_TYPES
 
 BUILTIN_DIR = Path(__file__).parent / "scenarios"
@@ -129,6 +130,9 @@ def check_param(node: str, executable: str, name: str, value: Any) -> Any:
             ok = all(isinstance(v, str) for v in value)
     if not ok:
         raise ScenarioError(f"node {node!r}: parameter {name!r} = {value!r} should be like {default!r}")
+    why = table[name].refusal(value)
+    if why:
+        raise ScenarioError(f"node {node!r}: parameter {name!r} = {why}")
     return value
 
 
@@ -229,31 +233,59 @@ def apply_set(scenario: Scenario, assignment: str) -> Scenario:
 
 
 def apply_params_file(scenario: Scenario, path: Path) -> Scenario:
-    """``--params-file``: the ``node: {ros__parameters: {param: value}}`` blocks of a ROS 2
-    parameter file applied as ``node.param`` overrides to the scenario's nodes; returns a new
-    scenario. Blocks of other nodes are ignored, as a node ignores them; if none applies, or a
-    parameter is unknown or mistyped, :class:`ScenarioError` says which."""
+    """``--params-file``: a ROS 2 parameter file applied as ``node.param`` overrides, as ROS 2
+    applies it to the scenario's nodes (all in the root namespace: ``/<node>``): every block
+    whose name or wildcard matches a node, in file order (:mod:`.params_file`); returns a new
+    scenario.
+
+    A block of a toolkit node this scenario does not run is left alone, as that node would
+    read it (gimbal-allan's filters.yaml has one per filter); a block that matches no node and
+    names none (a misspelling, another namespace) is refused naming the nodes. A wildcard
+    block's parameter goes to the matched nodes that declare it, and must be declared by one.
+    Unknown, mistyped or out-of-range values raise :class:`ScenarioError` saying which."""
     where = f"--params-file {path}"
     try:
         data = yaml.safe_load(Path(path).read_text())
     except OSError as exc:
         raise ScenarioError(f"{where}: cannot read it: {exc}") from exc
-    except yaml.YAMLError as exc:
-        raise ScenarioError(f"{where}: not valid YAML: {exc}") from exc
-    if not isinstance(data, dict) or not all(isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict)
-                                             for v in data.values()):
-        raise ScenarioError(f"{where}: expected a ROS 2 parameter file: node: {{ros__parameters: {{...}}}}")
-    # as in ROS 2, a node reads its own block only: blocks of nodes this scenario does not run are
-    # left alone (gimbal-allan's filters.yaml has one per filter), but one of them must apply
-    names = {str(node).lstrip("/"): spec for node, spec in data.items()}
-    used = [n for n in names if n in scenario.nodes]
-    if not used:
-        raise ScenarioError(f"{where}: none of its nodes ({', '.join(names)}) is in the scenario "
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{where}: not a YAML text file: {exc}") from exc
+    try:
+        found = blocks(data, where)
+    except ParamsFileError as exc:
+        raise ScenarioError(str(exc)) from exc
+    fqns = {f"/{n}": n for n in scenario.nodes}
+    elsewhere = {f"/{n}" for n in NODE_TYPES} - set(fqns)
+    applied = 0
+    for block in found:
+        targets = [n for fqn, n in fqns.items() if block.matches(fqn)]
+        if not targets:
+            if not block.wildcard and block.pattern in elsewhere:
+                continue
+            raise ScenarioError(f"{where}: node block {block.pattern!r} matches no node of the scenario (its nodes: "
+                                f"{', '.join(fqns)}; other nodes of the toolkit: {', '.join(sorted(elsewhere))})")
+        applied += 1
+        for param, value in block.params.items():
+            scenario = _apply_block_param(scenario, block.wildcard, targets, param, value, where)
+    if not applied:
+        raise ScenarioError(f"{where}: none of its nodes ({', '.join(b.pattern for b in found)}) is in the scenario "
                             f"(nodes: {', '.join(scenario.nodes)})")
-    for node in used:
-        for param, value in names[node]["ros__parameters"].items():
-            try:
-                scenario = _override(scenario, f"{node}.{param}", value, where)
-            except ScenarioError as exc:
-                raise ScenarioError(f"{where}: {exc}" if where not in str(exc) else str(exc)) from exc
+    return scenario
+
+
+def _apply_block_param(scenario: Scenario, wildcard: bool, targets: list[str], param: str, value: Any,
+                       where: str) -> Scenario:
+    if wildcard:
+        # as a node ignores an undeclared parameter of a /** block, but one node must want it
+        declared = [n for n in targets if param in {a for p in NODE_TYPES[scenario.nodes[n]["executable"]].params
+                                                    for a in (p.name, *p.aliases)}]
+        if not declared:
+            raise ScenarioError(f"{where}: parameter {param!r} of a wildcard block is declared by none of the nodes "
+                                f"it matches ({', '.join(targets)})")
+        targets = declared
+    for node in targets:
+        try:
+            scenario = _override(scenario, f"{node}.{param}", value, where)
+        except ScenarioError as exc:
+            raise ScenarioError(f"{where}: {exc}" if where not in str(exc) else str(exc)) from exc
     return scenario
