@@ -8,6 +8,7 @@ cores from Python objects passes, keeping the core to observe it).
 """
 from __future__ import annotations
 
+import math
 import time
 from typing import Any, Callable
 
@@ -17,8 +18,10 @@ from gimbal_control.operator_command import OperatorCommand, OperatorCommandPara
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
+from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.stamps import step_stamp_ns
 
+from ..world.operator_model import OperatorModelParams, SightOperator
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
 
 
@@ -30,14 +33,16 @@ class Bus:
     estimate (None when not produced this step), with the estimator's whole output of the
     step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers, and the
     operator's LOS rate command of the step (``operator``: (stamp [ns], q, r) [rad/s], what
-    /operator/los_rate carries; None when none was published)."""
+    /operator/los_rate carries; None when none was published) with its true pointing error
+    (``operator_error``: (ε, e_q, e_r) [rad], what ~/pointing_error carries)."""
 
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator")
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
+                 "operator_error")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
-        self.ekf = self.operator = None
+        self.ekf = self.operator = self.operator_error = None
 
 
 def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
@@ -87,6 +92,26 @@ def ekf_stage(ekf: GyroBiasEkf) -> Callable[[Bus], None]:
             out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
         bus.bias = None if out is None else tuple(out.bias.tolist())
         bus.ekf = out
+    return stage
+
+
+def operator_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+    """``operator``: at each of its steps (``rate_hz``) the command and pointing error from the
+    true sight attitude of the step (the node's ``_on_truth``); None on the bus between."""
+    core = SightOperator(OperatorModelParams.from_values(values), values["capture_s"], values["lat_deg"],
+                         values["earth_rate"])
+    rate = values["sim_rate_hz"]
+    every = steps_per_sample(values, "rate_hz")
+    nan3 = (math.nan,) * 3
+
+    def stage(bus: Bus) -> None:
+        if bus.k % every:
+            bus.operator = bus.operator_error = None
+            return
+        stamp = step_stamp_ns(bus.k, rate)
+        q, r = core.step(stamp, bus.truth.quat_nm)
+        bus.operator = (stamp, q, r)
+        bus.operator_error = (core.model.error, *core.model.error_qr) if core.target_i is not None else nan3
     return stage
 
 
