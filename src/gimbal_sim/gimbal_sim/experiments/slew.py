@@ -106,7 +106,8 @@ def run_slew(mode: str, seed: int, options: dict[str, Any]) -> dict[str, Any]:
         mean = float(np.mean(w[late, i]))
         slew[f"{axis}_rate_deg_s"] = math.degrees(mean)
         slew[f"{axis}_error_pct"] = 100.0 * (mean - cmd[i]) / cmd[i]
-        slew[f"{axis}_error_vs_cmd_minus_bias_pct"] = 100.0 * float(np.mean(w[late, i] - (cmd[i] - b[late, i]))) / cmd[i]
+        offset = float(np.mean(w[late, i] - (cmd[i] - b[late, i])))
+        slew[f"{axis}_error_vs_cmd_minus_bias_pct"] = 100.0 * offset / cmd[i]
         slew[f"{axis}_settling_time_s"] = _settling_time(t, w[:, i], mean, cmd[i], window)
     metrics = {"slew": slew, **observer.metrics(Path("/nonexistent"))}
     return metrics
