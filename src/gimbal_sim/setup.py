@@ -27,6 +27,7 @@ setup(
             "vehicle_dynamics = gimbal_sim.nodes.vehicle_dynamics_node:main",
             "sensor_models = gimbal_sim.nodes.sensor_models_node:main",
             "bag_recorder = gimbal_sim.nodes.bag_recorder_node:main",
+            "operator = gimbal_sim.nodes.operator_node:main",
             "gimbal-report = gimbal_sim.reports.dispatch:main",
             "gimbal-bag = gimbal_sim.bag.cli:main",
             "gimbal-bench = gimbal_sim.tools.bench:main",

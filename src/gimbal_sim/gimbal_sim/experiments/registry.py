@@ -15,13 +15,13 @@ from ..campaign.experiment import ExperimentCampaign, plan_experiment
 from ..campaign.runner_cli import experiment_runners
 from ..campaign.spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction
 from ..reports.core_metrics import run_core
-from . import encoder_fusion_study, flexure, free_gyro, free_gyro_errors, navigation, platform_servo, sighting_loop
+from . import encoder_fusion_study, flexure, free_gyro, free_gyro_errors, navigation, platform_servo, sighting_loop, slew
 
 #: experiment name -> its campaign
 EXPERIMENTS: dict[str, ExperimentCampaign] = {
     e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN, platform_servo.CAMPAIGN,
                         encoder_fusion_study.CAMPAIGN, encoder_fusion_study.RQ_CAMPAIGN,
-                        free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN)}
+                        free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN, slew.CAMPAIGN)}
 
 
 def experiment(name: str) -> ExperimentCampaign:

@@ -19,7 +19,7 @@ from gimbal_estimators import (
 )
 from gimbal_kinematics.params import Param
 
-from ..nodes import bag_recorder_params, sensor_models_params, vehicle_dynamics_params
+from ..nodes import bag_recorder_params, operator_params, sensor_models_params, vehicle_dynamics_params
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,11 @@ def _sensor_models() -> type:
 def _bag_recorder() -> type:
     from ..nodes.bag_recorder_node import BagRecorderNode
     return BagRecorderNode
+
+
+def _operator() -> type:
+    from ..nodes.operator_node import OperatorNode
+    return OperatorNode
 
 
 def _los_rate_controller() -> type:
@@ -97,6 +102,7 @@ NODE_TYPES: dict[str, NodeType] = {
     "vehicle_dynamics": _node_type("gimbal_sim", vehicle_dynamics_params, _vehicle_dynamics),
     "sensor_models": _node_type("gimbal_sim", sensor_models_params, _sensor_models),
     "bag_recorder": _node_type("gimbal_sim", bag_recorder_params, _bag_recorder),
+    "operator": _node_type("gimbal_sim", operator_params, _operator),
     "los_rate_controller": _node_type("gimbal_control", los_rate_controller_params, _los_rate_controller),
     "gyro_bias_ekf": _node_type("gimbal_estimators", gyro_bias_ekf_params, _gyro_bias_ekf),
     "free_gyro_positioning": _node_type("gimbal_estimators", free_gyro_positioning_params, _free_gyro_positioning),

@@ -21,6 +21,7 @@ from .free_gyro import free_gyro_report
 from .generic import generic_report
 from .gyro_encoder import gyro_encoder_report
 from .los_pointing import los_pointing_report
+from .operator import sighting_operator_comparison, sighting_operator_report
 from .platform_servo import platform_servo_report
 from .sighting import sighting_comparison, sighting_report
 
@@ -30,6 +31,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "flexure": flexure_report,
     "los_pointing": los_pointing_report,
     "sighting": sighting_report,
+    "sighting_operator": sighting_operator_report,
     "free_gyro": free_gyro_report,
     "encoder_fusion": encoder_fusion_report,
     "platform_servo": platform_servo_report,
@@ -42,6 +44,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
 #: comparison name -> function (runs, report_dir) -> metrics
 COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "sighting": sighting_comparison,
+    "sighting_operator": sighting_operator_comparison,
     "encoder_fusion": encoder_fusion_comparison,
     "alignment_rotation": rotation_comparison,
     "alignment_campaign": alignment_campaign,

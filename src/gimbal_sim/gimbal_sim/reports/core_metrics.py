@@ -21,6 +21,7 @@ from gimbal_kinematics.stamps import step_stamp_ns
 from ..core.core_loop import run_core_loop
 from ..graph.scenario import Scenario
 from .common import vehicle_site
+from .operator import operator_figures, operator_tolerance
 from .sighting import SightingSeries, sighting_figures
 
 
@@ -64,8 +65,34 @@ class SightingCollector:
         return {"sighting": sighting_figures(series, lat, earth_rate)}
 
 
+class SightingOperatorCollector(SightingCollector):
+    """The ``sighting_operator`` report's series: the sighting ones, plus the operator's
+    ``/operator/los_rate`` and ``~/pointing_error`` at each of its steps."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        super().__init__(scenario)
+        self.to_ns: list[int] = []
+        self.cmd: list[tuple[float, ...]] = []
+        self.err: list[tuple[float, ...]] = []
+
+    def __call__(self, bus: Any) -> None:
+        super().__call__(bus)
+        if bus.operator is not None:
+            stamp, q, r = bus.operator
+            self.to_ns.append(stamp)
+            self.cmd.append((0.0, q, r))
+            self.err.append(tuple(bus.operator_error))
+
+    def metrics(self, run_dir: Path) -> dict[str, Any]:
+        out = super().metrics(run_dir)
+        out["operator"] = operator_figures(np.array([v * 1e-9 for v in self.to_ns]), np.array(self.err),
+                                           np.array(self.cmd), operator_tolerance(run_dir))
+        return out
+
+
 #: report name -> collector class (constructed with the run's scenario)
-COLLECTORS: dict[str, Callable[[Scenario], Any]] = {"sighting": SightingCollector}
+COLLECTORS: dict[str, Callable[[Scenario], Any]] = {"sighting": SightingCollector,
+                                                     "sighting_operator": SightingOperatorCollector}
 
 
 def run_core(scenario: Scenario, run_dir: Path) -> dict[str, Any]:

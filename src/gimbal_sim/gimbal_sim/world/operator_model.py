@@ -67,6 +67,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from numbers import Integral
 
+from gimbal_kinematics.earth import earth_rate_n
+from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_to_dcm
+from gimbal_kinematics.stamps import Stamp, judge
 from gimbal_kinematics.validate import nonneg_finite, positive
 
 WATCH, REACT, SLEW = "watch", "react", "slew"
@@ -99,6 +103,17 @@ class OperatorModelParams:
         if self.settle_band_mrad >= self.tolerance_mrad:
             raise ValueError(f"settle_band_mrad must be < tolerance_mrad = {self.tolerance_mrad}, "
                              f"got {self.settle_band_mrad!r}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> OperatorModelParams:
+        """The parameters from an ``operator`` node's values; :class:`ParameterError` names
+        the one refused."""
+        try:
+            return cls(tolerance_mrad=v["tolerance_mrad"], settle_band_mrad=v["settle_band_mrad"],
+                       reaction_time_s=v["reaction_time_s"], peak_rate_deg_s=v["peak_rate_deg_s"],
+                       gain_1_s=v["gain_1_s"])
+        except ValueError as exc:
+            raise ParameterError(f"parameter {exc}") from exc
 
 
 def sight_error(C_fm: Sequence[Sequence[float]], target_f: Sequence[float]) -> tuple[float, float, float]:
@@ -146,6 +161,7 @@ class OperatorModel:
         self.phase = WATCH
         self.command: tuple[float, float] = (0.0, 0.0)
         self.error = 0.0                     # ε at the last step [rad]
+        self.error_qr = (0.0, 0.0)           # its (e_q, e_r) [rad]
         self._t_ns: int | None = None
         self._on_target = True
         self._t_detect = 0
@@ -158,15 +174,15 @@ class OperatorModel:
         if isinstance(stamp_ns, bool) or not isinstance(stamp_ns, Integral):
             raise TypeError(f"stamps are integer nanoseconds, got {stamp_ns!r}")
         t = int(stamp_ns)
-        last = self._t_ns
-        if last is not None and t <= last:
-            if last - t <= self._jump_ns:
-                self.rejected_stamps += 1
-                return self.command
+        verdict = judge(t, self._t_ns, self._jump_ns)
+        if verdict is Stamp.DUPLICATE or verdict is Stamp.OUT_OF_ORDER:
+            self.rejected_stamps += 1
+            return self.command
+        if verdict is Stamp.JUMPED_BACK:
             self.clock_jumps += 1
             self._restart()
             self._last_onset_ns = None
-            last = None
+        last = self._t_ns
         try:
             eps, e_q, e_r = sight_error(C_fm, target_f)
         except (ValueError, TypeError, IndexError):
@@ -178,7 +194,7 @@ class OperatorModel:
             if self._on_target:
                 self.on_target_s += dt
         self._t_ns = t
-        self.error = eps
+        self.error, self.error_qr = eps, (e_q, e_r)
         self._on_target = eps <= self.tolerance
         self.command = self._decide(t, eps, (e_q, e_r))
         return self.command
@@ -231,3 +247,44 @@ class OperatorModel:
             "rejected_stamps": self.rejected_stamps,
             "clock_jumps": self.clock_jumps,
         }
+
+
+class SightOperator:
+    """The ``operator`` node's core: an :class:`OperatorModel` watching an inertially fixed
+    target, the true LOS's direction ``capture_s`` after the first step (what the
+    stabilisation is meant to hold, and what the sighting report's drift is measured
+    from: a target far enough away that the vehicle's travel does not turn it).
+    NED turns with the earth at ω_in^n (``lat_deg``; ``earth_rate`` False: NED is
+    inertial), so the target seen from NED at τ after the capture is exp(−[ω×] τ) u_i
+    (:func:`gimbal_kinematics.los.inertial_los` inverted). Before the capture the
+    operator only watches the sight (no command, nothing observed)."""
+
+    def __init__(self, params: OperatorModelParams | None = None, capture_s: float = 0.0, lat_deg: float = 0.0,
+                 earth_rate: bool = True) -> None:
+        nonneg_finite("capture_s", capture_s)
+        self.model = OperatorModel(params)
+        self._capture_ns = int(round(capture_s * 1e9))
+        self._w = earth_rate_n(math.radians(lat_deg)) if earth_rate else None
+        self._t0_ns: int | None = None
+        self.target_ns: int | None = None   # capture stamp [ns]
+        self.target_i = None                # the target in n at the capture, (3,)
+
+    def step(self, stamp_ns: int, quat_nm: Sequence[float]) -> tuple[float, float]:
+        """One step with the true sight attitude C(n,m) as a quaternion (x, y, z, w);
+        returns the LOS rate command (q, r) [rad/s]."""
+        t = int(stamp_ns)
+        if self._t0_ns is None:
+            self._t0_ns = t
+        try:
+            C_nm = quat_to_dcm(quat_nm)
+        except (ValueError, TypeError):
+            self.model.rejected_inputs += 1
+            return self.model.command
+        if self.target_i is None:
+            if t - self._t0_ns < self._capture_ns:
+                return (0.0, 0.0)
+            self.target_ns, self.target_i = t, C_nm[:, 0].copy()
+        target = self.target_i
+        if self._w is not None:
+            target = dcm_from_rotation_vector(-self._w * ((t - self.target_ns) * 1e-9)) @ target
+        return self.model.step(t, C_nm, target)
