@@ -10,7 +10,8 @@ drops it and leaves it to the integrator, as in the paper). x comes from the enc
 
 Error (paper 1 §5, "task frame to joint frame"): the gyro on the inner gimbal measures the
 inertial LOS rates (q_m, r_m); the commanded ones are (q_md, r_md) = 0 to hold the LOS
-inertially still (an outer loop may command others). Both are mapped to joint rates with
+inertially still (an outer loop may command others; an operator's slew command, shaped by
+:mod:`.operator_command`, is added to it: :meth:`LosRateController.reference`). Both are mapped to joint rates with
 the chain kinematics (``sighting_chain.task_to_joint_rates``): with w the turret's inertial
 rate in the outer frame a (INS body rates, ψt, ψ̇t, ψm) and c, s = cos θm, sin θm,
 
@@ -70,6 +71,7 @@ from gimbal_kinematics.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 
 from .linearize import STANDARD_GRAVITY, linearize_gimbal
+from .operator_command import OperatorCommand
 
 #: Default loop rate [Hz]: the lockstep simulation rate of the paper 1 scenario (and the
 #: rate of its sensors); 1000 steps per simulated second.
@@ -176,8 +178,9 @@ class LosRateController:
     gyro sample. Pure Python, no ROS; time is the measurement stamp [s]."""
 
     def __init__(self, params: LosRateControllerParams | None = None,
-                 plant_params: GimbalParams | None = None) -> None:
+                 plant_params: GimbalParams | None = None, operator: OperatorCommand | None = None) -> None:
         self.params = params if params is not None else LosRateControllerParams()
+        self.operator = operator
         self.plant_params = plant_params if plant_params is not None else GimbalParams()
         p = self.params
         self.model = linearize_gimbal(self.plant_params, p.gravity_m_s2)
@@ -255,6 +258,19 @@ class LosRateController:
             return False
         self._rate_cmd = (float(q_md), float(r_md))
         return True
+
+    def reference(self, stamp_ns: int) -> tuple[float, float] | None:
+        """The step's LOS rate reference for :meth:`step` at ``stamp_ns`` [ns]: the outer
+        loop's command (:meth:`set_rate_command`) plus the operator's shaped command
+        (:class:`.operator_command.OperatorCommand`, advanced to the stamp). None (use the
+        outer loop's alone) without an operator or while its shaped command is zero, so a
+        controller nobody commands computes exactly what it did without one."""
+        if self.operator is None:
+            return None
+        q, r = self.operator.step(stamp_ns)
+        if q == 0.0 and r == 0.0:
+            return None
+        return (self._rate_cmd[0] + q, self._rate_cmd[1] + r)
 
     # ----------------------------------------------------------------------- hot path
     def step(self, t: float, gyro_qr: Sequence[float], joint_angles: Sequence[float],

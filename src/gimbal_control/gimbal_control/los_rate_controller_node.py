@@ -12,6 +12,16 @@ waits for the estimate of step k, and between them uses the newest. ``mode: los_
 adds the outer LOS angle loop (:mod:`.los_hold`) on the EKF's attitude estimate
 (``attitude_topic``, also waited for at INS steps); it implies bias feedback.
 
+An operator slews the LOS with a rate command on ``operator_topic`` (Vector3Stamped, sight
+frame, rad/s, y = q, z = r) or a joystick on ``joy_topic`` (sensor_msgs/Joy): the shaper
+(:mod:`.operator_command`: rate and acceleration limits, dead-man ``operator_timeout_s``)
+judges each command as it arrives and its shaped output is added to the stabilisation
+reference at every step (:meth:`.los_rate_controller.LosRateController.reference`). Those
+commands bypass the input policy: the shaper has its own stamp rule and timeout. Only a
+lockstep graph with an ``operator`` node (``operator_rate_hz`` > 0) waits for its command
+at the operator's steps, so the run is deterministic; nobody publishing leaves the loop's
+data unchanged. Its counters are ``operator_*`` in /diagnostics.
+
 That is ``timing: lockstep``, which the orchestrator sets. ``timing: free`` (the default,
 for a driver or a bag) never waits: each gyro sample makes one command, stamped like it,
 from the newest encoder and INS samples no older than ``max_input_age_s`` and the newest
@@ -45,7 +55,7 @@ import sys
 
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, Joy, JointState
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
@@ -59,6 +69,7 @@ from . import messages as m
 from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
 from .los_rate_controller_params import DESCRIPTION, PARAMS
+from .operator_command import OperatorCommand, OperatorCommandParams
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
@@ -74,7 +85,8 @@ class LosRateControllerNode(Node):
         self.rate = rate = v["sim_rate_hz"]
         hold_mode = v["mode"] == "los_hold"
         params = LosRateControllerParams.from_values(v)
-        self.core = LosRateController(params)
+        self.operator = OperatorCommand(OperatorCommandParams.from_values(v))
+        self.core = LosRateController(params, operator=self.operator)
         self.hold = LosHold(LosHoldParams.from_values(v)) if hold_mode else None
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.io = NodeIo(self)
@@ -90,11 +102,18 @@ class LosRateControllerNode(Node):
         estimates = tuple(kind for kind, *_ in inputs if kind in ESTIMATES)
         ins_every = steps_per_sample(v, "ins_rate_hz")
         ins_step_needs = ("gyro", "enc", "ins") + estimates  # an INS step also waits for the estimates in use
+        op_topic = v["operator_topic"]
+        op_every = (steps_per_sample(v, "operator_rate_hz") if timing == "lockstep" and op_topic
+                    and v["operator_rate_hz"] > 0.0 else 0)
+        if op_every:
+            inputs.append(("op", Vector3Stamped, op_topic, vec))
 
         def needs(k: int) -> tuple[str, ...]:
-            return ins_step_needs if k % ins_every == 0 else ("gyro", "enc")
+            base = ins_step_needs if k % ins_every == 0 else ("gyro", "enc")
+            return base + ("op",) if op_every and k % op_every == 0 else base
 
-        ages = {kind: v["max_estimate_age_s"] if kind in ESTIMATES else v["max_input_age_s"] for kind, *_ in inputs[1:]}
+        ages = {kind: v["max_estimate_age_s"] if kind in ESTIMATES else v["max_input_age_s"]
+                for kind, *_ in inputs[1:] if kind != "op"}
         # the one choice of timing (module docstring); a step back of more than clock_jump_s is a bag loop
         self.policy = control_policy(
             timing,
@@ -109,6 +128,10 @@ class LosRateControllerNode(Node):
         for kind, msg_type, topic, decode in inputs:
             self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), timing,
                               raw=True)
+        if op_topic and not op_every:
+            self.io.subscribe(Vector3Stamped, op_topic, self._on_operator, timing, raw=True)
+        if v["joy_topic"]:
+            self.io.subscribe(Joy, v["joy_topic"], self._on_joy, timing)
 
     @property
     def rejected(self) -> int:
@@ -131,8 +154,22 @@ class LosRateControllerNode(Node):
         for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
             self._step(step)
 
+    def _on_operator(self, data: bytes) -> None:
+        """An operator rate command used as it arrives (the shaper judges and counts it)."""
+        try:
+            msg = m.vector3_stamped_from_cdr(data)
+        except CdrError as exc:
+            self._count("malformed", f"malformed operator command ignored: {exc}")
+            return
+        self.operator.set_rate(msg.stamp_ns, msg.vector[1], msg.vector[2])
+
+    def _on_joy(self, msg: Joy) -> None:
+        self.operator.set_joy(m.stamp_ns(msg.header.stamp), msg.axes)
+
     def _validate(self, kind: str, msg):
         """What the loop takes from an input message, or None (counted) when it cannot be used."""
+        if kind == "op":  # the operator's waited-for command: the shaper judges it
+            return (msg.stamp_ns, msg.vector[1], msg.vector[2])
         if kind == "gyro":
             if not m.gyro_qr_provided(msg.angular_velocity_covariance):
                 self._count("rejected_no_rates", "gyro angular velocity marked not provided; not fused")
@@ -165,7 +202,9 @@ class LosRateControllerNode(Node):
         core, inputs = self.core, step.inputs
         for reason in step.resets:
             core.reset(reason)
-        bias, att = inputs.get("bias"), inputs.get("att")
+        bias, att, op = inputs.get("bias"), inputs.get("att"), inputs.get("op")
+        if op is not None:
+            self.operator.set_rate(*op.value)
         if bias is not None:
             core.set_bias_estimate(bias.t, bias.value)
         if att is not None and self.hold is not None:  # the outer loop runs on each new attitude estimate
@@ -183,7 +222,8 @@ class LosRateControllerNode(Node):
                 tau = core.command
             else:
                 before = core.rejected_inputs
-                tau = core.step(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates)
+                tau = core.step(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates,
+                                core.reference(step.stamp_ns))
                 if core.rejected_inputs > before:
                     self._count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
         self.pub.publish(m.torque_command_cdr(step.stamp_ns, tau))
@@ -196,7 +236,8 @@ class LosRateControllerNode(Node):
         core = self.core
         fields = {**self.policy.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
                   "saturated_steps": core.saturated_steps, "singular_steps": core.singular_steps,
-                  "rejected_bias": core.rejected_bias, "resets": core.resets}
+                  "rejected_bias": core.rejected_bias, "resets": core.resets,
+                  **{f"operator_{k}": n for k, n in self.operator.counters().items()}}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 
 

@@ -39,4 +39,23 @@ PARAMS = (
     Param("anti_windup", "clamp", "integrator anti-windup", choices=("clamp", "conditional", "none")),
     Param("integrator_limit_factor", 4.0, "clamp bound of the integral term, in torque limits [-]", 1e-3, 1e3),
     Param("trim", True, "feed forward the gravity trim torque of the linearisation point"),
+    Param("operator_topic", "/operator/los_rate", "operator LOS rate command (geometry_msgs/Vector3Stamped, sight "
+          "frame, rad/s: y = elevation q, z = azimuth r), shaped and added to the stabilisation reference; "
+          "'' = off"),
+    Param("operator_rate_hz", 0.0, "lockstep: the operator's publish rate [Hz]; each of its steps waits for its "
+          "command (a deterministic run). 0: not waited for, used as it arrives (free timing: always)",
+          0.0, 100000.0),
+    Param("operator_max_rate_deg_s", 10.0, "operator command: largest rate per axis [deg/s]; above: rejected, "
+          "counted", 1e-6, 1e3),
+    Param("operator_max_accel_deg_s2", 100.0, "operator command: acceleration limit per axis [deg/s^2]",
+          1e-6, 1e6),
+    Param("operator_timeout_s", 0.5, "operator dead-man: a command older than this stops the slew, counted [s]",
+          1e-3, 100.0),
+    Param("joy_topic", "", "sensor_msgs/Joy input (joy_node's /joy), mapped like teleop_twist_joy; '' = off"),
+    Param("joy_scale_rad_s", 0.0, "LOS rate at full stick deflection [rad/s] (<= the operator rate limit); "
+          "0: the rate limit", 0.0, 100.0),
+    Param("joy_azimuth_axis", 0, "Joy axes index of the azimuth stick", 0, 63),
+    Param("joy_elevation_axis", 1, "Joy axes index of the elevation stick", 0, 63),
+    Param("joy_invert_azimuth", True, "flip the azimuth axis (joy_node: stick left = +1; FRD: left is -r)"),
+    Param("joy_invert_elevation", False, "flip the elevation axis (joy_node: stick up = +1 raises the LOS)"),
 )

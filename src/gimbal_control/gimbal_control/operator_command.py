@@ -64,6 +64,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from numbers import Integral
 
+from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import positive
 
 #: Relative slack on the rate limit, for a sender converting the same limit from degrees.
@@ -115,6 +116,24 @@ class OperatorCommandParams:
         for name in ("joy_invert_azimuth", "joy_invert_elevation"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
+
+    @classmethod
+    def from_values(cls, v: dict) -> OperatorCommandParams:
+        """The shaper's parameters from a ``los_rate_controller`` node's values (its
+        ``operator_*`` and ``joy_*``; ``joy_scale_rad_s`` 0 means the rate limit, and
+        ``clock_jump_s`` is the controller's); :class:`ParameterError` names the node's
+        parameter refused."""
+        try:
+            return cls(max_rate_deg_s=v["operator_max_rate_deg_s"], max_accel_deg_s2=v["operator_max_accel_deg_s2"],
+                       timeout_s=v["operator_timeout_s"], joy_azimuth_axis=v["joy_azimuth_axis"],
+                       joy_elevation_axis=v["joy_elevation_axis"],
+                       joy_scale_rad_s=v["joy_scale_rad_s"] or None, joy_invert_azimuth=v["joy_invert_azimuth"],
+                       joy_invert_elevation=v["joy_invert_elevation"])
+        except ValueError as exc:
+            text = str(exc)
+            if text.startswith(("max_rate_deg_s", "max_accel_deg_s2", "timeout_s")):
+                text = "operator_" + text
+            raise ParameterError(f"parameter {text}") from exc
 
 
 def _stamp(stamp_ns: object) -> int:

@@ -13,9 +13,11 @@ from typing import Any, Callable
 
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
+from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
+from gimbal_kinematics.stamps import step_stamp_ns
 
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
 
@@ -26,14 +28,16 @@ class Bus:
     [s], the vehicle's truth, the sensor samples of the step (None when not due), the INS
     Euler angles as a reader of its quaternion gets them, the command and the bias
     estimate (None when not produced this step), with the estimator's whole output of the
-    step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers."""
+    step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers, and the
+    operator's LOS rate command of the step (``operator``: (stamp [ns], q, r) [rad/s], what
+    /operator/los_rate carries; None when none was published)."""
 
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf")
+    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
-        self.ekf = None
+        self.ekf = self.operator = None
 
 
 def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
@@ -88,10 +92,12 @@ def ekf_stage(ekf: GyroBiasEkf) -> Callable[[Bus], None]:
 
 def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
     """``los_rate_controller``: the stage of :func:`controller_stage` on the node's core, with
-    the LOS-hold outer loop in ``mode: los_hold``."""
+    the LOS-hold outer loop in ``mode: los_hold`` and the operator's shaper when
+    ``operator_topic`` is set."""
     hold = LosHold(LosHoldParams.from_values(values)) if values["mode"] == "los_hold" else None
-    return controller_stage(LosRateController(LosRateControllerParams.from_values(values)), values["sim_rate_hz"],
-                            hold)
+    operator = OperatorCommand(OperatorCommandParams.from_values(values)) if values["operator_topic"] else None
+    core = LosRateController(LosRateControllerParams.from_values(values), operator=operator)
+    return controller_stage(core, values["sim_rate_hz"], hold)
 
 
 def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | None = None,
@@ -101,7 +107,9 @@ def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | No
     and the bias estimate of the step when the EKF made one (the node waits for it at INS
     steps). With ``hold`` (``mode: los_hold``) the EKF's attitude of the step (``bus.ekf``,
     what ``~/attitude`` carries) drives the outer loop, after the bias is taken, as in the
-    node's ``_use_estimates``. The controller's sample time is the node's k / rate, or
+    node's ``_step``. The operator's command of the step (``bus.operator``) goes to
+    the core's shaper, whose output joins the reference (the node's waited-for ``op``). The
+    controller's sample time is the node's k / rate, or
     ``sample_time(bus)`` [s] when given (``experiments.closed_loop`` keeps the vehicle's k·dt,
     which its recorded figures were computed with; the two differ in the last bits)."""
     ins_rates: list[tuple[float, float, float] | None] = [None]
@@ -116,11 +124,14 @@ def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | No
             core.set_bias_estimate(bus.t, bus.bias)
             if hold is not None:
                 core.set_rate_command(*hold.update(bus.t, tuple(bus.ekf.quat_nm), core.bias_estimate_qr))
+        if bus.operator is not None and core.operator is not None:
+            core.operator.set_rate(*bus.operator)
         enc = bus.encoders
         if bus.gyro is None or enc is None or ins_rates[0] is None:
             bus.command = core.command
             return
-        bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0])
+        bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0],
+                                core.reference(step_stamp_ns(bus.k, rate_hz)))
     return stage
 
 
