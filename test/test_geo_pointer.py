@@ -112,3 +112,20 @@ def test_a_bad_new_target_is_counted_and_the_old_one_kept():
     assert not pointer.set_target((float("nan"), 0.0, 0.0))
     assert pointer.counts["rejected_targets"] == 2 and pointer.target_llh == TARGET
     assert pointer.set_target((D(39.95), D(32.9), 1000.0)) and pointer.counts["rejected_targets"] == 2
+
+
+def test_scenario_cores_with_ideal_sensors_point_within_50_urad_while_driving():
+    """sighting_geo_pointing:ideal stepped by the core engine (the graph's torque commands to
+    the bit): the true LOS against pymap3d's direction to the target, after the slew."""
+    import dataclasses
+
+    from gimbal_sim.core.core_loop import run_core_loop
+    from gimbal_sim.graph.scenario import load, variant
+
+    scenario = dataclasses.replace(variant(load("sighting_geo_pointing"), "ideal"), duration_s=11.0)
+    u = _los_ned_pymap3d(VEHICLE, TARGET)
+    errors = []
+    run_core_loop(scenario, observer=lambda bus: errors.append(
+        (bus.t, _angle(Rotation.from_quat(bus.truth.quat_nm).as_matrix()[:, 0], u))))
+    settled = np.array([e for t, e in errors if t >= 8.0])
+    assert math.sqrt(np.mean(settled ** 2)) < 50e-6

@@ -11,12 +11,13 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
+from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
-from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
+from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
 from gimbal_kinematics.stamps import step_stamp_ns
 
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
@@ -87,6 +88,26 @@ def ekf_stage(ekf: GyroBiasEkf) -> Callable[[Bus], None]:
             out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
         bus.bias = None if out is None else tuple(out.bias.tolist())
         bus.ekf = out
+    return stage
+
+
+def geo_pointer_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+    """``geo_pointer``: at each step with an EKF output (an INS step), the pointer's core on
+    the EKF's attitude, the INS attitude as its quaternion carries it and the turret angle;
+    leaves the LOS rate command in ``bus.operator`` for the controller (the last one again
+    when the EKF has no attitude yet, as the node holds it), None between INS steps."""
+    core = GeoPointer(GeoPointerParams.from_values(values))
+    rate = values["sim_rate_hz"]
+    held = [(0.0, 0.0)]
+
+    def stage(bus: Bus) -> None:
+        if bus.ekf is None or bus.ins is None:
+            bus.operator = None
+            return
+        if bus.ekf.quat_nm is not None and bus.encoders is not None:
+            q_nb = quat_canonical(quat_from_euler321(*bus.ins.euler))
+            held[0] = core.step(tuple(bus.ekf.quat_nm), quat_to_dcm(q_nb), bus.encoders.angles[0]).command
+        bus.operator = (step_stamp_ns(bus.k, rate), *held[0])
     return stage
 
 
