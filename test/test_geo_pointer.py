@@ -104,6 +104,8 @@ def test_bad_targets_are_refused_at_startup_naming_the_parameter():
             GeoPointerParams.from_values(_values(target_llh_deg=bad))
     with pytest.raises(ParameterError, match="ins_attitude_sigma_deg"):
         GeoPointerParams.from_values(_values(ins_attitude_sigma_deg=[0.05, 0.05]))
+    with pytest.raises(ParameterError, match="target_position_sigma_m"):
+        GeoPointerParams.from_values(_values(target_position_sigma_m=[5.0]))
 
 
 def test_a_bad_new_target_is_counted_and_the_old_one_kept():

@@ -89,15 +89,19 @@ class GeoPointerParams:
             return (float(x[0]) * _DEG, float(x[1]) * _DEG, float(x[2]))
 
         target, vehicle = llh("target_llh_deg"), llh("vehicle_llh_deg")
+        def sigmas_of(name: str, n: int) -> list[float]:
+            x = [float(c) for c in v[name]]
+            if len(x) != n:
+                raise ValueError(f"{name} must be {n} numbers, got {x}")
+            return x
+
         try:
             limits = GimbalLimits(v["azimuth_min_deg"] * _DEG, v["azimuth_max_deg"] * _DEG,
                                   v["elevation_min_deg"] * _DEG, v["elevation_max_deg"] * _DEG)
-            sig = [float(s) for s in v["ins_attitude_sigma_deg"]]
-            if len(sig) != 3:
-                raise ValueError(f"ins_attitude_sigma_deg must be 3 numbers (roll, pitch, heading), got {sig}")
-            sigmas = PointingSigmas(sig[0] * _DEG, sig[1] * _DEG, sig[2] * _DEG, *v["vehicle_position_sigma_m"],
-                                    *v["target_position_sigma_m"])
-        except (TypeError, ValueError) as exc:
+            att = [s * _DEG for s in sigmas_of("ins_attitude_sigma_deg", 3)]
+            sigmas = PointingSigmas(*att, *sigmas_of("vehicle_position_sigma_m", 2),
+                                    *sigmas_of("target_position_sigma_m", 2))
+        except ValueError as exc:
             raise ParameterError(f"parameter {exc}") from exc
         try:
             return cls(target, vehicle, v["gain_1_s"], v["max_rate_deg_s"] * _DEG, limits, sigmas,
