@@ -25,6 +25,7 @@ setup(
             "los_rate_controller = gimbal_control.los_rate_controller_node:main",
             "encoder_fusion_controller = gimbal_control.encoder_fusion_controller_node:main",
             "platform_servo = gimbal_control.platform_servo_node:main",
+            "geo_pointer = gimbal_control.geo_pointer_node:main",
         ],
     },
 )

@@ -34,6 +34,15 @@ from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import quat_to_dcm
 
 
+def sight_frame_error(C_nm, u_n: Sequence[float]) -> tuple[float, float]:
+    """Error angles (elevation, azimuth) [rad] of the direction ``u_n`` (NED) seen in the
+    sight frame of C_nm: v = C_nmᵀ u, (atan2(−v_z, v_x), atan2(v_y, v_x)); k times them is
+    the rate command (q, r) that turns the LOS (m-x) onto u (FRD: +q up, +r right)."""
+    u = u_n
+    v = [float(C_nm[0, j] * u[0] + C_nm[1, j] * u[1] + C_nm[2, j] * u[2]) for j in range(3)]
+    return math.atan2(-v[2], v[0]), math.atan2(v[1], v[0])
+
+
 @dataclass(frozen=True)
 class LosHoldParams:
     """``gain_1_s`` k [1/s]; ``max_rate_deg_s`` command limit [°/s]; ``capture_s`` [s]
@@ -124,9 +133,7 @@ class LosHold:
             norm = math.sqrt(v0[0] ** 2 + v0[1] ** 2 + v0[2] ** 2)
             self.target_i = tuple(float(C[i, 0] * v0[0] + C[i, 1] * v0[1] + C[i, 2] * v0[2]) / norm for i in range(3))
             self.t_target = t
-        u = self._target_n(t)
-        v = [float(C[0, j] * u[0] + C[1, j] * u[1] + C[2, j] * u[2]) for j in range(3)]
-        self.error = (math.atan2(-v[2], v[0]), math.atan2(v[1], v[0]))
+        self.error = sight_frame_error(C, self._target_n(t))
         k, lim = self.params.gain_1_s, math.radians(self.params.max_rate_deg_s)
         self.command = tuple(max(-lim, min(lim, k * e)) for e in self.error)  # type: ignore[assignment]
         return self.command

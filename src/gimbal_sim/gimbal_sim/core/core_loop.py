@@ -32,7 +32,8 @@ from typing import Any, Callable
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.stamps import step_stamp_ns
 
-from .core_stages import Bus, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, sensor_stage
+from .core_stages import Bus, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, \
+    sensor_stage
 from ..graph.plan import plan_nodes, process_stats
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load
@@ -65,6 +66,7 @@ STAGES: dict[str, Callable[[dict[str, Any]], Callable[[Bus], None]]] = {
     "sensor_models": sensor_stage,
     "gyro_bias_ekf": gyro_bias_ekf_stage,
     "operator": operator_stage,
+    "geo_pointer": geo_pointer_stage,
     "los_rate_controller": los_rate_controller_stage,
 }
 

@@ -12,13 +12,14 @@ import math
 import time
 from typing import Any, Callable
 
+from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
-from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
 from gimbal_kinematics.stamps import step_stamp_ns
 
 from ..world.operator_model import OperatorModelParams, SightOperator
@@ -114,6 +115,26 @@ def operator_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
         q, r = core.step(stamp, bus.truth.quat_nm)
         bus.operator = (stamp, q, r)
         bus.operator_error = (core.model.error, *core.model.error_qr) if core.target_i is not None else nan3
+    return stage
+
+
+def geo_pointer_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+    """``geo_pointer``: at each step with an EKF output (an INS step), the pointer's core on
+    the EKF's attitude, the INS attitude as its quaternion carries it and the turret angle;
+    leaves the LOS rate command in ``bus.operator`` for the controller (the last one again
+    when the EKF has no attitude yet, as the node holds it), None between INS steps."""
+    core = GeoPointer(GeoPointerParams.from_values(values))
+    rate = values["sim_rate_hz"]
+    held = [(0.0, 0.0)]
+
+    def stage(bus: Bus) -> None:
+        if bus.ekf is None or bus.ins is None:
+            bus.operator = None
+            return
+        if bus.ekf.quat_nm is not None and bus.encoders is not None:
+            q_nb = quat_canonical(quat_from_euler321(*bus.ins.euler))
+            held[0] = core.step(tuple(bus.ekf.quat_nm), quat_to_dcm(q_nb), bus.encoders.angles[0]).command
+        bus.operator = (step_stamp_ns(bus.k, rate), *held[0])
     return stage
 
 

@@ -13,7 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from gimbal_control import encoder_fusion_controller_params, los_rate_controller_params, platform_servo_params
+from gimbal_control import (
+    encoder_fusion_controller_params, geo_pointer_params, los_rate_controller_params, platform_servo_params,
+)
 from gimbal_estimators import (
     flexure_estimator_params, free_gyro_positioning_params, gyro_bias_ekf_params, platform_alignment_params,
 )
@@ -93,6 +95,11 @@ def _platform_alignment() -> type:
     return PlatformAlignmentNode
 
 
+def _geo_pointer() -> type:
+    from gimbal_control.geo_pointer_node import GeoPointerNode
+    return GeoPointerNode
+
+
 def _node_type(package: str, params_module, load_class: Callable[[], type]) -> NodeType:
     return NodeType(package, params_module.PARAMS, params_module.DESCRIPTION, load_class)
 
@@ -111,4 +118,5 @@ NODE_TYPES: dict[str, NodeType] = {
     "flexure_estimator": _node_type("gimbal_estimators", flexure_estimator_params, _flexure_estimator),
     "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo),
     "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment),
+    "geo_pointer": _node_type("gimbal_control", geo_pointer_params, _geo_pointer),
 }

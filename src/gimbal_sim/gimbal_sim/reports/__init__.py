@@ -19,6 +19,7 @@ from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
 from .flexure import flexure_report
 from .free_gyro import free_gyro_report
 from .generic import generic_report
+from .geo_pointing import geo_pointing_comparison, geo_pointing_report
 from .gyro_encoder import gyro_encoder_report
 from .los_pointing import los_pointing_report
 from .operator import sighting_operator_comparison, sighting_operator_report
@@ -39,6 +40,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "allan": allan_report,
     "consistency": consistency_report,
     "gyro_encoder": gyro_encoder_report,
+    "geo_pointing": geo_pointing_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics
@@ -49,6 +51,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "alignment_rotation": rotation_comparison,
     "alignment_campaign": alignment_campaign,
     "allan": allan_comparison,
+    "geo_pointing": geo_pointing_comparison,
 }
 
 

@@ -1,0 +1,166 @@
+"""Geo-pointing (issue 24): keep the LOS on a geographic target through the controller's
+operator input. Pure Python, no rclpy; the node is :mod:`.geo_pointer_node`.
+
+Each step takes the gimbal attitude estimate Ĉ_nm (the gyro-bias EKF's), the INS attitude
+C_nb and the measured turret angle ψt, and returns a LOS rate command (q, r) [rad/s] in the
+sight frame, the operator input of ``los_rate_controller`` (added to its stabilisation
+reference, so the controller itself is unchanged):
+
+* the direction u_n to the target from the sight pivot (INS position + lever arm), exact on
+  the WGS-84 ellipsoid (:func:`gimbal_kinematics.geo_pointing.los_to_target`);
+* the aim: u_n itself, or, when the joints cannot reach it
+  (:func:`~gimbal_kinematics.geo_pointing.joint_angles_for_los` with the gimbal limits), the
+  LOS of the joints stopped at the limit. The turret here is the vehicle's (paper 1's
+  revolving turret follows its own profile), so the pointer cannot hand azimuth over to it:
+  it stops at the limit and counts the steps (``azimuth_limited_steps``,
+  ``elevation_limited_steps``; ``singular_steps`` at el_b = ±90°);
+* feed-forward: the rate of the aim in inertial space. At a fixed site the target is fixed
+  in NED, which turns at the earth rate ω_ie, while the rate loop holds the LOS inertially:
+  without it the LOS would lag the target by |ω_ie × u| / k (up to 73 µrad at k = 1/s);
+* feedback: k times the error angles in the estimated sight frame, the law of
+  :func:`.los_hold.sight_frame_error` (the LOS-hold outer loop's), the sum limited per axis
+  to ``max_rate_rad_s`` (below the controller's operator rate limit, which refuses more).
+
+The vehicle position is a parameter: paper 1's land vehicle keeps its site (its profile
+moves the attitude, not the position) and its INS publishes no position.
+
+The 1σ pointing-error budget (:func:`~gimbal_kinematics.geo_pointing.pointing_budget`) from
+the INS attitude and position accuracy, the target's position accuracy and the range comes
+with every step.
+
+Bad input: a target nearer than ``min_range_m`` (one at the vehicle's own position has no
+direction) or non-finite is refused at construction (``GeoPointerParams``) and, as a new
+target on :meth:`GeoPointer.set_target`, counted (``rejected_targets``) and not used.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from gimbal_kinematics.earth import earth_rate_n
+from gimbal_kinematics.geo_pointing import (
+    MIN_RANGE_M, GimbalLimits, JointSolution, PointingBudget, PointingSigmas, check_geodetic, joint_angles_for_los,
+    los_to_target, pointing_budget,
+)
+from gimbal_kinematics.sighting_chain import dcm_bm
+from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.rotations import quat_to_dcm
+
+from .los_hold import sight_frame_error
+
+_DEG = math.pi / 180.0
+COUNTERS = ("rejected_targets", "azimuth_limited_steps", "elevation_limited_steps", "singular_steps")
+
+
+@dataclass(frozen=True)
+class GeoPointerParams:
+    """Target and vehicle (lat, lon [rad], h [m] WGS-84), gain k [1/s], rate limit
+    [rad/s], gimbal limits, input 1σ errors, lever arm [m] (body), earth rate in the
+    feed-forward, minimum range [m]."""
+
+    target_llh: tuple[float, float, float]
+    vehicle_llh: tuple[float, float, float]
+    gain_1_s: float = 1.0
+    max_rate_rad_s: float = 5.0 * _DEG
+    limits: GimbalLimits = GimbalLimits()
+    sigmas: PointingSigmas = PointingSigmas()
+    lever_arm_b: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    earth_rate: bool = True
+    min_range_m: float = MIN_RANGE_M
+
+    def __post_init__(self) -> None:
+        for name in ("gain_1_s", "max_rate_rad_s"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
+                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+        # a target the sight cannot point at is refused here, naming it
+        los_to_target(check_geodetic("vehicle", self.vehicle_llh), check_geodetic("target", self.target_llh),
+                      np.eye(3), self.lever_arm_b, self.min_range_m)
+
+    @classmethod
+    def from_values(cls, v: dict) -> GeoPointerParams:
+        """From a ``geo_pointer`` node's values (degrees at the edge); :class:`ParameterError`
+        names the parameter refused."""
+        def llh(name: str) -> tuple[float, float, float]:
+            x = v[name]
+            if len(x) != 3 or not all(math.isfinite(float(c)) for c in x):
+                raise ParameterError(f"parameter {name} must be 3 finite numbers (lat, lon [deg], h [m]), got {x!r}")
+            return (float(x[0]) * _DEG, float(x[1]) * _DEG, float(x[2]))
+
+        target, vehicle = llh("target_llh_deg"), llh("vehicle_llh_deg")
+        def sigmas_of(name: str, n: int) -> list[float]:
+            x = [float(c) for c in v[name]]
+            if len(x) != n:
+                raise ValueError(f"{name} must be {n} numbers, got {x}")
+            return x
+
+        try:
+            limits = GimbalLimits(v["azimuth_min_deg"] * _DEG, v["azimuth_max_deg"] * _DEG,
+                                  v["elevation_min_deg"] * _DEG, v["elevation_max_deg"] * _DEG)
+            att = [s * _DEG for s in sigmas_of("ins_attitude_sigma_deg", 3)]
+            sigmas = PointingSigmas(*att, *sigmas_of("vehicle_position_sigma_m", 2),
+                                    *sigmas_of("target_position_sigma_m", 2))
+        except ValueError as exc:
+            raise ParameterError(f"parameter {exc}") from exc
+        try:
+            return cls(target, vehicle, v["gain_1_s"], v["max_rate_deg_s"] * _DEG, limits, sigmas,
+                       tuple(v["lever_arm_b_m"]), v["earth_rate"], v["min_range_m"])
+        except ValueError as exc:
+            raise ParameterError(f"parameter target_llh_deg: {exc}") from exc
+
+
+@dataclass
+class PointerOutput:
+    """One step: the rate command (q, r) [rad/s], the error angles (elevation, azimuth)
+    [rad] of the aim in the estimated sight frame, the joint solution, the budget."""
+
+    command: tuple[float, float]
+    error: tuple[float, float]
+    solution: JointSolution
+    budget: PointingBudget
+    los_n: np.ndarray = field(repr=False)
+
+
+class GeoPointer:
+    """The pointing law of the module docstring; :meth:`step` once per attitude estimate."""
+
+    def __init__(self, params: GeoPointerParams) -> None:
+        self.params = params
+        self.target_llh = params.target_llh
+        self._w_n = earth_rate_n(params.vehicle_llh[0]) if params.earth_rate else np.zeros(3)
+        self.counts = dict.fromkeys(COUNTERS, 0)
+        self._psi_m = 0.0
+
+    def set_target(self, target_llh) -> bool:
+        """A new target (lat, lon [rad], h [m]); False (counted) if it is not finite or too
+        near the vehicle, and the old one stays."""
+        p = self.params
+        try:
+            target = check_geodetic("target", target_llh)
+            los_to_target(p.vehicle_llh, target, np.eye(3), p.lever_arm_b, p.min_range_m)
+        except ValueError:
+            self.counts["rejected_targets"] += 1
+            return False
+        self.target_llh = target
+        return True
+
+    def step(self, quat_nm, C_nb: np.ndarray, psi_t: float) -> PointerOutput:
+        """Ĉ_nm as a quaternion (x, y, z, w), the INS C_nb and the turret angle [rad] → output."""
+        p = self.params
+        C_nm = quat_to_dcm(quat_nm)
+        los = los_to_target(p.vehicle_llh, self.target_llh, C_nb, p.lever_arm_b, p.min_range_m)
+        sol = joint_angles_for_los(C_nb, los.los_n, psi_t, p.limits, self._psi_m)
+        aim = los.los_n
+        if sol.residual_rad > 0.0:  # a limit stopped the joints: aim where they stop
+            aim = C_nb @ dcm_bm(sol.psi_t, sol.psi_m, sol.theta_m)[:, 0]
+        self._psi_m = sol.psi_m
+        for flag, counter in ((sol.azimuth_limited, "azimuth_limited_steps"),
+                              (sol.elevation_limited, "elevation_limited_steps"), (sol.singular, "singular_steps")):
+            self.counts[counter] += int(flag)
+        error = sight_frame_error(C_nm, aim)
+        w_m = C_nm.T @ self._w_n
+        lim, k = p.max_rate_rad_s, p.gain_1_s
+        command = tuple(max(-lim, min(lim, float(ff) + k * e)) for ff, e in zip(w_m[1:], error))
+        budget = pointing_budget(p.vehicle_llh, C_nb, self.target_llh, p.sigmas, p.lever_arm_b, p.min_range_m)
+        return PointerOutput(command, error, sol, budget, los.los_n)  # type: ignore[arg-type]

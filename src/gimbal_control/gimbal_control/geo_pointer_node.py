@@ -1,0 +1,158 @@
+"""``geo_pointer`` node: points the LOS at a geographic target (:mod:`.geo_pointer`).
+
+Per INS sample it takes the gyro-bias EKF's attitude estimate (``attitude_topic``, Imu with
+C(n,m)), the INS attitude (``/ins/imu``) and the encoders' turret angle
+(``/gimbal/joint_states``), all stamped like the INS sample, and publishes, stamped the same:
+
+* the LOS rate command on ``operator_topic`` (Vector3Stamped, sight frame, rad/s: x = 0,
+  y = q, z = r), the ``los_rate_controller``'s operator input (that node's
+  ``operator_rate_hz`` = ``ins_rate_hz`` makes it wait for each command in lockstep);
+* ``~/budget`` (Vector3Stamped [rad]): x the 1σ pointing-error budget (RMS of the error
+  angle), y and z its two semi-axes;
+* ``/diagnostics`` every ``diagnostics_period_s`` with the counters: inputs that could not
+  be used, rejected targets, steps at a gimbal limit.
+
+The target is ``target_llh_deg`` until a ``sensor_msgs/NavSatFix`` arrives on
+``target_topic``. NavSatFix rather than a WGS-84 PointStamped: its fields *are* latitude,
+longitude [deg] and height above the WGS-84 ellipsoid [m], so no convention rides on x, y, z,
+and it carries a position covariance and a status (a fix with ``STATUS_NO_FIX`` is refused).
+A non-finite target, or one within ``min_range_m`` of the vehicle, is refused at start-up
+(exit 2) and counted and ignored as a message.
+
+``timing: lockstep`` (the orchestrator's) waits for the three inputs of each INS step;
+``timing: free`` steps on each attitude estimate with the newest INS and encoder samples no
+older than 0.1 s, and publishes nothing while they are stale (counted): the controller's
+dead-man then stops the slew.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.node import Node
+from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
+
+from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.params import ParameterError, steps_per_sample
+from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.diagnostics import health_msg
+from gimbal_kinematics.ros.messages import vector3_cdr
+from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.rotations import quat_to_dcm
+
+from . import messages as m
+from .geo_pointer import GeoPointer, GeoPointerParams
+from .geo_pointer_params import DESCRIPTION, PARAMS
+
+COUNTERS = ("malformed", "rejected_inputs", "held_commands")
+MAX_INPUT_AGE_S = 0.1
+CLOCK_JUMP_S = 0.5
+
+
+class GeoPointerNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("geo_pointer", **node_kwargs)
+        v = declare_and_read(self, PARAMS)
+        timing = v["timing"]
+        rate = v["sim_rate_hz"]
+        try:
+            self.core = GeoPointer(GeoPointerParams.from_values(v))
+        except ParameterError as exc:
+            raise ValueError(str(exc)) from exc
+        self.counts = dict.fromkeys(COUNTERS, 0)
+        self.command = (0.0, 0.0)
+        self.io = NodeIo(self)
+        self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], timing)
+        self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
+        self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        ins_every = steps_per_sample(v, "ins_rate_hz")
+        step_needs = ("att", "ins", "enc")
+
+        def needs(k: int) -> tuple[str, ...]:
+            return step_needs if k % ins_every == 0 else ()
+
+        self.policy = control_policy(
+            timing,
+            lockstep=lambda: LockstepControl(needs, rate, CLOCK_JUMP_S, logger=self.get_logger()),
+            free=lambda: FreeControl("att", {"ins": MAX_INPUT_AGE_S, "enc": MAX_INPUT_AGE_S}, 1.0 / v["ins_rate_hz"],
+                                     CLOCK_JUMP_S, warn=self._log))
+        inputs = (("att", Imu, v["attitude_topic"], m.imu_from_cdr), ("ins", Imu, "/ins/imu", m.imu_from_cdr),
+                  ("enc", JointState, "/gimbal/joint_states", m.joint_state_from_cdr))
+        for kind, msg_type, topic, decode in inputs:
+            self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), timing,
+                              raw=True)
+        if v["target_topic"]:
+            self.io.subscribe(NavSatFix, v["target_topic"], self._on_target, timing)
+
+    def _log(self, text: str) -> None:
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    def _on_target(self, msg: NavSatFix) -> None:
+        llh = (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)
+        if msg.status.status == NavSatStatus.STATUS_NO_FIX or not self.core.set_target(llh):
+            if msg.status.status == NavSatStatus.STATUS_NO_FIX:
+                self.core.counts["rejected_targets"] += 1
+            self._log(f"target {msg.latitude}, {msg.longitude}, {msg.altitude} refused "
+                      f"({self.core.counts['rejected_targets']} rejected_targets)")
+
+    def _on_input(self, kind: str, data: bytes, decode) -> None:
+        try:
+            msg = decode(data)
+        except CdrError as exc:
+            self.counts["malformed"] += 1
+            self._log(f"malformed {kind} message ignored: {exc}")
+            return
+        for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
+            self._step(step)
+
+    def _validate(self, kind: str, msg):
+        """What the step takes from an input: a quaternion, or the turret angle; None
+        (counted) when it cannot be used."""
+        if kind == "enc":
+            readings = m.encoder_readings(msg)
+            value = None if readings is None else (readings[0][0],)
+        elif m.field_provided(msg.orientation_covariance):
+            value = msg.orientation
+        else:
+            value = None
+        if value is None or not all(map(math.isfinite, value)):
+            self.counts["rejected_inputs"] += 1
+            self._log(f"{kind} sample without a usable attitude or turret angle; not used")
+            return None
+        return value
+
+    def _step(self, step: ControlStep) -> None:
+        inputs = step.inputs
+        if "att" not in inputs or step.zero_command:  # an encoder-only step between INS samples, or stale inputs
+            return
+        att, ins, enc = inputs.get("att"), inputs.get("ins"), inputs.get("enc")
+        budget = None
+        if att is None or ins is None or enc is None:
+            self.counts["held_commands"] += 1
+        else:
+            out = self.core.step(att.value, quat_to_dcm(np.asarray(ins.value)), enc.value[0])
+            self.command, budget = out.command, out.budget
+        self.pub_cmd.publish(vector3_cdr(step.stamp_ns, m.GIMBAL_FRAME, (0.0, *self.command)))
+        if budget is not None:
+            self.pub_budget.publish(vector3_cdr(step.stamp_ns, m.GIMBAL_FRAME,
+                                                (budget.total_rad, *budget.principal_sigmas_rad)))
+        if step.stamp_ns >= self._next_diag_ns:
+            self._next_diag_ns = step.stamp_ns + self.diag_period_ns
+            fields = {**self.policy.counters(), **self.counts, **self.core.counts,
+                      "incompatible_qos": self.io.incompatible_qos}
+            self.pub_diag.publish(health_msg(step.stamp_ns, self.get_name(), fields))
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(GeoPointerNode, "geo_pointer", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,133 @@
+"""geo_pointer's core (issue 24, geo-pointing): the command against closed forms, a pointing
+loop integrated here with scipy rotations, pymap3d's direction, limits and bad targets."""
+import math
+
+import numpy as np
+import pymap3d as pm
+import pytest
+from scipy.spatial.transform import Rotation
+
+from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
+from gimbal_control.geo_pointer_params import PARAMS
+from gimbal_kinematics.earth import earth_rate_n
+from gimbal_kinematics.geo_pointing import GimbalLimits
+from gimbal_kinematics.params import ParameterError, defaults
+
+D = math.radians
+VEHICLE = (D(39.9), D(32.8), 900.0)
+TARGET = (D(39.913504), D(32.829234), 1050.7)  # 2.9 km, azimuth 59 deg, elevation 2.9 deg
+
+
+def _los_ned_pymap3d(vehicle, target) -> np.ndarray:
+    az, el, _ = pm.geodetic2aer(math.degrees(target[0]), math.degrees(target[1]), target[2],
+                                math.degrees(vehicle[0]), math.degrees(vehicle[1]), vehicle[2])
+    az, el = math.radians(az), math.radians(el)
+    return np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), -math.sin(el)])
+
+
+def _C_nm_along(u: np.ndarray, roll: float = 0.3) -> np.ndarray:
+    """A sight frame whose x axis is ``u`` (NED), rolled about it by ``roll``."""
+    az, el = math.atan2(u[1], u[0]), math.atan2(-u[2], math.hypot(u[0], u[1]))
+    return Rotation.from_euler("ZYX", [az, el, roll]).as_matrix()
+
+
+def _run_loop(pointer: GeoPointer, C_nm: np.ndarray, C_nb: np.ndarray, seconds: float, dt: float = 0.01,
+              w_in_n: np.ndarray | None = None) -> tuple[np.ndarray, list]:
+    """The rate loop ideal: the sight turns at exactly the commanded inertial rate (0, q, r)
+    in m while NED turns at ``w_in_n`` under it: C_nm(t+dt) = exp(−[w dt]) C_nm exp([ω_m dt])."""
+    w = np.zeros(3) if w_in_n is None else w_in_n
+    outs = []
+    for _ in range(int(round(seconds / dt))):
+        out = pointer.step(Rotation.from_matrix(C_nm).as_quat(), C_nb, 0.0)
+        outs.append(out)
+        w_m = np.array([0.0, *out.command])
+        C_nm = Rotation.from_rotvec(-w * dt).as_matrix() @ C_nm @ Rotation.from_rotvec(w_m * dt).as_matrix()
+    return C_nm, outs
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    return math.atan2(np.linalg.norm(np.cross(a, b)), a @ b)
+
+
+def test_direction_to_the_target_is_pymap3d_and_on_target_the_command_is_the_earth_rate():
+    pointer = GeoPointer(GeoPointerParams(TARGET, VEHICLE))
+    u_ref = _los_ned_pymap3d(VEHICLE, TARGET)
+    C_nm = _C_nm_along(u_ref)
+    out = pointer.step(Rotation.from_matrix(C_nm).as_quat(), np.eye(3), 0.0)
+    assert _angle(out.los_n, u_ref) < 1e-9
+    assert max(map(abs, out.error)) < 1e-9
+    w_m = C_nm.T @ earth_rate_n(VEHICLE[0])  # the target is fixed to the earth: its inertial rate
+    assert out.command == pytest.approx(tuple(w_m[1:]), abs=1e-12)
+
+
+def test_the_loop_acquires_the_target_and_holds_it_on_the_turning_earth():
+    pointer = GeoPointer(GeoPointerParams(TARGET, VEHICLE, gain_1_s=2.0))
+    u = _los_ned_pymap3d(VEHICLE, TARGET)
+    C0 = Rotation.from_euler("ZY", [0.05, -0.03]).as_matrix() @ _C_nm_along(u)  # ~3 deg off
+    C_end, outs = _run_loop(pointer, C0, np.eye(3), 12.0, w_in_n=earth_rate_n(VEHICLE[0]))
+    assert _angle(C_end[:, 0], u) < 1e-7  # e^(-24) of 58 mrad, and no earth-rate lag
+    assert outs[0].budget.range_m == pytest.approx(2919.324, abs=1e-3)
+
+
+def test_without_the_earth_rate_feed_forward_the_los_lags_by_the_closed_form():
+    k = 2.0
+    pointer = GeoPointer(GeoPointerParams(TARGET, VEHICLE, gain_1_s=k, earth_rate=False))
+    u = _los_ned_pymap3d(VEHICLE, TARGET)
+    w = earth_rate_n(VEHICLE[0])
+    C_end, _ = _run_loop(pointer, _C_nm_along(u), np.eye(3), 15.0, w_in_n=w)
+    lag = np.linalg.norm(np.cross(u, w)) / k  # type-1 loop, ramp input: steady error rate / k
+    assert _angle(C_end[:, 0], u) == pytest.approx(lag, rel=0.02)
+
+
+def test_at_the_elevation_limit_it_stops_there_and_counts():
+    high = pm.aer2geodetic(30.0, 75.0, 3000.0, 39.9, 32.8, 900.0)  # a target 75 deg up
+    target = (D(high[0]), D(high[1]), high[2])
+    limits = GimbalLimits(elevation_max_rad=D(60.0))
+    pointer = GeoPointer(GeoPointerParams(target, VEHICLE, gain_1_s=2.0, limits=limits))
+    C_end, outs = _run_loop(pointer, _C_nm_along(_los_ned_pymap3d(VEHICLE, TARGET)), np.eye(3), 22.0, 0.02,
+                            earth_rate_n(VEHICLE[0]))
+    assert pointer.counts["elevation_limited_steps"] == len(outs)
+    el = math.atan2(-C_end[2, 0], math.hypot(C_end[0, 0], C_end[1, 0]))
+    assert el == pytest.approx(D(60.0), abs=1e-6)
+    assert outs[-1].solution.residual_rad == pytest.approx(D(15.0), abs=1e-6)
+
+
+def _values(**changes):
+    v = defaults(PARAMS) | {"target_llh_deg": [39.913504, 32.829234, 1050.7], "vehicle_llh_deg": [39.9, 32.8, 900.0]}
+    return v | changes
+
+
+def test_bad_targets_are_refused_at_startup_naming_the_parameter():
+    assert GeoPointerParams.from_values(_values()).target_llh == pytest.approx(TARGET)
+    for bad in ([39.9, 32.8, 900.0], [float("nan"), 32.8, 900.0]):
+        with pytest.raises(ParameterError, match="target_llh_deg"):
+            GeoPointerParams.from_values(_values(target_llh_deg=bad))
+    with pytest.raises(ParameterError, match="ins_attitude_sigma_deg"):
+        GeoPointerParams.from_values(_values(ins_attitude_sigma_deg=[0.05, 0.05]))
+    with pytest.raises(ParameterError, match="target_position_sigma_m"):
+        GeoPointerParams.from_values(_values(target_position_sigma_m=[5.0]))
+
+
+def test_a_bad_new_target_is_counted_and_the_old_one_kept():
+    pointer = GeoPointer(GeoPointerParams(TARGET, VEHICLE))
+    assert not pointer.set_target(VEHICLE)
+    assert not pointer.set_target((float("nan"), 0.0, 0.0))
+    assert pointer.counts["rejected_targets"] == 2 and pointer.target_llh == TARGET
+    assert pointer.set_target((D(39.95), D(32.9), 1000.0)) and pointer.counts["rejected_targets"] == 2
+
+
+def test_scenario_cores_with_ideal_sensors_point_within_50_urad_while_driving():
+    """sighting_geo_pointing:ideal stepped by the core engine (the graph's torque commands to
+    the bit): the true LOS against pymap3d's direction to the target, after the slew."""
+    import dataclasses
+
+    from gimbal_sim.core.core_loop import run_core_loop
+    from gimbal_sim.graph.scenario import load, variant
+
+    scenario = dataclasses.replace(variant(load("sighting_geo_pointing"), "ideal"), duration_s=11.0)
+    u = _los_ned_pymap3d(VEHICLE, TARGET)
+    errors = []
+    run_core_loop(scenario, observer=lambda bus: errors.append(
+        (bus.t, _angle(Rotation.from_quat(bus.truth.quat_nm).as_matrix()[:, 0], u))))
+    settled = np.array([e for t, e in errors if t >= 8.0])
+    assert math.sqrt(np.mean(settled ** 2)) < 50e-6
