@@ -41,6 +41,7 @@ LONG_MARK = "# long:"
 ROOM = {
     "__init__": 0,      # the package's docstring
     "figures": 0,       # the matplotlib set-up every plot shares (reports, allan, campaign)
+    "page": 0,          # a report's index.html (runs, comparisons, campaigns)
     "world": 1,         # vehicle, plant, sensors, sensor suite: pure models
     "bag": 2,           # MCAP/rosbag2 reading, writing, comparing, playing
     "allan": 3,         # Allan-variance characterisation of a recorded IMU

@@ -151,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
         if comparison.get("table"):
             print(comparison["table"])
     print(summary_table(rows))
+    print(f"page: {out / 'report' / 'index.html'}")
     return 0 if ok else 1
 
 

@@ -30,6 +30,7 @@ import numpy as np
 import yaml
 
 from ..figures import pyplot, save
+from ..page import write_campaign_page
 from .results import RESULT_FILE, flatten_metrics, read_results, write_results
 
 #: Leaf name of a report's time-averaged NEES -> its degrees of freedom (the report that writes it).
@@ -257,6 +258,7 @@ def write_campaign_report(campaign_dir: Path) -> tuple[Path, dict[str, Any]]:
     summary["table"] = text_summary(summary, metrics)
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
+    write_campaign_page(campaign_dir, out, summary)
     return out, summary
 
 
