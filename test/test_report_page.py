@@ -1,0 +1,111 @@
+"""A report's page (``report/index.html``): self-contained, and rendered by a real browser.
+
+The bag is written by rosbags (a writer we did not write) with a truth LOS topic, so the
+generic report draws a plot. The page's HTML is read with the standard library's parser; it
+is rendered by the distribution's headless Chromium (its own CLI, no port opened): every
+image decoded, no console message but the check's own, and a screenshot that is not blank
+(read back by matplotlib's PNG reader). Skipped, naming why, without a ``chromium`` binary.
+"""
+from __future__ import annotations
+
+import base64
+import json
+import math
+import re
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+from foreign_bags import EPOCH_NS, IMU, imu_cdr, write_rosbags
+from gimbal_sim.reports.dispatch import write_report
+
+CHROMIUM = shutil.which("chromium")
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+#: What the check script logs: "PAGE-CHECK <images> <decoded>".
+CHECK = re.compile(r"PAGE-CHECK (\d+) (\d+)")
+
+
+class _Tags(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.tags: list[tuple[str, dict[str, str | None]]] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append((tag, dict(attrs)))
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory) -> Path:
+    """The report directory of a 2 s bag of a slewing LOS (truth topic at 100 Hz)."""
+    messages = []
+    for i in range(200):
+        t = EPOCH_NS + i * 10_000_000
+        half = 0.5 * math.radians(30.0) * i / 200  # azimuth 0 -> 30 deg
+        messages.append(("/truth/gimbal/imu", IMU, t, imu_cdr(t, [0.0, 0.0, 0.1], (0.0, 0.0, math.sin(half),
+                                                                                 math.cos(half)))))
+    bag = write_rosbags(tmp_path_factory.mktemp("page") / "bag", messages)
+    out, _ = write_report(bag)
+    return out
+
+
+def _tags(page: Path) -> list[tuple[str, dict[str, str | None]]]:
+    parser = _Tags()
+    parser.feed(page.read_text(encoding="utf-8"))
+    return parser.tags
+
+
+def test_page_html_holds_every_plot_and_no_network_resource(report):
+    page = report / "index.html"
+    text = page.read_text(encoding="utf-8")
+    tags = _tags(page)
+    plots = json.loads((report / "metrics.json").read_text())["plots"]
+    assert plots, "the fixture's bag should give the generic report a plot"
+    images = [a["src"] for tag, a in tags if tag == "img"]
+    assert len(images) == len(list(report.glob("*.png"))) >= len(plots)
+    for src in images:
+        if src.startswith("data:"):
+            head, data = src.split(",", 1)
+            assert head == "data:image/png;base64"
+            assert base64.b64decode(data).startswith(PNG_MAGIC)
+        else:
+            assert (report / src).is_file(), f"<img src={src!r}> does not resolve"
+    attrs = [v for _, a in tags for k, v in a.items() if k in ("src", "href") and v]
+    assert not [v for v in attrs if re.match(r"(https?:)?//", v)], "network resources in the page"
+    assert not re.search(r"https?://", text)
+    assert not [t for t, _ in tags if t in ("script", "link", "iframe")]
+    # the metrics with their units, and the command that reproduces the report
+    assert re.search(r"<td>duration_s</td><td class=\"num\">1\.99</td><td>s</td>", text)
+    assert f"gimbal-report {report.parent}" in text
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="no `chromium` binary on PATH: install the distribution's package "
+                                             "(Debian: apt-get install chromium) to render the page")
+def test_chromium_renders_the_page_with_every_image_and_no_console_message(report, tmp_path):
+    # a copy beside the page with a check script: counts the images the browser decoded
+    check = report / "_check.html"
+    script = ("<script>window.addEventListener('load',()=>{const i=[...document.images];"
+              "console.log('PAGE-CHECK '+i.length+' '+i.filter(x=>x.complete&&x.naturalWidth>0).length);});</script>")
+    check.write_text((report / "index.html").read_text(encoding="utf-8").replace("</body>", script + "</body>"))
+    shot = tmp_path / "page.png"
+    args = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={tmp_path / 'profile'}",
+            "--no-first-run", "--disable-component-update", "--disable-background-networking", "--hide-scrollbars",
+            "--enable-logging=stderr", "--v=0", "--window-size=1000,1400"]
+    run = subprocess.run([*args, f"--screenshot={shot}", check.as_uri()], capture_output=True, text=True,
+                         timeout=120)
+    check.unlink()
+    assert run.returncode == 0, run.stderr[-2000:]
+    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
+    counts = [CHECK.search(line) for line in console]
+    assert len(console) == 1 and counts[0], f"console messages besides the check's: {console}"
+    n_images, decoded = map(int, counts[0].groups())
+    assert n_images == len(list(report.glob("*.png"))) and decoded == n_images
+    pixels = matplotlib.image.imread(shot)[..., :3]
+    assert pixels.shape[:2] == (1400, 1000)
+    not_white = np.mean(np.any(pixels < 0.9, axis=2))
+    assert not_white > 0.02, f"screenshot nearly blank ({not_white:.1%} non-white pixels)"
+    assert pixels.std() > 0.05
