@@ -24,14 +24,14 @@ PAGE = "index.html"
 #: Unit suffixes of metric names (their last word carrying one wins) -> the unit shown.
 UNITS = (("_deg_h", "deg/h"), ("_deg_s", "deg/s"), ("_arcsec", "arcsec"), ("_arcmin", "arcmin"),
          ("_urad", "µrad"), ("_mrad", "mrad"), ("_rad", "rad"), ("_deg", "deg"), ("_ma", "mA"), ("_ug", "µg"),
-         ("_hz", "Hz"), ("_ms", "ms"), ("_s", "s"), ("_m", "m"), ("_pct", "%"))
+         ("_hz", "Hz"), ("_ms", "ms"), ("_per_s", "1/s"), ("_s", "s"), ("_m", "m"), ("_pct", "%"))
 #: Top-level entries of metrics.json that are not figures: shown elsewhere or not at all.
 NOT_FIGURES = {"plots", "table", "runs", "bag", "report", "comparison", "read_error", "topics"}
 #: The paper's figure of a metric (dotted name) or None.
 PaperLookup = Callable[[str], "str | None"]
 
 _STYLE = """
-body{font-family:sans-serif;margin:1.5em auto;max-width:1100px;color:#222}
+body{font-family:sans-serif;margin:1.5em auto;padding:0 1em;max-width:1100px;color:#222}
 h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
 table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #ccc;padding:2px 8px;text-align:left}
 td.num{text-align:right;font-family:monospace}pre{background:#f4f4f4;padding:.6em;overflow-x:auto}
