@@ -97,6 +97,7 @@ def _campaign_main(campaign_dir: Path) -> int:
         return 2
     print(summary["table"])
     print(f"campaign report written to {out} ({len(summary['plots'])} plots)")
+    print(f"page: {out / 'index.html'}")
     return 0
 
 
@@ -128,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gimbal-report: {exc}", file=sys.stderr)
         return 2
     print(f"report written to {out} ({len(metrics.get('plots', []))} plots)")
+    print(f"page: {out / 'index.html'}")
     if not metrics.get("closed_cleanly", True):
         print(f"warning: the bag was not closed cleanly: {metrics.get('read_error')}", file=sys.stderr)
     return 0
