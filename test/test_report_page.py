@@ -21,6 +21,7 @@ import matplotlib.image
 import numpy as np
 import pytest
 
+from conftest import VENV_BIN
 from foreign_bags import EPOCH_NS, IMU, imu_cdr, write_rosbags
 from gimbal_sim.reports.dispatch import write_report
 
@@ -109,3 +110,22 @@ def test_chromium_renders_the_page_with_every_image_and_no_console_message(repor
     not_white = np.mean(np.any(pixels < 0.9, axis=2))
     assert not_white > 0.02, f"screenshot nearly blank ({not_white:.1%} non-white pixels)"
     assert pixels.std() > 0.05
+
+
+def test_campaign_page_embeds_its_plots_and_every_link_resolves(tmp_path):
+    """A tiny campaign on the no-ROS engine: its page holds every plot and the campaign."""
+    out = tmp_path / "campaign"
+    run = subprocess.run([str(VENV_BIN / "gimbal-campaign"), "sighting_land_vehicle", "--seeds", "1-2", "--duration",
+                          "1", "--engine", "core", "--serial", "--no-progress", "--out", str(out)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    page = out / "report" / "index.html"
+    tags = _tags(page)
+    images = [a["src"] for tag, a in tags if tag == "img"]
+    assert len(images) == len(list((out / "report").glob("*.png"))) > 0
+    assert all(base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC) for src in images)
+    hrefs = [a["href"] for tag, a in tags if tag == "a"]
+    assert all((page.parent / h).is_file() for h in hrefs), hrefs
+    text = page.read_text(encoding="utf-8")
+    assert not re.search(r"https?://", text)
+    assert "scenario: sighting_land_vehicle" in text and f"gimbal-report {out}" in text
