@@ -23,7 +23,8 @@ import pytest
 
 from conftest import VENV_BIN
 from foreign_bags import EPOCH_NS, IMU, imu_cdr, write_rosbags
-from gimbal_sim.reports.dispatch import write_report
+from gimbal_sim.page import metrics_section
+from gimbal_sim.reports.dispatch import paper_figure, write_report
 
 CHROMIUM = shutil.which("chromium")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -129,3 +130,14 @@ def test_campaign_page_embeds_its_plots_and_every_link_resolves(tmp_path):
     text = page.read_text(encoding="utf-8")
     assert not re.search(r"https?://", text)
     assert "scenario: sighting_land_vehicle" in text and f"gimbal-report {out}" in text
+
+
+def test_metrics_table_has_units_and_the_papers_figure_where_a_report_states_one():
+    text = metrics_section({"fusion_improvement": 59.4, "settle_s": 5.0, "alignment": {"azimuth_error_arcmin": 0.7},
+                            "plots": ["x.png"]}, paper_figure)
+    rows = re.findall(r"<tr>(.*?)</tr>", text)
+    assert rows[0] == "<th>metric</th><th>value</th><th>unit</th><th>paper</th>"
+    assert "<td>fusion_improvement</td><td class=\"num\">59.4</td><td></td><td>≥ 10× (paper 2)</td>" in rows
+    assert "<td>settle_s</td><td class=\"num\">5</td><td>s</td><td></td>" in rows
+    assert any("azimuth_error_arcmin" in r and "<td>arcmin</td>" in r and "paper 3 Table 2" in r for r in rows)
+    assert "x.png" not in text
