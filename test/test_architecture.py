@@ -179,14 +179,14 @@ def test_every_node_parameter_table_loads_without_ros():
     out = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]", f"parameter tables loaded {out.stdout.strip()}"
-    assert len(modules) == 10
+    assert len(modules) == 11
 
 
 def test_the_registry_lists_every_node_executable_with_its_package_table_and_class():
     from gimbal_sim.graph.registry import NODE_TYPES
 
     nodes = node_entry_points()
-    assert len(nodes) == 10 and set(NODE_TYPES) == set(nodes)
+    assert len(nodes) == 11 and set(NODE_TYPES) == set(nodes)
     for exe, (pkg, module) in nodes.items():
         node_type = NODE_TYPES[exe]
         table = sys.modules.get(module.removesuffix("_node") + "_params")

@@ -16,6 +16,7 @@ from typing import Callable
 from gimbal_control import encoder_fusion_controller_params, los_rate_controller_params, platform_servo_params
 from gimbal_estimators import (
     flexure_estimator_params, free_gyro_positioning_params, gyro_bias_ekf_params, platform_alignment_params,
+    platform_navigator_params,
 )
 from gimbal_kinematics.params import Param
 
@@ -88,6 +89,11 @@ def _platform_alignment() -> type:
     return PlatformAlignmentNode
 
 
+def _platform_navigator() -> type:
+    from gimbal_estimators.platform_navigator_node import PlatformNavigatorNode
+    return PlatformNavigatorNode
+
+
 def _node_type(package: str, params_module, load_class: Callable[[], type]) -> NodeType:
     return NodeType(package, params_module.PARAMS, params_module.DESCRIPTION, load_class)
 
@@ -105,4 +111,5 @@ NODE_TYPES: dict[str, NodeType] = {
     "flexure_estimator": _node_type("gimbal_estimators", flexure_estimator_params, _flexure_estimator),
     "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo),
     "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment),
+    "platform_navigator": _node_type("gimbal_estimators", platform_navigator_params, _platform_navigator),
 }
