@@ -20,6 +20,27 @@ and back), ω_ie^n the earth rate at ``lat_deg``, and ε̂ an optional gyro-drif
 The per-tick increment of δ takes φz's change exactly, so a reversal inside a tick is not
 smeared; the rest of ω_c is integrated by trapezoids.
 
+Following a navigator (``command_source="navigator"``, paper 3 §4.3). A platform INS torques
+its gyros at the rate its navigator computes: earth rate at the navigated latitude, transport
+rate from the navigated velocity, drift compensation and the hand-off torquing pulse, all in
+ω_c^n (NED, :mod:`gimbal_estimators.platform_navigator`). :meth:`PlatformServo.on_command_rate`
+takes it, and each tick commands ω_c = rot3(φz) ω_c^n + φ̇z e3
+(:func:`~gimbal_kinematics.four_gimbal.command_rate_from_n`): the servo's own earth rate at
+``lat_deg`` and its ``drift_deg_h`` give way, the modulation schedule stays the servo's. Each
+tick uses the newest command received, a zero-order hold, whatever its stamp relative to the
+tick (the navigator's output for a sample is the rate to hold until its next one).
+
+* Before the first command (the navigator has not produced one yet): the internal command,
+  earth rate at ``lat_deg`` minus ``drift_deg_h``, which is what a static, aligned navigator
+  starts with; ``ticks_without_command`` counts these ticks.
+* A command older than ``command_max_age_s`` at a tick (the navigator stopped): the servo
+  falls back to the internal command, so a dead navigator leaves the platform on the earth
+  rate rather than on a held transport rate or torquing pulse; ``stale_command_ticks``
+  counts them. A younger command is held: the rate changes on the Schuler time scale.
+* A command with a non-finite value or stamp, or stamped at or before the previous one, is
+  rejected and counted (``rejected_nonfinite``, ``rejected_out_of_order``) and the previous
+  command is kept; one stamped ``clock_jump_s`` back resets the servo, as for the gyro.
+
 Control signals, paper 3 eq. 1. :func:`~gimbal_kinematics.four_gimbal.inner_gimbal_control_signals`
 resolves δ through the azimuth angle θ_a (and θ_q) onto the inner-roll, pitch and azimuth
 gimbal axes, giving (Δθ_qm, Δθ_pm, Δθ_am). The outer roll keeps the inner roll at null with
@@ -65,7 +86,8 @@ from typing import NamedTuple, Sequence
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.four_gimbal import (
-    BidirectionalRotation, command_rate_s, inner_gimbal_control_signals, outer_roll_control_signal,
+    BidirectionalRotation, command_rate_from_n, command_rate_s, inner_gimbal_control_signals,
+    outer_roll_control_signal,
 )
 
 from .pid import Pid, PidParams, pole_placement_gains
@@ -80,6 +102,8 @@ VOLTAGE_LIMIT_V = 27.0
 #: A loop's triple pole must stay below the control rate / this (at 1 kHz: 25 Hz, where the
 #: Table 1 loops keep 33° of phase margin; the 12 Hz default keeps 51°, test_platform_servo).
 BANDWIDTH_RATE_DIVISOR = 40.0
+#: Where the level command rate comes from (module docstring).
+COMMAND_SOURCES = ("internal", "navigator")
 
 
 def platform_pid_gains(axis: str, bandwidth_hz: float, derivative_tau_s: float = 0.0) -> PidParams:
@@ -141,6 +165,10 @@ class PlatformServoParams:
         preset_integrator: preset the azimuth integrator at reversals (paper 3).
         friction: the friction model behind the preset.
         drift_deg_h: gyro drift estimate ε̂ (x, y, z in s) subtracted from the command [°/h].
+        command_source: ``"internal"`` (the servo's earth rate and drift, eq. 2) or
+            ``"navigator"`` (the NED rate of :meth:`PlatformServo.on_command_rate`).
+        command_max_age_s: with the navigator, an older command gives way to the internal
+            one [s].
         max_gap_s: a longer gap between ticks restarts the pickoff integration [s].
         clock_jump_s: a stamp this far behind the last one resets the servo [s].
     """
@@ -159,6 +187,8 @@ class PlatformServoParams:
     drift_deg_h: tuple[float, float, float] = (0.0, 0.0, 0.0)
     max_gap_s: float = 0.05
     clock_jump_s: float = 1.0
+    command_source: str = "internal"
+    command_max_age_s: float = 0.5
 
     def __post_init__(self) -> None:
         if (isinstance(self.lat_deg, bool) or not isinstance(self.lat_deg, (int, float))
@@ -180,7 +210,9 @@ class PlatformServoParams:
         d = self.drift_deg_h
         if len(d) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in d):
             raise ValueError(f"drift_deg_h must be 3 finite numbers, got {d!r}")
-        for name in ("max_gap_s", "clock_jump_s"):
+        if self.command_source not in COMMAND_SOURCES:
+            raise ValueError(f"command_source must be one of {COMMAND_SOURCES}, got {self.command_source!r}")
+        for name in ("max_gap_s", "clock_jump_s", "command_max_age_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"{name} must be > 0, got {v!r}")
@@ -211,7 +243,8 @@ class PlatformServoParams:
                 friction=FrictionModel(coulomb_nm=v["friction_coulomb_nm"],
                                        viscous_nm_s_rad=v["friction_viscous_nm_s_rad"],
                                        smoothing_rad_s=v["friction_smoothing_rad_s"]),
-                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"])
+                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"],
+                command_source=v["command_source"], command_max_age_s=v["command_max_age_s"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
@@ -254,6 +287,8 @@ class PlatformServo(StampGate):
         self.held_commands = 0
         self.rejected_gimbal_lock = 0
         self.presets = 0
+        self.ticks_without_command = 0
+        self.stale_command_ticks = 0
         self.reset_reasons: list[str] = []
         self._reset_state()
 
@@ -264,6 +299,8 @@ class PlatformServo(StampGate):
         self._t_tick: float | None = None
         self._t_res: float | None = None
         self._angles: tuple[float, float, float, float] | None = None
+        self._t_cmd: float | None = None
+        self._cmd_n: tuple[float, float, float] | None = None
         #: emulated gyro pickoff δ (x, y, z in s) [rad]
         self.pickoff = [0.0, 0.0, 0.0]
         self._prev: tuple | None = None  # (ω_meas − ω_c without φ̇z, φz) of the last tick
@@ -294,6 +331,32 @@ class PlatformServo(StampGate):
             return
         self._t_res = t
         self._angles = vals  # type: ignore[assignment]
+
+    def on_command_rate(self, t: float, omega_n: Sequence[float]) -> None:
+        """The navigator's level command rate ω_c^n (3,) NED [rad/s] at stamp ``t`` [s], held
+        until the next one (module docstring; used with ``command_source="navigator"``)."""
+        if not self._stamp_ok(t, self._t_cmd, "command rate"):
+            return
+        vals = tuple(float(v) for v in omega_n)
+        if len(vals) != 3:
+            raise ValueError(f"omega_n must have 3 elements (N, E, D), got {len(vals)}")
+        if not all(math.isfinite(v) for v in vals):
+            self.rejected_nonfinite += 1
+            return
+        self._t_cmd = t
+        self._cmd_n = vals  # type: ignore[assignment]
+
+    def _command_rate(self, t: float, phi: float, phi_rate: float) -> tuple[float, float, float]:
+        """ω_c in s [rad/s] at tick ``t``: the navigator's while it is fresh, else internal."""
+        if self.params.command_source == "navigator":
+            if self._cmd_n is None:
+                self.ticks_without_command += 1
+            elif t - self._t_cmd > self.params.command_max_age_s:
+                self.stale_command_ticks += 1
+            else:
+                return command_rate_from_n(self._cmd_n, phi, phi_rate)
+        wc = command_rate_s(self._lat, phi, phi_rate, drift_s=self._drift)
+        return float(wc[0]), float(wc[1]), float(wc[2])
 
     def _held(self, t: float) -> ServoCommand:
         self.held_commands += 1
@@ -333,8 +396,7 @@ class PlatformServo(StampGate):
                 pid.forget_previous()
             dt = 0.0
         phi, phi_rate = self._phi(t)
-        wc = command_rate_s(self._lat, phi, phi_rate, drift_s=self._drift)
-        cx, cy, cz = float(wc[0]), float(wc[1]), float(wc[2])
+        cx, cy, cz = self._command_rate(t, phi, phi_rate)
         # rate error without the modulation rate (its angle is taken exactly from φz)
         ex, ey, ez0 = wx - cx, wy - cy, wz - (cz - phi_rate)
         d = self.pickoff

@@ -41,6 +41,11 @@ PARAMS = (
     Param("friction_smoothing_rad_s", 0.01, "rate scale of the Coulomb tanh for the preset [rad/s]", 1e-9, INF),
     Param("drift_deg_h", [0.0, 0.0, 0.0], "platform drift estimate (the negative of the gyro rate bias, as "
           "platform_alignment's ~/gyro_drift) subtracted from the command, platform x, y, z [deg/h]"),
+    Param("command_source", "internal", "level command rate: internal (earth rate at lat_deg minus drift_deg_h) "
+          "or navigator (the platform_navigator's ~/command_rate, NED; lat_deg and drift_deg_h then serve "
+          "only before its first command and when it is stale)", choices=("internal", "navigator")),
+    Param("command_max_age_s", 0.5, "navigator: a command older than this at a tick gives way to the internal "
+          "one, counted [s]", 1e-6, INF),
     Param("max_gap_s", 0.05, "a longer gap between gyro samples restarts the pickoff integration [s]", 1e-6, INF),
     Param("clock_jump_s", 1.0, "a stamp this far before the last one restarts the servo (bag loop) [s]", 1e-6, INF,
           aliases=CLOCK_JUMP_ALIASES),

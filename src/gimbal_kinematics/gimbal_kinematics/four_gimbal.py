@@ -464,11 +464,19 @@ def command_rate_s(
     w = earth_rate_n(lat)
     if v_n is not None:
         w = w + transport_rate_n(lat, h, np.asarray(v_n, dtype=float))
-    x, y, z = _r3(math.cos(phi_z), math.sin(phi_z), float(w[0]), float(w[1]), float(w[2]))
-    out = np.array((x, y, z + phi_z_dot))
+    out = np.array(command_rate_from_n(w, phi_z, phi_z_dot))
     if drift_s is not None:
         out -= np.asarray(_unpack(drift_s, 3, "drift_s"))
     return out
+
+
+def command_rate_from_n(omega_n: Sequence[float], phi_z: float, phi_z_dot: float) -> tuple[float, float, float]:
+    """ω_c^s = rot3(φz) ω_c^n + φ̇z e3 [rad/s]: a level command rate ω_c^n (NED) resolved into
+    the platform turned by φz [rad] about NED down, plus the modulation rate φ̇z [rad/s] (the
+    form of :func:`command_rate_s`; a navigator's ω_c^n carries its own earth and transport
+    rates and drift compensation)."""
+    x, y, z = _r3(math.cos(phi_z), math.sin(phi_z), float(omega_n[0]), float(omega_n[1]), float(omega_n[2]))
+    return x, y, z + phi_z_dot
 
 
 @dataclass(frozen=True)
