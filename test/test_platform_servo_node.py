@@ -249,7 +249,7 @@ def test_graph_run_reproduces_the_closed_loop_and_meets_the_figures(graph_run):
 
 def test_following_the_navigator_each_step_waits_for_its_command_rate(ros_domain_env):
     """command_source navigator: a step's command waits for the navigator's rate stamped like
-    it (in any arrival order) and equals the core fed that rate before the gyro sample; the
+    it and equals the core fed that rate before the gyro sample; the
     rate changes the command (a rate of 0.1 °/s about north, far from the earth rate)."""
     rng = np.random.default_rng(11)
     omegas = rng.normal(0.0, 1e-4, (6, 3))
