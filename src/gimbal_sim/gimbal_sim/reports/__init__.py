@@ -21,6 +21,8 @@ from .free_gyro import free_gyro_report
 from .generic import generic_report
 from .gyro_encoder import gyro_encoder_report
 from .los_pointing import los_pointing_report
+from .navigation import navigation_report
+from .navigation import rotation_comparison as navigation_rotation_comparison
 from .platform_servo import platform_servo_report
 from .sighting import sighting_comparison, sighting_report
 
@@ -37,6 +39,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "allan": allan_report,
     "consistency": consistency_report,
     "gyro_encoder": gyro_encoder_report,
+    "navigation": navigation_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics
@@ -46,6 +49,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "alignment_rotation": rotation_comparison,
     "alignment_campaign": alignment_campaign,
     "allan": allan_comparison,
+    "navigation_rotation": navigation_rotation_comparison,
 }
 
 
