@@ -180,14 +180,14 @@ def test_every_node_parameter_table_loads_without_ros():
     out = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]", f"parameter tables loaded {out.stdout.strip()}"
-    assert len(modules) == 12
+    assert len(modules) == 13
 
 
 def test_the_registry_lists_every_node_executable_with_its_package_table_and_class():
     from gimbal_sim.graph.registry import NODE_TYPES
 
     nodes = node_entry_points()
-    assert len(nodes) == 12 and set(NODE_TYPES) == set(nodes)
+    assert len(nodes) == 13 and set(NODE_TYPES) == set(nodes)
     for exe, (pkg, module) in nodes.items():
         node_type = NODE_TYPES[exe]
         table = sys.modules.get(module.removesuffix("_node") + "_params")

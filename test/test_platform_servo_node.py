@@ -18,6 +18,7 @@ from rclpy.context import Context
 from conftest import VENV_BIN
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_control.platform_servo_node import PlatformServoNode
+from gimbal_control.platform_servo_params import PARAMS as SERVO_PARAMS
 from gimbal_kinematics.ros import messages as m
 from gimbal_sim.experiments.platform_servo import run_platform_servo
 from gimbal_sim.world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
@@ -244,3 +245,36 @@ def test_graph_run_reproduces_the_closed_loop_and_meets_the_figures(graph_run):
     assert metrics["torque_current"]["steady_mean_abs_ma"] == pytest.approx(ref["steady_mean_abs_current_a"] * 1e3,
                                                                            rel=0.02)
     assert {p.name for p in (graph_run / "report").glob("*.png")} >= {"rotation_angle.png", "control_error.png"}
+
+
+def test_following_the_navigator_each_step_waits_for_its_command_rate(ros_domain_env):
+    """command_source navigator: a step's command waits for the navigator's rate stamped like
+    it and equals the core fed that rate before the gyro sample; the
+    rate changes the command (a rate of 0.1 °/s about north, far from the earth rate)."""
+    rng = np.random.default_rng(11)
+    omegas = rng.normal(0.0, 1e-4, (6, 3))
+    rates_n = [(math.radians(0.1), 0.0, -7.292115e-5 * math.sin(math.radians(40.0)))] * 6
+    params = {"command_source": "navigator", "lat_deg": 40.0}
+    with servo_node(ros_domain_env, params) as (node, sent):
+        for k, (omega, w_n) in enumerate(zip(omegas, rates_n)):
+            imu, res = _inputs(k, tuple(omega))
+            node._on_input("res", res)
+            node._on_input("imu", imu)
+            assert len(sent["cmd"]) == k  # waiting for the navigator
+            node._on_input("nav", m.vector3_msg(m.step_stamp_ns(k, RATE), "map_ned", w_n))
+            assert len(sent["cmd"]) == k + 1
+        ref = PlatformServo(PlatformServoParams.from_values(node_values(node)))
+        internal = PlatformServo(PlatformServoParams.from_values({**node_values(node), "command_source": "internal"}))
+        for k, (omega, w_n) in enumerate(zip(omegas, rates_n)):
+            t = k / RATE
+            for core in (ref, internal):
+                core.on_resolvers(t, (0.0, 0.0, 0.0, 0.0))
+            ref.on_command_rate(t, w_n)
+            out, out_internal = ref.on_gyro(t, tuple(omega)), internal.on_gyro(t, tuple(omega))
+            assert _volts(sent["cmd"][k]) == pytest.approx(out.voltages, rel=1e-12, abs=1e-15)
+        assert out.voltages != pytest.approx(out_internal.voltages, rel=1e-3)
+
+
+def node_values(node) -> dict:
+    """The servo node's declared parameter values, by name."""
+    return {p.name: node.get_parameter(p.name).value for p in SERVO_PARAMS}

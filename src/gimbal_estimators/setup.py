@@ -26,6 +26,7 @@ setup(
             "free_gyro_positioning = gimbal_estimators.free_gyro_positioning_node:main",
             "flexure_estimator = gimbal_estimators.flexure_estimator_node:main",
             "platform_alignment = gimbal_estimators.platform_alignment_node:main",
+            "platform_navigator = gimbal_estimators.platform_navigator_node:main",
         ],
     },
 )

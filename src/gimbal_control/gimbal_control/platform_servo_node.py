@@ -20,6 +20,14 @@ NaN/inf or malformed resolver sample is ignored (the last angles are kept); both
 and warned about at most once a second. A stamp at or before the last step is rejected and
 counted; one more than ``clock_jump_s`` back (a replayed bag looping) restarts the servo.
 
+With ``command_source: navigator`` the servo follows the navigator's command rate ω_c^n
+(``/platform_navigator/command_rate``, Vector3Stamped, rad/s NED; remap it for another
+navigator), handed to :meth:`.platform_servo.PlatformServo.on_command_rate` before the gyro
+sample of its step: in lockstep the step also waits for the command stamped k at each gyro
+step (the navigator answers every accelerometer sample, so its IMU rate must be the servo's);
+in free timing the newest command is used as it arrives, and the core falls back to its
+internal command when it is older than ``command_max_age_s`` (counted).
+
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each platform gyro sample makes one command, stamped like it,
 with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
@@ -34,6 +42,7 @@ from __future__ import annotations
 
 import sys
 
+from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
@@ -52,6 +61,8 @@ from .platform_servo_params import DESCRIPTION, PARAMS
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
 ZERO = (0.0, 0.0, 0.0, 0.0)
+#: the navigator's command rate (command_source: navigator)
+NAVIGATOR_TOPIC = "/platform_navigator/command_rate"
 
 
 class PlatformServoNode(Node):
@@ -63,6 +74,7 @@ class PlatformServoNode(Node):
         self.imu_every = steps_per_sample(v, "imu_rate_hz")
         self.res_every = steps_per_sample(v, "resolver_rate_hz")
         self.core = PlatformServo(PlatformServoParams.from_values(v))
+        self.follows_navigator = v["command_source"] == "navigator"
         self.diag_every = v["diagnostics_every_steps"]
         self._ticks = 0
         self.counts = dict.fromkeys(COUNTERS, 0)
@@ -72,18 +84,21 @@ class PlatformServoNode(Node):
         self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
         self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
         # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
+        nav_age = {"nav": v["command_max_age_s"]} if self.follows_navigator else {}
         self.policy = control_policy(
             timing,
             lockstep=lambda: LockstepControl(self._needs, self.rate, v["clock_jump_s"],
                                              ticks=("clock",) if self.imu_every > 1 else (),
                                              logger=self.get_logger()),
-            free=lambda: FreeControl("imu", {"res": v["max_input_age_s"]}, 1.0 / v["imu_rate_hz"],
-                                     v["clock_jump_s"], once=("res",), warn=self._log))
+            free=lambda: FreeControl("imu", {"res": v["max_input_age_s"], **nav_age}, 1.0 / v["imu_rate_hz"],
+                                     v["clock_jump_s"], held=tuple(nav_age), once=("res", *nav_age), warn=self._log))
         self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing)
         self.io.subscribe(JointState, "/platform/resolvers", lambda msg: self._on_input("res", msg), timing)
+        if self.follows_navigator:
+            self.io.subscribe(Vector3Stamped, NAVIGATOR_TOPIC, lambda msg: self._on_input("nav", msg), timing)
         for tick in self.policy.ticks:  # steps without a gyro sample still need their command
             self.io.subscribe(Clock, "/clock", lambda msg, k=tick: self._on_input(k, msg), timing)
 
@@ -100,7 +115,10 @@ class PlatformServoNode(Node):
         self._log(f"{text} ({self.counts[counter]} {counter})")
 
     def _needs(self, k: int) -> tuple[str, ...]:
-        need = ("imu",) if k % self.imu_every == 0 else ("clock",)
+        if k % self.imu_every == 0:
+            need = ("imu", "nav") if self.follows_navigator else ("imu",)
+        else:
+            need = ("clock",)
         return need + ("res",) if k % self.res_every == 0 else need
 
     def _on_input(self, kind: str, msg) -> None:
@@ -121,6 +139,8 @@ class PlatformServoNode(Node):
                 self._count("rejected_no_rates", "platform gyro angular velocity marked not provided; not fused")
                 return None
             return m.vec_of(msg.angular_velocity)
+        if kind == "nav":
+            return m.vec_of(msg.vector)  # a non-finite rate is the core's to count
         return msg  # a clock tick
 
     def _step(self, step: ControlStep) -> None:
@@ -131,9 +151,11 @@ class PlatformServoNode(Node):
         if step.zero_command:
             volts = ZERO
         else:
-            res, imu = inputs.get("res"), inputs.get("imu")
+            res, imu, nav = inputs.get("res"), inputs.get("imu"), inputs.get("nav")
             if res is not None:
                 core.on_resolvers(res.t, res.value)
+            if nav is not None:
+                core.on_command_rate(nav.t, nav.value)
             if imu is not None:
                 out = core.on_gyro(step.t, imu.value)
             volts = out.voltages if out is not None else core.command_voltages

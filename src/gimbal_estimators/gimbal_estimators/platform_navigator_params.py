@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-from gimbal_kinematics.params import TIMING_PARAM, Param, ParameterError
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param, ParameterError
 from gimbal_kinematics.validate import finite, per_axis, positive
 
 _DEG = math.pi / 180.0
@@ -142,5 +142,23 @@ PARAMS = (
     Param("vertical_tau_s", _D.vertical_tau_s, "time constant of the damped vertical channel's triple "
           "pole [s]", 1.0, 1e5),
     Param("clock_jump_s", _D.clock_jump_s, "a stamp this far before the last one restarts navigation "
-          "from the hand-off [s]", 1e-9, 1e9),
+          "from the hand-off [s]", 1e-9, 1e9, aliases=CLOCK_JUMP_ALIASES),
+    # the node's own parameters (platform_navigator_node), not the core's
+    Param("sim_rate_hz", 1000.0, "lockstep rate [Hz], to turn stamps into steps", 1.0, 100000.0),
+    Param("imu_rate_hz", 1000.0, "platform IMU rate [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
+    Param("joint_rate_hz", 1000.0, "rate of the azimuth joint topic [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
+    Param("joint_topic", "/platform/resolvers", "sensor_msgs/JointState topic carrying the azimuth joint"),
+    Param("azimuth_joint", "platform_azimuth", "name of the azimuth gimbal joint in joint_topic"),
+    Param("max_joint_age_s", 0.1, "largest gap [s] between an accelerometer sample and the azimuth joint sample "
+          "extrapolated to it; older: the sample is refused as without a resolver angle", 1e-9, 1e9),
+    Param("fix_every_samples", 1, "publish ~/fix and ~/velocity every N accepted samples (~/command_rate goes "
+          "out every sample: the servo follows it)", 1, 10**9),
+    Param("max_sync_wait_s", 0.05, "free timing: longest a sample waits for the other stream's stamp to pass "
+          "it (stamp order) [s]", 0.0, 10.0),
+    Param("diagnostics_period_s", 1.0, "free timing: counters on /diagnostics every this much stamp time [s]",
+          1e-3, 1e6),
+    Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
+          "vehicle_dynamics waits for and paces on it", 1, 10**6),
+    Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
+          0, 1000),
 )

@@ -18,6 +18,7 @@ from gimbal_control import (
 )
 from gimbal_estimators import (
     flexure_estimator_params, free_gyro_positioning_params, gyro_bias_ekf_params, platform_alignment_params,
+    platform_navigator_params,
 )
 from gimbal_kinematics.params import Param
 
@@ -100,6 +101,11 @@ def _geo_pointer() -> type:
     return GeoPointerNode
 
 
+def _platform_navigator() -> type:
+    from gimbal_estimators.platform_navigator_node import PlatformNavigatorNode
+    return PlatformNavigatorNode
+
+
 def _node_type(package: str, params_module, load_class: Callable[[], type]) -> NodeType:
     return NodeType(package, params_module.PARAMS, params_module.DESCRIPTION, load_class)
 
@@ -119,4 +125,5 @@ NODE_TYPES: dict[str, NodeType] = {
     "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo),
     "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment),
     "geo_pointer": _node_type("gimbal_control", geo_pointer_params, _geo_pointer),
+    "platform_navigator": _node_type("gimbal_estimators", platform_navigator_params, _platform_navigator),
 }

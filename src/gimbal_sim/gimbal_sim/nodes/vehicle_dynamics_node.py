@@ -38,7 +38,7 @@ import sys
 from rclpy.node import Node
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, NavSatFix
 from geometry_msgs.msg import Vector3Stamped
 
 from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, PLATFORM_FRAME
@@ -87,6 +87,13 @@ class VehicleDynamicsNode(Node):
             self.pub_joints = self.create_publisher(JointState, f"{prefix}/joint_states", GRAPH_QOS)
             self.pub_plant_imu = self.create_publisher(Imu, f"{prefix}/imu", GRAPH_QOS)
             self._truth_pubs += [self.pub_joints, self.pub_plant_imu]
+        # the host's true position and velocity, for a navigator's report (off by default: bags unchanged);
+        # every motion profile holds the host at its site, so the velocity relative to the earth is zero
+        self.position_every = values["position_truth_every_steps"]
+        if self.position_every:
+            self.pub_fix = self.create_publisher(NavSatFix, "/truth/host/fix", GRAPH_QOS)
+            self.pub_velocity = self.create_publisher(Vector3Stamped, "/truth/host/velocity", GRAPH_QOS)
+            self._truth_pubs += [self.pub_fix, self.pub_velocity]
         self.pace_window = values["pace_window_steps"]
         self._next_needed: dict[str, int | None] = {topic: None for topic in values["pace_topics"]}
         self._pace_subs = [self.create_subscription(Clock, topic, lambda data, t=topic: self._on_progress(t, data),
@@ -246,6 +253,11 @@ class VehicleDynamicsNode(Node):
             self.pub_plant_imu.publish(m.imu_cdr(t_ns, self._plant_frame, orientation=truth.quat_nm,
                                                  angular_velocity=truth.omega_im_m,
                                                  linear_acceleration=truth.specific_force_m))
+        if self.position_every and truth.k % self.position_every == 0:
+            site = self.core.profile.site
+            self.pub_fix.publish(m.navsat_fix_msg(t_ns, m.NAV_FRAME, site.lat_rad, math.radians(site.lon_deg),
+                                                  site.height_m))
+            self.pub_velocity.publish(m.vector3_cdr(t_ns, m.NAV_FRAME, (0.0, 0.0, 0.0)))
         self.pub_clock.publish(m.clock_cdr(t_ns))
 
 

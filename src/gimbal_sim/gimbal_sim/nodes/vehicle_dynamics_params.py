@@ -46,4 +46,8 @@ PARAMS = (
           array_type="string_array"),
     Param("pace_window_steps", 50, "steps the vehicle may run ahead of the slowest pace topic", 1, 10**6),
     Param("exit_at_end", False, "exit the process after the last step"),
+    Param("platform_substeps", 4, "four_gimbal_platform: RK4 substeps per step of the DC-motor loops (electrical "
+          "time constant ~1 ms: keep a substep <= 2 ms at low sim_rate_hz)", 1, 10**4),
+    Param("position_truth_every_steps", 0, "publish the host's true position (/truth/host/fix, NavSatFix) and "
+          "NED velocity (/truth/host/velocity, m/s) every N steps; 0: not published", 0, 10**9),
 )

@@ -23,6 +23,8 @@ from .geo_pointing import geo_pointing_comparison, geo_pointing_report
 from .gyro_encoder import gyro_encoder_report
 from .los_pointing import los_pointing_report
 from .operator import sighting_operator_comparison, sighting_operator_report
+from .navigation import navigation_report
+from .navigation import rotation_comparison as navigation_rotation_comparison
 from .platform_servo import platform_servo_report
 from .sighting import sighting_comparison, sighting_report
 
@@ -41,6 +43,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "consistency": consistency_report,
     "gyro_encoder": gyro_encoder_report,
     "geo_pointing": geo_pointing_report,
+    "navigation": navigation_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics
@@ -52,6 +55,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "alignment_campaign": alignment_campaign,
     "allan": allan_comparison,
     "geo_pointing": geo_pointing_comparison,
+    "navigation_rotation": navigation_rotation_comparison,
 }
 
 

@@ -344,6 +344,11 @@ def bench_run(args: argparse.Namespace) -> int:
             if mode in results:
                 _note(f"{mode}: {results[mode].steps_per_s:,.0f} steps/s")
         bags = [results[m].bag for m in ("processes", "container") if m in results]
+        for mode in ("container", "processes"):
+            r = results.get(mode)
+            if r is not None and r.recorded is not None and r.steps:
+                extra.append((f"{r.name} messages recorded per step", f"{r.recorded / r.steps:.2f} (the recorded "
+                              "topics only; every publication to every subscriber is not counted)"))
         if len(bags) == 2:
             diff = compare_bags(bags[1], bags[0])
             extra.append(("(b) and (c) recorded data", "identical (every message, stamp and field)" if diff.identical

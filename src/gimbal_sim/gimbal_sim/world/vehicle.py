@@ -118,7 +118,8 @@ class VehicleConfig:
         try:
             return cls(profile=values["profile"], profile_params=profile_params, plant=values["plant"],
                        sim_rate_hz=values["sim_rate_hz"], duration_s=values["duration_s"],
-                       earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial))
+                       earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial),
+                       platform_substeps=values["platform_substeps"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 

@@ -1,0 +1,183 @@
+"""``platform_navigator`` node: paper 3's local-level platform INS
+(:class:`.platform_navigator.PlatformNavigator`; docs/spec.md §3.3).
+
+Inputs: the stable element's accelerometers (``/platform/imu`` linear_acceleration,
+platform axes) and the azimuth resolver angle θ_a (``joint_topic``, joint
+``azimuth_joint``). The newest joint sample is extrapolated with its rate to each
+accelerometer stamp (a joint sample older than ``max_joint_age_s``, or none, leaves the
+sample without a resolver angle: the core refuses and counts it). Within one stamp the joint
+goes before the accelerometer, so the result does not depend on arrival order.
+
+Outputs, per accepted accelerometer sample, stamped like it:
+
+* ``~/command_rate`` (Vector3Stamped, rad/s, NED, frame ``map_ned``): ω_c^n, the rate the
+  platform must turn at (earth rate + transport rate − drift compensation, the hand-off
+  torquing pulse); ``platform_servo`` (``command_source: navigator``) follows it. A refused
+  sample still gets one, the last command repeated, so a servo waiting for its step never
+  stalls;
+* ``~/fix`` (NavSatFix, REP 103/105: latitude and longitude in degrees, height above the
+  WGS-84 ellipsoid, frame ``map_ned``; covariance type unknown: the core is a mechanisation
+  without a filter, it has no covariance to give) and ``~/velocity`` (Vector3Stamped, NED
+  m/s), every ``fix_every_samples`` accepted samples;
+* ``/diagnostics`` (free timing): the core's counters (accepted, rejected_nonfinite,
+  rejected_out_of_order, rejected_no_resolver, resets), the node's ``rejected_joints`` (a
+  JointState without ``azimuth_joint``) and the input policy's stream statistics.
+
+Bad input is counted and never integrated (the core checks it): NaN/inf values or stamps,
+stamps at or before the last one, a missing resolver angle; a stamp more than
+``clock_jump_s`` back (a bag looping) restarts navigation from the hand-off.
+
+Timing (parameter ``timing``), chosen once in the constructor as the input policy
+(:func:`gimbal_kinematics.input_policy.grouped_policy`), as ``platform_alignment`` does:
+``lockstep`` groups the inputs by step on the ``sim_rate_hz`` grid and reports on
+``~/progress`` the next step it needs (no /diagnostics: bags stay byte-identical);
+``free`` feeds the two streams in stamp order, never waits on a grid, ``/clock`` or a
+progress topic, and publishes /diagnostics every ``diagnostics_period_s`` of stamp time.
+The core runs on integer-nanosecond stamps in both.
+"""
+from __future__ import annotations
+
+import sys
+
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, JointState, NavSatFix
+
+from gimbal_kinematics.input_policy import Step, grouped_policy
+from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros import messages as wire
+from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
+from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.ros.readiness import announce_when_connected
+
+from . import messages as m
+from .platform_navigator import NavigatorOutput, PlatformNavigator
+from .platform_navigator_params import DESCRIPTION, PARAMS, PlatformNavigatorParams
+
+#: Counters whose non-zero value is a WARN on /diagnostics.
+WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_resolver", "resets",
+                 "rejected_joints", "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order",
+                 "incompatible_qos")
+
+
+class PlatformNavigatorNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("platform_navigator", **node_kwargs)
+        v = declare_and_read(self, PARAMS)
+        self.imu_every = steps_per_sample(v, "imu_rate_hz")
+        self.joint_every = steps_per_sample(v, "joint_rate_hz")
+        self.core = PlatformNavigator(PlatformNavigatorParams.from_values(v))
+        self.azimuth_joint = v["azimuth_joint"]
+        self.max_joint_age_ns = int(round(v["max_joint_age_s"] * 1e9))
+        self.fix_every = v["fix_every_samples"]
+        timing = v["timing"]
+        # the one choice of timing (module docstring); within a step the joint goes first
+        self.policy = grouped_policy(timing, ("joint", "imu"), needs=self._needs, rate_hz=v["sim_rate_hz"],
+                                     next_due=self._next_due, progress_every=v["progress_every_steps"],
+                                     clock_jump_s=v["clock_jump_s"],
+                                     max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)), paced="imu",
+                                     logger=self.get_logger())
+        self.rejected_joints = 0
+        self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
+        self._last_command: tuple[float, float, float] | None = None
+        self._seen: tuple[int, ...] = ()
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        self.io = io = NodeIo(self)
+        self.pub_fix = io.advertise(NavSatFix, "~/fix", timing)
+        self.pub_velocity = io.advertise(Vector3Stamped, "~/velocity", timing)
+        self.pub_command = io.advertise(Vector3Stamped, "~/command_rate", timing)
+        self.pub_progress = io.advertise(Clock, "~/progress", timing)
+        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
+        self.subs = [
+            io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing),
+            io.subscribe(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
+        ]
+        announce_when_connected(self, self.pub_progress, self.subs,
+                                (self.pub_fix, self.pub_velocity, self.pub_command), v["wait_for_subscribers"])
+
+    # --- the lockstep grid ---------------------------------------------------------------
+    def _needs(self, k: int) -> tuple[str, ...]:
+        return (("joint",) if k % self.joint_every == 0 else ()) + (("imu",) if k % self.imu_every == 0 else ())
+
+    def _next_due(self, k: int) -> int:
+        """The first step after ``k`` at which an input samples."""
+        return min(k - k % self.imu_every + self.imu_every, k - k % self.joint_every + self.joint_every)
+
+    # --- inputs ----------------------------------------------------------------------------
+    def _warn(self, text: str) -> None:
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    def _on_input(self, kind: str, msg) -> None:
+        for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), msg):
+            self._step(step)
+
+    def _step(self, step: Step) -> None:
+        if step.kind == "joint":
+            self._validate_joint(step)
+        else:
+            out = self.core.step(step.stamp_ns, m.vec_of(step.msg.linear_acceleration), self._theta_at(step.stamp_ns))
+            self._warn_counters(step.stamp_ns)
+            self._publish(step.stamp_ns, out)
+        progress = self.policy.progress(step)
+        if progress is not None:
+            self.pub_progress.publish(wire.clock_cdr(progress))
+
+    def _validate_joint(self, step: Step) -> None:
+        joint = m.joint_position_velocity(step.msg, self.azimuth_joint)
+        if joint is None:
+            self.rejected_joints += 1
+            self._warn(f"{step.stamp_ns * 1e-9:.6f} s: no joint {self.azimuth_joint!r} with a position: ignored "
+                       f"({self.rejected_joints} rejected)")
+            return
+        self._joint = (step.stamp_ns, joint[0], joint[1] or 0.0)
+
+    def _theta_at(self, t_ns: int) -> float | None:
+        """θ_a extrapolated to ``t_ns`` from the newest joint sample; None when there is none
+        within ``max_joint_age_s`` (a non-finite one passes, for the core to count)."""
+        if self._joint is None:
+            return None
+        t_j, theta, rate = self._joint
+        age_ns = t_ns - t_j
+        if not 0 <= age_ns <= self.max_joint_age_ns:
+            return None
+        return theta + rate * age_ns * 1e-9 if age_ns else theta
+
+    def _warn_counters(self, t_ns: int) -> None:
+        c = self.core
+        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_resolver, c.resets)
+        if seen != self._seen and any(seen):
+            self._warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of order, "
+                       f"{seen[2]} without a resolver angle; {seen[3]} restarts")
+        self._seen = seen
+
+    # --- outputs ---------------------------------------------------------------------------
+    def _publish(self, t_ns: int, out: NavigatorOutput | None) -> None:
+        if out is not None:
+            self._last_command = out.command_rate_n
+            if (self.core.accepted - 1) % self.fix_every == 0:
+                self.pub_fix.publish(m.navsat_fix_msg(t_ns, m.NAV_FRAME, out.lat, out.lon, out.height))
+                self.pub_velocity.publish(wire.vector3_cdr(t_ns, m.NAV_FRAME, out.velocity_n))
+        if self._last_command is not None:
+            self.pub_command.publish(wire.vector3_cdr(t_ns, m.NAV_FRAME, self._last_command))
+        if t_ns >= self._next_diag_ns:
+            self._next_diag_ns = t_ns + self.diag_period_ns
+            self.pub_diag.publish(self.health(t_ns))
+
+    def health(self, t_ns: int):
+        """/diagnostics: what the input policy reports (module docstring)."""
+        core = {**self.core.counters(), "rejected_joints": self.rejected_joints}
+        fields, _ = self.policy.report(core, {"incompatible_qos": self.io.incompatible_qos}, {}, None)
+        return health_msg(t_ns, self.get_name(), fields, ready=self.core.accepted > 0, not_ready="not navigating yet",
+                          warn=WARN_COUNTERS)
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(PlatformNavigatorNode, "platform_navigator", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
