@@ -98,7 +98,7 @@ def test_gimbal_run_refuses_a_bad_params_file(tmp_path, capsys):
 
     bad = tmp_path / "bad.yaml"
     bad.write_text("sensor_models: {ros__parameters: {gimbal_gyro_rrw_deg_h_rt_h: fast}}\n")
-    for path, words in ((tmp_path / "none.yaml", "cannot read"), (bad, "gimbal_gyro_rrw_deg_h_rt_h")):
+    for path, words in ((tmp_path / "none.yaml", "No such file"), (bad, "gimbal_gyro_rrw_deg_h_rt_h")):
         assert gimbal_run(["sim_open_loop", "--params-file", str(path), "--out", str(tmp_path / "run")]) == 2
         err = capsys.readouterr().err
         assert "--params-file" in err and words in err
