@@ -85,13 +85,35 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
             run.kill()
             run.wait()
     assert run.returncode == 0, output
+    assert len(received) == 20
+    _assert_same_as_bag(received, tmp_path / "run" / "ekf_on")
 
-    messages, _ = read_messages(tmp_path / "run" / "ekf_on", set(TOPICS))
+    # gimbal-bag play --live relays the bag it plays the same way
+    port = _free_port()
+    play = subprocess.Popen([str(VENV_BIN / "gimbal-bag"), "play", str(tmp_path / "run" / "ekf_on"), "--topics",
+                             *TOPICS, "--playback-duration", "4", "--live", "--live-port", str(port)],
+                            env=ros_domain_env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        _wait_listening(port, play)
+        replayed = _client(node_client, port, LEGACY_SUBPROTOCOL, 5)
+        output, _ = play.communicate(timeout=120)
+    finally:
+        if play.poll() is None:
+            play.kill()
+            play.wait()
+    assert play.returncode == 0, output
+    assert len(replayed) == 10
+    _assert_same_as_bag(replayed, tmp_path / "run" / "ekf_on")
+
+
+def _assert_same_as_bag(received: list[dict], bag_dir: Path) -> None:
+    messages, _ = read_messages(bag_dir, set(TOPICS))
     bag = {}
     for raw in messages:
         msg = TYPESTORE.deserialize_cdr(raw.data, raw.type_name)
         bag[(raw.topic, raw.log_time_ns)] = msg
-    assert {m["topic"] for m in received} == set(TOPICS) and len(received) == 20
+    assert {m["topic"] for m in received} == set(TOPICS)
     for item in received:
         stamp = _stamp_ns(item["msg"])
         assert int(item["log_time"]) == stamp
@@ -106,6 +128,8 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
             assert item["schema"] == "geometry_msgs/msg/Vector3Stamped"
             got = item["msg"]["vector"]
             assert (got["x"], got["y"], got["z"]) == (ref.vector.x, ref.vector.y, ref.vector.z)
+
+
 
 
 def test_second_live_view_on_a_port_refused_before_anything_starts(tmp_path, ros_domain_env):
