@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from rosbags.typesys import Stores, get_typestore
+from scipy.spatial.transform import Rotation
 
 from conftest import VENV_BIN
 from gimbal_sim.bag.live import SDK_SUBPROTOCOL, LEGACY_SUBPROTOCOL, _offered_legacy, parse_topic_rates
@@ -20,6 +21,8 @@ from gimbal_sim.bag.reader import read_messages
 
 CLIENT_DIR = Path(__file__).parent / "live_client"
 TOPICS = ("/gimbal/imu", "/gyro_bias_ekf/bias")
+FRAMES = "/live/frames"
+CHAIN = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
 
@@ -55,9 +58,9 @@ def _wait_listening(port: int, proc: subprocess.Popen, timeout_s: float = 90.0) 
     raise AssertionError(f"no live view on port {port} (run exit {proc.poll()})")
 
 
-def _client(script: Path, port: int, subprotocol: bytes, count: int) -> list[dict]:
+def _client(script: Path, port: int, subprotocol: bytes, count: int, topics=TOPICS) -> list[dict]:
     done = subprocess.run(["node", str(script), f"ws://127.0.0.1:{port}", subprotocol.decode(), str(count),
-                           *TOPICS], capture_output=True, text=True, timeout=120)
+                           *topics], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     lines = [json.loads(line) for line in done.stdout.splitlines()]
     assert lines[0] == {"open": subprotocol.decode()}  # the name the client offered, accepted
@@ -77,16 +80,19 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
     try:
         _wait_listening(port, run)
         # a client disconnecting mid-run, then another connecting: both served, the run goes on
-        received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5)
-        received += _client(node_client, port, SDK_SUBPROTOCOL, 5)
+        received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5, (*TOPICS, FRAMES))
+        received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES))
         output, _ = run.communicate(timeout=240)
     finally:
         if run.poll() is None:
             run.kill()
             run.wait()
     assert run.returncode == 0, output
-    assert len(received) == 20
+    frames = [m for m in received if m["topic"] == FRAMES]
+    received = [m for m in received if m["topic"] != FRAMES]
+    assert len(received) == 20 and len(frames) == 80
     _assert_same_as_bag(received, tmp_path / "run" / "ekf_on")
+    _assert_frames_match_bag(frames, tmp_path / "run" / "ekf_on")
 
     # gimbal-bag play --live relays the bag it plays the same way
     port = _free_port()
@@ -130,6 +136,49 @@ def _assert_same_as_bag(received: list[dict], bag_dir: Path) -> None:
             assert (got["x"], got["y"], got["z"]) == (ref.vector.x, ref.vector.y, ref.vector.z)
 
 
+
+
+def _assert_frames_match_bag(frames: list[dict], bag_dir: Path) -> None:
+    """Each transform against the bag's message at its stamp; the chain n→b→t→a→m, composed
+    here, against the simulator's own C_nm on /truth/gimbal/imu."""
+    sources = {"/truth/host/imu", "/truth/gimbal/joint_states", "/truth/gimbal/imu", "/gyro_bias_ekf/attitude"}
+    bag = {(raw.topic, raw.log_time_ns): TYPESTORE.deserialize_cdr(raw.data, raw.type_name)
+           for raw in read_messages(bag_dir, sources)[0]}
+
+    def quat(o):
+        return [o.x, o.y, o.z, o.w]
+
+    by_stamp: dict[int, dict[tuple[str, str], Rotation]] = {}
+    for item in frames:
+        assert item["schema"] == "foxglove.FrameTransforms"
+        for tf in item["msg"]["transforms"]:
+            stamp = tf["timestamp"]["sec"] * 1_000_000_000 + tf["timestamp"]["nsec"]
+            assert int(item["log_time"]) == stamp and tf["translation"] == {"x": 0.0, "y": 0.0, "z": 0.0}
+            r = tf["rotation"]
+            by_stamp.setdefault(stamp, {})[(tf["parent_frame_id"], tf["child_frame_id"])] = \
+                Rotation.from_quat([r["x"], r["y"], r["z"], r["w"]])
+    chains = ekfs = 0
+    for stamp, tfs in by_stamp.items():
+        if ("map_ned", "base_link_frd") in tfs:
+            ref = Rotation.from_quat(quat(bag[("/truth/host/imu", stamp)].orientation))
+            assert (tfs[("map_ned", "base_link_frd")].inv() * ref).magnitude() < 1e-12
+        if ("map_ned", "ekf/gimbal_inner_frd") in tfs:
+            ekfs += 1
+            ref = Rotation.from_quat(quat(bag[("/gyro_bias_ekf/attitude", stamp)].orientation))
+            assert (tfs[("map_ned", "ekf/gimbal_inner_frd")].inv() * ref).magnitude() < 1e-12
+        links = [("base_link_frd", "turret_frd"), ("turret_frd", "gimbal_azimuth_frd"),
+                 ("gimbal_azimuth_frd", "gimbal_inner_frd")]
+        if all(link in tfs for link in links):
+            joints = bag[("/truth/gimbal/joint_states", stamp)]
+            angle = dict(zip(joints.name, joints.position))
+            for link, axis, name in zip(links, "zzy", CHAIN):
+                assert (tfs[link].inv() * Rotation.from_euler(axis, angle[name])).magnitude() < 1e-12
+            if ("map_ned", "base_link_frd") in tfs:
+                chains += 1
+                composed = tfs[("map_ned", "base_link_frd")] * tfs[links[0]] * tfs[links[1]] * tfs[links[2]]
+                ref = Rotation.from_quat(quat(bag[("/truth/gimbal/imu", stamp)].orientation))
+                assert (composed.inv() * ref).magnitude() < 1e-9
+    assert chains >= 1 and ekfs >= 1
 
 
 def test_second_live_view_on_a_port_refused_before_anything_starts(tmp_path, ros_domain_env):

@@ -1,5 +1,6 @@
 """Live view: relay a run's topics, raw CDR with their ``ros2msg`` schemas, to Foxglove or
-Lichtblick over the Foxglove WebSocket protocol (``gimbal-run --live``).
+Lichtblick over the Foxglove WebSocket protocol (``gimbal-run --live``), plus the sighting
+chain's frames for the 3D panel (:mod:`.live_frames`).
 
 It runs inside the ``bag_recorder`` node: the recorder already subscribes to every topic and
 holds each message's CDR bytes and stamp, so relaying them costs no second subscription, no
@@ -19,6 +20,7 @@ import re
 import socket
 import threading
 
+from .live_frames import JSON_SCHEMA, SCHEMA_NAME, TOPIC as FRAMES_TOPIC, frame_transforms
 from .schemas import ros2msg_schema
 
 SDK_SUBPROTOCOL = b"foxglove.sdk.v1"
@@ -154,6 +156,9 @@ class LiveRelay:
         self._channels: dict[str, object] = {}
         self._period_ns: dict[str, int] = {}
         self._next_ns: dict[str, int] = {}
+        self._frames = foxglove.Channel(FRAMES_TOPIC, message_encoding="json", context=self._context,
+                                        schema=foxglove.Schema(name=SCHEMA_NAME, encoding="jsonschema",
+                                                               data=JSON_SCHEMA.encode()))
 
     def add_topic(self, topic: str, type_name: str) -> None:
         schema = self._foxglove.Schema(name=type_name, encoding="ros2msg",
@@ -171,6 +176,10 @@ class LiveRelay:
         self._next_ns[topic] = stamp_ns + self._period_ns[topic]
         if channel.has_sinks():
             channel.log(bytes(data), log_time=stamp_ns)
+        if self._frames.has_sinks():
+            frames = frame_transforms(topic, bytes(data), stamp_ns)
+            if frames is not None:
+                self._frames.log(frames, log_time=stamp_ns)
 
     def close(self) -> None:
         self.front.close()
