@@ -22,6 +22,7 @@ from gimbal_sim.bag.reader import read_messages
 CLIENT_DIR = Path(__file__).parent / "live_client"
 TOPICS = ("/gimbal/imu", "/gyro_bias_ekf/bias")
 FRAMES = "/live/frames"
+LOS = "/live/los"
 CHAIN = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
@@ -80,8 +81,8 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
     try:
         _wait_listening(port, run)
         # a client disconnecting mid-run, then another connecting: both served, the run goes on
-        received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5, (*TOPICS, FRAMES))
-        received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES))
+        received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
+        received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
         output, _ = run.communicate(timeout=240)
     finally:
         if run.poll() is None:
@@ -89,8 +90,10 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
             run.wait()
     assert run.returncode == 0, output
     frames = [m for m in received if m["topic"] == FRAMES]
-    received = [m for m in received if m["topic"] != FRAMES]
-    assert len(received) == 20 and len(frames) == 80
+    los = [m for m in received if m["topic"] == LOS]
+    received = [m for m in received if m["topic"] in TOPICS]
+    assert len(received) == 20 and len(frames) == 80 and len(los) == 10
+    _assert_los_arrows(los, tmp_path / "run" / "ekf_on")
     _assert_same_as_bag(received, tmp_path / "run" / "ekf_on")
     _assert_frames_match_bag(frames, tmp_path / "run" / "ekf_on")
 
@@ -136,6 +139,23 @@ def _assert_same_as_bag(received: list[dict], bag_dir: Path) -> None:
             assert (got["x"], got["y"], got["z"]) == (ref.vector.x, ref.vector.y, ref.vector.z)
 
 
+
+
+def _assert_los_arrows(items: list[dict], bag_dir: Path) -> None:
+    """The LOS is the inner gimbal's x axis (spec §2): an arrow with the identity pose, locked
+    to the true or the EKF's inner-gimbal frame, at the stamp of a message that moves it."""
+    source = {"gimbal_inner_frd": "/truth/gimbal/joint_states", "ekf/gimbal_inner_frd": "/gyro_bias_ekf/attitude"}
+    stamps = {(raw.topic, raw.log_time_ns) for raw in read_messages(bag_dir, set(source.values()))[0]}
+    for item in items:
+        assert item["schema"] == "foxglove.SceneUpdate"
+        (entity,) = item["msg"]["entities"]
+        stamp = entity["timestamp"]["sec"] * 1_000_000_000 + entity["timestamp"]["nsec"]
+        assert int(item["log_time"]) == stamp and (source[entity["frame_id"]], stamp) in stamps
+        assert entity["frame_locked"] is True
+        (arrow,) = entity["arrows"]
+        assert arrow["pose"] == {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
+                                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+        assert arrow["shaft_length"] > 0 and arrow["head_length"] > 0
 
 
 def _assert_frames_match_bag(frames: list[dict], bag_dir: Path) -> None:

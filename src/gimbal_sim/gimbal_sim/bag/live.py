@@ -20,7 +20,8 @@ import re
 import socket
 import threading
 
-from .live_frames import JSON_SCHEMA, SCHEMA_NAME, TOPIC as FRAMES_TOPIC, frame_transforms
+from .live_frames import (JSON_SCHEMA, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, SCHEMA_NAME,
+                          TOPIC as FRAMES_TOPIC, frame_transforms, los_scene)
 from .schemas import ros2msg_schema
 
 SDK_SUBPROTOCOL = b"foxglove.sdk.v1"
@@ -156,9 +157,11 @@ class LiveRelay:
         self._channels: dict[str, object] = {}
         self._period_ns: dict[str, int] = {}
         self._next_ns: dict[str, int] = {}
-        self._frames = foxglove.Channel(FRAMES_TOPIC, message_encoding="json", context=self._context,
-                                        schema=foxglove.Schema(name=SCHEMA_NAME, encoding="jsonschema",
-                                                               data=JSON_SCHEMA.encode()))
+        self._frames, self._scene = (
+            foxglove.Channel(topic, message_encoding="json", context=self._context,
+                             schema=foxglove.Schema(name=name, encoding="jsonschema", data=schema.encode()))
+            for topic, name, schema in ((FRAMES_TOPIC, SCHEMA_NAME, JSON_SCHEMA),
+                                        (SCENE_TOPIC, SCENE_SCHEMA_NAME, SCENE_JSON_SCHEMA)))
 
     def add_topic(self, topic: str, type_name: str) -> None:
         schema = self._foxglove.Schema(name=type_name, encoding="ros2msg",
@@ -180,6 +183,10 @@ class LiveRelay:
             frames = frame_transforms(topic, bytes(data), stamp_ns)
             if frames is not None:
                 self._frames.log(frames, log_time=stamp_ns)
+        if self._scene.has_sinks():
+            scene = los_scene(topic, stamp_ns)
+            if scene is not None:
+                self._scene.log(scene, log_time=stamp_ns)
 
     def close(self) -> None:
         self.front.close()

@@ -11,6 +11,10 @@ so no state is kept across topics (their arrival order is not fixed):
 
 A transform's rotation is the child frame's orientation in its parent: the quaternion of
 C_parent,child, (x, y, z, w) as on our messages.
+
+``/live/los`` (``foxglove.SceneUpdate``, JSON): the line of sight, the m frame's x axis
+(spec §2), as an arrow locked to the true inner gimbal and one to the EKF's, sent with the
+chain topics that move them.
 """
 from __future__ import annotations
 
@@ -35,6 +39,11 @@ JSON_SCHEMA = json.dumps({
             "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
             "translation": _VEC, "rotation": _QUAT}}}},
 })
+SCENE_TOPIC = "/live/los"
+SCENE_SCHEMA_NAME = "foxglove.SceneUpdate"
+SCENE_JSON_SCHEMA = json.dumps({"title": SCENE_SCHEMA_NAME, "type": "object",
+                                "properties": {"deletions": {"type": "array"}, "entities": {"type": "array"}}})
+LOS_LENGTH_M = 5.0
 TURRET_FRAME = "turret_frd"
 AZIMUTH_FRAME = "gimbal_azimuth_frd"
 _AXES = {"z": 2, "y": 1}
@@ -90,3 +99,23 @@ def frame_transforms(topic: str, data: bytes, stamp_ns: int) -> bytes | None:
         return None
     transforms = source(stamp_ns, data)
     return json.dumps({"transforms": transforms}).encode() if transforms else None
+
+
+_LOS_FRAMES = {"/truth/gimbal/joint_states": (GIMBAL_FRAME, (0.1, 0.8, 0.2)),
+               "/gyro_bias_ekf/attitude": ("ekf/" + GIMBAL_FRAME, (0.9, 0.5, 0.1))}
+
+
+def los_scene(topic: str, stamp_ns: int) -> bytes | None:
+    """The JSON SceneUpdate with the LOS arrow of the frame ``topic`` moves, or None."""
+    if topic not in _LOS_FRAMES:
+        return None
+    frame, (r, g, b) = _LOS_FRAMES[topic]
+    arrow = {"pose": {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
+                      "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},  # along the frame's x: the LOS
+             "shaft_length": 0.9 * LOS_LENGTH_M, "shaft_diameter": 0.02, "head_length": 0.1 * LOS_LENGTH_M,
+             "head_diameter": 0.08, "color": {"r": r, "g": g, "b": b, "a": 1.0}}
+    entity = {"timestamp": {"sec": stamp_ns // 1_000_000_000, "nsec": stamp_ns % 1_000_000_000},
+              "frame_id": frame, "id": f"los:{frame}", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": True,
+              "metadata": [], "arrows": [arrow], "cubes": [], "spheres": [], "cylinders": [], "lines": [],
+              "triangles": [], "texts": [], "models": []}
+    return json.dumps({"deletions": [], "entities": [entity]}).encode()
