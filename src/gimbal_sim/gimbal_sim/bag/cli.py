@@ -14,7 +14,7 @@ from pathlib import Path
 from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary
 from gimbal_kinematics.ros.ros_domain import localhost_env
 
-from .reader import recover, scan
+from .reader import BagError, recover, scan
 
 
 def _fmt_time(ns: int | None) -> str:
@@ -87,6 +87,8 @@ def cmd_play(args: argparse.Namespace) -> int:
 
     from .player import BagPlayer, PlayOptions, load_qos_overrides, parse_remaps
 
+    if args.live and not 1 <= args.live_port <= 65535:
+        raise BagError(f"--live-port must be in 1..65535, got {args.live_port}")
     options = PlayOptions(rate=args.rate, clock_hz=args.clock or 0.0, topics=args.topics,
                           exclude_topics=args.exclude_topics, remap=parse_remaps(args.remap),
                           start_offset_s=args.start_offset, playback_duration_s=args.playback_duration,

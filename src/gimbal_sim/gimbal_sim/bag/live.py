@@ -116,6 +116,7 @@ class SubprotocolFront:
             threading.Thread(target=self._serve, args=(client,), name="live-conn", daemon=True).start()
 
     def _serve(self, client: socket.socket) -> None:
+        server = None
         try:
             request, rest = _read_header(client)
             request, legacy = _offered_legacy(request)
@@ -125,8 +126,10 @@ class SubprotocolFront:
             if legacy:
                 response = _PROTOCOL_HEADER.sub(rb"\g<1>" + LEGACY_SUBPROTOCOL, response, count=1)
             client.sendall(response + rest)
-        except OSError:
-            client.close()
+        except OSError:  # ConnectionError included: a client that left mid-handshake
+            for sock in (client, server):
+                if sock is not None:
+                    sock.close()
             return
         threading.Thread(target=_splice, args=(server, client), daemon=True).start()
         _splice(client, server)

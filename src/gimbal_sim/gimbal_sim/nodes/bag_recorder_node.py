@@ -65,6 +65,8 @@ class BagRecorderNode(Node):
             self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9),
                                     compress=values["compress"])
         except FileExistsError as exc:
+            if self.live is not None:
+                self.live.close()
             raise ParameterError(f"parameter 'output_dir': {exc}") from exc
         self.wanted = list(values["topics"])
         self.exclude = set(values["exclude_topics"]) | {self.resolve_topic_name("~/progress")}
