@@ -16,6 +16,7 @@ import argparse
 import dataclasses
 import json
 import os
+import socket
 import subprocess
 import sys
 import time
@@ -24,6 +25,7 @@ from pathlib import Path
 from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
+from .bag.live import parse_topic_rates
 from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
@@ -62,7 +64,39 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-compress", action="store_true",
                         help="store the bag's MCAP chunks uncompressed (default: zstd-compressed)")
+    parser.add_argument("--live", action="store_true",
+                        help="serve a live view of the run (Foxglove WebSocket, ws://127.0.0.1:PORT) for "
+                             "Foxglove or Lichtblick; see the README's 'Watch it'")
+    parser.add_argument("--live-port", type=int, default=8765, metavar="N", help="live view port (default 8765)")
+    parser.add_argument("--live-rate-hz", type=float, default=50.0, metavar="HZ",
+                        help="rate each topic is relayed at, decimated by stamp (default 50; 0: every message)")
+    parser.add_argument("--live-topic-rate", action="append", default=[], metavar="TOPIC=HZ",
+                        help="relay rate of one topic (0: every message); repeatable")
     return parser
+
+
+def _live_params(args: argparse.Namespace) -> dict | None:
+    """The recorder's live-view parameters, checked (the port must be free) before anything starts."""
+    if not args.live:
+        return None
+    if not 1 <= args.live_port <= 65535:
+        raise UsageError(f"--live-port must be in 1..65535, got {args.live_port}")
+    finite(args.live_rate_hz, "--live-rate-hz", 0.0)
+    try:
+        parse_topic_rates(args.live_topic_rate)
+    except ValueError as exc:
+        raise UsageError(f"--live-topic-rate: {exc}") from None
+    probe = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the live view binds it
+    try:
+        probe.bind(("127.0.0.1", args.live_port))
+    except OSError as exc:
+        raise UsageError(f"--live-port {args.live_port}: port {args.live_port} is not free ({exc.strerror}); "
+                         f"another live view may be running on it, choose another with --live-port") from None
+    finally:
+        probe.close()
+    return {"live_port": args.live_port, "live_rate_hz": args.live_rate_hz,
+            "live_topic_rates": list(args.live_topic_rate)}
 
 
 def _print_list() -> None:
@@ -113,6 +147,9 @@ def main(argv: list[str] | None = None) -> int:
         raise UsageError(f"scenario {scenario.name!r} has no variants; drop --variant")
     if args.jobs < 1:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.live and args.jobs > 1 and len(runs) > 1:
+        raise UsageError("--live shows one run at a time: drop --jobs or pick one --variant")
+    args.live_params = _live_params(args)
 
     rows, ok = [], True
     if args.jobs > 1 and len(runs) > 1:
@@ -224,7 +261,8 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
 def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
     """Run one scenario into ``out``, write its run.json and report; returns the report's
     metrics and the summary rows."""
-    result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress)
+    result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress,
+                 live=args.live_params)
     if result.interrupted:
         # the nodes stepped on while they were being stopped: the run is what the bag holds
         contents = scan(out)

@@ -14,7 +14,7 @@ from pathlib import Path
 from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary
 from gimbal_kinematics.ros.ros_domain import localhost_env
 
-from .reader import recover, scan
+from .reader import BagError, recover, scan
 
 
 def _fmt_time(ns: int | None) -> str:
@@ -87,13 +87,16 @@ def cmd_play(args: argparse.Namespace) -> int:
 
     from .player import BagPlayer, PlayOptions, load_qos_overrides, parse_remaps
 
+    if args.live and not 1 <= args.live_port <= 65535:
+        raise BagError(f"--live-port must be in 1..65535, got {args.live_port}")
     options = PlayOptions(rate=args.rate, clock_hz=args.clock or 0.0, topics=args.topics,
                           exclude_topics=args.exclude_topics, remap=parse_remaps(args.remap),
                           start_offset_s=args.start_offset, playback_duration_s=args.playback_duration,
                           start_paused=args.start_paused, loop=args.loop,
                           wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace,
                           wait_timeout_s=args.wait_timeout,
-                          qos_overrides=load_qos_overrides(args.qos_profile_overrides_path))
+                          qos_overrides=load_qos_overrides(args.qos_profile_overrides_path),
+                          live_port=args.live_port if args.live else 0, live_rate_hz=args.live_rate_hz)
     localhost_env()
     rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
     player = None
@@ -149,6 +152,11 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--qos-profile-overrides-path", type=Path, metavar="YAML",
                       help="rosbag2's per-topic QoS overrides: /topic: {reliability, durability, history, depth}")
     play.add_argument("--loop", action="store_true", help="play again and again (bag time jumps back)")
+    play.add_argument("--live", action="store_true",
+                      help="also serve the played topics to Foxglove or Lichtblick (ws://127.0.0.1:PORT)")
+    play.add_argument("--live-port", type=int, default=8765, metavar="N", help="live view port (default 8765)")
+    play.add_argument("--live-rate-hz", type=float, default=50.0, metavar="HZ",
+                      help="rate each topic is relayed at (default 50; 0: every message)")
     play.add_argument("--wait-for-subscribers", type=int, default=0, metavar="N",
                       help="wait until every topic has N matched subscriptions")
     play.add_argument("--pace", nargs="+", default=[], metavar="TOPIC",

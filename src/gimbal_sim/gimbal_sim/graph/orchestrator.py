@@ -169,13 +169,14 @@ def _ros_env() -> tuple[dict[str, str], Any]:
 
 
 def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bool = True,
-        stall_timeout_s: float = 60.0, compress: bool = True) -> RunResult:
+        stall_timeout_s: float = 60.0, compress: bool = True, live: dict | None = None) -> RunResult:
     """Run ``scenario`` into ``out_dir`` (which must not exist); raises :class:`RunError`.
-    ``compress``: the recorder zstd-compresses the bag's MCAP chunks."""
+    ``compress``: the recorder zstd-compresses the bag's MCAP chunks; ``live``: the
+    recorder's live-view parameters (live_port, ...), none for no live view."""
     out_dir = Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"output directory {out_dir} already exists; not overwriting it")
-    nodes = plan_nodes(scenario, out_dir, compress)
+    nodes = plan_nodes(scenario, out_dir, compress, live)
     write_run_files(scenario, nodes, out_dir)
     env, claim = _ros_env()
     main_thread = threading.current_thread() is threading.main_thread()

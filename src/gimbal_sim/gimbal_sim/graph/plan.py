@@ -74,10 +74,11 @@ def resident_mb(pid: int | str = "self") -> float:
     return 0.0
 
 
-def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list[PlannedNode]:
+def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True,
+               live: dict | None = None) -> list[PlannedNode]:
     """Every node with its final parameters: the scenario's, plus what the orchestrator
     owns (rate, seed, duration, readiness and pacing wiring, the recorder's output and
-    whether it compresses the bag's chunks)."""
+    whether it compresses the bag's chunks; ``live``: the recorder's live_* parameters)."""
     # a node in free timing is no lockstep reader: the vehicle neither waits for nor paces on it
     paced = [n for n, s in scenario.nodes.items()
              if "progress_every_steps" in {p.name for p in NODE_TYPES[s["executable"]].params}
@@ -109,7 +110,7 @@ def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True) -> list
     recorder = {"output_dir": str(out_dir), "compress": compress,
                 "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
                 "topics": [] if scenario.record == "all" else list(scenario.record),
-                "wait_for_nodes": list(scenario.nodes)}
+                "wait_for_nodes": list(scenario.nodes), **(live or {})}
     # the recorder starts first so that it is listening before anyone publishes
     return [PlannedNode(RECORDER, RECORDER, recorder, {})] + planned
 

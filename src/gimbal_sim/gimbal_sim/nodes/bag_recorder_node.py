@@ -29,6 +29,7 @@ from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS
 from ..bag.schemas import message_class, msg_text, split_type
 from ..bag.writer import BagWriter
+from ..bag.live import LivePortError, LiveRelay, parse_topic_rates
 
 _STAMP = struct.Struct("<iI")
 
@@ -59,10 +60,13 @@ class BagRecorderNode(Node):
         values = declare_and_read(self, PARAMS)
         if not values["output_dir"]:
             raise ParameterError("parameter 'output_dir' is required")
+        self.live = self._start_live(values)  # before the bag: a port in use leaves nothing behind
         try:
             self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9),
                                     compress=values["compress"])
         except FileExistsError as exc:
+            if self.live is not None:
+                self.live.close()
             raise ParameterError(f"parameter 'output_dir': {exc}") from exc
         self.wanted = list(values["topics"])
         self.exclude = set(values["exclude_topics"]) | {self.resolve_topic_name("~/progress")}
@@ -79,6 +83,20 @@ class BagRecorderNode(Node):
         self.ready = False
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
         self._discovery = self.create_timer(0.05, self._discover)
+
+    def _start_live(self, values: dict) -> LiveRelay | None:
+        if not values["live_port"]:
+            return None
+        try:
+            rates = parse_topic_rates(values["live_topic_rates"])
+        except ValueError as exc:
+            raise ParameterError(f"parameter 'live_topic_rates': {exc}") from exc
+        try:
+            live = LiveRelay(values["live_host"], values["live_port"], values["live_rate_hz"], rates)
+        except LivePortError as exc:
+            raise ParameterError(f"parameter 'live_port': {exc}") from exc
+        self.get_logger().info(f"live view on ws://{values['live_host']}:{live.port}")
+        return live
 
     # --- discovery (wall timer: graph polling, not stepping) -----------------------------
     def _candidate_topics(self) -> dict[str, str]:
@@ -115,6 +133,8 @@ class BagRecorderNode(Node):
         offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
         self.writer.add_topic(topic, type_name, [qos_to_dict(q) for q in offered] or [qos_to_dict(GRAPH_QOS)])
         self._stamped[topic] = stamp_first(type_name)
+        if self.live is not None:
+            self.live.add_topic(topic, type_name)
         events = SubscriptionEventCallbacks(message_lost=lambda status, t=topic: self._on_lost(t, status))
         self.subs[topic] = self.create_subscription(
             message_class(type_name), topic, lambda data, t=topic: self._on_message(t, data),
@@ -132,6 +152,8 @@ class BagRecorderNode(Node):
             self.out_of_order += 1
         self._last_stamp[topic] = stamp
         self.writer.write(topic, data, stamp)
+        if self.live is not None:
+            self.live.publish(topic, data, stamp)
         if topic == "/clock":
             self.clock_ns = stamp
             step = m.step_of_stamp(stamp, self.rate)
@@ -146,6 +168,9 @@ class BagRecorderNode(Node):
 
     def close(self) -> None:
         """Finish the bag (idempotent); records the loss counters in the log."""
+        if self.live is not None:
+            self.live.close()
+            self.live = None
         if not self.writer.closed:
             self.writer.close()
             text = (f"bag closed: {self.writer.message_count} messages on {len(self.writer.topics)} topics, "

@@ -23,4 +23,9 @@ PARAMS = (
     Param("compress", True, "zstd-compress the MCAP chunks (false: store them uncompressed)"),
     Param("chunk_duration_s", 0.5, "finish and flush an MCAP chunk at least every this much log time [s]",
           1e-3, 60.0),
+    Param("live_port", 0, "serve a live view (Foxglove WebSocket) on this TCP port; 0: no live view", 0, 65535),
+    Param("live_host", "127.0.0.1", "address the live view listens on"),
+    Param("live_rate_hz", 50.0, "default rate each topic is relayed at, decimated by stamp [Hz]; 0: every message",
+          0.0, 1e6),
+    Param("live_topic_rates", [], "per-topic relay rates 'TOPIC=HZ' (0: every message)", array_type="string_array"),
 )

@@ -19,6 +19,7 @@ recorded the same data and that (a) computed the same torque commands, and, with
 ``record``: the recorder's throughput, CPU share and bag size on a scenario run (processes
 mode), with zstd-compressed chunks and without.
 ``compare A B``: do two bags hold the same data (:mod:`..bag.compare`)?
+``live``: steps/s without and with ``--live`` and one client, same data (:mod:`.live_speed`).
 """
 from __future__ import annotations
 
@@ -49,6 +50,7 @@ from ..experiments.flexure_methods import QS_MODELS, method_table, run_method_st
 from ..graph.orchestrator import run
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load, variant
+from .live_speed import measure_live
 from .replay_speed import measure
 
 HEADLINE = "sighting_land_vehicle"
@@ -470,6 +472,25 @@ def bench_flexure(args: argparse.Namespace) -> int:
     return 0
 
 
+def bench_live(args: argparse.Namespace) -> int:
+    scenario = load(args.scenario or HEADLINE)
+    if scenario.variants:
+        scenario = variant(scenario, args.variant or list(scenario.variants)[-1])
+    scenario = dataclasses.replace(scenario, duration_s=args.duration)
+    with tempfile.TemporaryDirectory(prefix="gimbal-bench-live-") as work:
+        r = measure_live(scenario, Path(work), args.port)
+    slowdown = r["steps_per_s_plain"] / r["steps_per_s_live"] - 1.0
+    print(f"{scenario.name}, {args.duration:g} s, processes mode (load {os.getloadavg()[0]:.2f}):")
+    print(f"  steps/s without --live           {r['steps_per_s_plain']:,.0f}")
+    print(f"  steps/s with --live and 1 client {r['steps_per_s_live']:,.0f}  (slowdown {slowdown:+.1%}, "
+          f"target <= +10%)")
+    print(f"  client: {'connected' if r['client_connected'] else 'NOT connected'}, "
+          f"{r['client_messages']} messages received")
+    print(f"  bags: {'same data' if r['same_data'] else 'DIFFERENT data'}"
+          f"{' (byte-identical)' if r['byte_identical'] else ''}")
+    return 0 if r["same_data"] and r["client_connected"] else 1
+
+
 def _check_numbers(args: argparse.Namespace) -> None:
     """Durations and factors finite and positive, before anything runs."""
     for option in ("duration", "memory_factor"):
@@ -517,8 +538,14 @@ def main(argv: list[str] | None = None) -> int:
     cmp_.add_argument("--rel-tol", type=float, default=0.0,
                       help="accept float fields within this relative tolerance (default 0: to the bit)")
     cmp_.set_defaults(func=bench_compare)
+    live = sub.add_parser("live", help="steps/s without and with --live and one client; same data")
+    live.add_argument("--scenario", help=f"scenario (default {HEADLINE})")
+    live.add_argument("--variant", help="variant (default its last)")
+    live.add_argument("--duration", type=float, default=10.0, help="simulated seconds (default 10)")
+    live.add_argument("--port", type=int, default=8765, help="live view port (default 8765)")
+    live.set_defaults(func=bench_live)
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in ("run", "record", "flexure", "compare", "-h", "--help"):
+    if not argv or argv[0] not in ("run", "record", "flexure", "compare", "live", "-h", "--help"):
         argv = ["run", *argv]
     args = parser.parse_args(argv)
     _check_numbers(args)

@@ -1,0 +1,231 @@
+"""``gimbal-run --live``: an independent client (``@foxglove/ws-protocol`` 0.8.0, the client
+Lichtblick uses, in Node) connects with each subprotocol name, decodes the relayed CDR with
+``@foxglove/rosmsg2-serialization`` and gets the values the run's bag holds for the same stamps.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import socket
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+from rosbags.typesys import Stores, get_typestore
+from scipy.spatial.transform import Rotation
+
+from conftest import VENV_BIN
+from gimbal_sim.bag.live import SDK_SUBPROTOCOL, LEGACY_SUBPROTOCOL, _offered_legacy, parse_topic_rates
+from gimbal_sim.bag.reader import read_messages
+
+CLIENT_DIR = Path(__file__).parent / "live_client"
+TOPICS = ("/gimbal/imu", "/gyro_bias_ekf/bias")
+FRAMES = "/live/frames"
+LOS = "/live/los"
+CHAIN = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+
+
+@pytest.fixture(scope="session")
+def node_client(tmp_path_factory) -> Path:
+    """The client script with its pinned npm packages installed beside it."""
+    if not shutil.which("node") or not shutil.which("npm"):
+        pytest.skip("node and npm are needed for the independent Foxglove client (apt install nodejs npm)")
+    work = tmp_path_factory.mktemp("live_client")
+    for name in ("package.json", "client.cjs"):
+        shutil.copy(CLIENT_DIR / name, work / name)
+    done = subprocess.run(["npm", "install", "--no-audit", "--no-fund", "--no-package-lock"], cwd=work,
+                          capture_output=True, text=True, timeout=300)
+    if done.returncode != 0:
+        pytest.skip(f"npm could not install the pinned client packages: {done.stderr[-500:]}")
+    return work / "client.cjs"
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _wait_listening(port: int, proc: subprocess.Popen, timeout_s: float = 90.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+            return
+        except OSError:
+            time.sleep(0.2)
+    raise AssertionError(f"no live view on port {port} (run exit {proc.poll()})")
+
+
+def _client(script: Path, port: int, subprotocol: bytes, count: int, topics=TOPICS) -> list[dict]:
+    done = subprocess.run(["node", str(script), f"ws://127.0.0.1:{port}", subprotocol.decode(), str(count),
+                           *topics], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    lines = [json.loads(line) for line in done.stdout.splitlines()]
+    assert lines[0] == {"open": subprotocol.decode()}  # the name the client offered, accepted
+    return lines[1:]
+
+
+def _stamp_ns(msg: dict) -> int:
+    return int(msg["header"]["stamp"]["sec"]) * 1_000_000_000 + int(msg["header"]["stamp"]["nanosec"])
+
+
+def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain_env):
+    port = _free_port()
+    cmd = [str(VENV_BIN / "gimbal-run"), "sighting_land_vehicle", "--variant", "ekf_on", "--duration", "6",
+           "--no-progress", "--live", "--live-port", str(port)]
+    run = subprocess.Popen([*cmd, "--out", str(tmp_path / "run")], env=ros_domain_env,
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        _wait_listening(port, run)
+        # a client disconnecting mid-run, then another connecting: both served, the run goes on
+        received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
+        received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
+        output, _ = run.communicate(timeout=240)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    assert run.returncode == 0, output
+    frames = [m for m in received if m["topic"] == FRAMES]
+    los = [m for m in received if m["topic"] == LOS]
+    received = [m for m in received if m["topic"] in TOPICS]
+    assert len(received) == 20 and len(frames) == 80 and len(los) == 10
+    _assert_los_arrows(los, tmp_path / "run" / "ekf_on")
+    _assert_same_as_bag(received, tmp_path / "run" / "ekf_on")
+    _assert_frames_match_bag(frames, tmp_path / "run" / "ekf_on")
+
+    # gimbal-bag play --live relays the bag it plays the same way
+    port = _free_port()
+    play = subprocess.Popen([str(VENV_BIN / "gimbal-bag"), "play", str(tmp_path / "run" / "ekf_on"), "--topics",
+                             *TOPICS, "--playback-duration", "4", "--live", "--live-port", str(port)],
+                            env=ros_domain_env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        _wait_listening(port, play)
+        replayed = _client(node_client, port, LEGACY_SUBPROTOCOL, 5)
+        output, _ = play.communicate(timeout=120)
+    finally:
+        if play.poll() is None:
+            play.kill()
+            play.wait()
+    assert play.returncode == 0, output
+    assert len(replayed) == 10
+    _assert_same_as_bag(replayed, tmp_path / "run" / "ekf_on")
+
+
+def _assert_same_as_bag(received: list[dict], bag_dir: Path) -> None:
+    messages, _ = read_messages(bag_dir, set(TOPICS))
+    bag = {}
+    for raw in messages:
+        msg = TYPESTORE.deserialize_cdr(raw.data, raw.type_name)
+        bag[(raw.topic, raw.log_time_ns)] = msg
+    assert {m["topic"] for m in received} == set(TOPICS)
+    for item in received:
+        stamp = _stamp_ns(item["msg"])
+        assert int(item["log_time"]) == stamp
+        ref = bag[(item["topic"], stamp)]
+        if item["topic"] == "/gimbal/imu":
+            assert item["schema"] == "sensor_msgs/msg/Imu"
+            got = item["msg"]["angular_velocity"]
+            assert (got["x"], got["y"], got["z"]) == (ref.angular_velocity.x, ref.angular_velocity.y,
+                                                      ref.angular_velocity.z)
+            assert item["msg"]["header"]["frame_id"] == ref.header.frame_id
+        else:
+            assert item["schema"] == "geometry_msgs/msg/Vector3Stamped"
+            got = item["msg"]["vector"]
+            assert (got["x"], got["y"], got["z"]) == (ref.vector.x, ref.vector.y, ref.vector.z)
+
+
+
+
+def _assert_los_arrows(items: list[dict], bag_dir: Path) -> None:
+    """The LOS is the inner gimbal's x axis (spec §2): an arrow with the identity pose, locked
+    to the true or the EKF's inner-gimbal frame, at the stamp of a message that moves it."""
+    source = {"gimbal_inner_frd": "/truth/gimbal/joint_states", "ekf/gimbal_inner_frd": "/gyro_bias_ekf/attitude"}
+    stamps = {(raw.topic, raw.log_time_ns) for raw in read_messages(bag_dir, set(source.values()))[0]}
+    for item in items:
+        assert item["schema"] == "foxglove.SceneUpdate"
+        (entity,) = item["msg"]["entities"]
+        stamp = entity["timestamp"]["sec"] * 1_000_000_000 + entity["timestamp"]["nsec"]
+        assert int(item["log_time"]) == stamp and (source[entity["frame_id"]], stamp) in stamps
+        assert entity["frame_locked"] is True
+        (arrow,) = entity["arrows"]
+        assert arrow["pose"] == {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
+                                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+        assert arrow["shaft_length"] > 0 and arrow["head_length"] > 0
+
+
+def _assert_frames_match_bag(frames: list[dict], bag_dir: Path) -> None:
+    """Each transform against the bag's message at its stamp; the chain n→b→t→a→m, composed
+    here, against the simulator's own C_nm on /truth/gimbal/imu."""
+    sources = {"/truth/host/imu", "/truth/gimbal/joint_states", "/truth/gimbal/imu", "/gyro_bias_ekf/attitude"}
+    bag = {(raw.topic, raw.log_time_ns): TYPESTORE.deserialize_cdr(raw.data, raw.type_name)
+           for raw in read_messages(bag_dir, sources)[0]}
+
+    def quat(o):
+        return [o.x, o.y, o.z, o.w]
+
+    by_stamp: dict[int, dict[tuple[str, str], Rotation]] = {}
+    for item in frames:
+        assert item["schema"] == "foxglove.FrameTransforms"
+        for tf in item["msg"]["transforms"]:
+            stamp = tf["timestamp"]["sec"] * 1_000_000_000 + tf["timestamp"]["nsec"]
+            assert int(item["log_time"]) == stamp and tf["translation"] == {"x": 0.0, "y": 0.0, "z": 0.0}
+            r = tf["rotation"]
+            by_stamp.setdefault(stamp, {})[(tf["parent_frame_id"], tf["child_frame_id"])] = \
+                Rotation.from_quat([r["x"], r["y"], r["z"], r["w"]])
+    chains = ekfs = 0
+    for stamp, tfs in by_stamp.items():
+        if ("map_ned", "base_link_frd") in tfs:
+            ref = Rotation.from_quat(quat(bag[("/truth/host/imu", stamp)].orientation))
+            assert (tfs[("map_ned", "base_link_frd")].inv() * ref).magnitude() < 1e-12
+        if ("map_ned", "ekf/gimbal_inner_frd") in tfs:
+            ekfs += 1
+            ref = Rotation.from_quat(quat(bag[("/gyro_bias_ekf/attitude", stamp)].orientation))
+            assert (tfs[("map_ned", "ekf/gimbal_inner_frd")].inv() * ref).magnitude() < 1e-12
+        links = [("base_link_frd", "turret_frd"), ("turret_frd", "gimbal_azimuth_frd"),
+                 ("gimbal_azimuth_frd", "gimbal_inner_frd")]
+        if all(link in tfs for link in links):
+            joints = bag[("/truth/gimbal/joint_states", stamp)]
+            angle = dict(zip(joints.name, joints.position))
+            for link, axis, name in zip(links, "zzy", CHAIN):
+                assert (tfs[link].inv() * Rotation.from_euler(axis, angle[name])).magnitude() < 1e-12
+            if ("map_ned", "base_link_frd") in tfs:
+                chains += 1
+                composed = tfs[("map_ned", "base_link_frd")] * tfs[links[0]] * tfs[links[1]] * tfs[links[2]]
+                ref = Rotation.from_quat(quat(bag[("/truth/gimbal/imu", stamp)].orientation))
+                assert (composed.inv() * ref).magnitude() < 1e-9
+    assert chains >= 1 and ekfs >= 1
+
+
+def test_second_live_view_on_a_port_refused_before_anything_starts(tmp_path, ros_domain_env):
+    with socket.socket() as taken:  # what a running live view holds
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        done = subprocess.run([str(VENV_BIN / "gimbal-run"), "gyro_at_rest", "--duration", "1", "--live",
+                               "--live-port", str(port), "--out", str(tmp_path / "run")], env=ros_domain_env,
+                              capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2, done.stderr
+    assert f"port {port}" in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_front_renames_only_the_legacy_offer():
+    request = (b"GET / HTTP/1.1\r\nHost: x\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n")
+    rewritten, legacy = _offered_legacy(request)
+    assert legacy and b"Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n" in rewritten
+    both = b"GET / HTTP/1.1\r\nsec-websocket-protocol: foxglove.websocket.v1, foxglove.sdk.v1\r\n\r\n"
+    assert _offered_legacy(both) == (both, False)
+    other = b"GET / HTTP/1.1\r\nSec-WebSocket-Protocol: chat\r\n\r\n"
+    assert _offered_legacy(other) == (other, False)
+
+
+def test_topic_rates_parsed_and_bad_ones_refused():
+    assert parse_topic_rates(["/gimbal/imu=100", "/clock=0"]) == {"/gimbal/imu": 100.0, "/clock": 0.0}
+    for bad in ("/gimbal/imu", "gimbal/imu=5", "/x=-1", "/x=nan", "/x=inf", "/x=fast"):
+        with pytest.raises(ValueError, match="TOPIC=HZ"):
+            parse_topic_rates([bad])
