@@ -77,3 +77,14 @@ def test_the_factories_refuse_an_unknown_timing():
     with pytest.raises(ValueError, match="timing"):
         sample_policy("x", ("a",), rate_hz=1.0, sample_rate_hz=1.0, progress_every=1, clock_jump_ns=1,
                       warn=print)
+
+
+def test_sample_grid_matches_a_brute_force_walk_of_the_steps():
+    from gimbal_kinematics.input_policy import SampleGrid
+
+    grid = SampleGrid({"joint": 4, "imu": 10})
+    for k in range(0, 200):
+        assert grid.needs(k) == tuple(s for s, n in (("joint", 4), ("imu", 10)) if k % n == 0)
+        assert grid.next_due(k) == next(j for j in range(k + 1, k + 50) if j % 4 == 0 or j % 10 == 0)
+    with pytest.raises(ValueError, match="sampling period"):
+        SampleGrid({"imu": 0})

@@ -63,7 +63,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.input_policy import Step, grouped_policy
+from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
@@ -93,15 +93,14 @@ class PlatformAlignmentNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_alignment", **node_kwargs)
         v = declare_and_read(self, PARAMS)
-        self.imu_every = steps_per_sample(v, "imu_rate_hz")
-        self.joint_every = steps_per_sample(v, "joint_rate_hz")
+        grid = SampleGrid({"joint": steps_per_sample(v, "joint_rate_hz"), "imu": steps_per_sample(v, "imu_rate_hz")})
         self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(v))
         self.azimuth_joint = v["azimuth_joint"]
         self.heading = math.radians(v["base_heading_deg"])
         timing = v["timing"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(timing, ("joint", "imu"), needs=self._needs, rate_hz=v["sim_rate_hz"],
-                                     next_due=self._next_due, progress_every=v["progress_every_steps"],
+        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=v["sim_rate_hz"],
+                                     next_due=grid.next_due, progress_every=v["progress_every_steps"],
                                      clock_jump_s=v["clock_jump_s"],
                                      max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)), paced="imu",
                                      logger=self.get_logger())
@@ -121,14 +120,6 @@ class PlatformAlignmentNode(Node):
             io.subscribe(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
-
-    # --- the lockstep grid ---------------------------------------------------------------
-    def _needs(self, k: int) -> tuple[str, ...]:
-        return (("joint",) if k % self.joint_every == 0 else ()) + (("imu",) if k % self.imu_every == 0 else ())
-
-    def _next_due(self, k: int) -> int:
-        """The first step after ``k`` at which an input samples."""
-        return min(k - k % self.imu_every + self.imu_every, k - k % self.joint_every + self.joint_every)
 
     # --- inputs ----------------------------------------------------------------------------
     def _warn(self, text: str) -> None:

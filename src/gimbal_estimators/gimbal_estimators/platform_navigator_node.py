@@ -44,7 +44,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
-from gimbal_kinematics.input_policy import Step, grouped_policy
+from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros import messages as wire
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
@@ -67,16 +67,15 @@ class PlatformNavigatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_navigator", **node_kwargs)
         v = declare_and_read(self, PARAMS)
-        self.imu_every = steps_per_sample(v, "imu_rate_hz")
-        self.joint_every = steps_per_sample(v, "joint_rate_hz")
+        grid = SampleGrid({"joint": steps_per_sample(v, "joint_rate_hz"), "imu": steps_per_sample(v, "imu_rate_hz")})
         self.core = PlatformNavigator(PlatformNavigatorParams.from_values(v))
         self.azimuth_joint = v["azimuth_joint"]
         self.max_joint_age_ns = int(round(v["max_joint_age_s"] * 1e9))
         self.fix_every = v["fix_every_samples"]
         timing = v["timing"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(timing, ("joint", "imu"), needs=self._needs, rate_hz=v["sim_rate_hz"],
-                                     next_due=self._next_due, progress_every=v["progress_every_steps"],
+        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=v["sim_rate_hz"],
+                                     next_due=grid.next_due, progress_every=v["progress_every_steps"],
                                      clock_jump_s=v["clock_jump_s"],
                                      max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)), paced="imu",
                                      logger=self.get_logger())
@@ -98,14 +97,6 @@ class PlatformNavigatorNode(Node):
         ]
         announce_when_connected(self, self.pub_progress, self.subs,
                                 (self.pub_fix, self.pub_velocity, self.pub_command), v["wait_for_subscribers"])
-
-    # --- the lockstep grid ---------------------------------------------------------------
-    def _needs(self, k: int) -> tuple[str, ...]:
-        return (("joint",) if k % self.joint_every == 0 else ()) + (("imu",) if k % self.imu_every == 0 else ())
-
-    def _next_due(self, k: int) -> int:
-        """The first step after ``k`` at which an input samples."""
-        return min(k - k % self.imu_every + self.imu_every, k - k % self.joint_every + self.joint_every)
 
     # --- inputs ----------------------------------------------------------------------------
     def _warn(self, text: str) -> None:

@@ -116,6 +116,23 @@ class Step(NamedTuple):
 Fields = Mapping[str, Any]
 
 
+class SampleGrid:
+    """The lockstep grid of streams sampled every n steps: which sample at step k, in the
+    order given (within a step the first goes first), and the next step that samples any."""
+
+    def __init__(self, every: Mapping[str, int]) -> None:
+        if not every or any(n < 1 for n in every.values()):
+            raise ValueError(f"every stream needs a sampling period of >= 1 step, got {dict(every)}")
+        self.every = dict(every)
+
+    def needs(self, k: int) -> tuple[str, ...]:
+        return tuple(stream for stream, n in self.every.items() if k % n == 0)
+
+    def next_due(self, k: int) -> int:
+        """The first step after ``k`` at which a stream samples."""
+        return min(k - k % n + n for n in self.every.values())
+
+
 class LockstepOrder:
     """Lockstep input policy (module docstring): ``streams`` in stamp order (within a
     stamp in the order given), released when every stream has reached the stamp or after
