@@ -22,15 +22,19 @@ are the servo experiment's (:mod:`.platform_servo`), not needed for navigation. 
 the sampled rotation itself leaks: at 1 Hz a north gyro drift leaves 28× more position
 error after an hour with rotation on than at 2 Hz.
 
-Start. Both variants start perfectly aligned: platform level at azimuth 0 over a base at
-heading 0, navigator at the site at rest with no estimates, so the errors are those of the
-sensors alone (the hand-off from an alignment is the graph scenario's ``align_then_navigate``).
+Start. ``rotation_on`` and ``rotation_off`` start perfectly aligned: platform level at
+azimuth 0 over a base at heading 0, navigator at the site at rest with no estimates, so the
+errors are those of the sensors alone. ``align_then_navigate`` is paper 3's sequence as two
+chained runs in one command (the plant's rate is fixed per run): the fine alignment at 1 kHz
+(:func:`run_alignment_phase`), then navigation at :data:`HAND_OFF_RATE_HZ` from the plant
+state, sensor biases and estimate it leaves (:func:`run_align_then_navigate`).
 
 Errors (truth is the site: a static base): north and east position error [m] from the
 navigated latitude and longitude through the WGS-84 radii, radial = their norm; velocity
 error = the navigated NED velocity. CEP rate: radial error at the end / duration, in n mile/h.
 
     python -m gimbal_sim.experiments.navigation run --duration 10800 --seed 1 --no-rotation
+    python -m gimbal_sim.experiments.navigation run --seed 1 --align-then-navigate
     gimbal-campaign rotational_ins_navigation --seeds 1-20 --serial --out DIR      # the CEP campaign
     python -m gimbal_sim.experiments.navigation cep DIR                 # its CEP50 table
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
