@@ -225,6 +225,15 @@ def measure_deliveries(scenario: Scenario, out: Path) -> tuple[float, dict[str, 
     return sum(n * k for n, k in table.values()) / DELIVERY_STEPS, table
 
 
+def _deliveries_row(scenario: Scenario, out: Path) -> tuple[str, str]:
+    """The report's row of :func:`measure_deliveries`: per step, and per topic rate x subscriptions."""
+    _note(f"deliveries: {DELIVERY_STEPS} steps recording every topic, subscriptions sampled ...")
+    per_step, table = measure_deliveries(scenario, out)
+    return ("messages delivered per step", f"{per_step:.2f} (every topic's messages x its matched subscriptions, "
+            f"measured over {DELIVERY_STEPS} steps: " + ", ".join(
+                f"{t} {n / DELIVERY_STEPS:.2f}x{k}" for t, (n, k) in table.items() if n and k) + ")")
+
+
 # ------------------------------------------------------------------------------ replay
 def replay_ekf_core(bag: Path, scenario: Scenario) -> tuple[float, float, float, int] | None:
     """Replay the recorded sensor topics into the GyroBiasEkf core: (simulated s, wall s and
@@ -394,11 +403,7 @@ def bench_run(args: argparse.Namespace) -> int:
                 extra.append((f"{r.name} messages recorded per step", f"{r.recorded / r.steps:.2f} (the recorded "
                               "topics only; every publication to every subscriber is not counted)"))
         if bags:
-            _note(f"deliveries: {DELIVERY_STEPS} steps recording every topic, subscriptions sampled ...")
-            per_step, table = measure_deliveries(scenario, root / "deliveries")
-            extra.append(("messages delivered per step", f"{per_step:.2f} (every topic's messages x its matched "
-                          f"subscriptions, measured over {DELIVERY_STEPS} steps: " + ", ".join(
-                              f"{t} {n / DELIVERY_STEPS:.2f}x{k}" for t, (n, k) in table.items() if n and k) + ")"))
+            extra.append(_deliveries_row(scenario, root / "deliveries"))
         if len(bags) == 2:
             diff = compare_bags(bags[1], bags[0])
             extra.append(("(b) and (c) recorded data", "identical (every message, stamp and field)" if diff.identical
