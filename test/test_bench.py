@@ -53,7 +53,7 @@ def test_report_has_every_figure_for_each_mode(bench):
 
 def test_report_checks_data_replay_memory_and_targets(bench):
     out, _, _ = bench
-    assert re.search(r"\(b\) and \(c\) recorded data\s+identical", out)
+    assert re.search(r"\(b\) and \(c\) recorded data\s+identical", out)  # the label column fits the longest row
     assert re.search(r"\(a\) against the bag\s+same torque commands as the graph at all \d+ steps", out)
     assert re.search(r"replay into gyro_bias_ekf \(core\)\s+[\d,.]+x real time", out)
     # gimbal-bag play --rate 0 into a free-timing node: every INS sample's estimate equal to the core's
@@ -63,6 +63,7 @@ def test_report_checks_data_replay_memory_and_targets(bench):
     assert re.search(r"RSS over 0.4 s \(2x\)\s+\S+", out)
     verdicts = [line for line in out.splitlines() if re.search(r"(met|NOT MET|not measured)$", line)]
     assert len(verdicts) >= 10
+    assert re.search(r"messages delivered per step\s+[\d.]+ \(every topic's messages x", out)
 
 
 def test_kept_bags_hold_the_same_data_in_both_modes(bench):

@@ -22,15 +22,19 @@ are the servo experiment's (:mod:`.platform_servo`), not needed for navigation. 
 the sampled rotation itself leaks: at 1 Hz a north gyro drift leaves 28× more position
 error after an hour with rotation on than at 2 Hz.
 
-Start. Both variants start perfectly aligned: platform level at azimuth 0 over a base at
-heading 0, navigator at the site at rest with no estimates, so the errors are those of the
-sensors alone (the hand-off from an alignment is the graph scenario's ``align_then_navigate``).
+Start. ``rotation_on`` and ``rotation_off`` start perfectly aligned: platform level at
+azimuth 0 over a base at heading 0, navigator at the site at rest with no estimates, so the
+errors are those of the sensors alone. ``align_then_navigate`` is paper 3's sequence as two
+chained runs in one command (the plant's rate is fixed per run): the fine alignment at 1 kHz
+(:func:`run_alignment_phase`), then navigation at :data:`HAND_OFF_RATE_HZ` from the plant
+state, sensor biases and estimate it leaves (:func:`run_align_then_navigate`).
 
 Errors (truth is the site: a static base): north and east position error [m] from the
 navigated latitude and longitude through the WGS-84 radii, radial = their norm; velocity
 error = the navigated NED velocity. CEP rate: radial error at the end / duration, in n mile/h.
 
     python -m gimbal_sim.experiments.navigation run --duration 10800 --seed 1 --no-rotation
+    python -m gimbal_sim.experiments.navigation run --seed 1 --align-then-navigate
     gimbal-campaign rotational_ins_navigation --seeds 1-20 --serial --out DIR      # the CEP campaign
     python -m gimbal_sim.experiments.navigation cep DIR                 # its CEP50 table
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
@@ -42,7 +46,7 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 from scipy import stats
@@ -50,6 +54,7 @@ from scipy import stats
 from gimbal_control.platform_servo import BANDWIDTH_RATE_DIVISOR, PlatformServo, PlatformServoParams, \
     platform_pid_gains
 from gimbal_estimators.platform_navigator import HandOff, PlatformNavigator
+from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
 from gimbal_kinematics.four_gimbal import platform_misalignment_enu
@@ -58,18 +63,43 @@ from gimbal_kinematics.rotations import quat_to_dcm
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
 from ..core.core_loop import run_stages
 from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo_stage
-from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
+from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
+from .alignment import PAPER3_MISALIGNMENT_ARCSEC
+from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, _platform_sim, \
+    alignment_setup, closed_loop
 
 ARCSEC = math.pi / (180.0 * 3600.0)
+DEG_H = ARCSEC  # 1 °/h = 1″/s in rad/s
+UG = 9.80665e-6
 NMI_M = 1852.0
+#: The alignment phase of ``align_then_navigate`` [s]: 360° and back at 1.2 °/s (Table 2).
+ALIGNMENT_S = 600.0
+#: The navigation phase rate of ``align_then_navigate`` [Hz] (the graph scenario's): at 5 Hz
+#: the servo's 0.125 Hz loops ring for minutes after the torque-out pulse (1000″ of azimuth
+#: still 553″ at 30 s, then swinging ±800″ with a ~90 s period; spreading the pulse over
+#: 300 s still leaves 66″ after 600 s), at 50 Hz the pulse leaves 0.3″ and 1″ after 20 s.
+HAND_OFF_RATE_HZ = 50.0
 #: IMU = resolver = servo = navigator rate of the navigation runs [Hz] (module docstring).
 NAV_RATE_HZ = 5.0
 #: Paper 3's sensor grades (run-to-run bias, 1σ per axis) and the white noise the alignment
 #: experiment uses (:mod:`.platform_servo`: ``ALIGNMENT_*``).
 PAPER3_NAV_GYRO = GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=0.001)
 PAPER3_NAV_ACCEL = AccelerometerParams(bias_sigma_ug=100.0, noise_ug_rt_hz=20.0)
+
+
+class PlatformStart(NamedTuple):
+    """Where a navigation run starts: the base heading [deg] and gimbal angles
+    (θ_a, θ_q, θ_p, θ_r) [deg] the plant starts at (() = all zero), the navigator's hand-off
+    (None: at the site, at rest, no estimates) and the base heading it adds to the azimuth
+    resolver [deg] (after an alignment its −δφU)."""
+
+    base_heading_deg: float = 0.0
+    joints_deg: tuple[float, ...] = ()
+    hand_off: HandOff | None = None
+    heading_estimate_deg: float = 0.0
+    torque_out_s: float = PlatformNavigatorParams().torque_out_s
 
 
 def navigation_servo_params(lat_deg: float, rotate: bool, rate_hz: float = NAV_RATE_HZ) -> PlatformServoParams:
@@ -87,21 +117,29 @@ def navigation_servo_params(lat_deg: float, rotate: bool, rate_hz: float = NAV_R
 def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool = True, rate_hz: float = NAV_RATE_HZ,
                    lat_deg: float = 40.0, gyro: GyroParams = PAPER3_NAV_GYRO, accel: AccelerometerParams = PAPER3_NAV_ACCEL,
                    resolver: EncoderParams = PAPER3_RESOLVER, record_every_s: float = 10.0,
-                   ship: bool = False) -> dict[str, Any]:
+                   ship: bool = False, start: PlatformStart | None = None) -> dict[str, Any]:
     """One navigation run (module docstring), on a static base or (``ship``) on paper 5's
     moored ship (roll 5° / 10 s, pitch 3° / 6 s, heading 3° / 15 s) whose motion enters each
-    gimbal loop (``platform_base_motion``); returns its metrics and ``series``
+    gimbal loop (``platform_base_motion``); ``start``: the platform and navigator after an
+    alignment (static base only; default perfectly aligned). Returns its metrics and ``series``
     (every ``record_every_s``: t, north/east/radial error [m], NED velocity [m/s], platform
-    tilt (east, north) [rad] from the truth, servo pickoff [rad])."""
-    core = VehicleCore(VehicleConfig(profile="paper5_ship" if ship else "static", profile_params={"lat_deg": lat_deg},
+    tilt (east, north) [rad] from the truth, servo pickoff [rad], the platform's true azimuth
+    [rad] from north about down)."""
+    start = start if start is not None else PlatformStart()
+    profile_params = {"lat_deg": lat_deg, **({"yaw_deg": start.base_heading_deg} if start.base_heading_deg else {})}
+    core = VehicleCore(VehicleConfig(profile="paper5_ship" if ship else "static", profile_params=profile_params,
                                      plant="four_gimbal_platform", sim_rate_hz=rate_hz, duration_s=duration_s,
-                                     platform_integrator="quasi_static", platform_base_motion=ship))
+                                     platform_integrator="quasi_static", platform_base_motion=ship,
+                                     initial_joints_deg=start.joints_deg))
     suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=rate_hz, seed=seed,
                                           platform_imu_rate_hz=rate_hz, resolver_rate_hz=rate_hz,
                                           platform_gyro=gyro, platform_accel=accel, resolver=resolver))
     site = core.profile.site
     nav = PlatformNavigator(PlatformNavigatorParams(lat_deg=lat_deg, lon_deg=math.degrees(site.lon_rad),
-                                                    height_m=site.height_m))
+                                                    height_m=site.height_m, base_heading_deg=start.heading_estimate_deg,
+                                                    torque_out_s=start.torque_out_s))
+    if start.hand_off is not None:
+        nav.hand_off(start.hand_off)
     servo = PlatformServo(navigation_servo_params(lat_deg, rotate, rate_hz))
     every = max(1, int(round(record_every_s * rate_hz)))
     rows: list[tuple[float, ...]] = []
@@ -119,10 +157,12 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
         if level["biases"] is None and bus.platform_imu is not None:
             level["biases"] = (bus.platform_imu.true_gyro_bias, bus.platform_imu.true_accel_bias)
         if bus.k % every == 0 and bus.nav is not None:
-            tilt = platform_misalignment_enu(quat_to_dcm(bus.truth.quat_nm), bus.nav.azimuth)
+            C_ns = quat_to_dcm(bus.truth.quat_nm)
+            tilt = platform_misalignment_enu(C_ns, bus.nav.azimuth)
             north = (nav.lat - site.lat_rad) * r_m
             east = math.remainder(nav.lon - site.lon_rad, math.tau) * r_n
-            rows.append((bus.t, north, east, math.hypot(north, east), *bus.nav.velocity_n, tilt[0], tilt[1], p))
+            rows.append((bus.t, north, east, math.hypot(north, east), *bus.nav.velocity_n, tilt[0], tilt[1], p,
+                         math.atan2(C_ns[1, 0], C_ns[0, 0])))
 
     result = run_stages(core, [platform_sensor_stage(suite), navigator_stage(nav, rate_hz), servo_stage(servo)],
                         observer=observe)
@@ -143,18 +183,93 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
         "true_gyro_bias_deg_h": [math.degrees(v) * 3600.0 for v in gyro_bias],
         "true_accel_bias_ug": [v / 9.80665e-6 for v in accel_bias],
         "series": {"t": s[:, 0], "north_m": s[:, 1], "east_m": s[:, 2], "radial_m": s[:, 3],
-                   "velocity_ned_m_s": s[:, 4:7], "tilt_en_rad": s[:, 7:9], "pickoff_level_rad": s[:, 9]},
+                   "velocity_ned_m_s": s[:, 4:7], "tilt_en_rad": s[:, 7:9], "pickoff_level_rad": s[:, 9],
+                   "azimuth_true_rad": s[:, 10]},
     }
 
 
+# ------------------------------------------------------------------------------ hand-off
+def run_alignment_phase(seed: int, duration_s: float = ALIGNMENT_S, lat_deg: float = 40.0
+                        ) -> tuple[PlatformStart, dict[str, Any]]:
+    """Paper 3's fine alignment on the simulated platform at 1 kHz, as
+    :func:`.platform_servo.run_platform_alignment` runs it (rotation on, Table 2 initial
+    misalignment, its sensor grades and noise). Returns the navigation start it leaves (the
+    plant's gimbal angles at its end, the estimate as the hand-off at the site, −δφU as the
+    heading) and the hand-off
+    figures: truth and estimate at the end, residual = truth − estimate (misalignment ENU
+    [″] against the true azimuth gimbal angle, level drifts [°/h], accelerometer biases [µg]),
+    and the sensors' true biases (rad/s, m/s²) the navigation phase keeps."""
+    heading_deg, joints_deg = alignment_setup(PAPER3_MISALIGNMENT_ARCSEC)
+    core, suite = _platform_sim(duration_s, seed, {"lat_deg": lat_deg, "yaw_deg": heading_deg}, joints_deg,
+                                platform_gyro=GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=ALIGNMENT_GYRO_ARW_DEG_RT_H),
+                                platform_accel=AccelerometerParams(bias_sigma_ug=100.0,
+                                                                   noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ))
+    servo = PlatformServo(PlatformServoParams(lat_deg=lat_deg, rotate=True))
+    rls = RotationAlignmentRls(RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ))
+    truth, biases = None, None
+    for truth, samples, _ in closed_loop(core, suite, servo):
+        for s in samples:
+            if isinstance(s, ResolverSample):
+                rls.on_joint_state(s.t, s.angles[0], s.rates[0])
+            elif isinstance(s, PlatformImuSample):
+                rls.on_accel(s.t, s.specific_force)
+                biases = (s.true_gyro_bias, s.true_accel_bias)
+    est = rls.estimate()
+    phi_true = platform_misalignment_enu(quat_to_dcm(truth.quat_nm), truth.joint_position[0])
+    gyro_bias, accel_bias = biases
+    drift_true = (-gyro_bias[0], -gyro_bias[1])  # the servo nulls the measured rate
+    figures = {
+        "misalignment_truth_arcsec": [float(v) / ARCSEC for v in phi_true],
+        "misalignment_estimate_arcsec": [float(v) / ARCSEC for v in est.misalignment_enu],
+        "residual_misalignment_arcsec": [float(a - b) / ARCSEC for a, b in zip(phi_true, est.misalignment_enu)],
+        "residual_gyro_drift_deg_h": [float(a - b) / DEG_H for a, b in zip(drift_true, est.gyro_drift_xy)],
+        "residual_accel_bias_ug": [float(a - b) / UG for a, b in zip(accel_bias[:2], est.accel_bias_xy)],
+        "north_drift_estimate_deg_h": float(est.north_drift) / DEG_H,
+        "true_gyro_bias_rad_s": [float(v) for v in gyro_bias], "true_accel_bias_m_s2": [float(v) for v in accel_bias]}
+    site = core.profile.site
+    start = PlatformStart(heading_deg, tuple(math.degrees(v) for v in truth.joint_position),
+                          HandOff.from_alignment(est, site.lat_rad, site.lon_rad, site.height_m),
+                          -math.degrees(float(est.misalignment_enu[2])))
+    return start, figures
+
+
+def run_align_then_navigate(duration_s: float = 10800.0, seed: int = 0, *, rate_hz: float = HAND_OFF_RATE_HZ,
+                            lat_deg: float = 40.0, align_s: float = ALIGNMENT_S,
+                            record_every_s: float = 10.0) -> dict[str, Any]:
+    """Variant ``align_then_navigate`` (paper 3 l. 580–582, 707–709) as two chained runs: the
+    alignment phase (:func:`run_alignment_phase`, 1 kHz) and a navigation run at ``rate_hz``
+    with rotation on that starts where it left the plant (its gimbal angles, base heading and
+    the sensors' biases, now fixed) and with its estimate handed over: misalignment torqued
+    out, drifts in the command, accelerometer biases taken off. Metrics: :func:`run_navigation`'s
+    plus ``hand_off`` (:func:`run_alignment_phase`'s figures) and ``tilt_after_torque_out_arcsec``
+    (the true tilt E, N at the first record after the pulse)."""
+    start, figures = run_alignment_phase(seed, align_s, lat_deg)
+    gyro = GyroParams(bias_deg_h=tuple(v / DEG_H for v in figures["true_gyro_bias_rad_s"]),
+                      arw_deg_rt_h=PAPER3_NAV_GYRO.arw_deg_rt_h)
+    accel = AccelerometerParams(bias_ug=tuple(v / UG for v in figures["true_accel_bias_m_s2"]),
+                                noise_ug_rt_hz=PAPER3_NAV_ACCEL.noise_ug_rt_hz)
+    m = run_navigation(duration_s, seed, rotate=True, rate_hz=rate_hz, lat_deg=lat_deg, gyro=gyro, accel=accel,
+                       record_every_s=record_every_s, start=start)
+    s = m["series"]
+    after = int(np.searchsorted(s["t"], PlatformNavigatorParams().torque_out_s))
+    m.update(variant="align_then_navigate", align_s=align_s, hand_off=figures,
+             tilt_after_torque_out_arcsec=[float(v) / ARCSEC for v in s["tilt_en_rad"][after]])
+    return m
+
+
 # ------------------------------------------------------------------------------ campaign
-VARIANTS = {"rotation_on": True, "rotation_off": False}
+VARIANTS = {"rotation_on": True, "rotation_off": False, "align_then_navigate": True}
 
 
 def campaign_run(variant: str, seed: int, options: dict) -> dict:
     """The campaign engine's core run (:data:`CAMPAIGN`): one run's metrics, no series."""
-    m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=options["rate_hz"],
-                       lat_deg=options["lat_deg"])
+    if variant == "align_then_navigate":
+        # its own rate (HAND_OFF_RATE_HZ), not an option: the other variants' run ids stay
+        m = run_align_then_navigate(options["duration_s"], seed, lat_deg=options["lat_deg"])
+    else:
+        m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=options["rate_hz"],
+                           lat_deg=options["lat_deg"])
+        m["variant"] = variant
     m.pop("series")
     return {"navigation": m}
 
@@ -164,7 +279,7 @@ def campaign_run(variant: str, seed: int, options: dict) -> dict:
 CAMPAIGN = ExperimentCampaign(
     name="rotational_ins_navigation", variants=tuple(VARIANTS),
     defaults={"duration_s": 10800.0, "rate_hz": NAV_RATE_HZ, "lat_deg": 40.0}, run=campaign_run,
-    graph=GraphEquivalent("rotational_ins_navigation", {v: v for v in VARIANTS}))
+    graph=GraphEquivalent("rotational_ins_navigation", {v: v for v in ("rotation_on", "rotation_off")}))
 
 
 def median_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[float, float, float]:
@@ -190,6 +305,9 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
         out[variant] = {"runs": len(metrics), "cep50_nmi_h": med, "cep50_ci95_nmi_h": [lo, hi],
                         "control_rms_arcsec_median": float(np.median([m["control_rms_arcsec"] for m in metrics])),
                         "gimbal_lock_events": int(sum(m["gimbal_lock_events"] for m in metrics))}
+        if all("hand_off" in m for m in metrics):
+            res = np.array([m["hand_off"]["residual_misalignment_arcsec"] for m in metrics])
+            out[variant]["hand_off_residual_rms_arcsec"] = [float(v) for v in np.sqrt(np.mean(res ** 2, axis=0))]
     if "rotation_on" in out and "rotation_off" in out:
         out["ratio_off_on"] = out["rotation_off"]["cep50_nmi_h"] / out["rotation_on"]["cep50_nmi_h"]
     return out
@@ -218,13 +336,18 @@ def closed_form_figures(duration_s: float = 10800.0, rate_hz: float = NAV_RATE_H
 
 
 def _campaign_table(summary: dict[str, Any]) -> str:
-    rows = [f"{'variant':<14} {'runs':>4} {'CEP50 [n mile/h]':>17} {'95 % interval':>20} {'control rms [″]':>16}"]
+    rows = [f"{'variant':<19} {'runs':>4} {'CEP50 [n mile/h]':>17} {'95 % interval':>20} {'control rms [″]':>16}"]
     for v in VARIANTS:
         if v in summary:
             s = summary[v]
             lo, hi = s["cep50_ci95_nmi_h"]
-            rows.append(f"{v:<14} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {f'[{lo:.3f}, {hi:.3f}]':>20} "
+            rows.append(f"{v:<19} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {f'[{lo:.3f}, {hi:.3f}]':>20} "
                         f"{s['control_rms_arcsec_median']:>16.2f}")
+    for v in VARIANTS:
+        if "hand_off_residual_rms_arcsec" in summary.get(v, {}):
+            e, n, u = summary[v]["hand_off_residual_rms_arcsec"]
+            rows.append(f"{v}: residual misalignment at hand-off (truth − estimate), rms over runs: "
+                        f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″")
     if "ratio_off_on" in summary:
         rows.append(f"ratio rotation_off / rotation_on: {summary['ratio_off_on']:.2f}   (paper 3: 2 / 0.38 = 5.3)")
     return "\n".join(rows)
@@ -240,6 +363,8 @@ def main(argv: list[str] | None = None) -> int:
     one.add_argument("--rate", type=float, default=NAV_RATE_HZ, help="IMU/servo/navigator rate [Hz]")
     one.add_argument("--no-rotation", action="store_true")
     one.add_argument("--ship", action="store_true", help="paper 5's moored ship instead of the static base")
+    one.add_argument("--align-then-navigate", action="store_true",
+                     help="variant align_then_navigate: the 600 s alignment at 1 kHz, then navigation from its hand-off")
     cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
                                      "rotational_ins_navigation --seeds 1-20 --out DIR)")
     cep.add_argument("campaign_dir")
@@ -248,7 +373,10 @@ def main(argv: list[str] | None = None) -> int:
     cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
     args = parser.parse_args(argv)
     if args.what == "run":
-        m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship)
+        if args.align_then_navigate:
+            m = run_align_then_navigate(args.duration, args.seed)
+        else:
+            m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship)
         for key, value in m.items():
             if key != "series":
                 print(f"{key:36s} {value}")
@@ -265,7 +393,7 @@ def main(argv: list[str] | None = None) -> int:
     runs: dict[str, list[dict]] = {}
     for path in sorted(runs_dir.glob("*/report/metrics.json")):
         m = json.loads(path.read_text())["navigation"]
-        runs.setdefault("rotation_on" if m["rotate"] else "rotation_off", []).append(m)
+        runs.setdefault(m.get("variant", "rotation_on" if m["rotate"] else "rotation_off"), []).append(m)
     print(_campaign_table(cep_summary(runs)))
     return 0
 
