@@ -12,7 +12,7 @@ For each: wall time of the stepping (first to last step) and real-time factor, s
 and the ratio to (a), step latency p50/p99 (wall time between consecutive steps as the
 run's monitor sees ``/clock``), CPU seconds per process while stepping (start-up apart),
 peak RSS, messages recorded and lost (gaps in each topic's stamps), messages delivered to
-subscribers per step (:func:`measure_deliveries`). Then the speed of
+subscribers per step (:mod:`.deliveries`). Then the speed of
 replaying the recorded sensor topics into the gyro-bias EKF, checks that (b) and (c)
 recorded the same data and that (a) computed the same torque commands, and, with
 ``--memory``, resident memory over a run ``--memory-factor`` times longer.
@@ -52,6 +52,7 @@ from ..graph.orchestrator import run
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load, variant
 from .live_speed import measure_live
+from .deliveries import DELIVERY_STEPS, deliveries_row
 from .replay_speed import measure
 
 HEADLINE = "sighting_land_vehicle"
@@ -182,58 +183,6 @@ def measure_graph(scenario: Scenario, mode: str, out: Path) -> ModeResult:
     return ModeResult(label, steps, walls[-1] - walls[0] if len(walls) > 1 else 0.0, steps / scenario.sim_rate_hz,
                       latency, cpu, start, {n: st.peak_rss_mb for n, st in procs.items()}, total, recorded, lost, out,
                       r.rss_samples)
-
-
-#: steps of the deliveries run (lockstep publishes the same messages every step pattern)
-DELIVERY_STEPS = 200
-
-
-def measure_deliveries(scenario: Scenario, out: Path) -> tuple[float, dict[str, tuple[int, int]]]:
-    """Messages delivered to subscribers per step, measured: a processes-mode run of
-    :data:`DELIVERY_STEPS` steps recording every topic (so each publication is counted),
-    while a probe node samples each topic's matched subscriptions; a delivery is one message
-    to one subscription, the recorder's own left out on topics the scenario does not record.
-    Returns (deliveries per step, topic -> (messages, subscriptions))."""
-    import threading
-
-    import rclpy
-    from rclpy.context import Context
-
-    short = dataclasses.replace(scenario, duration_s=DELIVERY_STEPS / scenario.sim_rate_hz, record="all")
-    ctx = Context()
-    rclpy.init(context=ctx)
-    probe = rclpy.create_node("gimbal_bench_probe", context=ctx)
-    subs: dict[str, int] = {}
-    stop = threading.Event()
-
-    def sample() -> None:
-        while not stop.wait(0.1):
-            for topic, _ in probe.get_topic_names_and_types():
-                subs[topic] = max(subs.get(topic, 0), probe.count_subscribers(topic))
-    thread = threading.Thread(target=sample, daemon=True)
-    thread.start()
-    try:
-        run(short, out, "processes", progress=False)
-    finally:
-        stop.set()
-        thread.join()
-        probe.destroy_node()
-        rclpy.shutdown(context=ctx)
-    counts: dict[str, int] = {}
-    for msg in read_messages(out)[0]:
-        counts[msg.topic] = counts.get(msg.topic, 0) + 1
-    recorded = set(scenario.record) if scenario.record != "all" else set(counts)
-    table = {t: (n, subs.get(t, 0) - (0 if t in recorded else 1)) for t, n in sorted(counts.items())}
-    return sum(n * k for n, k in table.values()) / DELIVERY_STEPS, table
-
-
-def _deliveries_row(scenario: Scenario, out: Path) -> tuple[str, str]:
-    """The report's row of :func:`measure_deliveries`: per step, and per topic rate x subscriptions."""
-    _note(f"deliveries: {DELIVERY_STEPS} steps recording every topic, subscriptions sampled ...")
-    per_step, table = measure_deliveries(scenario, out)
-    return ("messages delivered per step", f"{per_step:.2f} (every topic's messages x its matched subscriptions, "
-            f"measured over {DELIVERY_STEPS} steps: " + ", ".join(
-                f"{t} {n / DELIVERY_STEPS:.2f}x{k}" for t, (n, k) in table.items() if n and k) + ")")
 
 
 # ------------------------------------------------------------------------------ replay
@@ -405,7 +354,8 @@ def bench_run(args: argparse.Namespace) -> int:
                 extra.append((f"{r.name} messages recorded per step", f"{r.recorded / r.steps:.2f} (the recorded "
                               "topics only; every publication to every subscriber is not counted)"))
         if bags:
-            extra.append(_deliveries_row(scenario, root / "deliveries"))
+            _note(f"deliveries: {DELIVERY_STEPS} steps recording every topic, subscriptions sampled ...")
+            extra.append(deliveries_row(scenario, root / "deliveries"))
         if len(bags) == 2:
             diff = compare_bags(bags[1], bags[0])
             extra.append(("(b) and (c) recorded data", "identical (every message, stamp and field)" if diff.identical
