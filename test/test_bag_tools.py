@@ -34,6 +34,12 @@ def bag(module_ros_domain_env, tmp_path_factory) -> Path:
 
 @pytest.mark.parametrize("rate", ["1", "0"])
 def test_replay_delivers_every_sensor_message_in_order(bag, rate, ros_domain_env, tmp_path):
+    # The graph records these topics transient-local, which the player offers with a bounded
+    # history that never blocks: a reader that cannot report its progress (this one) and falls
+    # that far behind on a loaded machine loses samples. Offered volatile, the player's KEEP_ALL
+    # writer applies back-pressure instead, so the delivery is lossless whatever the load.
+    overrides = tmp_path / "qos.yaml"
+    overrides.write_text("".join(f"{t}: {{durability: volatile, history: keep_all}}\n" for t in SENSOR_TOPICS))
     recorded, _ = read_messages(bag, set(SENSOR_TOPICS))
     want = {t: [(x.log_time_ns, x.data) for x in recorded if x.topic == t] for t in SENSOR_TOPICS}
     got = {t: [] for t in SENSOR_TOPICS}
@@ -42,7 +48,8 @@ def test_replay_delivers_every_sensor_message_in_order(bag, rate, ros_domain_env
         for topic, typ in SENSOR_TOPICS.items():
             node.create_subscription(typ, topic, lambda data, t=topic: got[t].append(data), keep_all, raw=True)
         play = subprocess.Popen([str(VENV_BIN / "gimbal-bag"), "play", str(bag), "--rate", rate,
-                                 "--topics", *SENSOR_TOPICS, "--wait-for-subscribers", "1"],
+                                 "--topics", *SENSOR_TOPICS, "--wait-for-subscribers", "1",
+                                 "--qos-profile-overrides-path", str(overrides)],
                                 env=ros_domain_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
             assert spin_until(executor, lambda: all(len(got[t]) >= len(want[t]) for t in SENSOR_TOPICS), 120.0)
