@@ -1,6 +1,7 @@
 """Live view: relay a run's topics, raw CDR with their ``ros2msg`` schemas, to Foxglove or
 Lichtblick over the Foxglove WebSocket protocol (``gimbal-run --live``), plus the sighting
-chain's frames for the 3D panel (:mod:`.live_frames`).
+run's frames (:mod:`.live_frames`), its line of sight and target (:mod:`.live_scene`) for the 3D
+panel.
 
 It runs inside the ``bag_recorder`` node: the recorder already subscribes to every topic and
 holds each message's CDR bytes and stamp, so relaying them costs no second subscription, no
@@ -20,14 +21,17 @@ import re
 import socket
 import threading
 
-from .live_frames import (JSON_SCHEMA, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, SCHEMA_NAME,
-                          TOPIC as FRAMES_TOPIC, frame_transforms, los_scene)
+from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
+from .live_scene import (OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene, SceneConfig)
 from .schemas import ros2msg_schema
 
 SDK_SUBPROTOCOL = b"foxglove.sdk.v1"
 LEGACY_SUBPROTOCOL = b"foxglove.websocket.v1"
 _PROTOCOL_HEADER = re.compile(rb"^(sec-websocket-protocol:[ \t]*)([^\r\n]*)", re.IGNORECASE | re.MULTILINE)
 _MAX_HEADER_BYTES = 16384
+#: The topics the frames and the scene are made from: a recorder with a topic list also
+#: subscribes to those of them the run publishes, for the live view only (not recorded).
+SOURCE_TOPICS = (*FRAME_SOURCES, OPERATOR_ERROR)
 
 
 class LivePortError(OSError):
@@ -142,7 +146,8 @@ class SubprotocolFront:
 class LiveRelay:
     """Foxglove WebSocket server relaying raw CDR messages, each topic decimated to its rate."""
 
-    def __init__(self, host: str, port: int, default_rate_hz: float, topic_rates: dict[str, float]) -> None:
+    def __init__(self, host: str, port: int, default_rate_hz: float, topic_rates: dict[str, float],
+                 scene: SceneConfig = SceneConfig()) -> None:
         import foxglove  # only a live run needs the SDK
 
         self._foxglove = foxglove
@@ -160,6 +165,8 @@ class LiveRelay:
         self._channels: dict[str, object] = {}
         self._period_ns: dict[str, int] = {}
         self._next_ns: dict[str, int] = {}
+        self._frame_maker = LiveFrames(scene.platform_heading_rad)
+        self._scene_maker = LiveScene(scene)
         self._frames, self._scene = (
             foxglove.Channel(topic, message_encoding="json", context=self._context,
                              schema=foxglove.Schema(name=name, encoding="jsonschema", data=schema.encode()))
@@ -183,11 +190,11 @@ class LiveRelay:
         if channel.has_sinks():
             channel.log(bytes(data), log_time=stamp_ns)
         if self._frames.has_sinks():
-            frames = frame_transforms(topic, bytes(data), stamp_ns)
+            frames = self._frame_maker.transforms(topic, bytes(data), stamp_ns)
             if frames is not None:
                 self._frames.log(frames, log_time=stamp_ns)
         if self._scene.has_sinks():
-            scene = los_scene(topic, stamp_ns)
+            scene = self._scene_maker.update(topic, bytes(data), stamp_ns)
             if scene is not None:
                 self._scene.log(scene, log_time=stamp_ns)
 
