@@ -2,7 +2,9 @@
 the four-gimbal chain against ``four_gimbal.dcm_bs`` (closed form) and scipy's composition, the
 alignment's estimate against ``platform_misalignment_enu`` (what the alignment report uses),
 the geo target against pymap3d's direction, the operator's target against ``sight_error``
-round trip, and the shipped Foxglove layout against the topics a run really has.
+round trip, the LOS drift against closed forms (a turned LOS; one held in inertial space while
+the earth turns), the ±3σ bounds, and the shipped Foxglove layout's panels and JSON fields
+(its ROS topics against a real run's: test_live_view.py).
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ from foreign_bags import EPOCH_NS, TYPESTORE, T, header, imu_cdr, joint_state_cd
 from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
 from gimbal_kinematics.frames import PLATFORM_JOINTS
 from gimbal_sim.bag.live_frames import LiveFrames
+from gimbal_sim.bag.live_plots import SCHEMAS as PLOT_SCHEMAS, LivePlots
 from gimbal_sim.bag.live_scene import LOS_LENGTH_M, LiveScene, SceneConfig, operator_target_direction, scene_config
 from gimbal_sim.graph.scenario import builtin_scenarios
 from gimbal_sim.world.operator_model import sight_error
@@ -121,3 +124,68 @@ def test_operator_target_is_where_the_pointing_error_says():
     assert target["frame_id"] == "gimbal_inner_frd" and target["frame_locked"]
     p = target["spheres"][0]["pose"]["position"]
     assert sight_error(np.eye(3), [p["x"], p["y"], p["z"]]) == pytest.approx((0.01, 0.006, -0.008), abs=1e-12)
+
+
+def _imu_at(t_ns: int, az: float, el: float) -> bytes:
+    """A true gimbal attitude whose LOS (m-x) has azimuth ``az`` and elevation ``el`` in NED."""
+    return imu_cdr(t_ns, [0.0] * 3, tuple(Rotation.from_euler("ZYX", [az, el, 0.2]).as_quat()))
+
+
+def test_los_drift_is_the_change_of_the_inertial_los():
+    plots = LivePlots()  # NED taken as inertial
+    az0, el0 = 0.6, 0.3
+    plots.update("/truth/gimbal/imu", _imu_at(EPOCH_NS, az0, el0), EPOCH_NS)
+    _, message = plots.update("/truth/gimbal/imu", _imu_at(EPOCH_NS + 10**9, az0 + 0.01, el0 - 0.02), EPOCH_NS + 10**9)
+    drift = json.loads(message)
+    assert drift["header"]["stamp"] == {"sec": (EPOCH_NS + 10**9) // 10**9, "nsec": EPOCH_NS % 10**9}
+    assert drift["azimuth_deg"] == pytest.approx(math.degrees(0.01 * math.cos(el0)), rel=1e-9)
+    assert drift["elevation_deg"] == pytest.approx(math.degrees(-0.02), rel=1e-9)
+    # with the earth turning, a LOS held fixed in inertial space turns in NED and does not drift
+    lat = math.radians(39.9)
+    w_ie = 7.292115e-5 * np.array([math.cos(lat), 0.0, -math.sin(lat)])
+    plots = LivePlots.at_site(lat, True)
+    u0 = Rotation.from_euler("ZYX", [az0, el0, 0.0]).apply([1.0, 0.0, 0.0])
+    for t in (0.0, 60.0, 120.0):
+        u = Rotation.from_rotvec(-w_ie * t).apply(u0)  # the same inertial direction seen in n(t)
+        t_ns = EPOCH_NS + int(t * 1e9)
+        out = plots.update("/truth/gimbal/imu", _imu_at(t_ns, math.atan2(u[1], u[0]), math.asin(-u[2])), t_ns)
+        drift = json.loads(out[1])
+        assert abs(drift["azimuth_deg"]) < 1e-4 / 3600 and abs(drift["elevation_deg"]) < 1e-4 / 3600
+
+
+def test_bias_bounds_are_the_estimate_plus_minus_three_sigma_of_one_stamp():
+    plots = LivePlots()
+    bias, sigma = [0.0, 1e-5, -2e-5], [0.0, 3e-6, 4e-6]
+    assert plots.update("/gyro_bias_ekf/bias", _vector3_cdr(EPOCH_NS, bias), EPOCH_NS) is None
+    assert plots.update("/gyro_bias_ekf/bias_sigma", _vector3_cdr(EPOCH_NS + 1, sigma), EPOCH_NS + 1) is None
+    topic, message = plots.update("/gyro_bias_ekf/bias_sigma", _vector3_cdr(EPOCH_NS, sigma), EPOCH_NS)
+    bounds = json.loads(message)
+    assert topic == "/live/bias_bounds"
+    for i, k in enumerate("xyz"):
+        assert bounds["upper"][k] == pytest.approx(bias[i] + 3 * sigma[i], abs=1e-18)
+        assert bounds["lower"][k] == pytest.approx(bias[i] - 3 * sigma[i], abs=1e-18)
+
+
+def _panels(node) -> list[str]:
+    return [node] if isinstance(node, str) else _panels(node["first"]) + _panels(node["second"])
+
+
+def test_layout_opens_on_the_3d_view_the_drift_the_bounded_biases_and_the_diagnostics():
+    layout = json.loads(LAYOUT.read_text())
+    panels = _panels(layout["layout"])
+    assert sorted(panels) == sorted(layout["configById"])  # every panel placed, every placed one configured
+    assert {p.split("!")[0] for p in panels} == {"3D", "Plot", "DiagnosticSummary"}
+    assert layout["configById"]["3D!chain"]["topics"]["/live/los"]["visible"]
+    paths = {p["value"] for c in layout["configById"].values() for p in c.get("paths", [])}
+    assert {"/live/los_drift.azimuth_deg", "/live/los_drift.elevation_deg"} <= paths
+    for axis in "yz":
+        assert {f"/gyro_bias_ekf/bias.vector.{axis}", f"/truth/gimbal/gyro_bias.vector.{axis}",
+                f"/live/bias_bounds.upper.{axis}", f"/live/bias_bounds.lower.{axis}"} <= paths
+    # the JSON channels' fields exist in their schemas
+    for path in paths:
+        topic, *fields = path.split(".")
+        if topic in PLOT_SCHEMAS:
+            node = json.loads(PLOT_SCHEMAS[topic][1])
+            for field in fields:
+                node = node["properties"][field]
+            assert node["type"] == "number", path

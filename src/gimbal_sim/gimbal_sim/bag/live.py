@@ -22,6 +22,7 @@ import socket
 import threading
 
 from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
+from .live_plots import SCHEMAS as PLOT_SCHEMAS, SOURCE_TOPICS as PLOT_SOURCES, LivePlots
 from .live_scene import (OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene, SceneConfig)
 from .schemas import ros2msg_schema
 
@@ -31,7 +32,7 @@ _PROTOCOL_HEADER = re.compile(rb"^(sec-websocket-protocol:[ \t]*)([^\r\n]*)", re
 _MAX_HEADER_BYTES = 16384
 #: The topics the frames and the scene are made from: a recorder with a topic list also
 #: subscribes to those of them the run publishes, for the live view only (not recorded).
-SOURCE_TOPICS = (*FRAME_SOURCES, OPERATOR_ERROR)
+SOURCE_TOPICS = (*FRAME_SOURCES, OPERATOR_ERROR, *PLOT_SOURCES)
 
 
 class LivePortError(OSError):
@@ -167,11 +168,14 @@ class LiveRelay:
         self._next_ns: dict[str, int] = {}
         self._frame_maker = LiveFrames(scene.platform_heading_rad)
         self._scene_maker = LiveScene(scene)
-        self._frames, self._scene = (
+        self._plot_maker = LivePlots.at_site(scene.site_lat_rad, scene.earth_rate)
+        self._frames, self._scene, *plots = (
             foxglove.Channel(topic, message_encoding="json", context=self._context,
                              schema=foxglove.Schema(name=name, encoding="jsonschema", data=schema.encode()))
             for topic, name, schema in ((FRAMES_TOPIC, SCHEMA_NAME, JSON_SCHEMA),
-                                        (SCENE_TOPIC, SCENE_SCHEMA_NAME, SCENE_JSON_SCHEMA)))
+                                        (SCENE_TOPIC, SCENE_SCHEMA_NAME, SCENE_JSON_SCHEMA),
+                                        *((t, n, s) for t, (n, s) in PLOT_SCHEMAS.items())))
+        self._plots = dict(zip(PLOT_SCHEMAS, plots))
 
     def add_topic(self, topic: str, type_name: str) -> None:
         schema = self._foxglove.Schema(name=type_name, encoding="ros2msg",
@@ -197,6 +201,10 @@ class LiveRelay:
             scene = self._scene_maker.update(topic, bytes(data), stamp_ns)
             if scene is not None:
                 self._scene.log(scene, log_time=stamp_ns)
+        # the drift's reference is the first sample: made whether or not a client is connected
+        derived = self._plot_maker.update(topic, bytes(data), stamp_ns) if topic in PLOT_SOURCES else None
+        if derived is not None and self._plots[derived[0]].has_sinks():
+            self._plots[derived[0]].log(derived[1], log_time=stamp_ns)
 
     def close(self) -> None:
         self.front.close()

@@ -44,11 +44,15 @@ _IDENTITY = {"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.
 
 @dataclass(frozen=True)
 class SceneConfig:
-    """What the scene draws besides the messages: the geo target, NED from the vehicle [m]
-    (None: no geo-pointing), and the heading the platform alignment assumes [rad]."""
+    """What the live view needs besides the messages, from the run's scenario: the geo target,
+    NED from the vehicle [m] (None: no geo-pointing), the heading the platform alignment
+    assumes [rad], the site's latitude [rad] and whether the earth turns (the LOS drift's
+    inertial frame, as ``reports.common.vehicle_site`` reads them)."""
 
     target_n: tuple[float, float, float] | None = None
     platform_heading_rad: float = 0.0
+    site_lat_rad: float = 0.0
+    earth_rate: bool = True
 
 
 def scene_config(scenario_file: Path) -> SceneConfig:
@@ -67,7 +71,9 @@ def scene_config(scenario_file: Path) -> SceneConfig:
         los = los_to_target(llh(geo["vehicle_llh_deg"]), llh(geo["target_llh_deg"]))
         target = tuple(float(c) * los.range_m for c in los.los_n)
     heading = math.radians(float(params.get("platform_alignment", {}).get("base_heading_deg", 0.0)))
-    return SceneConfig(target, heading)
+    vehicle = params.get("vehicle_dynamics", {})
+    lat_deg = (yaml.safe_load(vehicle.get("profile_params", "{}")) or {}).get("lat_deg", 0.0)
+    return SceneConfig(target, heading, math.radians(float(lat_deg)), bool(vehicle.get("earth_rate", True)))
 
 
 def _entity(stamp_ns: int, frame: str, ident: str, frame_locked: bool, **primitives) -> dict:
