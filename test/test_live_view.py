@@ -11,18 +11,24 @@ import subprocess
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
+import yaml
 from rosbags.typesys import Stores, get_typestore
 from scipy.spatial.transform import Rotation
 
 from conftest import VENV_BIN
 from gimbal_sim.bag.live import SDK_SUBPROTOCOL, LEGACY_SUBPROTOCOL, _offered_legacy, parse_topic_rates
-from gimbal_sim.bag.reader import read_messages
+from gimbal_sim.bag.reader import BagContents, read_messages, stream
+from gimbal_sim.reports.common import vehicle_site
 
 CLIENT_DIR = Path(__file__).parent / "live_client"
 TOPICS = ("/gimbal/imu", "/gyro_bias_ekf/bias")
 FRAMES = "/live/frames"
 LOS = "/live/los"
+DRIFT = "/live/los_drift"
+BOUNDS = "/live/bias_bounds"
+LAYOUT = Path(__file__).resolve().parents[1] / "docs" / "foxglove" / "gimbal_live.json"
 CHAIN = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
@@ -82,7 +88,7 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
         _wait_listening(port, run)
         # a client disconnecting mid-run, then another connecting: both served, the run goes on
         received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
-        received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
+        received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS, DRIFT, BOUNDS))
         output, _ = run.communicate(timeout=240)
     finally:
         if run.poll() is None:
@@ -91,9 +97,12 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
     assert run.returncode == 0, output
     frames = [m for m in received if m["topic"] == FRAMES]
     los = [m for m in received if m["topic"] == LOS]
+    derived = [m for m in received if m["topic"] in (DRIFT, BOUNDS)]
     received = [m for m in received if m["topic"] in TOPICS]
-    assert len(received) == 20 and len(frames) == 80 and len(los) == 10
+    assert len(received) == 20 and len(frames) == 80 and len(los) == 10 and len(derived) == 10
     _assert_los_arrows(los, tmp_path / "run" / "ekf_on")
+    _assert_derived_series(derived, tmp_path / "run" / "ekf_on")
+    _assert_layout_names_the_runs_topics(tmp_path / "run" / "ekf_on")
     _assert_same_as_bag(received, tmp_path / "run" / "ekf_on")
     _assert_frames_match_bag(frames, tmp_path / "run" / "ekf_on")
 
@@ -139,6 +148,66 @@ def _assert_same_as_bag(received: list[dict], bag_dir: Path) -> None:
             assert (got["x"], got["y"], got["z"]) == (ref.vector.x, ref.vector.y, ref.vector.z)
 
 
+
+
+def _assert_derived_series(items: list[dict], bag_dir: Path) -> None:
+    """The ±3σ bounds: the bag's bias and σ of the stamp. The LOS drift: recomputed here with
+    scipy from the bag's true attitude, the first sample's LOS the reference, taken to the
+    inertial frame with the earth rate at the site the report reads from scenario.yaml."""
+    bag = {}
+    for raw in read_messages(bag_dir, {"/gyro_bias_ekf/bias", "/gyro_bias_ekf/bias_sigma", "/truth/gimbal/imu"})[0]:
+        bag[(raw.topic, raw.log_time_ns)] = TYPESTORE.deserialize_cdr(raw.data, raw.type_name)
+    first = min(t for topic, t in bag if topic == "/truth/gimbal/imu")
+    lat, earth_rate = vehicle_site(bag_dir)
+    w_in = 7.292115e-5 * np.array([np.cos(lat), 0.0, -np.sin(lat)]) * earth_rate
+
+    def inertial_az_el(t_ns: int) -> np.ndarray:
+        o = bag[("/truth/gimbal/imu", t_ns)].orientation
+        u = Rotation.from_rotvec(w_in * (t_ns - first) * 1e-9).apply(
+            Rotation.from_quat([o.x, o.y, o.z, o.w]).apply([1.0, 0.0, 0.0]))
+        return np.array([np.arctan2(u[1], u[0]), np.arcsin(-u[2])])
+
+    az0, el0 = inertial_az_el(first)
+    for item in items:
+        msg = item["msg"]
+        stamp = msg["header"]["stamp"]["sec"] * 1_000_000_000 + msg["header"]["stamp"]["nsec"]
+        assert int(item["log_time"]) == stamp
+        if item["topic"] == BOUNDS:
+            bias, sigma = (bag[(t, stamp)].vector for t in ("/gyro_bias_ekf/bias", "/gyro_bias_ekf/bias_sigma"))
+            for k in "yz":
+                assert msg["upper"][k] == pytest.approx(getattr(bias, k) + 3 * getattr(sigma, k), rel=1e-12)
+                assert msg["lower"][k] == pytest.approx(getattr(bias, k) - 3 * getattr(sigma, k), rel=1e-12)
+        else:
+            az, el = inertial_az_el(stamp)
+            assert msg["azimuth_deg"] == pytest.approx(np.degrees((az - az0) * np.cos(el0)), abs=1e-9)
+            assert msg["elevation_deg"] == pytest.approx(np.degrees(el - el0), abs=1e-9)
+
+
+def _assert_layout_names_the_runs_topics(bag_dir: Path) -> None:
+    """Every topic the shipped layout reads is one this run has: recorded (and its message
+    has the field path the layout plots) or one of the live view's own channels."""
+    layout = json.loads(LAYOUT.read_text())
+    live = {FRAMES, LOS, DRIFT, BOUNDS}
+    wanted = {p["value"].split(".")[0] for c in layout["configById"].values() for p in c.get("paths", [])} - live
+    messages = {}
+    for raw in stream(bag_dir, wanted):  # the first message of each
+        if not isinstance(raw, BagContents):
+            messages.setdefault(raw.topic, raw)
+            if set(messages) == wanted:
+                break
+    recorded = {t["topic_metadata"]["name"] for t in
+                yaml.safe_load((bag_dir / "metadata.yaml").read_text())["rosbag2_bagfile_information"]["topics_with_message_count"]}
+    for config in layout["configById"].values():
+        topics = set(config.get("topics", {})) | ({config["topicToRender"]} if "topicToRender" in config else set())
+        assert topics <= recorded | live, topics
+        for path in (p["value"] for p in config.get("paths", [])):
+            topic, *fields = path.split(".")
+            assert topic in messages or topic in live, path
+            if topic in messages:
+                value = TYPESTORE.deserialize_cdr(messages[topic].data, messages[topic].type_name)
+                for field in fields:
+                    value = getattr(value, field)
+                assert isinstance(value, float), path
 
 
 def _assert_los_arrows(items: list[dict], bag_dir: Path) -> None:

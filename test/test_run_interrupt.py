@@ -3,7 +3,8 @@
 The run is interrupted once it has simulated half a second (read from the progress file the
 orchestrator keeps, not after a wall-clock sleep). It must exit 130 without a traceback or a
 [FATAL] log line, leave a bag that the ``rosbags`` reader (not ours) reads to the time
-simulated, and write ``run.json`` (``interrupted: true``) and the report of that time.
+simulated, and write ``run.json`` (``interrupted: true``) and the report of that time, and print its page's
+path last.
 """
 from __future__ import annotations
 
@@ -52,6 +53,8 @@ def test_ctrl_c_keeps_the_run(mode, tmp_path, ros_domain_env):
     for bad in ("Traceback", "[FATAL]"):
         assert bad not in text and bad not in logs, text + logs
     assert "interrupted" in text and "kept the bag (closed cleanly)" in text, text
+    assert text.rstrip().splitlines()[-1] == f"page: {out / 'report' / 'index.html'}", text  # printed last
+    assert (out / "report" / "index.html").is_file()
 
     run = json.loads((out / "run.json").read_text())
     assert run["interrupted"] is True

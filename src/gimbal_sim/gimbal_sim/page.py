@@ -29,6 +29,8 @@ UNITS = (("_deg_h", "deg/h"), ("_deg_s", "deg/s"), ("_arcsec", "arcsec"), ("_arc
 NOT_FIGURES = {"plots", "table", "runs", "bag", "report", "comparison", "read_error", "topics"}
 #: The paper's figure of a metric (dotted name) or None.
 PaperLookup = Callable[[str], "str | None"]
+#: The paper's figure of a metric in a campaign's group of a variant (None: no variant) or None.
+GroupPaperLookup = Callable[["str | None", str], "str | None"]
 
 _STYLE = """
 body{font-family:sans-serif;margin:1.5em auto;padding:0 1em;max-width:1100px;color:#222}
@@ -197,14 +199,17 @@ def write_run_page(bag_dir: Path, report_dir: Path, metrics: dict[str, Any], pap
 
 
 def write_comparison_page(run_dir: Path, report_dir: Path, metrics: dict[str, Any], runs: dict[str, Path],
-                          paper: PaperLookup | None = None) -> Path:
+                          paper: PaperLookup | None = None,
+                          run_paper: Callable[[Path], PaperLookup] | None = None) -> Path:
     """``report_dir/index.html`` of the comparison of the variant runs ``runs`` in ``run_dir``;
-    rewrites the variants' pages too, which now have a comparison to link to."""
+    rewrites the variants' pages too, which now have a comparison to link to (with the
+    lookup ``run_paper(scenario file)`` makes for each, else ``paper``)."""
     run_dir = Path(run_dir).resolve()
     for bag in runs.values():
         run_metrics = Path(bag) / "report" / "metrics.json"
         if run_metrics.is_file():
-            write_run_page(Path(bag), run_metrics.parent, json.loads(run_metrics.read_text()), paper)
+            lookup = run_paper(Path(bag) / "scenario.yaml") if run_paper else paper
+            write_run_page(Path(bag), run_metrics.parent, json.loads(run_metrics.read_text()), lookup)
     links = [_link(Path(report_dir), Path(bag).resolve(), f"variant {name}") for name, bag in runs.items()]
     if run_dir.parent.name == "runs" and (run_dir.parent.parent / "campaign.yaml").is_file():
         links.insert(0, _link(Path(report_dir), run_dir.parent.parent, "↑ campaign"))
@@ -219,14 +224,18 @@ def write_comparison_page(run_dir: Path, report_dir: Path, metrics: dict[str, An
     ], links)
 
 
-def _campaign_tables(summary: dict[str, Any]) -> str:
+def _campaign_tables(summary: dict[str, Any], paper: GroupPaperLookup | None = None) -> str:
+    """Per group, each metric's statistics, with a paper column where a metric has a figure."""
     out = [f"<p>{summary.get('ok', 0)} of {summary.get('runs', 0)} runs ok.</p>"]
     for g in summary.get("groups", []):
+        named = [(n, s) for n, s in g["metrics"].items() if s.get("n")]
+        papers = {n: paper(g.get("variant") or None, n) if paper else None for n, _ in named}
+        header = ["metric", "n", "mean", "std", "95 % interval of the mean", "unit"] + \
+            (["paper"] if any(papers.values()) else [])
         rows = [[html.escape(n), str(s["n"]), html.escape(_number(s["mean"])), html.escape(_number(s["std"])),
                  html.escape(f"[{_number(s['ci95'][0])}, {_number(s['ci95'][1])}]"), html.escape(unit_of(n))]
-                for n, s in g["metrics"].items() if s.get("n")]
-        out.append(f"<h3>{html.escape(g['label'])} ({g['runs']} runs)</h3>"
-                   + _table(["metric", "n", "mean", "std", "95 % interval of the mean", "unit"], rows, {1, 2, 3}))
+                + ([html.escape(papers[n] or "")] if len(header) > 6 else []) for n, s in named]
+        out.append(f"<h3>{html.escape(g['label'])} ({g['runs']} runs)</h3>" + _table(header, rows, {1, 2, 3}))
         for name, v in g.get("nees", {}).items():
             band = f"[{v['band95'][0]:.3f}, {v['band95'][1]:.3f}]" if v.get("n") else "–"
             out.append(f"<p>NEES {html.escape(name)} ({v['dof']} dof): mean "
@@ -250,14 +259,16 @@ def _campaign_runs(campaign_dir: Path, report_dir: Path) -> str:
     return _table(["run", "variant", "seed", "status", "reason"], rows) if rows else ""
 
 
-def write_campaign_page(campaign_dir: Path, report_dir: Path, summary: dict[str, Any]) -> Path:
-    """``report_dir/index.html`` of the campaign in ``campaign_dir`` (its ``summary``)."""
+def write_campaign_page(campaign_dir: Path, report_dir: Path, summary: dict[str, Any],
+                        paper: GroupPaperLookup | None = None) -> Path:
+    """``report_dir/index.html`` of the campaign in ``campaign_dir`` (its ``summary``);
+    ``paper``: the paper's figure of a metric in a group (its variant), for a paper column."""
     campaign_dir = Path(campaign_dir).resolve()
     spec = campaign_dir / "campaign.yaml"
     spec_html = f"<pre>{html.escape(spec.read_text())}</pre>" if spec.is_file() else ""
     return _render(report_dir, f"Campaign {campaign_dir.name}", [
         ("Campaign", spec_html),
-        ("Metrics over the runs", _campaign_tables(summary)),
+        ("Metrics over the runs", _campaign_tables(summary, paper)),
         ("Plots", plots_section(Path(report_dir), summary.get("plots", []))),
         ("Runs", _campaign_runs(campaign_dir, Path(report_dir))),
         ("Reproduce", "<p>Run the campaign again, or rewrite every report from the kept bags:</p>"

@@ -29,6 +29,7 @@ from .bag.live import parse_topic_rates
 from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
+from .page import PAGE
 from .reports.dispatch import write_comparison, write_report
 
 
@@ -160,8 +161,8 @@ def main(argv: list[str] | None = None) -> int:
         except KeyboardInterrupt:
             stop_processes([proc for _, proc, *_ in active], grace_s=CHILD_STOP_GRACE_S)
             raise Interrupted(f"stopped the variants still running ({', '.join(n for n, *_ in active) or 'none'}); "
-                              f"each keeps its bag, run.json (interrupted: true) and report in {out}/<variant>") \
-                from None
+                              f"each keeps its bag, run.json (interrupted: true) and report in {out}/<variant>"
+                              + "".join(f"\npage: {p}" for p in sorted(out.glob(f"*/report/{PAGE}")))) from None
     else:
         for i, (name, single) in enumerate(runs):
             bag = out / name if name else out
@@ -175,12 +176,12 @@ def main(argv: list[str] | None = None) -> int:
             ok = ok and metrics["closed_cleanly"]
             rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
             if metrics.get("interrupted"):
-                print(summary_table(rows))
+                print(summary_table(rows), flush=True)  # before the interruption's line (stderr), the page's last
                 closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
                 raise Interrupted(f"stopped the run at {metrics['sim_s']:g} s of {single.duration_s:g} s simulated; "
                                   f"kept the bag ({closed}), run.json (interrupted: true) and the report in {bag}"
                                   + (f"; variants not run: {', '.join(n for n, _ in runs[i + 1:])}"
-                                     if runs[i + 1:] else ""))
+                                     if runs[i + 1:] else "") + f"\npage: {bag / 'report' / PAGE}")
     if scenario.variants:
         (out / "scenario.yaml").write_text(scenario.to_yaml())
         report_dir, comparison = write_comparison(out, scenario.comparison, {n: out / n for n, _ in runs})
@@ -188,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
         if comparison.get("table"):
             print(comparison["table"])
     print(summary_table(rows))
-    print(f"page: {out / 'report' / 'index.html'}")
+    print(f"page: {out / 'report' / PAGE}")
     return 0 if ok else 1
 
 

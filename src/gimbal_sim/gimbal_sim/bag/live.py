@@ -1,6 +1,7 @@
 """Live view: relay a run's topics, raw CDR with their ``ros2msg`` schemas, to Foxglove or
 Lichtblick over the Foxglove WebSocket protocol (``gimbal-run --live``), plus the sighting
-chain's frames for the 3D panel (:mod:`.live_frames`).
+run's frames (:mod:`.live_frames`), its line of sight and target (:mod:`.live_scene`) for the 3D
+panel.
 
 It runs inside the ``bag_recorder`` node: the recorder already subscribes to every topic and
 holds each message's CDR bytes and stamp, so relaying them costs no second subscription, no
@@ -20,14 +21,18 @@ import re
 import socket
 import threading
 
-from .live_frames import (JSON_SCHEMA, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, SCHEMA_NAME,
-                          TOPIC as FRAMES_TOPIC, frame_transforms, los_scene)
+from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
+from .live_plots import SCHEMAS as PLOT_SCHEMAS, SOURCE_TOPICS as PLOT_SOURCES, LivePlots
+from .live_scene import (OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene, SceneConfig)
 from .schemas import ros2msg_schema
 
 SDK_SUBPROTOCOL = b"foxglove.sdk.v1"
 LEGACY_SUBPROTOCOL = b"foxglove.websocket.v1"
 _PROTOCOL_HEADER = re.compile(rb"^(sec-websocket-protocol:[ \t]*)([^\r\n]*)", re.IGNORECASE | re.MULTILINE)
 _MAX_HEADER_BYTES = 16384
+#: The topics the frames and the scene are made from: a recorder with a topic list also
+#: subscribes to those of them the run publishes, for the live view only (not recorded).
+SOURCE_TOPICS = (*FRAME_SOURCES, OPERATOR_ERROR, *PLOT_SOURCES)
 
 
 class LivePortError(OSError):
@@ -142,7 +147,8 @@ class SubprotocolFront:
 class LiveRelay:
     """Foxglove WebSocket server relaying raw CDR messages, each topic decimated to its rate."""
 
-    def __init__(self, host: str, port: int, default_rate_hz: float, topic_rates: dict[str, float]) -> None:
+    def __init__(self, host: str, port: int, default_rate_hz: float, topic_rates: dict[str, float],
+                 scene: SceneConfig = SceneConfig()) -> None:
         import foxglove  # only a live run needs the SDK
 
         self._foxglove = foxglove
@@ -160,11 +166,16 @@ class LiveRelay:
         self._channels: dict[str, object] = {}
         self._period_ns: dict[str, int] = {}
         self._next_ns: dict[str, int] = {}
-        self._frames, self._scene = (
+        self._frame_maker = LiveFrames(scene.platform_heading_rad)
+        self._scene_maker = LiveScene(scene)
+        self._plot_maker = LivePlots.at_site(scene.site_lat_rad, scene.earth_rate)
+        self._frames, self._scene, *plots = (
             foxglove.Channel(topic, message_encoding="json", context=self._context,
                              schema=foxglove.Schema(name=name, encoding="jsonschema", data=schema.encode()))
             for topic, name, schema in ((FRAMES_TOPIC, SCHEMA_NAME, JSON_SCHEMA),
-                                        (SCENE_TOPIC, SCENE_SCHEMA_NAME, SCENE_JSON_SCHEMA)))
+                                        (SCENE_TOPIC, SCENE_SCHEMA_NAME, SCENE_JSON_SCHEMA),
+                                        *((t, n, s) for t, (n, s) in PLOT_SCHEMAS.items())))
+        self._plots = dict(zip(PLOT_SCHEMAS, plots))
 
     def add_topic(self, topic: str, type_name: str) -> None:
         schema = self._foxglove.Schema(name=type_name, encoding="ros2msg",
@@ -183,13 +194,17 @@ class LiveRelay:
         if channel.has_sinks():
             channel.log(bytes(data), log_time=stamp_ns)
         if self._frames.has_sinks():
-            frames = frame_transforms(topic, bytes(data), stamp_ns)
+            frames = self._frame_maker.transforms(topic, bytes(data), stamp_ns)
             if frames is not None:
                 self._frames.log(frames, log_time=stamp_ns)
         if self._scene.has_sinks():
-            scene = los_scene(topic, stamp_ns)
+            scene = self._scene_maker.update(topic, bytes(data), stamp_ns)
             if scene is not None:
                 self._scene.log(scene, log_time=stamp_ns)
+        # the drift's reference is the first sample: made whether or not a client is connected
+        derived = self._plot_maker.update(topic, bytes(data), stamp_ns) if topic in PLOT_SOURCES else None
+        if derived is not None and self._plots[derived[0]].has_sinks():
+            self._plots[derived[0]].log(derived[1], log_time=stamp_ns)
 
     def close(self) -> None:
         self.front.close()

@@ -1,20 +1,28 @@
-"""The sighting chain as ``foxglove.FrameTransforms`` (JSON) for the live view's 3D panel.
+"""The run's frames as ``foxglove.FrameTransforms`` (JSON) for the live view's 3D panel.
 
-Each relayed message of a chain topic becomes one FrameTransforms message at its own stamp,
-so no state is kept across topics (their arrival order is not fixed):
+Each relayed message of a source topic becomes one FrameTransforms message at its own stamp.
+Truth and estimate hang side by side from the navigation frame, the estimate's frames under
+an ``ekf/`` or ``alignment/`` prefix:
 
-* ``/truth/host/imu``: navigation ``map_ned`` → host body ``base_link_frd`` (its orientation, C_nb);
-* ``/truth/gimbal/joint_states``: body → turret (ψt about z) → gimbal azimuth (ψm about z) →
-  inner gimbal ``gimbal_inner_frd`` (θm about y), spec §2;
+* ``/truth/host/imu``: navigation ``map_ned`` → host body ``base_link_frd`` (C_nb);
+* ``/truth/gimbal/joint_states`` (paper 1's sighting chain, spec §2): body → turret (ψt about
+  z) → gimbal azimuth (ψm about z) → inner gimbal ``gimbal_inner_frd`` (θm about y);
+* ``/truth/platform/joint_states`` (paper 3's four-gimbal platform,
+  :mod:`gimbal_kinematics.four_gimbal`): body → outer roll (θ_r about x) → pitch (θ_p about
+  y) → inner roll (θ_q about x) → azimuth, the stable element ``platform_frd`` (θ_a about z);
 * ``/ins/imu``: ``map_ned`` → ``ins/base_link_frd``, the INS's attitude;
-* ``/gyro_bias_ekf/attitude``: ``map_ned`` → ``ekf/gimbal_inner_frd``, the EKF's estimate C_nm.
+* ``/gyro_bias_ekf/attitude``: ``map_ned`` → ``ekf/gimbal_inner_frd``, the EKF's C_nm;
+* ``/platform_alignment/misalignment``: ``map_ned`` → ``alignment/platform_frd``, the platform
+  the fine alignment estimates, C_ns = exp([φ̂×]) rot3(ψ)ᵀ: φ̂ is the estimated misalignment
+  (NED, believed → true platform) and rot3(ψ)ᵀ the level frame the filter believes in, turned
+  by ψ = θ_a + ``base_heading_deg`` (the ``platform_alignment`` node's, from the scenario). θ_a
+  is the last relayed ``/truth/platform/joint_states`` sample's, carried to the stamp with its
+  rate. The navigator (``platform_navigator``) publishes no attitude: its runs show the truth.
 
 A transform's rotation is the child frame's orientation in its parent: the quaternion of
-C_parent,child, (x, y, z, w) as on our messages.
-
-``/live/los`` (``foxglove.SceneUpdate``, JSON): the line of sight, the m frame's x axis
-(spec §2), as an arrow locked to the true inner gimbal and one to the EKF's, sent with the
-chain topics that move them.
+C_parent,child, (x, y, z, w) as on our messages. The intermediate gimbal frames have no ids
+in :mod:`gimbal_kinematics.frames` (no node writes them); they are named here, FRD like the
+rest (REP 103/105 style: one ``*_frd`` id per body).
 """
 from __future__ import annotations
 
@@ -22,9 +30,12 @@ import json
 import math
 
 from rclpy.serialization import deserialize_message
+from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, NAV_FRAME
+from gimbal_kinematics.frames import (BASE_FRAME, GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, NAV_FRAME, PLATFORM_FRAME,
+                                      PLATFORM_JOINTS)
+from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul
 
 TOPIC = "/live/frames"
 SCHEMA_NAME = "foxglove.FrameTransforms"
@@ -39,14 +50,19 @@ JSON_SCHEMA = json.dumps({
             "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
             "translation": _VEC, "rotation": _QUAT}}}},
 })
-SCENE_TOPIC = "/live/los"
-SCENE_SCHEMA_NAME = "foxglove.SceneUpdate"
-SCENE_JSON_SCHEMA = json.dumps({"title": SCENE_SCHEMA_NAME, "type": "object",
-                                "properties": {"deletions": {"type": "array"}, "entities": {"type": "array"}}})
-LOS_LENGTH_M = 5.0
 TURRET_FRAME = "turret_frd"
 AZIMUTH_FRAME = "gimbal_azimuth_frd"
-_AXES = {"z": 2, "y": 1}
+#: The four-gimbal platform's gimbals between the body and the stable element, outer to inner.
+OUTER_ROLL_FRAME = "platform_outer_roll_frd"
+PITCH_FRAME = "platform_pitch_frd"
+INNER_ROLL_FRAME = "platform_inner_roll_frd"
+EKF_GIMBAL_FRAME = "ekf/" + GIMBAL_FRAME
+ALIGNMENT_PLATFORM_FRAME = "alignment/" + PLATFORM_FRAME
+TRUTH_GIMBAL_JOINTS = "/truth/gimbal/joint_states"
+TRUTH_PLATFORM_JOINTS = "/truth/platform/joint_states"
+MISALIGNMENT = "/platform_alignment/misalignment"
+EKF_ATTITUDE = "/gyro_bias_ekf/attitude"
+_AXES = {"x": 0, "y": 1, "z": 2}
 
 
 def axis_quat(axis: str, angle: float) -> tuple[float, float, float, float]:
@@ -56,10 +72,13 @@ def axis_quat(axis: str, angle: float) -> tuple[float, float, float, float]:
     return tuple(q)
 
 
+def stamp_dict(stamp_ns: int) -> dict:
+    return {"sec": stamp_ns // 1_000_000_000, "nsec": stamp_ns % 1_000_000_000}
+
+
 def _transform(stamp_ns: int, parent: str, child: str, quat) -> dict:
     x, y, z, w = (float(v) for v in quat)
-    return {"timestamp": {"sec": stamp_ns // 1_000_000_000, "nsec": stamp_ns % 1_000_000_000},
-            "parent_frame_id": parent, "child_frame_id": child,
+    return {"timestamp": stamp_dict(stamp_ns), "parent_frame_id": parent, "child_frame_id": child,
             "translation": {"x": 0.0, "y": 0.0, "z": 0.0}, "rotation": {"x": x, "y": y, "z": z, "w": w}}
 
 
@@ -73,49 +92,68 @@ def _attitude(parent: str, child: str):
     return source
 
 
-def _gimbal_chain(stamp_ns: int, data: bytes) -> list[dict]:
-    msg = deserialize_message(data, JointState)
-    angle = dict(zip(msg.name, msg.position))
-    if not set(GIMBAL_ENCODER_JOINTS) <= set(angle):
-        return []
-    psi_t, psi_m, theta_m = (angle[n] for n in GIMBAL_ENCODER_JOINTS)
-    return [_transform(stamp_ns, BASE_FRAME, TURRET_FRAME, axis_quat("z", psi_t)),
-            _transform(stamp_ns, TURRET_FRAME, AZIMUTH_FRAME, axis_quat("z", psi_m)),
-            _transform(stamp_ns, AZIMUTH_FRAME, GIMBAL_FRAME, axis_quat("y", theta_m))]
+def _chain(joints: tuple[str, ...], links: tuple[tuple[str, str, str], ...]):
+    """A JointState's joints (in ``joints`` order) as the links (parent, child, axis)."""
+    def source(stamp_ns: int, data: bytes) -> list[dict]:
+        msg = deserialize_message(data, JointState)
+        angle = dict(zip(msg.name, msg.position))
+        if not set(joints) <= set(angle):
+            return []
+        return [_transform(stamp_ns, parent, child, axis_quat(axis, angle[joint]))
+                for joint, (parent, child, axis) in zip(joints, links)]
+    return source
 
+
+_GIMBAL_CHAIN = _chain(GIMBAL_ENCODER_JOINTS, ((BASE_FRAME, TURRET_FRAME, "z"), (TURRET_FRAME, AZIMUTH_FRAME, "z"),
+                                               (AZIMUTH_FRAME, GIMBAL_FRAME, "y")))
+# PLATFORM_JOINTS are (a, q, p, r), inner to outer
+_PLATFORM_CHAIN = _chain(PLATFORM_JOINTS, ((INNER_ROLL_FRAME, PLATFORM_FRAME, "z"), (PITCH_FRAME, INNER_ROLL_FRAME, "x"),
+                                           (OUTER_ROLL_FRAME, PITCH_FRAME, "y"), (BASE_FRAME, OUTER_ROLL_FRAME, "x")))
 
 _SOURCES = {
     "/truth/host/imu": _attitude(NAV_FRAME, BASE_FRAME),
-    "/truth/gimbal/joint_states": _gimbal_chain,
+    TRUTH_GIMBAL_JOINTS: _GIMBAL_CHAIN,
+    TRUTH_PLATFORM_JOINTS: _PLATFORM_CHAIN,
     "/ins/imu": _attitude(NAV_FRAME, "ins/" + BASE_FRAME),
-    "/gyro_bias_ekf/attitude": _attitude(NAV_FRAME, "ekf/" + GIMBAL_FRAME),
+    EKF_ATTITUDE: _attitude(NAV_FRAME, EKF_GIMBAL_FRAME),
 }
+#: Every topic the frames are made from.
+SOURCE_TOPICS = (*_SOURCES, MISALIGNMENT)
 
 
-def frame_transforms(topic: str, data: bytes, stamp_ns: int) -> bytes | None:
-    """The JSON FrameTransforms message a relayed message of ``topic`` makes, or None."""
-    source = _SOURCES.get(topic)
-    if source is None:
-        return None
-    transforms = source(stamp_ns, data)
-    return json.dumps({"transforms": transforms}).encode() if transforms else None
+class LiveFrames:
+    """FrameTransforms of relayed messages; keeps the platform azimuth that the alignment's
+    estimate is resolved with. ``platform_heading_rad``: the alignment's ``base_heading_deg``."""
 
+    def __init__(self, platform_heading_rad: float = 0.0) -> None:
+        self.platform_heading = platform_heading_rad
+        self._azimuth: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the last sample
 
-_LOS_FRAMES = {"/truth/gimbal/joint_states": (GIMBAL_FRAME, (0.1, 0.8, 0.2)),
-               "/gyro_bias_ekf/attitude": ("ekf/" + GIMBAL_FRAME, (0.9, 0.5, 0.1))}
+    def transforms(self, topic: str, data: bytes, stamp_ns: int) -> bytes | None:
+        """The JSON FrameTransforms message a relayed message of ``topic`` makes, or None."""
+        if topic == MISALIGNMENT:
+            transforms = self._alignment(stamp_ns, data)
+        elif topic in _SOURCES:
+            transforms = _SOURCES[topic](stamp_ns, data)
+            if topic == TRUTH_PLATFORM_JOINTS and transforms:
+                self._keep_azimuth(stamp_ns, data)
+        else:
+            return None
+        return json.dumps({"transforms": transforms}).encode() if transforms else None
 
+    def _keep_azimuth(self, stamp_ns: int, data: bytes) -> None:
+        msg = deserialize_message(data, JointState)
+        i = list(msg.name).index(PLATFORM_JOINTS[0])
+        rate = msg.velocity[i] if len(msg.velocity) == len(msg.name) else 0.0
+        self._azimuth = (stamp_ns, msg.position[i], rate)
 
-def los_scene(topic: str, stamp_ns: int) -> bytes | None:
-    """The JSON SceneUpdate with the LOS arrow of the frame ``topic`` moves, or None."""
-    if topic not in _LOS_FRAMES:
-        return None
-    frame, (r, g, b) = _LOS_FRAMES[topic]
-    arrow = {"pose": {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
-                      "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},  # along the frame's x: the LOS
-             "shaft_length": 0.9 * LOS_LENGTH_M, "shaft_diameter": 0.02, "head_length": 0.1 * LOS_LENGTH_M,
-             "head_diameter": 0.08, "color": {"r": r, "g": g, "b": b, "a": 1.0}}
-    entity = {"timestamp": {"sec": stamp_ns // 1_000_000_000, "nsec": stamp_ns % 1_000_000_000},
-              "frame_id": frame, "id": f"los:{frame}", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": True,
-              "metadata": [], "arrows": [arrow], "cubes": [], "spheres": [], "cylinders": [], "lines": [],
-              "triangles": [], "texts": [], "models": []}
-    return json.dumps({"deletions": [], "entities": [entity]}).encode()
+    def _alignment(self, stamp_ns: int, data: bytes) -> list[dict]:
+        if self._azimuth is None:
+            return []
+        t_ns, theta_a, rate = self._azimuth
+        v = deserialize_message(data, Vector3Stamped).vector
+        if not all(math.isfinite(c) for c in (v.x, v.y, v.z)):
+            return []
+        psi = theta_a + rate * (stamp_ns - t_ns) * 1e-9 + self.platform_heading
+        quat = quat_mul(quat_from_rotation_vector(v.x, v.y, v.z), axis_quat("z", psi))
+        return [_transform(stamp_ns, NAV_FRAME, ALIGNMENT_PLATFORM_FRAME, quat)]

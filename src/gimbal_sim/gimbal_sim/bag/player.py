@@ -45,6 +45,7 @@ from gimbal_kinematics.ros.qos import GRAPH_QOS
 from .qos_yaml import qos_from_dict
 from .reader import BagContents, BagError, RawMessage, read_messages
 from .live import LivePortError, LiveRelay
+from .live_scene import scene_config
 from .schemas import message_class
 
 PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
@@ -224,7 +225,7 @@ class BagPlayer(Node):
             self.pubs[topic] = self.create_publisher(message_class(record.type_name),
                                                      options.remap.get(topic, topic), qos)
         self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock_hz > 0 else None
-        self.live = self._start_live(contents)
+        self.live = self._start_live(contents, Path(bag_dir) / "scenario.yaml")
         self._paced: dict[str, int | None] = {t: None for t in options.pace_topics}
         self._pace_subs: dict[str, object] = {}
         self.t_bag0 = self.messages[0].log_time_ns if self.messages else 0
@@ -234,11 +235,12 @@ class BagPlayer(Node):
         self.retries = 0
         self.clocks = 0
 
-    def _start_live(self, contents: BagContents) -> LiveRelay | None:
+    def _start_live(self, contents: BagContents, scenario_file: Path) -> LiveRelay | None:
         if not self.options.live_port:
             return None
         try:
-            live = LiveRelay("127.0.0.1", self.options.live_port, self.options.live_rate_hz, {})
+            live = LiveRelay("127.0.0.1", self.options.live_port, self.options.live_rate_hz, {},
+                             scene_config(scenario_file))
         except LivePortError as exc:
             raise BagError(f"--live-port: {exc}") from None
         for topic in self.pubs:

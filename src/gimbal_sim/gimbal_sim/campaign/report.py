@@ -23,6 +23,7 @@ import json
 import math
 import re
 from collections import defaultdict
+from functools import partial
 from pathlib import Path
 from typing import Any, Callable
 
@@ -244,8 +245,10 @@ def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any],
     return written
 
 
-def write_campaign_report(campaign_dir: Path) -> tuple[Path, dict[str, Any]]:
-    """Write ``<campaign_dir>/report/`` from ``results.parquet``; returns it and the summary."""
+def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None, str], str | None] | None = None
+                          ) -> tuple[Path, dict[str, Any]]:
+    """Write ``<campaign_dir>/report/`` from ``results.parquet``; returns it and the summary.
+    ``paper(campaign_dir, variant, metric)``: the paper's figure, for the page's paper column."""
     campaign_dir = Path(campaign_dir)
     rows = read_results(campaign_dir)
     summary = summarize(rows)
@@ -258,11 +261,12 @@ def write_campaign_report(campaign_dir: Path) -> tuple[Path, dict[str, Any]]:
     summary["table"] = text_summary(summary, metrics)
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
-    write_campaign_page(campaign_dir, out, summary)
+    write_campaign_page(campaign_dir, out, summary, partial(paper, campaign_dir) if paper else None)
     return out, summary
 
 
-def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = None) -> tuple[Path, dict[str, Any]]:
+def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = None,
+               paper: Callable[[Path, str | None, str], str | None] | None = None) -> tuple[Path, dict[str, Any]]:
     """``gimbal-report CAMPAIGN_DIR``: rewrite each kept bag's run report (with
     ``write_report(run_dir)``, the run report writer it is handed; None: keep them), each
     run's row from its metrics, the results table, then the campaign report."""
@@ -288,7 +292,7 @@ def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = 
         order = {}
     rows.sort(key=lambda r: (order.get(r["run_id"], len(order)), r["run_id"]))
     write_results(campaign_dir, rows, list((asked.get("sweep") or {}).keys()))
-    return write_campaign_report(campaign_dir)
+    return write_campaign_report(campaign_dir, paper)
 
 
 def diff_results(dir_a: Path, dir_b: Path, prefix: str = "") -> dict[str, Any]:

@@ -4,6 +4,7 @@ experiment campaign with its runner's :class:`~gimbal_sim.campaign.experiment.Ex
 The one module that imports every runner."""
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,7 @@ from ..campaign.experiment import ExperimentCampaign, plan_experiment
 from ..campaign.runner_cli import experiment_runners
 from ..campaign.spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction
 from ..reports.core_metrics import run_core
+from ..reports.paper import campaign_paper_figure
 from . import encoder_fusion_study, flexure, free_gyro, free_gyro_errors, navigation, platform_servo, sighting_loop, slew
 
 #: experiment name -> its campaign
@@ -51,4 +53,5 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, run_fn: RunFunction | Non
     """:func:`gimbal_sim.campaign.engine.run_campaign` handed the plan, runners and report of
     any campaign (``run_fn``: a caller's own run instead); ``options`` go to the engine."""
     hooks = Runners(run_fn=run_fn) if run_fn is not None else runners(spec)
-    return engine.run_campaign(spec, out_dir, plan=plan, report=write_campaign_report, runners=hooks, **options)
+    return engine.run_campaign(spec, out_dir, plan=plan, report=partial(write_campaign_report, paper=campaign_paper_figure),
+                               runners=hooks, **options)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import struct
 import sys
+from pathlib import Path
 
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
@@ -29,7 +30,8 @@ from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS
 from ..bag.schemas import message_class, msg_text, split_type
 from ..bag.writer import BagWriter
-from ..bag.live import LivePortError, LiveRelay, parse_topic_rates
+from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LivePortError, LiveRelay, parse_topic_rates
+from ..bag.live_scene import scene_config
 
 _STAMP = struct.Struct("<iI")
 
@@ -75,6 +77,7 @@ class BagRecorderNode(Node):
         self.progress_every = values["progress_every_steps"]
         self.end_ns = int(round(values["end_time_s"] * 1e9))
         self.subs: dict[str, object] = {}
+        self.live_subs: dict[str, object] = {}  # live view sources not recorded (no readiness, no pacing)
         self._stamped: dict[str, bool] = {}
         self._last_stamp: dict[str, int] = {}
         self.clock_ns = 0
@@ -92,7 +95,9 @@ class BagRecorderNode(Node):
         except ValueError as exc:
             raise ParameterError(f"parameter 'live_topic_rates': {exc}") from exc
         try:
-            live = LiveRelay(values["live_host"], values["live_port"], values["live_rate_hz"], rates)
+            # the run's scenario.yaml, written beside the bag before any node starts: its target, ...
+            live = LiveRelay(values["live_host"], values["live_port"], values["live_rate_hz"], rates,
+                             scene_config(Path(values["output_dir"]) / "scenario.yaml"))
         except LivePortError as exc:
             raise ParameterError(f"parameter 'live_port': {exc}") from exc
         self.get_logger().info(f"live view on ws://{values['live_host']}:{live.port}")
@@ -102,13 +107,16 @@ class BagRecorderNode(Node):
     def _candidate_topics(self) -> dict[str, str]:
         types = {name: types[0] for name, types in self.get_topic_names_and_types() if types}
         if self.wanted:
-            return {t: types[t] for t in self.wanted if t in types}
+            # and the live view's sources this run publishes: relayed, not recorded (_subscribe)
+            extra = [t for t in LIVE_SOURCES if self.live is not None and t not in self.wanted
+                     and self.count_publishers(t) > 0]
+            return {t: types[t] for t in [*self.wanted, *extra] if t in types}
         # a topic only subscribed to (e.g. an estimate nobody publishes in this run) has nothing to record
         return {t: ty for t, ty in types.items() if t not in self.exclude and self.count_publishers(t) > 0}
 
     def _discover(self) -> None:
         for topic, type_name in self._candidate_topics().items():
-            if topic not in self.subs:
+            if topic not in self.subs and topic not in self.live_subs:
                 self._subscribe(topic, type_name)
         if not self.ready and self._all_matched():
             self.ready = True
@@ -131,8 +139,14 @@ class BagRecorderNode(Node):
 
     def _subscribe(self, topic: str, type_name: str) -> None:
         offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
-        self.writer.add_topic(topic, type_name, [qos_to_dict(q) for q in offered] or [qos_to_dict(GRAPH_QOS)])
         self._stamped[topic] = stamp_first(type_name)
+        if self.wanted and topic not in self.wanted:
+            self.live.add_topic(topic, type_name)
+            self.live_subs[topic] = self.create_subscription(
+                message_class(type_name), topic, lambda data, t=topic: self._relay_only(t, data),
+                subscription_qos(offered), raw=True)
+            return
+        self.writer.add_topic(topic, type_name, [qos_to_dict(q) for q in offered] or [qos_to_dict(GRAPH_QOS)])
         if self.live is not None:
             self.live.add_topic(topic, type_name)
         events = SubscriptionEventCallbacks(message_lost=lambda status, t=topic: self._on_lost(t, status))
@@ -159,6 +173,10 @@ class BagRecorderNode(Node):
             step = m.step_of_stamp(stamp, self.rate)
             if self.ready and ((step + 1) % self.progress_every == 0 or (self.end_ns and stamp >= self.end_ns)):
                 self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(step + 1, self.rate)))
+
+    def _relay_only(self, topic: str, data: bytes) -> None:
+        if self.live is not None:
+            self.live.publish(topic, data, self._stamp_of(topic, data))
 
     def _stamp_of(self, topic: str, data: bytes) -> int:
         if self._stamped[topic] and len(data) >= 12 and data[1] == 1:  # CDR little-endian

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 from pathlib import Path
 
@@ -22,24 +21,7 @@ from ..bag.reader import BagError, require_messages
 from ..campaign.report import regenerate
 from ..page import write_comparison_page, write_run_page
 from . import COMPARISONS, REPORTS, comparison_function, report_function
-from .alignment import LIMITS as ALIGNMENT_LIMITS
-from .encoder_fusion import PAPER_IMPROVEMENT
-from .platform_servo import LIMITS_ARCSEC as SERVO_LIMITS_ARCSEC
-
-#: Paper figures the reports state, for the page: metric-name pattern -> the paper's figure.
-PAPER_FIGURES = (
-    (r"(^|\.)fusion_improvement$", f"≥ {PAPER_IMPROVEMENT:g}× (paper 2)"),
-    (r"(^|\.)tilt_error_arcsec\.(east|north)$", f"|·| ≤ {ALIGNMENT_LIMITS['tilt_arcsec']:g} arcsec (paper 3 Table 2)"),
-    (r"(^|\.)azimuth_error_arcmin$", f"|·| ≤ {ALIGNMENT_LIMITS['azimuth_arcmin']:g} arcmin (paper 3 Table 2)"),
-    (r"(^|\.)north_drift_error_deg_h$", f"|·| ≤ {ALIGNMENT_LIMITS['north_drift_deg_h']:g} deg/h (paper 3 Table 2)"),
-    *((rf"control_error_arcsec\.(sensed|truth_drift_removed)\.{kind}\.max$",
-       f"< {paper:g} arcsec (paper 3 §4.1)") for kind, (paper, _) in SERVO_LIMITS_ARCSEC.items()),
-)
-
-
-def paper_figure(name: str) -> str | None:
-    """The paper's figure for the metric ``name`` (dotted), where a report states one."""
-    return next((text for pattern, text in PAPER_FIGURES if re.search(pattern, name)), None)
+from .paper import campaign_paper_figure, comparison_paper_lookup, run_paper_lookup
 
 
 def write_comparison(run_dir: Path, name: str, runs: dict[str, Path]) -> tuple[Path, dict]:
@@ -51,7 +33,8 @@ def write_comparison(run_dir: Path, name: str, runs: dict[str, Path]) -> tuple[P
     metrics = comparison_function(name)({k: Path(v) for k, v in runs.items()}, out)
     metrics["comparison"] = name
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float) + "\n")
-    write_comparison_page(run_dir, out, metrics, runs, paper_figure)
+    write_comparison_page(run_dir, out, metrics, runs, comparison_paper_lookup(Path(run_dir) / "scenario.yaml"),
+                          run_paper_lookup)
     return out, metrics
 
 
@@ -84,14 +67,14 @@ def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
     metrics = report_function(name)(bag_dir, out)
     metrics["report"] = name
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float) + "\n")
-    write_run_page(bag_dir, out, metrics, paper_figure)
+    write_run_page(bag_dir, out, metrics, run_paper_lookup(bag_dir / "scenario.yaml"))
     return out, metrics
 
 
 def _campaign_main(campaign_dir: Path) -> int:
     """A campaign directory: its runs' reports from their bags, then the campaign report."""
     try:
-        out, summary = regenerate(campaign_dir, write_report)
+        out, summary = regenerate(campaign_dir, write_report, campaign_paper_figure)
     except (BagError, OSError, ValueError) as exc:
         print(f"gimbal-report: {campaign_dir}: {exc}", file=sys.stderr)
         return 2
