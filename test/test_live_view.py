@@ -5,6 +5,7 @@ Lichtblick uses, in Node) connects with each subprotocol name, decodes the relay
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import socket
 import subprocess
@@ -281,6 +282,22 @@ def test_second_live_view_on_a_port_refused_before_anything_starts(tmp_path, ros
     assert done.returncode == 2, done.stderr
     assert f"port {port}" in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "run").exists()
+
+
+def test_bench_live_connects_a_client_and_finds_the_same_data(ros_domain_env):
+    """``gimbal-bench live`` on a short run: its client connects and receives, both bags hold
+    the same data, and it prints the steps/s and the runs' CPU seconds of both runs."""
+    port = _free_port()
+    done = subprocess.run([str(VENV_BIN / "gimbal-bench"), "live", "--scenario", "sim_open_loop", "--duration", "0.5",
+                           "--port", str(port)], env=ros_domain_env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    out = done.stdout
+    assert re.search(r"steps/s without --live\s+[\d,]+\n", out) and re.search(r"slowdown [+-][\d.]+%", out), out
+    cpu = re.search(r"CPU s of the run's processes\s+([\d.]+) without, ([\d.]+) with", out)
+    assert cpu and float(cpu.group(1)) > 0.0 and float(cpu.group(2)) > 0.0, out
+    received = re.search(r"client: connected, (\d+) messages received", out)
+    assert received and int(received.group(1)) > 0, out
+    assert "bags: same data" in out
 
 
 def test_front_renames_only_the_legacy_offer():

@@ -483,12 +483,14 @@ def bench_live(args: argparse.Namespace) -> int:
         scenario = variant(scenario, args.variant or list(scenario.variants)[-1])
     scenario = dataclasses.replace(scenario, duration_s=args.duration)
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-live-") as work:
-        r = measure_live(scenario, Path(work), args.port)
+        r = measure_live(scenario, Path(work), args.port, args.mode)
     slowdown = r["steps_per_s_plain"] / r["steps_per_s_live"] - 1.0
-    print(f"{scenario.name}, {args.duration:g} s, processes mode (load {os.getloadavg()[0]:.2f}):")
+    print(f"{scenario.name}, {args.duration:g} s, {args.mode} mode (load {os.getloadavg()[0]:.2f}):")
     print(f"  steps/s without --live           {r['steps_per_s_plain']:,.0f}")
     print(f"  steps/s with --live and 1 client {r['steps_per_s_live']:,.0f}  (slowdown {slowdown:+.1%}, "
           f"target <= +10%)")
+    print(f"  CPU s of the run's processes     {r['cpu_s_plain']:.2f} without, {r['cpu_s_live']:.2f} with "
+          f"({r['cpu_s_live'] / r['cpu_s_plain'] - 1.0:+.1%})")
     print(f"  client: {'connected' if r['client_connected'] else 'NOT connected'}, "
           f"{r['client_messages']} messages received")
     print(f"  bags: {'same data' if r['same_data'] else 'DIFFERENT data'}"
@@ -548,6 +550,8 @@ def main(argv: list[str] | None = None) -> int:
     live.add_argument("--variant", help="variant (default its last)")
     live.add_argument("--duration", type=float, default=10.0, help="simulated seconds (default 10)")
     live.add_argument("--port", type=int, default=8765, help="live view port (default 8765)")
+    live.add_argument("--mode", choices=("processes", "container"), default="processes",
+                      help="how the nodes run (default processes: the client's work is not the run's)")
     live.set_defaults(func=bench_live)
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] not in ("run", "record", "flexure", "compare", "live", "-h", "--help"):

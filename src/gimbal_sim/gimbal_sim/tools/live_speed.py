@@ -98,19 +98,31 @@ class ViewerClient:
             pass
 
 
+def _timed_run(scenario: Scenario, out: Path, mode: str, **kwargs) -> tuple[float, float]:
+    """(steps/s, CPU seconds the run's node processes spent after the first step) of one
+    run into ``out``; their start-up (imports, discovery) is the same with and without."""
+    result = run(scenario, out, mode, progress=False, **kwargs)
+    cpu = sum(stats.cpu_s - result.cpu_at_start.get(name, 0.0) for name, stats in result.processes.items())
+    return result.sim_s * scenario.sim_rate_hz / result.wall_s, cpu
+
+
 def measure_live(scenario: Scenario, work: Path, port: int, mode: str = "processes") -> dict:
-    """Runs ``scenario`` twice into ``work``: plain, then with the live view and one client."""
-    rate = scenario.sim_rate_hz
-    plain = run(scenario, work / "plain", mode, progress=False)
+    """Runs ``scenario`` twice into ``work``: plain, then with the live view and one client.
+
+    Besides the steps/s it returns the CPU seconds the run's node processes used: on a shared
+    machine the wall time of one pair varies by more than the relay costs, the CPU the relay
+    adds to the run much less. In processes mode the client's own work (in this process) is
+    not counted, as a viewer runs elsewhere; in container mode it is."""
+    steps_plain, cpu_plain = _timed_run(scenario, work / "plain", mode)
     client = ViewerClient(port)
     thread = client.start()
-    live = run(scenario, work / "live", mode, progress=False,
-               live={"live_port": port, "live_rate_hz": 50.0, "live_topic_rates": []})
+    steps_live, cpu_live = _timed_run(scenario, work / "live", mode,
+                                      live={"live_port": port, "live_rate_hz": 50.0, "live_topic_rates": []})
     thread.join(timeout=10.0)
     same = compare_bags(work / "plain", work / "live")
     return {
-        "steps_per_s_plain": plain.sim_s * rate / plain.wall_s,
-        "steps_per_s_live": live.sim_s * rate / live.wall_s,
+        "steps_per_s_plain": steps_plain, "steps_per_s_live": steps_live,
+        "cpu_s_plain": cpu_plain, "cpu_s_live": cpu_live,
         "client_connected": client.connected, "client_messages": client.messages,
         "same_data": same.identical, "byte_identical": same.byte_identical,
     }
