@@ -53,18 +53,12 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
     parser.parse_args(non_ros_args[1:])
     localhost_env()
     rclpy.init(args=argv)
-    try:
-        node = make_node()
-    except ValueError as exc:
-        print(f"{prog}: refused to start: {exc}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    executor = make_executor()
-    executor.add_node(node)
     # Ctrl-C / the orchestrator's SIGINT ends the spin between slices, in place of rclpy's
     # handler: that one shuts the context down under a running callback, whose next publish
     # fails, and a KeyboardInterrupt raised inside a callback is no better (both are logged
-    # as [FATAL]). A second Ctrl-C aborts at once (a flooded EventsExecutor may not return).
+    # as [FATAL]). Installed before the node is built, so a Ctrl-C during its start-up (its
+    # parameter declarations publish) stops it cleanly too. A second Ctrl-C aborts at once
+    # (a flooded EventsExecutor may not return).
     stopping: list[int] = []
 
     def on_sigint(signum, _frame) -> None:
@@ -73,6 +67,17 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
         stopping.append(signum)
 
     signal.signal(signal.SIGINT, on_sigint)
+    try:
+        node = make_node()
+    except ValueError as exc:
+        print(f"{prog}: refused to start: {exc}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    except KeyboardInterrupt:
+        rclpy.try_shutdown()
+        return 0
+    executor = make_executor()
+    executor.add_node(node)
     try:
         done = getattr(node, "done", None) or Future()
         # In slices: rclpy 7.1.6's EventsExecutor never dispatches when spun without a
