@@ -8,8 +8,8 @@ variant with a ROS domain id of its own (claimed here, so concurrent runs never 
 A scenario (or variant) with a ``prelude`` runs two chained graph runs: the prelude scenario
 first (same seed, its own duration), whose hand-off turns its run into a ROS 2 parameter
 file applied to the scenario like ``--params-file`` (after the user's ``--set``); the
-prelude's run ends up in ``OUT/prelude/`` (bag, report, the parameter file) and the
-hand-off's figures in ``OUT/hand_off.json``, which the scenario's report reads.
+prelude's run ends up in the run's ``prelude/`` (bag, report, the parameter file) and the
+hand-off's figures in the run's ``hand_off.json``, which the scenario's report reads.
 
 Exit codes: 0 success; 1 the run failed (a node died or stalled; the bag is still
 finalized); 2 bad input (unknown scenario or node, malformed --set, output exists), with
@@ -289,13 +289,14 @@ def _prelude_scenario(scenario: Scenario) -> Scenario:
 
 def _run_prelude(scenario: Scenario, out: Path, args: argparse.Namespace
                  ) -> tuple[Scenario, Path, dict, list[tuple[str, str]]]:
-    """Run ``scenario``'s prelude beside ``out`` (``.<name>.prelude``: ``out`` must not exist
-    before its own run) and its hand-off; returns the scenario with the hand-off's parameter
-    file applied, the prelude's directory, the hand-off figures and the summary rows."""
+    """Run ``scenario``'s prelude beside ``out`` (into ``.<name>.prelude/prelude``: ``out``
+    must not exist before its own run) and its hand-off; returns the scenario with the
+    hand-off's parameter file applied, the prelude's directory, the hand-off figures and the
+    summary rows."""
     first = _prelude_scenario(scenario)
-    where = out.parent / f".{out.name}.prelude"
-    if where.exists():
-        raise UsageError(f"{where} exists (a prelude left by an earlier run?); not overwriting it")
+    if (out.parent / f".{out.name}.prelude").exists():
+        raise UsageError(f"{out.parent / f'.{out.name}.prelude'} exists (left by an earlier run?); not overwriting it")
+    where = out.parent / f".{out.name}.prelude" / "prelude"
     print(f"== prelude {first.name} ({first.duration_s:g} s) into {where}", file=sys.stderr)
     try:
         metrics, rows = _run_graph(first, where, args)
@@ -325,6 +326,7 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     finally:
         if out.is_dir():  # the prelude's run goes with the run it started
             prelude_dir.rename(out / "prelude")
+            prelude_dir.parent.rmdir()
     prelude_rows = [(k, v.replace(str(prelude_dir), str(out / "prelude"))) for k, v in prelude_rows]
     return metrics, prelude_rows + [_hand_off_row(figures)] + rows
 
