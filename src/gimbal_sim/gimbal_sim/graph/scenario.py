@@ -19,6 +19,11 @@ the user's own file::
       feedback_off: {los_rate_controller.feedback: false}
       feedback_on:  {los_rate_controller.feedback: true, seed: 3}
     comparison: bias_feedback   # ... and compare the runs with this report
+    prelude:               # optional (also as a variant's override): run another scenario first
+      scenario: rotational_ins_alignment   # built-in name or YAML file
+      variant: rotation_on                 # optional
+      duration_s: 600.0                    # optional (default: that scenario's)
+      hand_off: alignment_to_navigation    # turns its run into parameters of this one
 
 Everything is validated before anything starts: unknown keys, executables or parameters,
 and values of the wrong type are refused with a message naming them.
@@ -39,7 +44,8 @@ BUILTIN_DIR = Path(__file__).parent / "scenarios"
 
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",
-             "comparison"}
+             "comparison", "prelude"}
+_PRELUDE_KEYS = {"scenario", "variant", "duration_s", "hand_off"}
 _NODE_KEYS = {"executable", "params", "remap"}
 
 
@@ -60,6 +66,8 @@ class Scenario:
     #: variant name -> overrides ("node.param" or "seed" -> value), in run order
     variants: dict[str, dict[str, Any]] = field(default_factory=dict)
     comparison: str = ""
+    #: a scenario run first, whose run hands over to this one (gimbal-run; keys: _PRELUDE_KEYS)
+    prelude: dict[str, Any] | None = None
 
     def to_yaml(self) -> str:
         data = {"name": self.name, "description": self.description, "duration_s": self.duration_s,
@@ -67,6 +75,8 @@ class Scenario:
                 "report": self.report, "nodes": self.nodes}
         if self.variants:
             data.update(variants=self.variants, comparison=self.comparison)
+        if self.prelude:
+            data["prelude"] = self.prelude
         return yaml.safe_dump(data, sort_keys=False)
 
 
@@ -187,19 +197,35 @@ def validate(data: Any, where: str = "scenario") -> Scenario:
     comparison = str(data.get("comparison", ""))
     if variants and not comparison:
         raise ScenarioError(f"{where}: a scenario with 'variants' needs a 'comparison' report")
-    return replace(scenario, variants={str(k): dict(v) for k, v in variants.items()}, comparison=comparison)
+    prelude = _prelude(data["prelude"], f"{where}: prelude") if "prelude" in data else None
+    return replace(scenario, variants={str(k): dict(v) for k, v in variants.items()}, comparison=comparison,
+                   prelude=prelude)
+
+
+def _prelude(value: Any, where: str) -> dict[str, Any]:
+    """A checked ``prelude`` mapping (module docstring); the scenario and hand-off it names
+    are looked up when it runs."""
+    if not isinstance(value, dict) or set(value) - _PRELUDE_KEYS or not {"scenario", "hand_off"} <= set(value):
+        raise ScenarioError(f"{where}: expected a mapping with 'scenario' and 'hand_off' (optional 'variant', "
+                            f"'duration_s'), got {value!r}")
+    out = {k: str(value[k]) for k in ("scenario", "variant", "hand_off") if k in value}
+    if "duration_s" in value:
+        out["duration_s"] = _number(f"{where}: duration_s", value["duration_s"])
+    return out
 
 
 def _override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
-    """``scenario`` with one override applied: ``seed`` or ``node.param``."""
+    """``scenario`` with one override applied: ``seed``, ``prelude`` or ``node.param``."""
+    if key == "prelude":
+        return replace(scenario, prelude=_prelude(value, f"{where}: prelude"))
     if key == "seed":
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise ScenarioError(f"{where}: 'seed' must be an integer >= 0, got {value!r}")
         return replace(scenario, seed=value)
     node, dot, param = str(key).partition(".")
     if not dot or node not in scenario.nodes:
-        raise ScenarioError(f"{where}: override {key!r} is not 'seed' or 'node.param' of a node in the scenario "
-                            f"(nodes: {', '.join(scenario.nodes)})")
+        raise ScenarioError(f"{where}: override {key!r} is not 'seed', 'prelude' or 'node.param' of a node in the "
+                            f"scenario (nodes: {', '.join(scenario.nodes)})")
     new = copy.deepcopy(scenario)
     spec = new.nodes[node]
     spec["params"][param] = check_param(node, spec["executable"], param, value)

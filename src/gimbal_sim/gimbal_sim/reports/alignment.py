@@ -126,6 +126,8 @@ def alignment_series(bag_dir: Path) -> dict:
         "truth_initial": phi0, "truth_current": phi_now, "truth_north_drift": 0.0,
         "truth_gyro_drift": -gyro_bias[:2], "truth_accel_bias": accel_bias[:2],
         "start_azimuth": float(joints_at(t0)[0] + heading),
+        "heading": heading, "true_gyro_bias": gyro_bias, "true_accel_bias": accel_bias,
+        "final_joints": joints_at(float(t[-1])),
     }
 
 

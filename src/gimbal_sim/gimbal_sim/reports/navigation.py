@@ -15,9 +15,15 @@ n mile/h (error / elapsed hours, the unit of paper 3's 0.38 n mile/h CEP); the S
 period read off the run — the period of the sinusoid plus trend that best fits both
 velocity errors, scanned over 40–160 min — beside the local 2π√(R/g) (84.4 min); the
 control error (rms and largest |Δθ|, arc-seconds) of the four loops.
+
+After a prelude (``align_then_navigate``: gimbal-run's chained alignment run), the run
+directory's ``hand_off.json`` (:mod:`.hand_off`) goes into the metrics as ``hand_off``, with
+``sensor_biases_carried``: whether the navigation run's true sensor biases are the alignment
+run's (to 1e-9 °/h and µg).
 """
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -27,6 +33,7 @@ from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_verti
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style
+from .hand_off import FIGURES_FILE
 from .platform_servo import bag_summary, stream_columns
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -118,6 +125,15 @@ def navigation_figures(e: dict) -> dict:
     return out
 
 
+def _hand_off(path: Path, nav: dict) -> dict:
+    """The prelude's hand-off figures, and whether the true biases are the same (module docstring)."""
+    hand_off = json.loads(path.read_text())
+    carried = [(hand_off[k], nav.get(k)) for k in ("true_gyro_bias_deg_h", "true_accel_bias_ug")]
+    hand_off["sensor_biases_carried"] = all(b is not None and np.allclose(a, b, rtol=0.0, atol=1e-9)
+                                            for a, b in carried)
+    return hand_off
+
+
 def _plot(e: dict, path: Path, title: str) -> None:
     fig, axes = stacked(2, 6.0)
     t_min = e["t"] / 60.0
@@ -135,6 +151,8 @@ def navigation_report(bag_dir: Path, report_dir: Path) -> dict:
     """Write ``navigation_errors.png``; return the figures (module docstring) and the bag summary."""
     e = navigation_errors(bag_dir)
     metrics = {"navigation": navigation_figures(e), **bag_summary(bag_dir, e["contents"])}
+    if (Path(bag_dir) / FIGURES_FILE).is_file():
+        metrics["hand_off"] = _hand_off(Path(bag_dir) / FIGURES_FILE, metrics["navigation"])
     report_dir.mkdir(parents=True, exist_ok=True)
     nav = metrics["navigation"]
     _plot(e, report_dir / "navigation_errors.png",
