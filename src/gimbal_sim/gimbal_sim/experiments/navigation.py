@@ -123,6 +123,14 @@ def navigation_servo_params(lat_deg: float, rotate: bool, rate_hz: float = NAV_R
         command_source="navigator", command_max_age_s=2.5 / nav_rate_hz)
 
 
+def _samples_per_step(rate_hz: float, nav_rate_hz: float | None) -> int:
+    """IMU samples per navigator step: ``rate_hz`` / ``nav_rate_hz`` (None: 1), an integer."""
+    every = 1 if nav_rate_hz is None else int(round(rate_hz / nav_rate_hz))
+    if nav_rate_hz is not None and (every < 1 or abs(every * nav_rate_hz - rate_hz) > 1e-9 * rate_hz):
+        raise ValueError(f"nav_rate_hz {nav_rate_hz} must divide rate_hz {rate_hz}")
+    return every
+
+
 def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool = True, rate_hz: float = NAV_RATE_HZ,
                    lat_deg: float = 40.0, gyro: GyroParams = PAPER3_NAV_GYRO, accel: AccelerometerParams = PAPER3_NAV_ACCEL,
                    resolver: EncoderParams = PAPER3_RESOLVER, record_every_s: float = 10.0,
@@ -132,13 +140,11 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
     moored ship (roll 5° / 10 s, pitch 3° / 6 s, heading 3° / 15 s) whose motion enters each
     gimbal loop (``platform_base_motion``); ``start``: the platform and navigator after an
     alignment (static base only; default perfectly aligned). The navigator steps at
-    ``nav_rate_hz`` (default ``rate_hz``; it must divide it) on the mean specific force of the
-    IMU samples between its steps (:mod:`..core.platform_stages`) and takes its azimuth from
-    ``azimuth_source`` (``resolver`` or ``servo``: the servo's φz, a moving base). Returns its
-    metrics and ``series`` (at the first navigator step from each multiple of
-    ``record_every_s``: t, north/east/radial error [m], NED velocity [m/s], platform tilt
-    (east, north) [rad] from the truth, servo pickoff [rad], the platform's true azimuth [rad]
-    from north about down, the navigator's azimuth ψ̂ [rad])."""
+    ``nav_rate_hz`` (default ``rate_hz``, which it divides) on the mean specific force since its
+    last step, its azimuth from ``azimuth_source`` (``resolver``; ``servo``: φz, a moving base).
+    Returns its metrics and ``series`` (at the first navigator step from each multiple of
+    ``record_every_s``: t, north/east/radial error [m], NED velocity [m/s], platform tilt (E, N)
+    [rad] and azimuth from north about down [rad] from the truth, servo pickoff [rad], ψ̂ [rad])."""
     start = start if start is not None else PlatformStart()
     profile_params = {"lat_deg": lat_deg, **({"yaw_deg": start.base_heading_deg} if start.base_heading_deg else {})}
     core = VehicleCore(VehicleConfig(profile="paper5_ship" if ship else "static", profile_params=profile_params,
@@ -154,9 +160,7 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
                                                     torque_out_s=start.torque_out_s, azimuth_source=azimuth_source))
     if start.hand_off is not None:
         nav.hand_off(start.hand_off)
-    nav_every = 1 if nav_rate_hz is None else int(round(rate_hz / nav_rate_hz))
-    if nav_rate_hz is not None and (nav_every < 1 or abs(nav_every * nav_rate_hz - rate_hz) > 1e-9 * rate_hz):
-        raise ValueError(f"nav_rate_hz {nav_rate_hz} must divide rate_hz {rate_hz}")
+    nav_every = _samples_per_step(rate_hz, nav_rate_hz)
     servo = PlatformServo(navigation_servo_params(lat_deg, rotate, rate_hz, nav_rate_hz))
     every = max(1, int(round(record_every_s * rate_hz)))
     rows: list[tuple[float, ...]] = []
