@@ -412,7 +412,9 @@ def main(argv: list[str] | None = None) -> int:
                      help="variant align_then_navigate: the 600 s alignment at 1 kHz, then navigation from its hand-off")
     cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
                                      "rotational_ins_navigation --seeds 1-20 --out DIR)")
-    cep.add_argument("campaign_dir")
+    cep.add_argument("campaign_dir", nargs="+", help="one or more campaign directories, their runs merged")
+    cep.add_argument("--per-seed", action="store_true",
+                     help="also each seed's radial rate per variant (seeds pair runs: same sensor biases)")
     cf = sub.add_parser("closed-forms", help="one error source at a time, rotation off and on, radial error at the end")
     cf.add_argument("--duration", type=float, default=10800.0)
     cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
@@ -432,15 +434,27 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:26s} off {r['rotation_off_m']:10.1f} m   on {r['rotation_on_m']:10.1f} m   "
                   f"off/on {r['off_over_on']:8.2f}")
         return 0
-    runs_dir = Path(args.campaign_dir) / "runs"
-    if not runs_dir.is_dir():
-        print(f"navigation cep: {args.campaign_dir}: no runs/ directory; not a campaign directory", file=sys.stderr)
-        return 2
+    return _cep_command(args.campaign_dir, args.per_seed)
+
+
+def _cep_command(campaign_dirs: Sequence[str], per_seed: bool) -> int:
     runs: dict[str, list[dict]] = {}
-    for path in sorted(runs_dir.glob("*/report/metrics.json")):
-        m = json.loads(path.read_text())["navigation"]
-        runs.setdefault(m.get("variant", "rotation_on" if m["rotate"] else "rotation_off"), []).append(m)
+    for campaign_dir in campaign_dirs:
+        runs_dir = Path(campaign_dir) / "runs"
+        if not runs_dir.is_dir():
+            print(f"navigation cep: {campaign_dir}: no runs/ directory; not a campaign directory", file=sys.stderr)
+            return 2
+        for path in sorted(runs_dir.glob("*/report/metrics.json")):
+            m = json.loads(path.read_text())["navigation"]
+            runs.setdefault(m.get("variant", "rotation_on" if m["rotate"] else "rotation_off"), []).append(m)
     print(_campaign_table(cep_summary(runs)))
+    if per_seed:
+        variants = [v for v in VARIANTS if v in runs]
+        rates = {v: {m["seed"]: m["radial_rate_nmi_h"] for m in runs[v]} for v in variants}
+        print("radial rate at the end [n mile/h] per seed\nseed " + " ".join(f"{v:>19}" for v in variants))
+        for seed in sorted({seed for r in rates.values() for seed in r}):
+            print(f"{seed:>4} " + " ".join(f"{rates[v][seed]:>19.3f}" if seed in rates[v] else f"{'-':>19}"
+                                           for v in variants))
     return 0
 
 
