@@ -3,6 +3,7 @@ core engine, the CEP table's median interval is the order-statistics one."""
 import json
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from gimbal_sim.campaign_cli import main as campaign_main
@@ -39,5 +40,10 @@ def test_gimbal_campaign_runs_the_experiment_on_the_core_engine(tmp_path, capsys
     capsys.readouterr()
     assert navigation_main(["cep", str(out)]) == 0
     assert "rotation_off" in capsys.readouterr().out
+    # per seed: the seed's row carries each variant's radial rate, as in metrics.json
+    assert navigation_main(["cep", str(out), "--per-seed"]) == 0
+    row = capsys.readouterr().out.splitlines()[-1].split()
+    assert row[0] == "1" and sorted(float(v) for v in row[1:]) == pytest.approx(
+        sorted(m["radial_rate_nmi_h"] for m in metrics), abs=1e-3)
     assert navigation_main(["cep", str(tmp_path / "none")]) == 2
     assert campaign_main(["rotational_ins_navigation", "--sweep", "a.b=1:2:2", "--out", str(tmp_path / "x")]) == 2

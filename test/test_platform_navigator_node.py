@@ -60,9 +60,9 @@ class Rig:
     """The node under test and a harness node (publishers of its inputs, subscribers of its
     outputs) on one Context and executor."""
 
-    def __init__(self, node, harness, executor):
+    def __init__(self, node, harness, executor, joint_topic: str = "/platform/resolvers"):
         self.node, self.executor = node, executor
-        self.pub_joint = harness.create_publisher(JointState, "/platform/resolvers", GRAPH_QOS)
+        self.pub_joint = harness.create_publisher(JointState, joint_topic, GRAPH_QOS)
         self.pub_imu = harness.create_publisher(Imu, "/platform/imu", GRAPH_QOS)
         self.got: dict[str, list] = {k: [] for k in OUTPUTS}
         for name, typ in OUTPUTS.items():
@@ -94,7 +94,8 @@ def rig(ros_domain_env, request):
                                      parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
         executor.add_node(node)
         try:
-            yield Rig(node, harness, executor)
+            servo = values.get("azimuth_source") == "servo"
+            yield Rig(node, harness, executor, "/platform_servo/modulation" if servo else "/platform/resolvers")
         finally:
             executor.remove_node(node)
             node.destroy_node()
@@ -199,7 +200,31 @@ def test_free_timing_reports_the_counters_on_diagnostics(ros_domain_env):
     ({"vertical_tau_s": 0.0}, "vertical_tau_s"),
     ({"accel_bias_ug": [1.0, 2.0]}, "accel_bias_ug"),
     ({"fix_every_samples": 0}, "fix_every_samples"),
+    ({"azimuth_source": "gyro"}, "azimuth_source"),
+    ({"azimuth_source": "servo", "timing": "lockstep"}, "azimuth_source"),
 ])
 def test_bad_parameters_are_refused_naming_them(args, named, ros_domain_env):
     result = start_refused("platform_navigator", args, ros_domain_env)
     assert result.returncode == 2 and named in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("rig", [{"timing": "free", "azimuth_source": "servo", "base_heading_deg": 30.0}],
+                         indirect=True)
+def test_azimuth_from_the_servo_angle(rig):
+    """azimuth_source servo (free timing): ψ̂ = φz from /platform_servo/modulation (joint
+    modulation_angle) + base_heading_deg; a north force on the platform turning at 1.2 °/s
+    from 30° integrates to v_N = ∇t, nothing east beyond the Coriolis term (the core's state:
+    the harness's reliable subscriptions do not match free timing's outputs)."""
+    lat = math.radians(LAT_DEG)
+    nabla = 1e-3
+    f_n = (nabla, 0.0, -gravity_ref(lat))
+    n = 51
+    for k in range(n):
+        phi = math.radians(RATE_DEG_S) * k / RATE
+        rig.send(k, phi, specific_force_s(phi + math.radians(30.0), f_n), joint="modulation_angle", wait=False)
+    core = rig.node.core
+    assert spin_until(rig.executor, lambda: core.accepted == n, 30.0), core.counters()
+    t = (n - 1) / RATE
+    assert core.vn == pytest.approx(nabla * t, rel=1e-4)
+    assert abs(core.ve) < 1e-3 * nabla * t  # Coriolis: Ω sin L ∇t² is 1.2e-5 of ∇t here
+    assert core.rejected_no_resolver == 0 and rig.node.rejected_joints == 0

@@ -2,21 +2,36 @@
 
 After the fine alignment (:mod:`.rotation_alignment`) the platform keeps turning about the
 local vertical while this core navigates: per sample it takes the stable element's
-specific force f_s (platform axes s), the azimuth resolver angle θ_a and the stamp, and it
-returns the NED velocity, the position (latitude, longitude, height) and the platform
+specific force f_s (platform axes s), the azimuth angle (resolver θ_a or servo φz: "Azimuth
+source" below) and the stamp, and it returns the NED velocity, the position (latitude, longitude, height) and the platform
 command rate. Pure Python, no rclpy; a node wraps it.
 
 Frames and conventions (those of :mod:`gimbal_kinematics.four_gimbal` and the alignment)
 ---------------------------------------------------------------------------------------
-n = local-level NED. The platform azimuth ψ̂ = θ_a + base heading is about NED down, and a
+n = local-level NED. The platform azimuth ψ̂ (from the azimuth source, below) is about NED down, and a
 level platform has C_sn = rot3(ψ̂). The specific force is resolved through it (paper 3:
 "the acceleration of the measurement axis needs to be resolved through the rotation angle
 into the t-frame"): f_N = cos ψ̂ f_x − sin ψ̂ f_y, f_E = sin ψ̂ f_x + cos ψ̂ f_y, f_D = f_z, after
 the hand-off accelerometer-bias estimate is taken off f_s. The platform's tilt is not known
 to the navigator: it appears as g × tilt in f_N, f_E, which is what closes the Schuler loop.
-The resolver plus a known base heading gives the platform azimuth on a static base (paper 3's
-laboratory experiment); on a moving base the heading is not known, and ψ̂ would have to be the
-servo's rotation angle φz instead.
+
+Azimuth source (``azimuth_source``). ``resolver``: ψ̂ = θ_a + ``base_heading_deg``, the resolver
+plus a known, fixed base heading: the platform azimuth on a static base (paper 3's laboratory
+experiment). On a moving base θ_a is the platform's azimuth relative to a member that yaws,
+rolls and pitches with the ship, so a fixed heading leaves ψ̂ off by the heading motion (±3° on
+paper 5's moored ship). ``servo``: ψ̂ = φz + ``base_heading_deg``, the servo's commanded
+rotation angle φz plus the platform's azimuth at φz = 0. Why φz is the platform's azimuth in
+NED: the servo torques its gyro reference at ω_c = rot3(φz) ω_c^n + φ̇z e3, where ω_c^n (this
+core's command) is the rate of the local-level NED frame itself (earth rate + transport rate),
+so relative to NED the reference turns at φ̇z about down only, whatever the base does, and the
+platform follows the reference to its pickoff δ (arc-seconds). The base's motion enters only
+the gimbal angles, never φz. What φz does not know is the reference's own azimuth drift (a
+vertical gyro drift ε_z turns it by ε_z t, 0.03 °/h: ~5′ in 3 h): that is the same azimuth
+error a platform INS carries, whose effect on the earth-rate command is the "vertical gyro"
+term of the error budget; the resolver would see it on a static base, where the heading is
+known, but on a ship the heading is exactly what the INS is there to give. The angle comes as
+the third argument of :meth:`PlatformNavigator.step` in both cases; a missing one (None) is
+refused and counted alike (``rejected_no_resolver``).
 
 Mechanisation (:mod:`gimbal_kinematics.earth` for the WGS-84 radii, rates and gravity)
 ------------------------------------------------------------------------------------
@@ -85,7 +100,7 @@ costs ~g φ T/2 of velocity (1 mm/s for 5″).
 
 Bad input is counted and never integrated: a non-finite stamp or value, a stamp at or
 before the previous one (repeat or out of order; :func:`gimbal_kinematics.stamps.judge`),
-a missing resolver angle (None). A stamp more than ``clock_jump_s`` back (a bag looping)
+a missing resolver angle or φz sample (None). A stamp more than ``clock_jump_s`` back (a bag looping)
 restarts navigation from the hand-off, the sample being the first of the new run.
 
 Accuracy figure: none. The core is a mechanisation without a filter; its error comes from
@@ -245,9 +260,10 @@ class PlatformNavigator:
 
     # -- the step ----------------------------------------------------------------------------
     def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> NavigatorOutput | None:
-        """One sample: specific force ``f_s`` (3,) [m/s²] in platform axes, azimuth resolver
-        angle ``theta_a`` [rad] (None when the resolver sample is missing or stale) at stamp ``t_ns``
-        [int ns]. Returns None for a refused sample (counted)."""
+        """One sample: specific force ``f_s`` (3,) [m/s²] in platform axes, azimuth angle
+        ``theta_a`` [rad] of the ``azimuth_source`` (resolver θ_a or servo φz; None when the
+        sample is missing or stale) at stamp ``t_ns`` [int ns]. Returns None for a refused
+        sample (counted)."""
         sample = self._admit(t_ns, f_s, theta_a)
         if sample is None:
             return None
@@ -256,7 +272,7 @@ class PlatformNavigator:
         h = self._handoff
         fx, fy, fz = (sample[0] - h.accel_bias_s[0], sample[1] - h.accel_bias_s[1],
                       sample[2] - h.accel_bias_s[2])
-        psi = sample[3] + self.params.base_heading_rad
+        psi = sample[3] + self.params.base_heading_rad  # θ_a or φz (module docstring)
         c, s = math.cos(psi), math.sin(psi)
         # the command is held until the next sample: resolve the platform-fixed drift at the
         # azimuth half an interval ahead (the last interval's turn), not where it starts

@@ -2,8 +2,11 @@
 (:class:`.platform_navigator.PlatformNavigator`; docs/spec.md §3.3).
 
 Inputs: the stable element's accelerometers (``/platform/imu`` linear_acceleration,
-platform axes) and the azimuth resolver angle θ_a (``joint_topic``, joint
-``azimuth_joint``). The newest joint sample is extrapolated with its rate to each
+platform axes) and the azimuth angle: the resolver angle θ_a (``joint_topic``, joint
+``azimuth_joint``) or, with ``azimuth_source: servo`` (a moving base), the servo's rotation
+angle φz (``/platform_servo/modulation``, joint ``modulation_angle``; remap it for another
+servo), free timing only: in lockstep the servo's φz of a step comes after the navigator's
+command of that step, a cycle (refused at startup). The newest joint sample is extrapolated with its rate to each
 accelerometer stamp (a joint sample older than ``max_joint_age_s``, or none, leaves the
 sample without a resolver angle: the core refuses and counts it). Within one stamp the joint
 goes before the accelerometer, so the result does not depend on arrival order.
@@ -44,8 +47,9 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
+from gimbal_kinematics.frames import MODULATION_JOINT
 from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros import messages as wire
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
@@ -57,6 +61,8 @@ from . import messages as m
 from .platform_navigator import NavigatorOutput, PlatformNavigator
 from .platform_navigator_params import DESCRIPTION, PARAMS, PlatformNavigatorParams
 
+#: ``platform_servo``'s φz (``~/modulation``, joint ``modulation_angle``) for ``azimuth_source: servo``
+SERVO_MODULATION_TOPIC = "/platform_servo/modulation"
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_resolver", "resets",
                  "rejected_joints", "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order",
@@ -69,7 +75,12 @@ class PlatformNavigatorNode(Node):
         v = declare_and_read(self, PARAMS)
         grid = SampleGrid({"joint": steps_per_sample(v, "joint_rate_hz"), "imu": steps_per_sample(v, "imu_rate_hz")})
         self.core = PlatformNavigator(PlatformNavigatorParams.from_values(v))
-        self.azimuth_joint = v["azimuth_joint"]
+        from_servo = v["azimuth_source"] == "servo"
+        if from_servo and v["timing"] == "lockstep":
+            raise ParameterError("parameter 'azimuth_source' = 'servo' needs timing free: in lockstep the servo's "
+                                 "phi_z of a step follows the navigator's command of that step (a cycle)")
+        joint_topic = SERVO_MODULATION_TOPIC if from_servo else v["joint_topic"]
+        self.azimuth_joint = MODULATION_JOINT if from_servo else v["azimuth_joint"]
         self.max_joint_age_ns = int(round(v["max_joint_age_s"] * 1e9))
         self.fix_every = v["fix_every_samples"]
         timing = v["timing"]
@@ -93,7 +104,7 @@ class PlatformNavigatorNode(Node):
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
             io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing),
-            io.subscribe(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
+            io.subscribe(JointState, joint_topic, lambda msg: self._on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs,
                                 (self.pub_fix, self.pub_velocity, self.pub_command), v["wait_for_subscribers"])

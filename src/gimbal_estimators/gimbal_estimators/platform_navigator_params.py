@@ -22,6 +22,9 @@ _DEG_H = _DEG / 3600.0
 _ARCSEC = _DEG / 3600.0
 #: 1 µg [m/s²] (standard gravity, as the sensor models' µg).
 _UG = 9.80665e-6
+#: Where the platform azimuth comes from: the azimuth resolver (+ a fixed base heading) or the
+#: servo's rotation angle φz (+ the platform's azimuth at φz = 0).
+AZIMUTH_SOURCES = ("resolver", "servo")
 
 
 @dataclass(frozen=True)
@@ -30,8 +33,11 @@ class PlatformNavigatorParams:
 
     Site (hand-off position, a static base): ``lat_deg``, ``lon_deg`` [°] geodetic,
     ``height_m`` [m] above the ellipsoid (also the vertical channel's reference altitude);
-    ``base_heading_deg`` [°]: heading of the base, added to the azimuth resolver angle to give
-    the platform azimuth about NED down.
+    ``base_heading_deg`` [°]: added to the azimuth angle to give the platform azimuth about NED
+    down: with ``azimuth_source`` ``resolver`` the (fixed) heading of the base, with ``servo``
+    the platform's azimuth at φz = 0 (:mod:`.platform_navigator`, "Azimuth source").
+    ``azimuth_source``: :data:`AZIMUTH_SOURCES`, the azimuth resolver angle θ_a or the
+    servo's rotation angle φz (a moving base).
 
     Hand-off estimates: ``gyro_drift_deg_h`` (x, y, z) platform gyro drifts [°/h] in platform
     axes (the alignment's ε_x, ε_y; it does not estimate ε_z); ``north_drift_deg_h`` the
@@ -55,6 +61,7 @@ class PlatformNavigatorParams:
     torque_out_s: float = 10.0
     vertical_tau_s: float = 100.0
     clock_jump_s: float = 1.0
+    azimuth_source: str = "resolver"
 
     def __post_init__(self) -> None:
         lat = finite("lat_deg", self.lat_deg)
@@ -68,6 +75,8 @@ class PlatformNavigatorParams:
             object.__setattr__(self, name, per_axis(name, getattr(self, name), 3))
         for name in ("torque_out_s", "vertical_tau_s", "clock_jump_s"):
             positive(name, getattr(self, name))
+        if self.azimuth_source not in AZIMUTH_SOURCES:
+            raise ValueError(f"azimuth_source must be one of {AZIMUTH_SOURCES}, got {self.azimuth_source!r}")
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
@@ -127,8 +136,11 @@ PARAMS = (
     Param("lon_deg", _D.lon_deg, "hand-off longitude [deg]", -360.0, 360.0),
     Param("height_m", _D.height_m, "hand-off height above the ellipsoid, also the vertical channel's "
           "reference altitude [m]", -1e4, 1e5),
-    Param("base_heading_deg", _D.base_heading_deg, "heading of the base, added to the azimuth resolver "
-          "angle [deg]", -360.0, 360.0),
+    Param("base_heading_deg", _D.base_heading_deg, "added to the azimuth angle: the heading of the base "
+          "(azimuth_source resolver) or the platform's azimuth at phi_z = 0 (servo) [deg]", -360.0, 360.0),
+    Param("azimuth_source", _D.azimuth_source, "platform azimuth from the azimuth resolver (joint_topic; "
+          "static base) or from the servo's rotation angle phi_z (/platform_servo/modulation; a moving base, "
+          "free timing only)", choices=AZIMUTH_SOURCES),
     Param("gyro_drift_deg_h", list(_D.gyro_drift_deg_h), "platform gyro drift estimate (x, y, z in platform "
           "axes) compensated in the command [deg/h]"),
     Param("north_drift_deg_h", _D.north_drift_deg_h, "north drift estimate (fixed in NED) compensated in the "
@@ -147,8 +159,10 @@ PARAMS = (
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz], to turn stamps into steps", 1.0, 100000.0),
     Param("imu_rate_hz", 1000.0, "platform IMU rate [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
     Param("joint_rate_hz", 1000.0, "rate of the azimuth joint topic [Hz]; divides sim_rate_hz", 1e-3, 100000.0),
-    Param("joint_topic", "/platform/resolvers", "sensor_msgs/JointState topic carrying the azimuth joint"),
-    Param("azimuth_joint", "platform_azimuth", "name of the azimuth gimbal joint in joint_topic"),
+    Param("joint_topic", "/platform/resolvers", "sensor_msgs/JointState topic carrying the azimuth joint "
+          "(azimuth_source resolver)"),
+    Param("azimuth_joint", "platform_azimuth", "name of the azimuth gimbal joint in joint_topic (azimuth_source "
+          "resolver)"),
     Param("max_joint_age_s", 0.1, "largest gap [s] between an accelerometer sample and the azimuth joint sample "
           "extrapolated to it; older: the sample is refused as without a resolver angle", 1e-9, 1e9),
     Param("fix_every_samples", 1, "publish ~/fix and ~/velocity every N accepted samples (~/command_rate goes "

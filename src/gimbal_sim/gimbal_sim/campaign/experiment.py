@@ -61,6 +61,8 @@ class ExperimentCampaign:
     defaults: dict[str, Any]
     run: ExperimentRun
     graph: GraphEquivalent | None = None
+    #: the variants run when none is named (None: all); the others only with --variant
+    default_variants: tuple[str, ...] | None = None
 
 
 def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
@@ -82,7 +84,7 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
     if spec.sweeps or spec.overrides:
         raise CampaignError(f"experiment {exp.name}: sweeps and --set are for scenario campaigns; "
                             "its settings are options")
-    variants = spec.variants or exp.variants
+    variants = spec.variants or exp.default_variants or exp.variants
     for name in variants:
         if name not in exp.variants:
             raise CampaignError(f"experiment {exp.name}: no variant {name!r}; variants: {', '.join(exp.variants)}")

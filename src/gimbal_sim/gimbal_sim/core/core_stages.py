@@ -38,7 +38,7 @@ class Bus:
     (``operator_error``: (ε, e_q, e_r) [rad], what ~/pointing_error carries)."""
 
     __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
-                 "operator_error", "platform_imu", "resolvers", "nav")
+                 "operator_error", "platform_imu", "resolvers", "nav", "modulation")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
@@ -46,6 +46,8 @@ class Bus:
         self.ekf = self.operator = self.operator_error = None
         # paper 3's platform (:mod:`.platform_stages`): its IMU and resolver samples, the navigator's output
         self.platform_imu = self.resolvers = self.nav = None
+        # the servo's last (t [s], φz [rad], φ̇z [rad/s]), what its ~/modulation carries
+        self.modulation = None
 
 
 def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:

@@ -83,6 +83,12 @@ ALIGNMENT_S = 600.0
 HAND_OFF_RATE_HZ = 50.0
 #: IMU = resolver = servo = navigator rate of the navigation runs [Hz] (module docstring).
 NAV_RATE_HZ = 5.0
+#: The moored ship's runs (``--ship``, variants ``ship_rotation_*``): IMU, resolvers, servo and
+#: plant at 400 Hz (the servo's loops at 10 Hz hold the platform against the ship's 6–15 s
+#: motion to arc-seconds; at 200 Hz the pickoff rms is 29× larger), the navigator at 50 Hz on
+#: the mean specific force of 8 samples and its azimuth from the servo's φz (module docstring).
+SHIP_RATE_HZ = 400.0
+SHIP_NAV_RATE_HZ = 50.0
 #: Paper 3's sensor grades (run-to-run bias, 1σ per axis) and the white noise the alignment
 #: experiment uses (:mod:`.platform_servo`: ``ALIGNMENT_*``).
 PAPER3_NAV_GYRO = GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=0.001)
@@ -102,29 +108,43 @@ class PlatformStart(NamedTuple):
     torque_out_s: float = PlatformNavigatorParams().torque_out_s
 
 
-def navigation_servo_params(lat_deg: float, rotate: bool, rate_hz: float = NAV_RATE_HZ) -> PlatformServoParams:
-    """The servo at ``rate_hz`` following the navigator: the Table 1 loops placed at
-    rate/:data:`BANDWIDTH_RATE_DIVISOR` (the outer roll at a third, its D filtered over 5
-    samples, as the 1 kHz defaults), the gap and stale-command limits at 2.5 samples."""
+def navigation_servo_params(lat_deg: float, rotate: bool, rate_hz: float = NAV_RATE_HZ,
+                            nav_rate_hz: float | None = None) -> PlatformServoParams:
+    """The servo at ``rate_hz`` following the navigator at ``nav_rate_hz`` (default the same):
+    the Table 1 loops placed at rate/:data:`BANDWIDTH_RATE_DIVISOR` (the outer roll at a third,
+    its D filtered over 5 samples, as the 1 kHz defaults), the gap limit at 2.5 samples, the
+    stale-command limit at 2.5 navigator samples."""
     bw = rate_hz / BANDWIDTH_RATE_DIVISOR
+    nav_rate_hz = rate_hz if nav_rate_hz is None else nav_rate_hz
     return PlatformServoParams(
         lat_deg=lat_deg, rotate=rotate, azimuth_pid=platform_pid_gains("a", bw),
         inner_roll_pid=platform_pid_gains("q", bw), pitch_pid=platform_pid_gains("p", bw),
         outer_roll_pid=platform_pid_gains("r", bw / 3.0, 5.0 / rate_hz), max_gap_s=2.5 / rate_hz,
-        command_source="navigator", command_max_age_s=2.5 / rate_hz)
+        command_source="navigator", command_max_age_s=2.5 / nav_rate_hz)
+
+
+def _samples_per_step(rate_hz: float, nav_rate_hz: float | None) -> int:
+    """IMU samples per navigator step: ``rate_hz`` / ``nav_rate_hz`` (None: 1), an integer."""
+    every = 1 if nav_rate_hz is None else int(round(rate_hz / nav_rate_hz))
+    if nav_rate_hz is not None and (every < 1 or abs(every * nav_rate_hz - rate_hz) > 1e-9 * rate_hz):
+        raise ValueError(f"nav_rate_hz {nav_rate_hz} must divide rate_hz {rate_hz}")
+    return every
 
 
 def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool = True, rate_hz: float = NAV_RATE_HZ,
                    lat_deg: float = 40.0, gyro: GyroParams = PAPER3_NAV_GYRO, accel: AccelerometerParams = PAPER3_NAV_ACCEL,
                    resolver: EncoderParams = PAPER3_RESOLVER, record_every_s: float = 10.0,
-                   ship: bool = False, start: PlatformStart | None = None) -> dict[str, Any]:
+                   ship: bool = False, start: PlatformStart | None = None, nav_rate_hz: float | None = None,
+                   azimuth_source: str = "resolver") -> dict[str, Any]:
     """One navigation run (module docstring), on a static base or (``ship``) on paper 5's
     moored ship (roll 5° / 10 s, pitch 3° / 6 s, heading 3° / 15 s) whose motion enters each
     gimbal loop (``platform_base_motion``); ``start``: the platform and navigator after an
-    alignment (static base only; default perfectly aligned). Returns its metrics and ``series``
-    (every ``record_every_s``: t, north/east/radial error [m], NED velocity [m/s], platform
-    tilt (east, north) [rad] from the truth, servo pickoff [rad], the platform's true azimuth
-    [rad] from north about down)."""
+    alignment (static base only; default perfectly aligned). The navigator steps at
+    ``nav_rate_hz`` (default ``rate_hz``, which it divides) on the mean specific force since its
+    last step, its azimuth from ``azimuth_source`` (``resolver``; ``servo``: φz, a moving base).
+    Returns its metrics and ``series`` (at the first navigator step from each multiple of
+    ``record_every_s``: t, north/east/radial error [m], NED velocity [m/s], platform tilt (E, N)
+    [rad] and azimuth from north about down [rad] from the truth, servo pickoff [rad], ψ̂ [rad])."""
     start = start if start is not None else PlatformStart()
     profile_params = {"lat_deg": lat_deg, **({"yaw_deg": start.base_heading_deg} if start.base_heading_deg else {})}
     core = VehicleCore(VehicleConfig(profile="paper5_ship" if ship else "static", profile_params=profile_params,
@@ -137,13 +157,14 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
     site = core.profile.site
     nav = PlatformNavigator(PlatformNavigatorParams(lat_deg=lat_deg, lon_deg=math.degrees(site.lon_rad),
                                                     height_m=site.height_m, base_heading_deg=start.heading_estimate_deg,
-                                                    torque_out_s=start.torque_out_s))
+                                                    torque_out_s=start.torque_out_s, azimuth_source=azimuth_source))
     if start.hand_off is not None:
         nav.hand_off(start.hand_off)
-    servo = PlatformServo(navigation_servo_params(lat_deg, rotate, rate_hz))
+    nav_every = _samples_per_step(rate_hz, nav_rate_hz)
+    servo = PlatformServo(navigation_servo_params(lat_deg, rotate, rate_hz, nav_rate_hz))
     every = max(1, int(round(record_every_s * rate_hz)))
     rows: list[tuple[float, ...]] = []
-    level = {"pickoff_sq": 0.0, "pickoff_max": 0.0, "inner_roll_max": 0.0, "n": 0, "biases": None}
+    level = {"pickoff_sq": 0.0, "pickoff_max": 0.0, "inner_roll_max": 0.0, "n": 0, "biases": None, "next": 0}
     r_m = meridian_radius(site.lat_rad) + site.height_m
     r_n = (prime_vertical_radius(site.lat_rad) + site.height_m) * math.cos(site.lat_rad)
 
@@ -156,22 +177,26 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
         level["n"] += 1
         if level["biases"] is None and bus.platform_imu is not None:
             level["biases"] = (bus.platform_imu.true_gyro_bias, bus.platform_imu.true_accel_bias)
-        if bus.k % every == 0 and bus.nav is not None:
+        if bus.k >= level["next"] and bus.nav is not None:
+            level["next"] += every
             C_ns = quat_to_dcm(bus.truth.quat_nm)
             tilt = platform_misalignment_enu(C_ns, bus.nav.azimuth)
             north = (nav.lat - site.lat_rad) * r_m
             east = math.remainder(nav.lon - site.lon_rad, math.tau) * r_n
             rows.append((bus.t, north, east, math.hypot(north, east), *bus.nav.velocity_n, tilt[0], tilt[1], p,
-                         math.atan2(C_ns[1, 0], C_ns[0, 0])))
+                         math.atan2(C_ns[1, 0], C_ns[0, 0]), bus.nav.azimuth))
 
-    result = run_stages(core, [platform_sensor_stage(suite), navigator_stage(nav, rate_hz), servo_stage(servo)],
+    result = run_stages(core, [platform_sensor_stage(suite), navigator_stage(nav, rate_hz, nav_every), servo_stage(servo)],
                         observer=observe)
     s = np.array(rows)
     gyro_bias, accel_bias = level["biases"]
     return {
         "duration_s": duration_s, "seed": seed, "rotate": rotate, "rate_hz": rate_hz, "wall_s": result.wall_s,
+        "cpu_s": result.cpu_s, "nav_rate_hz": rate_hz / nav_every, "azimuth_source": azimuth_source,
         "radial_error_m": float(s[-1, 3]), "north_error_m": float(s[-1, 1]), "east_error_m": float(s[-1, 2]),
         "max_radial_error_m": float(np.max(s[:, 3])),
+        "azimuth_error_max_arcsec": float(np.max(np.abs(np.remainder(s[:, 11] - s[:, 10] + math.pi, math.tau)
+                                                        - math.pi))) / ARCSEC,
         "max_horizontal_velocity_error_m_s": float(np.max(np.hypot(s[:, 4], s[:, 5]))),
         "radial_rate_nmi_h": float(s[-1, 3]) / NMI_M / (duration_s / 3600.0),
         "control_rms_arcsec": math.sqrt(level["pickoff_sq"] / level["n"]) / ARCSEC,
@@ -184,7 +209,7 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
         "true_accel_bias_ug": [v / 9.80665e-6 for v in accel_bias],
         "series": {"t": s[:, 0], "north_m": s[:, 1], "east_m": s[:, 2], "radial_m": s[:, 3],
                    "velocity_ned_m_s": s[:, 4:7], "tilt_en_rad": s[:, 7:9], "pickoff_level_rad": s[:, 9],
-                   "azimuth_true_rad": s[:, 10]},
+                   "azimuth_true_rad": s[:, 10], "azimuth_estimate_rad": s[:, 11]},
     }
 
 
@@ -258,7 +283,10 @@ def run_align_then_navigate(duration_s: float = 10800.0, seed: int = 0, *, rate_
 
 
 # ------------------------------------------------------------------------------ campaign
-VARIANTS = {"rotation_on": True, "rotation_off": False, "align_then_navigate": True}
+VARIANTS = {"rotation_on": True, "rotation_off": False, "align_then_navigate": True,
+            "ship_rotation_on": True, "ship_rotation_off": False}
+#: The variants on paper 5's moored ship (:data:`SHIP_RATE_HZ`); run only when named (--variant).
+SHIP_VARIANTS = ("ship_rotation_on", "ship_rotation_off")
 
 
 def campaign_run(variant: str, seed: int, options: dict) -> dict:
@@ -266,6 +294,11 @@ def campaign_run(variant: str, seed: int, options: dict) -> dict:
     if variant == "align_then_navigate":
         # its own rate (HAND_OFF_RATE_HZ), not an option: the other variants' run ids stay
         m = run_align_then_navigate(options["duration_s"], seed, lat_deg=options["lat_deg"])
+    elif variant in SHIP_VARIANTS:
+        # its own rates (SHIP_*), not options, for the same reason
+        m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=SHIP_RATE_HZ,
+                           lat_deg=options["lat_deg"], ship=True, nav_rate_hz=SHIP_NAV_RATE_HZ, azimuth_source="servo")
+        m["variant"] = variant
     else:
         m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=options["rate_hz"],
                            lat_deg=options["lat_deg"])
@@ -278,6 +311,7 @@ def campaign_run(variant: str, seed: int, options: dict) -> dict:
 #: (:func:`campaign_run`); ``--engine graph`` runs the node graph's scenario of that name.
 CAMPAIGN = ExperimentCampaign(
     name="rotational_ins_navigation", variants=tuple(VARIANTS),
+    default_variants=tuple(v for v in VARIANTS if v not in SHIP_VARIANTS),
     defaults={"duration_s": 10800.0, "rate_hz": NAV_RATE_HZ, "lat_deg": 40.0}, run=campaign_run,
     graph=GraphEquivalent("rotational_ins_navigation", {v: v for v in ("rotation_on", "rotation_off")}))
 
@@ -304,12 +338,16 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
         med, lo, hi = median_interval([m["radial_rate_nmi_h"] for m in metrics])
         out[variant] = {"runs": len(metrics), "cep50_nmi_h": med, "cep50_ci95_nmi_h": [lo, hi],
                         "control_rms_arcsec_median": float(np.median([m["control_rms_arcsec"] for m in metrics])),
+                        "control_max_arcsec": float(max(m["control_max_arcsec"] for m in metrics)),
+                        "inner_roll_null_max_arcsec": float(max(m["inner_roll_null_max_arcsec"] for m in metrics)),
                         "gimbal_lock_events": int(sum(m["gimbal_lock_events"] for m in metrics))}
         if all("hand_off" in m for m in metrics):
             res = np.array([m["hand_off"]["residual_misalignment_arcsec"] for m in metrics])
             out[variant]["hand_off_residual_rms_arcsec"] = [float(v) for v in np.sqrt(np.mean(res ** 2, axis=0))]
     if "rotation_on" in out and "rotation_off" in out:
         out["ratio_off_on"] = out["rotation_off"]["cep50_nmi_h"] / out["rotation_on"]["cep50_nmi_h"]
+    if "ship_rotation_on" in out and "ship_rotation_off" in out:
+        out["ship_ratio_off_on"] = out["ship_rotation_off"]["cep50_nmi_h"] / out["ship_rotation_on"]["cep50_nmi_h"]
     return out
 
 
@@ -336,13 +374,15 @@ def closed_form_figures(duration_s: float = 10800.0, rate_hz: float = NAV_RATE_H
 
 
 def _campaign_table(summary: dict[str, Any]) -> str:
-    rows = [f"{'variant':<19} {'runs':>4} {'CEP50 [n mile/h]':>17} {'95 % interval':>20} {'control rms [″]':>16}"]
+    rows = [f"{'variant':<19} {'runs':>4} {'CEP50 [n mile/h]':>17} {'95 % interval':>20} {'control rms [″]':>16} "
+            f"{'control max [″]':>16} {'null max [″]':>13} {'lock':>5}"]
     for v in VARIANTS:
         if v in summary:
             s = summary[v]
             lo, hi = s["cep50_ci95_nmi_h"]
             rows.append(f"{v:<19} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {f'[{lo:.3f}, {hi:.3f}]':>20} "
-                        f"{s['control_rms_arcsec_median']:>16.2f}")
+                        f"{s['control_rms_arcsec_median']:>16.2f} {s['control_max_arcsec']:>16.2f} "
+                        f"{s['inner_roll_null_max_arcsec']:>13.1f} {s['gimbal_lock_events']:>5d}")
     for v in VARIANTS:
         if "hand_off_residual_rms_arcsec" in summary.get(v, {}):
             e, n, u = summary[v]["hand_off_residual_rms_arcsec"]
@@ -350,6 +390,8 @@ def _campaign_table(summary: dict[str, Any]) -> str:
                         f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″")
     if "ratio_off_on" in summary:
         rows.append(f"ratio rotation_off / rotation_on: {summary['ratio_off_on']:.2f}   (paper 3: 2 / 0.38 = 5.3)")
+    if "ship_ratio_off_on" in summary:
+        rows.append(f"ratio ship_rotation_off / ship_rotation_on: {summary['ship_ratio_off_on']:.2f}")
     return "\n".join(rows)
 
 
@@ -363,11 +405,16 @@ def main(argv: list[str] | None = None) -> int:
     one.add_argument("--rate", type=float, default=NAV_RATE_HZ, help="IMU/servo/navigator rate [Hz]")
     one.add_argument("--no-rotation", action="store_true")
     one.add_argument("--ship", action="store_true", help="paper 5's moored ship instead of the static base")
+    one.add_argument("--nav-rate", type=float, default=None, help="navigator rate [Hz], dividing --rate (default: --rate)")
+    one.add_argument("--azimuth-source", choices=("resolver", "servo"), default="resolver",
+                     help="the navigator's azimuth: resolver + fixed base heading, or the servo's phi_z (moving base)")
     one.add_argument("--align-then-navigate", action="store_true",
                      help="variant align_then_navigate: the 600 s alignment at 1 kHz, then navigation from its hand-off")
     cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
                                      "rotational_ins_navigation --seeds 1-20 --out DIR)")
-    cep.add_argument("campaign_dir")
+    cep.add_argument("campaign_dir", nargs="+", help="one or more campaign directories, their runs merged")
+    cep.add_argument("--per-seed", action="store_true",
+                     help="also each seed's radial rate per variant (seeds pair runs: same sensor biases)")
     cf = sub.add_parser("closed-forms", help="one error source at a time, rotation off and on, radial error at the end")
     cf.add_argument("--duration", type=float, default=10800.0)
     cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
@@ -376,7 +423,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.align_then_navigate:
             m = run_align_then_navigate(args.duration, args.seed)
         else:
-            m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship)
+            m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship,
+                               nav_rate_hz=args.nav_rate, azimuth_source=args.azimuth_source)
         for key, value in m.items():
             if key != "series":
                 print(f"{key:36s} {value}")
@@ -386,15 +434,27 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:26s} off {r['rotation_off_m']:10.1f} m   on {r['rotation_on_m']:10.1f} m   "
                   f"off/on {r['off_over_on']:8.2f}")
         return 0
-    runs_dir = Path(args.campaign_dir) / "runs"
-    if not runs_dir.is_dir():
-        print(f"navigation cep: {args.campaign_dir}: no runs/ directory; not a campaign directory", file=sys.stderr)
-        return 2
+    return _cep_command(args.campaign_dir, args.per_seed)
+
+
+def _cep_command(campaign_dirs: Sequence[str], per_seed: bool) -> int:
     runs: dict[str, list[dict]] = {}
-    for path in sorted(runs_dir.glob("*/report/metrics.json")):
-        m = json.loads(path.read_text())["navigation"]
-        runs.setdefault(m.get("variant", "rotation_on" if m["rotate"] else "rotation_off"), []).append(m)
+    for campaign_dir in campaign_dirs:
+        runs_dir = Path(campaign_dir) / "runs"
+        if not runs_dir.is_dir():
+            print(f"navigation cep: {campaign_dir}: no runs/ directory; not a campaign directory", file=sys.stderr)
+            return 2
+        for path in sorted(runs_dir.glob("*/report/metrics.json")):
+            m = json.loads(path.read_text())["navigation"]
+            runs.setdefault(m.get("variant", "rotation_on" if m["rotate"] else "rotation_off"), []).append(m)
     print(_campaign_table(cep_summary(runs)))
+    if per_seed:
+        variants = [v for v in VARIANTS if v in runs]
+        rates = {v: {m["seed"]: m["radial_rate_nmi_h"] for m in runs[v]} for v in variants}
+        print("radial rate at the end [n mile/h] per seed\nseed " + " ".join(f"{v:>19}" for v in variants))
+        for seed in sorted({seed for r in rates.values() for seed in r}):
+            print(f"{seed:>4} " + " ".join(f"{rates[v][seed]:>19.3f}" if seed in rates[v] else f"{'-':>19}"
+                                           for v in variants))
     return 0
 
 
