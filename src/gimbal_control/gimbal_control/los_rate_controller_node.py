@@ -103,8 +103,10 @@ class LosRateControllerNode(Node):
         ins_every = steps_per_sample(v, "ins_rate_hz")
         ins_step_needs = ("gyro", "enc", "ins") + estimates  # an INS step also waits for the estimates in use
         op_topic = v["operator_topic"]
-        op_every = (steps_per_sample(v, "operator_rate_hz") if timing == "lockstep" and op_topic
-                    and v["operator_rate_hz"] > 0.0 else 0)
+        op_waited = bool(op_topic) and v["operator_rate_hz"] > 0.0
+        # in lockstep a sampled operator command is one of the step's inputs; free, it is used as it arrives
+        op_every = control_policy(timing, lockstep=lambda: steps_per_sample(v, "operator_rate_hz") if op_waited else 0,
+                                  free=lambda: 0)
         if op_every:
             inputs.append(("op", Vector3Stamped, op_topic, vec))
 

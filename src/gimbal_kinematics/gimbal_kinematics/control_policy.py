@@ -40,7 +40,7 @@ says whether the node advertises /diagnostics at all (a lockstep controller neve
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Mapping, NamedTuple, Sequence
+from typing import Any, Callable, Mapping, NamedTuple, Sequence, TypeVar
 
 from .input_policy import SilenceWatch
 from .stamps import step_of_stamp, step_stamp_ns
@@ -257,10 +257,12 @@ class FreeControl:
         return {**self.gate.counters(), **self.counts}
 
 
-def control_policy(timing: str, *, lockstep: Callable[[], LockstepControl],
-                   free: Callable[[], FreeControl]) -> LockstepControl | FreeControl:
-    """The controller policy of ``timing`` (a node's one choice, in its constructor), built
-    by the matching factory."""
+_Built = TypeVar("_Built")
+
+
+def control_policy(timing: str, *, lockstep: Callable[[], _Built], free: Callable[[], _Built]) -> _Built:
+    """What the matching factory builds for ``timing``: the controller policy, or anything else
+    that depends on the node's one choice of timing, made in its constructor."""
     if timing == "lockstep":
         return lockstep()
     if timing == "free":
