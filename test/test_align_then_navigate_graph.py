@@ -69,7 +69,8 @@ def chained(module_ros_domain_env, tmp_path_factory):
     step = data["variants"]["align_then_navigate"]
     step["prelude"].update(duration_s=ALIGN_S, variant="rotation_off")
     data["variants"] = {"align_then_navigate": step}
-    data["record"] += ["/platform_navigator/command_rate", "/truth/platform/joint_states"]
+    assert "/platform_navigator/command_rate" in data["record"]  # the scenario records it
+    data["record"] += ["/truth/platform/joint_states"]
     spec = tmp / "short.yaml"
     spec.write_text(yaml.safe_dump(data))
     out = tmp / "run"
