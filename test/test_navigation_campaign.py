@@ -37,7 +37,11 @@ def test_gimbal_campaign_runs_the_experiment_on_the_core_engine(tmp_path, capsys
     summary = cep_summary({"rotation_on": [m for m in metrics if m["rotate"]],
                            "rotation_off": [m for m in metrics if not m["rotate"]]})
     assert summary["rotation_on"]["runs"] == 1
-    capsys.readouterr()
+    printed = capsys.readouterr().out  # gimbal-campaign prints the CEP50 table itself, as its report carries it
+    assert "CEP50" in printed and "ratio rotation_off / rotation_on" in printed
+    assert "CEP50" in json.loads((out / "report" / "summary.json").read_text())["experiment_table"]
+    # a graph run's report names the rate final_radial_rate_nmi_h and has no servo figures
+    assert cep_summary({"rotation_on": [{"final_radial_rate_nmi_h": 0.2}]})["rotation_on"]["cep50_nmi_h"] == 0.2
     assert navigation_main(["cep", str(out)]) == 0
     assert "rotation_off" in capsys.readouterr().out
     # per seed: the seed's row carries each variant's radial rate, as in metrics.json

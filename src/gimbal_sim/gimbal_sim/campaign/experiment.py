@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from .results import CampaignResult
+from .results import CampaignResult, read_results
 from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, RunTask, plan, run_id
 
 #: core engine: (variant, seed, options) -> the run's metrics (a JSON-able mapping)
@@ -63,6 +63,9 @@ class ExperimentCampaign:
     graph: GraphEquivalent | None = None
     #: the variants run when none is named (None: all); the others only with --variant
     default_variants: tuple[str, ...] | None = None
+    #: the runner's own table from each variant's run metrics (metrics.json mappings), which
+    #: ``gimbal-campaign`` prints and the campaign report carries (:func:`experiment_table`)
+    table: Callable[[dict[str, list[dict[str, Any]]]], str] | None = None
 
 
 def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
@@ -145,3 +148,17 @@ def run_metrics(result: CampaignResult) -> dict[str, list[tuple[int, dict[str, A
                                "with workers on other hosts, give --out on a file system they share")
         out.setdefault(row["variant"], []).append((int(row["seed"]), json.loads(path.read_text())))
     return out
+
+
+def experiment_table(exp: ExperimentCampaign, campaign_dir: Path) -> str | None:
+    """``exp.table`` of the campaign in ``campaign_dir``: its ok runs' ``metrics.json`` per
+    variant, in the results' order (a failed run is left out; the report lists it). None
+    when ``exp`` has no table or no run is ok."""
+    if exp.table is None:
+        return None
+    runs: dict[str, list[dict[str, Any]]] = {}
+    for row in read_results(Path(campaign_dir)):
+        path = Path(campaign_dir) / "runs" / row["run_id"] / "report" / "metrics.json"
+        if row["status"] == "ok" and path.is_file():
+            runs.setdefault(row["variant"], []).append(json.loads(path.read_text()))
+    return exp.table(runs) if runs else None

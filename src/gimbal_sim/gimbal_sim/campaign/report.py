@@ -156,6 +156,8 @@ def _seed_text(seeds: list[int]) -> str:
 
 def _markdown(summary: dict[str, Any]) -> str:
     out = [f"# Campaign report\n\n{summary['ok']} of {summary['runs']} runs ok.\n"]
+    if summary.get("experiment_table"):
+        out.append(f"\n```\n{summary['experiment_table']}\n```\n")
     for g in summary["groups"]:
         out.append(f"\n## {g['label']}\n\n{g['runs']} runs, seeds {_seed_text(g['seeds'])}.\n")
         out.append("| metric | n | mean | std | 95 % interval of the mean | min | max |\n|---|---|---|---|---|---|---|")
@@ -245,10 +247,13 @@ def _plot_sweeps(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any],
     return written
 
 
-def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None, str], str | None] | None = None
-                          ) -> tuple[Path, dict[str, Any]]:
+def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None, str], str | None] | None = None,
+                          table: Callable[[Path], str | None] | None = None) -> tuple[Path, dict[str, Any]]:
     """Write ``<campaign_dir>/report/`` from ``results.parquet``; returns it and the summary.
-    ``paper(campaign_dir, variant, metric)``: the paper's figure, for the page's paper column."""
+    ``paper(campaign_dir, variant, metric)``: the paper's figure, for the page's paper column.
+    ``table(campaign_dir)``: an experiment's own table (e.g. the navigation CEP50), put as
+    ``experiment_table`` in summary.json and summary.md and ahead of the text table (which
+    ``gimbal-campaign`` prints and the page shows)."""
     campaign_dir = Path(campaign_dir)
     rows = read_results(campaign_dir)
     summary = summarize(rows)
@@ -259,6 +264,10 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
     metrics = figure_metrics(summary)
     summary["plots"] = _plot_histograms(out, rows, summary, metrics) + _plot_sweeps(out, rows, summary, metrics)
     summary["table"] = text_summary(summary, metrics)
+    own = table(campaign_dir) if table is not None else None
+    if own:
+        summary["experiment_table"] = own
+        summary["table"] = f"{own}\n\n{summary['table']}"
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
     write_campaign_page(campaign_dir, out, summary, partial(paper, campaign_dir) if paper else None)
@@ -266,7 +275,8 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
 
 
 def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = None,
-               paper: Callable[[Path, str | None, str], str | None] | None = None) -> tuple[Path, dict[str, Any]]:
+               paper: Callable[[Path, str | None, str], str | None] | None = None,
+               table: Callable[[Path], str | None] | None = None) -> tuple[Path, dict[str, Any]]:
     """``gimbal-report CAMPAIGN_DIR``: rewrite each kept bag's run report (with
     ``write_report(run_dir)``, the run report writer it is handed; None: keep them), each
     run's row from its metrics, the results table, then the campaign report."""
@@ -292,7 +302,7 @@ def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = 
         order = {}
     rows.sort(key=lambda r: (order.get(r["run_id"], len(order)), r["run_id"]))
     write_results(campaign_dir, rows, list((asked.get("sweep") or {}).keys()))
-    return write_campaign_report(campaign_dir, paper)
+    return write_campaign_report(campaign_dir, paper, table)
 
 
 def diff_results(dir_a: Path, dir_b: Path, prefix: str = "") -> dict[str, Any]:

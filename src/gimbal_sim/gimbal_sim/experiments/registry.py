@@ -12,7 +12,7 @@ from ..campaign import engine, spec as scenario_campaign
 from ..campaign.engine import Runners
 from ..campaign.report import write_campaign_report
 from ..campaign.results import CampaignResult
-from ..campaign.experiment import ExperimentCampaign, plan_experiment
+from ..campaign.experiment import ExperimentCampaign, experiment_table, plan_experiment
 from ..campaign.runner_cli import experiment_runners
 from ..campaign.spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction
 from ..reports.core_metrics import run_core
@@ -51,7 +51,9 @@ def runners(spec: CampaignSpec) -> Runners:
 def run_campaign(spec: CampaignSpec, out_dir: Path, *, run_fn: RunFunction | None = None,
                  **options: Any) -> CampaignResult:
     """:func:`gimbal_sim.campaign.engine.run_campaign` handed the plan, runners and report of
-    any campaign (``run_fn``: a caller's own run instead); ``options`` go to the engine."""
+    any campaign (an experiment's own table in its report, :func:`experiment_table`;
+    ``run_fn``: a caller's own run instead); ``options`` go to the engine."""
     hooks = Runners(run_fn=run_fn) if run_fn is not None else runners(spec)
-    return engine.run_campaign(spec, out_dir, plan=plan, report=partial(write_campaign_report, paper=campaign_paper_figure),
-                               runners=hooks, **options)
+    table = partial(experiment_table, experiment(spec.experiment)) if spec.experiment else None
+    report = partial(write_campaign_report, paper=campaign_paper_figure, table=table)
+    return engine.run_campaign(spec, out_dir, plan=plan, report=report, runners=hooks, **options)
