@@ -38,6 +38,7 @@ error = the navigated NED velocity. CEP rate: radial error at the end / duration
     gimbal-campaign rotational_ins_navigation --seeds 1-20 --serial --out DIR      # the CEP campaign and its CEP50 table
     python -m gimbal_sim.experiments.navigation cep DIR [DIR...] --per-seed  # the table again, campaigns merged
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
+    python -m gimbal_sim.experiments.navigation servo-rate              # the servo at 1 kHz and at the graph's 50 Hz
 """
 from __future__ import annotations
 
@@ -53,6 +54,7 @@ from scipy import stats
 
 from gimbal_control.platform_servo import BANDWIDTH_RATE_DIVISOR, PlatformServo, PlatformServoParams, \
     platform_pid_gains
+from gimbal_control.platform_servo_params import PARAMS as SERVO_NODE_PARAMS
 from gimbal_estimators.platform_navigator import HandOff, PlatformNavigator
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
@@ -61,14 +63,15 @@ from gimbal_kinematics.four_gimbal import platform_misalignment_enu
 from gimbal_kinematics.rotations import quat_to_dcm
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
-from ..core.core_loop import run_stages
+from ..graph.scenario import load as load_scenario
+from ..core.core_loop import node_values, run_stages
 from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo_stage
 from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from .alignment import PAPER3_MISALIGNMENT_ARCSEC
-from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, _platform_sim, \
-    alignment_setup, closed_loop
+from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, RATE_HZ as SERVO_RATE_HZ, \
+    _platform_sim, alignment_setup, closed_loop, run_platform_servo
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 DEG_H = ARCSEC  # 1 °/h = 1″/s in rad/s
@@ -379,6 +382,38 @@ def _cell(value: float | int | None, width: int, spec: str) -> str:
     return f"{'-':>{width}}" if value is None else f"{value:>{width}{spec}}"
 
 
+#: ``servo-rate``: run_platform_servo's figure -> its row in the table.
+SERVO_RATE_ROWS = {"steady_rms_error_arcsec": "azimuth error e_a, steady rms [″]",
+                   "steady_max_error_arcsec": "azimuth error e_a, steady max [″]",
+                   "reversal_max_error_arcsec": "azimuth error at the reversal, max [″]",
+                   "steady_max_level_error_arcsec": "level error (truth tilts), steady max [″]",
+                   "steady_max_pickoff_arcsec": "gyro pickoff, steady max [″]"}
+
+
+def servo_rate_figures(duration_s: float = 320.0, seed: int = 1,
+                       scenario: str = "rotational_ins_navigation") -> dict[str, dict[str, float]]:
+    """The servo alone on the static base (rotation on, its internal earth-rate command), at
+    paper 3's 1 kHz with the ``platform_servo`` node's default loops and the plant's default
+    substeps, and at the rate, loop bandwidths and plant substeps the graph ``scenario`` sets
+    (read from it); the same seed, sensors and latitude. Per case (label) the
+    :data:`SERVO_RATE_ROWS` figures of :func:`~.platform_servo.run_platform_servo`."""
+    values = node_values(load_scenario(scenario))
+    servo = next(v for exe, v in values.values() if exe == "platform_servo")
+    vehicle = next(v for exe, v in values.values() if exe == "vehicle_dynamics")
+    defaults = {p.name: p.default for p in SERVO_NODE_PARAMS}
+    cases = ((SERVO_RATE_HZ, None, {**defaults, "lat_deg": servo["lat_deg"]}),
+             (vehicle["sim_rate_hz"], vehicle["platform_substeps"], servo))
+    out = {}
+    for rate, substeps, v in cases:
+        v = {**v, "command_source": "internal", "rotation": "bidirectional"}
+        m = run_platform_servo(duration_s, seed, params=PlatformServoParams.from_values(v), rate_hz=rate,
+                               substeps=substeps, record_every=10**9)
+        label = (f"{rate:g} Hz, {v['azimuth_bandwidth_hz']:g}/{v['level_bandwidth_hz']:g}/"
+                 f"{v['outer_roll_bandwidth_hz']:g} Hz, {substeps or VehicleConfig.platform_substeps} substeps")
+        out[label] = {key: float(m[key]) for key in SERVO_RATE_ROWS}
+    return out
+
+
 def _campaign_table(summary: dict[str, Any]) -> str:
     rows = ["CEP50 at the end of the runs: the median radial error / duration, with the 95 % interval of the "
             "median (paper 3: 0.38 n mile/h rotating, 2 n mile/h not)",
@@ -437,7 +472,17 @@ def main(argv: list[str] | None = None) -> int:
     cf = sub.add_parser("closed-forms", help="one error source at a time, rotation off and on, radial error at the end")
     cf.add_argument("--duration", type=float, default=10800.0)
     cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
+    rates = sub.add_parser("servo-rate", help="the servo alone at 1 kHz and at the graph scenario's rate, gains and "
+                                              "plant substeps: control-error table")
+    rates.add_argument("--duration", type=float, default=320.0, help="simulated seconds (default 320: one reversal)")
+    rates.add_argument("--seed", type=int, default=1)
     args = parser.parse_args(argv)
+    if args.what == "servo-rate":
+        figures = servo_rate_figures(args.duration, args.seed)
+        print(f"{'':42s}" + "".join(f"{label:>38s}" for label in figures))
+        for key, row in SERVO_RATE_ROWS.items():
+            print(f"{row:42s}" + "".join(f"{f[key]:>38.2f}" for f in figures.values()))
+        return 0
     if args.what == "run":
         if args.align_then_navigate:
             m = run_align_then_navigate(args.duration, args.seed)

@@ -84,15 +84,17 @@ def closed_loop(core, suite, servo: PlatformServo) -> Iterator[tuple[Any, list, 
 
 
 def _platform_sim(duration_s: float, seed: int, profile_params: dict, initial_joints_deg: tuple = (),
-                  resolver=None, **sensors):
-    """(VehicleCore, SensorSuite) of the static-base platform at RATE_HZ with the paper 3
-    sensors (platform IMU and resolvers at RATE_HZ, defaults as in sensor_models;
-    ``sensors`` overrides SensorSuiteConfig fields, e.g. ``platform_gyro``)."""
+                  resolver=None, *, rate_hz: float = RATE_HZ, substeps: int | None = None, **sensors):
+    """(VehicleCore, SensorSuite) of the static-base platform at ``rate_hz`` with the paper 3
+    sensors (platform IMU and resolvers at that rate, defaults as in sensor_models;
+    ``sensors`` overrides SensorSuiteConfig fields, e.g. ``platform_gyro``); ``substeps``: the
+    plant's RK4 substeps per step (None: VehicleConfig's default)."""
+    steps = {} if substeps is None else {"platform_substeps": int(substeps)}
     core = VehicleCore(VehicleConfig(profile="static", profile_params=profile_params, plant="four_gimbal_platform",
-                                     sim_rate_hz=RATE_HZ, duration_s=duration_s,
-                                     initial_joints_deg=tuple(initial_joints_deg)))
-    suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=RATE_HZ, seed=seed,
-                                          platform_imu_rate_hz=RATE_HZ, resolver_rate_hz=RATE_HZ,
+                                     sim_rate_hz=rate_hz, duration_s=duration_s,
+                                     initial_joints_deg=tuple(initial_joints_deg), **steps))
+    suite = SensorSuite(SensorSuiteConfig(sensors=("platform_imu", "resolvers"), sim_rate_hz=rate_hz, seed=seed,
+                                          platform_imu_rate_hz=rate_hz, resolver_rate_hz=rate_hz,
                                           resolver=PAPER3_RESOLVER if resolver is None else resolver,
                                           **sensors))
     return core, suite
@@ -100,20 +102,24 @@ def _platform_sim(duration_s: float, seed: int, profile_params: dict, initial_jo
 
 def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: PlatformServoParams | None = None,
                        settle_s: float = 2.0, transient_window_s: float = 2.0,
-                       resolver=None, record_every: int = 10) -> dict[str, Any]:
+                       resolver=None, record_every: int = 10, rate_hz: float = RATE_HZ,
+                       substeps: int | None = None) -> dict[str, Any]:
     """Run the servo on the simulated platform (static base at ``params.lat_deg``).
 
     Returns metrics (radians, amperes, volts; see the module docstring) and ``series``
     (every ``record_every``-th tick: t, φz, e_a, level errors, pickoffs, azimuth current,
     voltages), one entry per step 0..N. Figures in arc-seconds are added as ``*_arcsec``.
-    ``resolver``: the resolver ``EncoderParams`` (default ``PAPER3_RESOLVER``).
+    ``resolver``: the resolver ``EncoderParams`` (default ``PAPER3_RESOLVER``). ``rate_hz``:
+    simulation = IMU = resolver = control rate (the gains are ``params``'); ``substeps``:
+    the plant's RK4 substeps per step (None: VehicleConfig's default).
     """
     params = params if params is not None else PlatformServoParams()
-    core, suite = _platform_sim(duration_s, seed, {"lat_deg": params.lat_deg}, resolver=resolver)
+    core, suite = _platform_sim(duration_s, seed, {"lat_deg": params.lat_deg}, resolver=resolver, rate_hz=rate_hz,
+                                substeps=substeps)
     kt_a = paper3_axis_params("a").torque_constant_nm_a  # the plant's azimuth motor
     servo = PlatformServo(params)
     n = core.config.n_steps + 1
-    t = np.arange(n) / RATE_HZ
+    t = np.arange(n) / rate_hz
     phi = np.zeros(n)
     e_a = np.zeros(n)
     level = np.zeros((n, 2))
