@@ -165,3 +165,24 @@ def test_report_scores_fixes_against_the_predictions_published_with_them():
     assert got["n"] == 3 and got["predicted_drms_m"] == pytest.approx(5.0)
     assert got["inside_fdop_circle"] == pytest.approx(2.0 / 3.0)
     assert got["rms_over_predicted"] == pytest.approx(math.sqrt((9 + 16 + 144) / 3.0) / 5.0)
+
+
+def _fix(inside: bool) -> dict:
+    return {"t": 0.0, "errors": [0.0, 0.0, 1.0 if inside else 3.0, 0.0, 0.0, 0.0], "sigma": [1.0] * 6,
+            "cov_ne_m2": [[1.0, 0.0], [0.0, 1.0]], "fdop_radius_m": 2.0, "p_circle": 0.5, "fdop": 1.414}
+
+
+def test_fdop_circle_standard_error_takes_the_runs_as_the_sample():
+    """Hand-made runs of 7 fixes. Runs whose fixes fall all inside or all outside together (a
+    random constant's case): the fraction's 1σ is the binomial σ of the runs,
+    √(p(1 − p)/(n − 1)) with the sample variance, not that of the 7n fixes. Runs that each
+    hold 4 of 7 inside: every run gives the same fraction, so the 1σ is 0. The table prints it."""
+    runs = [{"fixes": [_fix(k < 25)] * 7} for k in range(40)]
+    c = fe.variant_table(runs)["fdop_circle"]
+    p = 25 / 40
+    assert c["n_fixes"] == 280 and c["fraction"] == pytest.approx(p, rel=1e-12)
+    assert c["se_runs"] == pytest.approx(math.sqrt(p * (1 - p) / 39), rel=1e-12)
+    mixed = [{"fixes": [_fix(j < 4) for j in range(7)]} for _ in range(40)]
+    c = fe.variant_table(mixed)["fdop_circle"]
+    assert c["fraction"] == pytest.approx(4 / 7, rel=1e-12) and c["se_runs"] == pytest.approx(0.0, abs=1e-15)
+    assert "| levelling | 280 | 1.414 | 0.625 ± 0.078 | 0.500 | 0.632 |" in fe.format_tables({"levelling": runs})

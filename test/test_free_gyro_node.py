@@ -9,6 +9,7 @@ and mcap.
 """
 from __future__ import annotations
 
+import inspect
 import math
 import subprocess
 
@@ -26,13 +27,15 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from conftest import VENV_BIN
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
-from gimbal_estimators.free_gyro_positioning_node import FreeGyroPositioningNode
+from gimbal_estimators.free_gyro_positioning_node import VELOCITY, FreeGyroPositioningNode
 from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, prime_vertical_radius
 from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.experiments.free_gyro import make_spin_axes, simulate_truth
-from gimbal_sim.graph.scenario import BUILTIN_DIR
+from gimbal_sim.experiments.free_gyro_errors import DEFAULTS
+from gimbal_sim.graph.scenario import BUILTIN_DIR, load
+from gimbal_sim.nodes import sensor_models_node
 from gimbal_sim.world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams
 from ros_harness import harness_node, spin_until
 
@@ -261,6 +264,38 @@ def test_scenario_puts_sensor_site_and_vehicle_site_together():
     assert (est["spin_nadir_deg"], est["spin_azimuth_deg"]) == (sensor["free_gyro_nadir_deg"],
                                                                 sensor["free_gyro_azimuth_deg"])
     assert est["nadir_noise_arcsec"] == sensor["free_gyro_pickoff_noise_arcsec"]
+
+
+
+def test_sailing_scenario_sensor_and_estimator_agree():
+    """free_gyro_sailing: the sensors' site is the vehicle's and the estimator's reference, the
+    spin axes, pickoff noise and triad ARW are the same on both sides, the ship sails the
+    course and speed of the free_gyro_errors ``sailing`` variant (the Monte Carlo the docs set
+    the graph run against), the sensors publish the velocity the estimator takes
+    (velocity_input on, the one topic both use), and the model inputs of predict_error are 0
+    like the sensors' sources (no triad bias, levelling error or spin drift)."""
+    raw = yaml.safe_load((BUILTIN_DIR / "free_gyro_sailing.yaml").read_text())["nodes"]
+    nodes = load("free_gyro_sailing").nodes
+    site = yaml.safe_load(nodes["vehicle_dynamics"]["params"]["profile_params"])
+    sensor, est = nodes["sensor_models"]["params"], nodes["free_gyro_positioning"]["params"]
+    assert (sensor, est) == (raw["sensor_models"]["params"], raw["free_gyro_positioning"]["params"])
+    assert (sensor["free_gyro_site_lat_deg"], sensor["free_gyro_site_lon_deg"]) == (site["lat_deg"], site["lon_deg"])
+    assert (est["spin_reference_lat_deg"], est["spin_reference_lon_deg"]) == (site["lat_deg"], site["lon_deg"])
+    assert (est["spin_nadir_deg"], est["spin_azimuth_deg"]) == (sensor["free_gyro_nadir_deg"],
+                                                                sensor["free_gyro_azimuth_deg"])
+    assert est["nadir_noise_arcsec"] == sensor["free_gyro_pickoff_noise_arcsec"]
+    assert est["triad_arw_deg_rt_h"] == sensor["free_gyro_triad_arw_deg_rt_h"]
+    assert (site["lat_deg"], site["lon_deg"]) == (DEFAULTS["lat_deg"], DEFAULTS["lon_deg"])
+    assert sensor["free_gyro_speed_m_s"] == DEFAULTS["speed_m_s"] > 0.0
+    assert sensor["free_gyro_course_deg"] == DEFAULTS["course_deg"]
+    assert sensor["free_gyro_publish_velocity"] is True and est["velocity_input"] is True
+    assert f'pub(Vector3Stamped, "{VELOCITY}")' in inspect.getsource(sensor_models_node)
+    assert est["predict_error"] is True
+    assert all(est.get(k, 0.0) == 0.0 for k in ("error_triad_bias_deg_h", "error_level_arcsec",
+                                                 "error_spin_drift_deg_h"))
+    assert not any(k in sensor for k in ("free_gyro_triad_bias_deg_h", "free_gyro_triad_bias_sigma_deg_h",
+                                         "free_gyro_level_bias_arcsec", "free_gyro_level_noise_arcsec",
+                                         "free_gyro_spin_drift_sigma_deg_h"))
 
 
 TRIAD_BIAS_DEG_H = (0.05, -0.03, 0.02)
