@@ -1,8 +1,9 @@
 """Paper 3's rotational INS against the classical platform-INS error closed forms: static
 base, one error source at a time, no noise, the navigator and the servo in the loop on the
 core engine (gimbal_sim.experiments.navigation) with the plant, at 2 Hz so that a Schuler
-period (84 min) is 10,000 steps. The rotation tests use a 1-hour window; the 3-hour figures
-come from ``python -m gimbal_sim.experiments.navigation closed-forms`` (docs/results/paper3.md)."""
+period (84 min) is 10,000 steps. The rotation tests run the issue's 3-hour window; the same
+figures at 5 Hz come from ``python -m gimbal_sim.experiments.navigation closed-forms``
+(docs/results/paper3.md)."""
 import math
 
 import numpy as np
@@ -82,28 +83,32 @@ def test_horizontal_gyro_drift_follows_r_eps_t_minus_sin():
     assert np.max(np.abs(radial[keep] / closed[keep] - 1.0)) < 0.05
 
 
+THREE_H = 10800.0
+
+
 @pytest.fixture(scope="module")
-def vertical_runs():
-    return {rot: _run(3600.0, rotate=rot, gyro_deg_h=(0.0, 0.0, 0.03)) for rot in (False, True)}
+def three_hour_runs():
+    """Each error source alone over 3 hours, rotation off and on (2 Hz: about 1 s of CPU a run)."""
+    sources = {"gyro": {"gyro_deg_h": (0.03, 0.0, 0.0)}, "accel": {"accel_ug": (100.0, 0.0, 0.0)},
+               "vertical": {"gyro_deg_h": (0.0, 0.0, 0.03)}}
+    return {(name, rot): _run(THREE_H, rotate=rot, **kw) for name, kw in sources.items() for rot in (False, True)}
 
 
-def test_rotation_modulates_the_horizontal_gyro_and_accelerometer_errors():
-    """Rotation on, 1-hour window: the horizontal gyro's and accelerometer's position errors
-    fall at least 10× below their rotation-off closed forms (checked against the runs above)."""
-    w_s, w_f = math.sqrt(G / R_M), OMEGA_IE * math.sin(LAT)
-    gyro = _run(3600.0, rotate=True, gyro_deg_h=(0.03, 0.0, 0.0))
-    off_gyro = R_N * EPS * (3600.0 - math.sin(w_s * 3600.0) / w_s)
-    assert gyro["radial_error_m"] < off_gyro / 10.0
-    accel = _run(3600.0, rotate=True, accel_ug=(100.0, 0.0, 0.0))
-    t = accel["series"]["t"]
-    off_accel = R_M * NABLA / G * np.abs(1.0 - np.exp(1j * w_f * t) * np.cos(w_s * t))
-    assert accel["max_radial_error_m"] < np.max(off_accel) / 10.0
-    assert accel["radial_error_m"] < off_accel[-1] / 10.0
+def test_rotation_modulates_the_horizontal_gyro_and_accelerometer_errors(three_hour_runs):
+    """Rotation on, at 3 h: the horizontal gyro's and accelerometer's position errors fall at
+    least 10× below rotation off. The gyro's error grows, so it is compared at 3 h; the
+    accelerometer's is a bounded Schuler oscillation whose value at 3 h is wherever its phase
+    stands, so its contribution is its peak over the 3 hours (2R∇/g off, checked above)."""
+    runs = three_hour_runs
+    assert runs["gyro", False]["radial_error_m"] > 5000.0  # the drift's error did grow
+    assert runs["gyro", True]["radial_error_m"] < runs["gyro", False]["radial_error_m"] / 10.0
+    assert runs["accel", False]["max_radial_error_m"] == pytest.approx(2.0 * R_M * NABLA / G, rel=0.05)
+    assert runs["accel", True]["max_radial_error_m"] < runs["accel", False]["max_radial_error_m"] / 10.0
 
 
-def test_rotation_leaves_the_vertical_gyro_error_alone(vertical_runs):
+def test_rotation_leaves_the_vertical_gyro_error_alone(three_hour_runs):
     """A vertical drift turns the azimuth reference, which rotation about the vertical
-    cannot modulate: its position error with rotation on is within 10 % of rotation off."""
-    off, on = vertical_runs[False]["radial_error_m"], vertical_runs[True]["radial_error_m"]
+    cannot modulate: its position error at 3 h with rotation on is within 10 % of rotation off."""
+    off, on = three_hour_runs["vertical", False]["radial_error_m"], three_hour_runs["vertical", True]["radial_error_m"]
     assert off > 50.0
     assert on == pytest.approx(off, rel=0.10)
