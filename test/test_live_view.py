@@ -316,19 +316,27 @@ def test_second_live_view_on_a_port_refused_before_anything_starts(tmp_path, ros
 
 
 def test_bench_live_connects_a_client_and_finds_the_same_data(ros_domain_env):
-    """``gimbal-bench live`` on a short run: its client connects and receives, both bags hold
-    the same data, and it prints the steps/s and the runs' CPU seconds of both runs."""
+    """``gimbal-bench live`` on short runs, two pairs (plain first, then live first): in each
+    its client connects and receives, both bags hold the same data, and it prints the steps/s
+    and the runs' CPU seconds of both runs; the median of two pairs is their mean."""
     port = _free_port()
     done = subprocess.run([str(VENV_BIN / "gimbal-bench"), "live", "--scenario", "sim_open_loop", "--duration", "0.5",
-                           "--port", str(port)], env=ros_domain_env, capture_output=True, text=True, timeout=300)
+                           "--port", str(port), "--pairs", "2", "--mode", "container"], env=ros_domain_env, capture_output=True, text=True,
+                          timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     out = done.stdout
-    assert re.search(r"steps/s without --live\s+[\d,]+\n", out) and re.search(r"slowdown [+-][\d.]+%", out), out
-    cpu = re.search(r"CPU s of the run's processes\s+([\d.]+) without, ([\d.]+) with", out)
-    assert cpu and float(cpu.group(1)) > 0.0 and float(cpu.group(2)) > 0.0, out
-    received = re.search(r"client: connected, (\d+) messages received", out)
-    assert received and int(received.group(1)) > 0, out
-    assert "bags: same data" in out
+    rows = re.findall(r"^  (\d) +(plain, live|live, plain) +([\d,]+) +([\d,]+) +([+-][\d.]+)% +([\d.]+) +([\d.]+) "
+                      r"+([+-][\d.]+)% +(\d+) +[\d.]+  same data", out, re.MULTILINE)
+    assert [(r[0], r[1]) for r in rows] == [("1", "plain, live"), ("2", "live, plain")], out
+    slowdowns = []
+    for row in rows:
+        plain, live = (float(v.replace(",", "")) for v in row[2:4])
+        assert plain > 0 and live > 0 and float(row[5]) > 0 and float(row[6]) > 0 and int(row[8]) > 0, out
+        assert float(row[4]) == pytest.approx(100 * (plain / live - 1), abs=0.1 + 100 * 0.5 / live)
+        slowdowns.append(float(row[4]))
+    median = re.search(r"median slowdown ([+-][\d.]+)% \(target <= \+10%\)", out)
+    assert median and float(median.group(1)) == pytest.approx(sum(slowdowns) / 2, abs=0.11), out
+    assert "client: connected in 2 of 2 pairs" in out and "bags: same data in 2 of 2 pairs" in out
 
 
 def test_front_renames_only_the_legacy_offer():
