@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import select
 import shutil
 import socket
 import subprocess
@@ -75,6 +76,24 @@ def _client(script: Path, port: int, subprotocol: bytes, count: int, topics=TOPI
     return lines[1:]
 
 
+def _client_killed_mid_stream(script: Path, port: int) -> None:
+    """A client that subscribes, gets messages and is killed (SIGKILL: no WebSocket close, the
+    kernel resets its connection while the server is still sending)."""
+    proc = subprocess.Popen(["node", str(script), f"ws://127.0.0.1:{port}", SDK_SUBPROTOCOL.decode(), "1000000",
+                             *TOPICS], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    try:
+        deadline = time.monotonic() + 60.0
+        while len(lines) < 3 and time.monotonic() < deadline and proc.poll() is None:
+            if select.select([proc.stdout], [], [], 1.0)[0]:
+                lines.append(proc.stdout.readline())
+    finally:
+        proc.kill()
+        proc.wait()
+    assert len(lines) == 3 and json.loads(lines[0]) == {"open": SDK_SUBPROTOCOL.decode()}, lines
+    assert json.loads(lines[2])["topic"] in TOPICS  # killed while messages were flowing
+
+
 def _stamp_ns(msg: dict) -> int:
     return int(msg["header"]["stamp"]["sec"]) * 1_000_000_000 + int(msg["header"]["stamp"]["nanosec"])
 
@@ -85,17 +104,29 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
            "--no-progress", "--live", "--live-port", str(port)]
     run = subprocess.Popen([*cmd, "--out", str(tmp_path / "run")], env=ros_domain_env,
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    second = None
     try:
         _wait_listening(port, run)
-        # a client disconnecting mid-run, then another connecting: both served, the run goes on
+        # a second run asking for the port this live view holds: refused before it starts anything
+        second = subprocess.Popen([str(VENV_BIN / "gimbal-run"), "gyro_at_rest", "--duration", "1", "--live",
+                                   "--live-port", str(port), "--out", str(tmp_path / "second")],
+                                  env=ros_domain_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        # a client killed mid-stream (no close handshake), one disconnecting cleanly, then another
+        # connecting: the last two served, the run goes on
+        _client_killed_mid_stream(node_client, port)
         received = _client(node_client, port, LEGACY_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS))
         received += _client(node_client, port, SDK_SUBPROTOCOL, 5, (*TOPICS, FRAMES, LOS, DRIFT, BOUNDS))
+        second_out, second_err = second.communicate(timeout=120)
         output, _ = run.communicate(timeout=240)
     finally:
-        if run.poll() is None:
-            run.kill()
-            run.wait()
+        for proc in (run, second):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait()
     assert run.returncode == 0, output
+    assert second.returncode == 2, second_out + second_err
+    assert f"port {port}" in second_err and "Traceback" not in second_err + second_out, second_err
+    assert not (tmp_path / "second").exists()
     frames = [m for m in received if m["topic"] == FRAMES]
     los = [m for m in received if m["topic"] == LOS]
     derived = [m for m in received if m["topic"] in (DRIFT, BOUNDS)]
@@ -285,19 +316,27 @@ def test_second_live_view_on_a_port_refused_before_anything_starts(tmp_path, ros
 
 
 def test_bench_live_connects_a_client_and_finds_the_same_data(ros_domain_env):
-    """``gimbal-bench live`` on a short run: its client connects and receives, both bags hold
-    the same data, and it prints the steps/s and the runs' CPU seconds of both runs."""
+    """``gimbal-bench live`` on short runs, two pairs (plain first, then live first): in each
+    its client connects and receives, both bags hold the same data, and it prints the steps/s
+    and the runs' CPU seconds of both runs; the median of two pairs is their mean."""
     port = _free_port()
     done = subprocess.run([str(VENV_BIN / "gimbal-bench"), "live", "--scenario", "sim_open_loop", "--duration", "0.5",
-                           "--port", str(port)], env=ros_domain_env, capture_output=True, text=True, timeout=300)
+                           "--port", str(port), "--pairs", "2", "--mode", "container"], env=ros_domain_env, capture_output=True, text=True,
+                          timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     out = done.stdout
-    assert re.search(r"steps/s without --live\s+[\d,]+\n", out) and re.search(r"slowdown [+-][\d.]+%", out), out
-    cpu = re.search(r"CPU s of the run's processes\s+([\d.]+) without, ([\d.]+) with", out)
-    assert cpu and float(cpu.group(1)) > 0.0 and float(cpu.group(2)) > 0.0, out
-    received = re.search(r"client: connected, (\d+) messages received", out)
-    assert received and int(received.group(1)) > 0, out
-    assert "bags: same data" in out
+    rows = re.findall(r"^  (\d) +(plain, live|live, plain) +([\d,]+) +([\d,]+) +([+-][\d.]+)% +([\d.]+) +([\d.]+) "
+                      r"+([+-][\d.]+)% +(\d+) +[\d.]+  same data", out, re.MULTILINE)
+    assert [(r[0], r[1]) for r in rows] == [("1", "plain, live"), ("2", "live, plain")], out
+    slowdowns = []
+    for row in rows:
+        plain, live = (float(v.replace(",", "")) for v in row[2:4])
+        assert plain > 0 and live > 0 and float(row[5]) > 0 and float(row[6]) > 0 and int(row[8]) > 0, out
+        assert float(row[4]) == pytest.approx(100 * (plain / live - 1), abs=0.1 + 100 * 0.5 / live)
+        slowdowns.append(float(row[4]))
+    median = re.search(r"median slowdown ([+-][\d.]+)% \(target <= \+10%\)", out)
+    assert median and float(median.group(1)) == pytest.approx(sum(slowdowns) / 2, abs=0.11), out
+    assert "client: connected in 2 of 2 pairs" in out and "bags: same data in 2 of 2 pairs" in out
 
 
 def test_front_renames_only_the_legacy_offer():

@@ -128,7 +128,20 @@ def test_campaign_page_embeds_its_plots_and_every_link_resolves(tmp_path):
     assert len(images) == len(list((out / "report").glob("*.png"))) > 0
     assert all(base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC) for src in images)
     hrefs = [a["href"] for tag, a in tags if tag == "a"]
+    runs = sorted((out / "runs").glob("*/result.json"))
+    assert len(runs) == 4 and len(hrefs) == len(runs), hrefs  # 2 seeds x 2 variants, each run's page linked
     assert all((page.parent / h).is_file() for h in hrefs), hrefs
+    for href in hrefs:  # each run's page: back to the campaign, and paper 1's figure of its variant
+        run_page = (page.parent / href).resolve()
+        variant = json.loads((run_page.parent.parent / "result.json").read_text())["variant"]
+        run_hrefs = [a["href"] for tag, a in _tags(run_page) if tag == "a"]
+        assert run_hrefs == ["../../../report/index.html"], run_hrefs
+        assert (run_page.parent / run_hrefs[0]).resolve() == page.resolve()
+        run_text = run_page.read_text(encoding="utf-8")
+        fig = PAPER1_DRIFT[variant == "ekf_on"]
+        assert re.search(rf"<td>sighting\.final_drift_deg\.azimuth</td>.*?<td>{re.escape(fig)}</td>", run_text)
+        assert f"--engine core --seeds {json.loads((run_page.parent.parent / 'run.json').read_text())['seed']}" \
+            in run_text and "gimbal-report" not in run_text  # no bag: the core engine reproduces it
     text = page.read_text(encoding="utf-8")
     assert not re.search(r"https?://", text)
     assert "scenario: sighting_land_vehicle" in text and f"gimbal-report {out}" in text
@@ -159,6 +172,29 @@ def test_paper1_drift_is_the_figure_of_the_runs_feedback(tmp_path):
     # another report's drift is not paper 1's
     other = builtin_scenarios()["sighting_geo_pointing"]
     assert comparison_paper_lookup(other)("cases.ekf_off.final_drift_deg.azimuth") is None
+
+
+def test_papers_4_and_5_figures_beside_their_metrics():
+    """Paper 4, after eq. 38: about 0.63 of the fixes inside the FDOP x sigma circle for a
+    circular error (paper4_free_gyro_positioning_errors.txt l. 655-657); paper 5, abstract and
+    conclusion: an accuracy of 20 arcsec (paper5_ship_flexure_lgu_attitude_matching.txt l. 8-9,
+    501). docs/spec.md §3.4 and §3.5 state both."""
+    spec_text = (Path(__file__).resolve().parents[1] / "docs" / "spec.md").read_text(encoding="utf-8")
+    assert "about 63 % of fixes lie inside the FDOP × σ circle" in spec_text
+    assert "full-scale accuracy 20″" in spec_text
+    assert "0.63 of fixes" in paper_figure("predicted.inside_fdop_circle")
+    assert "paper 4" in paper_figure("predicted.inside_fdop_circle")
+    for name in ("estimators.flexure_random_walk.total_rms_arcsec", "total_rms_arcsec.1", "qs_rms_arcsec"):
+        assert "20 arcsec" in paper_figure(name) and "paper 5" in paper_figure(name), name
+    # the filter's claimed σ, the true flexure's variation and other papers' RMS are not paper 5's accuracy
+    for name in ("total_sigma_rms_arcsec", "qs_variation_rms_arcsec", "control_rms_arcsec", "innovation_rms_arcsec"):
+        assert paper_figure(name) is None, name
+    text = metrics_section({"predicted": {"inside_fdop_circle": 0.61}, "total_rms_arcsec": [12.0, 15.0, 9.0]},
+                           paper_figure)
+    rows = re.findall(r"<tr>(.*?)</tr>", text)
+    assert rows[0].endswith("<th>paper</th>")
+    assert any(r.startswith("<td>predicted.inside_fdop_circle</td>") and "paper 4" in r for r in rows)
+    assert any(r.startswith("<td>total_rms_arcsec</td>") and "<td>arcsec</td>" in r and "paper 5" in r for r in rows)
 
 
 def test_metrics_table_has_units_and_the_papers_figure_where_a_report_states_one():

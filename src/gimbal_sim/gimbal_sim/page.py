@@ -175,26 +175,52 @@ def _run_links(bag_dir: Path, report_dir: Path) -> list[str]:
     return links
 
 
-def _run_command(bag_dir: Path) -> list[list[str]]:
+def _run_facts(bag_dir: Path) -> str:
+    """What ``run.json`` says of a run with no scenario.yaml (an experiment runner's run)."""
+    path = bag_dir / "run.json"
+    if not path.is_file():
+        return ""
+    run = json.loads(path.read_text())
+    rows = [[html.escape(k), html.escape(json.dumps(v, default=str) if isinstance(v, (dict, list)) else _number(v))]
+            for k, v in run.items()]
+    return _table(["run", "value"], rows)
+
+
+def _run_command(bag_dir: Path) -> tuple[str, list[list[str]]]:
+    """(what the commands do, the commands) that reproduce the run in ``bag_dir``."""
     run = json.loads((bag_dir / "run.json").read_text()) if (bag_dir / "run.json").is_file() else {}
+    spec = bag_dir / "scenario.yaml"
+    has_bag = (bag_dir / "metadata.yaml").is_file() or any(bag_dir.glob("*.mcap"))
+    if run.get("engine") == "core":  # no bag: the core engine again, the same seed
+        if not spec.is_file():
+            return (f"One seeded run of the experiment <code>{html.escape(str(run.get('experiment', '')))}"
+                    "</code> (its runner's own loop, no bag): the runner, given the seed and the options above, "
+                    "runs it again (docs/campaigns.md lists the runners and their options).", [])
+        return "Run the same scenario again on the core engine (same seed, same numbers):", [
+            ["gimbal-campaign", str(spec), "--engine", "core", "--seeds", str(run.get("seed", 0)), "--serial",
+             "--out", "NEW_DIR"]]
     extra = (["--mode", run["mode"]] if run.get("mode") == "container" else []) + \
         (["--no-compress"] if run.get("compressed") is False else [])
-    lines = [["gimbal-report", str(bag_dir)]]
-    if (bag_dir / "scenario.yaml").is_file():
-        lines.insert(0, ["gimbal-run", str(bag_dir / "scenario.yaml"), "--out", "NEW_DIR", *extra])
-    return lines
+    lines = [["gimbal-report", str(bag_dir)]] if has_bag else []
+    if spec.is_file():
+        lines.insert(0, ["gimbal-run", str(spec), "--out", "NEW_DIR", *extra])
+    return ("Run the same scenario again (same seed, same data)"
+            + (", or rewrite this report from the bag:" if has_bag else ":")), lines
 
 
 def write_run_page(bag_dir: Path, report_dir: Path, metrics: dict[str, Any], paper: PaperLookup | None = None) -> Path:
-    """``report_dir/index.html`` of the run recorded in ``bag_dir``."""
+    """``report_dir/index.html`` of the run recorded in ``bag_dir`` (or run there by the
+    core engine: no bag, its ``run.json`` says how it ran)."""
     bag_dir = Path(bag_dir).resolve()
     name = metrics.get("report", "generic")
+    spec = bag_dir / "scenario.yaml"
+    what, commands = _run_command(bag_dir)
     return _render(report_dir, f"Run {bag_dir.name} ({name} report)", [
-        ("Scenario", scenario_section(bag_dir / "scenario.yaml")),
+        ("Scenario", scenario_section(spec) if spec.is_file() or not (bag_dir / "run.json").is_file()
+         else _run_facts(bag_dir)),
         ("Metrics", metrics_section(metrics, paper)),
         ("Plots", plots_section(Path(report_dir), metrics.get("plots", []))),
-        ("Reproduce", "<p>Run the same scenario again (same seed, same data), or rewrite this report "
-                      "from the bag:</p>" + _commands(_run_command(bag_dir))),
+        ("Reproduce", f"<p>{what}</p>" + (_commands(commands) if commands else "")),
     ], _run_links(bag_dir, Path(report_dir)))
 
 

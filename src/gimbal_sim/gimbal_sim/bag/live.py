@@ -20,6 +20,7 @@ from __future__ import annotations
 import re
 import socket
 import threading
+from typing import Callable
 
 from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
 from .live_plots import SCHEMAS as PLOT_SCHEMAS, SOURCE_TOPICS as PLOT_SOURCES, LivePlots
@@ -141,6 +142,10 @@ class SubprotocolFront:
 
     def close(self) -> None:
         self._closed = True
+        try:  # wakes the accept() blocked in its thread; a close alone leaves the port listening
+            self._listener.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
         self._listener.close()
 
 
@@ -177,6 +182,12 @@ class LiveRelay:
                                         *((t, n, s) for t, (n, s) in PLOT_SCHEMAS.items())))
         self._plots = dict(zip(PLOT_SCHEMAS, plots))
 
+    @property
+    def context(self) -> object:
+        """The SDK context every channel logs into: a sink added to it (e.g. ``foxglove.open_mcap``)
+        gets what a connected client would."""
+        return self._context
+
     def add_topic(self, topic: str, type_name: str) -> None:
         schema = self._foxglove.Schema(name=type_name, encoding="ros2msg",
                                        data=ros2msg_schema(type_name).encode())
@@ -209,3 +220,45 @@ class LiveRelay:
     def close(self) -> None:
         self.front.close()
         self._server.stop()
+
+
+class LiveGuard:
+    """The live view as the recorder (or the player) calls it: a failure in it never stops
+    the run. The first exception a call raises is logged once, with the error, through
+    ``log`` (the node's logger), and turns the live view off: its server is closed and
+    later calls do nothing. What is recorded never depended on it."""
+
+    def __init__(self, relay: LiveRelay, log: Callable[[str], None]) -> None:
+        self.relay: LiveRelay | None = relay
+        self.port = relay.port
+        self._log = log
+
+    @property
+    def on(self) -> bool:
+        return self.relay is not None
+
+    def add_topic(self, topic: str, type_name: str) -> None:
+        if self.relay is not None:
+            self._guarded(self.relay.add_topic, topic, type_name)
+
+    def publish(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        if self.relay is not None:
+            self._guarded(self.relay.publish, topic, data, stamp_ns)
+
+    def _guarded(self, call: Callable[..., None], topic: str, *args: object) -> None:
+        try:
+            call(topic, *args)
+        except Exception as exc:  # noqa: BLE001 - any failure of the live view: off, the run goes on
+            relay, self.relay = self.relay, None
+            closing = ""
+            try:
+                relay.close()
+            except Exception as close_exc:  # noqa: BLE001
+                closing = f"; closing it failed too: {type(close_exc).__name__}: {close_exc}"
+            self._log(f"live view turned off on port {self.port} after an error on {topic}: "
+                      f"{type(exc).__name__}: {exc}{closing}; the run and its recording go on")
+
+    def close(self) -> None:
+        relay, self.relay = self.relay, None
+        if relay is not None:
+            relay.close()

@@ -44,7 +44,7 @@ from gimbal_kinematics.ros.qos import GRAPH_QOS
 
 from .qos_yaml import qos_from_dict
 from .reader import BagContents, BagError, RawMessage, read_messages
-from .live import LivePortError, LiveRelay
+from .live import LiveGuard, LivePortError, LiveRelay
 from .live_scene import scene_config
 from .schemas import message_class
 
@@ -235,7 +235,7 @@ class BagPlayer(Node):
         self.retries = 0
         self.clocks = 0
 
-    def _start_live(self, contents: BagContents, scenario_file: Path) -> LiveRelay | None:
+    def _start_live(self, contents: BagContents, scenario_file: Path) -> LiveGuard | None:
         if not self.options.live_port:
             return None
         try:
@@ -246,7 +246,7 @@ class BagPlayer(Node):
         for topic in self.pubs:
             live.add_topic(self.options.remap.get(topic, topic), contents.topics[topic].type_name)
         self.get_logger().info(f"live view on ws://127.0.0.1:{live.port}")
-        return live
+        return LiveGuard(live, self.get_logger().error)  # an error in it: logged once, off; playing goes on
 
     def _on_progress(self, topic: str, msg: Clock) -> None:
         # Any report means "connected, send me the bag": "ready" is step 0, which is epoch 0 for a

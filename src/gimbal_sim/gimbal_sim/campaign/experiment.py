@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from ..page import write_run_page
 from .results import CampaignResult, read_results
 from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, RunTask, plan, run_id
 
@@ -123,13 +124,15 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
 def run_experiment_task(exp: ExperimentCampaign, task: RunTask, run_dir: Path) -> dict[str, Any]:
     """The campaign engine's run function for ``engine: core`` runs of ``exp`` (picklable as
     ``functools.partial(run_experiment_task, exp)``): the runner's loop for the task's
-    variant, seed and options; writes ``report/metrics.json`` and ``run.json`` into
-    ``run_dir``."""
+    variant, seed and options; writes ``report/metrics.json``, ``run.json`` and the run's
+    page ``report/index.html`` into ``run_dir`` (the campaign report rewrites the page with
+    the paper's figures and the link to the campaign, once the run is in its place)."""
     metrics = exp.run(task.variant, task.seed, dict(task.options))
     (run_dir / "report").mkdir(parents=True, exist_ok=True)
     (run_dir / "report" / "metrics.json").write_text(json.dumps(metrics, indent=1, default=float) + "\n")
     (run_dir / "run.json").write_text(json.dumps({"experiment": exp.name, "engine": "core", "variant": task.variant,
                                                   "seed": task.seed, "options": task.options}, default=repr) + "\n")
+    write_run_page(run_dir, run_dir / "report", metrics)
     return metrics
 
 

@@ -31,7 +31,7 @@ import numpy as np
 import yaml
 
 from ..figures import pyplot, save
-from ..page import write_campaign_page
+from ..page import write_campaign_page, write_run_page
 from .results import RESULT_FILE, flatten_metrics, read_results, write_results
 
 #: Leaf name of a report's time-averaged NEES -> its degrees of freedom (the report that writes it).
@@ -270,8 +270,21 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
         summary["table"] = f"{own}\n\n{summary['table']}"
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
+    _write_run_pages(campaign_dir, rows, paper)
     write_campaign_page(campaign_dir, out, summary, partial(paper, campaign_dir) if paper else None)
     return out, summary
+
+
+def _write_run_pages(campaign_dir: Path, rows: list[dict[str, Any]],
+                     paper: Callable[[Path, str | None, str], str | None] | None) -> None:
+    """Each run's page, rewritten where the run now is (a run is written in an attempt
+    directory, then moved): its link back to the campaign, the paper's figures of its group."""
+    for row in rows:
+        run_dir = campaign_dir.resolve() / "runs" / str(row["run_id"])
+        metrics = run_dir / "report" / "metrics.json"
+        if row.get("status") == "ok" and metrics.is_file():
+            write_run_page(run_dir, metrics.parent, json.loads(metrics.read_text()),
+                           partial(paper, campaign_dir.resolve(), row.get("variant") or None) if paper else None)
 
 
 def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = None,

@@ -30,7 +30,7 @@ from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS
 from ..bag.schemas import message_class, msg_text, split_type
 from ..bag.writer import BagWriter
-from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LivePortError, LiveRelay, parse_topic_rates
+from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LiveGuard, LivePortError, LiveRelay, parse_topic_rates
 from ..bag.live_scene import scene_config
 
 _STAMP = struct.Struct("<iI")
@@ -87,7 +87,7 @@ class BagRecorderNode(Node):
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
         self._discovery = self.create_timer(0.05, self._discover)
 
-    def _start_live(self, values: dict) -> LiveRelay | None:
+    def _start_live(self, values: dict) -> LiveGuard | None:
         if not values["live_port"]:
             return None
         try:
@@ -101,14 +101,15 @@ class BagRecorderNode(Node):
         except LivePortError as exc:
             raise ParameterError(f"parameter 'live_port': {exc}") from exc
         self.get_logger().info(f"live view on ws://{values['live_host']}:{live.port}")
-        return live
+        # an error in the live view logs once and turns it off; the recording goes on
+        return LiveGuard(live, self.get_logger().error)
 
     # --- discovery (wall timer: graph polling, not stepping) -----------------------------
     def _candidate_topics(self) -> dict[str, str]:
         types = {name: types[0] for name, types in self.get_topic_names_and_types() if types}
         if self.wanted:
             # and the live view's sources this run publishes: relayed, not recorded (_subscribe)
-            extra = [t for t in LIVE_SOURCES if self.live is not None and t not in self.wanted
+            extra = [t for t in LIVE_SOURCES if self.live is not None and self.live.on and t not in self.wanted
                      and self.count_publishers(t) > 0]
             return {t: types[t] for t in [*self.wanted, *extra] if t in types}
         # a topic only subscribed to (e.g. an estimate nobody publishes in this run) has nothing to record
@@ -141,6 +142,8 @@ class BagRecorderNode(Node):
         offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
         self._stamped[topic] = stamp_first(type_name)
         if self.wanted and topic not in self.wanted:
+            if self.live is None:
+                return
             self.live.add_topic(topic, type_name)
             self.live_subs[topic] = self.create_subscription(
                 message_class(type_name), topic, lambda data, t=topic: self._relay_only(t, data),

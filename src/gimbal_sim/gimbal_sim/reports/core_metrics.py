@@ -20,8 +20,10 @@ import numpy as np
 from gimbal_kinematics.stamps import step_stamp_ns
 from ..core.core_loop import run_core_loop
 from ..graph.scenario import Scenario
+from ..page import write_run_page
 from .common import vehicle_site
 from .operator import operator_figures, operator_tolerance
+from .paper import run_paper_lookup
 from .sighting import SightingSeries, sighting_figures
 
 
@@ -97,7 +99,8 @@ COLLECTORS: dict[str, Callable[[Scenario], Any]] = {"sighting": SightingCollecto
 
 def run_core(scenario: Scenario, run_dir: Path) -> dict[str, Any]:
     """Run ``scenario``'s cores into ``run_dir`` (created; must not exist): writes
-    ``scenario.yaml``, ``run.json`` and ``report/metrics.json``; returns the metrics."""
+    ``scenario.yaml``, ``run.json``, ``report/metrics.json`` and the run's page
+    ``report/index.html``; returns the metrics."""
     run_dir = Path(run_dir)
     (run_dir / "report").mkdir(parents=True)
     (run_dir / "scenario.yaml").write_text(scenario.to_yaml())
@@ -113,4 +116,5 @@ def run_core(scenario: Scenario, run_dir: Path) -> dict[str, Any]:
     (run_dir / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "engine": "core", "seed": scenario.seed, "sim_s": result.sim_s,
         "wall_s": time.perf_counter() - t0, "cpu_s": result.cpu_s}, indent=2) + "\n")
+    write_run_page(run_dir, run_dir / "report", metrics, run_paper_lookup(run_dir / "scenario.yaml"))
     return metrics

@@ -22,6 +22,10 @@ from .alignment import LIMITS as ALIGNMENT_LIMITS
 from .encoder_fusion import PAPER_IMPROVEMENT
 from .platform_servo import LIMITS_ARCSEC as SERVO_LIMITS_ARCSEC
 
+#: Paper 4: the probability of a fix inside the FDOP x sigma circle for a circular error (1 - 1/e).
+PAPER4_INSIDE_FDOP = 0.63
+#: Paper 5: the flexure measurement accuracy in full-scale experiments on ships [arcsec].
+PAPER5_ACCURACY_ARCSEC = 20.0
 #: Metric-name pattern -> the paper's figure, whatever the run.
 PAPER_FIGURES = (
     (r"(^|\.)fusion_improvement$", f"≥ {PAPER_IMPROVEMENT:g}× (paper 2)"),
@@ -30,6 +34,12 @@ PAPER_FIGURES = (
     (r"(^|\.)north_drift_error_deg_h$", f"|·| ≤ {ALIGNMENT_LIMITS['north_drift_deg_h']:g} deg/h (paper 3 Table 2)"),
     *((rf"control_error_arcsec\.(sensed|truth_drift_removed)\.{kind}\.max$",
        f"< {paper:g} arcsec (paper 3 §4.1)") for kind, (paper, _) in SERVO_LIMITS_ARCSEC.items()),
+    # paper 4, after eq. 38: "If ... two-dimensional error distribution is close to being circular,
+    # the probability is about 0.63" (1 - 1/e) that a fix lies inside the FDOP x sigma circle
+    (r"(^|\.)inside_fdop_circle$", f"≈ {PAPER4_INSIDE_FDOP:g} of fixes, circular error (paper 4 after eq. 38)"),
+    # paper 5, abstract and conclusion: "the proposed method can reach an accuracy of 20″"
+    # (full-scale trials on ships): the flexure's error, total and quasi-static, per axis
+    (r"(^|\.)(total|qs)_rms_arcsec(\.\d+)?$", f"≈ {PAPER5_ACCURACY_ARCSEC:g} arcsec, ship trials (paper 5 abstract)"),
 )
 #: Paper 1's LOS drift at the end of a 120 s run, without and with the bias feedback.
 PAPER1_DRIFT = {False: "|·| 3–4 deg in 120 s (paper 1 Fig. 4, biases not estimated)",

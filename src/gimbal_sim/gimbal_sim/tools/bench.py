@@ -20,7 +20,8 @@ recorded the same data and that (a) computed the same torque commands, and, with
 ``record``: the recorder's throughput, CPU share and bag size on a scenario run (processes
 mode), with zstd-compressed chunks and without.
 ``compare A B``: do two bags hold the same data (:mod:`..bag.compare`)?
-``live``: steps/s without and with ``--live`` and one client, same data (:mod:`.live_speed`).
+``live``: steps/s without and with ``--live`` and one client over alternating pairs of runs,
+their median, same data (:mod:`.live_speed`).
 """
 from __future__ import annotations
 
@@ -51,7 +52,7 @@ from ..experiments.flexure_methods import QS_MODELS, method_table, run_method_st
 from ..graph.orchestrator import run
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load, variant
-from .live_speed import measure_live
+from .live_speed import live_report, measure_live
 from .deliveries import DELIVERY_STEPS, deliveries_row
 from .replay_speed import measure
 
@@ -478,23 +479,16 @@ def bench_flexure(args: argparse.Namespace) -> int:
 
 
 def bench_live(args: argparse.Namespace) -> int:
+    if args.pairs < 1:
+        print(f"gimbal-bench live: --pairs must be >= 1, got {args.pairs}", file=sys.stderr)
+        return 2
     scenario = load(args.scenario or HEADLINE)
     if scenario.variants:
         scenario = variant(scenario, args.variant or list(scenario.variants)[-1])
     scenario = dataclasses.replace(scenario, duration_s=args.duration)
     with tempfile.TemporaryDirectory(prefix="gimbal-bench-live-") as work:
-        r = measure_live(scenario, Path(work), args.port, args.mode)
-    slowdown = r["steps_per_s_plain"] / r["steps_per_s_live"] - 1.0
-    print(f"{scenario.name}, {args.duration:g} s, {args.mode} mode (load {os.getloadavg()[0]:.2f}):")
-    print(f"  steps/s without --live           {r['steps_per_s_plain']:,.0f}")
-    print(f"  steps/s with --live and 1 client {r['steps_per_s_live']:,.0f}  (slowdown {slowdown:+.1%}, "
-          f"target <= +10%)")
-    print(f"  CPU s of the run's processes     {r['cpu_s_plain']:.2f} without, {r['cpu_s_live']:.2f} with "
-          f"({r['cpu_s_live'] / r['cpu_s_plain'] - 1.0:+.1%})")
-    print(f"  client: {'connected' if r['client_connected'] else 'NOT connected'}, "
-          f"{r['client_messages']} messages received")
-    print(f"  bags: {'same data' if r['same_data'] else 'DIFFERENT data'}"
-          f"{' (byte-identical)' if r['byte_identical'] else ''}")
+        r = measure_live(scenario, Path(work), args.port, args.mode, args.pairs)
+    print(live_report(f"{scenario.name}, {args.duration:g} s, {args.mode} mode", r))
     return 0 if r["same_data"] and r["client_connected"] else 1
 
 
@@ -550,6 +544,9 @@ def main(argv: list[str] | None = None) -> int:
     live.add_argument("--variant", help="variant (default its last)")
     live.add_argument("--duration", type=float, default=10.0, help="simulated seconds (default 10)")
     live.add_argument("--port", type=int, default=8765, help="live view port (default 8765)")
+    live.add_argument("--pairs", type=int, default=3,
+                      help="pairs of runs, without and with, the order alternating (default 3); "
+                           "each pair is printed, and the median slowdown")
     live.add_argument("--mode", choices=("processes", "container"), default="processes",
                       help="how the nodes run (default processes: the client's work is not the run's)")
     live.set_defaults(func=bench_live)
