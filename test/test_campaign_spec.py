@@ -11,11 +11,12 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 from scipy.stats import qmc
 
 from gimbal_sim.campaign_cli import main as campaign_main
-from gimbal_sim.campaign.spec import (CampaignError, CampaignSpec, parse_seeds, parse_sweep, plan,
-                                                  run_id, spec_from_mapping)
+from gimbal_sim.campaign.spec import (CampaignError, CampaignSpec, load_spec_file, parse_seeds, parse_sweep,
+                                      plan, run_id, spec_from_mapping)
 from gimbal_sim.graph.scenario import load, variant
 
 
@@ -155,3 +156,16 @@ def test_cli_refuses_an_unreachable_scheduler_within_10_s(tmp_path):
     assert result.returncode == 2, result.stderr
     assert f"--scheduler tcp://127.0.0.1:{port}: unreachable" in result.stderr
     assert not (tmp_path / "c").exists()
+
+
+@pytest.mark.parametrize("spec", [
+    CampaignSpec(scenario="sim_open_loop", seeds=(1, 2), variants=("a",), duration_s=2.0, engine="core"),
+    CampaignSpec(scenario="", experiment="rotational_ins_navigation", seeds=(3, 4, 5), variants=("rotation_on",),
+                 engine="core", options=(("duration_s", 60.0),)),
+])
+def test_a_campaign_directorys_record_is_the_campaign_it_asked_for(spec, tmp_path):
+    """The campaign page's reproduce command hands gimbal-campaign the directory's own
+    campaign.yaml (the engine's record around the spec): it reads back as the same campaign."""
+    record = tmp_path / "campaign.yaml"
+    record.write_text(yaml.safe_dump({"campaign": spec.to_dict(), "fingerprint": "f", "runs": 2}, sort_keys=False))
+    assert load_spec_file(record) == spec

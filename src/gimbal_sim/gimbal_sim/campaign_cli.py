@@ -32,7 +32,7 @@ from gimbal_kinematics.cli_boundary import cli_boundary, finite, read_text, writ
 
 from .campaign.report import diff_results
 from .campaign.spec import ENGINES, KEEP_BAGS, LARGE_RUNS, MODES, SAMPLINGS, CampaignError, CampaignSpec, \
-    load_spec_file, parse_seeds, spec_from_mapping
+    is_record, load_spec_file, parse_seeds, spec_from_mapping
 from .experiments.registry import EXPERIMENTS, run_campaign
 
 
@@ -78,7 +78,8 @@ def _is_campaign_file(text: str) -> bool:
         data = yaml.safe_load(read_text(path, "campaign file"))
     except yaml.YAMLError:
         return False
-    return isinstance(data, dict) and "scenario" in data and "nodes" not in data
+    return is_record(data) or (isinstance(data, dict) and ("scenario" in data or "experiment" in data)
+                               and "nodes" not in data)
 
 
 def _assignments(items: list[str] | None, option: str) -> dict[str, str]:

@@ -41,7 +41,7 @@ import itertools
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -230,10 +230,39 @@ def parse_sweep(target: str, spec: Any, sampling: str = "grid") -> Sweep:
     return Sweep(target, values=tuple(values), text=text)
 
 
+#: an experiment runner's campaign as YAML (``CampaignSpec.to_dict``); duration_s joins the options
+_EXPERIMENT_KEYS = {"experiment", "variants", "seeds", "options", "duration_s", "mode", "engine", "keep_bags",
+                    "timeout_s", "compress"}
+#: what a campaign directory's own ``campaign.yaml`` holds around the campaign it asked for
+RECORD_KEYS = {"campaign", "fingerprint", "runs"}
+
+
+def is_record(data: Any) -> bool:
+    """Is ``data`` a campaign directory's record (``campaign.yaml``) rather than a campaign?"""
+    return isinstance(data, dict) and isinstance(data.get("campaign"), dict) and set(data) <= RECORD_KEYS
+
+
+def _experiment_from_mapping(data: dict[str, Any], where: str) -> CampaignSpec:
+    unknown = set(data) - _EXPERIMENT_KEYS
+    if unknown:
+        raise CampaignError(f"{where}: unknown keys {sorted(unknown)} for an experiment campaign; "
+                            f"allowed: {sorted(_EXPERIMENT_KEYS)}")
+    options = dict(data.get("options") or {})
+    if data.get("duration_s") is not None:
+        options["duration_s"] = data["duration_s"]
+    rest = {k: v for k, v in data.items() if k in ("mode", "engine", "keep_bags", "timeout_s", "compress")}
+    scenario_form = spec_from_mapping({"scenario": "", "variants": data.get("variants") or [],
+                                       "seeds": data.get("seeds", [0]), **rest}, where)
+    return replace(scenario_form, experiment=str(data["experiment"]), options=tuple(sorted(options.items())))
+
+
 def spec_from_mapping(data: Any, where: str = "campaign") -> CampaignSpec:
-    """A :class:`CampaignSpec` from a YAML mapping (module docstring)."""
+    """A :class:`CampaignSpec` from a YAML mapping (module docstring), a scenario's campaign or
+    an experiment runner's (``experiment:``)."""
     if not isinstance(data, dict):
         raise CampaignError(f"{where}: a campaign is a YAML mapping")
+    if "experiment" in data:
+        return _experiment_from_mapping(data, where)
     unknown = set(data) - _KEYS
     if unknown:
         raise CampaignError(f"{where}: unknown keys {sorted(unknown)}; allowed: {sorted(_KEYS)}")
@@ -287,6 +316,8 @@ def load_spec_file(path: Path) -> CampaignSpec:
         data = yaml.safe_load(read_text(path, "campaign file"))
     except yaml.YAMLError as exc:
         raise CampaignError(f"campaign file {path}: not valid YAML: {' '.join(str(exc).split())}") from None
+    if is_record(data):  # a campaign directory's campaign.yaml: the campaign it asked for, run anew
+        data = data["campaign"]
     return spec_from_mapping(data, str(path))
 
 
