@@ -1,5 +1,6 @@
 """The geo_pointer node: bad targets refused at start-up by name, and in lockstep one command
-per INS step equal to its core's, with a NaN target message counted and never used."""
+per INS step equal to its core's, with a NaN target message counted and never used; in free
+timing the vehicle's INS position (NavSatFix) used, and bad fixes counted and never used."""
 from __future__ import annotations
 
 import math
@@ -78,3 +79,103 @@ def test_lockstep_commands_match_the_core_and_a_nan_target_is_counted(ros_domain
         finally:
             executor.remove_node(node)
             node.destroy_node()
+
+
+def test_free_timing_bad_fixes_are_counted_and_never_used(ros_domain_env):
+    """The vehicle's INS position over a plain rclpy publisher; the attitude, INS and encoders
+    handed in serialized (as the raw subscriptions deliver them), so each step is taken in a
+    known order. Each command equals a core's stepped on the good fixes only; a NaN fix, a
+    STATUS_NO_FIX one, one out of order and one stale on arrival are counted in /diagnostics;
+    with no fresh fix the node publishes nothing."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+    from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
+    from gimbal_control.geo_pointer_node import GeoPointerNode
+    from gimbal_control.geo_pointer_params import PARAMS
+    from gimbal_kinematics.params import defaults
+    from gimbal_kinematics.ros import messages as sm
+    from gimbal_kinematics.ros.qos import GRAPH_QOS
+    from ros_harness import ros_args
+
+    params = {"timing": "free", "target_llh_deg": TARGET, "vehicle_llh_deg": VEHICLE, "vehicle_fix_topic": "/ins/fix",
+              "diagnostics_period_s": 0.001}
+    context = Context()
+    rclpy.init(context=context, domain_id=int(ros_domain_env["ROS_DOMAIN_ID"]))
+    node = GeoPointerNode(context=context, cli_args=ros_args(params), use_global_arguments=False)
+    source = Node("fix_source", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+        pub = source.create_publisher(NavSatFix, "/ins/fix", GRAPH_QOS)
+        assert spin_until(executor, lambda: pub.get_subscription_count() > 0, 30.0)
+        sent, diags = [], []
+        node.pub_cmd.publish, node.pub_diag.publish = sent.append, diags.append
+        ref = GeoPointer(GeoPointerParams.from_values(defaults(PARAMS) | {"target_llh_deg": TARGET,
+                                                                          "vehicle_llh_deg": VEHICLE}))
+        fixed_site = GeoPointer(GeoPointerParams.from_values(defaults(PARAMS) | {"target_llh_deg": TARGET,
+                                                                                 "vehicle_llh_deg": VEHICLE}))
+        p1 = (math.radians(39.905), math.radians(32.81), 905.0)  # 1 km from vehicle_llh_deg
+        p2 = (math.radians(39.906), math.radians(32.812), 906.0)
+        q_nm = Rotation.from_euler("ZYX", [1.0, 0.05, 0.0]).as_quat()
+        counts = lambda: (node.counts["fixes_no_fix"], node.counts["fixes_out_of_order"],  # noqa: E731
+                          node.counts["stale_fixes"], node.core.counts["rejected_fixes"])
+
+        def fix(t_ns, llh, status=NavSatStatus.STATUS_FIX):
+            msg = sm.navsat_fix_msg(t_ns, "earth", *llh)
+            msg.status.status = status
+            before = (node._last_ns["fix"], counts())
+            pub.publish(msg)
+            assert spin_until(executor, lambda: (node._last_ns["fix"], counts()) != before, 30.0)
+
+        t0, expected = 10 * 10**9, []
+        for k in range(27):
+            t_ns = t0 + k * 10**7  # 100 Hz
+            node._on_input("enc", sm.joint_state_cdr(t_ns, ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation"),
+                                                     (0.0, 1.0, 0.05), (0.0,) * 3), sm.joint_state_from_cdr)
+            node._on_input("ins", sm.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
+                                             angular_velocity=(0.0, 0.0, 0.0)), sm.imu_from_cdr)
+            position = p1
+            if k == 0:
+                fix(t_ns, p1)
+            elif k == 1:
+                fix(t_ns, (math.nan, p2[1], p2[2]))  # not finite
+            elif k == 2:
+                fix(t_ns, p2, NavSatStatus.STATUS_NO_FIX)
+            elif k == 3:
+                fix(t0, p2)  # the stamp of the fix in use again: out of order
+            elif k == 25:
+                fix(t0 + 2 * 10**7, p2)  # after the last fix, 0.23 s before the newest estimate: stale
+            elif k == 26:
+                fix(t_ns, p2)
+                position = p2
+            node._on_input("att", sm.imu_cdr(t_ns, "map_ned", orientation=q_nm), sm.imu_from_cdr)
+            if k <= 20 or k == 26:  # the fix of k = 0 is 0.21 s old at k = 21: stale, no command
+                assert ref.set_vehicle(position)
+                expected.append((t_ns, *ref.step(q_nm, np.eye(3), 0.0).command))
+        assert counts() == (1, 1, 1, 1)
+        got = [(c.stamp_ns, c.vector[1], c.vector[2]) for c in map(sm.vector3_stamped_from_cdr, sent)]
+        assert [g[0] for g in got] == [e[0] for e in expected]
+        assert np.allclose([g[1:] for g in got], [e[1:] for e in expected], rtol=0.0, atol=1e-12)
+        site = fixed_site.step(q_nm, np.eye(3), 0.0).command  # the fix moved the LOS: not the parameter's site
+        assert abs(got[0][2] - site[1]) > 1e-3
+        values = {kv.key: kv.value for kv in diags[-1].status[0].values}
+        assert (values["fixes_no_fix"], values["fixes_out_of_order"], values["stale_fixes"],
+                values["rejected_fixes"]) == ("1", "1", "1", "1")
+        assert int(values["stale_commands"]) == 5  # k = 21..25
+    finally:
+        executor.shutdown()
+        source.destroy_node()
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+
+
+def test_vehicle_fix_in_lockstep_or_a_velocity_alone_is_refused_at_startup(ros_domain_env):
+    for extra, named in (({"timing": "lockstep", "vehicle_fix_topic": "/ins/fix"}, "vehicle_fix_topic"),
+                         ({"vehicle_velocity_topic": "/ins/velocity"}, "vehicle_velocity_topic")):
+        result = start_refused("geo_pointer", {"target_llh_deg": TARGET, "vehicle_llh_deg": VEHICLE, **extra},
+                               ros_domain_env)
+        assert result.returncode == 2 and named in result.stderr, result.stderr
