@@ -53,16 +53,19 @@ class SightingCollector:
             self.est.append(tuple(float(v) for v in out.bias))
             self.sig.append(tuple(float(v) for v in out.bias_sigma))
 
-    def metrics(self, run_dir: Path) -> dict[str, Any]:
+    def series(self) -> SightingSeries:
+        """The series as a bag gives them (:class:`~.sighting.SightingSeries`)."""
         # log times as a bag reader computes them: ns * 1e-9, one float multiply each
         seconds = lambda ns: np.array([v * 1e-9 for v in ns])  # noqa: E731
         ekf = {}
         if self.te_ns:
             ekf = dict(t_ekf=seconds(self.te_ns), bias_est=np.array(self.est), bias_sigma=np.array(self.sig))
-        series = SightingSeries(seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
-                                np.array(self.bias).reshape(-1, 3), **ekf)
+        return SightingSeries(seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
+                              np.array(self.bias).reshape(-1, 3), **ekf)
+
+    def metrics(self, run_dir: Path) -> dict[str, Any]:
         lat, earth_rate = vehicle_site(run_dir)
-        return {"sighting": sighting_figures(series, lat, earth_rate)}
+        return {"sighting": sighting_figures(self.series(), lat, earth_rate)}
 
 
 class SightingOperatorCollector(SightingCollector):
