@@ -63,13 +63,23 @@ def analyse(bag_dir: Path, acquire_s: float = ACQUIRE_S) -> dict:
         raise BagError("a lever arm needs the true vehicle attitude per sample; not in this report")
     u = los_to_target(site, target).los_n
     err = np.arctan2(np.linalg.norm(np.cross(los, u), axis=1), los @ u)
-    tb, bv = times(budget), vectors(budget)
-    b = bv[:, 0]
-    b95 = np.array([radial_quantile(s1, s2) for s1, s2 in bv[:, 1:]])
+    out = pointing_figures(t, err, times(budget), vectors(budget), acquire_s)
+    if out is None:
+        raise BagError(f"{bag_dir}: the run is shorter than the acquisition time {acquire_s} s")
+    return out
+
+
+def pointing_figures(t: np.ndarray, err: np.ndarray, tb: np.ndarray, budget: np.ndarray,
+                     acquire_s: float = ACQUIRE_S) -> dict | None:
+    """The figures from the true error ``err`` [rad] at times ``t`` [s] and the budgets
+    (``~/budget``: (x, y, z) [rad], (M, 3)) at ``tb``, each error sample against the newest
+    budget, from ``acquire_s`` on (module docstring); None if nothing is left."""
+    b = budget[:, 0]
+    b95 = np.array([radial_quantile(s1, s2) for s1, s2 in budget[:, 1:]])
     idx = np.clip(np.searchsorted(tb, t, side="right") - 1, 0, len(tb) - 1)
     keep = (t - t[0] >= acquire_s) & (t >= tb[0])
     if not keep.any():
-        raise BagError(f"{bag_dir}: the run is shorter than the acquisition time {acquire_s} s")
+        return None
     e = err[keep]
     return {"t": t, "error_rad": err, "budget_t": tb, "budget_rad": b, "acquire_s": acquire_s,
             "error_rms_mrad": float(1e3 * np.sqrt(np.mean(e ** 2))), "error_peak_mrad": float(1e3 * e.max()),
