@@ -55,17 +55,25 @@ def analyse(bag_dir: Path, acquire_s: float = ACQUIRE_S) -> dict:
     budget = series.get(BUDGET_TOPIC, [])
     if not gimbal or not budget:
         raise BagError(f"{bag_dir}: needs /truth/gimbal/imu and {BUDGET_TOPIC}")
-    site, target, lever = _geometry(bag_dir)
-    t = times(gimbal)
-    los = los_from_quat(np.array([[m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w]
-                                  for _, m in gimbal]))
+    quats = np.array([[m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w] for _, m in gimbal])
+    return analyse_series(bag_dir, times(gimbal), quats, times(budget), vectors(budget), acquire_s)
+
+
+def analyse_series(run_dir: Path, t: np.ndarray, quat_nm: np.ndarray, tb: np.ndarray, budget: np.ndarray,
+                   acquire_s: float = ACQUIRE_S) -> dict:
+    """:func:`analyse` on the recorded series: the true C(n,m) quaternions (x, y, z, w) at
+    log times ``t`` [s], the budgets (M, 3) [rad] at ``tb``; the geometry from ``run_dir``'s
+    scenario.yaml. A bag gives them, and so does the core loop
+    (``gimbal_sim.reports.core_metrics``): one computation for both engines."""
+    site, target, lever = _geometry(run_dir)
     if any(lever):
         raise BagError("a lever arm needs the true vehicle attitude per sample; not in this report")
+    los = los_from_quat(quat_nm)
     u = los_to_target(site, target).los_n
     err = np.arctan2(np.linalg.norm(np.cross(los, u), axis=1), los @ u)
-    out = pointing_figures(t, err, times(budget), vectors(budget), acquire_s)
+    out = pointing_figures(t, err, tb, budget, acquire_s)
     if out is None:
-        raise BagError(f"{bag_dir}: the run is shorter than the acquisition time {acquire_s} s")
+        raise BagError(f"{run_dir}: the run is shorter than the acquisition time {acquire_s} s")
     return out
 
 
@@ -88,6 +96,11 @@ def pointing_figures(t: np.ndarray, err: np.ndarray, tb: np.ndarray, budget: np.
             "budget_95_mean_mrad": float(1e3 * np.mean(b95[idx[keep]])),
             "within_budget_95_fraction": float(np.mean(e <= b95[idx[keep]])),
             "within_budget_1sigma_fraction": float(np.mean(e <= b[idx[keep]]))}
+
+
+def geo_pointing_figures(a: dict) -> dict:
+    """The ``geo_pointing`` entry of a run's metrics.json, from :func:`analyse`'s output."""
+    return _figures(a)
 
 
 def _figures(a: dict) -> dict:
