@@ -116,18 +116,35 @@ def test_a_bad_new_target_is_counted_and_the_old_one_kept():
     assert pointer.set_target((D(39.95), D(32.9), 1000.0)) and pointer.counts["rejected_targets"] == 2
 
 
-def test_scenario_cores_with_ideal_sensors_point_within_50_urad_while_driving():
+def test_scenario_cores_with_ideal_sensors_point_within_50_urad_while_driving(tmp_path):
     """sighting_geo_pointing:ideal stepped by the core engine (the graph's torque commands to
-    the bit): the true LOS against pymap3d's direction to the target, after the slew."""
+    the bit): the true LOS against pymap3d's direction to the target, after the slew; and
+    the core engine's geo_pointing figures (its collector) from the same run: the error
+    against pymap3d's, the budgets against the core's own."""
     import dataclasses
 
+    from gimbal_kinematics.geo_pointing import radial_quantile
     from gimbal_sim.core.core_loop import run_core_loop
     from gimbal_sim.graph.scenario import load, variant
+    from gimbal_sim.reports.core_metrics import GeoPointingCollector
 
     scenario = dataclasses.replace(variant(load("sighting_geo_pointing"), "ideal"), duration_s=11.0)
     u = _los_ned_pymap3d(VEHICLE, TARGET)
-    errors = []
-    run_core_loop(scenario, observer=lambda bus: errors.append(
-        (bus.t, _angle(Rotation.from_quat(bus.truth.quat_nm).as_matrix()[:, 0], u))))
+    errors, collector = [], GeoPointingCollector(scenario)
+
+    def observe(bus) -> None:
+        collector(bus)
+        errors.append((bus.t, _angle(Rotation.from_quat(bus.truth.quat_nm).as_matrix()[:, 0], u)))
+
+    run_core_loop(scenario, observer=observe)
     settled = np.array([e for t, e in errors if t >= 8.0])
     assert math.sqrt(np.mean(settled ** 2)) < 50e-6
+    (tmp_path / "scenario.yaml").write_text(scenario.to_yaml())
+    fig = collector.metrics(tmp_path)["geo_pointing"]
+    after = np.array([e for t, e in errors if t >= 10.0])
+    assert fig["error_rms_urad"] == pytest.approx(1e6 * math.sqrt(np.mean(after ** 2)), rel=1e-6)
+    budgets = np.array(collector.budget)
+    assert len(budgets) == 1101  # one per INS step (100 Hz), the last at 11 s
+    r95 = [radial_quantile(a, b) for _, a, b in budgets[-101:]]  # 10.00 s on, each over its 10 steps (11 s: 1)
+    assert fig["budget_95_mean_mrad"] == pytest.approx(1e3 * np.average(r95, weights=[10] * 100 + [1]), rel=1e-12)
+    assert fig["within_budget_95_fraction"] == 1.0

@@ -285,3 +285,30 @@ def test_budget_terms_match_numerical_derivatives_with_a_lever_arm():
     }
     for name, value in expected.items():
         assert budget.terms[name] == pytest.approx(value, rel=1e-5), name
+
+
+def test_the_95_percent_radius_against_closed_forms_scipy_and_monte_carlo():
+    """radial_quantile: the Rayleigh and normal closed forms at the two ends, and between them
+    scipy's quadrature of P(|d| ≤ r) in Cartesian form with brentq, and a seeded Monte Carlo."""
+    from scipy import integrate, optimize, stats
+
+    from gimbal_kinematics.geo_pointing import radial_quantile
+
+    assert radial_quantile(2.0, 2.0) == pytest.approx(2.0 * math.sqrt(-2.0 * math.log(0.05)), rel=1e-12)
+    assert radial_quantile(3.0, 0.0) == pytest.approx(3.0 * stats.norm.ppf(0.975), rel=1e-12)
+    assert radial_quantile(0.0, 0.0) == 0.0
+
+    def cdf(r, s1, s2):  # ∫ φ(x) P(|s2 z2| ≤ √(r² − s1² x²)) dx over |x| ≤ r / s1
+        a = r / s1
+        return integrate.quad(lambda x: stats.norm.pdf(x) * (2.0 * stats.norm.cdf(
+            math.sqrt(max(r * r - (s1 * x) ** 2, 0.0)) / s2) - 1.0), -a, a, epsabs=1e-13, epsrel=1e-13)[0]
+
+    rng = np.random.default_rng(24)
+    for s1, s2 in ((3.9445, 2.3598), (1.0, 0.1), (1.0, 0.7)):
+        ref = optimize.brentq(lambda r: cdf(r, s1, s2) - 0.95, 1.9 * s1, 2.5 * s1, xtol=1e-13)
+        r95 = radial_quantile(s2, s1)  # either order
+        assert r95 == pytest.approx(ref, rel=1e-9)
+        d = rng.normal(size=(400_000, 2)) * (s1, s2)
+        assert np.mean(np.hypot(d[:, 0], d[:, 1]) <= r95) == pytest.approx(0.95, abs=0.0015)  # 4.4 binomial σ
+    with pytest.raises(ValueError):
+        radial_quantile(math.nan, 1.0)

@@ -72,3 +72,34 @@ def test_deadman_stops_the_slew_within_the_timeout_and_counts_it():
     smooth = lambda x: np.convolve(x, np.ones(100) / 100, mode="valid")  # noqa: E731
     held = t[99:] > stop + 0.2
     assert np.all(np.abs(smooth(r + b_r)[held]) < 0.02 * AZ) and np.all(np.abs(smooth(q + b_q)[held]) < 0.02 * EL)
+
+
+def test_per_step_nees_averaged_over_seeds_against_its_band():
+    """nees_per_step on seeded χ²(2) draws (a consistent filter: about 95 % of the steps inside
+    χ²(2N)/N's band, binomial bounds) and on draws 1.6 times too large (an optimistic filter:
+    above it as often as the closed form says); then on two short slews of the EKF, whose per-step NEES it combines."""
+    from scipy.stats import chi2
+
+    from gimbal_sim.experiments.slew import nees_per_step, summarize
+
+    rng = np.random.default_rng(24)
+    t = [round(0.01 * i, 9) for i in range(4000)]
+    consistent = [{"t_s": t, "bias_nees": list(rng.chisquare(2, 4000))} for _ in range(5)]
+    p = nees_per_step(consistent)
+    assert p["band95"] == pytest.approx(list(chi2.ppf([0.025, 0.975], 10) / 5))
+    assert p["inside"] == pytest.approx(0.95, abs=4.5 * math.sqrt(0.95 * 0.05 / 4000))
+    assert p["above"] == pytest.approx(0.025, abs=0.012) and p["mean"] == pytest.approx(2.0, abs=0.05)
+    optimistic = [{"t_s": t, "bias_nees": list(1.6 * np.array(s["bias_nees"]))} for s in consistent]
+    above = chi2.sf(chi2.ppf(0.975, 10) / 1.6, 10)  # P(1.6·χ²(10) above the band's top): 0.236
+    assert nees_per_step(optimistic)["above"] == pytest.approx(above, abs=4.5 * math.sqrt(above * (1 - above) / 4000))
+    with pytest.raises(ValueError, match="time grid"):
+        nees_per_step([consistent[0], {"t_s": t[1:], "bias_nees": consistent[1]["bias_nees"][1:]}])
+
+    short = {"hold_s": 1.0, "slew_s": 0.5}
+    runs = [(seed, run_slew("ekf_on", seed, short)) for seed in (1, 2)]
+    series = [m["series"] for _, m in runs]
+    assert series[0]["t_s"] == [round(0.01 * i, 9) for i in range(50)]  # each EKF output (100 Hz) of the slew
+    assert all(v >= 0.0 and math.isfinite(v) for s in series for v in s["bias_nees"])
+    p = nees_per_step(series)
+    assert np.allclose(p["nees"], np.mean([s["bias_nees"] for s in series], axis=0), rtol=0.0, atol=0.0)
+    assert "% of the steps inside its 95 % band" in summarize({"ekf_on": runs})

@@ -14,15 +14,22 @@ reference, so the controller itself is unchanged):
   revolving turret follows its own profile), so the pointer cannot hand azimuth over to it:
   it stops at the limit and counts the steps (``azimuth_limited_steps``,
   ``elevation_limited_steps``; ``singular_steps`` at el_b = ±90°);
-* feed-forward: the rate of the aim in inertial space. At a fixed site the target is fixed
-  in NED, which turns at the earth rate ω_ie, while the rate loop holds the LOS inertially:
-  without it the LOS would lag the target by |ω_ie × u| / k (up to 73 µrad at k = 1/s);
+* feed-forward: the rate of the aim in inertial space, ω_ie + (v_n × u_n) / R. The target is
+  fixed to the earth, which turns at the earth rate ω_ie, while the rate loop holds the LOS
+  inertially: without it the LOS would lag the target by |ω_ie × u| / k (up to 73 µrad at
+  k = 1/s). A vehicle moving at v_n (NED, over the ground) turns the direction to the target
+  relative to the earth: d = r_T − r_P changes at −v, so u = d/R turns at
+  u × du/dt = (v × u) / R (the lever arm's motion with the vehicle's rotation is left out);
 * feedback: k times the error angles in the estimated sight frame, the law of
   :func:`.los_hold.sight_frame_error` (the LOS-hold outer loop's), the sum limited per axis
   to ``max_rate_rad_s`` (below the controller's operator rate limit, which refuses more).
 
-The vehicle position is a parameter: paper 1's land vehicle keeps its site (its profile
-moves the attitude, not the position) and its INS publishes no position.
+The vehicle position is the parameter ``vehicle_llh`` (paper 1's land vehicle keeps its site:
+its profile moves the attitude, not the position, and its simulated INS publishes no
+position) until :meth:`GeoPointer.set_vehicle` gives an INS position (and velocity), which
+each following step uses: the direction, the earth rate at its latitude, the budget. A
+position that is not finite, or within ``min_range_m`` of the target, is counted
+(``rejected_fixes``) and not used.
 
 The 1σ pointing-error budget (:func:`~gimbal_kinematics.geo_pointing.pointing_budget`) from
 the INS attitude and position accuracy, the target's position accuracy and the range comes
@@ -50,7 +57,8 @@ from gimbal_kinematics.rotations import quat_to_dcm
 from .los_hold import sight_frame_error
 
 _DEG = math.pi / 180.0
-COUNTERS = ("rejected_targets", "azimuth_limited_steps", "elevation_limited_steps", "singular_steps")
+COUNTERS = ("rejected_targets", "rejected_fixes", "azimuth_limited_steps", "elevation_limited_steps",
+            "singular_steps")
 
 
 @dataclass(frozen=True)
@@ -128,7 +136,8 @@ class GeoPointer:
     def __init__(self, params: GeoPointerParams) -> None:
         self.params = params
         self.target_llh = params.target_llh
-        self._w_n = earth_rate_n(params.vehicle_llh[0]) if params.earth_rate else np.zeros(3)
+        self.vehicle_llh = params.vehicle_llh
+        self.vehicle_vel_n = np.zeros(3)
         self.counts = dict.fromkeys(COUNTERS, 0)
         self._psi_m = 0.0
 
@@ -138,18 +147,46 @@ class GeoPointer:
         p = self.params
         try:
             target = check_geodetic("target", target_llh)
-            los_to_target(p.vehicle_llh, target, np.eye(3), p.lever_arm_b, p.min_range_m)
+            los_to_target(self.vehicle_llh, target, np.eye(3), p.lever_arm_b, p.min_range_m)
         except ValueError:
             self.counts["rejected_targets"] += 1
             return False
         self.target_llh = target
         return True
 
+    def fix_error(self, vehicle_llh) -> str | None:
+        """Why the INS position (lat, lon [rad], h [m]) cannot be used (not finite, out of
+        range, or within ``min_range_m`` of the target), or None; counts nothing."""
+        try:
+            los_to_target(check_geodetic("vehicle", vehicle_llh), self.target_llh, np.eye(3),
+                          self.params.lever_arm_b, self.params.min_range_m)
+        except ValueError as exc:
+            return str(exc)
+        return None
+
+    def set_vehicle(self, vehicle_llh, velocity_n=None) -> bool:
+        """The vehicle's INS position (lat, lon [rad], h [m]) and, if given, its velocity
+        over the ground (NED [m/s], (3,)) for the following steps; False (counted in
+        ``rejected_fixes``) if either cannot be used, and the old ones stay."""
+        vel = self.vehicle_vel_n if velocity_n is None else np.asarray(velocity_n, dtype=float)
+        if self.fix_error(vehicle_llh) is not None or vel.shape != (3,) or not np.all(np.isfinite(vel)):
+            self.counts["rejected_fixes"] += 1
+            return False
+        self.vehicle_llh = check_geodetic("vehicle", vehicle_llh)
+        self.vehicle_vel_n = vel
+        return True
+
+    def feed_forward_n(self, los) -> np.ndarray:
+        """The aim's inertial rate [rad/s] in NED (module docstring): the earth rate at the
+        vehicle's latitude (if ``earth_rate``) plus the vehicle's translation, (v × u) / R."""
+        w_n = earth_rate_n(self.vehicle_llh[0]) if self.params.earth_rate else np.zeros(3)
+        return w_n + np.cross(self.vehicle_vel_n, los.los_n) / los.range_m
+
     def step(self, quat_nm, C_nb: np.ndarray, psi_t: float) -> PointerOutput:
         """Ĉ_nm as a quaternion (x, y, z, w), the INS C_nb and the turret angle [rad] → output."""
         p = self.params
         C_nm = quat_to_dcm(quat_nm)
-        los = los_to_target(p.vehicle_llh, self.target_llh, C_nb, p.lever_arm_b, p.min_range_m)
+        los = los_to_target(self.vehicle_llh, self.target_llh, C_nb, p.lever_arm_b, p.min_range_m)
         sol = joint_angles_for_los(C_nb, los.los_n, psi_t, p.limits, self._psi_m)
         aim = los.los_n
         if sol.residual_rad > 0.0:  # a limit stopped the joints: aim where they stop
@@ -159,8 +196,8 @@ class GeoPointer:
                               (sol.elevation_limited, "elevation_limited_steps"), (sol.singular, "singular_steps")):
             self.counts[counter] += int(flag)
         error = sight_frame_error(C_nm, aim)
-        w_m = C_nm.T @ self._w_n
+        w_m = C_nm.T @ self.feed_forward_n(los)
         lim, k = p.max_rate_rad_s, p.gain_1_s
         command = tuple(max(-lim, min(lim, float(ff) + k * e)) for ff, e in zip(w_m[1:], error))
-        budget = pointing_budget(p.vehicle_llh, C_nb, self.target_llh, p.sigmas, p.lever_arm_b, p.min_range_m)
+        budget = pointing_budget(self.vehicle_llh, C_nb, self.target_llh, p.sigmas, p.lever_arm_b, p.min_range_m)
         return PointerOutput(command, error, sol, budget, los.los_n)  # type: ignore[arg-type]

@@ -19,6 +19,19 @@ and it carries a position covariance and a status (a fix with ``STATUS_NO_FIX`` 
 A non-finite target, or one within ``min_range_m`` of the vehicle, is refused at start-up
 (exit 2) and counted and ignored as a message.
 
+The vehicle is at ``vehicle_llh_deg`` (a fixed site) unless ``vehicle_fix_topic`` names its
+INS position (``sensor_msgs/NavSatFix``), and ``vehicle_velocity_topic`` its velocity over the
+ground (``geometry_msgs/Vector3Stamped``, NED [m/s]) for the feed-forward. A fix is refused
+and counted, never used, when: its status is ``STATUS_NO_FIX`` (``fixes_no_fix``); it is not
+finite, out of range or within ``min_range_m`` of the target (the core's ``rejected_fixes``);
+its stamp is not after the last fix's (``fixes_out_of_order``); or it is older than
+``vehicle_fix_max_age_s`` against the newest attitude estimate when it arrives
+(``stale_fixes``). A velocity likewise (``rejected_velocities``). A step whose newest fix or
+velocity is older than ``vehicle_fix_max_age_s`` publishes nothing (``stale_commands``), so
+the controller's dead-man stops the slew; before the first fix, likewise. Free timing only:
+no simulated INS publishes a position, and a lockstep step cannot wait for one (refused at
+start-up).
+
 ``timing: lockstep`` (the orchestrator's) waits for the three inputs of each INS step;
 ``timing: free`` steps on each attitude estimate with the newest INS and encoder samples no
 older than 0.1 s, and publishes nothing while they are stale (counted): the controller's
@@ -49,7 +62,8 @@ from . import messages as m
 from .geo_pointer import GeoPointer, GeoPointerParams
 from .geo_pointer_params import DESCRIPTION, PARAMS
 
-COUNTERS = ("malformed", "rejected_inputs", "held_commands")
+COUNTERS = ("malformed", "rejected_inputs", "held_commands", "fixes_no_fix", "fixes_out_of_order", "stale_fixes",
+            "rejected_velocities")
 MAX_INPUT_AGE_S = 0.1
 CLOCK_JUMP_S = 0.5
 
@@ -66,6 +80,7 @@ class GeoPointerNode(Node):
             raise ValueError(str(exc)) from exc
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.command = (0.0, 0.0)
+        vehicle_inputs = self._vehicle_inputs(v)
         self.io = NodeIo(self)
         self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], timing)
         self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
@@ -81,8 +96,9 @@ class GeoPointerNode(Node):
         self.policy = control_policy(
             timing,
             lockstep=lambda: LockstepControl(needs, rate, CLOCK_JUMP_S, logger=self.get_logger()),
-            free=lambda: FreeControl("att", {"ins": MAX_INPUT_AGE_S, "enc": MAX_INPUT_AGE_S}, 1.0 / v["ins_rate_hz"],
-                                     CLOCK_JUMP_S, warn=self._log))
+            free=lambda: FreeControl("att", {"ins": MAX_INPUT_AGE_S, "enc": MAX_INPUT_AGE_S,
+                                             **dict.fromkeys(vehicle_inputs, v["vehicle_fix_max_age_s"])},
+                                     1.0 / v["ins_rate_hz"], CLOCK_JUMP_S, warn=self._log))
         inputs = (("att", Imu, v["attitude_topic"], m.imu_from_cdr), ("ins", Imu, "/ins/imu", m.imu_from_cdr),
                   ("enc", JointState, "/gimbal/joint_states", m.joint_state_from_cdr))
         for kind, msg_type, topic, decode in inputs:
@@ -90,6 +106,58 @@ class GeoPointerNode(Node):
                               raw=True)
         if v["target_topic"]:
             self.io.subscribe(NavSatFix, v["target_topic"], self._on_target, timing)
+        self._last_ns = {"fix": None, "vel": None, "att": None}
+        self.max_fix_age_ns = int(round(v["vehicle_fix_max_age_s"] * 1e9))
+        if "fix" in vehicle_inputs:
+            self.io.subscribe(NavSatFix, v["vehicle_fix_topic"], self._on_fix, timing)
+        if "vel" in vehicle_inputs:
+            self.io.subscribe(Vector3Stamped, v["vehicle_velocity_topic"], self._on_velocity, timing)
+
+    @staticmethod
+    def _vehicle_inputs(v: dict) -> tuple[str, ...]:
+        """The vehicle's inputs the parameters ask for; ValueError naming the parameter when
+        they cannot be had (a velocity without a position, or either in lockstep)."""
+        inputs = tuple(kind for kind, name in (("fix", "vehicle_fix_topic"), ("vel", "vehicle_velocity_topic"))
+                       if v[name])
+        if "vel" in inputs and "fix" not in inputs:
+            raise ValueError("parameter vehicle_velocity_topic needs vehicle_fix_topic (a moving vehicle's position)")
+        if inputs and v["timing"] == "lockstep":
+            raise ValueError("parameter vehicle_fix_topic: free timing only (a lockstep step cannot wait for a "
+                             "position no simulated INS publishes)")
+        return inputs
+
+    def _vehicle_sample(self, kind: str, stamp_ns: int, value, counter: str) -> None:
+        """A validated fix or velocity (None: refused, counted in ``counter``) to the policy,
+        unless its stamp is not after the last one's or it is stale on arrival (counted)."""
+        last, newest_att = self._last_ns[kind], self._last_ns["att"]
+        if value is not None and last is not None and stamp_ns <= last:
+            counter, value = ("fixes_out_of_order" if kind == "fix" else counter), None
+        elif value is not None and newest_att is not None and newest_att - stamp_ns > self.max_fix_age_ns:
+            counter, value = ("stale_fixes" if kind == "fix" else counter), None
+        if value is None:
+            if counter in self.counts:
+                self.counts[counter] += 1
+            self._log(f"vehicle {kind} stamped {stamp_ns} ns refused ({counter})")
+            return
+        self._last_ns[kind] = stamp_ns
+        for step in self.policy.add(kind, stamp_ns, value):
+            self._step(step)
+
+    def _on_fix(self, msg: NavSatFix) -> None:
+        llh = (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if msg.status.status == NavSatStatus.STATUS_NO_FIX:
+            self._vehicle_sample("fix", stamp, None, "fixes_no_fix")
+        elif self.core.fix_error(llh) is not None:
+            self.core.counts["rejected_fixes"] += 1
+            self._vehicle_sample("fix", stamp, None, "rejected_fixes")
+        else:
+            self._vehicle_sample("fix", stamp, llh, "rejected_fixes")
+
+    def _on_velocity(self, msg: Vector3Stamped) -> None:
+        vel = (msg.vector.x, msg.vector.y, msg.vector.z)
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        self._vehicle_sample("vel", stamp, vel if all(map(math.isfinite, vel)) else None, "rejected_velocities")
 
     def _log(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=1.0)
@@ -109,6 +177,8 @@ class GeoPointerNode(Node):
             self.counts["malformed"] += 1
             self._log(f"malformed {kind} message ignored: {exc}")
             return
+        if kind == "att":
+            self._last_ns["att"] = max(msg.stamp_ns, self._last_ns["att"] or msg.stamp_ns)
         for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
             self._step(step)
 
@@ -134,7 +204,9 @@ class GeoPointerNode(Node):
             return
         att, ins, enc = inputs.get("att"), inputs.get("ins"), inputs.get("enc")
         budget = None
-        if att is None or ins is None or enc is None:
+        fix, vel = inputs.get("fix"), inputs.get("vel")
+        if att is None or ins is None or enc is None or (fix is not None and not self.core.set_vehicle(
+                fix.value, None if vel is None else vel.value)):
             self.counts["held_commands"] += 1
         else:
             out = self.core.step(att.value, quat_to_dcm(np.asarray(ins.value)), enc.value[0])

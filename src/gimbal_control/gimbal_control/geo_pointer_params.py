@@ -9,7 +9,8 @@ DESCRIPTION = (
     "Geo-pointing: keeps the LOS on a WGS-84 target (sensor_msgs/NavSatFix) from the INS attitude, the "
     "gyro-bias EKF's gimbal attitude and the encoders' turret angle, by publishing a LOS rate command "
     "(feed-forward of the target's inertial rate + k times the pointing error) on the LOS-rate controller's "
-    "operator input; stops at the gimbal limits (counted); publishes the 1-sigma pointing-error budget."
+    "operator input; the vehicle at a fixed site or at its INS position and velocity (NavSatFix, "
+    "Vector3Stamped); stops at the gimbal limits (counted); publishes the 1-sigma pointing-error budget."
 )
 PARAMS = (
     TIMING_PARAM,
@@ -20,7 +21,13 @@ PARAMS = (
           "ellipsoid [m]; a NavSatFix on target_topic replaces it"),
     Param("target_topic", "~/target", "new targets (sensor_msgs/NavSatFix); '' = the parameter only"),
     Param("vehicle_llh_deg", [0.0, 0.0, 0.0], "INS position of the vehicle (fixed site): latitude, longitude "
-          "[deg], height [m]"),
+          "[deg], height [m]; with vehicle_fix_topic, the start-up check's position only"),
+    Param("vehicle_fix_topic", "", "the vehicle's INS position (sensor_msgs/NavSatFix), used at each step instead "
+          "of vehicle_llh_deg; '' = vehicle_llh_deg (a fixed site). Free timing only"),
+    Param("vehicle_velocity_topic", "", "the vehicle's velocity over the ground (geometry_msgs/Vector3Stamped, NED "
+          "[m/s]) for the LOS-rate feed-forward; '' = none (zero). Needs vehicle_fix_topic"),
+    Param("vehicle_fix_max_age_s", 0.2, "a fix or velocity older than this at a step is stale: no command (the "
+          "controller's dead-man stops the slew) [s]", 1e-3, 10.0),
     Param("lever_arm_b_m", [0.0, 0.0, 0.0], "gimbal pivot from the INS reference point, body frame [m]"),
     Param("gain_1_s", 1.0, "pointing-error gain k (outer-loop bandwidth) [1/s]", 1e-6, 1e3),
     Param("max_rate_deg_s", 5.0, "rate command limit per axis [deg/s] (below the controller's "

@@ -75,6 +75,7 @@ def _point(args: argparse.Namespace) -> int:
         print(f"  {name.replace('_', ' ')} {value * 1e3:.4f} mrad")
     major, minor = budget.principal_sigmas_rad
     print(f"  total (RMS) {budget.total_rad * 1e3:.4f} mrad  semi-axes {major * 1e3:.4f} {minor * 1e3:.4f} mrad")
+    print(f"  95 % radius {budget.radius_95_rad * 1e3:.4f} mrad (the error angle is within it 95 % of the time)")
     return 0
 
 

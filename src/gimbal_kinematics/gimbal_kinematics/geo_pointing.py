@@ -36,12 +36,21 @@ Euler-angle errors to the attitude error rotation vector in n, L = C_nb l_b the 
 n, R the range, δr_P and δr_T the vehicle and target position errors (each in its own NED,
 σ_h per horizontal axis, σ_v vertical). The sources are independent, so the covariance of d
 is a sum; each term of :class:`PointingBudget` is the RMS of |d| from one source alone, and
-the total is their root-sum-square, the RMS of |d|.
+the total is their root-sum-square, the RMS of |d|. For a Gaussian d, the radius |d| stays
+within at probability p (:func:`radial_quantile`; 95 %: ``PointingBudget.radius_95_rad``)
+follows from the two semi-axes σ1 ≥ σ2 of its covariance: with d = (σ1 z1, σ2 z2) and z in
+polar form (ρ² ~ χ²(2), θ uniform, independent),
+
+    P(|d| ≤ r) = 1 − (1/2π) ∫ exp(−r² / (2 g(θ))) dθ,   g(θ) = σ1² cos²θ + σ2² sin²θ,
+
+the Rayleigh σ √(−2 ln(1 − p)) (2.448 σ at 95 %) for σ1 = σ2, and the normal 1.960 σ1 for
+σ2 = 0: for a two-axis error the RMS |d| is inside its own value only about 63 % of the time.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -260,6 +269,47 @@ class PointingBudget:
     covariance_n: np.ndarray
     principal_sigmas_rad: tuple[float, float]
     range_m: float
+
+    @property
+    def radius_95_rad(self) -> float:
+        """The radius the error angle stays within 95 % of the time [rad]
+        (:func:`radial_quantile` of the two semi-axes)."""
+        return radial_quantile(*self.principal_sigmas_rad)
+
+
+#: midpoints over a quarter period of the π-periodic, even integrand of P(|d| ≤ r): the
+#: midpoint rule on a periodic integrand converges geometrically (1e-15 at 256 nodes here)
+_THETA = (np.arange(256) + 0.5) * (0.5 * math.pi / 256)
+
+
+def radial_quantile(sigma_major: float, sigma_minor: float, p: float = 0.95) -> float:
+    """The radius [same unit as the σ] a 2-D Gaussian error of semi-axes σ1 ≥ σ2 stays within
+    at probability ``p`` (module docstring): the root of P(|d| ≤ r) = p by Newton's method,
+    kept inside its bracket [σ1 √χ²₁(p), σ1 √χ²₂(p)] (|d| ≥ σ1 |z1| and |d| ≤ σ1 ρ)."""
+    validate.nonneg_finite("sigma_major", sigma_major)
+    validate.nonneg_finite("sigma_minor", sigma_minor)
+    s1, s2 = max(sigma_major, sigma_minor), min(sigma_major, sigma_minor)
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"p must be in (0, 1), got {p!r}")
+    if s1 == 0.0:
+        return 0.0
+    g = (s1 * np.cos(_THETA)) ** 2 + (s2 * np.sin(_THETA)) ** 2
+    lo, hi = s1 * NormalDist().inv_cdf(0.5 + 0.5 * p), s1 * math.sqrt(-2.0 * math.log1p(-p))
+    r = 0.5 * (lo + hi)
+    for _ in range(60):
+        e = np.exp(-r * r / (2.0 * g))
+        f = 1.0 - float(np.mean(e)) - p
+        if f > 0.0:
+            hi = r
+        else:
+            lo = r
+        slope = float(np.mean(r / g * e))
+        step = r - f / slope if slope > 0.0 else 0.5 * (lo + hi)
+        r_next = step if lo < step < hi else 0.5 * (lo + hi)
+        if abs(r_next - r) <= 1e-14 * r:
+            return r_next
+        r = r_next
+    return r
 
 
 def euler_error_jacobian(C_nb: np.ndarray) -> np.ndarray:

@@ -10,8 +10,9 @@ from typing import Any
 RESULT_FILE = "result.json"
 #: Columns every row has, in this order; swept values follow as sweep.<target>, then the metrics.
 FIXED_COLUMNS = ("run_id", "scenario", "variant", "seed", "engine", "status", "reason", "wall_s", "host", "log_tail")
-#: Entries of a report's metrics.json that are not figures (paths, plot lists, per-topic counts, text).
-NOT_METRICS = {"plots", "topics", "bag", "read_error", "report", "runs", "table", "comparison"}
+#: Entries of a report's metrics.json that are not figures (paths, plot lists, per-topic counts, text,
+#: and ``series``: a run's per-step values a runner combines over seeds, e.g. the slew's NEES).
+NOT_METRICS = {"plots", "topics", "bag", "read_error", "report", "runs", "table", "comparison", "series"}
 
 
 @dataclass

@@ -35,15 +35,17 @@ class Bus:
     step (``ekf``: what the node publishes from, e.g. the bias sigma) for observers, and the
     operator's LOS rate command of the step (``operator``: (stamp [ns], q, r) [rad/s], what
     /operator/los_rate carries; None when none was published) with its true pointing error
-    (``operator_error``: (ε, e_q, e_r) [rad], what ~/pointing_error carries)."""
+    (``operator_error``: (ε, e_q, e_r) [rad], what ~/pointing_error carries), and the
+    geo-pointer's budget when it stepped (``geo_budget``: (stamp [ns], 1σ RMS, semi-axes)
+    [rad], what its ~/budget carries; None otherwise)."""
 
     __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
-                 "operator_error", "platform_imu", "resolvers", "nav", "modulation")
+                 "operator_error", "platform_imu", "resolvers", "nav", "modulation", "geo_budget")
 
     def __init__(self) -> None:
         self.k, self.t = 0, 0.0
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
-        self.ekf = self.operator = self.operator_error = None
+        self.ekf = self.operator = self.operator_error = self.geo_budget = None
         # paper 3's platform (:mod:`.platform_stages`): its IMU and resolver samples, the navigator's output
         self.platform_imu = self.resolvers = self.nav = None
         # the servo's last (t [s], φz [rad], φ̇z [rad/s]), what its ~/modulation carries
@@ -130,13 +132,17 @@ def geo_pointer_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
     held = [(0.0, 0.0)]
 
     def stage(bus: Bus) -> None:
+        bus.geo_budget = None
         if bus.ekf is None or bus.ins is None:
             bus.operator = None
             return
+        stamp = step_stamp_ns(bus.k, rate)
         if bus.ekf.quat_nm is not None and bus.encoders is not None:
             q_nb = quat_canonical(quat_from_euler321(*bus.ins.euler))
-            held[0] = core.step(tuple(bus.ekf.quat_nm), quat_to_dcm(q_nb), bus.encoders.angles[0]).command
-        bus.operator = (step_stamp_ns(bus.k, rate), *held[0])
+            out = core.step(tuple(bus.ekf.quat_nm), quat_to_dcm(q_nb), bus.encoders.angles[0])
+            held[0] = out.command
+            bus.geo_budget = (stamp, out.budget.total_rad, *out.budget.principal_sigmas_rad)
+        bus.operator = (stamp, *held[0])
     return stage
 
 

@@ -16,12 +16,20 @@ the commander's stage before the controller's), from the truth:
   value; it is the first figure's);
 * the sighting figures of the run (:func:`..reports.sighting.sighting_figures`), whose
   ``bias_nees_mean_after_30s`` is the EKF's NEES while slewing when ``hold_s`` = 30 and the
-  run ends with the slew (the campaign report tests it against its 95 % band over seeds).
+  run ends with the slew (the campaign report tests it against its 95 % band over seeds);
+* the EKF's (b_q, b_r) NEES at each of its outputs while the command is on (``series``: ``t_s`` from
+  the command's start, ``bias_nees``; the sighting report's per-output NEES, σ per axis).
+
+Over N seeds (:func:`nees_per_step`), the per-step NEES averaged over the seeds at each
+output, against the 95 % band of an N-run average of a 2-dof NEES, χ²(2N)/N: the fraction
+of the slew's steps inside it ("the NEES stays inside its 95 % band"; a consistent filter
+has about 95 % of its steps inside, the steps being correlated in time), and the fractions
+above (optimistic) and below (pessimistic).
 
 ``python -m gimbal_sim.experiments.slew --seeds 20 --out DIR`` runs the campaign (the
 campaign engine: ``--jobs``, ``--resume``; its report in ``DIR/report``) and prints per
-variant each figure's mean and 95 % interval over the seeds, and the N-run NEES against
-its 95 % band.
+variant each figure's mean and 95 % interval over the seeds, the N-run time-averaged NEES
+against its band, and the per-step one's fraction inside it.
 """
 from __future__ import annotations
 
@@ -41,6 +49,7 @@ from ..campaign.spec import CampaignSpec
 from ..core.core_loop import core_plan, run_stages
 from ..graph.scenario import load, variant as scenario_variant
 from ..reports.core_metrics import SightingCollector
+from ..reports.sighting import analyse_series
 
 MODES = ("ekf_off", "ekf_on")
 DEFAULTS = {"hold_s": 30.0, "slew_s": 10.0, "az_rate_deg_s": 5.0, "el_rate_deg_s": 2.0, "command_rate_hz": 20.0}
@@ -110,7 +119,29 @@ def run_slew(mode: str, seed: int, options: dict[str, Any]) -> dict[str, Any]:
         slew[f"{axis}_error_vs_cmd_minus_bias_pct"] = 100.0 * offset / cmd[i]
         slew[f"{axis}_settling_time_s"] = _settling_time(t, w[:, i], mean, cmd[i], window)
     metrics = {"slew": slew, **observer.metrics(Path("/nonexistent"))}
+    a = analyse_series(observer.series(), 0.0, True)  # the NEES depends on neither the site nor the earth rate
+    if "nees_bias" in a:
+        during = (a["t_ekf"] >= o["hold_s"]) & (a["t_ekf"] < o["hold_s"] + o["slew_s"] - 0.5 / rate)
+        metrics["series"] = {"t_s": [round(float(v), 9) for v in a["t_ekf"][during] - o["hold_s"]],
+                             "bias_nees": [float(v) for v in a["nees_bias"][during]]}
     return metrics
+
+
+def nees_per_step(series: list[dict[str, list[float]]], dof: int = 2) -> dict[str, Any]:
+    """The runs' per-step NEES (each a ``series`` of :func:`run_slew`, on one time grid)
+    averaged over the runs at each step, against χ²(N·dof)/N's 95 % band (module docstring);
+    ValueError if the runs' grids differ."""
+    from scipy.stats import chi2
+
+    t = series[0]["t_s"]
+    if any(s["t_s"] != t for s in series):
+        raise ValueError("the runs' NEES are not on one time grid (different options?)")
+    n = len(series)
+    avg = np.mean(np.array([s["bias_nees"] for s in series], float), axis=0)
+    lo, hi = (float(b) for b in chi2.ppf([0.025, 0.975], n * dof) / n)
+    return {"n": n, "steps": int(avg.size), "band95": [lo, hi], "mean": float(np.mean(avg)),
+            "inside": float(np.mean((avg >= lo) & (avg <= hi))), "above": float(np.mean(avg > hi)),
+            "below": float(np.mean(avg < lo)), "nees": avg, "t_s": np.array(t)}
 
 
 #: ``engine: core`` only (the commander is a stage, not a node)
@@ -118,8 +149,9 @@ CAMPAIGN = ExperimentCampaign(name="slew", variants=MODES, defaults=dict(DEFAULT
 
 
 def summarize(runs: dict[str, list[tuple[int, dict]]]) -> str:
-    """Per variant: each slew figure's mean and 95 % interval over the runs, and the runs'
-    NEES while slewing against the 95 % band of its N-run average."""
+    """Per variant: each slew figure's mean and 95 % interval over the runs, the per-step NEES
+    while slewing averaged over the runs (:func:`nees_per_step`), and the runs' time-averaged
+    NEES after 30 s against the 95 % band of its N-run average."""
     lines = []
     for mode, rs in runs.items():
         lines.append(f"{mode} ({len(rs)} runs):")
@@ -127,6 +159,12 @@ def summarize(runs: dict[str, list[tuple[int, dict]]]) -> str:
             st = stats([m["slew"][key] for _, m in rs])
             lines.append(f"  {key:36s} {st['mean']:+.4f}  95 % CI [{st['ci95'][0]:+.4f}, {st['ci95'][1]:+.4f}]"
                          f"  range [{st['min']:+.4f}, {st['max']:+.4f}]")
+        if all("series" in m for _, m in rs):
+            p = nees_per_step([m["series"] for _, m in rs])
+            lines.append(f"  bias NEES per step while slewing, mean over the runs at each of {p['steps']} EKF steps: "
+                         f"{100 * p['inside']:.1f} % of the steps inside its 95 % band [{p['band95'][0]:.3f}, "
+                         f"{p['band95'][1]:.3f}] ({100 * p['above']:.1f} % above, {100 * p['below']:.1f} % below); "
+                         f"time mean {p['mean']:.3f}")
         v = nees_verdict([m["sighting"]["bias_nees_mean_after_30s"] for _, m in rs], 2)
         if "mean" not in v:  # nothing after 30 s
             lines.append("  bias NEES after 30 s: none (the run ends before)")

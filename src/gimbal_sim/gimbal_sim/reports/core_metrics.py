@@ -22,6 +22,7 @@ from ..core.core_loop import run_core_loop
 from ..graph.scenario import Scenario
 from ..page import write_run_page
 from .common import vehicle_site
+from .geo_pointing import analyse_series as geo_pointing_series, geo_pointing_figures
 from .operator import operator_figures, operator_tolerance
 from .paper import run_paper_lookup
 from .sighting import SightingSeries, sighting_figures
@@ -55,16 +56,19 @@ class SightingCollector:
             self.est.append(tuple(float(v) for v in out.bias))
             self.sig.append(tuple(float(v) for v in out.bias_sigma))
 
-    def metrics(self, run_dir: Path) -> dict[str, Any]:
+    def series(self) -> SightingSeries:
+        """The series as a bag gives them (:class:`~.sighting.SightingSeries`)."""
         # log times as a bag reader computes them: ns * 1e-9, one float multiply each
         seconds = lambda ns: np.array([v * 1e-9 for v in ns])  # noqa: E731
         ekf = {}
         if self.te_ns:
             ekf = dict(t_ekf=seconds(self.te_ns), bias_est=np.array(self.est), bias_sigma=np.array(self.sig))
-        series = SightingSeries(seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
-                                np.array(self.bias).reshape(-1, 3), **ekf)
+        return SightingSeries(seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
+                              np.array(self.bias).reshape(-1, 3), **ekf)
+
+    def metrics(self, run_dir: Path) -> dict[str, Any]:
         lat, earth_rate = vehicle_site(run_dir)
-        return {"sighting": sighting_figures(series, lat, earth_rate)}
+        return {"sighting": sighting_figures(self.series(), lat, earth_rate)}
 
 
 class SightingOperatorCollector(SightingCollector):
@@ -92,9 +96,35 @@ class SightingOperatorCollector(SightingCollector):
         return out
 
 
+class GeoPointingCollector:
+    """The ``geo_pointing`` report's series: ``/truth/gimbal/imu`` (quat_nm at every step) and
+    ``/geo_pointer/budget`` at each step the pointer made one, with the nodes' stamps."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.rate = scenario.sim_rate_hz
+        self.t_ns: list[int] = []
+        self.quat: list[tuple[float, ...]] = []
+        self.tb_ns: list[int] = []
+        self.budget: list[tuple[float, ...]] = []
+
+    def __call__(self, bus: Any) -> None:
+        self.t_ns.append(step_stamp_ns(bus.k, self.rate))
+        self.quat.append(tuple(bus.truth.quat_nm))
+        if bus.geo_budget is not None:
+            self.tb_ns.append(bus.geo_budget[0])
+            self.budget.append(tuple(bus.geo_budget[1:]))
+
+    def metrics(self, run_dir: Path) -> dict[str, Any]:
+        seconds = lambda ns: np.array([v * 1e-9 for v in ns])  # noqa: E731  (as a bag reader: ns * 1e-9)
+        a = geo_pointing_series(run_dir, seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
+                                np.array(self.budget).reshape(-1, 3))
+        return {"geo_pointing": geo_pointing_figures(a)}
+
+
 #: report name -> collector class (constructed with the run's scenario)
 COLLECTORS: dict[str, Callable[[Scenario], Any]] = {"sighting": SightingCollector,
-                                                     "sighting_operator": SightingOperatorCollector}
+                                                     "sighting_operator": SightingOperatorCollector,
+                                                     "geo_pointing": GeoPointingCollector}
 
 
 def run_core(scenario: Scenario, run_dir: Path) -> dict[str, Any]:

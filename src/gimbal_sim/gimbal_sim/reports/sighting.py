@@ -112,7 +112,7 @@ def analyse_series(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
         err = est[:, 1:] - tru[:, 1:]
         late = te >= SETTLE_S
         nees = np.sum((err / sig[:, 1:]) ** 2, axis=1)
-        out.update(t_ekf=te, bias_est=est, bias_sigma=sig, bias_true=tru,
+        out.update(t_ekf=te, bias_est=est, bias_sigma=sig, bias_true=tru, nees_bias=nees,
                    final_bias_error_deg_h=err[-1] * _DEG_H,
                    within_3sigma=np.mean(np.abs(err[late]) <= 3.0 * sig[late, 1:], axis=0) if late.any()
                    else np.full(2, np.nan),
