@@ -144,6 +144,10 @@ def main(argv: list[str] | None = None) -> int:
     if result.sampling.segments and not result.sampling.regular:
         print(f"gimbal-allan: warning: the sampling breaks ({result.sampling.describe()}); analysed "
               f"{len(result.sampling.segments)} evenly sampled segments", file=sys.stderr)
+    for axis, terms in doc["axes"].items():
+        for key, why in terms["flagged"].items():
+            print(f"gimbal-allan: warning: axis {axis}: {key} flagged ({why}): left out of sensor_models.yaml, "
+                  "filters.yaml and set_args.txt", file=sys.stderr)
     print(summary(doc))
     print(f"wrote {args.out}: allan.json, {', '.join(p.name for p in plots)}, sensor_models.yaml "
           f"(as {target}), filters.yaml, set_args.txt")
