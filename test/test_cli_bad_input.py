@@ -168,6 +168,8 @@ ROWS: list[tuple[str, Callable, list, list[str]]] = [
      ["seeds", "more than"]),
     ("campaign/many runs", campaign_cli.main, ["sim_open_loop", "--seeds", "0-20000", "--serial", "--engine", "core"],
      ["--large"]),
+    ("campaign/days by its own estimate", campaign_cli.main, ["sim_open_loop", "--seeds", "1-200", "--duration",
+                                                             "7200", "--serial"], ["own estimate", "--large"]),
     ("campaign/duration inf", campaign_cli.main, ["sim_open_loop", "--duration", "inf"], ["--duration", "finite"]),
     ("campaign/duration nan", campaign_cli.main, ["sim_open_loop", "--duration", "nan"], ["--duration", "finite"]),
     ("campaign/duration negative", campaign_cli.main, ["sim_open_loop", "--duration", "-1"], ["--duration"]),
