@@ -59,7 +59,9 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
         (folder / f"{name}_bag_0.mcap").write_bytes(payload)
         paths[name] = folder
     # a bag folder without metadata.yaml whose MCAP is complete (a recording killed after its
-    # last chunk): readable, but not closed cleanly
+    # last chunk): readable, but not closed cleanly. `info` says so (exit 1) and gimbal-allan
+    # refuses it; play, recover, compare and report read all of it (as ros2 bag play reads a
+    # bare .mcap), so it has no row there
     paths["no_metadata"] = root / "no_metadata_bag"
     paths["no_metadata"].mkdir()
     (paths["no_metadata"] / "x_0.mcap").write_bytes(data)
@@ -221,7 +223,8 @@ ROWS: list[tuple[str, Callable, list, list[str]]] = [
 
 #: node executable -> module holding its ``main``: each has a row (a params file that is not text)
 NODES = {
-    "vehicle_dynamics": "gimbal_sim.nodes.vehicle_dynamics_node", "sensor_models": "gimbal_sim.nodes.sensor_models_node",
+    "vehicle_dynamics": "gimbal_sim.nodes.vehicle_dynamics_node",
+    "sensor_models": "gimbal_sim.nodes.sensor_models_node",
     "bag_recorder": "gimbal_sim.nodes.bag_recorder_node", "operator": "gimbal_sim.nodes.operator_node",
     "los_rate_controller": "gimbal_control.los_rate_controller_node",
     "encoder_fusion_controller": "gimbal_control.encoder_fusion_controller_node",

@@ -47,7 +47,9 @@ from gimbal_kinematics.ros.ros_domain import claim_domain_id
 
 from ..graph.scenario import Scenario, validate
 from .results import RESULT_FILE, CampaignResult, flatten_metrics, write_results
-from .spec import LARGE_RUNS, MAX_ESTIMATE_S, WALL_PER_SIM_S, CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask
+from .spec import (
+    LARGE_RUNS, MAX_ESTIMATE_S, WALL_PER_SIM_S, CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask,
+)
 
 CONNECT_TIMEOUT_S = 5.0           # an unreachable scheduler is refused within this
 STOP_GRACE_S = 20.0               # a timed-out gimbal-run gets this long to close its bag after SIGINT
