@@ -214,3 +214,41 @@ def test_a_dead_axis_is_not_detected_and_not_averaged_as_zero(tmp_path, capsys):
     text = (tmp_path / "o" / "sensor_models.yaml").read_text()
     assert f"gimbal_gyro_arw_deg_rt_h: {float(np.mean(live))!r}"[:40] in text, text
     assert "axis y: dead" in text
+
+
+def test_a_flagged_value_is_said_and_left_out_of_the_parameter_files(tmp_path, capsys):
+    """A Gauss-Markov term whose correlation time (1 s) sits at the end of a 60 s record's τ
+    range is fitted but not determined: flagged in the JSON, said on stderr, marked in the
+    files' headers, and not put into the simulator's or the filters' values."""
+    from scipy.signal import lfilter
+
+    dt, tc, sigma = 1.0 / RATE_HZ, 1.0, 1e-2
+    rng = np.random.default_rng(1)
+    phi = math.exp(-dt / tc)
+    z = sigma * math.sqrt(1 - phi * phi) * rng.standard_normal(N_MSG)
+    z[0] = sigma * rng.standard_normal()
+    g = _gyro(seed=3)
+    g[:, 0] = ARW / math.sqrt(dt) * rng.standard_normal(N_MSG) + lfilter([1.0], [1.0, -phi], z)
+    b = write_imu_bag(tmp_path / "flag", _stamps(), g)
+    code, out, err = _run(capsys, b, "--topic", "/imu", "--out", tmp_path / "o", "--no-progress")
+    assert code == 0, err
+    doc = json.loads((tmp_path / "o" / "allan.json").read_text())
+    x = doc["axes"]["x"]
+    assert "bias_instability_deg_h" in x["detected"] and "bias_instability_deg_h" in x["flagged"], x["flagged"]
+    assert x["bias_instability_deg_h"] > 0.0  # the JSON keeps the fitted value, flagged
+    assert "warning: axis x: bias_instability_deg_h flagged" in err and "left out of sensor_models.yaml" in err
+    assert not any("bias_instability_deg_h" in doc["axes"][a]["detected"] for a in ("y", "z"))
+    text = (tmp_path / "o" / "sensor_models.yaml").read_text()
+    assert "FLAGGED bias_instability_deg_h" in text and "left out of the values below" in text
+    assert "gimbal_gyro_bi_deg_h: 0.0\n" in text, text
+
+
+def test_every_undetected_term_has_a_finite_bound(bag, tmp_path, capsys):
+    """White noise only: every other term, the Gauss-Markov one included, is reported not
+    detected with a finite, positive bound (the largest over the correlation times the fit
+    could have identified)."""
+    code, _, err = _run(capsys, bag, "--topic", "/imu", "--out", tmp_path / "o", "--no-progress")
+    assert code == 0, err
+    for axis in json.loads((tmp_path / "o" / "allan.json").read_text())["axes"].values():
+        assert "bias_instability_deg_h" in axis["not_detected"]
+        assert all(v is not None and math.isfinite(v) and v > 0.0 for v in axis["not_detected"].values()), axis

@@ -131,3 +131,23 @@ def test_gauss_markov_sigma_and_correlation_time_with_uncertainty():
     assert 0.0 < gm.sigma < 0.2 * sigma and 0.0 < fit.tc_sigma < 0.5 * tc
     assert fit.terms["white"].value == pytest.approx(N, rel=0.02)
     assert not fit.terms["rrw"].detected
+
+
+def test_an_undetected_gauss_markov_term_has_a_bound_that_means_something():
+    """White noise alone: the Gauss-Markov term is not detected, with a finite 2σ bound (the
+    largest over the correlation times the fit could identify); the same white noise plus a
+    Gauss-Markov term of twice that bound, at a short and a middle correlation time, is
+    detected, close to its true σ."""
+    n, dt, N = 100_000, 0.1, 4.4e-5
+    fit = _fit(N / math.sqrt(dt) * np.random.default_rng(1).standard_normal(n), dt)
+    gm = fit.terms["gauss_markov"]
+    assert not gm.detected and math.isfinite(gm.sigma) and gm.sigma > 0.0
+    bound = 2.0 * gm.sigma
+    for seed, tc in ((11, 1.0), (12, 20.0)):
+        rng = np.random.default_rng(seed)
+        phi = math.exp(-dt / tc)
+        z = 2.0 * bound * math.sqrt(1 - phi * phi) * rng.standard_normal(n)
+        z[0] = 2.0 * bound * rng.standard_normal()
+        with_gm = _fit(N / math.sqrt(dt) * rng.standard_normal(n) + lfilter([1.0], [1.0, -phi], z), dt)
+        assert with_gm.terms["gauss_markov"].detected, tc
+        assert with_gm.terms["gauss_markov"].value == pytest.approx(2.0 * bound, rel=0.3), tc

@@ -114,7 +114,8 @@ def test_point_hands_the_azimuth_to_the_turret_at_the_gimbal_limit():
     (("--target", "95", "32.8", "900"), "latitude 95"),
     (("--target", "nan", "32.8", "900"), "must be finite"),
     (("--target", "39.92", "32.8", "900", "--turret-deg", "inf"), "--turret-deg must be finite"),
-    (("--target", "39.92", "32.8", "900", "--sigma-vehicle-m", "-1", "0"), "vehicle_horizontal_m must be >= 0"),
+    (("--target", "39.92", "32.8", "900", "--sigma-vehicle-m", "-1", "0"),
+     "--sigma-vehicle-m is a 1-sigma and must be >= 0"),
     (("--target", "39.92", "32.8"), "--target"),
 ])
 def test_point_bad_input_exits_2_with_the_cause(args, cause):

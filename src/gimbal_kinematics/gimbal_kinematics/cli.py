@@ -134,12 +134,16 @@ def _add_point_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _check_finite(args: argparse.Namespace) -> None:
-    """Every number given finite: NaN or inf in, NaN out is no answer."""
+    """Every number given finite (NaN or inf in, NaN out is no answer) and every 1-sigma >= 0,
+    before anything is printed."""
     for name, value in vars(args).items():
         values = value if isinstance(value, (list, tuple)) else [value]
+        option = f"--{name.replace('_', '-')}"
         for v in values:
             if isinstance(v, float) and not math.isfinite(v):
-                raise UsageError(f"--{name.replace('_', '-')} must be finite, got {value}")
+                raise UsageError(f"{option} must be finite, got {value}")
+            if name.startswith("sigma") and isinstance(v, float) and v < 0.0:
+                raise UsageError(f"{option} is a 1-sigma and must be >= 0, got {value}")
 
 
 @cli_boundary("gimbal-geometry")

@@ -120,6 +120,13 @@ def writable_dir(path: Path | str, option: str) -> Path:
     path = Path(path)
     if path.exists():
         raise UsageError(f"{option} {path}: already exists; not overwriting it")
+    return creatable(path, option)
+
+
+def creatable(path: Path | str, option: str) -> Path:
+    """``path`` when it (with any missing folders above it) can be created: its nearest existing
+    ancestor is a writable directory; else a :class:`UsageError` naming ``option``."""
+    path = Path(path)
     parent = next((p for p in path.absolute().parents if p.exists()), None)
     if parent is None or not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise UsageError(f"{option} {path}: cannot create it ({parent} is not a writable directory)")

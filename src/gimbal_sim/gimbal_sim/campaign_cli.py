@@ -66,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, metavar="N", help="LocalCluster worker processes (default: the cores)")
     p.add_argument("--serial", action="store_true", help="run the tasks one by one in this process (no Dask)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--large", action="store_true", help=f"allow a campaign of more than {LARGE_RUNS:,} runs")
+    p.add_argument("--large", action="store_true",
+                   help=f"allow a campaign of more than {LARGE_RUNS:,} runs, or one it estimates to take over 24 h")
     return p
 
 

@@ -34,6 +34,7 @@ from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 from .bag.live import parse_topic_rates
 from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
+from .graph.plan import check_nodes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
 from .page import PAGE
 from .reports.dispatch import write_comparison, write_report
@@ -148,11 +149,13 @@ def main(argv: list[str] | None = None) -> int:
         scenario = apply_params_file(scenario, path)
     for assignment in args.set:
         scenario = apply_set(scenario, assignment)
-    out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")
-    names = args.variant or list(scenario.variants)
-    runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
     if args.variant and not scenario.variants:
         raise UsageError(f"scenario {scenario.name!r} has no variants; drop --variant")
+    names = args.variant or list(scenario.variants)
+    runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
+    for name, single in runs:
+        check_nodes(single, f"variant {name!r}: " if name else "")
+    out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")
     if args.jobs < 1:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
     if args.live and args.jobs > 1 and len(runs) > 1:

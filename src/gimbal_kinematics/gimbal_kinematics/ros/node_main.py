@@ -1,8 +1,12 @@
 """``main()`` shared by every node executable (the ros2/demos pattern on Jazzy).
 
-``--help`` is answered before rclpy starts. A parameter the node refuses ends the process
-with exit code 2 and a message naming the parameter. Otherwise the node spins until
-Ctrl-C, an external shutdown, or (if it has one) its ``done`` future completes.
+``--help`` is answered before rclpy starts. The node runs inside the commands' one error
+boundary (:func:`gimbal_kinematics.cli_boundary.cli_boundary`): a parameter the node refuses,
+or a ``--params-file`` that is missing or not text, ends the process with exit code 2 and
+a message naming the parameter or the file; Ctrl-C (SIGINT) ends it with 130 and no
+traceback; an unexpected exception keeps its traceback, followed by the line saying it is
+a bug. Otherwise the node spins until an external shutdown (exit 0) or (if it has one) its
+``done`` future completes (exit 0).
 """
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.utilities import remove_ros_args
 
+from ..cli_boundary import Interrupted, UsageError, cli_boundary, read_text
 from .ros_domain import localhost_env
 
 #: How long one spin slice lasts [s]: a SIGINT is acted on within it.
@@ -41,16 +46,33 @@ def make_executor(context=None):
     return EventsExecutor(context=context)
 
 
+def _check_params_files(argv: list[str]) -> None:
+    """Each ``--params-file`` after ``--ros-args`` is a readable text file (rcl itself takes a
+    file that is not UTF-8 without a word, and the node would start without its parameters)."""
+    in_ros_args = False
+    for flag, value in zip(argv, argv[1:] + [""]):
+        if flag == "--ros-args":
+            in_ros_args = True
+        elif flag == "--":
+            in_ros_args = False
+        elif in_ros_args and flag == "--params-file":
+            read_text(value, "--params-file")
+
+
 def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: list[str] | None = None) -> int:
     """Parse ``--help``, start rclpy, build the node and spin it; returns the exit code."""
+    return cli_boundary(prog, "stopped the node")(_run_node)(make_node, prog, description, argv)
+
+
+def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: list[str] | None) -> int:
     argv = list(sys.argv if argv is None else argv)
     parser = argparse.ArgumentParser(prog=prog, description=description, epilog=ROS_ARGS_EPILOG)
     try:
         non_ros_args = remove_ros_args(argv)
     except RuntimeError as exc:  # rcl's RCLInvalidROSArgsError
-        print(f"{prog}: refused to start: malformed --ros-args: {exc}", file=sys.stderr)
-        return 2
+        raise UsageError(f"refused to start: malformed --ros-args: {exc}") from None
     parser.parse_args(non_ros_args[1:])
+    _check_params_files(argv)
     localhost_env()
     rclpy.init(args=argv)
     # Ctrl-C / the orchestrator's SIGINT ends the spin between slices, in place of rclpy's
@@ -70,12 +92,15 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
     try:
         node = make_node()
     except ValueError as exc:
-        print(f"{prog}: refused to start: {exc}", file=sys.stderr)
         rclpy.try_shutdown()
-        return 2
-    except KeyboardInterrupt:
+        raise UsageError(f"refused to start: {exc}") from None
+    except BaseException:
         rclpy.try_shutdown()
-        return 0
+        raise
+    if stopping:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        raise Interrupted("stopped the node while it started")
     executor = make_executor()
     executor.add_node(node)
     try:
@@ -84,10 +109,12 @@ def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: l
         # timeout (spin(), or spin_until_future_complete(f) with none), and holds the GIL.
         while not done.done() and not stopping:
             executor.spin_until_future_complete(done, timeout_sec=SPIN_SLICE_S)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
+    if stopping:
+        raise Interrupted("stopped the node")
     return 0

@@ -15,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from gimbal_kinematics.cli_boundary import cli_boundary
+from gimbal_kinematics.cli_boundary import UsageError, cli_boundary, creatable
 
 from ..bag.any_reader import AnyBagError
 from .analyze import ACCEL_SIGMA_PREFIX, AXES, AnalysisError, SIGMA_PREFIX, UNITS, analyze, to_json
@@ -92,6 +92,23 @@ def summary(doc: dict) -> str:
     return "\n".join(lines)
 
 
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Every output can be written, before the analysis and before any file is: nothing is
+    half-written when one of them cannot be."""
+    if args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"--out: {args.out} exists and is not a directory")
+    existing = [args.out / name for name in OUTPUTS if (args.out / name).exists()]
+    existing += sorted(args.out.glob("adev_*.png")) if args.out.is_dir() else []
+    if existing:
+        raise UsageError(f"--out: {', '.join(map(str, existing))} already exist(s); not overwriting")
+    if not args.out.is_dir():
+        creatable(args.out, "--out")
+    if args.json is not None:
+        if args.json.exists():
+            raise UsageError(f"--json: {args.json} already exists; not overwriting it")
+        creatable(args.json, "--json")
+
+
 @cli_boundary("gimbal-allan")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
@@ -99,14 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     targets = GYRO_TARGETS if args.field == "angular_velocity" else ACCEL_TARGETS
     if target not in targets:
         return _refuse("--simulate-as", f"{target!r} cannot simulate {args.field}; choose one of {sorted(targets)}")
-    existing = [args.out / name for name in OUTPUTS if (args.out / name).exists()]
-    existing += sorted(args.out.glob("adev_*.png")) if args.out.is_dir() else []
-    if args.out.exists() and not args.out.is_dir():
-        return _refuse("--out", f"{args.out} exists and is not a directory")
-    if existing:
-        return _refuse("--out", f"{', '.join(map(str, existing))} already exist(s); not overwriting")
-    if args.json is not None and args.json.exists():
-        return _refuse("--json", f"{args.json} already exists; not overwriting it")
+    _check_outputs(args)
     if args.tau_max_s is not None and not args.tau_max_s > 0:
         return _refuse("--tau-max-s", f"must be > 0, got {args.tau_max_s}")
     try:
@@ -134,6 +144,10 @@ def main(argv: list[str] | None = None) -> int:
     if result.sampling.segments and not result.sampling.regular:
         print(f"gimbal-allan: warning: the sampling breaks ({result.sampling.describe()}); analysed "
               f"{len(result.sampling.segments)} evenly sampled segments", file=sys.stderr)
+    for axis, terms in doc["axes"].items():
+        for key, why in terms["flagged"].items():
+            print(f"gimbal-allan: warning: axis {axis}: {key} flagged ({why}): left out of sensor_models.yaml, "
+                  "filters.yaml and set_args.txt", file=sys.stderr)
     print(summary(doc))
     print(f"wrote {args.out}: allan.json, {', '.join(p.name for p in plots)}, sensor_models.yaml "
           f"(as {target}), filters.yaml, set_args.txt")

@@ -62,6 +62,8 @@ CORR_JITTER = 1e-9
 ALPHAS = (2, 1, 0, -1, -2)
 #: A fitted correlation time within this factor of either end of its range is not identified.
 TC_EDGE = 1.25
+#: Correlation times an undetected Gauss-Markov term's bound is the largest 1σ over (log-spaced).
+GM_BOUND_POINTS = 9
 
 
 def gm_unit_avar(taus: np.ndarray, tc: float) -> np.ndarray:
@@ -296,7 +298,7 @@ def fit_noise_terms(curve: AllanCurve, terms: tuple[str, ...] = TERMS, iteration
         if done:
             break
         wh = _whitening(curve, c, tc, model)
-    return _finish(curve, tc, c, active, wh, alpha, model)
+    return _finish(curve, tc, c, active, wh, alpha, model, tc_bounds if 2 in cols else None)
 
 
 def dead_fit(curve: AllanCurve) -> NoiseFit:
@@ -381,7 +383,15 @@ def _whitening(curve: AllanCurve, c: np.ndarray, tc: float | None, model: np.nda
     return np.linalg.inv(np.linalg.cholesky(corr)) / d[None, :]
 
 
-def _finish(curve: AllanCurve, tc, c, active, wh, alpha, model) -> NoiseFit:
+def _gm_grid(tc_bounds) -> np.ndarray:
+    """The correlation times an undetected Gauss-Markov term is bounded over: those the fit
+    could have identified (inside ``tc_bounds``, off its edges); empty if there are none."""
+    if tc_bounds is None or tc_bounds[1] / TC_EDGE <= tc_bounds[0] * TC_EDGE:
+        return np.array([])
+    return np.geomspace(tc_bounds[0] * TC_EDGE, tc_bounds[1] / TC_EDGE, GM_BOUND_POINTS)
+
+
+def _finish(curve: AllanCurve, tc, c, active, wh, alpha, model, tc_bounds=None) -> NoiseFit:
     taus, y = curve.taus, curve.avar
     active = [j for j in active if c[j] > 0.0]
     if 2 not in active:
@@ -392,7 +402,7 @@ def _finish(curve: AllanCurve, tc, c, active, wh, alpha, model) -> NoiseFit:
     scale = max(1.0, chi2 / dof)
     basis = term_basis(taus, tc if tc is not None else 1.0)
 
-    def covariance(cols: list[int]) -> np.ndarray:
+    def covariance(cols: list[int], basis: np.ndarray = basis) -> np.ndarray:
         J = [basis[:, j] for j in cols]
         if tc is not None:
             h = 1e-4  # numeric ∂model/∂log T
@@ -416,7 +426,13 @@ def _finish(curve: AllanCurve, tc, c, active, wh, alpha, model) -> NoiseFit:
         else:
             cols_j = sorted(active + [j])
             if j == 2 and tc is None:
-                sig = float("nan")  # no correlation time to put a Gauss-Markov column at
+                # no fitted correlation time: the largest 1σ over every one the fit could have
+                # identified (a Gauss-Markov term of any such T below the bound goes unseen);
+                # NaN when the τ range identifies none
+                grid = _gm_grid(tc_bounds)
+                sig = max((math.sqrt(max(float(covariance(cols_j, term_basis(taus, t))[cols_j.index(j),
+                                                                                     cols_j.index(j)]), 0.0))
+                           for t in grid), default=float("nan"))
             else:
                 sig = math.sqrt(max(covariance(cols_j)[cols_j.index(j), cols_j.index(j)], 0.0))
             out[name] = TermEstimate(0.0, math.sqrt(sig), False)

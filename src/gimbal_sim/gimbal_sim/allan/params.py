@@ -5,7 +5,8 @@ Per-axis fits become one value per parameter (the models take one value for all 
 the simulator gets the mean over the axes that detected the term (each axis is a noisy
 estimate of the same kind of sensor), the filters get the largest (a filter told less noise
 than an axis has is overconfident on that axis). Each file's header names the terms some axis
-did not detect, with that axis's bound.
+did not detect, with that axis's bound, and the values flagged as not determined by the
+record, which are left out of the parameters (gimbal-allan also says so on stderr).
 
 Filters model the bias as a random walk of PSD ``q_b``: the Gauss-Markov term contributes
 ``2σ²/T`` at lags shorter than T and the rate random walk ``K²``, so ``q_b = 2σ²/T + K²``.
@@ -20,7 +21,7 @@ import math
 
 import yaml
 
-from .analyze import DEG, Characterisation, axis_json
+from .analyze import DEG, Characterisation, axis_json, implausible
 
 #: Sensors of ``sensor_models`` a gyro characterisation can be written for: parameter prefix.
 GYRO_TARGETS = {"gimbal_gyro": "gimbal_gyro", "ins_gyro": "ins_gyro"}
@@ -28,15 +29,22 @@ ACCEL_TARGETS = {"platform_accel": "platform_accel"}
 UG = 9.80665e-6  # m/s² per µg
 
 
+def _usable(res, name: str) -> bool:
+    """The axis detected term ``name`` and the record determines it (not flagged)."""
+    return res.fit.terms[name].detected and name not in implausible(res)
+
+
 def _terms(result: Characterisation, reduce) -> dict[str, float]:
     """SI value of each term over the axes that detected it (``reduce`` = mean or max); an axis
-    that did not detect a term does not count as 0 in it (its value is unknown, below a bound).
-    A term no axis detected is 0: nothing to simulate or to tell a filter."""
+    that did not detect a term does not count as 0 in it (its value is unknown, below a bound),
+    and a value flagged as not determined by the record (:func:`.analyze.implausible`) is left
+    out too: it is no measurement to put into a filter. A term no axis gave a usable value
+    for is 0: nothing to simulate or to tell a filter."""
     out = {}
     for name in ("quantization", "white", "gauss_markov", "rrw", "ramp"):
-        values = [r.fit.terms[name].value for r in result.axes.values() if r.fit.terms[name].detected]
+        values = [r.fit.terms[name].value for r in result.axes.values() if _usable(r, name)]
         out[name] = reduce(values) if values else 0.0
-    tcs = [r.fit.tc for r in result.axes.values() if r.fit.tc is not None]
+    tcs = [r.fit.tc for r in result.axes.values() if r.fit.tc is not None and _usable(r, "gauss_markov")]
     # the correlation time of the axes that have one (geometric mean: it is a scale)
     out["tc"] = math.exp(sum(math.log(t) for t in tcs) / len(tcs)) if tcs else None
     return out
@@ -55,7 +63,7 @@ def caveats(result: Characterisation) -> list[str]:
         if missing:
             lines.append(f"axis {axis}: not detected: {missing}")
         for key, why in doc["flagged"].items():
-            lines.append(f"axis {axis}: FLAGGED {key}: {why}")
+            lines.append(f"axis {axis}: FLAGGED {key}: {why}; left out of the values below")
     return lines
 
 

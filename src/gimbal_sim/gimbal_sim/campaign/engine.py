@@ -47,7 +47,9 @@ from gimbal_kinematics.ros.ros_domain import claim_domain_id
 
 from ..graph.scenario import Scenario, validate
 from .results import RESULT_FILE, CampaignResult, flatten_metrics, write_results
-from .spec import LARGE_RUNS, CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask
+from .spec import (
+    LARGE_RUNS, MAX_ESTIMATE_S, WALL_PER_SIM_S, CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask,
+)
 
 CONNECT_TIMEOUT_S = 5.0           # an unreachable scheduler is refused within this
 STOP_GRACE_S = 20.0               # a timed-out gimbal-run gets this long to close its bag after SIGINT
@@ -369,6 +371,35 @@ def _check_size(runs: int, large: bool) -> None:
         raise CampaignError(f"{runs:,} runs: more than {LARGE_RUNS:,}; add --large if that many is meant")
 
 
+def estimate_wall_s(campaign: CampaignPlan, out_dir: Path, resume: bool, workers: int) -> tuple[float, str] | None:
+    """The campaign's own estimate of its wall time [s] and how it was made: the runs still to
+    do times a run's wall time, over ``workers``. A run's wall time is the mean of the runs
+    this campaign already finished (``resume``), else :data:`WALL_PER_SIM_S` of its engine
+    times the simulated duration. None for an experiment runner's runs (no duration known)."""
+    if campaign.base is None:
+        return None
+    rows = [row for r in campaign.runs if resume and (row := _load_row(out_dir, r.run_id)) is not None
+            and row.get("status") == "ok"]
+    todo = len(campaign.runs) - len(rows)
+    walls = [row["wall_s"] for row in rows if isinstance(row.get("wall_s"), (int, float))]
+    if walls:
+        per_run, how = sum(walls) / len(walls), f"the mean of the {len(walls)} runs it finished"
+    else:
+        factor = WALL_PER_SIM_S[campaign.spec.engine]
+        per_run = factor * campaign.base.duration_s
+        how = f"{factor:.3g} s of wall per simulated s, {campaign.spec.engine} engine (docs/campaigns.md)"
+    return todo * per_run / max(workers, 1), f"{todo:,} runs x {per_run:,.0f} s ({how}) / {workers} worker(s)"
+
+
+def _check_estimate(campaign: CampaignPlan, out_dir: Path, resume: bool, workers: int, large: bool) -> None:
+    """A campaign estimated to take more than :data:`MAX_ESTIMATE_S` needs ``--large``."""
+    estimate = estimate_wall_s(campaign, out_dir, resume, workers)
+    if estimate is not None and estimate[0] > MAX_ESTIMATE_S and not large:
+        raise CampaignError(f"this campaign would take about {estimate[0] / 3600.0:,.1f} h by its own estimate "
+                            f"({estimate[1]}): more than {MAX_ESTIMATE_S / 3600.0:g} h; add --large if that "
+                            f"is meant, or run fewer seeds or a shorter --duration")
+
+
 def _finished_rows(out_dir: Path, campaign: CampaignPlan, rows: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
     """Every run with a result on disk or received, in plan order: a worker may have written
     its result after the client stopped listening (Ctrl-C), and that run is done too."""
@@ -395,7 +426,8 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignS
     it into runs, ``runners`` run them, ``report(out_dir)`` writes the campaign report.
     ``serial`` runs the tasks one by one in this process (no Dask). Raises
     :class:`CampaignError` for bad input, before anything is started or written; a campaign
-    of more than :data:`LARGE_RUNS` runs is one unless ``large``."""
+    of more than :data:`LARGE_RUNS` runs, or one estimated to take more than
+    :data:`MAX_ESTIMATE_S` (:func:`estimate_wall_s`), is one unless ``large``."""
     t0 = time.monotonic()
     out_dir = Path(out_dir).absolute()
     _check_size(len(spec.seeds), large)
@@ -404,6 +436,7 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignS
     if spec.engine == "core" and runners.run_fn is None and runners.core_run is None:
         raise CampaignError("engine core: no core run was handed to the engine")
     check_directory(out_dir, campaign, resume)
+    _check_estimate(campaign, out_dir, resume, 1 if serial else workers or len(os.sched_getaffinity(0)), large)
     rows = _resumed_rows(out_dir, campaign, resume)
     todo = [t for t in _tasks(campaign, out_dir, spec) if t.run_id not in rows]
     skipped = len(rows)

@@ -141,6 +141,12 @@ class CampaignPlan:
 #: Seeds one campaign may list at all; :data:`LARGE_RUNS` more runs need ``--large``.
 MAX_SEEDS = 1_000_000
 LARGE_RUNS = 10_000
+#: A campaign estimated (engine.estimate_wall_s) to take longer than this [s] needs ``--large``.
+MAX_ESTIMATE_S = 24 * 3600.0
+#: Wall seconds one worker spends per simulated second of a run, measured: docs/campaigns.md's
+#: `gimbal-campaign sighting_land_vehicle --seeds 1-20` (40 runs of 120 s) took about 104 s per
+#: run with the graph engine (container mode) and 13.5 s with --engine core.
+WALL_PER_SIM_S = {"graph": 104.0 / 120.0, "core": 13.5 / 120.0}
 
 
 def parse_seeds(text: Any, where: str = "--seeds") -> tuple[int, ...]:

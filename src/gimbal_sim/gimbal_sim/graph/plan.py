@@ -11,7 +11,7 @@ from typing import Any
 import yaml
 
 from .registry import NODE_TYPES
-from .scenario import Scenario
+from .scenario import Scenario, ScenarioError
 
 RECORDER = "bag_recorder"
 
@@ -113,6 +113,23 @@ def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True,
                 "wait_for_nodes": list(scenario.nodes), **(live or {})}
     # the recorder starts first so that it is listening before anyone publishes
     return [PlannedNode(RECORDER, RECORDER, recorder, {})] + planned
+
+
+def check_nodes(scenario: Scenario, where: str = "") -> None:
+    """Each node's final values (:func:`plan_nodes`: its defaults, the scenario's, variant's,
+    params files' and ``--set`` values, and what the orchestrator sets) through the node's own
+    start-up checks (:attr:`.registry.NodeType.check`, the ``from_values`` its ``__init__``
+    runs): what a node would refuse is refused here, naming the node and the parameter,
+    before anything starts. Raises :class:`.scenario.ScenarioError`."""
+    for node in plan_nodes(scenario, Path("unused")):
+        node_type = NODE_TYPES[node.executable]
+        canonical = {alias: p.name for p in node_type.params for alias in (p.name, *p.aliases)}
+        values = {p.name: p.default for p in node_type.params}
+        values.update({canonical.get(k, k): v for k, v in node.params.items()})
+        try:
+            node_type.check(values)
+        except (ValueError, TypeError) as exc:
+            raise ScenarioError(f"{where}node {node.name!r}: {exc}") from None
 
 
 def write_run_files(scenario: Scenario, nodes: list[PlannedNode], out_dir: Path) -> None:

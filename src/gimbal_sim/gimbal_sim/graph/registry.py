@@ -16,13 +16,28 @@ from typing import Callable
 from gimbal_control import (
     encoder_fusion_controller_params, geo_pointer_params, los_rate_controller_params, platform_servo_params,
 )
+from gimbal_control.encoder_fusion import EncoderFusionParams
+from gimbal_control.geo_pointer import GeoPointerParams
+from gimbal_control.los_hold import LosHoldParams
+from gimbal_control.los_rate_controller import LosRateControllerParams
+from gimbal_control.operator_command import OperatorCommandParams
+from gimbal_control.platform_servo import PlatformServoParams
 from gimbal_estimators import (
     flexure_estimator_params, free_gyro_positioning_params, gyro_bias_ekf_params, platform_alignment_params,
     platform_navigator_params,
 )
+from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingParams
+from gimbal_estimators.flexure_kf import FlexureKfParams
+from gimbal_estimators.free_gyro_positioning import FreeGyroPositioningParams
+from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
+from gimbal_estimators.rotation_alignment import RotationAlignmentParams
 from gimbal_kinematics.params import Param
 
 from ..nodes import bag_recorder_params, operator_params, sensor_models_params, vehicle_dynamics_params
+from ..world.operator_model import OperatorModelParams
+from ..world.sensor_suite import SensorSuiteConfig
+from ..world.vehicle import VehicleConfig
 
 
 @dataclass(frozen=True)
@@ -35,6 +50,11 @@ class NodeType:
     params: tuple[Param, ...]
     description: str
     load_class: Callable[[], type]
+    #: the node's own parameter checks, rclpy-free: the ``from_values`` of the cores its
+    #: ``__init__`` builds from its values (cross-parameter rules, list lengths, NaN in a
+    #: list); raises ValueError naming the parameter. Lets gimbal-run refuse what a node
+    #: would refuse before anything starts.
+    check: Callable[[dict], object] = lambda values: None
 
     def node_class(self) -> type:
         return self.load_class()
@@ -106,24 +126,43 @@ def _platform_navigator() -> type:
     return PlatformNavigatorNode
 
 
-def _node_type(package: str, params_module, load_class: Callable[[], type]) -> NodeType:
-    return NodeType(package, params_module.PARAMS, params_module.DESCRIPTION, load_class)
+def _node_type(package: str, params_module, load_class: Callable[[], type],
+               *checks: Callable[[dict], object]) -> NodeType:
+    def check(values: dict) -> None:
+        for one in checks:
+            one(values)
+    return NodeType(package, params_module.PARAMS, params_module.DESCRIPTION, load_class, check)
+
+
+def _flexure_params(v: dict) -> object:
+    return (AttitudeMatchingParams if v["model"] == "original" else FlexureKfParams).from_values(v)
+
+
+def _los_hold_params(v: dict) -> object:
+    return LosHoldParams.from_values(v) if v["mode"] == "los_hold" else None
 
 
 #: executable -> NodeType; scenario nodes must use one of these.
 NODE_TYPES: dict[str, NodeType] = {
-    "vehicle_dynamics": _node_type("gimbal_sim", vehicle_dynamics_params, _vehicle_dynamics),
-    "sensor_models": _node_type("gimbal_sim", sensor_models_params, _sensor_models),
+    "vehicle_dynamics": _node_type("gimbal_sim", vehicle_dynamics_params, _vehicle_dynamics, VehicleConfig.from_values),
+    "sensor_models": _node_type("gimbal_sim", sensor_models_params, _sensor_models, SensorSuiteConfig.from_values),
     "bag_recorder": _node_type("gimbal_sim", bag_recorder_params, _bag_recorder),
-    "operator": _node_type("gimbal_sim", operator_params, _operator),
-    "los_rate_controller": _node_type("gimbal_control", los_rate_controller_params, _los_rate_controller),
-    "gyro_bias_ekf": _node_type("gimbal_estimators", gyro_bias_ekf_params, _gyro_bias_ekf),
-    "free_gyro_positioning": _node_type("gimbal_estimators", free_gyro_positioning_params, _free_gyro_positioning),
+    "operator": _node_type("gimbal_sim", operator_params, _operator, OperatorModelParams.from_values),
+    "los_rate_controller": _node_type("gimbal_control", los_rate_controller_params, _los_rate_controller,
+                                      LosRateControllerParams.from_values, OperatorCommandParams.from_values,
+                                      _los_hold_params),
+    "gyro_bias_ekf": _node_type("gimbal_estimators", gyro_bias_ekf_params, _gyro_bias_ekf,
+                                GyroBiasEkfParams.from_values),
+    "free_gyro_positioning": _node_type("gimbal_estimators", free_gyro_positioning_params, _free_gyro_positioning,
+                                        FreeGyroPositioningParams.from_values),
     "encoder_fusion_controller": _node_type("gimbal_control", encoder_fusion_controller_params,
-                                            _encoder_fusion_controller),
-    "flexure_estimator": _node_type("gimbal_estimators", flexure_estimator_params, _flexure_estimator),
-    "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo),
-    "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment),
-    "geo_pointer": _node_type("gimbal_control", geo_pointer_params, _geo_pointer),
-    "platform_navigator": _node_type("gimbal_estimators", platform_navigator_params, _platform_navigator),
+                                            _encoder_fusion_controller, EncoderFusionParams.from_values),
+    "flexure_estimator": _node_type("gimbal_estimators", flexure_estimator_params, _flexure_estimator, _flexure_params),
+    "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo,
+                                 PlatformServoParams.from_values),
+    "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment,
+                                     RotationAlignmentParams.from_values),
+    "geo_pointer": _node_type("gimbal_control", geo_pointer_params, _geo_pointer, GeoPointerParams.from_values),
+    "platform_navigator": _node_type("gimbal_estimators", platform_navigator_params, _platform_navigator,
+                                     PlatformNavigatorParams.from_values),
 }

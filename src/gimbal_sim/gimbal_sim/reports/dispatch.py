@@ -114,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"report written to {out} ({len(metrics.get('plots', []))} plots)")
     print(f"page: {out / 'index.html'}")
     if not metrics.get("closed_cleanly", True):
-        print(f"warning: the bag was not closed cleanly: {metrics.get('read_error')}", file=sys.stderr)
+        why = metrics.get("read_error") or "no metadata.yaml (the recording was not finalized)"
+        print(f"warning: the bag was not closed cleanly: {why}", file=sys.stderr)
     return 0
 
 

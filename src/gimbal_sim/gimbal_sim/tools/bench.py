@@ -40,7 +40,7 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
-from gimbal_kinematics.cli_boundary import cli_boundary, finite
+from gimbal_kinematics.cli_boundary import cli_boundary, finite, writable_dir
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 
@@ -329,9 +329,7 @@ def bench_run(args: argparse.Namespace) -> int:
     unknown = set(modes) - {"core", "container", "processes"}
     if unknown:
         raise ScenarioError(f"--modes: unknown {sorted(unknown)} (core, container, processes)")
-    keep = Path(args.keep) if args.keep else None
-    if keep is not None and keep.exists():
-        raise ScenarioError(f"--keep {keep}: already exists; not overwriting it")
+    keep = Path(args.keep) if args.keep else None  # checked by _check_numbers, before anything runs
     tmp = tempfile.TemporaryDirectory(prefix="gimbal-bench-")
     root = keep or Path(tmp.name)
     results: dict[str, ModeResult] = {}
@@ -493,12 +491,15 @@ def bench_live(args: argparse.Namespace) -> int:
 
 
 def _check_numbers(args: argparse.Namespace) -> None:
-    """Durations and factors finite and positive, before anything runs."""
+    """Durations and factors finite and positive, and --keep a folder that can be created,
+    before anything runs."""
     for option in ("duration", "memory_factor"):
         if getattr(args, option, None) is not None:
             finite(getattr(args, option), f"--{option.replace('_', '-')}", 0.0, strict=True)
     if getattr(args, "rel_tol", None) is not None:
         finite(args.rel_tol, "--rel-tol", 0.0)
+    if getattr(args, "keep", None):
+        writable_dir(args.keep, "--keep")
 
 
 @cli_boundary("gimbal-bench", interrupted="stopped the benchmark before its report; only --keep keeps its runs")

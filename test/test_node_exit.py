@@ -1,0 +1,42 @@
+"""A node executable ends as the commands do (issue 27): Ctrl-C once it is up exits 130
+with no traceback and no [FATAL]; an unexpected exception keeps its traceback and is
+followed by the commands' 'this is a bug' line (one boundary: cli_boundary)."""
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+
+from conftest import VENV_BIN
+from gimbal_kinematics.cli_boundary import BUG_LINE
+from test_workspace import _wait_for_node_on_graph
+
+
+def test_sigint_on_a_running_node_exits_130(ros_domain_env):
+    proc = subprocess.Popen([str(VENV_BIN / "gyro_bias_ekf")], env=ros_domain_env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for_node_on_graph("gyro_bias_ekf", int(ros_domain_env["ROS_DOMAIN_ID"]), proc, timeout_s=60.0)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    text = out + err
+    assert proc.returncode == 130, text
+    assert "Traceback" not in text and "[FATAL]" not in text, text
+    assert "gyro_bias_ekf: interrupted: stopped the node" in err, err
+
+
+def test_unexpected_exception_in_a_node_is_reported_as_a_bug(ros_domain_env):
+    code = ("import sys\n"
+            "from gimbal_kinematics.ros.node_main import run_node\n"
+            "def make():\n"
+            "    raise ZeroDivisionError('a node bug')\n"
+            "sys.exit(run_node(make, 'bug_node', 'a node that fails', ['bug_node']))\n")
+    result = subprocess.run([sys.executable, "-c", code], env=ros_domain_env, capture_output=True, text=True,
+                            timeout=60)
+    assert result.returncode == 1, result.stderr
+    assert "Traceback" in result.stderr and "ZeroDivisionError: a node bug" in result.stderr, result.stderr
+    assert BUG_LINE.format(prog="bug_node") in result.stderr, result.stderr
