@@ -31,14 +31,15 @@ def _C_nm_along(u: np.ndarray, roll: float = 0.3) -> np.ndarray:
     return Rotation.from_euler("ZYX", [az, el, roll]).as_matrix()
 
 
-def _run_loop(pointer: GeoPointer, C_nm: np.ndarray, C_nb: np.ndarray, seconds: float, dt: float = 0.01,
+def _run_loop(pointer: GeoPointer, C_nm: np.ndarray, C_nb, seconds: float, dt: float = 0.01,
               w_in_n: np.ndarray | None = None) -> tuple[np.ndarray, list]:
     """The rate loop ideal: the sight turns at exactly the commanded inertial rate (0, q, r)
-    in m while NED turns at ``w_in_n`` under it: C_nm(t+dt) = exp(−[w dt]) C_nm exp([ω_m dt])."""
+    in m while NED turns at ``w_in_n`` under it: C_nm(t+dt) = exp(−[w dt]) C_nm exp([ω_m dt]).
+    ``C_nb``: the INS attitude, fixed, or a function of the step's time t = i dt."""
     w = np.zeros(3) if w_in_n is None else w_in_n
     outs = []
-    for _ in range(int(round(seconds / dt))):
-        out = pointer.step(Rotation.from_matrix(C_nm).as_quat(), C_nb, 0.0)
+    for i in range(int(round(seconds / dt))):
+        out = pointer.step(Rotation.from_matrix(C_nm).as_quat(), C_nb(i * dt) if callable(C_nb) else C_nb, 0.0)
         outs.append(out)
         w_m = np.array([0.0, *out.command])
         C_nm = Rotation.from_rotvec(-w * dt).as_matrix() @ C_nm @ Rotation.from_rotvec(w_m * dt).as_matrix()
@@ -90,6 +91,51 @@ def test_at_the_elevation_limit_it_stops_there_and_counts():
     el = math.atan2(-C_end[2, 0], math.hypot(C_end[0, 0], C_end[1, 0]))
     assert el == pytest.approx(D(60.0), abs=1e-6)
     assert outs[-1].solution.residual_rad == pytest.approx(D(15.0), abs=1e-6)
+
+
+def _heading_deg(t: float) -> float:
+    """A vehicle that turns away from the target and back: 50 deg, from 1 s down at 3 deg/s
+    to -10 deg at 21 s, held, from 31 s back up at 3 deg/s to 50 deg at 51 s, held."""
+    return 50.0 - 3.0 * (min(t, 21.0) - min(t, 1.0)) + 3.0 * (min(t, 51.0) - min(t, 31.0))
+
+
+def test_at_the_azimuth_limit_it_stops_there_counts_and_resumes_inside():
+    """The target's bearing relative to the vehicle's heading drives the gimbal azimuth
+    (turret at 0) past its +30 deg limit and back. The limited steps are those where
+    pymap3d's bearing minus the heading exceeds 30 deg; in the held turn the LOS stops at
+    heading + 30 deg at the target's elevation; back inside, it is on the target again."""
+    bearing, elevation, _ = pm.geodetic2aer(39.913504, 32.829234, 1050.7, 39.9, 32.8, 900.0)
+    dt, limit = 0.02, 30.0
+    limits = GimbalLimits(azimuth_min_rad=D(-limit), azimuth_max_rad=D(limit))
+    relative = np.array([bearing - _heading_deg(i * dt) for i in range(round(61.0 / dt))])
+    assert np.min(np.abs(relative - limit)) > 0.01  # no step near the limit: the expected set is sharp
+    expected = np.flatnonzero(relative > limit)
+    assert expected[0] == 400 and expected[-1] == 2200 and np.all(np.diff(expected) == 1)  # 8.00 s to 44.00 s
+
+    def C_nb(t: float) -> np.ndarray:
+        return Rotation.from_euler("Z", D(_heading_deg(t))).as_matrix()
+
+    u = _los_ned_pymap3d(VEHICLE, TARGET)
+    pointer = GeoPointer(GeoPointerParams(TARGET, VEHICLE, gain_1_s=2.0, limits=limits))
+    w_e = earth_rate_n(VEHICLE[0])
+    C_nm, outs = _run_loop(pointer, _C_nm_along(u), C_nb, 31.0, dt, w_e)  # to the end of the held turn
+    stop_az, el = D(_heading_deg(31.0) + limit), D(elevation)
+    at_limit = np.array([math.cos(el) * math.cos(stop_az), math.cos(el) * math.sin(stop_az), -math.sin(el)])
+    assert _angle(C_nm[:, 0], at_limit) < 1e-7  # stopped at the limit, 10 s after the turn stopped
+    excess = D(relative[len(outs) - 1] - limit)  # the miss: the azimuth excess at the target's elevation
+    miss = math.acos(math.cos(el) ** 2 * math.cos(excess) + math.sin(el) ** 2)
+    assert outs[-1].solution.residual_rad == pytest.approx(miss, abs=1e-9)
+    assert outs[-1].solution.psi_m == pytest.approx(D(limit), abs=1e-12)
+
+    C_nm, rest = _run_loop(pointer, C_nm, lambda t: C_nb(31.0 + t), 30.0, dt, w_e)  # the way back
+    outs += rest
+    limited = np.flatnonzero([o.solution.azimuth_limited for o in outs])
+    assert np.array_equal(limited, expected)
+    assert pointer.counts["azimuth_limited_steps"] == len(expected) == 1801
+    assert pointer.counts["elevation_limited_steps"] == 0 and pointer.counts["singular_steps"] == 0
+    assert _angle(C_nm[:, 0], u) < 1e-7  # back on the target, 17 s after it came inside the limits
+    assert outs[-1].solution.psi_m == pytest.approx(D(relative[-1]), abs=1e-9)  # the joints point at it
+    assert outs[-1].solution.residual_rad < 1e-12
 
 
 def _values(**changes):
