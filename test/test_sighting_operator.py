@@ -90,9 +90,38 @@ def test_report_figures_agree_with_the_models_bookkeeping():
     assert fig["mean_time_between_corrections_s"] == pytest.approx(period, rel=0.03)
 
 
+def _synthetic(moving_at: set[int]) -> dict:
+    """operator_figures on samples at t = 0, 1, ..., 20 s, the target captured at 1 s (ε NaN
+    at 0 s, 0.5 mrad after), the stick moved (q = r = 1 mrad/s) at the seconds in ``moving_at``."""
+    t = np.arange(21.0)
+    err = np.array([[math.nan if k == 0 else 5e-4, 0.0, 0.0] for k in range(21)])
+    cmd = np.array([[0.0, 1e-3, 1e-3] if k in moving_at else [0.0, 0.0, 0.0] for k in range(21)])
+    return operator_figures(t, err, cmd, 1e-3)
+
+
+def test_observed_time_per_correction_against_a_hand_count_and_pooled_over_runs():
+    """Three runs of 19 s observed (1 s to 20 s): corrections starting at 2, 9 and 15 s; none;
+    one at 5 s. The censored mean between corrections sees only the first run (gaps 7 and
+    6 s: 6.5 s); the pooled figure, Σ observed / Σ corrections = 57 / 4 = 14.25 s, counts
+    the calm ones, and equals 60 / (mean corrections per minute) as every run is 19 s."""
+    busy, calm, one = _synthetic({2, 3, 9, 15, 16, 17}), _synthetic(set()), _synthetic({5, 6})
+    assert (busy["corrections"], calm["corrections"], one["corrections"]) == (3, 0, 1)
+    assert busy["observed_s"] == calm["observed_s"] == one["observed_s"] == 19.0
+    assert busy["mean_time_between_corrections_s"] == pytest.approx(6.5, rel=1e-15)
+    assert math.isnan(calm["mean_time_between_corrections_s"]) and math.isnan(one["mean_time_between_corrections_s"])
+    assert busy["observed_time_per_correction_s"] == pytest.approx(19.0 / 3.0, rel=1e-15)
+    assert one["observed_time_per_correction_s"] == 19.0
+    assert calm["observed_time_per_correction_s"] == math.inf  # none in 19 s: longer than the run
+    runs = (busy, calm, one)
+    pooled = sum(r["observed_s"] for r in runs) / sum(r["corrections"] for r in runs)
+    assert pooled == 14.25
+    assert 60.0 / np.mean([r["corrections_per_min"] for r in runs]) == pytest.approx(14.25, rel=1e-12)
+
+
 def test_figures_without_enough_samples_are_nan_not_an_error():
     fig = operator_figures(np.array([0.0]), np.array([[math.nan] * 3]), np.zeros((1, 3)), 1e-3)
     assert fig["corrections"] == 0 and math.isnan(fig["corrections_per_min"])
+    assert math.isnan(fig["observed_time_per_correction_s"])
 
 
 def test_bad_operator_params_refused_naming_them():

@@ -10,7 +10,13 @@ test compares with these):
   corrections per minute over the observed time (from the target's capture to the end);
 * the fraction of the observed time on target: ε at or inside ``tolerance_mrad`` at the
   start of each sample interval, weighted by the interval;
-* the mean time between the starts of successive corrections (NaN with fewer than two);
+* the mean time between the starts of successive corrections (NaN with fewer than two).
+  A mean over runs of this figure is censored: it leaves out the calm runs (none or one
+  correction), so it is biased low;
+* the observed time per correction, ``observed_s / corrections`` (inf with none): the
+  uncensored figure. Over runs, pool it as Σ observed_s / Σ corrections (the mean of the
+  per-run ratios, or of the finite ones, is not that); with the same observed time in every
+  run it is 60 / (the runs' mean corrections per minute);
 * the RMS and peak of the true pointing error ε.
 
 The sighting figures of the run (drift, bias NEES) come with them
@@ -55,8 +61,8 @@ def operator_figures(t: np.ndarray, error: np.ndarray, command: np.ndarray, tole
     nan = float("nan")
     if len(t) < 2:
         return {"corrections": 0, "corrections_per_min": nan, "time_on_target_fraction": nan,
-                "mean_time_between_corrections_s": nan, "observed_s": 0.0, "pointing_error_rms_mrad": nan,
-                "pointing_error_peak_mrad": nan}
+                "mean_time_between_corrections_s": nan, "observed_s": 0.0, "observed_time_per_correction_s": nan,
+                "pointing_error_rms_mrad": nan, "pointing_error_peak_mrad": nan}
     dt = np.diff(t)
     observed = float(t[-1] - t[0])
     moving = (cmd[:, 1] != 0.0) | (cmd[:, 2] != 0.0)
@@ -68,6 +74,7 @@ def operator_figures(t: np.ndarray, error: np.ndarray, command: np.ndarray, tole
         "time_on_target_fraction": float(np.sum(dt[eps[:-1] <= tolerance]) / observed),
         "mean_time_between_corrections_s": float(np.mean(gaps)) if len(gaps) else nan,
         "observed_s": observed,
+        "observed_time_per_correction_s": observed / len(onsets) if len(onsets) else math.inf,
         "pointing_error_rms_mrad": float(np.sqrt(np.mean(eps * eps))) * 1e3,
         "pointing_error_peak_mrad": float(np.max(eps)) * 1e3,
     }
@@ -94,15 +101,18 @@ def _fmt(value: float, spec: str) -> str:
 
 def sighting_operator_comparison(runs: dict[str, Path], out: Path) -> dict:
     """Variants side by side: corrections per minute, time on target, mean time between
-    corrections, pointing error; the ratio of the first variant's correction rate to each."""
+    corrections, observed time per correction, pointing error; the ratio of the first
+    variant's correction rate to each."""
     cases = {name: analyse(bag) for name, bag in runs.items()}
     first = next(iter(cases.values()))["corrections_per_min"]
-    rows = [("case", "corrections/min", "on target", "mean between [s]", "eps RMS/peak [mrad]", "ratio")]
+    rows = [("case", "corrections/min", "on target", "mean between [s]", "observed/correction [s]",
+             "eps RMS/peak [mrad]", "ratio")]
     for name, c in cases.items():
         ratio = first / c["corrections_per_min"] if c["corrections_per_min"] else math.inf
         c["correction_ratio_to_first"] = ratio
         rows.append((name, _fmt(c["corrections_per_min"], ".2f"), _fmt(c["time_on_target_fraction"], ".3f"),
                      _fmt(c["mean_time_between_corrections_s"], ".1f"),
+                     _fmt(c["observed_time_per_correction_s"], ".1f"),
                      f"{_fmt(c['pointing_error_rms_mrad'], '.2f')} / {_fmt(c['pointing_error_peak_mrad'], '.2f')}",
                      _fmt(ratio, ".1f")))
     widths = [max(len(str(r[i])) for r in rows) for i in range(len(rows[0]))]
