@@ -41,7 +41,7 @@ def test_without_the_filter_the_loop_follows_the_command_minus_the_gyro_bias(sle
     assert abs(s["el_error_pct"]) > 0.5  # the bias is visible: the check above is not trivially met
 
 
-def test_deadman_stops_the_slew_within_the_timeout_and_counts_it():
+def test_deadman_stops_the_slew_at_the_timeout_plus_the_deceleration_and_counts_it():
     scenario = variant(load("sighting_land_vehicle"), "ekf_off")
     scenario = type(scenario)(**{**scenario.__dict__, "duration_s": 2.5})
     vehicle, controlled, stages = core_plan(scenario)
