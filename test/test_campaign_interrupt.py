@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from gimbal_sim.campaign.engine import Runners, execute_run
-from gimbal_sim.campaign.results import read_results
+from gimbal_sim.campaign.results import read_results, results_digest
 from gimbal_sim.campaign.spec import spec_from_mapping
 from gimbal_sim.experiments.registry import run_campaign
 
@@ -47,8 +47,36 @@ def test_interrupted_campaign_then_resume_counts_every_run_on_disk(tmp_path):
     assert (_summary(out)["runs"], _summary(out)["ok"]) == (6, 6)
 
     # a report written before the last runs landed (what the issue saw: "2 of 2 runs ok")
-    stale = dict(_summary(out), runs=2, ok=2)
+    stale = dict(_summary(out), runs=2, ok=2, results_digest=results_digest(read_results(out)[:2]))
     (out / "report" / "summary.json").write_text(json.dumps(stale))
     result = run_campaign(spec, out, resume=True, serial=True, progress=False, run_fn=_mean_run)
     assert (result.ran, result.skipped) == (0, 6)
     assert (_summary(out)["runs"], _summary(out)["ok"]) == (6, 6)
+
+
+def test_resume_rewrites_a_report_whose_results_changed_with_the_same_counts(tmp_path):
+    """A run's figure changed on disk (same runs, same ok count): ``--resume`` runs nothing,
+    but the report is rewritten from the new table, since it was written from another one."""
+    spec, out = spec_from_mapping(SPEC), tmp_path / "c"
+    run_campaign(spec, out, serial=True, progress=False, run_fn=_mean_run)
+    before = _summary(out)
+    assert before["results_digest"]
+    run_id = sorted(p.name for p in (out / "runs").iterdir() if (p / "result.json").is_file())[0]
+    row = json.loads((out / "runs" / run_id / "result.json").read_text())
+    row["metrics"]["experiment.mean"] = 1000.0  # far from every seeded mean, so the group mean moves
+    (out / "runs" / run_id / "result.json").write_text(json.dumps(row))
+
+    result = run_campaign(spec, out, resume=True, serial=True, progress=False, run_fn=_mean_run)
+    assert (result.ran, result.skipped) == (0, 6)
+    after = _summary(out)
+    assert (after["runs"], after["ok"]) == (before["runs"], before["ok"]) == (6, 6)
+    assert after["results_digest"] != before["results_digest"]
+    means = [r["experiment.mean"] for r in read_results(out) if r["variant"] == row["variant"]]
+    assert 1000.0 in means
+    group = next(g for g in after["groups"] if g["variant"] == row["variant"])
+    assert group["metrics"]["experiment.mean"]["mean"] == pytest.approx(sum(means) / len(means), rel=1e-12)
+
+    # nothing changed since: a further resume leaves the report alone (same file, same time)
+    stamp = (out / "report" / "summary.json").stat().st_mtime_ns
+    run_campaign(spec, out, resume=True, serial=True, progress=False, run_fn=_mean_run)
+    assert (out / "report" / "summary.json").stat().st_mtime_ns == stamp

@@ -46,7 +46,7 @@ import yaml
 from gimbal_kinematics.ros.ros_domain import claim_domain_id
 
 from ..graph.scenario import Scenario, validate
-from .results import RESULT_FILE, CampaignResult, flatten_metrics, write_results
+from .results import RESULT_FILE, CampaignResult, flatten_metrics, read_results, results_digest, write_results
 from .spec import (
     LARGE_RUNS, MAX_ESTIMATE_S, WALL_PER_SIM_S, CampaignError, CampaignPlan, CampaignSpec, RunFunction, RunTask,
 )
@@ -409,13 +409,14 @@ def _finished_rows(out_dir: Path, campaign: CampaignPlan, rows: dict[str, dict[s
     return [rows[r.run_id] for r in campaign.runs if r.run_id in rows]
 
 
-def _report_is_current(out_dir: Path, rows: list[dict[str, Any]]) -> bool:
-    """Does ``report/summary.json`` count exactly these runs (and as many ok)?"""
+def _report_is_current(out_dir: Path) -> bool:
+    """Was ``report/`` written from the results table now on disk? Its ``summary.json``
+    holds the digest of the table it was written from (:func:`~.results.results_digest`)."""
     try:
         summary = json.loads((out_dir / "report" / "summary.json").read_text())
     except (OSError, ValueError):
         return False
-    return summary.get("runs") == len(rows) and summary.get("ok") == sum(r.get("status") == "ok" for r in rows)
+    return summary.get("results_digest") == results_digest(read_results(out_dir))
 
 
 def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignSpec], CampaignPlan],
@@ -468,7 +469,7 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignS
             cluster.close()
     ordered = [rows[r.run_id] for r in campaign.runs]
     write_results(out_dir, ordered, targets)
-    if todo or not _report_is_current(out_dir, ordered):
+    if todo or not _report_is_current(out_dir):
         report(out_dir)
     result = CampaignResult(out_dir, ordered, len(todo), skipped, time.monotonic() - t0)
     with open(out_dir / "invocations.jsonl", "a") as log:  # when, where and how long each call ran

@@ -32,7 +32,7 @@ import yaml
 
 from ..figures import pyplot, save
 from ..page import write_campaign_page, write_run_page
-from .results import RESULT_FILE, flatten_metrics, read_results, write_results
+from .results import RESULT_FILE, flatten_metrics, read_results, results_digest, write_results
 
 #: Leaf name of a report's time-averaged NEES -> its degrees of freedom (the report that writes it).
 NEES_DOF = {"bias_nees_mean_after_30s": 2,   # sighting: (b_q, b_r)
@@ -257,6 +257,7 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
     campaign_dir = Path(campaign_dir)
     rows = read_results(campaign_dir)
     summary = summarize(rows)
+    summary["results_digest"] = results_digest(rows)  # what --resume checks the report against
     out = campaign_dir / "report"
     out.mkdir(exist_ok=True)
     for old in [*out.glob("hist_*.png"), *out.glob("sweep_*.png")]:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import csv
+import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -98,3 +100,11 @@ def read_results(out_dir: Path) -> list[dict[str, Any]]:
     import pyarrow.parquet as pq
 
     return pq.read_table(Path(out_dir) / "results.parquet").to_pylist()
+
+
+def results_digest(rows: list[dict[str, Any]]) -> str:
+    """SHA-256 of a results table's rows (as :func:`read_results` gives them), in run-id order
+    and with every column: a report stores the digest of the table it was written from, and a
+    table whose digest differs (a run's status or any of its figures) makes that report stale."""
+    text = json.dumps(sorted(rows, key=lambda r: str(r.get("run_id"))), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
