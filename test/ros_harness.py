@@ -6,6 +6,7 @@ stopped by its PID.
 """
 from __future__ import annotations
 
+import signal
 import subprocess
 import time
 from contextlib import contextmanager
@@ -82,3 +83,38 @@ def start_refused(exe: str, params: dict, env: dict) -> subprocess.CompletedProc
     finished process (a node that does start is killed after 60 s by the timeout)."""
     return subprocess.run([str(VENV_BIN / exe), *ros_args(params)], env=env, capture_output=True, text=True,
                           timeout=60)
+
+
+def wait_for_node_on_graph(name: str, domain_id: int, proc: subprocess.Popen, timeout_s: float = 120.0) -> None:
+    """Wait until a node called ``name`` is on the ROS graph of ``domain_id`` (an rclpy
+    context of this test's own in that domain), failing early if ``proc`` exits."""
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=domain_id)
+    try:
+        probe = rclpy.create_node("workspace_probe", context=ctx)
+        deadline = time.monotonic() + timeout_s
+        while name not in probe.get_node_names():
+            if proc.poll() is not None:
+                out, err = proc.communicate()
+                raise AssertionError(f"{name} exited with {proc.returncode}: {out}{err}")
+            assert time.monotonic() < deadline, f"{name} did not appear on the graph in {timeout_s} s"
+            time.sleep(0.1)
+        probe.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=ctx)
+
+
+def interrupt_when_on_graph(cmd: list[str], env: dict, name: str,
+                            timeout_s: float = 120.0) -> tuple[subprocess.Popen, str, str]:
+    """Start ``cmd``, send it SIGINT once its node ``name`` is on the graph, and return the
+    ended process with its stdout and stderr (the process is killed if it outlives this)."""
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_node_on_graph(name, int(env["ROS_DOMAIN_ID"]), proc, timeout_s)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return proc, out, err

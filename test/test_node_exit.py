@@ -3,26 +3,17 @@ with no traceback and no [FATAL]; an unexpected exception keeps its traceback an
 followed by the commands' 'this is a bug' line (one boundary: cli_boundary)."""
 from __future__ import annotations
 
-import signal
 import subprocess
 import sys
 
 from conftest import VENV_BIN
 from gimbal_kinematics.cli_boundary import BUG_LINE
-from test_workspace import _wait_for_node_on_graph
+from ros_harness import interrupt_when_on_graph
 
 
 def test_sigint_on_a_running_node_exits_130(ros_domain_env):
-    proc = subprocess.Popen([str(VENV_BIN / "gyro_bias_ekf")], env=ros_domain_env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        _wait_for_node_on_graph("gyro_bias_ekf", int(ros_domain_env["ROS_DOMAIN_ID"]), proc, timeout_s=60.0)
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    proc, out, err = interrupt_when_on_graph([str(VENV_BIN / "gyro_bias_ekf")], ros_domain_env, "gyro_bias_ekf",
+                                             timeout_s=60.0)
     text = out + err
     assert proc.returncode == 130, text
     assert "Traceback" not in text and "[FATAL]" not in text, text

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import ast
 import os
-import signal
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -18,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO_ROOT, VENV_BIN
+from ros_harness import interrupt_when_on_graph
 
 PACKAGES = ("gimbal_kinematics", "gimbal_sim", "gimbal_control", "gimbal_estimators")
 SRC = REPO_ROOT / "src"
@@ -172,38 +172,7 @@ def test_packages_up_to_gimbal_estimators_build_alone_and_the_ekf_node_starts(tm
         str(tmp_path / "install" / p / "lib" / pyver / "site-packages") for p in built])
     exe = tmp_path / "install" / "gimbal_estimators" / "lib" / "gimbal_estimators" / "gyro_bias_ekf"
     params = tmp_path / "install" / "gimbal_estimators" / "share" / "gimbal_estimators" / "config" / "gyro_bias_ekf.yaml"
-    proc = subprocess.Popen([str(exe), "--ros-args", "--params-file", str(params)], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        _wait_for_node_on_graph("gyro_bias_ekf", int(env["ROS_DOMAIN_ID"]), proc)
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    proc, _, err = interrupt_when_on_graph([str(exe), "--ros-args", "--params-file", str(params)], env,
+                                           "gyro_bias_ekf")
     assert proc.returncode == 130, err  # Ctrl-C: interrupted, as every command (docs/usage.md)
     assert "Traceback" not in err, err
-
-
-def _wait_for_node_on_graph(name: str, domain_id: int, proc: subprocess.Popen, timeout_s: float = 120.0) -> None:
-    """Wait until a node called ``name`` is on the ROS graph of ``domain_id`` (an rclpy
-    context of this test's own in that domain), failing early if ``proc`` exits."""
-    import time
-
-    import rclpy
-
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=domain_id)
-    try:
-        probe = rclpy.create_node("workspace_probe", context=ctx)
-        deadline = time.monotonic() + timeout_s
-        while name not in probe.get_node_names():
-            if proc.poll() is not None:
-                out, err = proc.communicate()
-                raise AssertionError(f"{name} exited with {proc.returncode}: {out}{err}")
-            assert time.monotonic() < deadline, f"{name} did not appear on the graph in {timeout_s} s"
-            time.sleep(0.1)
-        probe.destroy_node()
-    finally:
-        rclpy.try_shutdown(context=ctx)
