@@ -145,7 +145,7 @@ def graph_runs(module_ros_domain_env, tmp_path_factory) -> dict[str, Path]:
     for mode in ("encoder", "fused"):
         out = tmp / mode
         result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(scenario), "--duration", str(DURATION_S),
-                                 "--set", f"encoder_fusion_controller.mode={mode}", "--out", str(out),
+                                 "--set", f"encoder_fusion_controller.mode={mode}", "--out", str(out), "--mode", "container",
                                  "--no-progress"], env=module_ros_domain_env, capture_output=True, text=True,
                                 timeout=900)
         assert result.returncode == 0, result.stderr

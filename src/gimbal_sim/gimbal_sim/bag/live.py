@@ -20,6 +20,7 @@ from __future__ import annotations
 import re
 import socket
 import threading
+import time
 from typing import Callable
 
 from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
@@ -78,10 +79,18 @@ def _offered_legacy(request: bytes) -> tuple[bytes, bool]:
     return request[:match.start(2)] + SDK_SUBPROTOCOL + request[match.end(2):], True
 
 
-def _splice(src: socket.socket, dst: socket.socket) -> None:
+#: how long the server-to-client copy lets the server's frames gather between wake-ups: the
+#: SDK writes each message as its own frame, and a wake-up per frame (thousands a second) takes
+#: the GIL from the recorder's callbacks that often; 10 ms is nothing to a person watching.
+_GATHER_S = 0.01
+
+
+def _splice(src: socket.socket, dst: socket.socket, gather_s: float = 0.0) -> None:
     try:
-        while chunk := src.recv(65536):
+        while chunk := src.recv(1 << 20):
             dst.sendall(chunk)
+            if gather_s:
+                time.sleep(gather_s)
     except OSError:
         pass
     finally:
@@ -137,7 +146,7 @@ class SubprotocolFront:
                 if sock is not None:
                     sock.close()
             return
-        threading.Thread(target=_splice, args=(server, client), daemon=True).start()
+        threading.Thread(target=_splice, args=(server, client, _GATHER_S), daemon=True).start()
         _splice(client, server)
 
     def close(self) -> None:
@@ -242,14 +251,22 @@ class LiveGuard:
             self._guarded(self.relay.add_topic, topic, type_name)
 
     def publish(self, topic: str, data: bytes, stamp_ns: int) -> None:
-        if self.relay is not None:
-            self._guarded(self.relay.publish, topic, data, stamp_ns)
+        relay = self.relay  # called for every message the recorder gets: one call, no more
+        if relay is not None:
+            try:
+                relay.publish(topic, data, stamp_ns)
+            except Exception as exc:  # noqa: BLE001 - any failure of the live view: off, the run goes on
+                self._turn_off(topic, exc)
 
     def _guarded(self, call: Callable[..., None], topic: str, *args: object) -> None:
         try:
             call(topic, *args)
         except Exception as exc:  # noqa: BLE001 - any failure of the live view: off, the run goes on
-            relay, self.relay = self.relay, None
+            self._turn_off(topic, exc)
+
+    def _turn_off(self, topic: str, exc: Exception) -> None:
+        relay, self.relay = self.relay, None
+        if relay is not None:
             closing = ""
             try:
                 relay.close()
