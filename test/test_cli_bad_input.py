@@ -219,6 +219,9 @@ ROWS: list[tuple[str, Callable, list, list[str]]] = [
      ["spin_nadir_deg", "(0, 180)"]),
     ("run/set list length", run_cli.main, ["free_gyro_positioning", "--set",
                                            "free_gyro_positioning.spin_nadir_deg=[60.0]"], ["spin_nadir_deg", "two"]),
+    ("campaign/set list NaN", campaign_cli.main, ["free_gyro_positioning", "--engine", "core", "--serial", "--set",
+                                                  "free_gyro_positioning.spin_nadir_deg=[.nan, 50.0]",
+                                                  "--out", _p("missing")], ["spin_nadir_deg"]),
 ]
 
 #: node executable -> module holding its ``main``: each has a row (a params file that is not text)

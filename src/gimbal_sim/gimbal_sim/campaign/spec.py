@@ -51,6 +51,7 @@ import yaml
 from gimbal_kinematics.cli_boundary import read_text
 
 from ..core.core_loop import STAGES, node_values
+from ..graph.plan import check_nodes
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, check_param, load, variant
 
@@ -445,6 +446,15 @@ def check_core_engine(scenario: Scenario) -> None:
                             f"({', '.join(unknown) or 'no vehicle_dynamics'}); use --engine graph")
 
 
+def _check_nodes(single: Scenario, variant_name: str) -> None:
+    """What a run's nodes would refuse at start-up (each node's own checks on its final
+    values, lists included), refused before the campaign starts any run."""
+    try:
+        check_nodes(single, f"variant {variant_name!r}: " if variant_name else "")
+    except ScenarioError as exc:
+        raise CampaignError(str(exc)) from None
+
+
 def plan(spec: CampaignSpec) -> CampaignPlan:
     """Validate ``spec`` against its scenario and expand it into runs (variant × seed × point).
     Raises :class:`CampaignError` naming what is wrong; nothing is started or written."""
@@ -487,6 +497,9 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
             probe = sweep.values if sweep.values is not None else sweep.bounds
             for value in probe:  # every value is checked before anything runs
                 apply_value(single, sweep.target, value, f"--sweep {sweep.target}")
+        # the --set values as the nodes would take them; a swept point a node refuses is a
+        # failed run, recorded, and the campaign carries on
+        _check_nodes(single, name)
         if spec.engine == "core":
             check_core_engine(single)
     runs = []
