@@ -11,6 +11,7 @@ import subprocess
 import time
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Callable
 
 import rclpy
 from rclpy.context import Context
@@ -85,36 +86,56 @@ def start_refused(exe: str, params: dict, env: dict) -> subprocess.CompletedProc
                           timeout=60)
 
 
-def wait_for_node_on_graph(name: str, domain_id: int, proc: subprocess.Popen, timeout_s: float = 120.0) -> None:
-    """Wait until a node called ``name`` is on the ROS graph of ``domain_id`` (an rclpy
-    context of this test's own in that domain), failing early if ``proc`` exits."""
+START_TIMEOUT_S = 120.0  # wall time a command may take to get to work on a loaded machine
+EXIT_TIMEOUT_S = 60.0    # and to stop after the SIGINT
+
+
+def interrupt_when(cmd: list[str], env: dict, out_dir: Path, ready: Callable[[], bool],
+                   wait: Callable[[], None] = lambda: time.sleep(0.05)) -> tuple[int, str]:
+    """Start ``cmd``; SIGINT it once ``ready()`` (polled between ``wait()`` calls, never a
+    wall-clock guess); its exit code and its stdout then stderr (kept in files in ``out_dir``:
+    no pipe can fill up while we wait). The process is killed if it outlives this."""
+    out, err = out_dir / "interrupted.stdout", out_dir / "interrupted.stderr"
+    with open(out, "w") as fo, open(err, "w") as fe:
+        proc = subprocess.Popen(cmd, env=env, stdout=fo, stderr=fe, text=True)
+    try:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not ready() and proc.poll() is None and time.monotonic() < deadline:
+            wait()
+        assert proc.poll() is None, f"{cmd[0]} ended before it was interrupted:\n{out.read_text()}{err.read_text()}"
+        assert ready(), f"{cmd[0]} did not get to work within {START_TIMEOUT_S:g} s:\n{err.read_text()}"
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=EXIT_TIMEOUT_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return proc.returncode, out.read_text() + err.read_text()
+
+
+def progress_sim_s(progress_file: Path) -> float:
+    """The sim time in the orchestrator's progress file (GIMBAL_RUN_PROGRESS_FILE); 0 before."""
+    try:
+        return float(progress_file.read_text())
+    except (OSError, ValueError):  # not written yet, or caught mid-write
+        return 0.0
+
+
+@contextmanager
+def graph_names(domain_id: int):
+    """A function giving the node names on the ROS graph of ``domain_id``, seen from an rclpy
+    context of this test's own in that domain."""
     ctx = Context()
     rclpy.init(context=ctx, domain_id=domain_id)
     try:
-        probe = rclpy.create_node("workspace_probe", context=ctx)
-        deadline = time.monotonic() + timeout_s
-        while name not in probe.get_node_names():
-            if proc.poll() is not None:
-                out, err = proc.communicate()
-                raise AssertionError(f"{name} exited with {proc.returncode}: {out}{err}")
-            assert time.monotonic() < deadline, f"{name} did not appear on the graph in {timeout_s} s"
-            time.sleep(0.1)
+        probe = rclpy.create_node("graph_probe", context=ctx)
+        yield probe.get_node_names
         probe.destroy_node()
     finally:
         rclpy.try_shutdown(context=ctx)
 
 
-def interrupt_when_on_graph(cmd: list[str], env: dict, name: str,
-                            timeout_s: float = 120.0) -> tuple[subprocess.Popen, str, str]:
-    """Start ``cmd``, send it SIGINT once its node ``name`` is on the graph, and return the
-    ended process with its stdout and stderr (the process is killed if it outlives this)."""
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        wait_for_node_on_graph(name, int(env["ROS_DOMAIN_ID"]), proc, timeout_s)
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    return proc, out, err
+def interrupt_when_on_graph(cmd: list[str], env: dict, name: str, out_dir: Path) -> tuple[int, str]:
+    """:func:`interrupt_when` its node ``name`` is on the graph."""
+    with graph_names(int(env["ROS_DOMAIN_ID"])) as names:
+        return interrupt_when(cmd, env, out_dir, lambda: name in names(), wait=lambda: time.sleep(0.1))

@@ -7,42 +7,16 @@ from __future__ import annotations
 
 import json
 import re
-import signal
 import subprocess
-import time
 from pathlib import Path
-from typing import Callable
 
 import pytest
 
 from conftest import VENV_BIN
 from foreign_bags import synthetic_messages, write_rosbags
+from ros_harness import START_TIMEOUT_S, interrupt_when, progress_sim_s
 
-START_TIMEOUT_S = 120.0  # wall time a command may take to get to work on a loaded machine
-EXIT_TIMEOUT_S = 60.0    # and to stop after the SIGINT
 EXIT_INTERRUPTED = 130
-
-
-def _interrupt(cmd: list[str], env: dict[str, str], tmp_path: Path, ready: Callable[[], bool],
-               wait: Callable[[], None] = lambda: time.sleep(0.05)) -> tuple[int, str]:
-    """Start ``cmd``; SIGINT it once ``ready()`` (polled between ``wait()`` calls); its exit
-    code and its stdout and stderr (kept in files: no pipe can fill up while we wait)."""
-    out, err = tmp_path / "stdout", tmp_path / "stderr"
-    with open(out, "w") as fo, open(err, "w") as fe:
-        proc = subprocess.Popen(cmd, env=env, stdout=fo, stderr=fe, text=True)
-    try:
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while not ready() and proc.poll() is None and time.monotonic() < deadline:
-            wait()
-        assert proc.poll() is None, f"{cmd[0]} ended before it was interrupted:\n{out.read_text()}{err.read_text()}"
-        assert ready(), f"{cmd[0]} did not get to work within {START_TIMEOUT_S:g} s:\n{err.read_text()}"
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=EXIT_TIMEOUT_S)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    return proc.returncode, out.read_text() + err.read_text()
 
 
 def _assert_stopped(code: int, text: str, prog: str) -> None:
@@ -71,10 +45,10 @@ def test_ctrl_c_on_bag_play_says_how_far_it_played(tmp_path, ros_domain_env):
                                    QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
         executor.add_node(reader)
         # the player waits for this reader, so it is playing once the reader has a message
-        code, text = _interrupt([str(VENV_BIN / "gimbal-bag"), "play", str(bag), "--topics", "/imu",
-                                 "--rate", "0.05", "--wait-for-subscribers", "1", "--wait-timeout", "100"],
-                                ros_domain_env, tmp_path, ready=lambda: bool(received),
-                                wait=lambda: executor.spin_once(timeout_sec=0.05))
+        code, text = interrupt_when([str(VENV_BIN / "gimbal-bag"), "play", str(bag), "--topics", "/imu",
+                                     "--rate", "0.05", "--wait-for-subscribers", "1", "--wait-timeout", "100"],
+                                    ros_domain_env, tmp_path, ready=lambda: bool(received),
+                                    wait=lambda: executor.spin_once(timeout_sec=0.05))
     finally:
         executor.shutdown()
         rclpy.shutdown(context=context)
@@ -97,7 +71,7 @@ def test_ctrl_c_on_a_campaign_keeps_its_finished_runs_and_resume_does_the_rest(t
     out = tmp_path / "campaign"
     cmd = [str(VENV_BIN / "gimbal-campaign"), "sim_open_loop", "--engine", "core", "--serial",
            "--seeds", f"1-{seeds}", "--duration", "10", "--no-progress", "--out", str(out)]
-    code, text = _interrupt(cmd, ros_domain_env, tmp_path, ready=lambda: bool(_results_on_disk(out)))
+    code, text = interrupt_when(cmd, ros_domain_env, tmp_path, ready=lambda: bool(_results_on_disk(out)))
     _assert_stopped(code, text, "gimbal-campaign")
     done = _results_on_disk(out)
     match = re.search(r"stopped the campaign after (\d+) of (\d+) runs", text)
@@ -116,20 +90,13 @@ def test_ctrl_c_on_a_campaign_keeps_its_finished_runs_and_resume_does_the_rest(t
     assert (summary["runs"], summary["ok"]) == (seeds, seeds)
 
 
-def _sim_s(progress: Path) -> float:
-    try:
-        return float(progress.read_text())
-    except (OSError, ValueError):  # not written yet, or caught mid-write
-        return 0.0
-
-
 @pytest.mark.ros
 def test_ctrl_c_on_bench_says_which_run_it_stopped(tmp_path, ros_domain_env):
     progress = tmp_path / "progress"  # the orchestrator's sim time: the graph run is under way
     env = dict(ros_domain_env, GIMBAL_RUN_PROGRESS_FILE=str(progress))
     cmd = [str(VENV_BIN / "gimbal-bench"), "run", "--scenario", "sim_open_loop", "--modes", "container",
            "--duration", "7200"]
-    code, text = _interrupt(cmd, env, tmp_path, ready=lambda: _sim_s(progress) >= 0.5)
+    code, text = interrupt_when(cmd, env, tmp_path, ready=lambda: progress_sim_s(progress) >= 0.5)
     _assert_stopped(code, text, "gimbal-bench")
     assert "stopped the benchmark in its container run; only --keep keeps its runs" in text, text
     assert "[FATAL]" not in text, text

@@ -9,51 +9,31 @@ path last.
 from __future__ import annotations
 
 import json
-import signal
-import subprocess
-import time
 
 import pytest
 from rosbags.highlevel import AnyReader
 
 from conftest import VENV_BIN
+from ros_harness import interrupt_when, progress_sim_s
 
 TWO_HOURS_S = 7200.0
 INTERRUPT_AT_S = 0.5     # simulated seconds reached before the SIGINT
-START_TIMEOUT_S = 120.0  # wall time the graph may take to reach them on a loaded machine
-
-
-def _sim_s(progress_file) -> float:
-    try:
-        return float(progress_file.read_text())
-    except (OSError, ValueError):  # not written yet, or caught mid-write
-        return 0.0
 
 
 @pytest.mark.parametrize("mode", ["container", "processes"])
 def test_ctrl_c_keeps_the_run(mode, tmp_path, ros_domain_env):
     out, progress = tmp_path / "run", tmp_path / "progress"
     env = dict(ros_domain_env, GIMBAL_RUN_PROGRESS_FILE=str(progress))
-    proc = subprocess.Popen([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", str(TWO_HOURS_S),
-                             "--mode", mode, "--out", str(out), "--no-progress"],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while _sim_s(progress) < INTERRUPT_AT_S and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert proc.poll() is None, proc.communicate()[0]
-        proc.send_signal(signal.SIGINT)
-        text, _ = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    code, text = interrupt_when([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", str(TWO_HOURS_S),
+                                 "--mode", mode, "--out", str(out), "--no-progress"], env, tmp_path,
+                                ready=lambda: progress_sim_s(progress) >= INTERRUPT_AT_S)
     logs = "".join(p.read_text() for p in (out / "logs").glob("*.log"))
-    assert proc.returncode == 130, text
+    assert code == 130, text
     for bad in ("Traceback", "[FATAL]"):
         assert bad not in text and bad not in logs, text + logs
     assert "interrupted" in text and "kept the bag (closed cleanly)" in text, text
-    assert text.rstrip().splitlines()[-1] == f"page: {out / 'report' / 'index.html'}", text  # printed last
+    stderr = (tmp_path / "interrupted.stderr").read_text()  # where an interrupted run says what it kept
+    assert stderr.rstrip().splitlines()[-1] == f"page: {out / 'report' / 'index.html'}", text  # printed last
     assert (out / "report" / "index.html").is_file()
 
     run = json.loads((out / "run.json").read_text())

@@ -172,7 +172,7 @@ def test_packages_up_to_gimbal_estimators_build_alone_and_the_ekf_node_starts(tm
         str(tmp_path / "install" / p / "lib" / pyver / "site-packages") for p in built])
     exe = tmp_path / "install" / "gimbal_estimators" / "lib" / "gimbal_estimators" / "gyro_bias_ekf"
     params = tmp_path / "install" / "gimbal_estimators" / "share" / "gimbal_estimators" / "config" / "gyro_bias_ekf.yaml"
-    proc, _, err = interrupt_when_on_graph([str(exe), "--ros-args", "--params-file", str(params)], env,
-                                           "gyro_bias_ekf")
-    assert proc.returncode == 130, err  # Ctrl-C: interrupted, as every command (docs/usage.md)
-    assert "Traceback" not in err, err
+    code, text = interrupt_when_on_graph([str(exe), "--ros-args", "--params-file", str(params)], env,
+                                         "gyro_bias_ekf", tmp_path)
+    assert code == 130, text  # Ctrl-C: interrupted, as every command (docs/usage.md)
+    assert "Traceback" not in text, text
