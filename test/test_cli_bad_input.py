@@ -1,4 +1,4 @@
-"""Every console command over a matrix of bad inputs (issue 27's acceptance).
+"""Every console command over a matrix of bad inputs (the bad-input acceptance).
 
 The matrix is data: one row per (command, input), each naming the words its one-line
 message must contain. Every row must exit with its documented code (docs/usage.md: 2 for

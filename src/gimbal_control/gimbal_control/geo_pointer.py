@@ -1,4 +1,4 @@
-"""Geo-pointing (issue 24): keep the LOS on a geographic target through the controller's
+"""Geo-pointing: keep the LOS on a geographic target through the controller's
 operator input. Pure Python, no rclpy; the node is :mod:`.geo_pointer_node`.
 
 Each step takes the gimbal attitude estimate Ĉ_nm (the gyro-bias EKF's), the INS attitude
