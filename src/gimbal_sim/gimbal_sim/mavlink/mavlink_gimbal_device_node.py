@@ -5,8 +5,9 @@ The graph side, in free timing (the shape of ``geo_pointer_node`` on the control
 ``FreeControl`` policy): it steps on each attitude estimate (``attitude_topic``, Imu with
 C(n,m)) with the newest encoder (``/gimbal/joint_states``) and gimbal gyro (``/gimbal/imu``)
 samples no older than ``max_input_age_s``, and publishes the core's LOS rate command on
-``operator_topic`` stamped like the estimate; with a stale input it publishes nothing, so
-the controller's operator dead-man stops the slew. ``/diagnostics`` carries the protocol
+``operator_topic`` stamped like the estimate; with a stale encoder sample it publishes
+nothing, so the controller's operator dead-man stops the slew (a stale gyro only makes the
+reported rates unknown). ``/diagnostics`` carries the protocol
 counters every ``diagnostics_period_s`` of stamp time.
 
 The MAVLink side runs on the wall clock (steady timers): the socket is drained every
@@ -80,8 +81,9 @@ class MavlinkGimbalDeviceNode(Node):
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         age = v["max_input_age_s"]
+        # the gyro only feeds the reported rates: stale, they are reported unknown (NaN)
         self.policy = FreeControl("att", {"enc": age, "gyro": age}, 1.0 / v["ins_rate_hz"], CLOCK_JUMP_S,
-                                  warn=self._log)
+                                  held=("gyro",), warn=self._log)
         inputs = (("att", Imu, v["attitude_topic"], m.imu_from_cdr),
                   ("enc", JointState, "/gimbal/joint_states", m.joint_state_from_cdr),
                   ("gyro", Imu, "/gimbal/imu", m.imu_from_cdr))
