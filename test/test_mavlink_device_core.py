@@ -228,3 +228,16 @@ def test_losing_the_autopilot_for_more_than_the_timeout_drops_the_earth_lock_wit
     assert sim.send(sim.ap.set_attitude(q_wxyz(0.0, 0.0))) == [] and sim.dev.counts["rejected_setpoints"] == 1
     sim.run(1.0)  # the autopilot back: the lock the last setpoint asked for comes back
     assert sim.status().flags & mav.GIMBAL_DEVICE_FLAGS_YAW_LOCK
+
+
+def test_the_vehicle_heading_changing_source_does_not_move_the_sight():
+    """Held in the vehicle frame on the encoders' heading, then the autopilot arrives with a
+    heading 10 deg off it: the sight stays where it points."""
+    sim = Sim()
+    sim.run(1.0, autopilot=False)
+    before = sim.angles_deg()
+    for _ in range(30):
+        sim.send(sim.ap.state(yaw=sim.yaw_n() - sim.joint_az + 10.0 * DEG))
+        sim.run(0.1, autopilot=False)
+    assert sim.status().flags & mav.GIMBAL_DEVICE_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME
+    assert sim.angles_deg() == pytest.approx(before, abs=1e-6)

@@ -35,7 +35,8 @@ dropped: the yaw is held in the vehicle frame from then on (at the yaw it had, w
 rate), the status reports ``YAW_IN_VEHICLE_FRAME`` without ``YAW_LOCK`` and without
 ``ACCEPTS_YAW_IN_EARTH_FRAME``, ``delta_yaw`` becomes NaN, and ``earth_lock_drops`` counts
 it. Without the autopilot the vehicle heading is the encoders': the LOS yaw less the turret
-and gimbal azimuth angles (exact for a level vehicle). The lock comes back with a fresh
+and gimbal azimuth angles (exact for a level vehicle); when the heading changes source, a
+yaw held in the vehicle frame restarts where the sight points, so it does not jump. The lock comes back with a fresh
 autopilot state while the last setpoint asked for it.
 
 Malformed input: a datagram that is not wholly valid MAVLink (:class:`.link.Codec`) is
@@ -139,6 +140,7 @@ class GimbalDevice:
         self._rates_m: tuple[float, float, float] | None = None
         self._heading = 0.0
         self._earth_ok = False
+        self._heading_from_autopilot = False  # the vehicle heading's source at the last step
 
     # ------------------------------------------------------------------ receiving
     def receive(self, datagram: bytes, wall_s: float) -> list[bytes]:
@@ -243,6 +245,8 @@ class GimbalDevice:
             self._heading, heading_rate = ap.heading, (0.0 if math.isnan(ap.yaw_rate) else ap.yaw_rate)
         else:
             self._heading, heading_rate = wrap_pi(yaw_n - joint_azimuth), 0.0
+        source_changed = self._earth_ok != self._heading_from_autopilot
+        self._heading_from_autopilot = self._earth_ok
         if self._pending is not None:
             sp, self._pending = self._pending, None
             if sp.frame == EARTH and not self._earth_ok:  # the autopilot went quiet since it came
@@ -252,9 +256,9 @@ class GimbalDevice:
                 self.requested = sp.frame
                 self.pointing.apply(sp, t, pitch_now, wrap_pi(yaw_n - self._offset(sp.frame)))
         frame = EARTH if self.requested == EARTH and self._earth_ok else VEHICLE
-        if frame != self.pointing.frame:
-            self.counts["earth_lock_drops"] += int(frame == VEHICLE)
-            self.pointing.set_frame(frame, t, wrap_pi(yaw_n - self._offset(frame)))
+        if frame != self.pointing.frame or (frame == VEHICLE and source_changed):
+            self.counts["earth_lock_drops"] += int(frame != self.pointing.frame and frame == VEHICLE)
+            self.pointing.restart_yaw(frame, t, wrap_pi(yaw_n - self._offset(frame)))
         return self.pointing.step(t, C_nm, self._heading, heading_rate)
 
     def _offset(self, frame: str) -> float:

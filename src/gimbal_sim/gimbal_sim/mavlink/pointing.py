@@ -12,8 +12,9 @@ Reference. Each axis follows θ_ref(t) = θ0 + θ̇ (t − t0) (likewise ψ): a 
 angle starts the ramp at that angle; a rate alone continues the running reference (from the
 current attitude if the axis had none), so a rate held by repeated messages
 integrates without drift; a missing (NaN) field leaves that part of the axis as it was.
-When the yaw frame in force changes (earth-frame lock lost or regained) the yaw reference
-restarts at the current yaw in the new frame, keeping its rate, so the sight does not jump.
+When the yaw frame in force changes (earth-frame lock lost or regained), or the vehicle
+heading behind the vehicle frame changes source, the yaw reference restarts at the current
+yaw in the frame then in force, keeping its rate, so the sight does not jump.
 
 Law. With the target direction u = (cos θ cos Ψ, cos θ sin Ψ, −sin θ) in NED, Ψ the
 reference yaw plus ψ_v in the vehicle frame, the command is the reference's own inertial
@@ -102,12 +103,11 @@ class Pointing:
         start = ref.at(t)
         return AxisRef(wrap_pi(start) if wrap else start, rate, t)
 
-    def set_frame(self, frame: str, t: float, yaw_now: float) -> None:
-        """The yaw frame in force becomes ``frame``: the yaw reference restarts at the
-        current yaw ``yaw_now`` (in that frame) with its rate."""
-        if frame != self.frame:
-            rate = self.yaw.rate if self.yaw is not None else 0.0
-            self.frame, self.yaw = frame, AxisRef(yaw_now, rate, t)
+    def restart_yaw(self, frame: str, t: float, yaw_now: float) -> None:
+        """The yaw frame in force becomes ``frame`` (or its heading reference changed): the
+        yaw reference restarts at the current yaw ``yaw_now`` (in that frame) with its rate."""
+        rate = self.yaw.rate if self.yaw is not None else 0.0
+        self.frame, self.yaw = frame, AxisRef(yaw_now, rate, t)
 
     def step(self, t: float, C_nm: np.ndarray, heading: float, heading_rate: float) -> tuple[float, float]:
         """The LOS rate command (q, r) [rad/s] at ``t`` [s] for the estimated C_nm;
