@@ -241,3 +241,12 @@ def test_the_vehicle_heading_changing_source_does_not_move_the_sight():
         sim.run(0.1, autopilot=False)
     assert sim.status().flags & mav.GIMBAL_DEVICE_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME
     assert sim.angles_deg() == pytest.approx(before, abs=1e-6)
+
+
+def test_an_all_nan_setpoint_right_after_another_does_not_cancel_it():
+    sim = Sim()
+    sim.run(0.2)
+    sim.send(sim.ap.set_attitude(q_wxyz(-5.0, 40.0)))
+    sim.send(sim.ap.set_attitude())  # before the device's next estimate
+    sim.run(7.0)
+    assert sim.angles_deg() == pytest.approx((-5.0, 40.0), abs=1e-3)

@@ -123,16 +123,26 @@ def test_a_pymavlink_autopilot_drives_the_simulated_gimbal(sitl):
     gcs.wait(lambda: (s := gcs.newest()) and s.flags & mav.GIMBAL_DEVICE_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME,
              STARTUP_TIMEOUT_S, "an attitude status accepting earth-frame yaw")
 
-    # a pitch step to -20 deg and a yaw rate of 5 deg/s, yaw locked to North
+    # first what must not be acted on: +40 deg for another component, and damaged on the wire
     start = gcs.newest()
     pitch0, yaw0 = pitch_yaw_deg(start)
+    up = mav.MAVLink_gimbal_device_set_attitude_message(1, 1, EARTH_LOCK, q_wxyz(40.0, yaw0), NAN, NAN, NAN)
+    gcs.send(up)
+    damaged = bytearray(mav.MAVLink_gimbal_device_set_attitude_message(
+        1, 154, EARTH_LOCK, q_wxyz(40.0, yaw0), NAN, NAN, NAN).pack(gcs.mav))
+    damaged[20] ^= 0x10
+    gcs.sock.sendto(bytes(damaged), gcs.device)
+    # then a pitch step to -20 deg and a yaw rate of 5 deg/s, yaw locked to North, and an
+    # all-NaN setpoint (nothing to change)
     gcs.send(mav.MAVLink_gimbal_device_set_attitude_message(1, 154, EARTH_LOCK, q_wxyz(-20.0, yaw0),
                                                             NAN, NAN, 5.0 * DEG))
+    gcs.send(mav.MAVLink_gimbal_device_set_attitude_message(1, 154, EARTH_LOCK, [NAN] * 4, NAN, NAN, NAN))
     settle = settling_time((pitch0 + 20.0) * DEG, DeviceParams(), 0.1 * DEG)
     t_cmd = start.time_boot_ms * 1e-3
     gcs.wait(lambda: gcs.newest().time_boot_ms * 1e-3 > t_cmd + settle + 2.7, 60.0, "the step to settle")
     series = np.array([(s.time_boot_ms * 1e-3, *pitch_yaw_deg(s), s.angular_velocity_z) for s in gcs.statuses()
                        if s.time_boot_ms * 1e-3 > t_cmd])
+    assert series[:, 1].max() < pitch0 + 0.5  # the +40 deg setpoints were never acted on
     outside = series[np.abs(series[:, 1] + 20.0) > 0.1, 0]
     settled_at = (outside.max() if outside.size else t_cmd) - t_cmd
     assert settled_at < 1.5 * settle + 0.5, (settled_at, settle)  # + the inner loop and the 0.1 s status period

@@ -20,8 +20,8 @@ target is counted in ``wrong_target`` and ignored):
   infinite rate or one above ``max_rate``, or an earth-frame setpoint while the device cannot
   accept one (below) are refused and counted (``rejected_setpoints``). NaN means "ignore":
   a quaternion with a NaN component is ignored as a whole, each NaN rate on its own; the
-  roll angle and rate are ignored (no roll axis). A setpoint takes effect at the next
-  attitude estimate.
+  roll angle and rate are ignored (no roll axis). Setpoints take effect, in the order they
+  came, at the next attitude estimate.
 * ``AUTOPILOT_STATE_FOR_GIMBAL_DEVICE``: the vehicle attitude (its heading ψ_v is the
   vehicle frame's) and yaw rate (``angular_velocity_z``, the vehicle frame's feed-forward;
   NaN: none). A non-unit quaternion is counted (``rejected_autopilot_states``).
@@ -51,6 +51,7 @@ The status quaternion is in the frame its flags name; angular velocities are Eul
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,8 @@ UNSUPPORTED_FLAGS = F.GIMBAL_DEVICE_FLAGS_RETRACT | F.GIMBAL_DEVICE_FLAGS_NEUTRA
 BOTH_FRAMES = F.GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME | F.GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME
 COUNTERS = ("datagrams", "malformed", "wrong_target", "setpoints", "rejected_setpoints", "autopilot_states",
             "rejected_autopilot_states", "earth_lock_drops", "information_requests")
+#: Setpoints kept between two estimates (a burst beyond it loses its oldest).
+MAX_PENDING = 64
 #: Slack on the setpoint rate limit, for a sender converting the same limit from degrees.
 RATE_SLACK = 1e-6
 
@@ -133,7 +136,7 @@ class GimbalDevice:
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.requested = VEHICLE          # the yaw frame the last setpoint asked for
         self.autopilot: AutopilotState | None = None
-        self._pending: Setpoint | None = None
+        self._pending: deque[Setpoint] = deque(maxlen=MAX_PENDING)
         self._t0: float | None = None     # first estimate [s]
         self._t = 0.0                     # newest estimate [s]
         self._C_nm: np.ndarray | None = None
@@ -174,7 +177,7 @@ class GimbalDevice:
         if sp is None:
             self.counts["rejected_setpoints"] += 1
         else:
-            self._pending = sp  # a newer one before the next estimate replaces it
+            self._pending.append(sp)  # applied in order at the next estimate: NaN fields stay ignored
         return []
 
     def _setpoint(self, msg, wall_s: float) -> Setpoint | None:
@@ -247,8 +250,8 @@ class GimbalDevice:
             self._heading, heading_rate = wrap_pi(yaw_n - joint_azimuth), 0.0
         source_changed = self._earth_ok != self._heading_from_autopilot
         self._heading_from_autopilot = self._earth_ok
-        if self._pending is not None:
-            sp, self._pending = self._pending, None
+        while self._pending:
+            sp = self._pending.popleft()
             if sp.frame == EARTH and not self._earth_ok:  # the autopilot went quiet since it came
                 self.counts["rejected_setpoints"] += 1
             else:
