@@ -152,7 +152,9 @@ def test_a_pymavlink_autopilot_drives_the_simulated_gimbal(sitl):
     print(f"settled {settled_at:.2f} s (closed form {settle:.2f} s); yaw rate {yaw_rate / DEG:.4f} deg/s, "
           f"reported {np.mean(late[:, 3]) / DEG:.4f} deg/s")
     assert yaw_rate == pytest.approx(5.0 * DEG, rel=0.02)
-    assert np.mean(late[:, 3]) == pytest.approx(5.0 * DEG, rel=0.02)  # the reported (gyro) yaw rate
+    # the reported rate: instantaneous gyro samples at 10 Hz, with what the rate loop leaves of
+    # the vehicle's motion (more on a loaded machine, whose late commands the vehicle holds)
+    assert np.mean(late[:, 3]) == pytest.approx(5.0 * DEG, rel=0.05)
     assert gcs.newest().flags & mav.GIMBAL_DEVICE_FLAGS_YAW_LOCK
 
     # the autopilot goes quiet: after its timeout the earth-frame lock is dropped, flagged
