@@ -75,7 +75,8 @@ class GroundStation:
             value = predicate()
             if value:
                 return value
-        pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
+        pytest.fail(f"timed out after {timeout_s} s waiting for {what} (gimbal-run's output: gimbal-run.log "
+                    "in the test's tmp_path)")
 
     def statuses(self):
         return [m for _, m in self.received["GIMBAL_DEVICE_ATTITUDE_STATUS"]]
@@ -94,10 +95,11 @@ def pitch_yaw_deg(status) -> tuple[float, float]:
 @pytest.fixture
 def sitl(tmp_path, ros_domain_env):
     port = free_udp_port()
+    log = open(tmp_path / "gimbal-run.log", "w")
     proc = subprocess.Popen([str(VENV_BIN / "gimbal-run"), "mavlink_gimbal_sitl", "--duration", "120", "--mode",
                              "container", "--no-progress", "--out", str(tmp_path / "run"),
                              "--set", f"mavlink_gimbal_device.port={port}"], env=ros_domain_env,
-                            stdout=subprocess.DEVNULL, stderr=open(tmp_path / "stderr.log", "w"))
+                            stdout=log, stderr=subprocess.STDOUT)
     gcs = GroundStation(port)
     try:
         yield gcs
@@ -109,6 +111,7 @@ def sitl(tmp_path, ros_domain_env):
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+        log.close()
 
 
 def test_a_pymavlink_autopilot_drives_the_simulated_gimbal(sitl):
