@@ -36,6 +36,7 @@ from gimbal_kinematics.params import Param
 
 from ..mavlink import mavlink_gimbal_device_params, mavlink_gimbal_manager_params
 from ..mavlink.device_core import DeviceParams
+from ..mavlink.link import endpoint_values
 from ..mavlink.manager_core import ManagerParams
 from ..nodes import bag_recorder_params, operator_params, sensor_models_params, vehicle_dynamics_params
 from ..world.operator_model import OperatorModelParams
@@ -179,7 +180,7 @@ NODE_TYPES: dict[str, NodeType] = {
     "platform_navigator": _node_type("gimbal_estimators", platform_navigator_params, _platform_navigator,
                                      PlatformNavigatorParams.from_values),
     "mavlink_gimbal_device": _node_type("gimbal_sim", mavlink_gimbal_device_params, _mavlink_gimbal_device,
-                                        DeviceParams.from_values),
+                                        DeviceParams.from_values, endpoint_values),
     "mavlink_gimbal_manager": _node_type("gimbal_sim", mavlink_gimbal_manager_params, _mavlink_gimbal_manager,
-                                         ManagerParams.from_values),
+                                         ManagerParams.from_values, endpoint_values),
 }

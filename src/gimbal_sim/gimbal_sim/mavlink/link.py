@@ -21,6 +21,7 @@ import socket
 import struct
 from collections.abc import Sequence
 
+from gimbal_kinematics.params import ParameterError
 from pymavlink.dialects.v20 import common as mavlink
 
 #: Largest UDP payload read at once (a MAVLink 2 packet is at most 280 bytes).
@@ -101,6 +102,16 @@ def parse_peers(peers: Sequence[str], name: str = "peers") -> list[tuple[str, in
     return out
 
 
+def endpoint_values(v: dict) -> tuple[str, int, list[tuple[str, int]]]:
+    """A node's ``bind_address``, ``port`` and ``peers`` checked (empty peers dropped);
+    :class:`ParameterError` naming the parameter refused."""
+    try:
+        host, port = check_endpoint(v["bind_address"], v["port"], "bind_address")
+        return host, port, parse_peers([p for p in v["peers"] if p], "peers")
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc
+
+
 class UdpLink:
     """A non-blocking UDP endpoint bound to ``host:port`` (port 0: any free port)."""
 
@@ -141,3 +152,21 @@ class UdpLink:
 
     def close(self) -> None:
         self.sock.close()
+
+
+def open_link(v: dict, logger) -> UdpLink:
+    """The UDP endpoint of a node's ``bind_address``, ``port`` and ``peers``, its address
+    logged on ``logger`` (a warning when it is not loopback); ValueError naming the
+    parameter when they cannot be used or the port is taken."""
+    try:
+        host, port, peers = endpoint_values(v)
+    except ParameterError as exc:
+        raise ValueError(str(exc)) from exc
+    try:
+        link = UdpLink(host, port, peers)
+    except OSError as exc:
+        raise ValueError(f"parameter port: cannot bind udp:{host}:{port}: {exc.strerror}") from None
+    if not ipaddress.IPv4Address(host).is_loopback:
+        logger.warning(f"MAVLink endpoint bound to {host}, not loopback: reachable from the network")
+    logger.info(f"MAVLink on udp:{link.address[0]}:{link.address[1]}" + (f", sending to {peers}" if peers else ""))
+    return link

@@ -39,28 +39,13 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 
 from .device_core import DeviceParams, GimbalDevice
-from .link import UdpLink, check_endpoint, parse_peers
+from .link import open_link
 from .mavlink_gimbal_device_params import DESCRIPTION, PARAMS
 
 POLL_PERIOD_S = 0.01
 HEARTBEAT_PERIOD_S = 1.0
 CLOCK_JUMP_S = 0.5
 NODE_COUNTERS = ("malformed_ros", "rejected_inputs", "no_command_steps")
-
-
-def link_from_values(v: dict, logger) -> UdpLink:
-    """The UDP endpoint of a node's ``bind_address``, ``port`` and ``peers``; ValueError
-    naming the parameter when they cannot be used or the port is taken."""
-    host, port = check_endpoint(v["bind_address"], v["port"], "bind_address")
-    peers = parse_peers([p for p in v["peers"] if p], "peers")
-    try:
-        link = UdpLink(host, port, peers)
-    except OSError as exc:
-        raise ValueError(f"parameter port: cannot bind udp:{host}:{port}: {exc.strerror}") from None
-    if host != "127.0.0.1":
-        logger.warning(f"MAVLink endpoint bound to {host}, not loopback: reachable from the network")
-    logger.info(f"MAVLink on udp:{link.address[0]}:{link.address[1]}" + (f", sending to {peers}" if peers else ""))
-    return link
 
 
 class MavlinkGimbalDeviceNode(Node):
@@ -73,7 +58,7 @@ class MavlinkGimbalDeviceNode(Node):
             self.core = GimbalDevice(DeviceParams.from_values(v))
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
-        self.link = link_from_values(v, self.get_logger())
+        self.link = open_link(v, self.get_logger())
         self.counts = dict.fromkeys(NODE_COUNTERS, 0)
         self.io = NodeIo(self)
         self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], "free")

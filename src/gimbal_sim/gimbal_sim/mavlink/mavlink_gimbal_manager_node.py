@@ -35,7 +35,7 @@ from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.rotations import euler_rates_to_body_rates, quat_to_euler321
 
-from .link import UdpLink, check_endpoint, parse_peers
+from .link import open_link
 from .manager_core import GimbalManagerClient, ManagerParams, Report
 from .mavlink_gimbal_manager_params import DESCRIPTION, PARAMS
 
@@ -54,13 +54,7 @@ class MavlinkGimbalManagerNode(Node):
             self.core = GimbalManagerClient(ManagerParams.from_values(v))
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
-        host, port = check_endpoint(v["bind_address"], v["port"], "bind_address")
-        try:
-            self.link = UdpLink(host, port, parse_peers(v["peers"], "peers"))
-        except OSError as exc:
-            raise ValueError(f"parameter port: cannot bind udp:{host}:{port}: {exc.strerror}") from None
-        self.get_logger().info(f"MAVLink on udp:{self.link.address[0]}:{self.link.address[1]}, "
-                               f"sending to {self.link.peers}")
+        self.link = open_link(v, self.get_logger())
         sigma = math.radians(v["attitude_sigma_deg"])
         self.orientation_cov = tuple(float(x) for x in (np.eye(3) * sigma * sigma).ravel())
         self.counts = {"superseded": 0, "rejected_inputs": 0, "unpublished_reports": 0}
