@@ -9,6 +9,8 @@ C(n,m)), the INS attitude (``/ins/imu``) and the encoders' turret angle
   ``operator_rate_hz`` = ``ins_rate_hz`` makes it wait for each command in lockstep);
 * ``~/budget`` (Vector3Stamped [rad]): x the 1σ pointing-error budget (RMS of the error
   angle), y and z its two semi-axes;
+* ``~/aim`` (Vector3Stamped, ``map_ned``): the LOS it steers to, a unit vector in NED (what
+  ``mavlink_gimbal_manager`` sends to a MAVLink gimbal);
 * ``/diagnostics`` every ``diagnostics_period_s`` with the counters: inputs that could not
   be used, rejected targets, steps at a gimbal limit.
 
@@ -49,6 +51,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.frames import NAV_FRAME
 from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import health_msg
@@ -84,6 +87,7 @@ class GeoPointerNode(Node):
         self.io = NodeIo(self)
         self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], timing)
         self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
+        self.pub_aim = self.io.advertise(Vector3Stamped, "~/aim", timing)
         self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
@@ -211,6 +215,7 @@ class GeoPointerNode(Node):
         else:
             out = self.core.step(att.value, quat_to_dcm(np.asarray(ins.value)), enc.value[0])
             self.command, budget = out.command, out.budget
+            self.pub_aim.publish(vector3_cdr(step.stamp_ns, NAV_FRAME, tuple(out.aim_n)))
         self.pub_cmd.publish(vector3_cdr(step.stamp_ns, m.GIMBAL_FRAME, (0.0, *self.command)))
         if budget is not None:
             self.pub_budget.publish(vector3_cdr(step.stamp_ns, m.GIMBAL_FRAME,
