@@ -43,6 +43,7 @@ from pathlib import Path
 
 import yaml
 
+from gimbal_estimators.gyro_bias_ekf_params import PARAMS as EKF_PARAMS
 from gimbal_kinematics.cli_boundary import UsageError
 
 from .analyze import DEG, Characterisation
@@ -157,10 +158,8 @@ def filter_params(imu: KalibrImu, target: str, bias_tau_s: float) -> dict[str, d
 
 def default_bias_tau_s(target: str) -> float:
     """``gyro_bias_ekf``'s own default correlation time for the channel ``target`` feeds."""
-    from gimbal_estimators.gyro_bias_ekf_params import PARAMS
-
     name = "gyro_bias_tau_s" if target == "gimbal_gyro" else "roll_bias_tau_s"
-    return float(next(p.default for p in PARAMS if p.name == name))
+    return float(next(p.default for p in EKF_PARAMS if p.name == name))
 
 
 def parameter_files(imu: KalibrImu, target: str, bias_tau_s: float, source: str) -> dict[str, str]:
