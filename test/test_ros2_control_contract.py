@@ -30,7 +30,7 @@ from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.bag.compare import compare_bags
 from gimbal_sim.graph.scenario import builtin_scenarios
-from ros_harness import harness_node, spin_until
+from ros_harness import harness_node, spin_until, start_refused
 
 pytestmark = pytest.mark.ros
 
@@ -135,3 +135,10 @@ def test_the_controller_in_ros2_controls_form_drives_the_same_run(runs):
             return [(m.header.stamp.sec, m.header.stamp.nanosec, list(m.name), list(m.effort)) for m in
                     (reader.deserialize(raw, x.msgtype) for x, _, raw in reader.messages(connections=conns))]
         assert efforts(ra, "/gimbal/torque_cmd") == efforts(rc, "/robot_joint_commands")
+
+
+@pytest.mark.parametrize("exe", ["vehicle_dynamics", "los_rate_controller"])
+def test_a_ros2_control_topic_that_names_no_topic_is_refused(exe, ros_domain_env):
+    result = start_refused(exe, {"command_interface": "ros2_control", "ros2_control_topic": " "}, ros_domain_env)
+    assert result.returncode == 2 and "ros2_control_topic" in result.stderr and "Traceback" not in result.stderr, \
+        result.stderr

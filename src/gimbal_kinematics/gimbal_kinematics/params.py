@@ -95,6 +95,16 @@ class ParameterError(ValueError):
     """A parameter was refused at startup; the message names it."""
 
 
+def ros2_control_topic(values: dict[str, Any]) -> str:
+    """The ``ros2_control_topic`` of a node whose ``command_interface`` is ros2_control;
+    raises :class:`ParameterError` naming it when it names no topic."""
+    topic = values["ros2_control_topic"]
+    if not isinstance(topic, str) or not topic.strip():
+        raise ParameterError(f"parameter 'ros2_control_topic' = {topic!r} must name a topic (command_interface "
+                             "ros2_control)")
+    return topic
+
+
 def defaults(params: Sequence[Param]) -> dict[str, Any]:
     """Every parameter's default value by name (what a node reads when nothing is set)."""
     return {p.name: p.default for p in params}

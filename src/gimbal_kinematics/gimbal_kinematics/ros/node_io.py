@@ -38,6 +38,7 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.subscription import Subscription
 
 from gimbal_kinematics.params import TIMING_CHOICES, TIMING_PARAM  # noqa: F401  (re-exported)
+from gimbal_kinematics.params import ros2_control_topic
 
 from .qos import GRAPH_QOS, ROS2_CONTROL_QOS
 
@@ -169,6 +170,6 @@ class NodeIo:
         (:data:`gimbal_kinematics.params.COMMAND_INTERFACE_PARAM`): ``graph_topic`` with the
         timing's QoS, or ``ros2_control_topic`` with :data:`.qos.ROS2_CONTROL_QOS`."""
         if values["command_interface"] == "ros2_control":
-            return self.advertise(msg_type, values["ros2_control_topic"], values["timing"], ROS2_CONTROL_QOS)
+            return self.advertise(msg_type, ros2_control_topic(values), values["timing"], ROS2_CONTROL_QOS)
         return self.advertise(msg_type, graph_topic, values["timing"])
 

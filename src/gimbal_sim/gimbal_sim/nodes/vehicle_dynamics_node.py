@@ -57,7 +57,7 @@ from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_io import input_qos
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS, ROS2_CONTROL_QOS
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params import ros2_control_topic
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
@@ -111,13 +111,11 @@ class VehicleDynamicsNode(Node):
                                                     GRAPH_QOS, raw=True) for topic in self._next_needed]
         self.sub_cmd = None
         self.ros2_control = values["command_interface"] == "ros2_control"
+        command_topic = ros2_control_topic(values) if self.ros2_control else ""
         self._queued: deque[tuple[float, ...] | None] = deque()  # ros2_control in lockstep: one per step
         if plant != "host_only" and (self.controlled or self.realtime):
             if self.ros2_control:
-                topic, qos, on_command = values["ros2_control_topic"], ROS2_CONTROL_QOS, self._on_ros2_control
-                if not topic.strip():
-                    raise ParameterError("parameter 'ros2_control_topic' must name a topic with command_interface "
-                                         "ros2_control")
+                topic, qos, on_command = command_topic, ROS2_CONTROL_QOS, self._on_ros2_control
             else:
                 topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
                 # realtime: the command comes from a free-timing controller (node_io's outputs are volatile)
