@@ -1,0 +1,250 @@
+"""Damaged and lying bags, and the compare of two bags: each fault a data row.
+
+The bags are written here by the ``mcap`` library's own writer (several small chunks, zstd
+or uncompressed, CDR encoded by ``mcap_ros2``), then damaged the way a full disk, a power
+cut or a bad sector damages them. What each command must keep is computed from the
+undamaged file by the ``mcap`` library (its summary's chunk index, each chunk's records by
+its own ``breakup_chunk``): every chunk that the damage does not touch.
+
+Every row asserts the exit code, that no traceback was printed, that a message names the
+problem, the messages kept against that count, and that no empty output folder is left.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from io import BytesIO
+from pathlib import Path
+from typing import Callable
+
+import pytest
+import yaml
+from mcap.data_stream import ReadDataStream
+from mcap.reader import make_reader
+from mcap.records import Chunk, Message
+from mcap.stream_reader import breakup_chunk
+from mcap.writer import CompressionType, Writer
+from mcap_ros2._dynamic import serialize_dynamic
+
+from gimbal_sim.bag.cli import main as bag_main
+from gimbal_sim.reports.dispatch import main as report_main
+from gimbal_sim.tools.bench import main as bench_main
+
+VENV_BIN = Path(sys.executable).parent
+T0 = 1_700_000_000_000_000_000
+TYPE = "geometry_msgs/msg/Vector3Stamped"
+SCHEMA = """std_msgs/Header header
+geometry_msgs/Vector3 vector
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+================================================================================
+MSG: geometry_msgs/Vector3
+float64 x
+float64 y
+float64 z
+"""
+#: topic -> rate [Hz]; 2 s of them in ~3 kB chunks: a dozen chunks
+TOPICS = {"/gimbal/rate": 100, "/gimbal/angle": 50, "/gimbal/cmd": 10}
+ENCODE = serialize_dynamic(TYPE, SCHEMA)[TYPE]
+
+
+def _message(t_ns: int, value: float) -> bytes:
+    sec, nsec = divmod(t_ns, 1_000_000_000)
+    return ENCODE({"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": "gimbal"},
+                   "vector": {"x": value, "y": -value, "z": 0.5 * value}})
+
+
+def stamped(duration_s: float = 2.0, offset: float = 0.0) -> list[tuple[str, int, float]]:
+    """(topic, log time, value) of every message, in log-time order."""
+    out = []
+    for topic, rate in TOPICS.items():
+        out += [(topic, T0 + round(i * 1e9 / rate), offset + i * 0.01 + len(topic)) for i in range(int(duration_s * rate))]
+    return sorted(out, key=lambda m: (m[1], m[0]))
+
+
+def write_mcap(path: Path, messages, compression: str = "zstd", schemaless: set[str] = frozenset(),
+               chunk_size: int = 3000) -> None:
+    with open(path, "wb") as f:
+        w = Writer(f, chunk_size=chunk_size,
+                   compression=CompressionType.ZSTD if compression == "zstd" else CompressionType.NONE)
+        w.start(profile="ros2", library="test_faults")
+        schema_id = w.register_schema(TYPE, "ros2msg", SCHEMA.encode())
+        channels = {t: w.register_channel(t, "cdr", 0 if t in schemaless else schema_id,
+                                          {"offered_qos_profiles": ""}) for t in TOPICS}
+        for seq, (topic, t_ns, value) in enumerate(messages):
+            w.add_message(channels[topic], t_ns, _message(t_ns, value), t_ns, seq)
+        w.finish()
+
+
+def write_metadata(bag: Path, files: list[str], messages, lie: Callable[[dict], None] | None = None) -> None:
+    counts = {t: sum(1 for m in messages if m[0] == t) for t in TOPICS}
+    stamps = [m[1] for m in messages]
+    info = {"version": 9, "storage_identifier": "mcap", "relative_file_paths": files,
+            "starting_time": {"nanoseconds_since_epoch": min(stamps)},
+            "duration": {"nanoseconds": max(stamps) - min(stamps)}, "message_count": len(messages),
+            "topics_with_message_count": [{"topic_metadata": {"name": t, "type": TYPE, "serialization_format": "cdr",
+                                                              "offered_qos_profiles": ""}, "message_count": n}
+                                          for t, n in counts.items()]}
+    if lie:
+        lie(info)
+    (bag / "metadata.yaml").write_text(yaml.safe_dump({"rosbag2_bagfile_information": info}))
+
+
+def make_bag(root: Path, name: str, compression: str = "zstd", messages=None, **kw) -> Path:
+    bag = root / name
+    bag.mkdir()
+    messages = messages if messages is not None else stamped()
+    write_mcap(bag / f"{name}_0.mcap", messages, compression, **kw)
+    write_metadata(bag, [f"{name}_0.mcap"], messages)
+    return bag
+
+
+@dataclass
+class ChunkInfo:
+    offset: int          # the Chunk record's first byte
+    length: int          # the Chunk record's length, opcode and length fields included
+    index_end: int       # where its MessageIndex records end
+    messages: int        # Message records in it (the mcap library's breakup_chunk)
+
+
+def chunks_of(path: Path) -> list[ChunkInfo]:
+    """The chunks of an undamaged file, by the mcap library."""
+    data = path.read_bytes()
+    with open(path, "rb") as f:
+        indexes = make_reader(f).get_summary().chunk_indexes
+    out = []
+    for ci in indexes:
+        chunk = Chunk.read(ReadDataStream(BytesIO(data[ci.chunk_start_offset + 9:])))
+        n = sum(isinstance(r, Message) for r in breakup_chunk(chunk, validate_crc=True))
+        out.append(ChunkInfo(ci.chunk_start_offset, ci.chunk_length,
+                             ci.chunk_start_offset + ci.chunk_length + ci.message_index_length, n))
+    return out
+
+
+def mcap_count(path: Path) -> int:
+    """Messages the mcap library reads from every .mcap of a bag folder (or file)."""
+    files = sorted(path.glob("*.mcap")) if path.is_dir() else [path]
+    total = 0
+    for file in files:
+        with open(file, "rb") as f:
+            total += sum(1 for _ in make_reader(f).iter_messages())
+    return total
+
+
+# --- the damage ---------------------------------------------------------------------------------
+
+def _flip(path: Path, at: int) -> None:
+    data = bytearray(path.read_bytes())
+    data[at] ^= 0x5A
+    path.write_bytes(bytes(data))
+
+
+def _cut(path: Path, at: int) -> None:
+    path.write_bytes(path.read_bytes()[:at])
+
+
+def damage_cut_in_chunk(bag: Path) -> tuple[int, str]:
+    file = next(bag.glob("*.mcap"))
+    chunks = chunks_of(file)
+    k = len(chunks) // 2
+    _cut(file, chunks[k].offset + chunks[k].length // 2)
+    (bag / "metadata.yaml").unlink()   # a cut recording never wrote it
+    return sum(c.messages for c in chunks[:k]), "ends inside a Chunk record"
+
+
+def damage_cut_in_index(bag: Path) -> tuple[int, str]:
+    file = next(bag.glob("*.mcap"))
+    chunks = chunks_of(file)
+    k = len(chunks) // 2
+    _cut(file, chunks[k].offset + chunks[k].length + 12)   # inside its first MessageIndex record
+    (bag / "metadata.yaml").unlink()
+    return sum(c.messages for c in chunks[:k + 1]), "ends inside a MessageIndex record"
+
+
+def _flip_chunk(k: int) -> Callable[[Path], tuple[int, str]]:
+    def damage(bag: Path) -> tuple[int, str]:
+        file = next(bag.glob("*.mcap"))
+        chunks = chunks_of(file)
+        kk = k % len(chunks)
+        _flip(file, chunks[kk].offset + chunks[kk].length - 40)   # in the chunk's (compressed) records
+        return sum(c.messages for c in chunks) - chunks[kk].messages, "chunk"
+    return damage
+
+
+@dataclass
+class Row:
+    name: str
+    compression: str
+    damage: Callable[[Path], tuple[int, str]]
+
+
+ROWS = [
+    Row("cut_in_chunk", "zstd", damage_cut_in_chunk),
+    Row("cut_in_index", "zstd", damage_cut_in_index),
+    Row("flip_zstd_chunk", "zstd", _flip_chunk(4)),
+    Row("flip_first_zstd_chunk", "zstd", _flip_chunk(0)),      # the chunk that defines schemas and channels
+    Row("flip_uncompressed_chunk", "none", _flip_chunk(5)),
+]
+
+
+def run(main, argv: list[str], capsys) -> tuple[int, str]:
+    code = main(argv)
+    out = capsys.readouterr()
+    text = out.out + out.err
+    assert "Traceback" not in text and "this is a bug" not in text, text
+    return code, text
+
+
+@pytest.mark.parametrize("row", ROWS, ids=lambda r: r.name)
+def test_damaged_bag_keeps_every_intact_chunk(row: Row, tmp_path, capsys):
+    bag = make_bag(tmp_path, "run", row.compression)
+    expected, problem = row.damage(bag)
+    assert 0 < expected < len(stamped())
+
+    code, text = run(bag_main, ["info", str(bag)], capsys)
+    assert code == 1 and problem in text, text
+    assert f"Messages:   {expected} " in text, text
+
+    out = tmp_path / "recovered"
+    code, text = run(bag_main, ["recover", str(bag), "--out", str(out)], capsys)
+    assert code == 0 and problem in text, text
+    assert mcap_count(out) == expected, text
+    assert "kept" in text and "/gimbal/rate" in text
+    if "cut" not in row.name:   # the MessageIndex after the chunk says what it held
+        assert f"{len(stamped()) - expected} messages known lost" in text, text
+
+
+def test_one_bad_chunk_of_nine_loses_only_that_chunk(tmp_path, capsys):
+    """The acceptance case in miniature: nine chunks, one flipped byte, eight kept."""
+    messages = stamped(duration_s=1.0)
+    bag = make_bag(tmp_path, "nine", "zstd", messages, chunk_size=1500)
+    chunks = chunks_of(next(bag.glob("*.mcap")))
+    assert len(chunks) >= 9
+    expected, _ = _flip_chunk(3)(bag)
+    out = tmp_path / "out"
+    code, text = run(bag_main, ["recover", str(bag), "--out", str(out)], capsys)
+    assert code == 0 and mcap_count(out) == expected == len(messages) - chunks[3].messages
+
+
+def test_report_on_a_damaged_bag_warns_and_on_an_unreadable_one_leaves_no_folder(tmp_path, capsys):
+    bag = make_bag(tmp_path, "run", "zstd")
+    expected, _ = damage_cut_in_index(bag)
+    code, text = run(report_main, [str(bag)], capsys)
+    assert code == 0 and "ends inside a MessageIndex record" in text, text
+    metrics = yaml.safe_load((bag / "report" / "metrics.json").read_text())
+    assert metrics["message_count"] == expected and not metrics["closed_cleanly"]
+
+    dead = tmp_path / "dead"
+    dead.mkdir()
+    (dead / "dead_0.mcap").write_bytes(b"\x89MCAP0\r\n" + bytes(range(256)) * 4)
+    code, text = run(report_main, [str(dead)], capsys)
+    assert code == 2 and "no message can be read" in text, text
+    assert not (dead / "report").exists()
