@@ -179,6 +179,16 @@ def _flip_chunk(k: int) -> Callable[[Path], tuple[int, str]]:
     return damage
 
 
+def _flip_chunk_length(k: int) -> Callable[[Path], tuple[int, str]]:
+    """A flipped byte in the chunk's record length: the reader must find the next record."""
+    def damage(bag: Path) -> tuple[int, str]:
+        file = next(bag.glob("*.mcap"))
+        chunks = chunks_of(file)
+        _flip(file, chunks[k].offset + 6)   # the length's 6th byte: far beyond the file's end
+        return sum(c.messages for c in chunks) - chunks[k].messages, "unreadable bytes skipped"
+    return damage
+
+
 @dataclass
 class Row:
     name: str
@@ -192,6 +202,8 @@ ROWS = [
     Row("flip_zstd_chunk", "zstd", _flip_chunk(4)),
     Row("flip_first_zstd_chunk", "zstd", _flip_chunk(0)),      # the chunk that defines schemas and channels
     Row("flip_uncompressed_chunk", "none", _flip_chunk(5)),
+    Row("flip_zstd_chunk_length", "zstd", _flip_chunk_length(2)),
+    Row("flip_uncompressed_chunk_length", "none", _flip_chunk_length(2)),
 ]
 
 
@@ -218,7 +230,7 @@ def test_damaged_bag_keeps_every_intact_chunk(row: Row, tmp_path, capsys):
     assert code == 0 and problem in text, text
     assert mcap_count(out) == expected, text
     assert "kept" in text and "/gimbal/rate" in text
-    if "cut" not in row.name:   # the MessageIndex after the chunk says what it held
+    if "cut" not in row.name and "length" not in row.name:   # the MessageIndex after the chunk says what it held
         assert f"{len(stamped()) - expected} messages known lost" in text, text
 
 
@@ -248,3 +260,161 @@ def test_report_on_a_damaged_bag_warns_and_on_an_unreadable_one_leaves_no_folder
     code, text = run(report_main, [str(dead)], capsys)
     assert code == 2 and "no message can be read" in text, text
     assert not (dead / "report").exists()
+
+
+# --- bags that are whole but unusual, or lie ------------------------------------------------------
+
+def test_schemaless_channel_is_refused_by_name_and_breaks_no_other_topic(tmp_path, capsys):
+    messages = stamped()
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    write_mcap(bag / "bag_0.mcap", messages, schemaless={"/gimbal/cmd"})   # schema_id 0, as MCAP allows
+    others = sum(1 for m in messages if m[0] != "/gimbal/cmd")
+    code, text = run(bag_main, ["info", str(bag)], capsys)
+    assert code == 1 and "/gimbal/cmd" in text and "no schema (schema_id 0)" in text, text
+    assert f"Messages:   {others}" in text and "KeyError" not in text
+    out = tmp_path / "out"
+    code, text = run(bag_main, ["recover", str(bag), "--out", str(out)], capsys)
+    assert code == 0 and mcap_count(out) == others and "/gimbal/cmd" in text
+
+    # with metadata.yaml naming its type, the topic is read (the type the rosbag2 bag states)
+    write_metadata(bag, ["bag_0.mcap"], messages)
+    code, text = run(bag_main, ["info", str(bag)], capsys)
+    assert code == 0 and f"Messages:   {len(messages)}\n" in text, text
+
+
+def _lie_counts(info):
+    info["message_count"] *= 10
+    info["topics_with_message_count"][0]["message_count"] *= 10
+
+
+def _lie_dropped_topic(info):
+    del info["topics_with_message_count"][1]
+
+
+def _lie_type(info):
+    info["topics_with_message_count"][2]["topic_metadata"]["type"] = "sensor_msgs/msg/Imu"
+
+
+def _lie_time(info):
+    info["duration"]["nanoseconds"] += 5_000_000_000
+
+
+@pytest.mark.parametrize("lie, named", [
+    (_lie_counts, "message_count: metadata says 3200"),
+    (_lie_dropped_topic, "topic /gimbal/angle: the files hold 100 messages"),
+    (_lie_type, "topic /gimbal/cmd: metadata says type sensor_msgs/msg/Imu"),
+    (_lie_time, "time range: metadata says"),
+], ids=["counts_x10", "dropped_topic", "wrong_type", "time_range"])
+def test_info_checks_metadata_against_the_files(lie, named, tmp_path, capsys):
+    messages = stamped()
+    bag = make_bag(tmp_path, "run")
+    write_metadata(bag, ["run_0.mcap"], messages, lie)
+    code, text = run(bag_main, ["info", str(bag)], capsys)
+    assert code == 1 and "metadata.yaml does not match the files" in text and named in text, text
+    assert f"Messages:   {len(messages)}" in text and mcap_count(bag) == len(messages)
+
+
+def _two_files(root: Path) -> tuple[Path, int]:
+    bag = root / "two"
+    bag.mkdir()
+    first, second = stamped(1.0), stamped(1.0, offset=100.0)
+    write_mcap(bag / "a.mcap", first)
+    write_mcap(bag / "b.mcap", second)
+    return bag, len(first) + len(second)
+
+
+@pytest.mark.parametrize("command", ["info", "recover"])
+def test_two_mcap_files_without_metadata_are_refused_unless_merge(command, tmp_path, capsys):
+    bag, total = _two_files(tmp_path)
+    out = tmp_path / "out"
+    extra = ["--out", str(out)] if command == "recover" else []
+    code, text = run(bag_main, [command, str(bag), *extra], capsys)
+    assert code == 2 and "a.mcap" in text and "b.mcap" in text and "--merge" in text, text
+    assert not out.exists()
+    code, text = run(bag_main, [command, str(bag), *extra, "--merge"], capsys)
+    if command == "info":
+        assert f"Messages:   {total}" in text, text
+    else:
+        assert code == 0 and mcap_count(out) == total == mcap_count(bag)
+
+
+def _split(root: Path, name: str, messages, second=None) -> Path:
+    """A rosbag2 split bag: the first half of the messages in one file, the rest in another."""
+    bag = root / name
+    bag.mkdir()
+    half = len(messages) // 2
+    write_mcap(bag / f"{name}_0.mcap", messages[:half])
+    write_mcap(bag / f"{name}_1.mcap", second if second is not None else messages[half:])
+    write_metadata(bag, [f"{name}_0.mcap", f"{name}_1.mcap"], messages)
+    return bag
+
+
+def test_split_bag_is_read_whole_in_metadata_order(tmp_path, capsys):
+    messages = stamped()
+    bag = _split(tmp_path, "split", messages)
+    code, text = run(bag_main, ["info", str(bag)], capsys)
+    assert code == 0 and f"Messages:   {len(messages)}\n" in text and mcap_count(bag) == len(messages), text
+    out = tmp_path / "out"
+    code, text = run(bag_main, ["recover", str(bag), "--out", str(out)], capsys)
+    assert code == 0 and mcap_count(out) == len(messages) and "nothing was damaged" in text
+
+
+# --- compare: the four false verdicts, each with its true one ------------------------------------
+
+def _compare_rows(root: Path) -> dict[str, tuple[Path, Path]]:
+    messages = stamped()
+    whole = make_bag(root, "whole", messages=messages)
+    half = len(messages) // 2
+    changed = [(t, ns, v + (1e-3 if i == 7 else 0.0)) for i, (t, ns, v) in enumerate(messages[half:])]
+    damaged = make_bag(root, "damaged", "none", messages=messages)
+    _flip_chunk(3)(damaged)
+    two, _ = _two_files(root)
+    return {"split_second_files_differ": (_split(root, "s1", messages), _split(root, "s2", messages, changed)),
+            "split_copy_of_itself": (whole, _split(root, "copy", messages)),
+            "refused_bag_against_itself": (two, two),
+            "crc_damaged_against_itself": (damaged, damaged)}
+
+
+COMPARE = [  # row, exit code, what the output must say
+    ("split_second_files_differ", 1, "DIFFERENT: max |Δ| 0.001"),
+    ("split_copy_of_itself", 0, "same data"),
+    ("refused_bag_against_itself", 2, "a.mcap, b.mcap"),
+    ("crc_damaged_against_itself", 2, "chunk failed its CRC check"),
+]
+
+
+@pytest.mark.parametrize("row, code, says", COMPARE, ids=[r[0] for r in COMPARE])
+def test_compare_tells_the_truth(row, code, says, tmp_path, capsys):
+    a, b = _compare_rows(tmp_path)[row]
+    got, text = run(bench_main, ["compare", str(a), str(b)], capsys)
+    assert got == code and says in text, text
+    if row == "split_second_files_differ":
+        t = stamped()[len(stamped()) // 2 + 7]
+        assert f"{t[0]}  DIFFERENT" in text and f"log time {t[1] * 1e-9:.9f} s" in text, text
+        assert sum("identical" in line for line in text.splitlines()) == len(TOPICS) - 1
+    if row == "crc_damaged_against_itself":
+        assert "same data" not in text and "UNREADABLE" in text and "NOT COMPARABLE" in text
+
+
+# --- a closed pipe, and play on a damaged bag ------------------------------------------------------
+
+def test_info_into_a_closed_pipe_ends_quietly(tmp_path):
+    bag = make_bag(tmp_path, "run")
+    read_end, write_end = os.pipe()
+    os.close(read_end)   # the reader is gone before the first line: every write meets EPIPE
+    proc = subprocess.run([str(VENV_BIN / "gimbal-bag"), "info", str(bag)], stdout=write_end,
+                          stderr=subprocess.PIPE, text=True, timeout=60)
+    os.close(write_end)
+    assert proc.returncode == 141 and proc.stderr == "", proc.stderr
+
+
+def test_play_warns_per_damaged_chunk_and_plays_the_rest(tmp_path, ros_domain_env):
+    bag = make_bag(tmp_path, "run", "zstd")
+    expected, _ = _flip_chunk(4)(bag)
+    proc = subprocess.run([str(VENV_BIN / "gimbal-bag"), "play", str(bag), "--rate", "0"], env=ros_domain_env,
+                          capture_output=True, text=True, timeout=120)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 0 and "Traceback" not in text, text
+    assert "does not decompress" in text or "failed its CRC check" in text, text
+    assert f"played {expected} messages" in text, text

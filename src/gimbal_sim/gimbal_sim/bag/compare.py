@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
 
+from .checks import damage_warnings
 from .reader import BagContents, read_messages
 from .schemas import message_class
 
@@ -57,6 +58,7 @@ class TopicDiff:
 @dataclass
 class BagDiff:
     topics: dict[str, TopicDiff] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)   # each damaged part of either bag, in words
 
     @property
     def byte_identical(self) -> bool:
@@ -161,7 +163,8 @@ def compare_bags(bag_a: Path, bag_b: Path, rel_tol: float = 0.0, abs_floor: floa
     (a, types, contents_a), (b, types_b, contents_b) = _raw(bag_a), _raw(bag_b)
     types = {**types_b, **types}
     bad = {**_unreadable(contents_b, f"B ({bag_b})"), **_unreadable(contents_a, f"A ({bag_a})")}
-    diff = BagDiff()
+    diff = BagDiff(warnings=list(dict.fromkeys(
+        [f"A: {w}" for w in damage_warnings(contents_a)] + [f"B: {w}" for w in damage_warnings(contents_b)])))
     for topic in sorted(set(a) | set(b) | set(contents_a.topics) | set(contents_b.topics) | set(bad) - {"*"}):
         ma, mb = a.get(topic, []), b.get(topic, [])
         t = diff.topics[topic] = TopicDiff(topic, len(ma), len(mb), unreadable=bad.get(topic) or bad.get("*", ""))

@@ -39,6 +39,7 @@ _OPCODES = {int(o) for o in Opcode}
 #: an opcode byte followed by a little-endian u64 length below 2**32 (a chunk of 4 GiB is
 #: beyond any writer's): the only places :func:`resync` looks at
 _CANDIDATE = re.compile(rb"(?=[\x01-\x0f].{4}\x00{4})", re.DOTALL)
+_INNER = {Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE}
 _READERS = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read, Opcode.CHUNK: Chunk.read,
             Opcode.MESSAGE_INDEX: MessageIndex.read, Opcode.FOOTER: Footer.read}
 
@@ -83,7 +84,7 @@ class FileWalk:
     channels: dict[int, Channel] = field(default_factory=dict)
     damage: list[Damage] = field(default_factory=list)
     footer: bool = False
-    chunks: int = 0                # chunks met, damaged ones included
+    chunks: int = 0                # chunks met (or indexed by the summary), damaged ones included
     orphans: dict[int, Lost] = field(default_factory=dict)   # messages of channels never defined
     compressions: set[str] = field(default_factory=set)      # chunk compressions met ("" = none)
 
@@ -111,12 +112,17 @@ def _framed(data, pos: int, depth: int) -> bool:
     return True
 
 
-def resync(data, start: int, depth: int = 3) -> int | None:
+def resync(data, start: int, chunked: bool = False, depth: int = 3) -> int | None:
     """The offset of the next record at or after ``start`` that starts a framed run of
-    ``depth`` records, or None when none does."""
+    ``depth`` records, or None when none does. In a ``chunked`` file, a Schema, Channel or
+    Message record is not a place to resume: those are the records inside an uncompressed
+    chunk, and reading them would take a damaged chunk's records without its CRC."""
     for match in _CANDIDATE.finditer(data, start):
-        if _framed(data, match.start(), depth):
-            return match.start()
+        at = match.start()
+        if chunked and data[at] in _INNER:
+            continue
+        if _framed(data, at, depth):
+            return at
     return None
 
 
@@ -131,6 +137,7 @@ def _preload_summary(data, walk: FileWalk) -> None:
         opcode, length = data[pos], _u64(data, pos + 1)
         if length > footer_at - pos - _HEAD:
             return
+        walk.chunks += opcode == Opcode.CHUNK_INDEX   # the file is chunked even when its first chunk is unreadable
         try:
             if opcode == Opcode.SCHEMA:
                 record = _parse(opcode, bytes(data[pos + _HEAD:pos + _HEAD + length]))
@@ -198,7 +205,7 @@ def _walk(data, w: FileWalk) -> Iterator[tuple[Channel, Message]]:
         opcode = data[pos]
         length = _u64(data, pos + 1) if pos + _HEAD <= size else size
         if opcode not in _OPCODES or length > size - pos - _HEAD:
-            found = resync(data, pos + 1)
+            found = resync(data, pos + 1, chunked=w.chunks > 0 or opcode == Opcode.CHUNK)
             if found is None:
                 _cut(w, data, pos) if opcode in _OPCODES or pos + _HEAD > size else \
                     w.damage.append(Damage(w.path.name, pos, f"{size - pos} unreadable bytes at the end"))

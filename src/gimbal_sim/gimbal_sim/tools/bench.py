@@ -455,12 +455,15 @@ def bench_compare(args: argparse.Namespace) -> int:
     except BagError as exc:
         print(f"gimbal-bench compare: {exc}", file=sys.stderr)
         return 2
+    for line in diff.warnings:
+        print(line, file=sys.stderr)
     print("\n".join(diff.lines()))
     unreadable = sorted(t.topic for t in diff.topics.values() if t.unreadable)
     ok = diff.identical or (args.rel_tol > 0 and diff.within_tolerance)
     if unreadable:
-        print(f"NOT the same data: {len(unreadable)} topic(s) cannot be read on a side ({', '.join(unreadable)}); "
-              f"`gimbal-bag info` on each bag says where it is damaged")
+        print(f"NOT COMPARABLE: a bag is damaged: {len(unreadable)} topic(s) cannot be read on a side "
+              f"({', '.join(unreadable)}); `gimbal-bag info` on each bag says where")
+        return 2   # a damaged bag is bad input, as for every command
     else:
         print("same data" if diff.identical else (f"within tolerance (--rel-tol {args.rel_tol:g})" if ok
                                                   else "DIFFERENT data"))
