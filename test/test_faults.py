@@ -12,6 +12,7 @@ problem, the messages kept against that count, and that no empty output folder i
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -254,6 +255,15 @@ def test_report_on_a_damaged_bag_warns_and_on_an_unreadable_one_leaves_no_folder
     metrics = yaml.safe_load((bag / "report" / "metrics.json").read_text())
     assert metrics["message_count"] == expected and not metrics["closed_cleanly"]
 
+    # a report that fails part-way (this one needs truth topics) leaves no report/ behind
+    (bag / "metadata.yaml").write_text("")   # not rosbag2 metadata either: refused by name
+    code, text = run(report_main, [str(bag)], capsys)
+    assert code == 2 and "metadata.yaml: not rosbag2 metadata" in text, text
+    (bag / "metadata.yaml").unlink()
+    shutil.rmtree(bag / "report")
+    code, text = run(report_main, [str(bag), "--report", "sighting"], capsys)
+    assert code == 2 and "/truth/gimbal/imu" in text and not (bag / "report").exists(), text
+
     dead = tmp_path / "dead"
     dead.mkdir()
     (dead / "dead_0.mcap").write_bytes(b"\x89MCAP0\r\n" + bytes(range(256)) * 4)
@@ -272,6 +282,7 @@ def test_schemaless_channel_is_refused_by_name_and_breaks_no_other_topic(tmp_pat
     others = sum(1 for m in messages if m[0] != "/gimbal/cmd")
     code, text = run(bag_main, ["info", str(bag)], capsys)
     assert code == 1 and "/gimbal/cmd" in text and "no schema (schema_id 0)" in text, text
+    assert f"UNREADABLE: {len(messages) - others} messages skipped" in text, text
     assert f"Messages:   {others}" in text and "KeyError" not in text
     out = tmp_path / "out"
     code, text = run(bag_main, ["recover", str(bag), "--out", str(out)], capsys)

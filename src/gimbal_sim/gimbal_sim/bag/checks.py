@@ -40,7 +40,7 @@ def topic_lines(contents: BagContents) -> list[str]:
         record, lost, span = contents.topics.get(name), contents.lost.get(name), contents.spans.get(name)
         kept = f"kept {record.count if record else 0:>8}" + (f" ({_span(*span, zero)})" if span else "")
         if name in contents.unreadable:
-            kept += "  UNREADABLE (see above)"
+            kept += f"  UNREADABLE: {contents.refused.get(name, 0)} messages skipped (see above)"
         gone = f"  lost {lost.count} ({_span(lost.first_ns, lost.last_ns, zero)})" if lost else ""
         lines.append(f"  {name:<{width}}  {kept}{gone}")
     for d in contents.damage:

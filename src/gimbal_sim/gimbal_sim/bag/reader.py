@@ -62,17 +62,13 @@ class BagContents:
     damage: list[Damage] = field(default_factory=list)   # every part of a file that could not be read
     lost: dict[str, Lost] = field(default_factory=dict)  # topic -> messages its damaged chunks held
     unreadable: dict[str, str] = field(default_factory=dict)   # topic -> why none of it can be read
+    refused: dict[str, int] = field(default_factory=dict)      # topic -> its messages skipped for that
     spans: dict[str, list[int]] = field(default_factory=dict)  # topic -> [first, last] log time read
 
     @property
     def closed_cleanly(self) -> bool:
         return self.complete and (self.has_metadata or not self.metadata_required) and self.error is None \
             and not self.damage
-
-    @property
-    def losses_known(self) -> bool:
-        """Whether every damage says which topics it cost (a cut chunk or skipped bytes do not)."""
-        return all(d.lost for d in self.damage)
 
     @property
     def message_count(self) -> int:
@@ -200,6 +196,7 @@ def _stream_mcap(contents: BagContents, topics: set[str] | None, meta_types: dic
                     contents.topics.setdefault(channel.topic, TopicRecord(channel.topic, type_name, record.qos_profiles,
                                                                           channel.id))
             if record is None:
+                contents.refused[channel.topic] = contents.refused.get(channel.topic, 0) + 1
                 continue
             contents._count(channel.topic, message.log_time)
             if topics is None or channel.topic in topics:
