@@ -67,7 +67,8 @@ def stamped(duration_s: float = 2.0, offset: float = 0.0) -> list[tuple[str, int
     """(topic, log time, value) of every message, in log-time order."""
     out = []
     for topic, rate in TOPICS.items():
-        out += [(topic, T0 + round(i * 1e9 / rate), offset + i * 0.01 + len(topic)) for i in range(int(duration_s * rate))]
+        out += [(topic, T0 + round(i * 1e9 / rate), offset + i * 0.01 + len(topic))
+                for i in range(int(duration_s * rate))]
     return sorted(out, key=lambda m: (m[1], m[0]))
 
 

@@ -24,7 +24,6 @@ by another tool compares equal to its original.
 from __future__ import annotations
 
 import math
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
