@@ -24,7 +24,7 @@ import pytest
 import yaml
 from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
-from mcap.records import Chunk, Message
+from mcap.records import Chunk, Footer, Message
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import CompressionType, Writer
 from mcap_ros2._dynamic import serialize_dynamic
@@ -234,6 +234,18 @@ def test_damaged_bag_keeps_every_intact_chunk(row: Row, tmp_path, capsys):
     assert "kept" in text and "/gimbal/rate" in text
     if "cut" not in row.name and "length" not in row.name:   # the MessageIndex after the chunk says what it held
         assert f"{len(stamped()) - expected} messages known lost" in text, text
+
+
+def test_damage_in_the_summary_costs_no_message(tmp_path, capsys):
+    bag = make_bag(tmp_path, "run", "zstd")
+    file = next(bag.glob("*.mcap"))
+    summary_start = Footer.read(ReadDataStream(BytesIO(file.read_bytes()[-28:-8]))).summary_start
+    assert summary_start > 0
+    _flip(file, summary_start + 5)   # the first summary record's length: its framing is gone
+    code, text = run(bag_main, ["info", str(bag)], capsys)
+    assert code == 1 and "in the summary section" in text and f"Messages:   {len(stamped())} " in text, text
+    code, text = run(bench_main, ["compare", str(bag), str(make_bag(tmp_path, "copy", "none"))], capsys)
+    assert code == 0 and "same data" in text, text
 
 
 def test_one_bad_chunk_of_nine_loses_only_that_chunk(tmp_path, capsys):

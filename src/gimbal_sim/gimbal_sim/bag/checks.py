@@ -44,7 +44,7 @@ def topic_lines(contents: BagContents) -> list[str]:
         gone = f"  lost {lost.count} ({_span(lost.first_ns, lost.last_ns, zero)})" if lost else ""
         lines.append(f"  {name:<{width}}  {kept}{gone}")
     for d in contents.damage:
-        if not d.lost:
+        if not d.lost and not d.summary:
             where = "" if d.start_ns is None else f" in {_span(d.start_ns, d.end_ns, zero)}"
             lines.append(f"  (unknown topics)  lost{where}: {d.line()}; the file does not say which messages")
     return lines

@@ -112,7 +112,7 @@ def _unreadable(contents: BagContents, side: str) -> dict[str, str]:
     out = {topic: f"{side}: {why}" for topic, why in contents.unreadable.items()}
     for topic, lost in contents.lost.items():
         out[topic] = f"{side}: {lost.count} of its messages are in a damaged chunk"
-    unknown = [d for d in contents.damage if not d.lost]
+    unknown = [d for d in contents.damage if not d.lost and not d.summary]
     if unknown:
         out["*"] = f"{side}: {unknown[0].line()}; which topics it cost is unknown"
     return out

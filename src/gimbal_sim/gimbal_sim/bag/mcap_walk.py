@@ -69,6 +69,7 @@ class Damage:
     #: channel id -> messages lost, from the chunk's MessageIndex records; empty when the
     #: file does not say (a cut chunk has none after it)
     lost: dict[int, Lost] = field(default_factory=dict)
+    summary: bool = False          # in the summary section, after the data: costs no message
 
     def line(self) -> str:
         span = "" if self.start_ns is None else f", log time {self.start_ns * 1e-9:.3f}..{self.end_ns * 1e-9:.3f} s"
@@ -87,6 +88,7 @@ class FileWalk:
     chunks: int = 0                # chunks met (or indexed by the summary), damaged ones included
     orphans: dict[int, Lost] = field(default_factory=dict)   # messages of channels never defined
     compressions: set[str] = field(default_factory=set)      # chunk compressions met ("" = none)
+    data_end: int | None = None    # damage entries before the DataEnd record (None: none met)
 
 
 def _u64(data, pos: int) -> int:
@@ -186,6 +188,10 @@ def walk(path: Path, walk_out: FileWalk | None = None) -> Iterator[tuple[Channel
             return
         with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
             yield from _walk(data, walk_out)
+    if walk_out.data_end is not None:
+        for damage in walk_out.damage[walk_out.data_end:]:
+            damage.summary = True
+            damage.what += " in the summary section (after every message: none lost)"
     for channel_id, lost in walk_out.orphans.items():
         walk_out.damage.append(Damage(Path(path).name, 0, f"{lost.count} messages of channel {channel_id}, which "
                                       f"no readable Channel record defines", lost.first_ns, lost.last_ns,
@@ -220,6 +226,8 @@ def _walk(data, w: FileWalk) -> Iterator[tuple[Channel, Message]]:
             pending = None
             pending = yield from _record(w, pos, opcode, body)
         pos += _HEAD + length
+        if opcode == Opcode.DATA_END:
+            w.data_end = len(w.damage)   # what breaks after this is in the summary: no message lost
         if opcode == Opcode.FOOTER:
             w.footer = True
             return
