@@ -40,6 +40,13 @@ _OPCODES = {int(o) for o in Opcode}
 #: beyond any writer's): the only places :func:`resync` looks at
 _CANDIDATE = re.compile(rb"(?=[\x01-\x0f].{4}\x00{4})", re.DOTALL)
 _INNER = {Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE}
+#: the shortest body each record can have (its fixed fields and empty strings, maps and data);
+#: DataEnd and Footer have exactly this length
+_MIN_BODY = {Opcode.HEADER: 8, Opcode.FOOTER: 20, Opcode.SCHEMA: 14, Opcode.CHANNEL: 16, Opcode.MESSAGE: 22,
+             Opcode.CHUNK: 40, Opcode.MESSAGE_INDEX: 6, Opcode.CHUNK_INDEX: 56, Opcode.ATTACHMENT: 36,
+             Opcode.ATTACHMENT_INDEX: 48, Opcode.STATISTICS: 38, Opcode.METADATA: 8, Opcode.METADATA_INDEX: 20,
+             Opcode.SUMMARY_OFFSET: 17, Opcode.DATA_END: 4}
+_EXACT = {Opcode.FOOTER, Opcode.DATA_END}
 _READERS = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read, Opcode.CHUNK: Chunk.read,
             Opcode.MESSAGE_INDEX: MessageIndex.read, Opcode.FOOTER: Footer.read}
 
@@ -81,14 +88,25 @@ class FileWalk:
     """What walking one file found besides its messages."""
 
     path: Path
-    schemas: dict[int, Schema] = field(default_factory=dict)
+    schemas: dict[int, Schema] = field(default_factory=dict)      # defined in the data section
     channels: dict[int, Channel] = field(default_factory=dict)
+    #: the summary section's copies, read first: used only for ids the data never defines
+    #: (their definition was in a damaged chunk)
+    summary_schemas: dict[int, Schema] = field(default_factory=dict)
+    summary_channels: dict[int, Channel] = field(default_factory=dict)
     damage: list[Damage] = field(default_factory=list)
     footer: bool = False
     chunks: int = 0                # chunks met (or indexed by the summary), damaged ones included
     orphans: dict[int, Lost] = field(default_factory=dict)   # messages of channels never defined
     compressions: set[str] = field(default_factory=set)      # chunk compressions met ("" = none)
     data_end: int | None = None    # damage entries before the DataEnd record (None: none met)
+
+
+    def schema(self, schema_id: int) -> Schema | None:
+        return self.schemas.get(schema_id) or self.summary_schemas.get(schema_id)
+
+    def channel(self, channel_id: int) -> Channel | None:
+        return self.channels.get(channel_id) or self.summary_channels.get(channel_id)
 
 
 def _u64(data, pos: int) -> int:
@@ -99,18 +117,25 @@ def _parse(opcode: int, body: bytes):
     return _READERS[opcode](ReadDataStream(BytesIO(body)))
 
 
+def _plausible(data, pos: int) -> bool:
+    """Whether a record can start at ``pos``: an opcode the spec defines and a length that
+    fits the file and the record's fixed fields."""
+    if pos + _HEAD > len(data) or data[pos] not in _OPCODES:
+        return False
+    opcode, length = data[pos], _u64(data, pos + 1)
+    if length > len(data) - pos - _HEAD or length < _MIN_BODY[opcode]:
+        return False
+    return length == _MIN_BODY[opcode] if opcode in _EXACT else True
+
+
 def _framed(data, pos: int, depth: int) -> bool:
     """Whether ``depth`` records are framed from ``pos`` (the file's end or trailing magic counts)."""
-    size = len(data)
     for _ in range(depth):
-        if pos == size or data[pos:pos + 8] == MAGIC:
+        if pos == len(data) or data[pos:pos + 8] == MAGIC:
             return True
-        if pos + _HEAD > size or data[pos] not in _OPCODES:
+        if not _plausible(data, pos):
             return False
-        length = _u64(data, pos + 1)
-        if length > size - pos - _HEAD:
-            return False
-        pos += _HEAD + length
+        pos += _HEAD + _u64(data, pos + 1)
     return True
 
 
@@ -143,10 +168,10 @@ def _preload_summary(data, walk: FileWalk) -> None:
         try:
             if opcode == Opcode.SCHEMA:
                 record = _parse(opcode, bytes(data[pos + _HEAD:pos + _HEAD + length]))
-                walk.schemas[record.id] = record
+                walk.summary_schemas[record.id] = record
             elif opcode == Opcode.CHANNEL:
                 record = _parse(opcode, bytes(data[pos + _HEAD:pos + _HEAD + length]))
-                walk.channels[record.id] = record
+                walk.summary_channels[record.id] = record
         except Exception:  # noqa: BLE001 - a damaged summary only means no head start
             return
         pos += _HEAD + length
@@ -210,9 +235,10 @@ def _walk(data, w: FileWalk) -> Iterator[tuple[Channel, Message]]:
     while pos < size:
         opcode = data[pos]
         length = _u64(data, pos + 1) if pos + _HEAD <= size else size
-        if opcode not in _OPCODES or length > size - pos - _HEAD:
-            found = resync(data, pos + 1, chunked=w.chunks > 0 or opcode == Opcode.CHUNK)
-            if found is None:
+        chunked = w.chunks > 0 or opcode == Opcode.CHUNK
+        found = _lost_thread(data, pos, chunked)
+        if found is not None:
+            if found == size:
                 _cut(w, data, pos) if opcode in _OPCODES or pos + _HEAD > size else \
                     w.damage.append(Damage(w.path.name, pos, f"{size - pos} unreadable bytes at the end"))
                 return
@@ -233,6 +259,38 @@ def _walk(data, w: FileWalk) -> Iterator[tuple[Channel, Message]]:
             return
 
 
+def _consistent(data, pos: int) -> bool:
+    """Whether a Chunk's or MessageIndex's own length fields add up to its record length
+    (writers add no padding; a length that grew would swallow the records after it)."""
+    opcode, length, body = data[pos], _u64(data, pos + 1), pos + _HEAD
+    if opcode == Opcode.CHUNK:
+        compression = struct.unpack_from("<I", data, body + 28)[0]
+        if 32 + compression + 8 > length:
+            return False
+        return 40 + compression + _u64(data, body + 32 + compression) == length
+    if opcode == Opcode.MESSAGE_INDEX:
+        return 6 + struct.unpack_from("<I", data, body + 2)[0] == length
+    return True
+
+
+def _lost_thread(data, pos: int, chunked: bool) -> int | None:
+    """None when the record at ``pos`` can be believed; else where reading resumes (the
+    file's size when nowhere). A record is not believed when it is implausible, when it is a
+    Message, Schema or Channel outside the chunks of a chunked file that does not frame the
+    records after it, or when the records after it are not framed (or its own length fields
+    disagree with its length) and a framed run starts inside it: then its length is what
+    was damaged."""
+    size = len(data)
+    if not _plausible(data, pos) or chunked and data[pos] in _INNER and not _framed(data, pos, 3):
+        found = resync(data, pos + 1, chunked=chunked)
+        return size if found is None else found
+    end = pos + _HEAD + _u64(data, pos + 1)
+    if _framed(data, end, 3) and _consistent(data, pos):
+        return None
+    found = resync(data, pos + 1, chunked=chunked)
+    return found if found is not None and found < end else None
+
+
 def _count_lost(damage: Damage, body: bytes) -> None:
     try:
         index = _parse(Opcode.MESSAGE_INDEX, body)
@@ -247,9 +305,26 @@ def _count_lost(damage: Damage, body: bytes) -> None:
             lost.add(len(stamps), min(stamps), max(stamps))
 
 
+def _define(w: FileWalk, pos: int, record: Schema | Channel) -> None:
+    """Keep a schema or channel; one that redefines a known id differently is damage (a
+    damaged record read as a definition must not retype a channel's messages)."""
+    known = w.schemas if isinstance(record, Schema) else w.channels
+    if record.id in known and known[record.id] != record:
+        w.damage.append(Damage(w.path.name, pos, f"a {type(record).__name__} record redefines id {record.id} "
+                                                 f"differently (most likely a damaged record): ignored"))
+        return
+    known[record.id] = record
+
+
 def _record(w: FileWalk, pos: int, opcode: int, body: bytes) -> Iterator[tuple[Channel, Message]]:
     """Handle one framed record; returns the :class:`Damage` of a chunk that did not check."""
     if opcode not in (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE, Opcode.CHUNK):
+        return None
+    if opcode == Opcode.MESSAGE and w.chunks:
+        # writers that chunk put every message in a chunk; one outside them is covered by no
+        # CRC and is most likely another record whose opcode byte was damaged
+        w.damage.append(Damage(w.path.name, pos, "a Message record outside the chunks of a chunked file "
+                                                 "(no CRC covers it; most likely a damaged record): not read"))
         return None
     try:
         if opcode == Opcode.MESSAGE:
@@ -272,12 +347,10 @@ def _record(w: FileWalk, pos: int, opcode: int, body: bytes) -> Iterator[tuple[C
         w.damage.append(damage)
         return damage if opcode == Opcode.CHUNK else None
     for record in records:
-        if isinstance(record, Schema):
-            w.schemas[record.id] = record
-        elif isinstance(record, Channel):
-            w.channels[record.id] = record
+        if isinstance(record, (Schema, Channel)):
+            _define(w, pos, record)
         elif isinstance(record, Message):
-            channel = w.channels.get(record.channel_id)
+            channel = w.channel(record.channel_id)
             if channel is None:
                 t = record.log_time
                 w.orphans.setdefault(record.channel_id, Lost(0, t, t)).add(1, t, t)

@@ -166,7 +166,7 @@ def _metadata_types(found: BagFiles) -> dict[str, str]:
 
 def _channel_type(walk_: FileWalk, channel, meta_types: dict[str, str]) -> str | None:
     """``pkg/msg/Name`` of a channel: from its schema, else from the metadata; None when neither says."""
-    schema = walk_.schemas.get(channel.schema_id) if channel.schema_id else None
+    schema = walk_.schema(channel.schema_id) if channel.schema_id else None
     if schema is not None:
         return _type_name(schema.name)
     return meta_types.get(channel.topic)
@@ -218,7 +218,7 @@ def _account(contents: BagContents, file_walk: FileWalk) -> None:
     for damage in file_walk.damage:
         contents.damage.append(damage)
         for channel_id, lost in damage.lost.items():
-            channel = file_walk.channels.get(channel_id)
+            channel = file_walk.channel(channel_id)
             topic = channel.topic if channel is not None else f"(channel {channel_id})"
             if topic in contents.lost:
                 contents.lost[topic].add(lost.count, lost.first_ns, lost.last_ns)
