@@ -82,6 +82,8 @@ def _print_info(args: argparse.Namespace, contents, info: dict, mismatches: list
     if mismatches:
         print(f"metadata.yaml does not match the files ({len(mismatches)}):")
         print("\n".join(f"  {m}" for m in mismatches))
+        if contents.damage:
+            print("  (the damaged parts above may hold the messages the metadata counts and the files no longer give)")
 
 
 def cmd_recover(args: argparse.Namespace) -> int:
