@@ -4,14 +4,13 @@
 boundary (:func:`gimbal_kinematics.cli_boundary.cli_boundary`): a parameter the node refuses,
 or a ``--params-file`` that is missing or not text, ends the process with exit code 2 and
 a message naming the parameter or the file; Ctrl-C (SIGINT) ends it with 130 and no
-traceback; an unexpected exception keeps its traceback, followed by the line saying it is
+traceback, SIGTERM (143) and SIGHUP (129) likewise; an unexpected exception keeps its traceback, followed by the line saying it is
 a bug. Otherwise the node spins until an external shutdown (exit 0) or (if it has one) its
-``done`` future completes (exit 0).
+``done`` future completes (exit 0, or 1 with its ``failure`` line when it has one).
 """
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from typing import Callable
 
@@ -21,11 +20,11 @@ from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.utilities import remove_ros_args
 
-from ..cli_boundary import Interrupted, UsageError, cli_boundary, read_text
+from ..cli_boundary import Interrupted, RunFailed, UsageError, cli_boundary, on_stop_signals, read_text
 from .ros_domain import localhost_env
 
 #: How long one spin slice lasts [s]: a SIGINT is acted on within it.
-SPIN_SLICE_S = 1.0
+SPIN_SLICE_S = 0.5
 
 ROS_ARGS_EPILOG = (
     "ROS arguments follow --ros-args, e.g. "
@@ -75,20 +74,20 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
     _check_params_files(argv)
     localhost_env()
     rclpy.init(args=argv)
-    # Ctrl-C / the orchestrator's SIGINT ends the spin between slices, in place of rclpy's
-    # handler: that one shuts the context down under a running callback, whose next publish
-    # fails, and a KeyboardInterrupt raised inside a callback is no better (both are logged
-    # as [FATAL]). Installed before the node is built, so a Ctrl-C during its start-up (its
-    # parameter declarations publish) stops it cleanly too. A second Ctrl-C aborts at once
-    # (a flooded EventsExecutor may not return).
+    # Ctrl-C / the orchestrator's SIGINT (and SIGTERM, SIGHUP: cli_boundary.STOP_SIGNALS) ends
+    # the spin between slices, in place of rclpy's handler: that one shuts the context down
+    # under a running callback, whose next publish fails, and a KeyboardInterrupt raised
+    # inside a callback is no better (both are logged as [FATAL]). Installed before the node
+    # is built, so a stop during its start-up (its parameter declarations publish) is clean
+    # too. A second stop signal aborts at once (a flooded EventsExecutor may not return).
     stopping: list[int] = []
 
-    def on_sigint(signum, _frame) -> None:
+    def on_stop(signum: int) -> None:
         if stopping:
             raise KeyboardInterrupt
         stopping.append(signum)
 
-    signal.signal(signal.SIGINT, on_sigint)
+    on_stop_signals(on_stop)
     try:
         node = make_node()
     except ValueError as exc:
@@ -117,4 +116,6 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
         rclpy.try_shutdown()
     if stopping:
         raise Interrupted("stopped the node")
+    if getattr(node, "failure", None):  # the node ended itself, failed (e.g. the recorder on a full disk)
+        raise RunFailed(node.failure)
     return 0
