@@ -100,7 +100,7 @@ from .nis import NisWindow
 STREAMS = ("encoders", "ins", "gyro")
 #: Filter counters whose increase is a WARN on /diagnostics (with the input-check counters).
 WARN_COUNTERS = ("resets", "realignments", "gated", "rejected_nonfinite", "rejected_out_of_order",
-                 *m.BAD_INPUT_KEYS, "incompatible_qos")
+                 *m.BAD_INPUT_KEYS, "incompatible_qos", "wrong_type")
 
 
 class GyroBiasEkfNode(Node):
@@ -228,7 +228,7 @@ class GyroBiasEkfNode(Node):
     def health(self, t_ns: int) -> DiagnosticArray:
         """The /diagnostics message: what the input policy reports (module docstring)."""
         fields, nis_verdict = self.policy.report(self.core.counters._asdict(),
-                                                 {**self.bad, "incompatible_qos": self.io.incompatible_qos},
+                                                 {**self.bad, **self.io.counters()},
                                                  self.nis.as_dict(), self.nis.verdict().verdict)
         return health_msg(t_ns, self.get_name(), fields, ready=self.core.aligned, warn=WARN_COUNTERS,
                           nis_verdict=nis_verdict)
