@@ -137,7 +137,8 @@ def graph_names(domain_id: int):
         rclpy.try_shutdown(context=ctx)
 
 
-def interrupt_when_on_graph(cmd: list[str], env: dict, name: str, out_dir: Path) -> tuple[int, str]:
+def interrupt_when_on_graph(cmd: list[str], env: dict, name: str, out_dir: Path,
+                            sig: int = signal.SIGINT) -> tuple[int, str]:
     """:func:`interrupt_when` its node ``name`` is on the graph."""
     with graph_names(int(env["ROS_DOMAIN_ID"])) as names:
-        return interrupt_when(cmd, env, out_dir, lambda: name in names(), wait=lambda: time.sleep(0.1))
+        return interrupt_when(cmd, env, out_dir, lambda: name in names(), wait=lambda: time.sleep(0.1), sig=sig)

@@ -206,11 +206,7 @@ def main(argv: list[str] | None = None) -> int:
             rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
             if metrics.get("stopped"):
                 print(summary_table(rows), flush=True)
-                closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
-                print(f"gimbal-run: {metrics['stopped']}; stopped the run at {metrics['sim_s']:g} s of "
-                      f"{single.duration_s:g} s simulated and kept the bag ({closed}), run.json (stopped: disk full) "
-                      f"and {'the report' if metrics.get('report') else 'no report (no room for it)'} in {bag}",
-                      file=sys.stderr)
+                print(_stopped_line(metrics, single, bag), file=sys.stderr)
                 return 1
             if metrics.get("interrupted"):
                 print(summary_table(rows), flush=True)  # before the interruption's line (stderr), the page's last
@@ -394,6 +390,14 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
         ("bag", str(out)),
         ("report", f"{report_dir}/metrics.json + {len(metrics.get('plots', []))} plots" if report_dir else "none: no room"),
     ]
+
+
+def _stopped_line(metrics: dict, scenario: Scenario, bag: Path) -> str:
+    """The one line of a run a full disk stopped: why (the device, its free space), how far, what was kept."""
+    closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
+    return (f"gimbal-run: {metrics['stopped']}; stopped the run at {metrics['sim_s']:g} s of {scenario.duration_s:g} s "
+            f"simulated and kept the bag ({closed}), run.json (stopped: disk full) and "
+            f"{'the report' if metrics.get('report') else 'no report (no room for it)'} in {bag}")
 
 
 def _write_report(out: Path, stopped: str | None) -> tuple[Path | None, dict]:

@@ -393,7 +393,8 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
                 raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
 
         def check_nodes() -> str | None:
-            return getattr(built.get(RECORDER), "failure", None)
+            """Why the recorder stopped the run (as the bag's metadata says), else None."""
+            return _recorder_stopped(out_dir) if getattr(built.get(RECORDER), "failure", None) else None
 
         wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, check_nodes, {"container": "self"},
                                    stop)
