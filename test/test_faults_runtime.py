@@ -311,3 +311,203 @@ def _replay_into_the_ekf(bag: Path, env: dict, tmp_path: Path) -> None:
     assert play.returncode == 0, out + err
     for t_ns, bias in want.items():
         assert np.max(np.abs(got[t_ns] - np.array(bias))) <= 1e-9, t_ns
+
+
+#: (errno, where it strikes: a chunk's write or its fsync, the words of the line)
+WRITER_ROWS = [(errno.ENOSPC, "write", "disk full (No space left on device)"),
+               (errno.EIO, "sync", "disk I/O error (Input/output error)")]
+
+
+@pytest.mark.parametrize("code, where, words", WRITER_ROWS, ids=["ENOSPC-write", "EIO-fsync"])
+def test_a_disk_error_closes_the_bag_at_its_last_chunk_on_disk(code, where, words, tmp_path, monkeypatch):
+    from gimbal_kinematics.ros import messages as m
+    from gimbal_sim.bag import writer
+
+    bag = writer.BagWriter(tmp_path / "bag", chunk_duration_ns=100_000_000, wall_flush_s=1e9)
+    bag.add_topic("/clock", "rosgraph_msgs/msg/Clock", [])
+    real_write, real_sync = writer._DiskFile.write, writer._DiskFile.sync
+    flushes = []  # messages on disk at each chunk boundary (fsync'd)
+    failed = []
+
+    def fails() -> None:
+        if len(flushes) >= 3 and not failed:  # the fourth chunk fails; the freed reserve's room is there
+            failed.append(code)
+            raise OSError(code, os.strerror(code))
+
+    def write(self, data):
+        if where == "write":
+            fails()
+        return real_write(self, data)
+
+    def sync(self):
+        if where == "sync":
+            fails()
+        real_sync(self)
+        flushes.append(bag.message_count)
+
+    monkeypatch.setattr(writer._DiskFile, "write", write)
+    monkeypatch.setattr(writer._DiskFile, "sync", sync)
+    written = 0
+    with pytest.raises(writer.DiskStopped) as stop:
+        for k in range(10_000):
+            bag.write("/clock", m.clock_cdr(k * 1_000_000), k * 1_000_000)
+            written += 1
+    line = str(stop.value)
+    assert line.startswith(words) and " has " in line and line.endswith(" free"), line
+    assert bag.closed and bag.stopped == line
+    kept = _mcap_count(tmp_path / "bag")
+    # every chunk on disk before the failure is kept, nothing after it
+    assert kept == flushes[-1] == _metadata(tmp_path / "bag")["message_count"] > 0
+    assert kept < written + 1
+    assert _metadata(tmp_path / "bag")["custom_data"] == {"stopped": line}
+    assert not (tmp_path / "bag" / ".space_reserve").exists()
+
+
+@pytest.mark.ros
+def test_a_run_its_disk_cannot_hold_is_refused_before_it_starts(tmp_path, ros_domain_env):
+    out = tmp_path / "run"
+    done = subprocess.run([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", "1e9", "--out", str(out)],
+                          env=ros_domain_env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert f"--out {out}: not enough room: the run needs about " in done.stderr and " free." in done.stderr
+    assert "--force" in done.stderr
+    assert not out.exists()  # nothing started, nothing written
+
+
+@pytest.mark.ros
+def test_a_read_only_output_directory_is_refused(tmpfs, tmp_path, ros_domain_env):
+    ro = tmpfs("1m", read_only=True)
+    if ro is None:  # not root: a directory without write permission
+        ro = tmp_path / "ro"
+        ro.mkdir()
+        ro.chmod(0o555)
+    out = ro / "run"
+    done = subprocess.run([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", "1", "--out", str(out)],
+                          env=ros_domain_env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert str(out) in done.stderr and ("Read-only file system" in done.stderr or "not a writable" in done.stderr), \
+        done.stderr
+    assert not out.exists()
+
+
+# ------------------------------------------------------------------ the EKF and stamps
+EPOCH_NS = 1_800_000_000_000_000_000
+PERIOD_NS = 5_000_000                     # a 200 Hz gyro
+THREE_YEARS_NS = 3 * 365 * 86_400 * 10**9
+
+
+def _stream(n: int, start: int = EPOCH_NS) -> list[int]:
+    return [start + k * PERIOD_NS for k in range(n)]
+
+
+#: (case, the stamps of one gyro stream in arrival order, the counters it leaves:
+#:  outliers, clock jumps, dropped, filter resets, samples fed to the core)
+N = 150  # 0.75 s: longer than the node's clock_jump_s (0.5 s), so a bag loop is a jump back
+STAMP_ROWS = [
+    ("one stamp 3 years ahead", _stream(N) + [EPOCH_NS + THREE_YEARS_NS] + _stream(N, EPOCH_NS + N * PERIOD_NS),
+     (1, 0, 0, 0, 2 * N)),
+    ("one stamp of zero", _stream(N) + [0] + _stream(N, EPOCH_NS + N * PERIOD_NS), (1, 0, 0, 0, 2 * N)),
+    ("two stamps of zero in a row", _stream(N) + [0, PERIOD_NS] + _stream(N, EPOCH_NS + N * PERIOD_NS),
+     (2, 0, 0, 0, 2 * N)),
+    ("a bag loop (sustained jump back)", _stream(N) + _stream(N), (0, 1, 0, 1, 2 * N)),
+    ("a clock stepped 3 years ahead (sustained)", _stream(N) + _stream(N, EPOCH_NS + THREE_YEARS_NS),
+     (0, 1, 0, 0, 2 * N)),
+    ("two samples really missed", _stream(N) + _stream(N - 2, EPOCH_NS + (N + 2) * PERIOD_NS), (0, 0, 2, 0, 2 * N - 2)),
+]
+
+
+@pytest.mark.parametrize("case, stamps, counters", STAMP_ROWS, ids=[r[0] for r in STAMP_ROWS])
+def test_the_ekf_timing_edge_rejects_outlier_stamps_and_resets_on_sustained_jumps(case, stamps, counters):
+    """The ``gyro_bias_ekf`` node's free-timing input policy, as its constructor builds it
+    (``order_policy``, its default ``clock_jump_s``), fed its gyro stream alone (the others
+    would only hold the stamp order); ``on_restart`` is where the node resets its filter."""
+    from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+    from gimbal_kinematics.input_policy import order_policy
+
+    resets, warnings = [], []
+    policy = order_policy("free", ("gyro",), max_wait_ns=0, rate_hz=1000.0, progress_every=1,
+                          clock_jump_ns=int(GyroBiasEkfParams().clock_jump_s * 1e9), on_restart=resets.append)
+    policy.held.warn = warnings.append
+    fed = [step for s in stamps for step in policy.add("gyro", s, None)]
+    c = policy.counters()
+    assert (c["gyro_outliers"], c["gyro_clock_jumps"], c["gyro_dropped"], len(resets), len(fed)) == counters, c
+    assert c["gyro_received"] == len(stamps)
+    # the core sees every sample it is fed in stamp order (a new run after a reset)
+    assert all(b.stamp_ns > a.stamp_ns for a, b in zip(fed, fed[1:]) if b.t > 0)
+    if counters[0]:
+        assert any("outliers" in w for w in warnings), warnings  # said, and counted
+
+
+@pytest.mark.ros
+def test_a_publisher_of_the_wrong_type_on_an_input_is_logged_once_and_on_diagnostics(ros_domain_env):
+    from std_msgs.msg import String
+
+    from gimbal_estimators.gyro_bias_ekf_node import GyroBiasEkfNode
+    from ros_harness import harness_node, spin_until
+
+    domain = int(ros_domain_env["ROS_DOMAIN_ID"])
+    with harness_node(domain) as (harness, executor), harness_node(domain, "talker") as (talker, _):
+        ekf = GyroBiasEkfNode(context=harness.context)
+        executor.add_node(ekf)
+        try:
+            wrong = talker.create_publisher(String, "/gimbal/imu", 10)  # a plain rclpy publisher, its own context
+            wrong.publish(String(data="not an Imu"))
+            # the node's own periodic check (a steady timer) finds it
+            assert spin_until(executor, lambda: ekf.io.wrong_type == 1, 60.0), ekf.io.counters()
+            ekf.io.check_types()
+            ekf.io.check_types()
+            assert ekf.io.wrong_type == 1  # one (topic, type): logged and counted once
+            (status,) = ekf.health(0).status
+            values = {kv.key: kv.value for kv in status.values}
+            assert values["wrong_type"] == "1" and values["gyro_received"] == "0", values
+        finally:
+            executor.remove_node(ekf)
+            ekf.destroy_node()
+
+
+# ------------------------------------------------------------------ params
+@pytest.mark.parametrize("spelling", ["1e2", "1.5e3", "2E-1", "+1e1", "1.0e+2", "100.0"])
+def test_params_file_numbers_are_read_as_rclpy_reads_them(spelling, tmp_path):
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+
+    from gimbal_sim.graph.scenario import apply_params_file, load
+
+    path = tmp_path / "p.yaml"
+    path.write_text(f"gyro_bias_ekf:\n  ros__parameters:\n    max_gyro_gap_s: {spelling}\n")
+    ctx = Context()
+    rclpy.init(args=["--ros-args", "--params-file", str(path)], context=ctx)
+    try:  # the oracle: what rclpy (rcl's YAML parser) gives a node started with the file
+        node = Node("gyro_bias_ekf", context=ctx, automatically_declare_parameters_from_overrides=True)
+        want = node.get_parameter("max_gyro_gap_s").value
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=ctx)
+    got = apply_params_file(load("sighting_land_vehicle"), path).nodes["gyro_bias_ekf"]["params"]["max_gyro_gap_s"]
+    assert isinstance(want, float) and got == want, (spelling, want, got)
+
+
+#: (case, params file, the words of the one line)
+PARAMS_ROWS = [
+    ("misspelt parameter", "gyro_bias_ekf:\n  ros__parameters:\n    clock_jump_ss: 1.0\n",
+     "block /gyro_bias_ekf names parameters node /gyro_bias_ekf does not have: 'clock_jump_ss' "
+     "(did you mean 'clock_jump_s'?)"),
+    ("misspelt node block", "gyro_bias_ekff:\n  ros__parameters:\n    clock_jump_s: 1.0\n",
+     "has no block for node /gyro_bias_ekf (its blocks: /gyro_bias_ekff)"),
+]
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("case, text, words", PARAMS_ROWS, ids=[r[0] for r in PARAMS_ROWS])
+def test_a_node_started_alone_refuses_a_params_file_that_misses_it(case, text, words, tmp_path, ros_domain_env):
+    path = tmp_path / "p.yaml"
+    path.write_text(text)
+    done = subprocess.run([str(VENV_BIN / "gyro_bias_ekf"), "--ros-args", "--params-file", str(path)],
+                          env=ros_domain_env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    lines = [ln for ln in done.stderr.splitlines() if ln.startswith("gyro_bias_ekf: refused to start: ")]
+    assert len(lines) == 1 and words in lines[0], done.stderr

@@ -171,7 +171,11 @@ class BagWriter:
             if not is_disk_error(exc):
                 raise
             self.stopped = disk_error_line(exc, self.directory)
-            self._close_at_last_chunk()
+            try:
+                self._close_at_last_chunk()
+            except OSError as again:  # not even the reserve's room: the chunks on disk stay readable
+                self.stopped += (f"; no room to close the bag ({again.strerror}): its complete chunks are kept, "
+                                 f"`gimbal-bag recover` reads them")
             raise DiskStopped(self.stopped) from None
 
     def _close_at_last_chunk(self) -> None:
