@@ -35,7 +35,9 @@ Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
   jitter are counted (:class:`gimbal_kinematics.stream_stats.StreamStats`); ±30 % jitter
   needs nothing else, since every step uses its own dt. A stream whose stamps jump back by
   more than ``clock_jump_s`` (a bag loop, a restarted driver) resets the filter and
-  re-bases the relative time. ``~/progress`` still reports the newest gyro stamp
+  re-bases the relative time, once 3 stamps in a row agree on the jump; a single stamp that
+  far off (3 years ahead, zero) is an outlier, dropped and counted (``<stream>_outliers``),
+  and the filter goes on (:mod:`gimbal_kinematics.stamps`). ``~/progress`` still reports the newest gyro stamp
   processed (absolute), every ``progress_every_steps`` gyro samples, for a pacing player.
 
 The node chooses its input policy once, in its constructor

@@ -58,14 +58,19 @@ class Interrupted(KeyboardInterrupt):
 
 def on_stop_signals(handler: Callable[[int], None]) -> Callable[[], None]:
     """Call ``handler(signum)`` on each of :data:`STOP_SIGNALS` (noting the signal for the exit
-    code); returns the function that puts the previous handlers back. Only the main thread
-    receives signals: elsewhere nothing is installed."""
+    code), once per SIGTERM or SIGHUP; returns the function that puts the previous handlers
+    back. Only the main thread receives signals: elsewhere nothing is installed."""
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
 
     def noted(signum: int, _frame) -> None:
+        # a SIGTERM or SIGHUP that came before: the stop is under way (Linux sends the
+        # parent-death signal again each time a thread of the dead parent is gone); a repeated
+        # Ctrl-C is the user's, and the handler decides (e.g. abort at once)
+        repeat = signum != signal.SIGINT and signum in _received
         _received.append(signum)
-        handler(signum)
+        if not repeat:
+            handler(signum)
 
     previous = {s: signal.getsignal(s) for s in STOP_SIGNALS}
     for s in STOP_SIGNALS:

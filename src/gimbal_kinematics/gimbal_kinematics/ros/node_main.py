@@ -121,7 +121,8 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
     # under a running callback, whose next publish fails, and a KeyboardInterrupt raised
     # inside a callback is no better (both are logged as [FATAL]). Installed before the node
     # is built, so a stop during its start-up (its parameter declarations publish) is clean
-    # too. A second stop signal aborts at once (a flooded EventsExecutor may not return).
+    # too. A Ctrl-C after the first stop signal aborts at once (a flooded EventsExecutor may
+    # not return); a repeated SIGTERM or SIGHUP is not handed on (cli_boundary.on_stop_signals).
     stopping: list[int] = []
 
     def on_stop(signum: int) -> None:
