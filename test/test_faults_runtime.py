@@ -365,32 +365,32 @@ def test_a_disk_error_closes_the_bag_at_its_last_chunk_on_disk(code, where, word
     assert not (tmp_path / "bag" / ".space_reserve").exists()
 
 
-@pytest.mark.ros
-def test_a_run_its_disk_cannot_hold_is_refused_before_it_starts(tmp_path, ros_domain_env):
+def test_a_run_its_disk_cannot_hold_is_refused_before_it_starts(tmp_path, capsys):
+    from gimbal_sim.run_cli import main  # in this process: it is refused before anything starts
+
     out = tmp_path / "run"
-    done = subprocess.run([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", "1e9", "--out", str(out)],
-                          env=ros_domain_env, capture_output=True, text=True, timeout=120)
-    assert done.returncode == 2, done.stderr
-    assert "Traceback" not in done.stderr
-    assert f"--out {out}: not enough room: the run needs about " in done.stderr and " free." in done.stderr
-    assert "--force" in done.stderr
+    rc = main(["sim_open_loop", "--duration", "1e9", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert "Traceback" not in err
+    assert f"--out {out}: not enough room: the run needs about " in err and " free." in err and "--force" in err
     assert not out.exists()  # nothing started, nothing written
 
 
-@pytest.mark.ros
-def test_a_read_only_output_directory_is_refused(tmpfs, tmp_path, ros_domain_env):
+def test_a_read_only_output_directory_is_refused(tmpfs, tmp_path, capsys):
+    from gimbal_sim.run_cli import main
+
     ro = tmpfs("1m", read_only=True)
     if ro is None:  # not root: a directory without write permission
         ro = tmp_path / "ro"
         ro.mkdir()
         ro.chmod(0o555)
     out = ro / "run"
-    done = subprocess.run([str(VENV_BIN / "gimbal-run"), "sim_open_loop", "--duration", "1", "--out", str(out)],
-                          env=ros_domain_env, capture_output=True, text=True, timeout=120)
-    assert done.returncode == 2, done.stderr
-    assert "Traceback" not in done.stderr
-    assert str(out) in done.stderr and ("Read-only file system" in done.stderr or "not a writable" in done.stderr), \
-        done.stderr
+    rc = main(["sim_open_loop", "--duration", "1", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert "Traceback" not in err
+    assert str(out) in err and ("Read-only file system" in err or "not a writable" in err), err
     assert not out.exists()
 
 

@@ -12,9 +12,12 @@ prelude's run ends up in the run's ``prelude/`` (bag, report, the parameter file
 hand-off's figures in the run's ``hand_off.json``, which the scenario's report reads.
 
 Exit codes: 0 success; 1 the run failed (a node died or stalled; the bag is still
-finalized); 2 bad input (unknown scenario or node, malformed --set, output exists), with
-nothing started and nothing overwritten; 130 Ctrl-C (the graph stopped in order, the bag
-closed, run.json with ``interrupted: true`` and the report of the simulated time written).
+finalized) or the disk filled up (the bag closed at its last chunk on disk, run.json with
+``stopped: disk full`` and the report of the simulated time written); 2 bad input (unknown
+scenario or node, malformed --set, output exists, not enough free space for the run's
+estimated size without --force), with nothing started and nothing overwritten; 130 Ctrl-C,
+143 SIGTERM, 129 SIGHUP (the graph stopped in order, the bag closed, run.json with
+``interrupted: true`` and the report of the simulated time written).
 """
 from __future__ import annotations
 
