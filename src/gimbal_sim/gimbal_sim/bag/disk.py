@@ -86,7 +86,10 @@ def take_reserve(directory: Path, size: int = RESERVE_BYTES) -> Path | None:
     except OSError:
         return None
     try:
-        os.posix_fallocate(fd, 0, size)
+        if hasattr(os, "posix_fallocate"):
+            os.posix_fallocate(fd, 0, size)
+        else:  # macOS: blocks written are blocks allocated
+            os.write(fd, bytes(size))
     except OSError:
         os.close(fd)
         path.unlink(missing_ok=True)

@@ -138,9 +138,14 @@ class BagWriter:
 
     def write(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None) -> None:
         record = self.topics[topic]
-        self._on_disk(lambda: self._writer.add_message(
-            channel_id=record.channel_id, log_time=log_time_ns, data=data, sequence=record.count,
-            publish_time=log_time_ns if publish_time_ns is None else publish_time_ns))
+        if self.closed:
+            self._on_disk(lambda: None)  # raises DiskStopped
+        try:  # inline, not through _on_disk: the recorder's per-message path
+            self._writer.add_message(channel_id=record.channel_id, log_time=log_time_ns, data=data,
+                                     publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
+                                     sequence=record.count)
+        except OSError as exc:
+            self._stop_on(exc)
         record.count += 1
         if self._start_ns is None or log_time_ns < self._start_ns:
             self._start_ns = log_time_ns
@@ -168,15 +173,20 @@ class BagWriter:
         try:
             return write()
         except OSError as exc:
-            if not is_disk_error(exc):
-                raise
-            self.stopped = disk_error_line(exc, self.directory)
-            try:
-                self._close_at_last_chunk()
-            except OSError as again:  # not even the reserve's room: the chunks on disk stay readable
-                self.stopped += (f"; no room to close the bag ({again.strerror}): its complete chunks are kept, "
-                                 f"`gimbal-bag recover` reads them")
-            raise DiskStopped(self.stopped) from None
+            self._stop_on(exc)
+
+    def _stop_on(self, exc: OSError) -> None:
+        """A write failed: re-raise it, unless the disk is full or failing; then close the bag
+        at its last chunk on disk and raise :class:`DiskStopped`."""
+        if not is_disk_error(exc):
+            raise exc
+        self.stopped = disk_error_line(exc, self.directory)
+        try:
+            self._close_at_last_chunk()
+        except OSError as again:  # not even the reserve's room: the chunks on disk stay readable
+            self.stopped += (f"; no room to close the bag ({again.strerror}): its complete chunks are kept, "
+                             f"`gimbal-bag recover` reads them")
+        raise DiskStopped(self.stopped) from None
 
     def _close_at_last_chunk(self) -> None:
         """Cut the file back to its last chunk on disk and close the bag from there, in the

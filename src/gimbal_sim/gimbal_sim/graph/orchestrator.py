@@ -393,8 +393,9 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
                 raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
 
         def check_nodes() -> str | None:
-            """Why the recorder stopped the run (as the bag's metadata says), else None."""
-            return _recorder_stopped(out_dir) if getattr(built.get(RECORDER), "failure", None) else None
+            """Why the recorder stopped the run (as the bag's metadata says, or its own line), else None."""
+            failure = getattr(built.get(RECORDER), "failure", None)
+            return failure and (_recorder_stopped(out_dir) or failure)
 
         wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, check_nodes, {"container": "self"},
                                    stop)
