@@ -35,7 +35,9 @@ from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent, localhost_env
 
 from .bag.live import parse_topic_rates
-from .bag.disk import disk_error_line, estimate_run_bytes, free_bytes, human, is_disk_error, space_line
+from .bag.disk import (
+    disk_error_line, estimate_run_bytes, free_bytes, human, is_disk_error, space_line, stop_kind,
+)
 from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.plan import check_nodes
@@ -375,7 +377,7 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
     (out / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,
         "sim_s": result.sim_s, "interrupted": result.interrupted,
-        **({"stopped": "disk full", "stop_reason": result.stopped} if result.stopped else {}),
+        **({"stopped": stop_kind(result.stopped), "stop_reason": result.stopped} if result.stopped else {}),
         "wall_s": result.wall_s, "real_time_factor": result.real_time_factor,
         "steps_per_s": result.sim_s * scenario.sim_rate_hz / result.wall_s if result.wall_s > 0 else None,
         "processes": {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v
@@ -399,7 +401,7 @@ def _stopped_line(metrics: dict, scenario: Scenario, bag: Path) -> str:
     """The one line of a run a full disk stopped: why (the device, its free space), how far, what was kept."""
     closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
     return (f"gimbal-run: {metrics['stopped']}; stopped the run at {metrics['sim_s']:g} s of {scenario.duration_s:g} s "
-            f"simulated and kept the bag ({closed}), run.json (stopped: disk full) and "
+            f"simulated and kept the bag ({closed}), run.json (stopped: {stop_kind(metrics['stopped'])}) and "
             f"{'the report' if metrics.get('report') else 'no report (no room for it)'} in {bag}")
 
 

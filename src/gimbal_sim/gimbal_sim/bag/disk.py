@@ -77,6 +77,12 @@ def disk_error_line(exc: OSError, path: Path | str) -> str:
     return f"{DISK_ERRNOS.get(exc.errno, exc.strerror)} ({exc.strerror}): {space_line(path)}"
 
 
+def stop_kind(line: str) -> str:
+    """What stopped a recording, from its line: ``disk full``, ``disk quota exceeded`` or
+    ``disk I/O error`` (:data:`DISK_ERRNOS`); ``disk full`` when the line names none."""
+    return next((kind for kind in DISK_ERRNOS.values() if kind in line), "disk full")
+
+
 def take_reserve(directory: Path, size: int = RESERVE_BYTES) -> Path | None:
     """Allocate the reserve file in ``directory`` (module docstring); None when there is no
     room for it (the bag is then closed with whatever room is left)."""
