@@ -245,6 +245,8 @@ class HeldSamples:
 
     def take(self, stream: str, verdict: Stamp, stamp_ns: int, msg: Any) -> list[tuple[int, Any]]:
         st, held = self.stats[stream], self._held[stream]
+        if verdict is Stamp.OK and not held:  # the usual case (a bag replayed at full speed: per message)
+            return [(stamp_ns, msg)]
         if st.outliers != self._outliers[stream]:
             held.clear()  # the ones held were outliers (the judge counted them)
         self._say(stream, st, verdict, stamp_ns)
