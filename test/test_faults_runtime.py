@@ -476,7 +476,7 @@ def test_params_file_numbers_are_read_as_rclpy_reads_them(spelling, tmp_path):
     from rclpy.context import Context
     from rclpy.node import Node
 
-    from gimbal_sim.graph.scenario import apply_params_file, load
+    from gimbal_sim.graph.scenario import apply_params_file, apply_set, load
 
     path = tmp_path / "p.yaml"
     path.write_text(f"gyro_bias_ekf:\n  ros__parameters:\n    max_gyro_gap_s: {spelling}\n")
@@ -490,6 +490,9 @@ def test_params_file_numbers_are_read_as_rclpy_reads_them(spelling, tmp_path):
         rclpy.shutdown(context=ctx)
     got = apply_params_file(load("sighting_land_vehicle"), path).nodes["gyro_bias_ekf"]["params"]["max_gyro_gap_s"]
     assert isinstance(want, float) and got == want, (spelling, want, got)
+    # and --set, whose value is read as -p reads it
+    got = apply_set(load("sighting_land_vehicle"), f"gyro_bias_ekf.max_gyro_gap_s={spelling}")
+    assert got.nodes["gyro_bias_ekf"]["params"]["max_gyro_gap_s"] == want
 
 
 #: (case, params file, the words of the one line)
