@@ -25,9 +25,10 @@ topic, the policy and the parameter that fixes it, and every event is counted
 (:attr:`NodeIo.incompatible_qos`, for ``/diagnostics``).
 
 A publisher of another type on an input topic (a ``std_msgs/String`` on ``/gimbal/imu``)
-never matches the subscription, so its messages never arrive and no QoS event says why.
-Every :data:`TYPE_CHECK_S` seconds (a steady timer: graph polling, not stepping) the
-node's input topics are looked up on the graph (``get_publishers_info_by_topic``); each
+never matches the subscription, so its messages never arrive, and Fast DDS raises no
+incompatible-type event (an RMW that does runs the check at once). Every
+:data:`TYPE_CHECK_S` seconds (a steady timer: graph polling, not stepping) the node's input
+topics are looked up on the graph (``get_publishers_info_by_topic``); each
 publisher of another type is logged once per topic and type, naming both types and the
 publishing node, and counted (:attr:`NodeIo.wrong_type`, for ``/diagnostics``).
 :meth:`NodeIo.counters` gives both counters, as a node's /diagnostics carries them.
@@ -179,7 +180,9 @@ class NodeIo:
 
         sub = self.node.create_subscription(
             msg_type, topic, self._watched(callback) if timing == "lockstep" else callback, profile, raw=raw,
-            event_callbacks=SubscriptionEventCallbacks(incompatible_qos=on_event),
+            # an RMW that reports a type mismatch has it named at once (the check looks the type up)
+            event_callbacks=SubscriptionEventCallbacks(incompatible_qos=on_event,
+                                                       incompatible_type=lambda _event: self.check_types()),
             qos_overriding_options=QoSOverridingOptions(policy_kinds=OVERRIDABLE_POLICIES))
         holder["qos"] = sub.qos_profile
         self._watch_types(name, msg_type)
