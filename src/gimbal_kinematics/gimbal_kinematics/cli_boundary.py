@@ -35,6 +35,7 @@ EXIT_CODES = {0: "success", 1: "the run or check failed (a node died or stalled,
                                 "campaign failed, a wait timed out)",
               2: "bad usage or input, refused before anything was changed", 130: "interrupted (Ctrl-C / SIGINT)",
               129: "stopped by SIGHUP (a closed terminal), as by Ctrl-C",
+              141: "the output pipe was closed by its reader (e.g. | head): ended quietly",
               143: "stopped by SIGTERM (systemd, Docker, Kubernetes, Slurm, kill), as by Ctrl-C"}
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 EXIT_CLOSED_PIPE = 141   # 128 + SIGPIPE: what a shell reports for a reader that stopped reading
