@@ -15,8 +15,8 @@
 * ``sweep_<param>__<metric>.png``: each figure against each swept parameter, every run
   and the group means with their 95 % intervals;
 * the design review (:mod:`.review`): each requirement's verdict per group, the sensitivity
-  indices, and their plots (``scatter__``, ``horizontal_error``, ``convergence__``,
-  ``sensitivity__``); verdicts and indices head ``summary.md``, the text table and the page.
+  indices, and their plots (``scatter``, ``horizontal_error``, ``convergence__<metric>``,
+  ``sensitivity``); verdicts and indices head ``summary.md``, the text table and the page.
 
 ``gimbal-report CAMPAIGN_DIR`` calls :func:`regenerate`: each run's own report is rewritten
 from its bag (where the bag was kept), the results table from the runs' metrics, then this.
@@ -303,8 +303,8 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
     summary["results_digest"] = results_digest(rows)  # what --resume checks the report against
     out = campaign_dir / "report"
     out.mkdir(exist_ok=True)
-    for old in [*out.glob("hist_*.png"), *out.glob("sweep_*.png"), *out.glob("scatter__*.png"),
-                *out.glob("convergence__*.png"), *out.glob("sensitivity__*.png"), *out.glob("horizontal_error.png")]:
+    for old in [*out.glob("hist_*.png"), *out.glob("sweep_*.png"), *out.glob("scatter*.png"),
+                *out.glob("convergence__*.png"), *out.glob("sensitivity*.png"), *out.glob("horizontal_error.png")]:
         old.unlink()
     metrics = figure_metrics(summary)
     _review(campaign_dir, rows, summary, metrics)

@@ -21,8 +21,8 @@ from .order_stats import Requirement, quantile_interval, upper_bound_rank, verdi
 NORTH, EAST = re.compile(r"(^|\.)(final_)?north_error_m$"), re.compile(r"(^|\.)(final_)?east_error_m$")
 #: The CEP rate a navigation campaign reports the median of (CEP50).
 CEP_RATE = re.compile(r"(^|\.)(final_)?radial_rate_nmi_h$")
-#: Metrics with indices drawn as bars: at most this many (the first the summary lists).
-MAX_INDEX_PLOTS = 12
+#: Metrics drawn in the scatter and index figures: at most this many (the first the summary lists).
+MAX_INDEX_PLOTS = 8
 
 
 def _finite(rows: list[dict[str, Any]], col: str) -> np.ndarray:
@@ -83,27 +83,27 @@ def requirement_marks(axes: list[Any], reqs: list[dict[str, Any]]) -> str:
     return "; ".join(texts)
 
 
-def scatter_plot(out: Path, rows: list[dict[str, Any]], params: list[str], name: str, slug: str) -> str:
-    """One panel per dispersed parameter: the metric of every run against its drawn value."""
+def scatter_plot(out: Path, rows: list[dict[str, Any]], params: list[str], names: list[str]) -> str:
+    """Each metric of ``names`` (rows) against each dispersed parameter (columns), every run."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(params), figsize=(3.3 * len(params) + 1.0, 3.4), squeeze=False,
-                             constrained_layout=True, sharey=True)
+    fig, axes = plt.subplots(len(names), len(params), figsize=(3.3 * len(params) + 1.0, 2.4 * len(names) + 0.6),
+                             squeeze=False, constrained_layout=True)
     variants = sorted({r["variant"] for r in rows})
-    for ax, param in zip(axes[0], params):
-        for i, variant in enumerate(variants):
-            members = [r for r in rows if r["variant"] == variant and isinstance(r.get(f"dispersed.{param}"),
-                                                                                   (int, float))]
-            ax.plot([r[f"dispersed.{param}"] for r in members],
-                    [np.nan if r.get(name) is None else r[name] for r in members], ".", color=f"C{i}", alpha=0.5,
-                    label=variant or "runs")
-        ax.set_xlabel(param.split(".", 1)[-1], fontsize=8)
-        ax.grid(True, alpha=0.3)
-    axes[0, 0].set_ylabel(name, fontsize=8)
+    for row, name in enumerate(names):
+        for ax, param in zip(axes[row], params):
+            for i, variant in enumerate(variants):
+                members = [r for r in rows if r["variant"] == variant]
+                ax.plot([r[f"dispersed.{param}"] for r in members],
+                        [np.nan if r.get(name) is None else r[name] for r in members], ".", color=f"C{i}",
+                        alpha=0.5, label=variant or "runs")
+            ax.grid(True, alpha=0.3)
+            if row == len(names) - 1:
+                ax.set_xlabel(param.split(".", 1)[-1], fontsize=8)
+        axes[row, 0].set_ylabel(name.split(".", 1)[-1], fontsize=7)
     axes[0, 0].legend(fontsize=7)
-    fig.suptitle(f"{name} against each dispersed parameter", fontsize=9)
-    file = f"scatter__{slug}.png"
-    save(fig, out / file)
-    return file
+    fig.suptitle("each metric against each dispersed parameter (every run)", fontsize=9)
+    save(fig, out / "scatter.png")
+    return "scatter.png"
 
 
 def _ellipse(cov: np.ndarray, k: float) -> np.ndarray:
@@ -178,36 +178,42 @@ def convergence_plot(out: Path, groups: dict[str, list[dict[str, Any]]], name: s
     return file
 
 
-def index_plot(out: Path, name: str, per_variant: dict[str, Any], slug: str) -> str | None:
-    """Tornado of the indices of ``name`` (Sobol S1 and ST, or Morris μ*) with their intervals."""
+def index_plot(out: Path, names: list[str], per_variant: dict[str, Any]) -> str | None:
+    """One tornado per metric of ``names`` (rows) and variant (columns): Sobol S1 and ST, or
+    Morris μ*, of each factor with its bootstrap interval."""
     plt = pyplot()
-    entries = [(v, m[name]) for v, m in per_variant.items() if name in m and "factors" in m[name]]
-    if not entries:
+    variants = [v for v, m in per_variant.items() if any("factors" in m.get(n, {}) for n in names)]
+    names = [n for n in names if any("factors" in per_variant[v].get(n, {}) for v in variants)]
+    if not names:
         return None
-    fig, axes = plt.subplots(1, len(entries), figsize=(4.5 * len(entries) + 1.5, 0.5 * len(entries[0][1]["factors"])
-                                                       + 1.6), squeeze=False, constrained_layout=True)
-    for ax, (variant, res) in zip(axes[0], entries):
-        factors = list(res["factors"])
-        y = np.arange(len(factors))
-        if res["method"] == "sobol":
-            for k, (key, offset) in enumerate((("S1", -0.18), ("ST", 0.18))):
-                vals = [res["factors"][f][key] for f in factors]
-                errs = [res["factors"][f][f"{key}_conf"] for f in factors]
-                ax.barh(y + offset, vals, height=0.34, xerr=errs, color=f"C{k}", capsize=2,
-                        label={"S1": "first order", "ST": "total"}[key])
-            ax.set_xlim(min(0.0, ax.get_xlim()[0]), max(1.05, ax.get_xlim()[1]))
-        else:
-            ax.barh(y, [res["factors"][f]["mu_star"] for f in factors],
-                    xerr=[res["factors"][f]["mu_star_conf"] for f in factors], color="C0", capsize=2, label="μ*")
-        ax.set_yticks(y, [f.split(".", 1)[-1] for f in factors], fontsize=7)
-        ax.invert_yaxis()
-        ax.grid(True, axis="x", alpha=0.3)
-        ax.legend(fontsize=7)
-        ax.set_title(f"{variant}", fontsize=8)
-    fig.suptitle(f"sensitivity of {name}", fontsize=9)
-    file = f"sensitivity__{slug}.png"
-    save(fig, out / file)
-    return file
+    n_factors = max(len(per_variant[v][n]["factors"]) for v in variants for n in names if n in per_variant[v])
+    fig, axes = plt.subplots(len(names), len(variants), figsize=(4.8 * len(variants) + 2.0,
+                                                                 (0.32 * n_factors + 0.9) * len(names) + 0.6),
+                             squeeze=False, constrained_layout=True)
+    for row, name in enumerate(names):
+        for col, variant in enumerate(variants):
+            ax, res = axes[row, col], per_variant[variant].get(name, {})
+            if "factors" not in res:
+                ax.set_axis_off()
+                continue
+            factors = list(res["factors"])
+            y = np.arange(len(factors))
+            keys = (("S1", -0.18, "first order"), ("ST", 0.18, "total")) if res["method"] == "sobol" else \
+                (("mu_star", 0.0, "μ* (per unit of probability)"),)
+            for k, (key, offset, label) in enumerate(keys):
+                ax.barh(y + offset, [res["factors"][f][key] for f in factors], height=0.34 if offset else 0.6,
+                        xerr=[res["factors"][f][f"{key}_conf"] for f in factors], color=f"C{k}", capsize=2,
+                        label=label)
+            ax.set_yticks(y, [f.split(".", 1)[-1] for f in factors], fontsize=7)
+            ax.invert_yaxis()
+            ax.grid(True, axis="x", alpha=0.3)
+            ax.set_title(f"{name} [{variant}]", fontsize=8)
+            if row == 0 and col == 0:
+                ax.legend(fontsize=7)
+    fig.suptitle(f"sensitivity ({per_variant[variants[0]][names[0]]['method']}): index of each factor, "
+                 "95 % bootstrap interval", fontsize=9)
+    save(fig, out / "sensitivity.png")
+    return "sensitivity.png"
 
 
 def navigation_columns(columns: list[str]) -> tuple[str, str] | None:
@@ -236,9 +242,9 @@ def plots(out: Path, ok: list[dict[str, Any]], groups: dict[str, list[dict[str, 
     if dispersed:
         numeric = [p for p in dispersed if all(isinstance(r[f"dispersed.{p}"], (int, float)) for r in ok)]
         reqs = [r["metric"] for r in summary.get("requirements", [])]
-        for name in (list(dict.fromkeys(reqs)) or metrics)[:MAX_INDEX_PLOTS]:
-            if numeric and name in columns:
-                written.append(scatter_plot(out, ok, numeric, name, slug(name)))
+        names = [n for n in (list(dict.fromkeys(reqs)) or metrics)[:MAX_INDEX_PLOTS] if n in columns]
+        if numeric and names:
+            written.append(scatter_plot(out, ok, numeric, names))
     nav = navigation_columns(columns)
     if nav:
         file, figures = horizontal_error_plot(out, ok, *nav)
@@ -250,9 +256,7 @@ def plots(out: Path, ok: list[dict[str, Any]], groups: dict[str, list[dict[str, 
     for name, q, c, bound in quantiles_reported(columns, requirements):
         if name in columns:
             written.append(convergence_plot(out, groups, name, q, c, slug(f"{name}_{q:g}"), bound))
-    for name in list(dict.fromkeys(n for per in summary.get("sensitivity", {}).get("indices", {}).values()
-                                   for n in per))[:MAX_INDEX_PLOTS]:
-        file = index_plot(out, name, summary["sensitivity"]["indices"], slug(name))
-        if file:
-            written.append(file)
-    return written
+    per_variant = summary.get("sensitivity", {}).get("indices", {})
+    names = list(dict.fromkeys(n for per in per_variant.values() for n in per))[:MAX_INDEX_PLOTS]
+    file = index_plot(out, names, per_variant) if names else None
+    return written + ([file] if file else [])

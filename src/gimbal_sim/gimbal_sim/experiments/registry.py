@@ -40,11 +40,13 @@ def experiment(name: str) -> ExperimentCampaign:
 PROBE_S = 1.0
 
 
-def plan(spec: CampaignSpec) -> CampaignPlan:
+def plan(spec: CampaignSpec, probe: bool = True) -> CampaignPlan:
     """The runs of any campaign: its experiment's plan, or the scenario campaign's; a
-    requirement on a metric its runs do not report is refused (:func:`check_requirements`)."""
+    requirement on a metric its runs do not report is refused (:func:`check_requirements`;
+    not ``probe``: a caller's own run function, whose metrics are its own)."""
     campaign = plan_experiment(spec, experiment(spec.experiment)) if spec.experiment else scenario_campaign.plan(spec)
-    check_requirements(campaign)
+    if probe:
+        check_requirements(campaign)
     return campaign
 
 
@@ -104,4 +106,5 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, run_fn: RunFunction | Non
     hooks = Runners(run_fn=run_fn) if run_fn is not None else runners(spec)
     table = partial(experiment_table, experiment(spec.experiment)) if spec.experiment else None
     report = partial(write_campaign_report, paper=campaign_paper_figure, table=table)
-    return engine.run_campaign(spec, out_dir, plan=plan, report=report, runners=hooks, **options)
+    return engine.run_campaign(spec, out_dir, plan=partial(plan, probe=run_fn is None), report=report, runners=hooks,
+                               **options)
