@@ -45,7 +45,8 @@ from .experiments.registry import EXPERIMENTS, run_campaign
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="gimbal-campaign", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
-                                epilog="`gimbal-campaign diff A B` compares two campaigns' metrics run by run.")
+                                epilog="`gimbal-campaign diff A B` pairs two campaigns' runs by seed: each metric's largest "
+                                       "difference and its change with a paired 95 % interval.")
     p.add_argument("campaign", nargs="?", help="a campaign YAML file, or a scenario (built-in name or scenario YAML)")
     p.add_argument("--variant", action="append", metavar="NAME", help="run this variant (repeatable; default all)")
     p.add_argument("--seeds", help="seeds, e.g. 1-20 or 1,3,5-7 (default: the file's, else 0)")
@@ -54,8 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "NODE.PARAM[i] sweeps one element of a vector parameter; repeatable")
     p.add_argument("--sampling", choices=SAMPLINGS, help="grid: every combination; sobol: --samples scrambled "
                    "Sobol points in the sweeps' bounds (scipy.stats.qmc)")
-    p.add_argument("--samples", type=int, metavar="N", help="Sobol points (a power of 2)")
-    p.add_argument("--sample-seed", type=int, metavar="N", help="Sobol scrambling seed (default 0)")
+    p.add_argument("--samples", type=int, metavar="N", help="Sobol points (a power of 2); with --sensitivity the "
+                   "design's N (sobol: a power of 2; morris: trajectories)")
+    p.add_argument("--sample-seed", type=int, metavar="N", help="seed of the Sobol scrambling, the dispersions' "
+                   "sampling and the sensitivity design (default 0)")
     p.add_argument("--set", action="append", metavar="NODE.PARAM=VALUE", help="fix a node parameter in every run")
     p.add_argument("--disperse", action="append", metavar="NODE.PARAM=DIST",
                    help="draw a node parameter per run: normal(mean, std), truncnormal(mean, std, low, high), "
@@ -168,7 +171,10 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
 
 def _diff(argv: list[str]) -> int:
     p = argparse.ArgumentParser(prog="gimbal-campaign diff",
-                                description="Compare two campaigns' metrics on the runs they share (same run id).")
+                                description="Compare two campaigns' metrics on their runs paired by seed (and swept values, "
+                                            "and variant when both have the same variants): max |a - b| and the "
+                                            "paired change b - a with its 95 % Student t interval, significant "
+                                            "when the interval excludes 0.")
     p.add_argument("a", type=Path)
     p.add_argument("b", type=Path)
     p.add_argument("--prefix", default="", help="only metrics whose name starts with this (e.g. sighting.)")

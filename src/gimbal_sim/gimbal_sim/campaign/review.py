@@ -242,7 +242,7 @@ def plots(out: Path, ok: list[dict[str, Any]], groups: dict[str, list[dict[str, 
     if dispersed:
         numeric = [p for p in dispersed if all(isinstance(r[f"dispersed.{p}"], (int, float)) for r in ok)]
         reqs = [r["metric"] for r in summary.get("requirements", [])]
-        names = [n for n in (list(dict.fromkeys(reqs)) or metrics)[:MAX_INDEX_PLOTS] if n in columns]
+        names = [n for n in dict.fromkeys([*reqs, *metrics]) if n in columns][:MAX_INDEX_PLOTS]
         if numeric and names:
             written.append(scatter_plot(out, ok, numeric, names))
     nav = navigation_columns(columns)
