@@ -131,11 +131,11 @@ def figure_metrics(summary: dict[str, Any]) -> list[str]:
     return list(names)
 
 
-def text_summary(summary: dict[str, Any], metrics: list[str] | None = None) -> str:
+def text_summary(summary: dict[str, Any], metrics: list[str] | None = None, head: bool = True) -> str:
     """Mean ± std [95 % interval of the mean] (n) per group for ``metrics`` (default: the
     figures), the NEES verdicts and the failed runs; what ``gimbal-campaign`` prints."""
     metrics = figure_metrics(summary) if metrics is None else metrics
-    lines = [*_review_lines(summary), f"{summary['ok']} of {summary['runs']} runs ok"]
+    lines = [*(_review_lines(summary) if head else []), f"{summary['ok']} of {summary['runs']} runs ok"]
     for g in summary["groups"]:
         lines.append(f"== {g['label']} ({g['runs']} runs, seeds {_seed_text(g['seeds'])})")
         width = max((len(m) for m in metrics), default=0)
@@ -315,9 +315,10 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
                                      summary, metrics, _slug)
     summary["table"] = text_summary(summary, metrics)
     own = table(campaign_dir) if table is not None else None
-    if own:
+    if own:  # the verdicts, then the experiment's own table, then the generic one
         summary["experiment_table"] = own
-        summary["table"] = f"{own}\n\n{summary['table']}"
+        summary["table"] = "\n\n".join([*(["\n".join(_review_lines(summary))] if _review_lines(summary) else []),
+                                         own, text_summary(summary, metrics, head=False)])
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
     _write_run_pages(campaign_dir, rows, paper)

@@ -149,13 +149,14 @@ def horizontal_error_plot(out: Path, rows: list[dict[str, Any]], north: str, eas
 
 
 def convergence_plot(out: Path, groups: dict[str, list[dict[str, Any]]], name: str, q: float, c: float,
-                     slug: str, bound: float | None = None) -> str:
-    """The running q-quantile of ``name`` against the number of runs, with its two-sided
-    c interval (order statistics) and, for a requirement, the Wilks upper bound at c."""
+                     slug: str, bound: float | None = None, absolute: bool = False) -> str:
+    """The running q-quantile of ``name`` (its magnitude when ``absolute``) against the number
+    of runs, with its two-sided c interval (order statistics) and, for an upper bound, the
+    Wilks upper bound at c."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.0), constrained_layout=True)
     for i, (label, members) in enumerate(groups.items()):
-        x = _finite(members, name)
+        x = np.abs(_finite(members, name)) if absolute else _finite(members, name)
         ns = np.arange(1, x.size + 1)
         est = np.array([quantile_interval(x[:k], q, c) for k in ns])
         ax.plot(ns, est[:, 0], "-", color=f"C{i}", label=f"{label}: running {q:g}-quantile")
@@ -168,11 +169,12 @@ def convergence_plot(out: Path, groups: dict[str, list[dict[str, Any]]], name: s
             ax.plot(ns, wilks, ":", color=f"C{i}", label=f"Wilks upper bound ({c:.0%})")
     if bound is not None:
         ax.axhline(bound, color="k", linestyle="--", linewidth=1.0, label=f"requirement {bound:g}")
+    shown = f"|{name}|" if absolute else name
     ax.set_xlabel("runs")
-    ax.set_ylabel(name)
+    ax.set_ylabel(shown)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
-    ax.set_title(f"convergence of the {q:g}-quantile of {name}")
+    ax.set_title(f"convergence of the {q:g}-quantile of {shown}", fontsize=9)
     file = f"convergence__{slug}.png"
     save(fig, out / file)
     return file
@@ -223,13 +225,15 @@ def navigation_columns(columns: list[str]) -> tuple[str, str] | None:
     return (north[0], east[0]) if north and east else None
 
 
-def quantiles_reported(columns: list[str], requirements: list[Requirement]) -> list[tuple[str, float, float, Any]]:
-    """(metric, quantile, confidence, bound) of each quantile the campaign reports: each
-    requirement's p-quantile (1 − p for a lower bound) at its c, and a navigation
-    campaign's CEP50 (the median of the CEP rate) at 95 %."""
-    out = [(r.metric, r.p if r.upper else 1 - r.p, r.c, r.bound if r.upper and not r.absolute else None)
+def quantiles_reported(columns: list[str], requirements: list[Requirement]) -> list[tuple[str, float, float, Any,
+                                                                                          bool]]:
+    """(metric, quantile, confidence, upper bound or None, of the magnitude) of each quantile
+    the campaign reports: each requirement's p-quantile (1 − p for a lower bound) at its c,
+    and a navigation campaign's CEP50 (the median of the CEP rate) at 95 %."""
+    out = [(r.metric, r.p if r.upper else 1 - r.p, r.c, r.bound if r.upper else None, r.absolute)
            for r in requirements]
-    out += [(c, 0.5, 0.95, None) for c in columns if CEP_RATE.search(c) and c not in {o[0] for o in out}]
+    out += [(c, 0.5, 0.95, None, False) for c in columns if CEP_RATE.search(c) and (c, 0.5) not in
+            {o[:2] for o in out}]
     return out
 
 
@@ -253,9 +257,9 @@ def plots(out: Path, ok: list[dict[str, Any]], groups: dict[str, list[dict[str, 
     requirements = [Requirement(**{k: v for k, v in r.items() if k in ("metric", "bound", "p", "c", "upper",
                                                                         "absolute")})
                     for r in summary.get("requirement_specs", [])]
-    for name, q, c, bound in quantiles_reported(columns, requirements):
+    for name, q, c, bound, absolute in quantiles_reported(columns, requirements):
         if name in columns:
-            written.append(convergence_plot(out, groups, name, q, c, slug(f"{name}_{q:g}"), bound))
+            written.append(convergence_plot(out, groups, name, q, c, slug(f"{name}_{q:g}"), bound, absolute))
     per_variant = summary.get("sensitivity", {}).get("indices", {})
     names = list(dict.fromkeys(n for per in per_variant.values() for n in per))[:MAX_INDEX_PLOTS]
     file = index_plot(out, names, per_variant) if names else None
