@@ -308,11 +308,12 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
         old.unlink()
     metrics = figure_metrics(summary)
     _review(campaign_dir, rows, summary, metrics)
-    summary["plots"] = _plot_histograms(out, rows, summary, metrics) + _plot_sweeps(out, rows, summary, metrics)
     ok = [r for r in rows if r["status"] == "ok"]
     sweep_cols = [f"sweep.{s}" for s in summary["sweep"]]
-    summary["plots"] += review.plots(out, ok, {_label(k, sweep_cols): m for k, m in _groups(ok, sweep_cols).items()},
-                                     summary, metrics, _slug)
+    # the review's plots first: they answer the review (the page shows them in this order)
+    summary["plots"] = review.plots(out, ok, {_label(k, sweep_cols): m for k, m in _groups(ok, sweep_cols).items()},
+                                    summary, metrics, _slug)
+    summary["plots"] += _plot_histograms(out, rows, summary, metrics) + _plot_sweeps(out, rows, summary, metrics)
     summary["table"] = text_summary(summary, metrics)
     own = table(campaign_dir) if table is not None else None
     if own:  # the verdicts, then the experiment's own table, then the generic one

@@ -160,13 +160,15 @@ def convergence_plot(out: Path, groups: dict[str, list[dict[str, Any]]], name: s
         ns = np.arange(1, x.size + 1)
         est = np.array([quantile_interval(x[:k], q, c) for k in ns])
         ax.plot(ns, est[:, 0], "-", color=f"C{i}", label=f"{label}: running {q:g}-quantile")
-        ax.fill_between(ns, np.where(np.isfinite(est[:, 1]), est[:, 1], np.nan),
-                        np.where(np.isfinite(est[:, 2]), est[:, 2], np.nan), color=f"C{i}", alpha=0.2,
-                        label=f"{c:.0%} interval")
+        lo, hi = (np.where(np.isfinite(est[:, j]), est[:, j], np.nan) for j in (1, 2))
+        ax.fill_between(ns, lo, hi, color=f"C{i}", alpha=0.2)
+        # an end of the interval exists only from some run count on: each drawn where it does
+        ax.plot(ns, lo, "--", color=f"C{i}", linewidth=0.8, label=f"{c:.0%} interval (order statistics)")
+        ax.plot(ns, hi, "--", color=f"C{i}", linewidth=0.8)
         if bound is not None:
             ranks = [upper_bound_rank(k, q, c) for k in ns]
             wilks = [np.sort(x[:k])[r - 1] if r else np.nan for k, r in zip(ns, ranks)]
-            ax.plot(ns, wilks, ":", color=f"C{i}", label=f"Wilks upper bound ({c:.0%})")
+            ax.plot(ns, wilks, "v:", color=f"C{i}", markersize=4, label=f"Wilks upper bound ({c:.0%})")
     if bound is not None:
         ax.axhline(bound, color="k", linestyle="--", linewidth=1.0, label=f"requirement {bound:g}")
     shown = f"|{name}|" if absolute else name
