@@ -6,14 +6,19 @@
     gimbal-campaign campaign.yaml --scheduler tcp://10.0.0.5:8786     # an existing cluster
     gimbal-campaign --out bags/mc20 --resume                          # finish / extend it
     gimbal-campaign diff bags/mc20 bags/mc20_core --prefix sighting.  # two campaigns' metrics
+    gimbal-campaign sighting_land_vehicle --variant ekf_off --duration 30 --engine core \
+        --disperse 'sensor_models.gimbal_gyro_bias_deg_h[0]=normal(0, 200)' --sensitivity sobol --samples 32
+    gimbal-campaign rotational_ins_navigation --variant rotation_on --seeds 1-22 \
+        --require 'navigation.radial_rate_nmi_h<=0.5,p=0.9,c=0.9'   # a verdict; exit 3 unless met
 
 The campaign comes from a YAML file (:mod:`gimbal_sim.campaign.spec` documents it) and/or flags (a
 flag overrides the file). Without ``--scheduler`` an embedded LocalCluster on 127.0.0.1
 runs one single-threaded worker process per core. The campaign directory holds
 ``campaign.yaml``, ``runs/<id>/``, ``results.parquet`` (+ csv) and ``report/``.
 
-Exit codes: 0 every run ok; 1 a run failed (the others still ran; each failure is in the
-results with its reason); 2 bad input (unknown scenario, variant or parameter, malformed
+Exit codes: 0 every run ok (and every requirement met); 1 a run failed (the others still
+ran; each failure is in the results with its reason); 3 a requirement not met, or too few
+runs to judge it (the verdicts head the output and the report); 2 bad input (unknown scenario, variant or parameter, malformed
 range, unreachable scheduler, existing directory without --resume), nothing started; 130
 Ctrl-C (the runs that finished are tabulated and reported; --resume runs the rest).
 """
@@ -31,14 +36,17 @@ import yaml
 from gimbal_kinematics.cli_boundary import cli_boundary, finite, read_text, writable_dir
 
 from .campaign.report import diff_results
+from .campaign.dispersion import SAMPLINGS as DISPERSION_SAMPLINGS
+from .campaign.sensitivity import METHODS as SENSITIVITY_METHODS
 from .campaign.spec import ENGINES, KEEP_BAGS, LARGE_RUNS, MODES, SAMPLINGS, CampaignError, CampaignSpec, \
-    is_record, load_spec_file, parse_seeds, spec_from_mapping
+    is_record, load_spec_file, parse_requirements, parse_seeds, spec_from_mapping
 from .experiments.registry import EXPERIMENTS, run_campaign
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="gimbal-campaign", description=__doc__.split("\n\n")[0].split(": ", 1)[1],
-                                epilog="`gimbal-campaign diff A B` compares two campaigns' metrics run by run.")
+                                epilog="`gimbal-campaign diff A B` pairs two campaigns' runs by seed: each metric's largest "
+                                       "difference and its change with a paired 95 % interval.")
     p.add_argument("campaign", nargs="?", help="a campaign YAML file, or a scenario (built-in name or scenario YAML)")
     p.add_argument("--variant", action="append", metavar="NAME", help="run this variant (repeatable; default all)")
     p.add_argument("--seeds", help="seeds, e.g. 1-20 or 1,3,5-7 (default: the file's, else 0)")
@@ -47,9 +55,23 @@ def build_parser() -> argparse.ArgumentParser:
                         "NODE.PARAM[i] sweeps one element of a vector parameter; repeatable")
     p.add_argument("--sampling", choices=SAMPLINGS, help="grid: every combination; sobol: --samples scrambled "
                    "Sobol points in the sweeps' bounds (scipy.stats.qmc)")
-    p.add_argument("--samples", type=int, metavar="N", help="Sobol points (a power of 2)")
-    p.add_argument("--sample-seed", type=int, metavar="N", help="Sobol scrambling seed (default 0)")
+    p.add_argument("--samples", type=int, metavar="N", help="Sobol points (a power of 2); with --sensitivity the "
+                   "design's N (sobol: a power of 2; morris: trajectories)")
+    p.add_argument("--sample-seed", type=int, metavar="N", help="seed of the Sobol scrambling, the dispersions' "
+                   "sampling and the sensitivity design (default 0)")
     p.add_argument("--set", action="append", metavar="NODE.PARAM=VALUE", help="fix a node parameter in every run")
+    p.add_argument("--disperse", action="append", metavar="NODE.PARAM=DIST",
+                   help="draw a node parameter per run: normal(mean, std), truncnormal(mean, std, low, high), "
+                        "uniform(low, high) or choice(v1: w1, v2: w2); NODE.PARAM[i] one element; repeatable")
+    p.add_argument("--dispersion-sampling", choices=DISPERSION_SAMPLINGS,
+                   help="how the draws cover the distributions: random (default), lhs (Latin hypercube) or sobol "
+                        "(a power of 2 of seeds); seeded by --sample-seed")
+    p.add_argument("--require", action="append", metavar="METRIC<=BOUND,p=P,c=C",
+                   help="a requirement: METRIC (|METRIC| for its magnitude) <= (or >=) BOUND in a fraction P of "
+                        "the runs at confidence C; judged by order statistics (Wilks); exit 3 unless met; repeatable")
+    p.add_argument("--sensitivity", choices=SENSITIVITY_METHODS,
+                   help="sobol: a Saltelli design of --samples N (a power of 2) x (dispersions + 3) runs, first-order "
+                        "and total indices; morris: --samples trajectories, elementary effects; the seed is a factor")
     p.add_argument("--duration", type=float, metavar="S", help="simulated seconds per run (default: the scenario's)")
     p.add_argument("--mode", choices=MODES, help="graph engine: all nodes in one process (container, default) or "
                    "one process per node")
@@ -96,13 +118,15 @@ def _assignments(items: list[str] | None, option: str) -> dict[str, str]:
 def _experiment_spec(args: argparse.Namespace) -> CampaignSpec:
     """An experiment runner's campaign named like its scenario (``rotational_ins_navigation``):
     the runner's own loop (``--engine core``, the default) or the scenario's nodes."""
-    for flag in ("sweep", "set", "sampling", "samples"):
+    for flag in ("sweep", "set", "sampling", "samples", "disperse", "sensitivity"):
         if getattr(args, flag):
-            raise CampaignError(f"--{flag}: experiment {args.campaign} takes seeds, variants, --duration and --engine")
+            raise CampaignError(f"--{flag}: experiment {args.campaign} takes seeds, variants, --duration, --engine "
+                                f"and --require")
     options = (("duration_s", float(args.duration)),) if args.duration is not None else ()
     return CampaignSpec(scenario="", experiment=args.campaign, seeds=parse_seeds(args.seeds or "0", "--seeds"),
                         variants=tuple(args.variant or ()), engine=args.engine or "core",
-                        mode=args.mode or "container", options=options)
+                        mode=args.mode or "container", options=options,
+                        requirements=parse_requirements(args.require, "--require"))
 
 
 def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
@@ -121,7 +145,8 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
         raise CampaignError("no campaign: give a scenario or a campaign YAML file (or --resume --out DIR)")
     for flag, key in (("seeds", "seeds"), ("sampling", "sampling"), ("samples", "samples"),
                       ("sample_seed", "sample_seed"), ("duration", "duration_s"), ("mode", "mode"),
-                      ("engine", "engine"), ("keep_bags", "keep_bags"), ("timeout", "timeout_s")):
+                      ("engine", "engine"), ("keep_bags", "keep_bags"), ("timeout", "timeout_s"),
+                      ("dispersion_sampling", "dispersion_sampling"), ("sensitivity", "sensitivity")):
         value = getattr(args, flag)
         if value is not None:
             data[key] = value
@@ -131,6 +156,10 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
         data["compress"] = False
     if args.sweep:
         data["sweep"] = _assignments(args.sweep, "--sweep")
+    if args.disperse:
+        data["dispersions"] = _assignments(args.disperse, "--disperse")
+    if args.require:
+        data["requirements"] = list(args.require)
     if args.set:
         try:
             data["set"] = {**(data.get("set") or {}),
@@ -142,7 +171,10 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
 
 def _diff(argv: list[str]) -> int:
     p = argparse.ArgumentParser(prog="gimbal-campaign diff",
-                                description="Compare two campaigns' metrics on the runs they share (same run id).")
+                                description="Compare two campaigns' metrics on their runs paired by seed (and swept values, "
+                                            "and variant when both have the same variants): max |a - b| and the "
+                                            "paired change b - a with its 95 % Student t interval, significant "
+                                            "when the interval excludes 0.")
     p.add_argument("a", type=Path)
     p.add_argument("b", type=Path)
     p.add_argument("--prefix", default="", help="only metrics whose name starts with this (e.g. sighting.)")
@@ -153,13 +185,19 @@ def _diff(argv: list[str]) -> int:
             print(f"gimbal-campaign diff: {d}: no results.parquet; not a campaign directory", file=sys.stderr)
             return 2
     out = diff_results(args.a, args.b, args.prefix)
-    print(f"{out['shared_runs']} runs in both ({out['only_a']} only in {args.a}, {out['only_b']} only in {args.b})")
+    print(f"{out['shared_runs']} runs in both, paired by {out['paired_by']} ({out['only_a']} only in {args.a}, "
+          f"{out['only_b']} only in {args.b})")
     width = max((len(k) for k in out["metrics"]), default=0)
     worst = 0.0
     for name, m in out["metrics"].items():
         worst = max(worst, m["max_abs_diff"])
         nan = "" if m["nonfinite_agree"] else "  (NaN in one only!)"
-        print(f"  {name:<{width}}  max |a - b| {m['max_abs_diff']:.3g} over {m['runs']} runs{nan}")
+        change = ""
+        if m.get("pairs", 0) >= 2:
+            lo, hi = m["interval"]
+            change = (f"; b - a {m['mean_change']:+.4g} [{lo:+.4g}, {hi:+.4g}] (paired t, 95 %): "
+                      f"{'SIGNIFICANT' if m['significant'] else 'not significant'}")
+        print(f"  {name:<{width}}  max |a - b| {m['max_abs_diff']:.3g} over {m['runs']} runs{nan}{change}")
     ok = worst <= args.tol and all(m["nonfinite_agree"] for m in out["metrics"].values())
     print(f"largest difference {worst:.3g}: {'within' if ok else 'ABOVE'} tolerance {args.tol:g}")
     return 0 if ok and out["shared_runs"] else 1
@@ -194,7 +232,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"campaign {result.directory}: {result.ran} runs ran, {result.skipped} had results, "
           f"{len(result.failed)} failed; wall time {result.wall_s:.1f} s")
     print(f"results {result.directory / 'results.parquet'}, report {result.directory / 'report'}")
-    return 1 if result.failed else 0
+    unmet = [v for v in summary.get("requirements", []) if v["verdict"] != "met"]
+    for v in unmet:
+        print(f"requirement {v['requirement']} [{v['group']}]: {v['verdict']} ({v['detail']})", file=sys.stderr)
+    return 1 if result.failed else (3 if unmet else 0)
 
 
 if __name__ == "__main__":

@@ -272,6 +272,44 @@ def _campaign_tables(summary: dict[str, Any], paper: GroupPaperLookup | None = N
     return "\n".join(out)
 
 
+def _verdicts(summary: dict[str, Any]) -> str:
+    """Each requirement's verdict per group: the order statistic used, the pass fraction."""
+    rows = []
+    for v in summary.get("requirements", []):
+        lo, hi = v["pass_fraction_interval"]
+        color = {"met": "#1a7f37", "not met": "#c62828"}.get(v["verdict"], "#b26a00")
+        rows.append([html.escape(v["requirement"]), html.escape(v["group"]),
+                     f"<b style=\"color:{color}\">{html.escape(v['verdict'].upper())}</b>",
+                     html.escape(v["detail"]), html.escape(v.get("quantile") or "–"),
+                     html.escape(f"{v['passed']}/{v['runs']} [{lo:.3f}, {hi:.3f}]")])
+    return _table(["requirement", "group", "verdict", "order statistic", "quantile used",
+                   "runs passing (Clopper–Pearson interval at c)"], rows) if rows else ""
+
+
+def _indices(summary: dict[str, Any]) -> str:
+    """The sensitivity indices of each metric per variant, with their bootstrap intervals."""
+    sens = summary.get("sensitivity") or {}
+    out = []
+    for variant, per in sens.get("indices", {}).items():
+        for name, res in per.items():
+            if "error" in res:
+                out.append(f"<p>{html.escape(name)} [{html.escape(variant)}]: {html.escape(res['error'])}</p>")
+                continue
+            if res["method"] == "sobol":
+                header = ["factor", "first order S1 (95 % bootstrap)", "total ST (95 % bootstrap)"]
+                rows = [[html.escape(f), f"{x['S1']:.3f} ± {x['S1_conf']:.3f}", f"{x['ST']:.3f} ± {x['ST_conf']:.3f}"]
+                        for f, x in res["factors"].items()]
+            else:
+                header = ["factor", "μ* (95 % bootstrap)", "μ", "σ"]
+                rows = [[html.escape(f), f"{x['mu_star']:.4g} ± {x['mu_star_conf']:.3g}", f"{x['mu']:.4g}",
+                         f"{x['sigma']:.4g}"] for f, x in res["factors"].items()]
+            out.append(f"<h3>{html.escape(name)} [{html.escape(variant)}]</h3>" + _table(header, rows, {1, 2, 3}))
+    if out:
+        out.insert(0, f"<p>{html.escape(sens['method'])} design, N = {sens['samples']}; the seed's noise is its own "
+                      f"factor.</p>")
+    return "\n".join(out)
+
+
 def _campaign_runs(campaign_dir: Path, report_dir: Path) -> str:
     rows = []
     for result in sorted((campaign_dir / "runs").glob("*/result.json")):
@@ -293,6 +331,8 @@ def write_campaign_page(campaign_dir: Path, report_dir: Path, summary: dict[str,
     spec = campaign_dir / "campaign.yaml"
     spec_html = f"<pre>{html.escape(spec.read_text())}</pre>" if spec.is_file() else ""
     return _render(report_dir, f"Campaign {campaign_dir.name}", [
+        ("Requirements", _verdicts(summary)),
+        ("Sensitivity", _indices(summary)),
         ("Campaign", spec_html),
         ("Metrics over the runs", _campaign_tables(summary, paper)),
         ("Plots", plots_section(Path(report_dir), summary.get("plots", []))),

@@ -267,3 +267,14 @@ def write_metadata(directory: Path, files: list[str], topics: list[TopicRecord],
     tmp = directory / "metadata.yaml.tmp"
     tmp.write_text(text)
     tmp.replace(directory / "metadata.yaml")
+
+
+def add_custom_data(directory: Path, data: dict[str, str]) -> None:
+    """Add ``data`` (text to text, rosbag2's ``custom_data``) to the bag's ``metadata.yaml``."""
+    path = Path(directory) / "metadata.yaml"
+    doc = yaml.safe_load(path.read_text())
+    info = doc["rosbag2_bagfile_information"]
+    info["custom_data"] = {**(info.get("custom_data") or {}), **{str(k): str(v) for k, v in data.items()}}
+    tmp = path.with_name("metadata.yaml.tmp")
+    tmp.write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=False))
+    tmp.replace(path)

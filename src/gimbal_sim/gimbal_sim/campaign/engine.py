@@ -44,6 +44,7 @@ import yaml
 
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent
 
+from ..bag.writer import add_custom_data
 from ..graph.scenario import Scenario, validate
 from .results import RESULT_FILE, CampaignResult, flatten_metrics, read_results, results_digest, write_results
 from .spec import (
@@ -183,6 +184,9 @@ def execute_run(task: RunTask, runners: Runners) -> dict[str, Any]:
     engine_label = "custom" if run_fn is not None and not task.experiment else task.engine
     status = "failed" if reason else "ok"
     bag_kept = any(attempt.glob("*.mcap"))
+    if bag_kept and (attempt / "metadata.yaml").is_file():  # the drawn values travel with the bag
+        add_custom_data(attempt, {"campaign.run_id": task.run_id, "campaign.seed": str(task.seed),
+                                  **{f"campaign.value.{k}": json.dumps(v) for k, v in task.values.items()}})
     if bag_kept and (task.keep_bags == "none" or (task.keep_bags == "failed" and status == "ok")):
         bag_kept = not _drop_bag(attempt)
     row = {"run_id": task.run_id, "scenario": task.scenario_name.split(":")[0], "variant": task.variant,
@@ -448,7 +452,8 @@ def run_campaign(spec: CampaignSpec, out_dir: Path, *, plan: Callable[[CampaignS
     try:
         (out_dir / "runs").mkdir(parents=True, exist_ok=True)
         (out_dir / "campaign.yaml").write_text(yaml.safe_dump(
-            {"campaign": spec.to_dict(), "fingerprint": campaign.fingerprint, "runs": len(campaign.runs)},
+            {"campaign": spec.to_dict(), "fingerprint": campaign.fingerprint, "runs": len(campaign.runs),
+             **({"design": campaign.design} if campaign.design else {})},
             sort_keys=False))
         if todo:
             _execute(todo, runners, client, _Progress(out_dir, rows, len(todo), progress))

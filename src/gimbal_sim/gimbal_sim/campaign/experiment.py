@@ -94,7 +94,7 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
             raise CampaignError(f"experiment {exp.name}: no variant {name!r}; variants: {', '.join(exp.variants)}")
     options = _options(exp, spec.options)
     fingerprint = {"experiment": exp.name, "engine": spec.engine, "options": options,
-                   "mode": spec.mode if spec.engine == "graph" else None}
+                   "mode": spec.mode if spec.engine == "graph" else None, **spec.review_dict()}
     if spec.engine == "core":
         runs = tuple(PlannedRun(run_id(exp.name, v, seed, options), v, seed, {}, None)
                      for seed in spec.seeds for v in variants)

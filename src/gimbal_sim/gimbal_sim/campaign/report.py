@@ -10,15 +10,20 @@
   than one sample's, so the band is the conservative one; the verdict says ``consistent``
   inside it, ``optimistic`` above (errors larger than the filter claims), ``pessimistic``
   below;
-* ``hist_<metric>.png``: each figure's distribution over runs, one histogram per group;
+* ``hist_<metric>.png``: each figure's distribution over runs, a histogram and the empirical
+  CDF per group, with a requirement's bound and verdict;
 * ``sweep_<param>__<metric>.png``: each figure against each swept parameter, every run
-  and the group means with their 95 % intervals.
+  and the group means with their 95 % intervals;
+* the design review (:mod:`.review`): each requirement's verdict per group, the sensitivity
+  indices, and their plots (``scatter``, ``horizontal_error``, ``convergence__<metric>``,
+  ``sensitivity``); verdicts and indices head ``summary.md``, the text table and the page.
 
 ``gimbal-report CAMPAIGN_DIR`` calls :func:`regenerate`: each run's own report is rewritten
 from its bag (where the bag was kept), the results table from the runs' metrics, then this.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -32,7 +37,9 @@ import yaml
 
 from ..figures import pyplot, save
 from ..page import write_campaign_page, write_run_page
+from . import review
 from .results import RESULT_FILE, flatten_metrics, read_results, results_digest, write_results
+from .spec import CampaignError, spec_from_mapping
 
 #: Leaf name of a report's time-averaged NEES -> its degrees of freedom (the report that writes it).
 NEES_DOF = {"bias_nees_mean_after_30s": 2,   # sighting: (b_q, b_r)
@@ -96,7 +103,7 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         return {"groups": [], "failed": [], "runs": 0}
     columns = list(rows[0])
     sweep_cols = [c for c in columns if c.startswith("sweep.")]
-    metric_cols = [c for c in columns if c not in sweep_cols and c not in
+    metric_cols = [c for c in columns if c not in sweep_cols and not c.startswith("dispersed.") and c not in
                    ("run_id", "scenario", "variant", "seed", "engine", "status", "reason", "host", "log_tail")]
     ok = [r for r in rows if r["status"] == "ok"]
     groups = []
@@ -124,11 +131,11 @@ def figure_metrics(summary: dict[str, Any]) -> list[str]:
     return list(names)
 
 
-def text_summary(summary: dict[str, Any], metrics: list[str] | None = None) -> str:
+def text_summary(summary: dict[str, Any], metrics: list[str] | None = None, head: bool = True) -> str:
     """Mean ± std [95 % interval of the mean] (n) per group for ``metrics`` (default: the
     figures), the NEES verdicts and the failed runs; what ``gimbal-campaign`` prints."""
     metrics = figure_metrics(summary) if metrics is None else metrics
-    lines = [f"{summary['ok']} of {summary['runs']} runs ok"]
+    lines = [*(_review_lines(summary) if head else []), f"{summary['ok']} of {summary['runs']} runs ok"]
     for g in summary["groups"]:
         lines.append(f"== {g['label']} ({g['runs']} runs, seeds {_seed_text(g['seeds'])})")
         width = max((len(m) for m in metrics), default=0)
@@ -148,14 +155,42 @@ def text_summary(summary: dict[str, Any], metrics: list[str] | None = None) -> s
     return "\n".join(lines)
 
 
+def _review_lines(summary: dict[str, Any]) -> list[str]:
+    """The verdicts, then the sensitivity indices, as text lines (what heads every summary)."""
+    lines = []
+    for v in summary.get("requirements", []):
+        lo, hi = v["pass_fraction_interval"]
+        lines.append(f"REQUIREMENT {v['requirement']} [{v['group']}]: {v['verdict'].upper()} — {v['detail']}; "
+                     f"{v['passed']}/{v['runs']} runs pass (Clopper–Pearson {v['c']:.0%}: [{lo:.3f}, {hi:.3f}])"
+                     + (f"; quantile used: {v['quantile']}" if v.get("quantile") else ""))
+    sens = summary.get("sensitivity") or {}
+    for variant, per in sens.get("indices", {}).items():
+        for name, res in per.items():
+            if "error" in res:
+                lines.append(f"SENSITIVITY {name} [{variant}]: {res['error']}")
+                continue
+            key = "S1" if res["method"] == "sobol" else "mu_star"
+            parts = [f"{f}: {key} {x[key]:.3f} ± {x[key + '_conf']:.3f}"
+                     + (f", ST {x['ST']:.3f} ± {x['ST_conf']:.3f}" if key == "S1" else "")
+                     for f, x in res["factors"].items()]
+            lines.append(f"SENSITIVITY {name} [{variant}]: " + "; ".join(parts))
+    return lines
+
+
 def _seed_text(seeds: list[int]) -> str:
-    if seeds and seeds == list(range(seeds[0], seeds[-1] + 1)) and len(seeds) > 2:
+    if len(seeds) > 2 and seeds[-1] - seeds[0] + 1 == len(seeds) and seeds == list(range(seeds[0], seeds[-1] + 1)):
         return f"{seeds[0]}-{seeds[-1]}"
+    if len(seeds) > 8:  # a design's seeds: drawn, not listed
+        return f"{len(seeds)} drawn, {seeds[0]}…{seeds[-1]}"
     return ",".join(map(str, seeds))
 
 
 def _markdown(summary: dict[str, Any]) -> str:
-    out = [f"# Campaign report\n\n{summary['ok']} of {summary['runs']} runs ok.\n"]
+    out = ["# Campaign report\n"]
+    head = _review_lines(summary)
+    if head:
+        out.append("## Verdicts and sensitivity\n\n" + "\n".join(f"* {line}" for line in head) + "\n")
+    out.append(f"{summary['ok']} of {summary['runs']} runs ok.\n")
     if summary.get("experiment_table"):
         out.append(f"\n```\n{summary['experiment_table']}\n```\n")
     for g in summary["groups"]:
@@ -189,7 +224,7 @@ def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, A
         return []  # too many to overlay: the sweep plots show them
     written = []
     for name in metrics:
-        fig, ax = plt.subplots(figsize=(7.5, 4.0), constrained_layout=True)
+        fig, (ax, cdf) = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
         data = {_label(k, sweep_cols): [r[name] for r in m if r[name] is not None and math.isfinite(r[name])]
                 for k, m in groups.items()}
         finite = [v for vals in data.values() for v in vals]
@@ -197,20 +232,28 @@ def _plot_histograms(out: Path, rows: list[dict[str, Any]], summary: dict[str, A
             plt.close(fig)
             continue
         bins = np.histogram_bin_edges(finite, bins=min(20, max(5, len(finite) // 3)))
-        for label, vals in data.items():
-            ax.hist(vals, bins=bins, alpha=0.5, label=f"{label} (n {len(vals)})")
-        written.append(_finish(fig, ax, name, "runs", f"{name} over the runs", out, f"hist_{_slug(name)}.png"))
+        for i, (label, vals) in enumerate(data.items()):
+            ax.hist(vals, bins=bins, alpha=0.5, color=f"C{i}", label=f"{label} (n {len(vals)})")
+            review.ecdf_plot(cdf, np.array(vals), label, f"C{i}")
+        verdict = review.requirement_marks([ax, cdf], [v for v in summary.get("requirements", [])
+                                                       if v["metric"] == name])
+        _finish(fig, cdf, name, "fraction of runs ≤ x", "empirical CDF", out, "", save_it=False)
+        written.append(_finish(fig, ax, name, "runs", f"{name} over the runs" + (f"\n{verdict}" if verdict else ""),
+                               out, f"hist_{_slug(name)}.png"))
     return written
 
 
-def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, name: str) -> str:
-    """Label, grid and legend ``ax``, save ``fig`` as ``out/name``; returns ``name``."""
+def _finish(fig: Any, ax: Any, xlabel: str, ylabel: str, title: str, out: Path, name: str,
+            save_it: bool = True) -> str:
+    """Label, grid and legend ``ax``, save ``fig`` as ``out/name`` (unless not ``save_it``: a
+    panel of a figure still to fill); returns ``name``."""
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(title)
-    save(fig, out / name)
+    ax.set_title(title, fontsize=9)
+    if save_it:
+        save(fig, out / name)
     return name
 
 
@@ -260,20 +303,48 @@ def write_campaign_report(campaign_dir: Path, paper: Callable[[Path, str | None,
     summary["results_digest"] = results_digest(rows)  # what --resume checks the report against
     out = campaign_dir / "report"
     out.mkdir(exist_ok=True)
-    for old in [*out.glob("hist_*.png"), *out.glob("sweep_*.png")]:
+    for old in [*out.glob("hist_*.png"), *out.glob("sweep_*.png"), *out.glob("scatter*.png"),
+                *out.glob("convergence__*.png"), *out.glob("sensitivity*.png"), *out.glob("horizontal_error.png")]:
         old.unlink()
     metrics = figure_metrics(summary)
-    summary["plots"] = _plot_histograms(out, rows, summary, metrics) + _plot_sweeps(out, rows, summary, metrics)
+    _review(campaign_dir, rows, summary, metrics)
+    ok = [r for r in rows if r["status"] == "ok"]
+    sweep_cols = [f"sweep.{s}" for s in summary["sweep"]]
+    # the review's plots first: they answer the review (the page shows them in this order)
+    summary["plots"] = review.plots(out, ok, {_label(k, sweep_cols): m for k, m in _groups(ok, sweep_cols).items()},
+                                    summary, metrics, _slug)
+    summary["plots"] += _plot_histograms(out, rows, summary, metrics) + _plot_sweeps(out, rows, summary, metrics)
     summary["table"] = text_summary(summary, metrics)
     own = table(campaign_dir) if table is not None else None
-    if own:
+    if own:  # the verdicts, then the experiment's own table, then the generic one
         summary["experiment_table"] = own
-        summary["table"] = f"{own}\n\n{summary['table']}"
+        summary["table"] = "\n\n".join([*(["\n".join(_review_lines(summary))] if _review_lines(summary) else []),
+                                         own, text_summary(summary, metrics, head=False)])
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
     _write_run_pages(campaign_dir, rows, paper)
     write_campaign_page(campaign_dir, out, summary, partial(paper, campaign_dir) if paper else None)
     return out, summary
+
+
+def _review(campaign_dir: Path, rows: list[dict[str, Any]], summary: dict[str, Any], metrics: list[str]) -> None:
+    """The requirements' verdicts and the sensitivity indices of the campaign in
+    ``campaign_dir`` (its ``campaign.yaml``) into ``summary``."""
+    record = yaml.safe_load((campaign_dir / "campaign.yaml").read_text()) or {}
+    try:
+        spec = spec_from_mapping(record.get("campaign") or {}, "campaign.yaml")
+    except CampaignError:
+        return  # an older or foreign record: the generic report only
+    sweep_cols = [f"sweep.{s}" for s in summary["sweep"]]
+    if spec.requirements:
+        groups = {_label(k, sweep_cols): m for k, m in _groups(rows, sweep_cols).items()}
+        summary["requirements"] = review.verdicts(groups, list(spec.requirements))
+        summary["requirement_specs"] = [dataclasses.asdict(r) for r in spec.requirements]
+    if spec.sensitivity and record.get("design"):
+        factors = [t for t, _ in spec.dispersions]
+        summary["sensitivity"] = {"method": spec.sensitivity, "samples": spec.samples, "factors": factors,
+                                  "indices": review.indices(record["design"], spec.sensitivity, spec.samples,
+                                                            spec.sample_seed, factors, rows, metrics)}
 
 
 def _write_run_pages(campaign_dir: Path, rows: list[dict[str, Any]],
@@ -319,21 +390,54 @@ def regenerate(campaign_dir: Path, write_report: Callable[[Path], Any] | None = 
     return write_campaign_report(campaign_dir, paper, table)
 
 
+def _pair_key(row: dict[str, Any], variant: bool) -> tuple:
+    """What pairs a run of one campaign with one of another: its seed and swept values (the
+    drawn values may differ: that is the comparison), and its variant when both have them."""
+    return ((row["variant"],) if variant else ()) + (int(row["seed"]),) + tuple(
+        (k, row[k]) for k in sorted(row) if k.startswith("sweep."))
+
+
+def paired_change(pairs: list[tuple[float, float]], confidence: float = 0.95) -> dict[str, Any]:
+    """The change b − a over paired runs: its mean with the paired Student t interval, and
+    whether it is significant (the interval excludes 0; all-equal pairs: no change)."""
+    from scipy.stats import t as student_t
+
+    d = np.array([y - x for x, y in pairs], float)
+    if d.size == 0:
+        return {"pairs": 0}
+    mean = float(d.mean())
+    if d.size < 2 or not np.any(d != d[0]):
+        lo = hi = mean if d.size >= 2 else math.nan
+    else:
+        half = float(student_t.ppf(0.5 + confidence / 2, d.size - 1) * d.std(ddof=1) / math.sqrt(d.size))
+        lo, hi = mean - half, mean + half
+    significant = bool(math.isfinite(lo) and (lo > 0 or hi < 0))
+    return {"pairs": int(d.size), "mean_change": mean, "interval": [lo, hi], "confidence": confidence,
+            "significant": significant}
+
+
 def diff_results(dir_a: Path, dir_b: Path, prefix: str = "") -> dict[str, Any]:
-    """Two campaigns' metrics on the runs they share (same run id: same scenario, variant,
-    seed, values): per metric starting with ``prefix``, the runs compared and max |a − b|."""
-    a = {r["run_id"]: r for r in read_results(dir_a) if r["status"] == "ok"}
-    b = {r["run_id"]: r for r in read_results(dir_b) if r["status"] == "ok"}
-    shared = sorted(set(a) & set(b))
-    cols = [c for c in (next(iter(a.values())) if a else {}) if c.startswith(prefix) and c in
-            (next(iter(b.values())) if b else {}) and c not in ("wall_s", "seed") and not c.startswith("sweep.")
-            and isinstance(a[shared[0]][c] if shared else None, float)]
+    """Two campaigns' metrics on their paired runs (same seed and swept values, same variant
+    when both campaigns have the same variants; else same seed across their one variant
+    each): per metric starting with ``prefix``, the runs compared, max |a − b| and the
+    paired change b − a with its 95 % interval (:func:`paired_change`)."""
+    rows_a = [r for r in read_results(dir_a) if r["status"] == "ok"]
+    rows_b = [r for r in read_results(dir_b) if r["status"] == "ok"]
+    by_variant = {r["variant"] for r in rows_a} == {r["variant"] for r in rows_b} or \
+        len({r["variant"] for r in rows_a}) > 1 or len({r["variant"] for r in rows_b}) > 1
+    a = {_pair_key(r, by_variant): r for r in rows_a}
+    b = {_pair_key(r, by_variant): r for r in rows_b}
+    shared = sorted(set(a) & set(b), key=str)
+    first_a, first_b = (rows_a[0] if rows_a else {}), (rows_b[0] if rows_b else {})
+    cols = [c for c in first_a if c.startswith(prefix) and c in first_b and c not in ("wall_s", "seed")
+            and not c.startswith(("sweep.", "dispersed.")) and isinstance(a[shared[0]][c] if shared else None, float)]
     out: dict[str, Any] = {"shared_runs": len(shared), "only_a": len(set(a) - set(b)), "only_b": len(set(b) - set(a)),
+                           "paired_by": "variant, seed, swept values" if by_variant else "seed, swept values",
                            "metrics": {}}
     for c in cols:
         pairs = [(a[i][c], b[i][c]) for i in shared if a[i][c] is not None and b[i][c] is not None]
         finite = [(x, y) for x, y in pairs if math.isfinite(x) and math.isfinite(y)]
         same_nan = all(math.isfinite(x) == math.isfinite(y) for x, y in pairs)
         out["metrics"][c] = {"runs": len(finite), "max_abs_diff": max((abs(x - y) for x, y in finite), default=0.0),
-                             "nonfinite_agree": same_nan}
+                             "nonfinite_agree": same_nan, **paired_change(finite)}
     return out

@@ -10,7 +10,8 @@ from pathlib import Path
 from typing import Any
 
 RESULT_FILE = "result.json"
-#: Columns every row has, in this order; swept values follow as sweep.<target>, then the metrics.
+#: Columns every row has, in this order; swept values follow as sweep.<target>, dispersed values
+#: (drawn per run) as dispersed.<target>, then the metrics.
 FIXED_COLUMNS = ("run_id", "scenario", "variant", "seed", "engine", "status", "reason", "wall_s", "host", "log_tail")
 #: Entries of a report's metrics.json that are not figures (paths, plot lists, per-topic counts, text,
 #: and ``series``: a run's per-step values a runner combines over seeds, e.g. the slew's NEES).
@@ -53,15 +54,20 @@ def flatten_metrics(metrics: dict[str, Any], prefix: str = "") -> dict[str, floa
 
 
 def table_rows(rows: list[dict[str, Any]], sweep_targets: list[str]) -> tuple[list[str], list[dict[str, Any]]]:
-    """(columns, flat rows) of the results table: fixed columns, sweep.<target>, metrics."""
+    """(columns, flat rows) of the results table: fixed columns, sweep.<target>, dispersed.<target>
+    (a run's value of a target not swept), metrics."""
     metric_cols: dict[str, None] = {}
+    dispersed: dict[str, None] = {}
     for row in rows:
         metric_cols.update(dict.fromkeys(row.get("metrics", {})))
-    columns = list(FIXED_COLUMNS) + [f"sweep.{t}" for t in sweep_targets] + list(metric_cols)
+        dispersed.update(dict.fromkeys(t for t in row.get("values", {}) if t not in sweep_targets))
+    columns = list(FIXED_COLUMNS) + [f"sweep.{t}" for t in sweep_targets] + [f"dispersed.{t}" for t in dispersed] \
+        + list(metric_cols)
     flat = []
     for row in rows:
         item = {c: row.get(c) for c in FIXED_COLUMNS}
         item.update({f"sweep.{t}": row.get("values", {}).get(t) for t in sweep_targets})
+        item.update({f"dispersed.{t}": row.get("values", {}).get(t) for t in dispersed})
         item.update({c: row.get("metrics", {}).get(c) for c in metric_cols})
         flat.append(item)
     return columns, flat
@@ -80,7 +86,7 @@ def write_results(out_dir: Path, rows: list[dict[str, Any]], sweep_targets: list
             arrays[col] = pa.array(values, pa.int64())
         elif col in FIXED_COLUMNS and col != "wall_s":
             arrays[col] = pa.array(["" if v is None else str(v) for v in values], pa.string())
-        elif col.startswith("sweep."):
+        elif col.startswith(("sweep.", "dispersed.")):
             arrays[col] = pa.array(values)  # the parameter's own type (number, bool, text)
         else:
             arrays[col] = pa.array([None if v is None else float(v) for v in values], pa.float64())

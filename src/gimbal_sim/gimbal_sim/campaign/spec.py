@@ -17,6 +17,14 @@ flags (flags override the file)::
     sampling: grid                       # grid (Cartesian product) | sobol
     samples: 16                          # sobol: points (a power of 2), each sweep given as a:b bounds
     sample_seed: 0                       # sobol: scrambling seed
+    dispersions:                         # node.param (or node.param[i]) -> its distribution (dispersion.py)
+      sensor_models.gimbal_gyro_bias_deg_h[0]: normal(100, 30)
+      sensor_models.ins_heading_rms_deg: {dist: uniform, low: 0.1, high: 0.3}
+    dispersion_sampling: lhs             # random | lhs | sobol: one draw per seed, seeded by sample_seed
+    sensitivity: sobol                   # sobol (Saltelli, samples = N, a power of 2) | morris (samples
+                                         # trajectories): the design over the dispersions and the seed
+    requirements:                        # order-statistics verdicts (order_stats.py)
+      - {metric: sighting.final_drift_deg.azimuth, abs: true, max: 1.0, p: 0.9, c: 0.9}
     keep_bags: all                       # all | failed | none
     timeout_s: 600                       # per run (default 120 s + 10 x duration)
     compress: true                       # zstd MCAP chunks in the bags
@@ -27,25 +35,24 @@ declares them (an integer parameter takes integral grid points; Sobol points are
 
 Every run is (variant, seed, swept values); its id is a hash of the scenario name, the
 variant, the seed and the values (:func:`run_id`), so the same run gets the same id in any
-campaign, which is what ``--resume`` relies on. What else shapes a run (the scenario file's
+campaign, which is what ``--resume`` relies on. A dispersed value is one of the run's values:
+the n-th seed's runs draw the n-th point of the sampling (every variant and sweep point the
+same draw); a sensitivity campaign takes its seeds and values from its design. What else shapes a run (the scenario file's
 content, duration, mode, engine, fixed overrides) is the campaign's :meth:`fingerprint`: a
 resumed campaign must have the same one.
 """
 from __future__ import annotations
 
 import copy
-from collections import Counter
 import dataclasses
 import hashlib
 import itertools
 import json
 import math
-import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 import yaml
 
 from gimbal_kinematics.cli_boundary import read_text
@@ -54,6 +61,11 @@ from ..core.core_loop import STAGES, node_values
 from ..graph.plan import check_nodes
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, check_param, load, variant
+from . import sensitivity as sensitivity_design
+from . import order_stats
+from .parsing import _TARGET, CampaignError, Sweep, parse_seeds, parse_sweep
+from .dispersion import Distribution, DispersionError, draws, parse_review
+from .order_stats import Requirement
 
 ENGINES = ("graph", "core")
 MODES = ("container", "processes")
@@ -63,23 +75,8 @@ SAMPLINGS = ("grid", "sobol")
 OWNED_BY_ORCHESTRATOR = {"seed", "sim_rate_hz", "duration_s", "pace_topics", "wait_for_subscribers",
                          "subscriber_counts"}
 _KEYS = {"scenario", "variants", "seeds", "duration_s", "mode", "engine", "set", "sweep", "sampling", "samples",
-         "sample_seed", "keep_bags", "timeout_s", "compress"}
-_TARGET = re.compile(r"^([A-Za-z_][\w]*)\.([A-Za-z_][\w]*)(?:\[(\d+)\])?$")
-
-
-class CampaignError(ValueError):
-    """The campaign is invalid; the message names the option or parameter at fault."""
-
-
-@dataclass(frozen=True)
-class Sweep:
-    """One swept parameter: ``target`` ``node.param`` or ``node.param[i]``; ``values`` (grid
-    or list) or ``bounds`` (low, high) for Sobol sampling."""
-
-    target: str
-    values: tuple[Any, ...] | None = None
-    bounds: tuple[float, float] | None = None
-    text: str = ""  # as given, for campaign.yaml
+         "sample_seed", "keep_bags", "timeout_s", "compress", "dispersions", "dispersion_sampling", "requirements",
+         "sensitivity"}
 
 
 @dataclass(frozen=True)
@@ -103,19 +100,37 @@ class CampaignSpec:
     #: an experiment runner's campaign (:mod:`.experiment`) instead of a scenario's
     experiment: str = ""
     options: tuple[tuple[str, Any], ...] = ()
+    dispersions: tuple[tuple[str, Distribution], ...] = ()
+    dispersion_sampling: str = "random"
+    requirements: tuple[Requirement, ...] = ()
+    sensitivity: str = ""      # "" | sobol | morris (sensitivity.METHODS)
+
+    def review_dict(self) -> dict[str, Any]:
+        """The dispersions, requirements and sensitivity, in YAML form (only those given)."""
+        out: dict[str, Any] = {}
+        if self.dispersions:
+            out["dispersions"] = {t: d.to_text() for t, d in self.dispersions}
+            out["dispersion_sampling"] = self.dispersion_sampling
+        if self.requirements:
+            out["requirements"] = [r.to_dict() for r in self.requirements]
+        if self.sensitivity:
+            out["sensitivity"] = self.sensitivity
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """The campaign in its YAML form (what ``campaign.yaml`` holds)."""
         if self.experiment:
             return {"experiment": self.experiment, "variants": list(self.variants), "seeds": list(self.seeds),
                     "options": {k: v for k, v in self.options}, "mode": self.mode, "engine": self.engine,
-                    "keep_bags": self.keep_bags, "timeout_s": self.timeout_s, "compress": self.compress}
+                    "keep_bags": self.keep_bags, "timeout_s": self.timeout_s, "compress": self.compress,
+                    **self.review_dict()}
         return {"scenario": self.scenario, "variants": list(self.variants), "seeds": list(self.seeds),
                 "duration_s": self.duration_s, "mode": self.mode, "engine": self.engine,
                 "set": {k: v for k, v in self.overrides},
                 "sweep": {s.target: s.text if s.text else list(s.values or ()) for s in self.sweeps},
                 "sampling": self.sampling, "samples": self.samples, "sample_seed": self.sample_seed,
-                "keep_bags": self.keep_bags, "timeout_s": self.timeout_s, "compress": self.compress}
+                "keep_bags": self.keep_bags, "timeout_s": self.timeout_s, "compress": self.compress,
+                **self.review_dict()}
 
 
 @dataclass(frozen=True)
@@ -136,11 +151,12 @@ class CampaignPlan:
     base: Scenario | None       # None: an experiment runner's core runs
     runs: tuple[PlannedRun, ...]
     fingerprint: dict[str, Any]
+    #: a sensitivity campaign's design: per variant, the run id of each design row, in order
+    design: dict[str, list[str]] = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------------ parsing
-#: Seeds one campaign may list at all; :data:`LARGE_RUNS` more runs need ``--large``.
-MAX_SEEDS = 1_000_000
+#: More runs than this need ``--large`` (a campaign lists at most :data:`.parsing.MAX_SEEDS` seeds).
 LARGE_RUNS = 10_000
 #: A campaign estimated (engine.estimate_wall_s) to take longer than this [s] needs ``--large``.
 MAX_ESTIMATE_S = 24 * 3600.0
@@ -150,98 +166,11 @@ MAX_ESTIMATE_S = 24 * 3600.0
 WALL_PER_SIM_S = {"graph": 104.0 / 120.0, "core": 13.5 / 120.0}
 
 
-def parse_seeds(text: Any, where: str = "--seeds") -> tuple[int, ...]:
-    """Seeds from ``"1-20"``, ``"1,4,7-9"``, an integer or a list of integers; no repeats."""
-    if isinstance(text, bool):
-        raise CampaignError(f"{where}: expected seeds like 1-20 or 1,3,5, got {text!r}")
-    if isinstance(text, int):
-        items: list[Any] = [text]
-    elif isinstance(text, list):
-        items = text
-    elif isinstance(text, str):
-        items = [p.strip() for p in text.split(",")]
-    else:
-        raise CampaignError(f"{where}: expected seeds like 1-20 or 1,3,5, got {text!r}")
-    seeds: list[int] = []
-    for item in items:
-        if isinstance(item, int) and not isinstance(item, bool):
-            lo = hi = item
-        elif isinstance(item, str) and re.fullmatch(r"\d+(-\d+)?", item):
-            a, _, b = item.partition("-")
-            lo, hi = int(a), int(b or a)
-        else:
-            raise CampaignError(f"{where}: malformed seed range {item!r} (expected N or A-B, integers >= 0)")
-        if lo < 0 or hi < lo:
-            raise CampaignError(f"{where}: malformed seed range {item!r} (needs 0 <= A <= B)")
-        if len(seeds) + hi - lo + 1 > MAX_SEEDS:
-            raise CampaignError(f"{where}: {item!r} makes more than {MAX_SEEDS:,} seeds, the most a campaign "
-                                f"plans; split it into campaigns")
-        seeds.extend(range(lo, hi + 1))
-    if not seeds:
-        raise CampaignError(f"{where}: no seeds")
-    repeated = sorted(s for s, n in Counter(seeds).items() if n > 1)
-    if repeated:
-        raise CampaignError(f"{where}: seed(s) {repeated} given twice")
-    return tuple(seeds)
-
-
-def _number(text: str, where: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise CampaignError(f"{where}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise CampaignError(f"{where}: {text!r} is not a finite number")
-    return value
-
-
-def parse_sweep(target: str, spec: Any, sampling: str = "grid") -> Sweep:
-    """One sweep from ``target`` and its values: ``"a:b:n"`` (n points from a to b), ``"a:b"``
-    (Sobol bounds), ``"v1,v2"`` or a YAML list of values, or one value."""
-    where = f"sweep {target}"
-    if not _TARGET.match(target):
-        raise CampaignError(f"{where}: expected node.param or node.param[i]")
-    if isinstance(spec, list):
-        if not spec:
-            raise CampaignError(f"{where}: empty list of values")
-        if sampling == "sobol":
-            raise CampaignError(f"{where}: Sobol sampling needs bounds a:b, not a list")
-        return Sweep(target, values=tuple(spec))
-    text = str(spec).strip()
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) not in (2, 3) or any(not p.strip() for p in parts):
-            raise CampaignError(f"{where}: malformed range {text!r} (expected a:b:n, or a:b with --sampling sobol)")
-        lo, hi = _number(parts[0], where), _number(parts[1], where)
-        if sampling == "sobol":
-            if len(parts) == 3:
-                raise CampaignError(f"{where}: with Sobol sampling give bounds a:b (the point count is --samples)")
-            if not hi > lo:
-                raise CampaignError(f"{where}: malformed range {text!r}: Sobol bounds need a < b")
-            return Sweep(target, bounds=(lo, hi), text=text)
-        if len(parts) == 2:
-            raise CampaignError(f"{where}: malformed range {text!r}: a grid needs a point count, a:b:n")
-        if not re.fullmatch(r"\s*\d+\s*", parts[2]) or int(parts[2]) < 2:
-            raise CampaignError(f"{where}: malformed range {text!r}: n must be an integer >= 2")
-        if lo == hi:
-            raise CampaignError(f"{where}: malformed range {text!r}: a and b are equal")
-        return Sweep(target, values=tuple(float(v) for v in np.linspace(lo, hi, int(parts[2]))), text=text)
-    if sampling == "sobol":
-        raise CampaignError(f"{where}: Sobol sampling needs bounds a:b, got {text!r}")
-    try:
-        values = [yaml.safe_load(v) for v in text.split(",")]
-    except yaml.YAMLError as exc:
-        raise CampaignError(f"{where}: values {text!r} are not valid YAML: {exc}") from exc
-    if any(v is None for v in values):
-        raise CampaignError(f"{where}: empty value in {text!r}")
-    return Sweep(target, values=tuple(values), text=text)
-
-
 #: an experiment runner's campaign as YAML (``CampaignSpec.to_dict``); duration_s joins the options
 _EXPERIMENT_KEYS = {"experiment", "variants", "seeds", "options", "duration_s", "mode", "engine", "keep_bags",
-                    "timeout_s", "compress"}
+                    "timeout_s", "compress", "requirements"}
 #: what a campaign directory's own ``campaign.yaml`` holds around the campaign it asked for
-RECORD_KEYS = {"campaign", "fingerprint", "runs"}
+RECORD_KEYS = {"campaign", "fingerprint", "runs", "design"}
 
 
 def is_record(data: Any) -> bool:
@@ -260,7 +189,8 @@ def _experiment_from_mapping(data: dict[str, Any], where: str) -> CampaignSpec:
     rest = {k: v for k, v in data.items() if k in ("mode", "engine", "keep_bags", "timeout_s", "compress")}
     scenario_form = spec_from_mapping({"scenario": "", "variants": data.get("variants") or [],
                                        "seeds": data.get("seeds", [0]), **rest}, where)
-    return replace(scenario_form, experiment=str(data["experiment"]), options=tuple(sorted(options.items())))
+    return replace(scenario_form, experiment=str(data["experiment"]), options=tuple(sorted(options.items())),
+                   requirements=parse_requirements(data.get("requirements"), where))
 
 
 def spec_from_mapping(data: Any, where: str = "campaign") -> CampaignSpec:
@@ -312,7 +242,24 @@ def spec_from_mapping(data: Any, where: str = "campaign") -> CampaignSpec:
     return CampaignSpec(scenario=str(data["scenario"]), seeds=parse_seeds(data.get("seeds", [0]), f"{where}: seeds"),
                         variants=tuple(variants), sampling=sampling,
                         sweeps=tuple(parse_sweep(str(t), v, sampling) for t, v in sweeps.items()),
-                        overrides=tuple((str(k), v) for k, v in overrides.items()), **kw)
+                        overrides=tuple((str(k), v) for k, v in overrides.items()),
+                        requirements=parse_requirements(data.get("requirements"), where), **_review_keys(data, where),
+                        **kw)
+
+
+def parse_requirements(data: Any, where: str) -> tuple[Requirement, ...]:
+    """The requirements of a campaign (:func:`.order_stats.parse_requirements`)."""
+    try:
+        return order_stats.parse_requirements(data, where)
+    except order_stats.RequirementError as exc:
+        raise CampaignError(str(exc)) from None
+
+
+def _review_keys(data: dict[str, Any], where: str) -> dict[str, Any]:
+    try:
+        return parse_review(data, where)
+    except DispersionError as exc:
+        raise CampaignError(str(exc)) from None
 
 
 def load_spec_file(path: Path) -> CampaignSpec:
@@ -479,8 +426,8 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
         raise CampaignError("--variant: a variant is given twice")
     if spec.sampling == "sobol" and not spec.sweeps:
         raise CampaignError("--sampling sobol needs at least one --sweep")
-    if spec.sampling == "grid" and spec.samples:
-        raise CampaignError("--samples is for --sampling sobol")
+    if spec.sampling == "grid" and spec.samples and not spec.sensitivity:
+        raise CampaignError("--samples is for --sampling sobol or --sensitivity")
     targets = [s.target for s in spec.sweeps]
     if len(set(targets)) != len(targets):
         raise CampaignError(f"--sweep: a parameter is swept twice ({targets})")
@@ -499,10 +446,14 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
                 apply_value(single, sweep.target, value, f"--sweep {sweep.target}")
         # the --set values as the nodes would take them; a swept point a node refuses is a
         # failed run, recorded, and the campaign carries on
+        _check_dispersions(spec, base, name, single)
         _check_nodes(single, name)
         if spec.engine == "core":
             check_core_engine(single)
-    runs = []
+    draws = _draws(spec, base)
+    runs: list[PlannedRun] = []
+    design: dict[str, list[str]] = {}
+    seen: set[str] = set()
     for point in _points(spec):
         point = _round_for_int_params(base, point)
         swept = {}
@@ -512,18 +463,59 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
                 swept[name] = apply_value(swept[name], target, value, f"--sweep {target}")
         # seed by seed, every variant of a seed together: a campaign stopped halfway has
         # the same seeds in each variant (and --resume carries on in that order)
-        for seed in spec.seeds:
+        for seed, drawn in draws:
+            values = {**point, **drawn}
             for name, scenario in swept.items():
+                rid = run_id(base.name, name, seed, values)
+                if spec.sensitivity:  # a design may hold a row twice (a listed value drawn again): one run
+                    design.setdefault(name, []).append(rid)
+                    if rid in seen:
+                        continue
+                    seen.add(rid)
+                for target, value in drawn.items():
+                    scenario = apply_value(scenario, target, value, f"dispersion {target}")
                 seeded = dataclasses.replace(scenario, seed=seed)
-                runs.append(PlannedRun(run_id(base.name, name, seed, point), name, seed, dict(point), seeded))
+                runs.append(PlannedRun(rid, name, seed, dict(values), seeded))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         raise CampaignError("two runs of the campaign are the same run (repeated sweep values?)")
-    return CampaignPlan(spec, base, tuple(runs), fingerprint(spec, base))
+    return CampaignPlan(spec, base, tuple(runs), fingerprint(spec, base), design)
+
+
+def _check_dispersions(spec: CampaignSpec, base: Scenario, name: str, single: Scenario) -> None:
+    """Refuse, before any run: a dispersed parameter also swept, set or set by the variant;
+    a distribution whose support reaches values the node refuses; a sensitivity design
+    that cannot be made."""
+    fixed = {t.split("[")[0] for t, _ in spec.overrides} | {s.target.split("[")[0] for s in spec.sweeps}
+    for target, dist in spec.dispersions:
+        if target.split("[")[0] in fixed or target in fixed:
+            raise CampaignError(f"dispersion {target}: the parameter is also swept or set (--sweep/--set)")
+        if name and target.split("[")[0] in base.variants[name]:
+            raise CampaignError(f"dispersion {target}: variant {name!r} sets it too")
+        for value in dist.probe():
+            apply_value(single, target, value, f"dispersion {target} = {dist.to_text()}: its support reaches "
+                                               f"{value!r}, a value the node refuses")
+    if len({t for t, _ in spec.dispersions}) != len(spec.dispersions):
+        raise CampaignError("dispersions: a parameter is given twice")
+    try:
+        sensitivity_design.check_campaign(spec.sensitivity, spec.samples, len(spec.dispersions), len(spec.sweeps),
+                                          len(spec.seeds))
+    except sensitivity_design.SensitivityError as exc:
+        raise CampaignError(str(exc)) from None
+
+
+def _draws(spec: CampaignSpec, base: Scenario) -> list[tuple[int, dict[str, Any]]]:
+    """(seed, dispersed values) of each draw (:func:`.dispersion.draws`), integer parameters' rounded."""
+    try:
+        rows = draws(spec.dispersions, spec.dispersion_sampling, spec.seeds, spec.sensitivity, spec.samples,
+                     spec.sample_seed)
+    except DispersionError as exc:
+        raise CampaignError(str(exc)) from None
+    return [(seed, _round_for_int_params(base, values)) for seed, values in rows]
 
 
 def fingerprint(spec: CampaignSpec, base: Scenario) -> dict[str, Any]:
     """What, besides (variant, seed, values), shapes every run: a resumed campaign must match."""
     return {"scenario": base.name, "scenario_sha256": hashlib.sha256(base.to_yaml().encode()).hexdigest()[:16],
             "duration_s": base.duration_s, "mode": spec.mode if spec.engine == "graph" else None,
-            "engine": spec.engine, "set": {k: v for k, v in spec.overrides}}
+            "engine": spec.engine, "set": {k: v for k, v in spec.overrides}, **spec.review_dict()}

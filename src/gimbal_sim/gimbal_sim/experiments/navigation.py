@@ -50,7 +50,6 @@ from pathlib import Path
 from typing import Any, NamedTuple, Sequence
 
 import numpy as np
-from scipy import stats
 
 from gimbal_control.platform_servo import BANDWIDTH_RATE_DIVISOR, PlatformServo, PlatformServoParams, \
     platform_pid_gains
@@ -63,6 +62,7 @@ from gimbal_kinematics.four_gimbal import platform_misalignment_enu
 from gimbal_kinematics.rotations import quat_to_dcm
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
+from ..campaign.order_stats import quantile_interval
 from ..graph.scenario import load as load_scenario
 from ..core.core_loop import node_values, run_stages
 from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo_stage
@@ -312,16 +312,11 @@ def campaign_run(variant: str, seed: int, options: dict) -> dict:
 
 def median_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[float, float, float]:
     """(median, low, high): the sample median and the distribution-free interval of the true
-    median from order statistics, [x_(j), x_(n+1−j)] with the largest j whose binomial
-    coverage P(j ≤ B(n, ½) ≤ n − j) is at least ``confidence``."""
-    x = np.sort(np.asarray(values, dtype=float))
-    n = len(x)
-    ranks = np.arange(1, n // 2 + 1)
-    ok = ranks[stats.binom.cdf(n - ranks, n, 0.5) - stats.binom.cdf(ranks - 1, n, 0.5) >= confidence]
-    if ok.size == 0:
-        return float(np.median(x)), -math.inf, math.inf
-    j = int(ok[-1])
-    return float(np.median(x)), float(x[j - 1]), float(x[n - j])
+    median from order statistics, [x_(j), x_(n+1−j)] (:func:`~..campaign.order_stats.quantile_interval`)."""
+    med, lo, hi = quantile_interval(values, 0.5, confidence)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return med, -math.inf, math.inf
+    return med, lo, hi
 
 
 def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
