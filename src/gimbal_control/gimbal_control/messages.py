@@ -13,14 +13,11 @@ from gimbal_kinematics.ros.messages import (  # noqa: F401
     joint_state_msg, quat_of, stamp_ns, step_of_stamp, step_stamp_ns, vec_of, vector3_msg, vector3_stamped_from_cdr,
 )
 
+from .wire import torque_command_cdr  # noqa: F401,E402  (re-exported; the serialized form is rclpy-free)
+
 
 def torque_command_msg(t_ns: int, tau: tuple[float, float]) -> JointState:
     return joint_state_msg(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
-
-
-def torque_command_cdr(t_ns: int, tau: tuple[float, float]) -> bytes:
-    """:func:`torque_command_msg`, serialized."""
-    return joint_state_cdr(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
 
 
 # ---------------------------------------------------------------- paper 2 (encoder fusion)

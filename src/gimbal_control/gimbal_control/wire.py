@@ -1,0 +1,33 @@
+"""The serialisation of gimbal_control's nodes: pure functions from a core's output to the
+messages' bytes (CDR), rclpy-free, which the node publishes and the no-ROS engine writes into
+its bag. Each returns ``[(topic, type name, bytes), ...]`` in the node's publishing order,
+the topic as the node declares it (``~/x`` relative to the node's name).
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME
+from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
+
+Messages = list[tuple[str, str, bytes]]
+
+
+def torque_command_cdr(t_ns: int, tau: tuple[float, float]) -> bytes:
+    """The two-axis gimbal's torque command [N m] as a JointState's efforts."""
+    return joint_state_cdr(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
+
+
+def torque_command_messages(t_ns: int, tau: tuple[float, float]) -> Messages:
+    """``los_rate_controller``: the step's torque command."""
+    return [("/gimbal/torque_cmd", JOINT_STATE, torque_command_cdr(t_ns, tau))]
+
+
+def geo_pointer_messages(t_ns: int, operator_topic: str, command: tuple[float, float],
+                         budget: Sequence[float] | None) -> Messages:
+    """``geo_pointer``: its LOS rate command (0, q, r) [rad/s] on ``operator_topic``, and, when
+    it stepped, its pointing budget (1σ RMS, principal semi-axes) [rad] on ``~/budget``."""
+    out = [(operator_topic, VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *command)))]
+    if budget is not None:
+        out.append(("~/budget", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, budget)))
+    return out

@@ -1,0 +1,25 @@
+"""The serialisation of gimbal_estimators' nodes: pure functions from a core's output to the
+messages' bytes (CDR), rclpy-free, which the node publishes and the no-ROS engine writes into
+its bag. Each returns ``[(topic, type name, bytes), ...]`` in the node's publishing order,
+the topic as the node declares it (``~/x`` relative to the node's name).
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+from gimbal_kinematics.frames import GIMBAL_FRAME, NAV_FRAME
+from gimbal_kinematics.ros.wire import IMU, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, vector3_cdr
+
+Messages = list[tuple[str, str, bytes]]
+
+
+def ekf_messages(t_ns: int, bias: Sequence[float], sigma: Sequence[float], quat_nm: Sequence[float] | None,
+                 attitude_cov, corrected_rate: Sequence[float] | None) -> Messages:
+    """``gyro_bias_ekf``: one output: the bias estimate and its 1σ [rad/s] (0, q, r), and the
+    attitude estimate (x, y, z, w) with its 3×3 covariance [rad²] (not provided before the
+    alignment: ``quat_nm`` None) and the bias-corrected inner-gimbal rate [rad/s]."""
+    cov = NOT_PROVIDED if attitude_cov is None else tuple(float(v) for row in attitude_cov for v in row)
+    return [("~/bias", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, bias)),
+            ("~/bias_sigma", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, sigma)),
+            ("~/attitude", IMU, imu_cdr(t_ns, NAV_FRAME, orientation=quat_nm, orientation_cov=cov,
+                                        angular_velocity=corrected_rate))]
