@@ -32,6 +32,8 @@ from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
 from .bag.live import parse_topic_rates
+from .core.core_loop import NoCoreError, core_plan
+from .core.engine_run import run_engine
 from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.plan import check_nodes
@@ -66,6 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, help="run directory (default bags/<timestamp>_<scenario>)")
     parser.add_argument("--mode", choices=("processes", "container"), default="processes",
                         help="one OS process per node, or all nodes in this process (default processes)")
+    parser.add_argument("--engine", choices=("graph", "core"), default="graph",
+                        help="graph: the scenario's nodes (default); core: the same cores stepped in one Python "
+                             "loop, no ROS, recording the same bag (same topics, stamps and bytes, without "
+                             "/diagnostics and the nodes' progress; docs/architecture.md)")
     parser.add_argument("--variant", action="append", default=[], metavar="NAME",
                         help="run only this variant of a scenario that has variants; repeatable")
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
@@ -158,6 +164,17 @@ def main(argv: list[str] | None = None) -> int:
     out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")
     if args.jobs < 1:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.engine == "core":
+        if args.live:
+            raise UsageError("--live shows the graph's topics as they are published: drop it with --engine core")
+        for name, single in runs:
+            if single.prelude:
+                raise UsageError(f"{'variant ' + repr(name) + ': ' if name else ''}a prelude runs on the graph "
+                                 f"only; drop --engine core")
+            try:
+                core_plan(single)
+            except NoCoreError as exc:
+                raise UsageError(f"--engine core: {'variant ' + repr(name) + ': ' if name else ''}{exc}") from None
     if args.live and args.jobs > 1 and len(runs) > 1:
         raise UsageError("--live shows one run at a time: drop --jobs or pick one --variant")
     args.live_params = _live_params(args)
@@ -232,7 +249,8 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
             log_path = out / f".{name}.log"
             with open(log_path, "w") as log:  # the child keeps its own handle
                 proc = subprocess.Popen([sys.executable, "-m", "gimbal_sim.run_cli", str(spec), "--out",
-                                         str(out / name), "--mode", args.mode, "--no-progress",
+                                         str(out / name), "--mode", args.mode, "--engine", args.engine,
+                                         "--no-progress",
                                          *(["--no-compress"] if args.no_compress else [])],
                                         env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
             tqdm.write(f"== variant {name}: started (ROS domain {claim.domain_id}, log {log_path})", file=sys.stderr)
@@ -335,10 +353,30 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     return metrics, prelude_rows + [_hand_off_row(figures)] + rows
 
 
+def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
+    """:func:`_run_one` on the engine (``--engine core``): its bag, run.json, report and page."""
+    if not args.no_progress:
+        print(f"stepping {scenario.name} on the engine ({scenario.duration_s:g} s simulated) ...", file=sys.stderr)
+    done = run_engine(scenario, out, compress=not args.no_compress)
+    report_dir, metrics = write_report(out)
+    return metrics, [
+        ("scenario", f"{scenario.name} (engine core, seed {scenario.seed})"),
+        ("simulated", f"{done.result.sim_s:.3f} s at {scenario.sim_rate_hz:g} Hz"),
+        ("wall time", f"{done.wall_s:.2f} s (real-time factor {done.result.sim_s / done.wall_s:.2f}, "
+                      f"{done.result.steps / done.wall_s:,.0f} steps/s)"),
+        ("recorded", f"{metrics['message_count']} messages on {len(metrics['topics'])} topics, "
+                     f"{'closed cleanly' if metrics['closed_cleanly'] else 'NOT closed cleanly'}"),
+        ("bag", str(out)),
+        ("report", f"{report_dir}/metrics.json + {len(metrics.get('plots', []))} plots"),
+    ]
+
+
 def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
                hand_off: dict | None = None) -> tuple[dict, list[tuple[str, str]]]:
     """:func:`_run_one` without a prelude; ``hand_off``: the prelude's hand-off figures,
     written into ``out`` for the report."""
+    if args.engine == "core":
+        return _run_engine(scenario, out, args)
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress,
                  live=args.live_params)
     if result.interrupted:

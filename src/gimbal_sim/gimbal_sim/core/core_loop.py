@@ -33,7 +33,7 @@ from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.stamps import step_stamp_ns
 
 from .core_stages import Bus, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, \
-    sensor_stage
+    sensor_stage, truth_stage
 from ..graph.plan import plan_nodes, process_stats
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load
@@ -62,7 +62,7 @@ def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
 
 #: executable -> the function making its stage from the node's parameter values, in
 #: lockstep order (vehicle_dynamics is the loop itself).
-STAGES: dict[str, Callable[[dict[str, Any]], Callable[[Bus], None]]] = {
+STAGES: dict[str, Callable[[dict[str, Any], str], Callable[[Bus], None]]] = {
     "sensor_models": sensor_stage,
     "gyro_bias_ekf": gyro_bias_ekf_stage,
     "operator": operator_stage,
@@ -87,30 +87,36 @@ class CoreLoopResult:
 
 def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus], None]]]:
     """The scenario's vehicle core, whether it takes commands, and its nodes' stages in
-    lockstep order; raises :class:`NoCoreError`."""
+    lockstep order (the vehicle's messages first); raises :class:`NoCoreError`."""
     values = node_values(scenario)
-    vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
+    vehicles = [(n, v) for n, (exe, v) in values.items() if exe == "vehicle_dynamics"]
     unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
     if len(vehicles) != 1 or unknown:
         raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
                           f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
-    stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
-    vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]), GIMBAL_MODELS[vehicles[0]["gimbal_model"]])
-    return vehicle, vehicles[0]["controlled"], stages
+    name, v = vehicles[0]
+    vehicle = VehicleCore(VehicleConfig.from_values(v), GIMBAL_MODELS[v["gimbal_model"]])
+    stages = [truth_stage(vehicle.config.plant, v["position_truth_every_steps"], vehicle.profile.site, name)]
+    stages += [STAGES[exe](v, n) for exe in STAGES for n, (e, v) in values.items() if e == exe]
+    return vehicle, v["controlled"], stages
 
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False,
-                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+                  observer: Callable[[Bus], None] | None = None,
+                  record: Callable[[str, list], None] | None = None) -> CoreLoopResult:
     """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
 
     ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
-    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
+    vehicle steps (what the step's messages carry: a run's metrics are computed from it);
+    ``record`` (:class:`.recording.EngineBag`) gets every node's messages."""
     vehicle, controlled, stages = core_plan(scenario)
-    return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer)
+    return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer,
+                      record=record)
 
 
 def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, controlled: bool = True,
-               keep_commands: bool = False, observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+               keep_commands: bool = False, observer: Callable[[Bus], None] | None = None,
+               record: Callable[[str, list], None] | None = None) -> CoreLoopResult:
     """The loop itself: for k = 0 … n, the vehicle's truth of step k, then each stage in
     order, then ``observer``, then (k < n) the vehicle steps under the step's command (held
     at zero while no stage made one, or always when not ``controlled``).
@@ -119,6 +125,7 @@ def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, con
     :mod:`.core_ideal`) calls this with its own vehicle and stages; the stages at k = n see
     the final truth, which the graph's vehicle also publishes."""
     bus = Bus()
+    bus.record = record
     hold = (0.0,) * vehicle.config.command_size
     commands = [] if keep_commands else None
     lat = array("d")
@@ -128,7 +135,8 @@ def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, con
     c0 = time.process_time()
     t0 = prev = clock()
     for k in range(n + 1):
-        bus.k, bus.t, bus.command = k, step_stamp_ns(k, rate) * 1e-9, None  # a node's stamp in s
+        bus.t_ns = step_stamp_ns(k, rate)
+        bus.k, bus.t, bus.command = k, bus.t_ns * 1e-9, None  # a node's stamp in s
         bus.truth = vehicle.truth()
         for stage in stages:
             stage(bus)

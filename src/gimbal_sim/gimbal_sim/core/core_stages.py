@@ -5,6 +5,9 @@ messages carry) and does what its node does with them, in the node's order. Each
 two factories: one from the node's parameter values (what a scenario gives; each core's
 ``from_values``), one from the core object itself (what a paper runner that builds its
 cores from Python objects passes, keeping the core to observe it).
+
+When the run is recorded (``bus.record``, :class:`.recording.EngineBag`), each stage hands
+it the messages its node publishes, made by the node's own serialisation function.
 """
 from __future__ import annotations
 
@@ -21,7 +24,10 @@ from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
 from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_control.wire import geo_pointer_messages, torque_command_messages
+from gimbal_estimators.wire import ekf_messages
 
+from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
 from ..world.operator_model import OperatorModelParams, SightOperator
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
 
@@ -39,11 +45,13 @@ class Bus:
     geo-pointer's budget when it stepped (``geo_budget``: (stamp [ns], 1σ RMS, semi-axes)
     [rad], what its ~/budget carries; None otherwise)."""
 
-    __slots__ = ("k", "t", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
+    __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
                  "operator_error", "platform_imu", "resolvers", "nav", "modulation", "geo_budget")
 
     def __init__(self) -> None:
-        self.k, self.t = 0, 0.0
+        self.k, self.t, self.t_ns = 0, 0.0, 0
+        #: the run's recording, ``record(node name, [(topic, type, bytes)])``; None: not recorded
+        self.record = None
         self.truth = self.gyro = self.encoders = self.ins = self.ins_euler = self.command = self.bias = None
         self.ekf = self.operator = self.operator_error = self.geo_budget = None
         # paper 3's platform (:mod:`.platform_stages`): its IMU and resolver samples, the navigator's output
@@ -52,20 +60,39 @@ class Bus:
         self.modulation = None
 
 
-def sensor_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+def truth_stage(plant: str, position_every: int = 0, site=None, name: str = "vehicle_dynamics"
+                ) -> Callable[[Bus], None]:
+    """``vehicle_dynamics``'s messages of the step's truth, when the run is recorded (the host's
+    true position every ``position_every`` steps, at ``site``, as the node's
+    ``position_truth_every_steps``); the engine steps the vehicle itself."""
+
+    def stage(bus: Bus) -> None:
+        if bus.record is not None:
+            due = position_every and bus.k % position_every == 0
+            bus.record(name, truth_messages(bus.t_ns, bus.truth, plant, site if due else None))
+    return stage
+
+
+def sensor_stage(values: dict[str, Any], name: str = "sensor_models") -> Callable[[Bus], None]:
     """``sensor_models``: the suite's samples of step k from the vehicle's truth."""
-    return suite_stage(SensorSuite(SensorSuiteConfig.from_values(values)))
+    return suite_stage(SensorSuite(SensorSuiteConfig.from_values(values)), name,
+                       values.get("free_gyro_publish_velocity", False))
 
 
-def suite_stage(suite: SensorSuite) -> Callable[[Bus], None]:
+def suite_stage(suite: SensorSuite, name: str = "sensor_models",
+                free_gyro_velocity: bool = False) -> Callable[[Bus], None]:
     """What ``sensor_models`` does with ``suite`` (the stage of :func:`sensor_stage`)."""
+    cov = noise_covariances(suite.config)
 
     def stage(bus: Bus) -> None:
         truth = bus.truth
         # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
         truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
         bus.gyro = bus.encoders = bus.ins = None
+        record = bus.record
         for s in suite.update(truth):
+            if record is not None:
+                record(name, sensor_messages(bus.t_ns, s, cov, free_gyro_velocity))
             if type(s) is GimbalGyroSample:
                 bus.gyro = s
             elif type(s) is EncoderSample:
@@ -77,12 +104,21 @@ def suite_stage(suite: SensorSuite) -> Callable[[Bus], None]:
     return stage
 
 
-def gyro_bias_ekf_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+def gyro_bias_ekf_stage(values: dict[str, Any], name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
     """``gyro_bias_ekf``: the stage of :func:`ekf_stage` on the node's core."""
-    return ekf_stage(GyroBiasEkf(GyroBiasEkfParams.from_values(values)))
+    return ekf_stage(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), name)
 
 
-def ekf_stage(ekf: GyroBiasEkf) -> Callable[[Bus], None]:
+def _publish_ekf(bus: Bus, ekf: GyroBiasEkf, name: str) -> None:
+    """What the node publishes after a core call: each output it completed, with the core's
+    bias-corrected rate at that moment (the node's ``_after``)."""
+    for out in ekf.take_outputs():
+        if bus.record is not None:
+            bus.record(name, ekf_messages(int(round(out.t * 1e9)), out.bias, out.bias_sigma, out.quat_nm,
+                                          out.attitude_cov, ekf.corrected_rate))
+
+
+def ekf_stage(ekf: GyroBiasEkf, name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
     """What ``gyro_bias_ekf`` does with ``ekf``: INS (Euler angles from its quaternion), gyro
     and encoders of step k, encoders and INS before the gyro sample of the same stamp (the
     node's :class:`gimbal_kinematics.sync.StampOrder`); leaves the bias estimate on the bus
@@ -93,16 +129,19 @@ def ekf_stage(ekf: GyroBiasEkf) -> Callable[[Bus], None]:
         out = None
         if bus.encoders is not None:
             out = ekf.on_encoders(t, bus.encoders.angles, bus.encoders.rates) or out
+            _publish_ekf(bus, ekf, name)
         if bus.ins is not None:
             out = ekf.on_ins(t, bus.ins_euler, bus.ins.omega_b) or out
+            _publish_ekf(bus, ekf, name)
         if bus.gyro is not None:
             out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
+            _publish_ekf(bus, ekf, name)
         bus.bias = None if out is None else tuple(out.bias.tolist())
         bus.ekf = out
     return stage
 
 
-def operator_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+def operator_stage(values: dict[str, Any], name: str = "operator") -> Callable[[Bus], None]:
     """``operator``: at each of its steps (``rate_hz``) the command and pointing error from the
     true sight attitude of the step (the node's ``_on_truth``); None on the bus between."""
     core = SightOperator(OperatorModelParams.from_values(values), values["capture_s"], values["lat_deg"],
@@ -119,16 +158,19 @@ def operator_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
         q, r = core.step(stamp, bus.truth.quat_nm)
         bus.operator = (stamp, q, r)
         bus.operator_error = (core.model.error, *core.model.error_qr) if core.target_i is not None else nan3
+        if bus.record is not None:
+            bus.record(name, operator_messages(stamp, q, r, bus.operator_error))
     return stage
 
 
-def geo_pointer_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+def geo_pointer_stage(values: dict[str, Any], name: str = "geo_pointer") -> Callable[[Bus], None]:
     """``geo_pointer``: at each step with an EKF output (an INS step), the pointer's core on
     the EKF's attitude, the INS attitude as its quaternion carries it and the turret angle;
     leaves the LOS rate command in ``bus.operator`` for the controller (the last one again
     when the EKF has no attitude yet, as the node holds it), None between INS steps."""
     core = GeoPointer(GeoPointerParams.from_values(values))
     rate = values["sim_rate_hz"]
+    topic = values["operator_topic"]
     held = [(0.0, 0.0)]
 
     def stage(bus: Bus) -> None:
@@ -143,21 +185,25 @@ def geo_pointer_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
             held[0] = out.command
             bus.geo_budget = (stamp, out.budget.total_rad, *out.budget.principal_sigmas_rad)
         bus.operator = (stamp, *held[0])
+        if bus.record is not None:
+            budget = None if bus.geo_budget is None else bus.geo_budget[1:]
+            bus.record(name, geo_pointer_messages(stamp, topic, held[0], budget))
     return stage
 
 
-def los_rate_controller_stage(values: dict[str, Any]) -> Callable[[Bus], None]:
+def los_rate_controller_stage(values: dict[str, Any], name: str = "los_rate_controller") -> Callable[[Bus], None]:
     """``los_rate_controller``: the stage of :func:`controller_stage` on the node's core, with
     the LOS-hold outer loop in ``mode: los_hold`` and the operator's shaper when
     ``operator_topic`` is set."""
     hold = LosHold(LosHoldParams.from_values(values)) if values["mode"] == "los_hold" else None
     operator = OperatorCommand(OperatorCommandParams.from_values(values)) if values["operator_topic"] else None
     core = LosRateController(LosRateControllerParams.from_values(values), operator=operator)
-    return controller_stage(core, values["sim_rate_hz"], hold)
+    return controller_stage(core, values["sim_rate_hz"], hold, name=name)
 
 
 def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | None = None,
-                     sample_time: Callable[[Bus], float] | None = None) -> Callable[[Bus], None]:
+                     sample_time: Callable[[Bus], float] | None = None,
+                     name: str = "los_rate_controller") -> Callable[[Bus], None]:
     """What ``los_rate_controller`` does with ``core``: the torque command of step k from the
     gyro, encoders and the latest INS rates (held between INS samples, as the node does),
     and the bias estimate of the step when the EKF made one (the node waits for it at INS
@@ -185,9 +231,11 @@ def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | No
         enc = bus.encoders
         if bus.gyro is None or enc is None or ins_rates[0] is None:
             bus.command = core.command
-            return
-        bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates, ins_rates[0],
-                                core.reference(step_stamp_ns(bus.k, rate_hz)))
+        else:
+            bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates,
+                                    ins_rates[0], core.reference(step_stamp_ns(bus.k, rate_hz)))
+        if bus.record is not None:
+            bus.record(name, torque_command_messages(bus.t_ns, bus.command))
     return stage
 
 
