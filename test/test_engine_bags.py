@@ -16,8 +16,8 @@ import pytest
 from rosbags.highlevel import AnyReader
 
 from gimbal_sim.bag.compare import compare_bags
-from gimbal_sim.core.core_loop import core_plan
-from gimbal_sim.core.engine_run import run_engine
+from gimbal_sim.core.core_loop import NoCoreError
+from gimbal_sim.core.engine_run import check_engine, run_engine
 from gimbal_sim.graph.orchestrator import run
 from gimbal_sim.graph.scenario import builtin_scenarios, load, variant
 
@@ -34,12 +34,11 @@ def _deterministic_cases() -> list[tuple[str, str]]:
         base = load(name)
         for v in list(base.variants) or [""]:
             single = variant(base, v) if v else base
-            timings = {spec["params"].get("timing", "lockstep") for spec in single.nodes.values()}
-            if single.prelude or timings - {"lockstep"}:
+            if single.prelude:
                 continue
             try:
-                core_plan(single)
-            except ValueError:
+                check_engine(single)
+            except NoCoreError:
                 continue
             cases.append((name, v))
     return cases

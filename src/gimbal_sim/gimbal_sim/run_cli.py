@@ -32,8 +32,8 @@ from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
 
 from .bag.live import parse_topic_rates
-from .core.core_loop import NoCoreError, core_plan
-from .core.engine_run import run_engine
+from .core.core_loop import NoCoreError
+from .core.engine_run import check_engine, run_engine
 from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.plan import check_nodes
@@ -114,6 +114,21 @@ def _live_params(args: argparse.Namespace) -> dict | None:
             "live_topic_rates": list(args.live_topic_rate)}
 
 
+def _check_engine(runs: list[tuple[str, Scenario]], args: argparse.Namespace) -> None:
+    """``--engine core``: every run's node set is one the engine steps, in lockstep (module
+    docstring of :mod:`.core.engine_run`), refused before anything starts."""
+    if args.live:
+        raise UsageError("--live shows the graph's topics as they are published: drop it with --engine core")
+    for name, single in runs:
+        where = f"variant {name!r}: " if name else ""
+        if single.prelude:
+            raise UsageError(f"--engine core: {where}a prelude runs on the graph only")
+        try:
+            check_engine(single)
+        except NoCoreError as exc:
+            raise UsageError(f"--engine core: {where}{exc}") from None
+
+
 def _print_list() -> None:
     builtins = describe_builtins()
     print("Built-in scenarios:")
@@ -165,16 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.jobs < 1:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
     if args.engine == "core":
-        if args.live:
-            raise UsageError("--live shows the graph's topics as they are published: drop it with --engine core")
-        for name, single in runs:
-            if single.prelude:
-                raise UsageError(f"{'variant ' + repr(name) + ': ' if name else ''}a prelude runs on the graph "
-                                 f"only; drop --engine core")
-            try:
-                core_plan(single)
-            except NoCoreError as exc:
-                raise UsageError(f"--engine core: {'variant ' + repr(name) + ': ' if name else ''}{exc}") from None
+        _check_engine(runs, args)
     if args.live and args.jobs > 1 and len(runs) > 1:
         raise UsageError("--live shows one run at a time: drop --jobs or pick one --variant")
     args.live_params = _live_params(args)

@@ -6,6 +6,10 @@
 The report and its page come from the bag, by the same report function as a graph run's
 (``gimbal_sim.reports.dispatch.write_report``, called by ``gimbal-run --engine core`` and by
 the campaign's core runs).
+
+The engine steps in lockstep: a scenario with a node in ``realtime`` or ``free`` timing (whose
+data depend on the wall clock) is refused, as is one with a node it has no stage for
+(:func:`check_engine`).
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ from pathlib import Path
 
 from ..graph.plan import plan_nodes, write_run_files
 from ..graph.scenario import Scenario
-from .core_loop import CoreLoopResult, core_plan, run_core_loop
+from .core_loop import CoreLoopResult, NoCoreError, core_plan, run_core_loop
 from .recording import EngineBag
 
 
@@ -27,6 +31,15 @@ class EngineRun:
     message_count: int     # messages written to the bag
 
 
+def check_engine(scenario: Scenario) -> None:
+    """Raise :class:`.core_loop.NoCoreError` naming why the engine cannot run ``scenario``."""
+    clocked = sorted(n for n, spec in scenario.nodes.items() if spec["params"].get("timing", "lockstep") != "lockstep")
+    if clocked:
+        raise NoCoreError(f"{', '.join(clocked)} in realtime or free timing: their data depend on the wall clock, "
+                          f"which the engine does not have")
+    core_plan(scenario)
+
+
 def run_engine(scenario: Scenario, out_dir: Path, compress: bool = True) -> EngineRun:
     """Step ``scenario`` on the engine into ``out_dir`` (which must not exist), recording its
     bag; raises :class:`.core_loop.NoCoreError` (nothing written) for a node set the engine
@@ -34,7 +47,7 @@ def run_engine(scenario: Scenario, out_dir: Path, compress: bool = True) -> Engi
     out_dir = Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"output directory {out_dir} already exists; not overwriting it")
-    core_plan(scenario)  # a node set the engine cannot step is refused before anything is written
+    check_engine(scenario)  # a node set the engine cannot step is refused before anything is written
     t0 = time.perf_counter()
     write_run_files(scenario, plan_nodes(scenario, out_dir, compress), out_dir)
     bag = EngineBag(out_dir, scenario, compress)
