@@ -36,18 +36,3 @@ def platform_joint_positions(msg: JointState) -> tuple[float, float, float, floa
         return None
     pos = msg.position
     return tuple(float(pos[names.index(j)]) for j in PLATFORM_JOINTS)  # type: ignore[return-value]
-
-
-def platform_voltage_msg(t_ns: int, volts: tuple[float, ...]) -> JointState:
-    """The gimbal motor voltages (a, q, p, r) [V] as effort of the platform joints."""
-    return joint_state_msg(t_ns, PLATFORM_JOINTS, effort=volts)
-
-
-def platform_control_error_msg(t_ns: int, signals: tuple[float, ...]) -> JointState:
-    """Paper 3 eq. 1 control signals (Δθ_am, Δθ_qm, Δθ_pm, Δθ_rm) [rad] as positions."""
-    return joint_state_msg(t_ns, PLATFORM_JOINTS, position=signals)
-
-
-def modulation_msg(t_ns: int, phi_z: float, phi_z_rate: float) -> JointState:
-    """Commanded modulation angle φz [rad] (about NED down, from the start) and rate [rad/s]."""
-    return joint_state_msg(t_ns, (MODULATION_JOINT,), position=(phi_z,), velocity=(phi_z_rate,))

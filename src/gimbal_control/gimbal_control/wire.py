@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME
+from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, PLATFORM_JOINTS
 from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
 
 Messages = list[tuple[str, str, bytes]]
@@ -31,3 +31,16 @@ def geo_pointer_messages(t_ns: int, operator_topic: str, command: tuple[float, f
     if budget is not None:
         out.append(("~/budget", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, budget)))
     return out
+
+
+def platform_servo_messages(t_ns: int, volts: Sequence[float], out=None) -> Messages:
+    """``platform_servo``: the step's gimbal motor voltages (a, q, p, r) [V] on
+    ``/platform/voltage_cmd``, and, with a servo tick's output ``out`` (when its report is
+    due), the eq. 1 control signals [rad] on ``~/control_error`` and the modulation angle φz
+    [rad] with its rate [rad/s] on ``~/modulation``."""
+    msgs = [("/platform/voltage_cmd", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, effort=volts))]
+    if out is not None:
+        msgs += [("~/control_error", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, position=out.control_signals)),
+                 ("~/modulation", JOINT_STATE, joint_state_cdr(t_ns, (MODULATION_JOINT,), position=(out.phi_z,),
+                                                               velocity=(out.phi_z_rate,)))]
+    return msgs

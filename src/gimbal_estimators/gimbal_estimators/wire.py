@@ -8,7 +8,9 @@ from __future__ import annotations
 from typing import Sequence
 
 from gimbal_kinematics.frames import GIMBAL_FRAME, NAV_FRAME
-from gimbal_kinematics.ros.wire import IMU, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, vector3_cdr
+from gimbal_kinematics.ros.wire import (
+    IMU, NAVSAT_FIX, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, vector3_cdr,
+)
 
 Messages = list[tuple[str, str, bytes]]
 
@@ -23,3 +25,16 @@ def ekf_messages(t_ns: int, bias: Sequence[float], sigma: Sequence[float], quat_
             ("~/bias_sigma", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, sigma)),
             ("~/attitude", IMU, imu_cdr(t_ns, NAV_FRAME, orientation=quat_nm, orientation_cov=cov,
                                         angular_velocity=corrected_rate))]
+
+
+def navigator_messages(t_ns: int, fix=None, command_rate_n: Sequence[float] | None = None) -> Messages:
+    """``platform_navigator``: with ``fix`` (an output whose fix is due: lat, lon [rad], height
+    [m], velocity_n [m/s]) its ``~/fix`` (NavSatFix, covariance unknown) and ``~/velocity``
+    (NED); then, once there is one, the command rate ω_c^n [rad/s] on ``~/command_rate``."""
+    msgs = []
+    if fix is not None:
+        msgs += [("~/fix", NAVSAT_FIX, navsat_fix_cdr(t_ns, NAV_FRAME, fix.lat, fix.lon, fix.height)),
+                 ("~/velocity", VECTOR3_STAMPED, vector3_cdr(t_ns, NAV_FRAME, fix.velocity_n))]
+    if command_rate_n is not None:
+        msgs.append(("~/command_rate", VECTOR3_STAMPED, vector3_cdr(t_ns, NAV_FRAME, command_rate_n)))
+    return msgs

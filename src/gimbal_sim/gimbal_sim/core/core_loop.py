@@ -34,6 +34,7 @@ from gimbal_kinematics.stamps import step_stamp_ns
 
 from .core_stages import Bus, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, \
     sensor_stage, truth_stage
+from .platform_stages import platform_navigator_node_stage, platform_servo_node_stage
 from ..graph.plan import plan_nodes, process_stats
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load
@@ -68,6 +69,8 @@ STAGES: dict[str, Callable[[dict[str, Any], str], Callable[[Bus], None]]] = {
     "operator": operator_stage,
     "geo_pointer": geo_pointer_stage,
     "los_rate_controller": los_rate_controller_stage,
+    "platform_navigator": platform_navigator_node_stage,
+    "platform_servo": platform_servo_node_stage,
 }
 
 

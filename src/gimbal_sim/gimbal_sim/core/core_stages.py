@@ -29,7 +29,9 @@ from gimbal_estimators.wire import ekf_messages
 
 from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
 from ..world.operator_model import OperatorModelParams, SightOperator
-from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
+from ..world.sensor_suite import (
+    EncoderSample, GimbalGyroSample, InsSample, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig,
+)
 
 
 
@@ -46,7 +48,7 @@ class Bus:
     [rad], what its ~/budget carries; None otherwise)."""
 
     __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
-                 "operator_error", "platform_imu", "resolvers", "nav", "modulation", "geo_budget")
+                 "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation", "geo_budget")
 
     def __init__(self) -> None:
         self.k, self.t, self.t_ns = 0, 0.0, 0
@@ -56,6 +58,8 @@ class Bus:
         self.ekf = self.operator = self.operator_error = self.geo_budget = None
         # paper 3's platform (:mod:`.platform_stages`): its IMU and resolver samples, the navigator's output
         self.platform_imu = self.resolvers = self.nav = None
+        # the platform_navigator node's command rate of the step (what ~/command_rate carries)
+        self.nav_command = None
         # the servo's last (t [s], φz [rad], φ̇z [rad/s]), what its ~/modulation carries
         self.modulation = None
 
@@ -88,12 +92,16 @@ def suite_stage(suite: SensorSuite, name: str = "sensor_models",
         truth = bus.truth
         # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
         truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
-        bus.gyro = bus.encoders = bus.ins = None
+        bus.gyro = bus.encoders = bus.ins = bus.resolvers = bus.platform_imu = None
         record = bus.record
         for s in suite.update(truth):
             if record is not None:
                 record(name, sensor_messages(bus.t_ns, s, cov, free_gyro_velocity))
-            if type(s) is GimbalGyroSample:
+            if type(s) is ResolverSample:
+                bus.resolvers = s
+            elif type(s) is PlatformImuSample:
+                bus.platform_imu = s
+            elif type(s) is GimbalGyroSample:
                 bus.gyro = s
             elif type(s) is EncoderSample:
                 bus.encoders = s
