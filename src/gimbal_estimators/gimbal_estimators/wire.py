@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from gimbal_kinematics.frames import GIMBAL_FRAME, NAV_FRAME
+from gimbal_kinematics.frames import GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME
 from gimbal_kinematics.ros.wire import (
     IMU, NAVSAT_FIX, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, vector3_cdr,
 )
@@ -38,3 +38,15 @@ def navigator_messages(t_ns: int, fix=None, command_rate_n: Sequence[float] | No
     if command_rate_n is not None:
         msgs.append(("~/command_rate", VECTOR3_STAMPED, vector3_cdr(t_ns, NAV_FRAME, command_rate_n)))
     return msgs
+
+
+#: ``flexure_estimator``'s output stems, each published with a ``_sigma`` companion.
+FLEXURE_OUTPUTS = ("flexure", "quasi_static", "dynamic", "bias_diff")
+
+
+def flexure_messages(t_ns: int, est) -> Messages:
+    """``flexure_estimator``: one estimate (:class:`.flexure_kf.FlexureEstimate`), each of
+    its four quantities [rad, rad/s] and 1σ on ``~/<stem>`` and ``~/<stem>_sigma``, in LGU1
+    axes."""
+    return [(f"~/{stem}{suffix}", VECTOR3_STAMPED, vector3_cdr(t_ns, LGU1_FRAME, getattr(est, stem + suffix)))
+            for stem in FLEXURE_OUTPUTS for suffix in ("", "_sigma")]

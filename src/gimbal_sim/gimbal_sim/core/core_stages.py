@@ -30,8 +30,10 @@ from gimbal_estimators.wire import ekf_messages
 from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
 from ..world.operator_model import OperatorModelParams, SightOperator
 from ..world.sensor_suite import (
-    EncoderSample, GimbalGyroSample, InsSample, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig,
+    EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
+    SensorSuiteConfig,
 )
+from ..world.sensors.free_gyro_sensor import FreeGyroSample
 
 
 
@@ -48,7 +50,8 @@ class Bus:
     [rad], what its ~/budget carries; None otherwise)."""
 
     __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
-                 "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation", "geo_budget")
+                 "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation", "geo_budget", "lgu",
+                 "free_gyro")
 
     def __init__(self) -> None:
         self.k, self.t, self.t_ns = 0, 0.0, 0
@@ -60,6 +63,8 @@ class Bus:
         self.platform_imu = self.resolvers = self.nav = None
         # the platform_navigator node's command rate of the step (what ~/command_rate carries)
         self.nav_command = None
+        # paper 5's LGU pair and paper 4's free-gyro samples of the step (None when not due)
+        self.lgu = self.free_gyro = None
         # the servo's last (t [s], φz [rad], φ̇z [rad/s]), what its ~/modulation carries
         self.modulation = None
 
@@ -92,12 +97,16 @@ def suite_stage(suite: SensorSuite, name: str = "sensor_models",
         truth = bus.truth
         # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
         truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
-        bus.gyro = bus.encoders = bus.ins = bus.resolvers = bus.platform_imu = None
+        bus.gyro = bus.encoders = bus.ins = bus.resolvers = bus.platform_imu = bus.lgu = bus.free_gyro = None
         record = bus.record
         for s in suite.update(truth):
             if record is not None:
                 record(name, sensor_messages(bus.t_ns, s, cov, free_gyro_velocity))
-            if type(s) is ResolverSample:
+            if type(s) is LguSample:
+                bus.lgu = s
+            elif type(s) is FreeGyroSample:
+                bus.free_gyro = s
+            elif type(s) is ResolverSample:
                 bus.resolvers = s
             elif type(s) is PlatformImuSample:
                 bus.platform_imu = s
