@@ -75,6 +75,7 @@ from . import messages as m
 from .nis import NisWindow
 from .platform_alignment_params import DESCRIPTION, PARAMS
 from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
+from .wire import alignment_messages
 
 #: Output topics, under the node's namespace (module docstring).
 OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initial_misalignment_sigma",
@@ -112,7 +113,7 @@ class PlatformAlignmentNode(Node):
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
-        self.pubs = {name: io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
+        self.pubs = {f"~/{name}": io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
@@ -181,22 +182,9 @@ class PlatformAlignmentNode(Node):
 
     # --- outputs ---------------------------------------------------------------------------
     def _publish(self, t_ns: int, e: AlignmentEstimate) -> None:
-        nav, plat = m.NAV_FRAME, m.PLATFORM_FRAME
-        out = {
-            "misalignment": (nav, m.enu_to_ned(e.misalignment_enu)),
-            "misalignment_sigma": (nav, m.sigma_enu_to_ned(e.misalignment_sigma_enu)),
-            "initial_misalignment": (nav, m.enu_to_ned(e.misalignment0_enu)),
-            "initial_misalignment_sigma": (nav, m.sigma_enu_to_ned(e.misalignment0_sigma_enu)),
-            "north_drift": (nav, m.north_only(e.north_drift)),
-            "north_drift_sigma": (nav, m.north_only(e.north_drift_sigma, sigma=True)),
-            "gyro_drift": (plat, m.planar(e.gyro_drift_xy)),
-            "gyro_drift_sigma": (plat, m.planar(e.gyro_drift_sigma_xy, sigma=True)),
-            "accel_bias": (plat, m.planar(e.accel_bias_xy)),
-            "accel_bias_sigma": (plat, m.planar(e.accel_bias_sigma_xy, sigma=True)),
-            "status": (plat, (e.age_s, float(e.n_updates), 1.0 if e.converged else 0.0)),
-        }
-        for name, (frame, vec) in out.items():
-            self.pubs[name].publish(m.vector3_msg(t_ns, frame, vec))
+        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in alignment_messages(t_ns, e):
+            self.pubs[topic].publish(data)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from gimbal_kinematics.frames import GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME
+from gimbal_kinematics.frames import GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME, PLATFORM_FRAME
 from gimbal_kinematics.ros.wire import (
     IMU, NAVSAT_FIX, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, vector3_cdr,
 )
@@ -50,3 +50,53 @@ def flexure_messages(t_ns: int, est) -> Messages:
     axes."""
     return [(f"~/{stem}{suffix}", VECTOR3_STAMPED, vector3_cdr(t_ns, LGU1_FRAME, getattr(est, stem + suffix)))
             for stem in FLEXURE_OUTPUTS for suffix in ("", "_sigma")]
+
+
+# --- paper 3 rotation-modulated alignment ---------------------------------------------------
+#: Standard-deviation component of a vector element the estimator does not estimate
+#: (the REP 145 "not provided" marker, used per element).
+NOT_ESTIMATED = -1.0
+
+
+def enu_to_ned(v: Sequence[float]) -> tuple[float, float, float]:
+    """Components (E, N, U) → (N, E, D) of the same vector."""
+    return float(v[1]), float(v[0]), -float(v[2])
+
+
+def sigma_enu_to_ned(s: Sequence[float]) -> tuple[float, float, float]:
+    """Standard deviations (E, N, U) → (N, E, D)."""
+    return float(s[1]), float(s[0]), float(s[2])
+
+
+def planar(v: Sequence[float], sigma: bool = False) -> tuple[float, float, float]:
+    """An (x, y) estimate as a 3-vector: z = 0, or the not-estimated marker for a σ vector."""
+    return float(v[0]), float(v[1]), NOT_ESTIMATED if sigma else 0.0
+
+
+def north_only(value: float, sigma: bool = False) -> tuple[float, float, float]:
+    """A north component as an NED vector (east/down 0, or not-estimated for a σ vector)."""
+    rest = NOT_ESTIMATED if sigma else 0.0
+    return float(value), rest, rest
+
+
+def alignment_messages(t_ns: int, e) -> Messages:
+    """``platform_alignment``: one block's estimate (:class:`.rotation_alignment.AlignmentEstimate`):
+    the misalignment now and at the start (NED, frame ``map_ned``), the north drift, the level
+    gyro drifts and accelerometer biases (frame ``platform_frd``), each with its σ (an
+    element not estimated: :data:`NOT_ESTIMATED`), and the status (age [s], updates,
+    converged)."""
+    nav, plat = NAV_FRAME, PLATFORM_FRAME
+    out = (
+        ("misalignment", nav, enu_to_ned(e.misalignment_enu)),
+        ("misalignment_sigma", nav, sigma_enu_to_ned(e.misalignment_sigma_enu)),
+        ("initial_misalignment", nav, enu_to_ned(e.misalignment0_enu)),
+        ("initial_misalignment_sigma", nav, sigma_enu_to_ned(e.misalignment0_sigma_enu)),
+        ("north_drift", nav, north_only(e.north_drift)),
+        ("north_drift_sigma", nav, north_only(e.north_drift_sigma, sigma=True)),
+        ("gyro_drift", plat, planar(e.gyro_drift_xy)),
+        ("gyro_drift_sigma", plat, planar(e.gyro_drift_sigma_xy, sigma=True)),
+        ("accel_bias", plat, planar(e.accel_bias_xy)),
+        ("accel_bias_sigma", plat, planar(e.accel_bias_sigma_xy, sigma=True)),
+        ("status", plat, (e.age_s, float(e.n_updates), 1.0 if e.converged else 0.0)),
+    )
+    return [(f"~/{name}", VECTOR3_STAMPED, vector3_cdr(t_ns, frame, vec)) for name, frame, vec in out]

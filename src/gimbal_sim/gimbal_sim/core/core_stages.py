@@ -82,6 +82,23 @@ def truth_stage(plant: str, position_every: int = 0, site=None, name: str = "veh
     return stage
 
 
+def joint_sample(bus: Bus, topic: str, every: int, joint: str) -> tuple[float, float | None] | None:
+    """(position, velocity) of ``joint`` in the step's sample of ``topic`` (the resolvers, or
+    the true joint states every ``every`` steps), as a node reads it from the JointState;
+    None when the step has no sample or the sample lacks the joint."""
+    if topic == "/platform/resolvers":
+        s = bus.resolvers
+        if s is None or joint not in s.names:
+            return None
+        i = s.names.index(joint)
+        return s.angles[i], (s.rates[i] if i < len(s.rates) else None)
+    tr = bus.truth
+    if bus.k % every or joint not in tr.joint_names:
+        return None
+    i = tr.joint_names.index(joint)
+    return tr.joint_position[i], (tr.joint_velocity[i] if i < len(tr.joint_velocity) else None)
+
+
 def sensor_stage(values: dict[str, Any], name: str = "sensor_models") -> Callable[[Bus], None]:
     """``sensor_models``: the suite's samples of step k from the vehicle's truth."""
     return suite_stage(SensorSuite(SensorSuiteConfig.from_values(values)), name,

@@ -5,13 +5,16 @@ serialisation function (``gimbal_estimators.wire``).
 """
 from __future__ import annotations
 
+import math
 from typing import Any, Callable
 
 from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
-from gimbal_estimators.wire import flexure_messages
+from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
+from gimbal_estimators.wire import alignment_messages, flexure_messages
+from gimbal_kinematics.params import steps_per_sample
 
-from .core_stages import Bus
+from .core_stages import Bus, joint_sample
 
 
 def flexure_estimator_stage(values: dict[str, Any], name: str = "flexure_estimator") -> Callable[[Bus], None]:
@@ -41,4 +44,30 @@ def flexure_estimator_stage(values: dict[str, Any], name: str = "flexure_estimat
                     continue
                 last_bin[0] = b
             bus.record(name, flexure_messages(bus.t_ns, est))
+    return stage
+
+
+def platform_alignment_stage(values: dict[str, Any], name: str = "platform_alignment") -> Callable[[Bus], None]:
+    """``platform_alignment`` (lockstep): the step's azimuth joint sample (``joint_topic``: the
+    resolvers or the true joint states; angle + ``base_heading_deg``) before its
+    accelerometer sample, both at the step's time k / rate as the node's input policy gives
+    them; each block's estimate recorded."""
+    topic = values["joint_topic"]
+    if topic not in ("/platform/resolvers", "/truth/platform/joint_states"):
+        raise ValueError(f"parameter 'joint_topic' = {topic!r}: the engine reads the azimuth joint from "
+                         f"/platform/resolvers or /truth/platform/joint_states")
+    core = RotationAlignmentRls(RotationAlignmentParams.from_values(values))
+    joint_name, heading, rate = values["azimuth_joint"], math.radians(values["base_heading_deg"]), values["sim_rate_hz"]
+    every_joint = steps_per_sample(values, "joint_rate_hz")
+
+    def stage(bus: Bus) -> None:
+        t = bus.k / rate
+        joint = joint_sample(bus, topic, every_joint, joint_name)
+        if joint is not None:
+            core.on_joint_state(t, joint[0] + heading, joint[1])
+        if bus.platform_imu is None:
+            return
+        est = core.on_accel(t, bus.platform_imu.specific_force)
+        if est is not None and bus.record is not None:
+            bus.record(name, alignment_messages(bus.t_ns, est))
     return stage

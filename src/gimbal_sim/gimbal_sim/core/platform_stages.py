@@ -38,7 +38,7 @@ from gimbal_estimators.wire import navigator_messages
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.stamps import step_stamp_ns
 
-from .core_stages import Bus
+from .core_stages import Bus, joint_sample
 from ..world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite
 
 
@@ -161,17 +161,9 @@ def platform_navigator_node_stage(values: dict, name: str = "platform_navigator"
     every_joint = steps_per_sample(values, "joint_rate_hz")
 
     def stage(bus: Bus) -> None:
-        if topic == "/platform/resolvers":
-            sample = bus.resolvers
-        else:
-            sample = bus.truth if bus.k % every_joint == 0 else None
+        sample = joint_sample(bus, topic, every_joint, joint_name)
         if sample is not None:
-            names = sample.names if topic == "/platform/resolvers" else sample.joint_names
-            if joint_name in names:
-                i = names.index(joint_name)
-                angles, rates = (sample.angles, sample.rates) if topic == "/platform/resolvers" else \
-                    (sample.joint_position, sample.joint_velocity)
-                joint[0] = (bus.t_ns, angles[i], rates[i] if i < len(rates) else 0.0)
+            joint[0] = (bus.t_ns, sample[0], sample[1] or 0.0)
         bus.nav_command = None
         imu = bus.platform_imu
         if imu is None:
