@@ -6,7 +6,7 @@ import math
 from typing import Sequence
 
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
-from sensor_msgs.msg import Imu, JointState, NavSatFix
+from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401
 from gimbal_kinematics.rotations import euler321_from_quat
@@ -15,7 +15,6 @@ from gimbal_kinematics.ros.messages import (  # noqa: F401
     stamp_ns, step_of_stamp, step_stamp_ns, time_msg, vec_of, vector3_msg,
 )
 
-from .free_gyro_positioning import FreeGyroFix, navsat_covariance_enu
 from .wire import NOT_ESTIMATED, enu_to_ned, north_only, planar, sigma_enu_to_ned  # noqa: F401  (re-exported)
 
 
@@ -59,16 +58,6 @@ def level_of(msg: Imu) -> tuple[float, float]:
     except ValueError:
         return _NAN, _NAN
     return roll, pitch
-
-
-def free_gyro_fix_msg(fix: FreeGyroFix, frame_id: str, height_m: float, height_sigma_m: float) -> NavSatFix:
-    """``NavSatFix`` of a valid free-gyro fix stamped at the window's mean time: latitude and
-    longitude, ``height_m`` as altitude (the free gyros do not observe it) and the ENU
-    covariance = the fix's FDOP²σ² north/east block plus ``height_sigma_m``² vertically."""
-    if not fix.valid:
-        raise ValueError(f"no NavSatFix for a {fix.status} fix ({fix.reason})")
-    cov = navsat_covariance_enu(fix.cov_ne_m, height_sigma_m**2)
-    return navsat_fix_msg(seconds_ns(fix.t), frame_id, fix.lat, fix.lon, height_m, cov)
 
 
 def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:

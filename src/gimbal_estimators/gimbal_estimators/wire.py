@@ -7,10 +7,14 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from gimbal_kinematics.frames import GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME, PLATFORM_FRAME
+import numpy as np
+
+from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME, PLATFORM_FRAME
 from gimbal_kinematics.ros.wire import (
     IMU, NAVSAT_FIX, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, vector3_cdr,
 )
+
+from .free_gyro_positioning import navsat_covariance_enu
 
 Messages = list[tuple[str, str, bytes]]
 
@@ -100,3 +104,46 @@ def alignment_messages(t_ns: int, e) -> Messages:
         ("status", plat, (e.age_s, float(e.n_updates), 1.0 if e.converged else 0.0)),
     )
     return [(f"~/{name}", VECTOR3_STAMPED, vector3_cdr(t_ns, frame, vec)) for name, frame, vec in out]
+
+
+# --- paper 4 free-gyro positioning -----------------------------------------------------------
+#: ``~/geometry``'s z: the fix was solved, or its geometry was degenerate (no fix published)
+FREE_GYRO_STATUS_FIX, FREE_GYRO_STATUS_DEGENERATE = 0.0, 1.0
+
+
+def free_gyro_fix_messages(fix, t_close: float, height_m: float, height_sigma_m: float, prediction=None,
+                           earth_rate_window_s: float | None = None) -> Messages:
+    """``free_gyro_positioning``: one window's fix (:class:`.free_gyro_positioning.FreeGyroFix`),
+    stamped at the window's mean time, closed at ``t_close`` [s]: its geometry (FDOP,
+    crossing angle, status) and nadir; when valid, the NavSatFix (``height_m`` as altitude,
+    the ENU covariance with ``height_sigma_m``²) and heading (with the window's span), and
+    the error model's ``prediction`` (:class:`.free_gyro_error_model.ErrorPrediction`) when
+    given; the earth-rate heading (stamped at its own time) when ``earth_rate_window_s``."""
+    stamp = int(round(fix.t * 1e9))
+    status = FREE_GYRO_STATUS_FIX if fix.valid else FREE_GYRO_STATUS_DEGENERATE
+    out = [("~/geometry", VECTOR3_STAMPED, vector3_cdr(stamp, BASE_FRAME, (fix.fdop, fix.crossing_angle, status))),
+           ("~/nadir", VECTOR3_STAMPED, vector3_cdr(stamp, BASE_FRAME, (fix.nadir[0], fix.nadir[1], fix.nadir_sigma)))]
+    if fix.valid:
+        cov = navsat_covariance_enu(fix.cov_ne_m, height_sigma_m**2)
+        span = 2.0 * (t_close - fix.t)  # uniform read-outs: the window is symmetric about its mean time
+        out += [("~/fix", NAVSAT_FIX, navsat_fix_cdr(stamp, BASE_FRAME, fix.lat, fix.lon, height_m, cov)),
+                ("~/heading", VECTOR3_STAMPED, vector3_cdr(stamp, BASE_FRAME, (fix.heading, fix.heading_sigma, span)))]
+        if prediction is not None:
+            out += _prediction_messages(stamp, prediction)
+    if earth_rate_window_s is not None:
+        out.append(("~/heading_earth_rate", VECTOR3_STAMPED, vector3_cdr(
+            int(round(fix.heading_earth_rate_t * 1e9)), BASE_FRAME,
+            (fix.heading_earth_rate, fix.heading_earth_rate_sigma, earth_rate_window_s))))
+    return out
+
+
+def _prediction_messages(stamp: int, pred) -> Messages:
+    """The error model's σ of a fix: nadir (σa, σb, their correlation), position (σN, σE
+    [m], correlation), heading (σ, σ of the earth-rate heading, the position FDOP [m])."""
+    c = pred.cov
+    sd = np.sqrt(np.diag(c))
+    corr = [float(c[i, i + 1] / (sd[i] * sd[i + 1])) if sd[i] > 0.0 and sd[i + 1] > 0.0 else 0.0 for i in (0, 2)]
+    return [("~/predicted_nadir", VECTOR3_STAMPED, vector3_cdr(stamp, BASE_FRAME, (sd[0], sd[1], corr[0]))),
+            ("~/predicted_position", VECTOR3_STAMPED, vector3_cdr(stamp, BASE_FRAME, (sd[2], sd[3], corr[1]))),
+            ("~/predicted_heading", VECTOR3_STAMPED, vector3_cdr(stamp, BASE_FRAME,
+                                                                 (sd[4], sd[5], pred.position_fdop_m)))]

@@ -34,7 +34,7 @@ from gimbal_kinematics.stamps import step_stamp_ns
 
 from .core_stages import Bus, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, \
     sensor_stage, truth_stage
-from .estimator_stages import flexure_estimator_stage, platform_alignment_stage
+from .estimator_stages import flexure_estimator_stage, free_gyro_positioning_stage, platform_alignment_stage
 from .platform_stages import platform_navigator_node_stage, platform_servo_node_stage
 from ..graph.plan import plan_nodes, process_stats
 from ..graph.registry import NODE_TYPES
@@ -74,6 +74,7 @@ STAGES: dict[str, Callable[[dict[str, Any], str], Callable[[Bus], None]]] = {
     "platform_servo": platform_servo_node_stage,
     "flexure_estimator": flexure_estimator_stage,
     "platform_alignment": platform_alignment_stage,
+    "free_gyro_positioning": free_gyro_positioning_stage,
 }
 
 

@@ -10,9 +10,12 @@ from typing import Any, Callable
 
 from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
+from gimbal_estimators.free_gyro_error_model import fix_predictor
+from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
-from gimbal_estimators.wire import alignment_messages, flexure_messages
+from gimbal_estimators.wire import alignment_messages, flexure_messages, free_gyro_fix_messages
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
 
 from .core_stages import Bus, joint_sample
 
@@ -70,4 +73,46 @@ def platform_alignment_stage(values: dict[str, Any], name: str = "platform_align
         est = core.on_accel(t, bus.platform_imu.specific_force)
         if est is not None and bus.record is not None:
             bus.record(name, alignment_messages(bus.t_ns, est))
+    return stage
+
+
+def free_gyro_positioning_stage(values: dict[str, Any], name: str = "free_gyro_positioning"
+                                ) -> Callable[[Bus], None]:
+    """``free_gyro_positioning`` (lockstep): each read-out of the free gyros (their spin axes,
+    the vertical reference as its quaternion carries it, the triad's body rates, the
+    velocity with ``velocity_input``), at its stamp in seconds, in the node's order; each
+    window's fix recorded with the error model's prediction (``predict_error``) and the
+    earth-rate heading when it is new, as the node publishes them."""
+    core = FreeGyroPositioning(FreeGyroPositioningParams.from_values(values))
+    predictor = fix_predictor(values, core.params)
+    velocity = values["velocity_input"]
+    er_t: list[float | None] = [None]
+
+    def stage(bus: Bus) -> None:
+        s = bus.free_gyro
+        if s is None:
+            return
+        t = bus.t
+        try:  # the node reads the level from the published quaternion (heading 0)
+            roll, pitch, _ = euler321_from_quat(euler321_to_quat(s.roll, s.pitch, 0.0))
+        except ValueError:
+            roll = pitch = math.nan
+        if velocity:
+            core.on_velocity(t, tuple(s.velocity_n))
+        core.on_level(t, roll, pitch)
+        if predictor is not None:
+            predictor.add_level(roll, pitch)
+        core.on_body_rates(t, tuple(s.omega_ib_b))
+        fix = core.on_spin_axes(t, tuple(s.spin_a_b), tuple(s.spin_b_b))
+        if fix is None:
+            return
+        prediction = predictor.predict(fix.lat, fix.lon, fix.t, fix.heading, fix.n_samples) \
+            if fix.valid and predictor is not None else None
+        t_er = fix.heading_earth_rate_t
+        earth_rate = math.isfinite(fix.heading_earth_rate) and (er_t[0] is None or t_er > er_t[0])
+        if earth_rate:
+            er_t[0] = t_er
+        if bus.record is not None:
+            bus.record(name, free_gyro_fix_messages(fix, t, values["height_m"], values["height_sigma_m"], prediction,
+                                                    core.params.heading_window_s if earth_rate else None))
     return stage
