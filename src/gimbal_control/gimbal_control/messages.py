@@ -2,7 +2,6 @@
 ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_kinematics.ros.messages`."""
 from __future__ import annotations
 
-from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import JointState
 
 from gimbal_kinematics.frames import (  # noqa: F401  (MODULATION_JOINT: used by the servo node)
@@ -14,17 +13,6 @@ from gimbal_kinematics.ros.messages import (  # noqa: F401
 )
 
 from .wire import torque_command_cdr  # noqa: F401,E402  (re-exported; the serialized form is rclpy-free)
-
-
-def torque_command_msg(t_ns: int, tau: tuple[float, float]) -> JointState:
-    return joint_state_msg(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
-
-
-# ---------------------------------------------------------------- paper 2 (encoder fusion)
-def gimbal_axes_msg(t_ns: int, q: float, r: float) -> Vector3Stamped:
-    """A per-axis quantity of the two gyro axes as (0, q, r) in the inner-gimbal frame
-    (x, the roll axis the two-axis gyro does not measure, is 0)."""
-    return vector3_msg(t_ns, GIMBAL_FRAME, (0.0, q, r))
 
 
 # --- paper 3 four-gimbal platform servo ------------------------------------------------------

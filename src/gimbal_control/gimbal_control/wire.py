@@ -44,3 +44,17 @@ def platform_servo_messages(t_ns: int, volts: Sequence[float], out=None) -> Mess
                  ("~/modulation", JOINT_STATE, joint_state_cdr(t_ns, (MODULATION_JOINT,), position=(out.phi_z,),
                                                                velocity=(out.phi_z_rate,)))]
     return msgs
+
+
+def encoder_fusion_messages(t_ns: int, tau: tuple[float, float], feedback: tuple[float, float] | None = None,
+                            correction: tuple[float, float] | None = None) -> Messages:
+    """``encoder_fusion_controller``: the fed-back velocity (q, r) [rad/s] of a step the loop
+    closed, on ``~/feedback_velocity``; the step's torque command; the drift corrections
+    (q, r) [rad/s] after a Kalman update, on ``~/drift_correction`` (both (0, q, r) in the
+    inner-gimbal frame)."""
+    out = [] if feedback is None else [("~/feedback_velocity", VECTOR3_STAMPED,
+                                        vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *feedback)))]
+    out += torque_command_messages(t_ns, tau)
+    if correction is not None:
+        out.append(("~/drift_correction", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *correction))))
+    return out

@@ -15,16 +15,18 @@ import math
 import time
 from typing import Any, Callable
 
+from gimbal_control.encoder_fusion import EncoderFusionController, EncoderFusionParams
 from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
 from gimbal_kinematics.stamps import step_stamp_ns
-from gimbal_control.wire import geo_pointer_messages, torque_command_messages
+from gimbal_control.wire import encoder_fusion_messages, geo_pointer_messages, torque_command_messages
 from gimbal_estimators.wire import ekf_messages
 
 from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
@@ -283,3 +285,40 @@ def timed(stage: Callable[[Bus], None]) -> tuple[Callable[[Bus], None], list[flo
         stage(bus)
         spent[0] += clock() - t0
     return timed_stage, spent
+
+
+def encoder_fusion_stage(values: dict[str, Any], name: str = "encoder_fusion_controller") -> Callable[[Bus], None]:
+    """``encoder_fusion_controller`` (lockstep): a tick on each step's gyro sample, at the
+    step's stamp in seconds, with the newest encoder angles (ψm, θm) and host body rates held
+    to the step's time, as the node's input policy gives them (the command held until both
+    came); the step's command, the fed-back velocity and, after a Kalman update, the drift
+    corrections recorded (``gimbal_control.wire.encoder_fusion_messages``)."""
+    core = EncoderFusionController(EncoderFusionParams.from_values(values))
+    every_enc, every_base = steps_per_sample(values, "encoder_rate_hz"), steps_per_sample(values, "base_rate_hz")
+    held: list = [None, None, 0]  # (ψm, θm), host body rates, Kalman updates seen
+
+    def stage(bus: Bus) -> None:
+        t = bus.t
+        if bus.encoders is not None and bus.k % every_enc == 0:
+            names = bus.encoders.names
+            held[0] = tuple(bus.encoders.angles[names.index(j)] for j in GIMBAL_ENCODER_JOINTS[1:])
+        if bus.k % every_base == 0:
+            held[1] = tuple(bus.truth.omega_ib_b)
+        feedback = None
+        if bus.gyro is None or held[0] is None or held[1] is None:
+            tau = core.command
+        else:
+            out = core.tick(t, bus.gyro.q_m, bus.gyro.r_m, (t, held[1]), (t, *held[0]))
+            if out is None or out.held:
+                tau = core.command
+            else:
+                tau = (out.torque_azimuth, out.torque_elevation)
+                feedback = (out.velocity_q, out.velocity_r)
+        bus.command = tau
+        correction = None
+        if core.kf_q.updates != held[2]:
+            held[2] = core.kf_q.updates
+            correction = core.corrections
+        if bus.record is not None:
+            bus.record(name, encoder_fusion_messages(bus.t_ns, tau, feedback, correction))
+    return stage
