@@ -93,16 +93,22 @@ class CoreLoopResult:
         return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
+def check_stages(values: dict[str, tuple[str, dict[str, Any]]]) -> None:
+    """Raise :class:`NoCoreError` unless the nodes (:func:`node_values`) are one
+    ``vehicle_dynamics`` and nodes that have a stage."""
+    unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
+    if unknown:
+        raise NoCoreError(f"no engine stage for {', '.join(unknown)}")
+    if [exe for exe, _ in values.values()].count("vehicle_dynamics") != 1:
+        raise NoCoreError("the engine needs exactly one vehicle_dynamics")
+
+
 def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus], None]]]:
     """The scenario's vehicle core, whether it takes commands, and its nodes' stages in
     lockstep order (the vehicle's messages first); raises :class:`NoCoreError`."""
     values = node_values(scenario)
-    vehicles = [(n, v) for n, (exe, v) in values.items() if exe == "vehicle_dynamics"]
-    unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
-    if len(vehicles) != 1 or unknown:
-        raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
-                          f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
-    name, v = vehicles[0]
+    check_stages(values)
+    name, v = next((n, v) for n, (exe, v) in values.items() if exe == "vehicle_dynamics")
     vehicle = VehicleCore(VehicleConfig.from_values(v), GIMBAL_MODELS[v["gimbal_model"]])
     stages = [truth_stage(vehicle.config.plant, v["position_truth_every_steps"], vehicle.profile.site, name)]
     stages += [STAGES[exe](v, n) for exe in STAGES for n, (e, v) in values.items() if e == exe]

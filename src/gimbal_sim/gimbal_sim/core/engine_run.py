@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..graph.plan import plan_nodes, write_run_files
 from ..graph.scenario import Scenario
-from .core_loop import CoreLoopResult, NoCoreError, core_plan, run_core_loop
+from .core_loop import CoreLoopResult, NoCoreError, check_stages, core_plan, node_values, run_core_loop
 from .recording import EngineBag
 
 
@@ -32,12 +32,13 @@ class EngineRun:
 
 
 def check_engine(scenario: Scenario) -> None:
-    """Raise :class:`.core_loop.NoCoreError` naming why the engine cannot run ``scenario``."""
+    """Raise :class:`.core_loop.NoCoreError` naming why the engine cannot run ``scenario``'s
+    node set (its parameters are the nodes' own checks, ``graph.plan.check_nodes``)."""
     clocked = sorted(n for n, spec in scenario.nodes.items() if spec["params"].get("timing", "lockstep") != "lockstep")
     if clocked:
         raise NoCoreError(f"{', '.join(clocked)} in realtime or free timing: their data depend on the wall clock, "
                           f"which the engine does not have")
-    core_plan(scenario)
+    check_stages(node_values(scenario))
 
 
 def run_engine(scenario: Scenario, out_dir: Path, compress: bool = True) -> EngineRun:
@@ -47,7 +48,8 @@ def run_engine(scenario: Scenario, out_dir: Path, compress: bool = True) -> Engi
     out_dir = Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"output directory {out_dir} already exists; not overwriting it")
-    check_engine(scenario)  # a node set the engine cannot step is refused before anything is written
+    check_engine(scenario)  # a node set the engine cannot step, or a value a core refuses, before anything is written
+    core_plan(scenario)
     t0 = time.perf_counter()
     write_run_files(scenario, plan_nodes(scenario, out_dir, compress), out_dir)
     bag = EngineBag(out_dir, scenario, compress)
