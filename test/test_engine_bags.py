@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import subprocess
 
 import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
+
+from conftest import VENV_BIN
 
 from gimbal_sim.bag.compare import compare_bags
 from gimbal_sim.core.core_loop import NoCoreError
@@ -142,3 +145,13 @@ def test_an_engine_campaign_of_three_seeds_keeps_three_bags_whose_figure_is_the_
         assert r == pytest.approx(row["metrics"]["sighting.final_bias_error_deg_h.r"], rel=1e-12, abs=1e-9)
         finals.append(q)
     assert len(set(np.round(finals, 9))) == 3  # three seeds, three different runs
+
+
+def test_gimbal_bag_play_replays_an_engine_bag(tmp_path, ros_domain_env):
+    run_engine(_short("sighting_operator", "ekf_on"), tmp_path / "engine")
+    with AnyReader([tmp_path / "engine"]) as reader:
+        count = reader.message_count
+    result = subprocess.run([str(VENV_BIN / "gimbal-bag"), "play", str(tmp_path / "engine"), "--rate", "0"],
+                            env=ros_domain_env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert f"played {count} messages" in result.stdout + result.stderr
