@@ -74,7 +74,7 @@ from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParam
 from .flexure_estimator_params import DESCRIPTION, PARAMS
 from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams
 from .nis import NisWindow
-from .wire import FLEXURE_OUTPUTS, flexure_messages
+from .wire import FLEXURE_OUTPUTS as OUTPUTS, flexure_messages  # noqa: F401  (OUTPUTS: the output stems)
 
 #: The two input streams (LGU1, LGU2).
 UNITS = ("lgu1", "lgu2")
@@ -111,9 +111,9 @@ class FlexureEstimatorNode(Node):
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
         self.pubs = {}
-        for name in FLEXURE_OUTPUTS:
-            for topic in (f"~/{name}", f"~/{name}_sigma"):
-                self.pubs[topic] = io.advertise(Vector3Stamped, topic, timing)
+        for name in OUTPUTS:
+            for topic in (name, f"{name}_sigma"):
+                self.pubs[topic] = io.advertise(Vector3Stamped, f"~/{topic}", timing)
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [io.subscribe(Imu, f"/ship/lgu{u + 1}/imu", lambda msg, u=u: self._on_lgu(u, msg), timing)
@@ -172,7 +172,7 @@ class FlexureEstimatorNode(Node):
             self._last_bin = b
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
         for topic, _, data in flexure_messages(t_ns, est):
-            self.pubs[topic].publish(data)
+            self.pubs[topic[2:]].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             fields, nis_verdict = self.policy.report(self.core.counters, {"incompatible_qos": self.io.incompatible_qos},

@@ -113,7 +113,7 @@ class PlatformAlignmentNode(Node):
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
-        self.pubs = {f"~/{name}": io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
+        self.pubs = {name: io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
@@ -184,7 +184,7 @@ class PlatformAlignmentNode(Node):
     def _publish(self, t_ns: int, e: AlignmentEstimate) -> None:
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
         for topic, _, data in alignment_messages(t_ns, e):
-            self.pubs[topic].publish(data)
+            self.pubs[topic[2:]].publish(data)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,21 +1,21 @@
-"""The no-ROS engine: a scenario's pure-Python cores stepped in one loop, the speed limit of its maths.
+"""The one engine, no ROS: a scenario's cores stepped in one loop, the speed limit of its maths.
 
-Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``,
-``LosRateController`` with its ``LosHold`` outer loop, ``GyroBiasEkf``), built from the same
-parameter values the orchestrator would give the node, and the loop passes between them
-exactly what the nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler
-conversions of the sensor node), in lockstep order: truth k → sensors k → estimator k →
-command k → step k → k+1. So for a seed the loop computes the same numbers as the graph,
-and its torque commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for
-bit (``gimbal-bench``'s limit (a)).
+Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``, the
+controllers' and estimators' cores), built from the same parameter values the orchestrator
+would give the node, and the loop passes between them exactly what the nodes' messages
+carry (float64 fields, the Imu quaternion ↔ Euler conversions of the sensor node), in
+lockstep order: truth k → sensors k → estimators k → commands k → step k → k+1 (:data:`STAGES`
+holds the order). So for a seed the loop computes the same numbers as the graph; recorded
+(``record``, :class:`.recording.EngineBag`), each stage hands over what its node publishes,
+made by the node's own serialisation function, and the bag holds the graph's data
+(:mod:`.engine_run`, ``gimbal-run --engine core``).
 
 :func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
 runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
-stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus, as
-``gimbal-campaign --engine core`` does with ``experiments.core_metrics``.
+stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
-(``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
+unrecorded (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
 """
 from __future__ import annotations
 
@@ -62,7 +62,7 @@ def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
     return out
 
 
-#: executable -> the function making its stage from the node's parameter values, in
+#: executable -> the function making its stage from the node's parameter values and name, in
 #: lockstep order (vehicle_dynamics is the loop itself).
 STAGES: dict[str, Callable[[dict[str, Any], str], Callable[[Bus], None]]] = {
     "sensor_models": sensor_stage,
