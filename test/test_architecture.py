@@ -46,6 +46,7 @@ ROOM = {
     "bag": 2,           # MCAP/rosbag2 reading, writing, comparing, playing
     "allan": 3,         # Allan-variance characterisation of a recorded IMU
     "nodes": 4,         # gimbal_sim's own rclpy nodes and their parameter tables
+    "mavlink": 4,       # MAVLink Gimbal Protocol v2: device and manager cores, their nodes, the UDP link
     "graph": 5,         # node registry, scenarios, node plan, config files, orchestrator
     "core": 6,          # the no-ROS engine
     "campaign": 7,      # the campaign engine, its spec, results table, report, experiment types
@@ -180,14 +181,14 @@ def test_every_node_parameter_table_loads_without_ros():
     out = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]", f"parameter tables loaded {out.stdout.strip()}"
-    assert len(modules) == 13
+    assert len(modules) == 15
 
 
 def test_the_registry_lists_every_node_executable_with_its_package_table_and_class():
     from gimbal_sim.graph.registry import NODE_TYPES
 
     nodes = node_entry_points()
-    assert len(nodes) == 13 and set(NODE_TYPES) == set(nodes)
+    assert len(nodes) == 15 and set(NODE_TYPES) == set(nodes)
     for exe, (pkg, module) in nodes.items():
         node_type = NODE_TYPES[exe]
         table = sys.modules.get(module.removesuffix("_node") + "_params")

@@ -137,7 +137,7 @@ def test_not_a_bag_is_named(tmp_path):
     (tmp_path / "junk").mkdir()
     (tmp_path / "junk" / "junk_0.mcap").write_bytes(b"not an mcap file at all")
     contents = scan(tmp_path / "junk")
-    assert not contents.closed_cleanly and "Magic" in contents.error
+    assert not contents.closed_cleanly and "no MCAP magic" in contents.error
 
 
 def test_writer_refuses_to_overwrite_a_bag(tmp_path):

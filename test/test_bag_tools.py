@@ -29,7 +29,7 @@ def bag(module_ros_domain_env, tmp_path_factory) -> Path:
                              "--mode", "container", "--no-progress"], env=module_ros_domain_env,
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
-    # the run's page is the last thing gimbal-run prints (issue 26), as after an interrupt (test_run_interrupt)
+    # the run's page is the last thing gimbal-run prints, as after an interrupt (test_run_interrupt)
     assert result.stdout.rstrip().splitlines()[-1] == f"page: {out / 'report' / 'index.html'}", result.stdout
     return out
 

@@ -1,5 +1,5 @@
 """gimbal_sim.tools.bandwidth: its signal measures against closed forms, and the paper-loop
-scenario's timing (issue 24, the paper's bandwidth)."""
+scenario's timing (the paper's bandwidth)."""
 import math
 
 import numpy as np

@@ -1,5 +1,5 @@
 """A campaign that would take days by its own estimate is refused unless confirmed with
-``--large`` (issue 27). The bound is made tiny here (monkeypatched) so that tiny synthetic
+``--large``. The bound is made tiny here (monkeypatched) so that tiny synthetic
 runs cross it; the estimate itself is the engine's: the mean wall time of the runs a resumed
 campaign already finished, else the engine's measured wall per simulated second."""
 from __future__ import annotations

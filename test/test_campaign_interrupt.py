@@ -1,5 +1,5 @@
 """An interrupted campaign, then ``--resume``: the results and the report count every run
-on disk (issue 27), including a run whose worker finished as the campaign was stopped."""
+on disk, including a run whose worker finished as the campaign was stopped."""
 from __future__ import annotations
 
 import json

@@ -1,4 +1,4 @@
-"""Every console command over a matrix of bad inputs (issue 27's acceptance).
+"""Every console command over a matrix of bad inputs (the bad-input acceptance).
 
 The matrix is data: one row per (command, input), each naming the words its one-line
 message must contain. Every row must exit with its documented code (docs/usage.md: 2 for
@@ -7,7 +7,7 @@ traceback, and leave the folders that existed before exactly as they were (no fi
 no file or folder created). The mains run in this process (their ``main(argv)``), on tiny
 inputs: bags written by the ``rosbags`` writer (foreign_bags), damaged by cutting their
 bytes, never through our own writer. Every console script of the four packages, and every
-subcommand, has a row (:func:`test_every_console_command_has_a_row`); the 13 node
+subcommand, has a row (:func:`test_every_console_command_has_a_row`); the 15 node
 executables share one kind of row (a params file that is not text, refused before rclpy
 starts), and a NaN parameter is run for two of them as separate processes.
 
@@ -237,6 +237,8 @@ NODES = {
     "flexure_estimator": "gimbal_estimators.flexure_estimator_node",
     "platform_alignment": "gimbal_estimators.platform_alignment_node",
     "platform_navigator": "gimbal_estimators.platform_navigator_node",
+    "mavlink_gimbal_device": "gimbal_sim.mavlink.mavlink_gimbal_device_node",
+    "mavlink_gimbal_manager": "gimbal_sim.mavlink.mavlink_gimbal_manager_node",
 }
 
 

@@ -1,4 +1,4 @@
-"""Ctrl-C on ``gimbal-bag play``, ``gimbal-campaign`` and ``gimbal-bench`` (issue 27): each
+"""Ctrl-C on ``gimbal-bag play``, ``gimbal-campaign`` and ``gimbal-bench``: each
 command, started as a process of its own, gets SIGINT once it is visibly at work (a message
 received, a run's result on disk, the graph's sim time in its progress file; never after a
 wall-clock sleep), then must exit 130 without a traceback and say what it stopped.

@@ -1,4 +1,4 @@
-"""The experiment runners' Monte Carlo as campaigns (issue 17, part 3): their CLIs go through
+"""The experiment runners' Monte Carlo as campaigns: their CLIs go through
 the campaign engine (serial, a Dask LocalCluster on 127.0.0.1, or the real nodes with
 ``--engine graph``) and print the figures their own loops give, computed here without the
 engine; ``--resume`` runs nothing; what has no graph equivalent is refused, naming it."""

@@ -457,8 +457,8 @@ def test_random_constant_model_leaves_half_the_variation(ship_runs):
 def test_random_walk_rate_model_tracks_and_is_consistent(ship_runs):
     r = ship_runs["random_walk_rate"]
     m = r.metrics
-    # Issue 7's bounds: total flexure below 20″ RMS on every axis (paper 5's full-scale figure)
-    # and the bias difference within 0.01 °/h. Seed 0 of the Monte Carlo in the README.
+    # The acceptance bounds: total flexure below 20″ RMS on every axis (paper 5's full-scale figure)
+    # and the bias difference within 0.01 °/h. Seed 0 of the eight-seed run in docs/results/paper5.md.
     assert np.all(m["total_rms_arcsec"] < 20.0)
     assert np.all(np.abs(m["bias_diff_err_final_deg_h"]) < 0.01)
     assert m["total_within_3sigma"] > 0.9

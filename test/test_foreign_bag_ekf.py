@@ -1,4 +1,4 @@
-"""Acceptance (issue 16): a bag written by ``rosbags`` (a library we did not write), MCAP and
+"""Acceptance: a bag written by ``rosbags`` (a library we did not write), MCAP and
 sqlite3, default volatile QoS in its metadata, stamps shifted to an epoch time near 1.8e9 s,
 replays with ``gimbal-bag play --rate 0`` into a fresh ``gyro_bias_ekf`` started alone
 from its executable (free timing, its default; only its estimates are offered

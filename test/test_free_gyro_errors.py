@@ -1,4 +1,4 @@
-"""Paper 4's error study pieces (issue 25) against independent computations: the sailing
+"""Paper 4's error study pieces against independent computations: the sailing
 ship's track against scipy's integration of the geodetic rates, the sailing sensor's triad
 against the transport rate's closed form, the noise-free sailing fix and earth-rate heading
 against the truth, the node's per-fix predictor against FDOP²σ² and eq. 29's closed form,

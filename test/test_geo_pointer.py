@@ -1,4 +1,4 @@
-"""geo_pointer's core (issue 24, geo-pointing): the command against closed forms, a pointing
+"""geo_pointer's core (geo-pointing): the command against closed forms, a pointing
 loop integrated here with scipy rotations, pymap3d's direction, limits and bad targets."""
 import math
 

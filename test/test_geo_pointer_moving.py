@@ -1,4 +1,4 @@
-"""geo_pointer's core on a moving vehicle (issue 24, geo-pointing from the INS position):
+"""geo_pointer's core on a moving vehicle (geo-pointing from the INS position):
 a vehicle at constant velocity passes a target; the direction the core aims at is
 pymap3d's at every step, its feed-forward is the rate of pymap3d's direction by numerical
 differentiation, and a loop on that feed-forward holds the target where one without the

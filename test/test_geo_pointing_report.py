@@ -1,4 +1,4 @@
-"""The geo_pointing report's 'within budget' check (issue 24): judged against the budget's
+"""The geo_pointing report's 'within budget' check: judged against the budget's
 95 % radius, it reads about 95 % for an error drawn from the budget's own covariance and
 fails for one 1.5 times larger, both at the closed-form fractions (Rayleigh); the 1σ RMS
 fraction beside it is the closed form 1 − e⁻¹ of an equal-axes error."""

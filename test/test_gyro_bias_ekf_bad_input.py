@@ -1,4 +1,4 @@
-"""Issue 16 acceptance, "bad input", for ``gyro_bias_ekf`` in free timing (its default).
+"""Acceptance, "bad input", for ``gyro_bias_ekf`` in free timing (its default).
 
 The node runs in process; a plain rclpy publisher with the default QoS (reliable,
 volatile) and messages built from sensor_msgs alone feeds it epoch-stamped data (1.8e9 s)

@@ -1,4 +1,4 @@
-"""Acceptance (issue 16): ``gyro_bias_ekf`` started alone from its executable with a params
+"""Acceptance: ``gyro_bias_ekf`` started alone from its executable with a params
 YAML, in free timing (its default outside gimbal-run), against a driver the project did not
 write (``driver_publisher.py``: plain rclpy + sensor_msgs, wall-clock stamps): gimbal gyro
 at 200 Hz ± 20 % jitter with 100 °/h bias per axis plus white noise, encoders at 100 Hz,

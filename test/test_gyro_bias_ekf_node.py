@@ -1,5 +1,5 @@
 """The gyro_bias_ekf node: bad input, the headline scenario through the graph against the
-pure-Python loop, and replay of a recorded run into a fresh node (issue 6)."""
+pure-Python loop, and replay of a recorded run into a fresh node."""
 from __future__ import annotations
 
 import math

@@ -22,7 +22,7 @@ def test_los_stabilization_scenario_holds_the_los(ros_domain_env, tmp_path):
     # one command per published step (the one for the last step is never integrated)
     assert contents.topics["/gimbal/torque_cmd"].count == contents.topics["/clock"].count == 2001
     pointing = json.loads((out / "report" / "metrics.json").read_text())["pointing_error_urad"]
-    # issue 5: < 20 µrad RMS with an ideal gyro (the 1 s start-up transient stops 0.12 rad/s of turret motion)
+    # acceptance: < 20 µrad RMS with an ideal gyro (the 1 s start-up transient stops 0.12 rad/s of turret motion)
     assert pointing["rms_after_1s"] < 20.0
     assert pointing["max"] < 1000.0
 

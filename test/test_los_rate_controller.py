@@ -262,7 +262,7 @@ def test_inertial_los_undoes_earth_rotation():
 
 
 def test_closed_loop_pointing_error_ideal_gyro():
-    """Acceptance (issue 5, reduced span): ideal gyro, land-vehicle profile, < 20 µrad RMS
+    """Acceptance (reduced span): ideal gyro, land-vehicle profile, < 20 µrad RMS
     over the run from the initial inertial direction (the full 120 s is in the report)."""
     out = run_closed_loop(duration_s=8.0, gyro="ideal")
     m = out["metrics"]

@@ -1,4 +1,4 @@
-"""A node executable ends as the commands do (issue 27): Ctrl-C once it is up exits 130
+"""A node executable ends as the commands do: Ctrl-C once it is up exits 130
 with no traceback and no [FATAL]; an unexpected exception keeps its traceback and is
 followed by the commands' 'this is a bug' line (one boundary: cli_boundary)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The LOS rate controller's operator input (issue 24, part 1): the shaped operator command
+"""The LOS rate controller's operator input: the shaped operator command
 joins the stabilisation reference (LosRateController.reference), its parameters come from
 the node's values, and a controller nobody commands computes what it did without one.
 

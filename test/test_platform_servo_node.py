@@ -1,7 +1,7 @@
 """Paper 3's four-gimbal servo as the ``platform_servo`` node: startup refusals, per-step
 input sync, bad input held and counted, and the ``rotational_platform_servo`` scenario
 whose bag (read with the ``mcap`` library) must reproduce the pure-Python closed loop
-(run_platform_servo) command for command and meet the issue 5 figures."""
+(run_platform_servo) command for command and meet the servo's acceptance figures."""
 from __future__ import annotations
 
 import json
@@ -229,7 +229,7 @@ def test_graph_run_reproduces_the_closed_loop_and_meets_the_figures(graph_run):
                              record_every=1)
     volts = np.array([list(msg.effort) for _, msg in cmds])
     np.testing.assert_allclose(volts, ref["series"]["voltages_v"], rtol=1e-6, atol=1e-9)
-    # issue 5 figures, recomputed here from the bag: azimuth truth vs the commanded φz
+    # the servo's acceptance figures, recomputed here from the bag: azimuth truth vs the commanded φz
     mod = np.array([(msg.position[0], msg.velocity[0]) for _, msg in series["/platform_servo/modulation"]])
     az = np.array([msg.position[0] for _, msg in series["/truth/platform/joint_states"]])
     t = np.arange(steps + 1) / RATE

@@ -1,4 +1,4 @@
-"""``gimbal-bag play`` says what it does (issue 27): an unpaced replay into a best-effort
+"""``gimbal-bag play`` says what it does: an unpaced replay into a best-effort
 reader, which drops what it cannot keep up with as ROS does, is warned about and ``--pace``
 named; a reliable reader is not warned about. The player and the readers share one rclpy
 context in this process; the bag is written by the ``rosbags`` writer."""

@@ -1,4 +1,4 @@
-"""Ctrl-C on a 2-hour ``gimbal-run`` keeps the run (issue 27), in both modes.
+"""Ctrl-C on a 2-hour ``gimbal-run`` keeps the run, in both modes.
 
 The run is interrupted once it has simulated half a second (read from the progress file the
 orchestrator keeps, not after a wall-clock sleep). It must exit 130 without a traceback or a

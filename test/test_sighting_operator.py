@@ -1,4 +1,4 @@
-"""The simulated operator on the truth (issue 24, part 2) and its report: the inertial
+"""The simulated operator on the truth and its report: the inertial
 target seen from NED, the report's figures from the recorded series against the model's
 own bookkeeping, and the scenario on the no-ROS engine.
 

@@ -1,4 +1,4 @@
-"""Slew and dead-man acceptance (issue 24) on paper 1's vehicle, no ROS: the operator's step
+"""Slew and dead-man acceptance on paper 1's vehicle, no ROS: the operator's step
 command of 5 °/s in azimuth and 2 °/s in elevation through the controller's shaper.
 
 References: the truth's inertial LOS rate (VehicleCore), against the command and against

@@ -26,8 +26,9 @@ SRC = REPO_ROOT / "src"
 ROSDEP_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
                "matplotlib": "python3-matplotlib", "mcap": "python3-mcap", "mcap_ros2": "python3-mcap-ros2",
                "tqdm": "python3-tqdm", "allantools": "python3-allantools",
-               "rosbags": "python3-rosbags", "distributed": "python3-distributed", "pyarrow": "python3-pyarrow"}
-ROS_PACKAGES = {"rclpy", "builtin_interfaces", "std_msgs", "sensor_msgs", "geometry_msgs",
+               "rosbags": "python3-rosbags", "distributed": "python3-distributed", "pyarrow": "python3-pyarrow",
+               "pymavlink": "python3-pymavlink"}
+ROS_PACKAGES = {"rclpy", "builtin_interfaces", "std_msgs", "sensor_msgs", "geometry_msgs", "nav_msgs",
                 "rosgraph_msgs", "diagnostic_msgs", "rcl_interfaces", "ament_index_python", "rosidl_runtime_py"}
 
 
@@ -108,6 +109,8 @@ def test_colcon_build_installs_the_ament_index_and_config(colcon_install):
         assert (colcon_install / pkg / "share" / pkg / "package.xml").is_file()
         for cfg in (SRC / pkg / "config").glob("*.yaml"):
             assert (colcon_install / pkg / "share" / pkg / "config" / cfg.name).is_file()
+        for urdf in (SRC / pkg / "urdf").glob("*.urdf"):
+            assert (colcon_install / pkg / "share" / pkg / "urdf" / urdf.name).is_file()
 
 
 def test_every_declared_executable_resolves_like_ros2_run_and_answers_help(colcon_install):

@@ -28,6 +28,8 @@ setup(
             "sensor_models = gimbal_sim.nodes.sensor_models_node:main",
             "bag_recorder = gimbal_sim.nodes.bag_recorder_node:main",
             "operator = gimbal_sim.nodes.operator_node:main",
+            "mavlink_gimbal_device = gimbal_sim.mavlink.mavlink_gimbal_device_node:main",
+            "mavlink_gimbal_manager = gimbal_sim.mavlink.mavlink_gimbal_manager_node:main",
             "gimbal-report = gimbal_sim.reports.dispatch:main",
             "gimbal-bag = gimbal_sim.bag.cli:main",
             "gimbal-bench = gimbal_sim.tools.bench:main",

@@ -72,7 +72,7 @@ class EncoderFusionControllerNode(Node):
         self.held = 0  # steps whose command was held (bad or missing input)
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.io = NodeIo(self)
-        self.pub_cmd = self.io.advertise(JointState, "/gimbal/torque_cmd", timing)
+        self.pub_cmd = self.io.advertise_command(JointState, "/gimbal/torque_cmd", v)
         self.pub_feedback = self.io.advertise(Vector3Stamped, "~/feedback_velocity", timing)
         self.pub_correction = self.io.advertise(Vector3Stamped, "~/drift_correction", timing)
         self.pubs = {"/gimbal/torque_cmd": self.pub_cmd, "~/feedback_velocity": self.pub_feedback,

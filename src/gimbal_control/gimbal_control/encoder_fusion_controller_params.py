@@ -5,7 +5,9 @@ them). The mapping to the core's parameters is
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
+from gimbal_kinematics.params import (
+    CLOCK_JUMP_ALIASES, COMMAND_INTERFACE_PARAM, ROS2_CONTROL_TOPIC_PARAM, TIMING_PARAM, Param,
+)
 
 from .encoder_fusion import (
     ENCODER_LOOP_BANDWIDTH_HZ, LOOP_BANDWIDTH_HZ, MODES, TORQUE_LIMIT_NM, UAV_AZIMUTH_INERTIA_KG_M2,
@@ -27,6 +29,8 @@ PARAMS = (
     Param("mode", "fused", "feedback velocity: encoder (pulse-count rate), gyro (raw MEMS gyro) or fused "
           "(gyro corrected by the complementary KF)", choices=MODES),
     TIMING_PARAM,
+    COMMAND_INTERFACE_PARAM,
+    ROS2_CONTROL_TOPIC_PARAM,
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step on the gyro sample. In "
           "free timing: the gyro's nominal rate (the drop count)", 1.0, 100000.0),
     Param("max_input_age_s", 0.1, "free timing: the newest encoder and base-rate samples may be this much older than the gyro "

@@ -1,4 +1,4 @@
-"""Geo-pointing (issue 24): keep the LOS on a geographic target through the controller's
+"""Geo-pointing: keep the LOS on a geographic target through the controller's
 operator input. Pure Python, no rclpy; the node is :mod:`.geo_pointer_node`.
 
 Each step takes the gimbal attitude estimate Ĉ_nm (the gyro-bias EKF's), the INS attitude
@@ -121,13 +121,16 @@ class GeoPointerParams:
 @dataclass
 class PointerOutput:
     """One step: the rate command (q, r) [rad/s], the error angles (elevation, azimuth)
-    [rad] of the aim in the estimated sight frame, the joint solution, the budget."""
+    [rad] of the aim in the estimated sight frame, the joint solution, the budget, the
+    direction to the target and the aim (the LOS the pointer steers to: the direction, or
+    where the joints stop at a limit), unit vectors in NED."""
 
     command: tuple[float, float]
     error: tuple[float, float]
     solution: JointSolution
     budget: PointingBudget
     los_n: np.ndarray = field(repr=False)
+    aim_n: np.ndarray = field(repr=False)
 
 
 class GeoPointer:
@@ -200,4 +203,4 @@ class GeoPointer:
         lim, k = p.max_rate_rad_s, p.gain_1_s
         command = tuple(max(-lim, min(lim, float(ff) + k * e)) for ff, e in zip(w_m[1:], error))
         budget = pointing_budget(self.vehicle_llh, C_nb, self.target_llh, p.sigmas, p.lever_arm_b, p.min_range_m)
-        return PointerOutput(command, error, sol, budget, los.los_n)  # type: ignore[arg-type]
+        return PointerOutput(command, error, sol, budget, los.los_n, aim)  # type: ignore[arg-type]

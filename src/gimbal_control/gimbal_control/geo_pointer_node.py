@@ -9,6 +9,8 @@ C(n,m)), the INS attitude (``/ins/imu``) and the encoders' turret angle
   ``operator_rate_hz`` = ``ins_rate_hz`` makes it wait for each command in lockstep);
 * ``~/budget`` (Vector3Stamped [rad]): x the 1σ pointing-error budget (RMS of the error
   angle), y and z its two semi-axes;
+* ``~/aim`` (Vector3Stamped, ``map_ned``): the LOS it steers to, a unit vector in NED (what
+  ``mavlink_gimbal_manager`` sends to a MAVLink gimbal);
 * ``/diagnostics`` every ``diagnostics_period_s`` with the counters: inputs that could not
   be used, rejected targets, steps at a gimbal limit.
 
@@ -85,6 +87,8 @@ class GeoPointerNode(Node):
         self.operator_topic = v["operator_topic"]
         self.pub_cmd = self.io.advertise(Vector3Stamped, self.operator_topic, timing)
         self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
+        self.pub_aim = self.io.advertise(Vector3Stamped, "~/aim", timing)
+        self.pubs = {"~/budget": self.pub_budget, "~/aim": self.pub_aim}
         self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
@@ -204,18 +208,18 @@ class GeoPointerNode(Node):
         if "att" not in inputs or step.zero_command:  # an encoder-only step between INS samples, or stale inputs
             return
         att, ins, enc = inputs.get("att"), inputs.get("ins"), inputs.get("enc")
-        budget = None
+        budget = aim = None
         fix, vel = inputs.get("fix"), inputs.get("vel")
         if att is None or ins is None or enc is None or (fix is not None and not self.core.set_vehicle(
                 fix.value, None if vel is None else vel.value)):
             self.counts["held_commands"] += 1
         else:
             out = self.core.step(att.value, quat_to_dcm(np.asarray(ins.value)), enc.value[0])
-            self.command, budget = out.command, out.budget
+            self.command, budget, aim = out.command, out.budget, tuple(out.aim_n)
         figures = None if budget is None else (budget.total_rad, *budget.principal_sigmas_rad)
         # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in geo_pointer_messages(step.stamp_ns, self.operator_topic, self.command, figures):
-            (self.pub_budget if topic == "~/budget" else self.pub_cmd).publish(data)
+        for topic, _, data in geo_pointer_messages(step.stamp_ns, self.operator_topic, self.command, figures, aim):
+            self.pubs.get(topic, self.pub_cmd).publish(data)
         if step.stamp_ns >= self._next_diag_ns:
             self._next_diag_ns = step.stamp_ns + self.diag_period_ns
             fields = {**self.policy.counters(), **self.counts, **self.core.counts,

@@ -16,7 +16,7 @@ plant linearised at rest, base at rest):
 
 ``delay_samples``: whole samples *in addition to* the ZOH plant's own step (u_k acts from
 t_k, so it first shows in x_{k+1}). d = 0 is our lockstep graph exactly (the command
-stamped k, computed from the sensors of t_k, is held over [t_k, t_{k+1}]). Issue 5 asks to
+stamped k, computed from the sensors of t_k, is held over [t_k, t_{k+1}]). The acceptance asks to
 treat the graph as adding a one-sample delay, so the design uses d = 1: this also covers a
 command that misses its step in ``realtime`` mode, or a sensor reporting a step average.
 

@@ -91,7 +91,7 @@ class LosRateControllerNode(Node):
         self.hold = LosHold(LosHoldParams.from_values(v)) if hold_mode else None
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.io = NodeIo(self)
-        self.pub = self.io.advertise(JointState, "/gimbal/torque_cmd", timing)
+        self.pub = self.io.advertise_command(JointState, "/gimbal/torque_cmd", v)
         # taken serialized and decoded here (messages.*_from_cdr): no message objects per step
         imu, joints, vec = m.imu_from_cdr, m.joint_state_from_cdr, m.vector3_stamped_from_cdr
         inputs = [("gyro", Imu, "/gimbal/imu", imu), ("enc", JointState, "/gimbal/joint_states", joints),

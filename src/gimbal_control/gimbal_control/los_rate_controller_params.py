@@ -6,7 +6,7 @@ mappings to the cores' parameters are
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import TIMING_PARAM, Param
+from gimbal_kinematics.params import COMMAND_INTERFACE_PARAM, ROS2_CONTROL_TOPIC_PARAM, TIMING_PARAM, Param
 
 DESCRIPTION = (
     "Paper 1 LOS rate stabilization controller: dynamic inversion of the linearized gimbal and a PI "
@@ -15,6 +15,8 @@ DESCRIPTION = (
 )
 PARAMS = (
     TIMING_PARAM,
+    COMMAND_INTERFACE_PARAM,
+    ROS2_CONTROL_TOPIC_PARAM,
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; the controller runs once per step. In free timing: the gyro's "
           "nominal rate (the integrator's nominal step, the drop count)", 1.0, 100000.0),
     Param("max_input_age_s", 0.1, "free timing: the newest encoder and INS samples may be this much older than the "

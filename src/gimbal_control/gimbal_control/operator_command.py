@@ -1,5 +1,5 @@
 """Operator LOS rate command shaper: what the LOS rate controller adds to its stabilisation
-reference when a person slews the sight (issue 24; paper 1's operator, §1 and §6).
+reference when a person slews the sight (paper 1's operator, §1 and §6).
 
 Input. A commanded inertial LOS rate in the sight frame m, (q, r) [rad/s] about m-y
 (elevation, +q raises the LOS) and m-z (azimuth, +r turns it right), the order of the

@@ -81,7 +81,7 @@ class PlatformServoNode(Node):
         self.counts = dict.fromkeys(COUNTERS, 0)
         self._seen = (0, 0, 0)  # core counters already warned about
         self.io = NodeIo(self)
-        self.pub = self.io.advertise(JointState, "/platform/voltage_cmd", timing)
+        self.pub = self.io.advertise_command(JointState, "/platform/voltage_cmd", v)
         self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
         self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
         self.pubs = {"/platform/voltage_cmd": self.pub, "~/control_error": self.pub_error, "~/modulation": self.pub_mod}

@@ -4,7 +4,9 @@ the core's parameters is :meth:`.platform_servo.PlatformServoParams.from_values`
 """
 from __future__ import annotations
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TIMING_PARAM, Param
+from gimbal_kinematics.params import (
+    CLOCK_JUMP_ALIASES, COMMAND_INTERFACE_PARAM, ROS2_CONTROL_TOPIC_PARAM, TIMING_PARAM, Param,
+)
 
 DESCRIPTION = (
     "Paper 3 four-gimbal platform servo: four PID loops (azimuth, inner roll, pitch, outer roll) on the "
@@ -16,6 +18,8 @@ INF = float("inf")
 
 PARAMS = (
     TIMING_PARAM,
+    COMMAND_INTERFACE_PARAM,
+    ROS2_CONTROL_TOPIC_PARAM,
     Param("sim_rate_hz", 1000.0, "lockstep rate [Hz]; one command per step. In free timing: the platform gyro's "
           "nominal rate (the drop count)", 1.0, 100000.0),
     Param("max_input_age_s", 0.1, "free timing: the newest resolver sample may be this much older than the gyro "

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, PLATFORM_JOINTS
+from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME, PLATFORM_JOINTS
 from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
 
 Messages = list[tuple[str, str, bytes]]
@@ -24,10 +24,12 @@ def torque_command_messages(t_ns: int, tau: tuple[float, float]) -> Messages:
 
 
 def geo_pointer_messages(t_ns: int, operator_topic: str, command: tuple[float, float],
-                         budget: Sequence[float] | None) -> Messages:
-    """``geo_pointer``: its LOS rate command (0, q, r) [rad/s] on ``operator_topic``, and, when
-    it stepped, its pointing budget (1σ RMS, principal semi-axes) [rad] on ``~/budget``."""
-    out = [(operator_topic, VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *command)))]
+                         budget: Sequence[float] | None, aim: Sequence[float] | None = None) -> Messages:
+    """``geo_pointer``: when it stepped, the LOS it steers to (unit vector, NED) on ``~/aim``;
+    its LOS rate command (0, q, r) [rad/s] on ``operator_topic``; when it stepped, its pointing
+    budget (1σ RMS, principal semi-axes) [rad] on ``~/budget``."""
+    out = [] if aim is None else [("~/aim", VECTOR3_STAMPED, vector3_cdr(t_ns, NAV_FRAME, aim))]
+    out.append((operator_topic, VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *command))))
     if budget is not None:
         out.append(("~/budget", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, budget)))
     return out

@@ -22,6 +22,9 @@ Outputs, per accepted accelerometer sample, stamped like it:
   WGS-84 ellipsoid, frame ``map_ned``; covariance type unknown: the core is a mechanisation
   without a filter, it has no covariance to give) and ``~/velocity`` (Vector3Stamped, NED
   m/s), every ``fix_every_samples`` accepted samples;
+* ``~/odom`` (nav_msgs/Odometry, REP 105), with each fix: the position in a local ENU frame
+  (``odom_frame_id``) whose origin is the first fix, the twist in ``odom_child_frame_id``,
+  with covariance (:mod:`.navigator_odometry` says how each part is defined);
 * ``/diagnostics`` (free timing): the core's counters (accepted, rejected_nonfinite,
   rejected_out_of_order, rejected_no_resolver, resets), the node's ``rejected_joints`` (a
   JointState without ``azimuth_joint``) and the input policy's stream statistics.
@@ -44,6 +47,7 @@ import sys
 
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
+from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
@@ -58,6 +62,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
 
 from . import messages as m
+from .navigator_odometry import NavigatorOdometry, OdometryModel
 from .platform_navigator import NavigatorOutput, PlatformNavigator
 from .platform_navigator_params import DESCRIPTION, PARAMS, PlatformNavigatorParams
 from .wire import navigator_messages
@@ -80,6 +85,15 @@ class PlatformNavigatorNode(Node):
         if from_servo and v["timing"] == "lockstep":
             raise ParameterError("parameter 'azimuth_source' = 'servo' needs timing free: in lockstep the servo's "
                                  "phi_z of a step follows the navigator's command of that step (a cycle)")
+        frames = (v["odom_frame_id"], v["odom_child_frame_id"])
+        for name, frame in zip(("odom_frame_id", "odom_child_frame_id"), frames):
+            if not isinstance(frame, str) or not frame.strip():
+                raise ParameterError(f"parameter '{name}' must name a frame, got {frame!r}")
+        if frames[0] == frames[1]:
+            raise ParameterError(f"parameter 'odom_child_frame_id' = {frames[1]!r} must differ from odom_frame_id")
+        self.odom_frames = frames
+        self.odometry = NavigatorOdometry(OdometryModel.from_values(v, heading_known=not from_servo),
+                                          wire.UNMEASURED_VARIANCE)
         joint_topic = SERVO_MODULATION_TOPIC if from_servo else v["joint_topic"]
         self.azimuth_joint = MODULATION_JOINT if from_servo else v["azimuth_joint"]
         self.max_joint_age_ns = int(round(v["max_joint_age_s"] * 1e9))
@@ -100,8 +114,10 @@ class PlatformNavigatorNode(Node):
         self.io = io = NodeIo(self)
         self.pub_fix = io.advertise(NavSatFix, "~/fix", timing)
         self.pub_velocity = io.advertise(Vector3Stamped, "~/velocity", timing)
+        self.pub_odom = io.advertise(Odometry, "~/odom", timing)
         self.pub_command = io.advertise(Vector3Stamped, "~/command_rate", timing)
-        self.pubs = {"~/fix": self.pub_fix, "~/velocity": self.pub_velocity, "~/command_rate": self.pub_command}
+        self.pubs = {"~/fix": self.pub_fix, "~/velocity": self.pub_velocity, "~/odom": self.pub_odom,
+                     "~/command_rate": self.pub_command}
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
@@ -109,7 +125,7 @@ class PlatformNavigatorNode(Node):
             io.subscribe(JointState, joint_topic, lambda msg: self._on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs,
-                                (self.pub_fix, self.pub_velocity, self.pub_command), v["wait_for_subscribers"])
+                                (self.pub_fix, self.pub_velocity, self.pub_odom, self.pub_command), v["wait_for_subscribers"])
 
     # --- inputs ----------------------------------------------------------------------------
     def _warn(self, text: str) -> None:
@@ -163,8 +179,9 @@ class PlatformNavigatorNode(Node):
         if out is not None:
             self._last_command = out.command_rate_n
         fix = out if out is not None and (self.core.accepted - 1) % self.fix_every == 0 else None
+        odom = None if fix is None else (*self.odom_frames, *self.odometry(fix))
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in navigator_messages(t_ns, fix, self._last_command):
+        for topic, _, data in navigator_messages(t_ns, fix, self._last_command, odom):
             self.pubs[topic].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns

@@ -175,4 +175,16 @@ PARAMS = (
           "vehicle_dynamics waits for and paces on it", 1, 10**6),
     Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
           0, 1000),
+    Param("odom_frame_id", "odom", "~/odom (nav_msgs/Odometry): frame of the pose, a local ENU frame whose origin is "
+          "the first fix (REP 105: odom, continuous; map if this INS is your global reference)"),
+    Param("odom_child_frame_id", "base_link", "~/odom: the child frame the twist is resolved in (REP 105 "
+          "base_link, forward-left-up, level at the base heading)"),
+    Param("odom_cep_rate_nmi_h", 0.38, "~/odom pose covariance: horizontal position error growth, CEP50 per hour "
+          "of navigation [n mile/h] (paper 3 with rotation: 0.38)", 0.0, 1000.0),
+    Param("odom_velocity_sigma_m_s", 0.6, "~/odom twist covariance: 1-sigma velocity error per axis [m/s] (paper 3's "
+          "Schuler oscillation peaks at about 0.6 m/s over 3 h)", 0.0, 1000.0),
+    Param("odom_vertical_sigma_m", 1.0, "~/odom pose covariance: 1-sigma height error [m], that of the reference "
+          "height the vertical channel is held to", 0.0, 1e6),
+    Param("odom_attitude_sigma_deg", 1.0 / 60.0, "~/odom pose covariance: 1-sigma roll, pitch and heading "
+          "[deg] (the residual of a fine alignment, about 1 arcmin)", 0.0, 180.0),
 )

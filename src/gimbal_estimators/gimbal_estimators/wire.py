@@ -11,7 +11,7 @@ import numpy as np
 
 from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME, PLATFORM_FRAME
 from gimbal_kinematics.ros.wire import (
-    IMU, NAVSAT_FIX, NOT_PROVIDED, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, vector3_cdr,
+    IMU, NAVSAT_FIX, NOT_PROVIDED, ODOMETRY, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, odometry_cdr, vector3_cdr,
 )
 
 from .free_gyro_positioning import navsat_covariance_enu
@@ -31,14 +31,19 @@ def ekf_messages(t_ns: int, bias: Sequence[float], sigma: Sequence[float], quat_
                                         angular_velocity=corrected_rate))]
 
 
-def navigator_messages(t_ns: int, fix=None, command_rate_n: Sequence[float] | None = None) -> Messages:
+def navigator_messages(t_ns: int, fix=None, command_rate_n: Sequence[float] | None = None,
+                       odom: tuple | None = None) -> Messages:
     """``platform_navigator``: with ``fix`` (an output whose fix is due: lat, lon [rad], height
-    [m], velocity_n [m/s]) its ``~/fix`` (NavSatFix, covariance unknown) and ``~/velocity``
-    (NED); then, once there is one, the command rate ω_c^n [rad/s] on ``~/command_rate``."""
+    [m], velocity_n [m/s]) its ``~/fix`` (NavSatFix, covariance unknown), ``~/velocity`` (NED)
+    and ``~/odom`` (``odom``: the Odometry's frame, child frame and
+    :class:`.navigator_odometry.NavigatorOdometry` values); then, once there is one, the
+    command rate ω_c^n [rad/s] on ``~/command_rate``."""
     msgs = []
     if fix is not None:
         msgs += [("~/fix", NAVSAT_FIX, navsat_fix_cdr(t_ns, NAV_FRAME, fix.lat, fix.lon, fix.height)),
                  ("~/velocity", VECTOR3_STAMPED, vector3_cdr(t_ns, NAV_FRAME, fix.velocity_n))]
+        if odom is not None:
+            msgs.append(("~/odom", ODOMETRY, odometry_cdr(t_ns, *odom)))
     if command_rate_n is not None:
         msgs.append(("~/command_rate", VECTOR3_STAMPED, vector3_cdr(t_ns, NAV_FRAME, command_rate_n)))
     return msgs

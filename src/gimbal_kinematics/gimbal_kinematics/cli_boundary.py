@@ -17,6 +17,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import select
 import sys
 import traceback
 from pathlib import Path
@@ -27,6 +28,7 @@ EXIT_CODES = {0: "success", 1: "the run or check failed (a node died or stalled,
                                 "campaign failed, a wait timed out)",
               2: "bad usage or input, refused before anything was changed", 130: "interrupted (Ctrl-C / SIGINT)"}
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_CLOSED_PIPE = 141   # 128 + SIGPIPE: what a shell reports for a reader that stopped reading
 BUG_LINE = ("{prog}: this is a bug, not a problem with your input: please report it, with the traceback above and "
             "the command line, on the project's issue tracker (README.md)")
 
@@ -78,13 +80,40 @@ def outcome(prog: str, exc: BaseException, interrupted: str) -> int:
     return EXIT_FAILED
 
 
+def stdout_closed() -> bool:
+    """Whether the reader of stdout is gone (a broken pipe elsewhere, to a child, is not this)."""
+    try:
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(events & (select.POLLERR | select.POLLHUP) for _, events in poll.poll(0))
+    except (OSError, ValueError, AttributeError):  # stdout replaced by a non-file (a test's capture)
+        return True
+
+
+def closed_pipe() -> int:
+    """The reader of stdout went away (``gimbal-bag info BAG | head -2``): end quietly, as
+    ``cat`` does, with 128 + SIGPIPE. Later writes, the interpreter's own flush at exit
+    included, go to /dev/null instead of raising again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # stdout replaced by a non-file (a test's capture)
+        pass
+    return EXIT_CLOSED_PIPE
+
+
 def cli_boundary(prog: str, interrupted: str = "stopped before the end; nothing was kept") -> Callable:
     """Decorate a console ``main(argv) -> int``: expected failures become one line and an exit code."""
     def wrap(main: Callable[..., int]) -> Callable[..., int]:
         @functools.wraps(main)
         def bounded(*args, **kwargs) -> int:
             try:
-                return main(*args, **kwargs)
+                code = main(*args, **kwargs)
+                sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+                return code
+            except BrokenPipeError as exc:
+                return closed_pipe() if stdout_closed() else outcome(prog, exc, interrupted)
             except (SystemExit, GeneratorExit):
                 raise
             except BaseException as exc:  # noqa: BLE001 - the one place every failure is sorted

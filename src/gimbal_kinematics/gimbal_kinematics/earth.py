@@ -87,6 +87,22 @@ def ecef_from_geodetic(lat: float, lon: float, h: float = 0.0) -> np.ndarray:
     )
 
 
+def enu_from_geodetic(lat: float, lon: float, h: float, lat0: float, lon0: float, h0: float
+                      ) -> tuple[float, float, float]:
+    """East, north, up [m] of a geodetic point in the local ENU frame whose origin is the
+    geodetic point (lat0, lon0, h0) [rad, m]: the ECEF difference resolved at the origin.
+    Scalar Python (not a numpy product), so the bits do not depend on the CPU's BLAS."""
+    a = ecef_from_geodetic(lat, lon, h)
+    b = ecef_from_geodetic(lat0, lon0, h0)
+    dx, dy, dz = float(a[0] - b[0]), float(a[1] - b[1]), float(a[2] - b[2])
+    sl, cl = math.sin(lat0), math.cos(lat0)
+    so, co = math.sin(lon0), math.cos(lon0)
+    east = -so * dx + co * dy
+    north = -sl * co * dx - sl * so * dy + cl * dz
+    up = cl * co * dx + cl * so * dy + sl * dz
+    return east, north, up
+
+
 def dcm_en(lat: float, lon: float) -> np.ndarray:
     """``C_en``: NED navigation frame to ECEF at (lat, lon) [rad]; shape (3, 3)."""
     sl, cl = math.sin(lat), math.cos(lat)

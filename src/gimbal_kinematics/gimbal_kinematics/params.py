@@ -73,8 +73,36 @@ TIMING_PARAM = Param(
     choices=TIMING_CHOICES)
 
 
+#: How a controller sends, and ``vehicle_dynamics`` takes, the joint effort commands: ``graph``,
+#: the toolkit's own (``/gimbal/torque_cmd`` or ``/platform/voltage_cmd``, the stamp names the
+#: step the command is for), or ``ros2_control``, the contract of ``topic_based_ros2_control``'s
+#: TopicBasedSystem (a sensor_msgs/JointState of joint names and efforts on ``ros2_control_topic``,
+#: reliable, volatile, keep-last 1; the stamp is the sender's clock, not a step: each command
+#: is applied from the plant's next step on).
+COMMAND_INTERFACES = ("graph", "ros2_control")
+COMMAND_INTERFACE_PARAM = Param(
+    "command_interface", "graph",
+    "graph: effort commands on the toolkit's command topic, stamped with the step they are for; ros2_control: "
+    "topic_based_ros2_control's joint-command contract on ros2_control_topic (docs/hardware.md: ros2_control)",
+    choices=COMMAND_INTERFACES)
+#: topic_based_ros2_control's default ``joint_commands_topic``.
+ROS2_CONTROL_TOPIC_PARAM = Param(
+    "ros2_control_topic", "/robot_joint_commands",
+    "command_interface ros2_control: the sensor_msgs/JointState effort-command topic (the joint_commands_topic "
+    "of topic_based_ros2_control)")
+
 class ParameterError(ValueError):
     """A parameter was refused at startup; the message names it."""
+
+
+def ros2_control_topic(values: dict[str, Any]) -> str:
+    """The ``ros2_control_topic`` of a node whose ``command_interface`` is ros2_control;
+    raises :class:`ParameterError` naming it when it names no topic."""
+    topic = values["ros2_control_topic"]
+    if not isinstance(topic, str) or not topic.strip():
+        raise ParameterError(f"parameter 'ros2_control_topic' = {topic!r} must name a topic (command_interface "
+                             "ros2_control)")
+    return topic
 
 
 def defaults(params: Sequence[Param]) -> dict[str, Any]:

@@ -81,7 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="store the bag's MCAP chunks uncompressed (default: zstd-compressed)")
     parser.add_argument("--live", action="store_true",
                         help="serve a live view of the run (Foxglove WebSocket, ws://127.0.0.1:PORT) for "
-                             "Foxglove or Lichtblick; see the README's 'Watch it'")
+                             "Foxglove or Lichtblick; see docs/usage.md, 'Live view'")
     parser.add_argument("--live-port", type=int, default=8765, metavar="N", help="live view port (default 8765)")
     parser.add_argument("--live-rate-hz", type=float, default=50.0, metavar="HZ",
                         help="rate each topic is relayed at, decimated by stamp (default 50; 0: every message)")

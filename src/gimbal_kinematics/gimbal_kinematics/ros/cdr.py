@@ -163,6 +163,19 @@ def navsat_fix_layout(frame_id: str) -> Layout:
 
 
 @lru_cache(maxsize=None)
+def odometry_layout(frame_id: str, child_frame_id: str) -> Layout:
+    """nav_msgs/Odometry: values = sec, nanosec, position (3), orientation (4), pose
+    covariance (36), linear (3), angular (3), twist covariance (36)."""
+    def build(field, string):
+        field("i", 4)
+        field("I", 4)
+        string(frame_id)
+        string(child_frame_id)
+        field("d", 8, 3 + 4 + 36 + 3 + 3 + 36)
+    return _layout(build)
+
+
+@lru_cache(maxsize=None)
 def clock_layout() -> Layout:
     """rosgraph_msgs/Clock: values = sec, nanosec."""
     def build(field, string):

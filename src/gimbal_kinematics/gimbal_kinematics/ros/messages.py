@@ -29,7 +29,8 @@ from gimbal_kinematics.stamps import step_of_stamp, step_stamp_ns  # noqa: F401 
 from . import cdr
 # the serialized forms and the REP 145 constants (rclpy-free: the engine writes bags with them)
 from .wire import (  # noqa: F401  (re-exported)
-    NOT_PROVIDED, UNMEASURED_VARIANCE, ZERO_COV, clock_cdr, diag_cov, gimbal_gyro_covariance, imu_cdr, joint_state_cdr, navsat_fix_cdr, vector3_cdr,
+    NOT_PROVIDED, UNMEASURED_VARIANCE, ZERO_COV, clock_cdr, diag_cov, gimbal_gyro_covariance, imu_cdr, joint_state_cdr,
+    navsat_fix_cdr, odometry_cdr, vector3_cdr,
 )
 
 

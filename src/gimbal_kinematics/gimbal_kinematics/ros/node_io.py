@@ -38,8 +38,9 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.subscription import Subscription
 
 from gimbal_kinematics.params import TIMING_CHOICES, TIMING_PARAM  # noqa: F401  (re-exported)
+from gimbal_kinematics.params import ros2_control_topic
 
-from .qos import GRAPH_QOS
+from .qos import GRAPH_QOS, ROS2_CONTROL_QOS
 
 #: Input depth in free timing. ``qos_profile_sensor_data`` keeps 5 samples; 100 holds
 #: 0.1 s of a 1 kHz sensor (0.5 s at 200 Hz) while the node is busy, e.g. on a loaded
@@ -147,9 +148,10 @@ class NodeIo:
                 self.node.get_logger().warning(text)
         return watched
 
-    def advertise(self, msg_type: Any, topic: str, timing: str) -> Publisher:
-        """A publisher with :func:`output_qos` of ``timing``, overridable by parameters."""
-        profile = output_qos(timing)
+    def advertise(self, msg_type: Any, topic: str, timing: str, profile: QoSProfile | None = None) -> Publisher:
+        """A publisher with :func:`output_qos` of ``timing`` (or ``profile``, a contract's own, e.g.
+        ros2_control's), overridable by parameters."""
+        profile = output_qos(timing) if profile is None else profile
         name = self.node.resolve_topic_name(topic)
         holder: dict[str, QoSProfile] = {}
 
@@ -162,3 +164,12 @@ class NodeIo:
             qos_overriding_options=QoSOverridingOptions(policy_kinds=OVERRIDABLE_POLICIES))
         holder["qos"] = pub.qos_profile
         return pub
+
+    def advertise_command(self, msg_type: Any, graph_topic: str, values: dict) -> Publisher:
+        """A controller's effort-command publisher in the form its ``command_interface`` chooses
+        (:data:`gimbal_kinematics.params.COMMAND_INTERFACE_PARAM`): ``graph_topic`` with the
+        timing's QoS, or ``ros2_control_topic`` with :data:`.qos.ROS2_CONTROL_QOS`."""
+        if values["command_interface"] == "ros2_control":
+            return self.advertise(msg_type, ros2_control_topic(values), values["timing"], ROS2_CONTROL_QOS)
+        return self.advertise(msg_type, graph_topic, values["timing"])
+

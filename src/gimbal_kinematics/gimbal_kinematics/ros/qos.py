@@ -14,3 +14,15 @@ GRAPH_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
+
+#: The ros2_control command contract (:data:`gimbal_kinematics.params.COMMAND_INTERFACE_PARAM`):
+#: topic_based_ros2_control publishes its joint commands reliable and volatile
+#: (``rclcpp::QoS(1)``), so a subscription to them must be volatile (a transient-local reader
+#: refuses a volatile writer). Ours keep 100 samples on either side: the depth does not
+#: enter matching, and a lockstep reader (the recorder) that acknowledges late loses nothing.
+ROS2_CONTROL_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)

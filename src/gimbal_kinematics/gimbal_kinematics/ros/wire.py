@@ -20,6 +20,7 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 VECTOR3_STAMPED = "geometry_msgs/msg/Vector3Stamped"
 NAVSAT_FIX = "sensor_msgs/msg/NavSatFix"
 CLOCK = "rosgraph_msgs/msg/Clock"
+ODOMETRY = "nav_msgs/msg/Odometry"
 
 #: Covariance marking a field as not provided (REP 145).
 NOT_PROVIDED = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -86,6 +87,17 @@ def vector3_cdr(t_ns: int, frame_id: str, vec: Sequence[float]) -> bytes:
 def clock_cdr(t_ns: int) -> bytes:
     """:func:`.messages.clock_msg`, serialized."""
     return cdr.clock_layout().pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+
+
+def odometry_cdr(t_ns: int, frame_id: str, child_frame_id: str, position: Sequence[float],
+                 orientation: Sequence[float], pose_cov: Sequence[float], linear: Sequence[float],
+                 angular: Sequence[float], twist_cov: Sequence[float]) -> bytes:
+    """nav_msgs/Odometry, serialized: the pose (position, quaternion (x, y, z, w)) in
+    ``frame_id``, the twist in ``child_frame_id``, each with its 6×6 row-major covariance
+    (x, y, z, rotation about x, y, z)."""
+    return cdr.odometry_layout(frame_id, child_frame_id).pack(
+        t_ns // 1_000_000_000, t_ns % 1_000_000_000, *position, *orientation, *pose_cov, *linear, *angular,
+        *twist_cov)
 
 
 def navsat_fix_cdr(t_ns: int, frame_id: str, lat: float, lon: float, altitude_m: float,

@@ -101,9 +101,22 @@ def filter_params(result: Characterisation, target: str) -> dict[str, dict]:
     """Noise parameters of the filters that model this gyro: node -> parameters."""
     if not result.is_gyro:
         return {}
+    return gyro_filter_params(*filter_noise(result), target)
+
+
+def filter_noise(result: Characterisation) -> tuple[float, float, float]:
+    """(white density N [u·√s], bias walk PSD q_b [u²/s], correlation time τ [s]) a filter is
+    given for this sensor: each term the largest over the axes; τ is the fitted T, or the
+    longest τ of the fit when there is no Gauss-Markov term."""
     t = _terms(result, max)
-    q_b = bias_walk_psd(t["gauss_markov"], t["tc"], t["rrw"])
-    tau = t["tc"] or result.tau_max_s
+    return t["white"], bias_walk_psd(t["gauss_markov"], t["tc"], t["rrw"]), t["tc"] or result.tau_max_s
+
+
+def gyro_filter_params(white: float, q_b: float, tau: float, target: str) -> dict[str, dict]:
+    """The filters' noise parameters of a gyro of white noise density ``white`` [rad/√s] and
+    bias walk PSD ``q_b`` [rad²/s³], ``gyro_bias_ekf`` modelling the walk as a Gauss-Markov
+    bias of correlation time ``tau`` [s] (module docstring): node -> parameters."""
+    t = {"white": white}
     sigma_ekf = math.sqrt(q_b * tau / 2.0)
     channel = "gyro" if target == "gimbal_gyro" else "roll"
     return {
@@ -117,7 +130,7 @@ def filter_params(result: Characterisation, target: str) -> dict[str, dict]:
     }
 
 
-def _ros_params_yaml(header: list[str], nodes: dict[str, dict]) -> str:
+def ros_params_yaml(header: list[str], nodes: dict[str, dict]) -> str:
     lines = [f"# {h}" for h in header]
     for node, params in nodes.items():
         body = {node: {"ros__parameters": {k: float(v) for k, v in params.items()}}}
@@ -137,7 +150,7 @@ def sensor_models_yaml(result: Characterisation, target: str, source: str) -> st
     else:
         header += ["Only the white noise is a parameter of sensor_models' platform accelerometer; its bias",
                    "instability and random walk are in the JSON."]
-    return _ros_params_yaml(header, {"sensor_models": params})
+    return ros_params_yaml(header, {"sensor_models": params})
 
 
 def filters_yaml(result: Characterisation, target: str, source: str) -> str:
@@ -152,9 +165,9 @@ def filters_yaml(result: Characterisation, target: str, source: str) -> str:
               "gyro_bias_ekf uses 2 sigma^2 / tau = q_b; flexure_estimator's LGU bias difference walks with",
               "2 q_b (two such gyros); encoder_fusion_controller's drift density is sqrt(q_b).",
               "The prior bias sigmas (*_bias_sigma_deg_h) are not set: a turn-on bias is not in one record."]
-    return _ros_params_yaml(header, nodes)
+    return ros_params_yaml(header, nodes)
 
 
-def set_arguments(result: Characterisation, target: str) -> list[str]:
-    """The same ``sensor_models`` values as ``gimbal-run --set`` arguments."""
-    return [f"--set sensor_models.{k}={float(v)!r}" for k, v in sensor_models_params(result, target).items()]
+def set_arguments(params: dict) -> list[str]:
+    """``sensor_models`` parameter values as ``gimbal-run --set`` arguments."""
+    return [f"--set sensor_models.{k}={float(v)!r}" for k, v in params.items()]

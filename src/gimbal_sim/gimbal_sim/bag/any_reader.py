@@ -44,8 +44,8 @@ def _not_a_bag(path: Path) -> str | None:
         storage = sorted(p.name for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
         if storage:
             return (f"{path}: no metadata.yaml beside {', '.join(storage)}: the bag was not closed cleanly "
-                    f"(a recording that was killed); `gimbal-bag recover {path}` rewrites an MCAP bag's "
-                    f"complete chunks into a readable one")
+                    f"(a recording that was killed); `gimbal-bag recover {path}` rewrites every chunk of an MCAP bag "
+                    f"that checks into a readable one")
         return f"{path}: not a rosbag2 bag (a directory with metadata.yaml and .mcap or .db3 files)"
     if path.suffix not in (".mcap", ".db3"):
         return f"{path}: not a rosbag2 bag (give the bag directory, or its .mcap / .db3 file)"
@@ -68,7 +68,7 @@ def open_bag(path: str | Path) -> Iterator[AnyReader]:
         reader.open()
     except (AnyReaderError, ReaderError, struct.error, EOFError, OSError, KeyError, ValueError) as exc:
         raise AnyBagError(f"{path}: cannot read the bag ({type(exc).__name__}: {exc}); if a recording was "
-                          f"cut short, `gimbal-bag recover` rewrites an MCAP bag's complete chunks") from exc
+                          f"cut short, `gimbal-bag recover` rewrites every chunk of an MCAP bag that checks") from exc
     try:
         yield reader
     finally:

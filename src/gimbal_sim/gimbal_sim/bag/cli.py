@@ -14,7 +14,8 @@ from pathlib import Path
 from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary
 from gimbal_kinematics.ros.ros_domain import localhost_env
 
-from .reader import BagError, recover, scan
+from .checks import damage_warnings, metadata_mismatches, topic_lines
+from .reader import BagError, locate, recover, scan
 
 
 def _fmt_time(ns: int | None) -> str:
@@ -26,24 +27,20 @@ def _fmt_time(ns: int | None) -> str:
 
 
 def _compression(contents) -> str:
-    """The MCAP chunk compressions of a closed bag (from its summary), or sqlite3's answer."""
+    """The MCAP chunk compressions met while reading, or sqlite3's answer."""
     if contents.storage != "mcap":
         return "none (sqlite3 rows)"
-    from mcap.reader import make_reader
+    return ", ".join(sorted(c or "none" for c in contents.compression)) or "none"
 
-    kinds = set()
-    for path in contents.files:
-        try:
-            with open(path, "rb") as f:
-                summary = make_reader(f).get_summary()
-        except Exception:  # noqa: BLE001 - a truncated file has no summary: say so, do not fail
-            return "unknown (no summary: bag not closed cleanly)"
-        kinds |= {c.compression or "none" for c in (summary.chunk_indexes if summary else [])}
-    return ", ".join(sorted(kinds)) or "none"
+
+def _warn(lines: list[str]) -> None:
+    for line in lines:
+        print(line, file=sys.stderr)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    contents = scan(Path(args.bag))
+    contents = scan(Path(args.bag), merge=args.merge)
+    mismatches = metadata_mismatches(locate(Path(args.bag), args.merge).metadata, contents)
     info = {
         "bag": str(args.bag), "file": contents.mcap_path.name,
         "files": [f.name for f in contents.files], "storage": contents.storage,
@@ -53,29 +50,51 @@ def cmd_info(args: argparse.Namespace) -> int:
         "start": contents.start_ns, "end": contents.end_ns,
         "duration_s": None if contents.start_ns is None else (contents.end_ns - contents.start_ns) * 1e-9,
         "topics": {t.name: {"type": t.type_name, "count": t.count} for t in contents.topics.values()},
+        "damage": [d.line() for d in contents.damage],
+        "lost": {t: {"count": v.count, "first": v.first_ns, "last": v.last_ns} for t, v in contents.lost.items()},
+        "unreadable_topics": contents.unreadable, "metadata_mismatches": mismatches,
     }
+    _warn(damage_warnings(contents))
     if args.json:
         print(json.dumps(info, indent=2))
     else:
-        print(f"Bag:        {info['bag']} ({', '.join(info['files'])})")
-        print(f"Storage:    {contents.storage}, compression: {info['compression']}")
-        state = "yes" if contents.closed_cleanly else f"NO ({contents.error or 'no metadata.yaml'})"
-        print(f"Closed cleanly: {state}")
-        print(f"Messages:   {contents.message_count}" + ("" if contents.closed_cleanly else " (readable part)"))
-        print(f"Start:      {_fmt_time(contents.start_ns)}")
-        print(f"End:        {_fmt_time(contents.end_ns)}")
-        print(f"Duration:   {'-' if contents.start_ns is None else _fmt_time(contents.end_ns - contents.start_ns)}")
-        print("Topics:")
-        width = max((len(t) for t in info["topics"]), default=0)
-        for name, t in sorted(info["topics"].items()):
-            print(f"  {name:<{width}}  {t['count']:>9}  {t['type']}")
-    return 0 if contents.closed_cleanly else 1
+        _print_info(args, contents, info, mismatches)
+    return 0 if contents.closed_cleanly and not mismatches and not contents.unreadable else 1
+
+
+def _print_info(args: argparse.Namespace, contents, info: dict, mismatches: list[str]) -> None:
+    print(f"Bag:        {info['bag']} ({', '.join(info['files'])})")
+    print(f"Storage:    {contents.storage}, compression: {info['compression']}")
+    state = "yes" if contents.closed_cleanly else f"NO ({contents.error or 'no metadata.yaml'})"
+    print(f"Closed cleanly: {state}")
+    print(f"Messages:   {contents.message_count}" + ("" if contents.closed_cleanly else " (readable part)"))
+    print(f"Start:      {_fmt_time(contents.start_ns)}")
+    print(f"End:        {_fmt_time(contents.end_ns)}")
+    print(f"Duration:   {'-' if contents.start_ns is None else _fmt_time(contents.end_ns - contents.start_ns)}")
+    print("Topics:")
+    width = max((len(t) for t in info["topics"]), default=0)
+    for name, t in sorted(info["topics"].items()):
+        print(f"  {name:<{width}}  {t['count']:>9}  {t['type']}")
+    if contents.damage or contents.unreadable:
+        print(f"Damaged:    {len(contents.damage)} part(s) skipped; per topic, what was read and what was lost:")
+        print("\n".join(topic_lines(contents)))
+        print(f"            `gimbal-bag recover {args.bag}` writes what was read to a new, valid bag")
+    if mismatches:
+        print(f"metadata.yaml does not match the files ({len(mismatches)}):")
+        print("\n".join(f"  {m}" for m in mismatches))
+        if contents.damage:
+            print("  (the damaged parts above may hold the messages the metadata counts and the files no longer give)")
 
 
 def cmd_recover(args: argparse.Namespace) -> int:
-    out, contents = recover(Path(args.bag), args.out)
-    print(f"recovered {contents.message_count} messages ({len(contents.topics)} topics) from every complete chunk "
-          f"of {args.bag} into {out}" + (f"; the original stopped: {contents.error}" if contents.error else ""))
+    out, contents = recover(Path(args.bag), args.out, merge=args.merge)
+    _warn(damage_warnings(contents))
+    lost = sum(v.count for v in contents.lost.values())
+    print(f"recovered {contents.message_count} messages ({len(contents.topics)} topics) of {args.bag} into {out}: "
+          f"every chunk that checks" + (f"; {len(contents.damage)} damaged part(s) skipped, {lost} messages known "
+                                        f"lost" if contents.damage else "; nothing was damaged"))
+    print("per topic (time in s after the bag's first stamp):")
+    print("\n".join(topic_lines(contents)))
     return 0
 
 
@@ -96,7 +115,8 @@ def cmd_play(args: argparse.Namespace) -> int:
                           wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace,
                           wait_timeout_s=args.wait_timeout,
                           qos_overrides=load_qos_overrides(args.qos_profile_overrides_path),
-                          live_port=args.live_port if args.live else 0, live_rate_hz=args.live_rate_hz)
+                          live_port=args.live_port if args.live else 0, live_rate_hz=args.live_rate_hz,
+                          merge=args.merge)
     localhost_env()
     rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
     player = None
@@ -118,6 +138,10 @@ def cmd_play(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
 
 
+MERGE_HELP = ("a folder of several .mcap files and no metadata.yaml: read them all as one bag, in name order "
+              "(refused without it: they may be separate bags)")
+
+
 def _positive(text: str) -> float:
     value = float(text)
     if not value > 0:
@@ -134,6 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
                                        "bag was closed cleanly")
     info.add_argument("bag", help="bag directory (or its .mcap / .db3 file)")
     info.add_argument("--json", action="store_true", help="print JSON")
+    info.add_argument("--merge", action="store_true", help=MERGE_HELP)
     info.set_defaults(func=cmd_info)
     play = sub.add_parser("play", help="publish the bag's messages with the QoS they were recorded with")
     play.add_argument("bag", help="bag directory (or its .mcap / .db3 file)")
@@ -141,6 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--clock", type=_positive, nargs="?", const=40.0, default=None, metavar="RATE_HZ",
                       help="publish /clock from bag time, every 1/RATE_HZ s of bag time (default 40 Hz, "
                            "as rosbag2)")
+    play.add_argument("--merge", action="store_true", help=MERGE_HELP)
     play.add_argument("--topics", nargs="+", help="only these topics")
     play.add_argument("--exclude-topics", nargs="+", default=[], metavar="TOPIC", help="all topics but these")
     play.add_argument("--remap", nargs="+", default=[], metavar="OLD:=NEW", help="rename topics")
@@ -165,9 +191,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="give up (exit 1) when --wait-for-subscribers / --pace readers do not come, or a paced "
                            "reader reports no progress, for S seconds (default 30)")
     play.set_defaults(func=cmd_play)
-    rec = sub.add_parser("recover", help="write every complete chunk of a damaged bag to a new bag beside it")
+    rec = sub.add_parser("recover", help="write every chunk that checks of a damaged or cut bag to a new bag beside "
+                                         "it; say per topic what was kept and what was lost, and when")
     rec.add_argument("bag", help="bag directory")
     rec.add_argument("--out", type=Path, help="new bag directory (default <bag>_recovered)")
+    rec.add_argument("--merge", action="store_true", help=MERGE_HELP)
     rec.set_defaults(func=cmd_recover)
     return parser
 

@@ -13,21 +13,23 @@ records for the same seed. Two levels:
   |b|, floor)``; ints, strings and stamps must still be equal. The largest deviation per
   topic is reported.
 
-The bags are read with the ``mcap`` library directly (not our reader), so a bug in our
-reader cannot hide a difference.
+Both bags are read as every command reads them (:mod:`.reader`): every file of a split bag
+in ``metadata.yaml``'s order, every chunk CRC-checked. Each topic is then one of: the same,
+different (with the first differing message and its log time), or unreadable on a side
+(a damaged chunk held some of its messages, or the damage does not say which topics it
+cost, or the topic's channel cannot be typed): an unreadable topic is never called the same.
+Within a topic, messages are compared in log-time order (stable), so a split copy written
+by another tool compares equal to its original.
 """
 from __future__ import annotations
 
 import math
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
 
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
-
-from .reader import BagError, find_mcap
+from .checks import damage_warnings
+from .reader import BagContents, read_messages
 from .schemas import message_class
 
 
@@ -45,15 +47,17 @@ class TopicDiff:
     max_abs: float = 0.0       # largest |a − b| over the float fields of differing payloads
     max_rel: float = 0.0       # largest |a − b| / max(|a|, |b|, floor)
     within_tolerance: bool = True
+    unreadable: str = ""       # why some of the topic cannot be read on a side ("" when it all can)
 
     @property
     def comparable(self) -> bool:
-        return self.count_a == self.count_b and self.stamps_equal
+        return self.count_a == self.count_b and self.stamps_equal and not self.unreadable
 
 
 @dataclass
 class BagDiff:
     topics: dict[str, TopicDiff] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)   # each damaged part of either bag, in words
 
     @property
     def byte_identical(self) -> bool:
@@ -72,8 +76,10 @@ class BagDiff:
         width = max((len(t) for t in self.topics), default=0)
         out = []
         for name, t in sorted(self.topics.items()):
-            if t.count_a != t.count_b:
-                verdict = f"COUNTS DIFFER ({t.count_a} vs {t.count_b})"
+            if t.unreadable:
+                verdict = f"UNREADABLE: {t.unreadable}"
+            elif t.count_a != t.count_b:
+                verdict = f"COUNTS DIFFER ({t.count_a} vs {t.count_b}; first difference at {t.first_difference})"
             elif not t.stamps_equal:
                 verdict = f"STAMPS DIFFER: {t.first_difference}"
             elif t.byte_identical:
@@ -87,21 +93,39 @@ class BagDiff:
         return out
 
 
-def _raw(bag: Path) -> tuple[dict[str, list[tuple[int, int, bytes]]], dict[str, str]]:
-    """Per topic, (log time, publish time, payload) in file order; and topic -> type name."""
-    mcap_path, _ = find_mcap(Path(bag))
-    out: dict[str, list[tuple[int, int, bytes]]] = {}
-    types: dict[str, str] = {}
-    with open(mcap_path, "rb") as f:
-        try:
-            for schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
-                out.setdefault(channel.topic, []).append((message.log_time, message.publish_time, message.data))
-                if schema is not None:
-                    types[channel.topic] = schema.name
-        except (McapError, EOFError, KeyError, ValueError, struct.error) as exc:
-            raise BagError(f"{mcap_path}: a damaged bag, not compared ({type(exc).__name__}: {exc}); "
-                           f"`gimbal-bag recover` keeps its complete chunks") from None
-    return out, types
+Raw = dict[str, list[tuple[int, int, bytes]]]
+
+
+def _raw(bag: Path) -> tuple[Raw, dict[str, str], BagContents]:
+    """Per topic, (log time, publish time, payload) in log-time order; topic -> type; what was read."""
+    messages, contents = read_messages(Path(bag))
+    out: Raw = {}
+    for m in messages:
+        out.setdefault(m.topic, []).append((m.log_time_ns, m.publish_time_ns, m.data))
+    for series in out.values():
+        series.sort(key=lambda x: x[0])
+    return out, {name: t.type_name for name, t in contents.topics.items()}, contents
+
+
+def _unreadable(contents: BagContents, side: str) -> dict[str, str]:
+    """topic -> why it cannot be compared on this side; "*" for every topic of the bag."""
+    out = {topic: f"{side}: {why}" for topic, why in contents.unreadable.items()}
+    for topic, lost in contents.lost.items():
+        out[topic] = f"{side}: {lost.count} of its messages are in a damaged chunk"
+    unknown = [d for d in contents.damage if not d.lost and not d.summary]
+    if unknown:
+        out["*"] = f"{side}: {unknown[0].line()}; which topics it cost is unknown"
+    return out
+
+
+def _first_difference(ma: list, mb: list) -> str:
+    """Where two topics' series first differ (index and log time), for counts that differ."""
+    for i, (x, y) in enumerate(zip(ma, mb)):
+        if x != y:
+            return f"message {i}, log time {x[0] * 1e-9:.9f} s"
+    i = min(len(ma), len(mb))
+    extra = (ma if len(ma) > i else mb)[i]
+    return f"message {i}, log time {extra[0] * 1e-9:.9f} s (only in {'A' if len(ma) > i else 'B'})"
 
 
 def _decode(data: bytes, type_name: str) -> Any:
@@ -135,44 +159,63 @@ def _same(a: Any, b: Any) -> bool:
 def compare_bags(bag_a: Path, bag_b: Path, rel_tol: float = 0.0, abs_floor: float = 1e-12) -> BagDiff:
     """Compare every topic of two bags (module docstring). ``abs_floor`` keeps values near
     zero from inflating the relative deviation."""
-    (a, types), (b, _) = _raw(bag_a), _raw(bag_b)
-    diff = BagDiff()
-    for topic in sorted(set(a) | set(b)):
+    (a, types, contents_a), (b, types_b, contents_b) = _raw(bag_a), _raw(bag_b)
+    types = {**types_b, **types}
+    bad = {**_unreadable(contents_b, f"B ({bag_b})"), **_unreadable(contents_a, f"A ({bag_a})")}
+    diff = BagDiff(warnings=list(dict.fromkeys(
+        [f"A: {w}" for w in damage_warnings(contents_a)] + [f"B: {w}" for w in damage_warnings(contents_b)])))
+    for topic in sorted(set(a) | set(b) | set(contents_a.topics) | set(contents_b.topics) | set(bad) - {"*"}):
         ma, mb = a.get(topic, []), b.get(topic, [])
-        t = diff.topics[topic] = TopicDiff(topic, len(ma), len(mb))
-        differing = []
-        for i, (x, y) in enumerate(zip(ma, mb)):
-            if x[0] != y[0] or x[1] != y[1]:
-                if t.stamps_equal:
-                    t.first_difference = f"message {i}: times {x[:2]} vs {y[:2]}"
-                t.stamps_equal = False
-            if x[2] != y[2]:
-                if t.byte_identical and t.stamps_equal:
-                    t.first_difference = f"message {i}"
-                t.byte_identical = False
-                differing.append(i)
-        if differing:
-            for i in differing:
-                la = list(_leaves(_decode(ma[i][2], types[topic])))
-                lb = list(_leaves(_decode(mb[i][2], types[topic])))
-                if [p for p, _ in la] != [p for p, _ in lb]:
-                    t.values_equal = t.within_tolerance = False
-                    t.first_difference = f"message {i}: different fields or array lengths"
-                    continue
-                for (path, va), (_, vb) in zip(la, lb):
-                    if _same(va, vb):
-                        continue
-                    if t.values_equal:
-                        t.first_difference = f"message {i} {path}"
-                    t.values_equal = False
-                    if isinstance(va, float) and isinstance(vb, float):
-                        dev = abs(va - vb)
-                        rel = dev / max(abs(va), abs(vb), abs_floor)
-                        t.max_abs = max(t.max_abs, dev)
-                        t.max_rel = max(t.max_rel, rel)
-                        if not rel <= rel_tol:  # also NaN against a number
-                            t.within_tolerance = False
-                    else:
-                        t.within_tolerance = False
-                        t.first_difference = f"message {i} {path}: {va!r} vs {vb!r}"
+        t = diff.topics[topic] = TopicDiff(topic, len(ma), len(mb), unreadable=bad.get(topic) or bad.get("*", ""))
+        if t.unreadable:
+            continue
+        if len(ma) != len(mb):
+            t.first_difference = _first_difference(ma, mb)
+        _compare_topic(t, ma, mb, types[topic], rel_tol, abs_floor)
     return diff
+
+
+def _compare_topic(t: TopicDiff, ma: list, mb: list, type_name: str, rel_tol: float, abs_floor: float) -> None:
+    """Fill ``t`` from the two series of one topic: stamps, bytes, then decoded values."""
+    differing = []
+    for i, (x, y) in enumerate(zip(ma, mb)):
+        if x[0] != y[0] or x[1] != y[1]:
+            if t.stamps_equal and len(ma) == len(mb):
+                t.first_difference = f"message {i}: times {x[:2]} vs {y[:2]} (log time {x[0] * 1e-9:.9f} s)"
+            t.stamps_equal = False
+        if x[2] != y[2]:
+            if t.byte_identical and t.stamps_equal and len(ma) == len(mb):
+                t.first_difference = f"message {i}, log time {x[0] * 1e-9:.9f} s"
+            t.byte_identical = False
+            differing.append(i)
+    _compare_values(t, ma, mb, differing, type_name, rel_tol, abs_floor)
+
+
+def _compare_values(t: TopicDiff, ma: list, mb: list, differing: list[int], type_name: str, rel_tol: float,
+                    abs_floor: float) -> None:
+    """Decode the payloads that differ in bytes and compare their fields (floats to the bit,
+    or within ``rel_tol``)."""
+    for i in differing:
+        la = list(_leaves(_decode(ma[i][2], type_name)))
+        lb = list(_leaves(_decode(mb[i][2], type_name)))
+        stamp = f"message {i} (log time {ma[i][0] * 1e-9:.9f} s)"
+        if [p for p, _ in la] != [p for p, _ in lb]:
+            t.values_equal = t.within_tolerance = False
+            t.first_difference = f"{stamp}: different fields or array lengths"
+            continue
+        for (path, va), (_, vb) in zip(la, lb):
+            if _same(va, vb):
+                continue
+            if t.values_equal:
+                t.first_difference = f"{stamp} {path}"
+            t.values_equal = False
+            if isinstance(va, float) and isinstance(vb, float):
+                dev = abs(va - vb)
+                rel = dev / max(abs(va), abs(vb), abs_floor)
+                t.max_abs = max(t.max_abs, dev)
+                t.max_rel = max(t.max_rel, rel)
+                if not rel <= rel_tol:  # also NaN against a number
+                    t.within_tolerance = False
+            else:
+                t.within_tolerance = False
+                t.first_difference = f"{stamp} {path}: {va!r} vs {vb!r}"

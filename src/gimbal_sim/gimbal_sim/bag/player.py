@@ -43,6 +43,7 @@ from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 
 from .qos_yaml import qos_from_dict
+from .checks import damage_warnings
 from .reader import BagContents, BagError, RawMessage, read_messages
 from .live import LiveGuard, LivePortError, LiveRelay
 from .live_scene import scene_config
@@ -129,6 +130,7 @@ class PlayOptions:
     qos_overrides: dict[str, dict] = field(default_factory=dict)
     live_port: int = 0                # > 0: also relay the played messages to a live view on this port
     live_rate_hz: float = 50.0        # the live view's rate per topic (0: every message)
+    merge: bool = False               # several .mcap files without metadata.yaml: read as one bag
 
     def __post_init__(self) -> None:
         if not self.rate >= 0.0:
@@ -189,7 +191,7 @@ class BagPlayer(Node):
         wanted = set(options.topics) if options.topics else None
         if wanted is not None:
             wanted -= set(options.exclude_topics)
-        messages, contents = read_messages(Path(bag_dir), wanted)
+        messages, contents = read_messages(Path(bag_dir), wanted, merge=options.merge)
         if contents.message_count == 0:
             raise BagError(f"{bag_dir}: nothing to play: " + (f"no message can be read ({contents.error})"
                                                              if contents.error else "the bag holds no messages"))
@@ -201,8 +203,10 @@ class BagPlayer(Node):
             if missing:
                 raise BagError(f"{option}: topics not in the bag: {sorted(missing)}; it has {sorted(contents.topics)}")
         self.contents: BagContents = contents
+        for line in damage_warnings(contents):
+            self.get_logger().warning(line.removeprefix("warning: "))
         if contents.error:
-            self.get_logger().warning(f"bag not closed cleanly ({contents.error}); playing its complete part")
+            self.get_logger().warning(f"bag not closed cleanly ({contents.error}); playing every part that checks")
         start = (contents.start_ns or 0) + int(round(options.start_offset_s * 1e9))
         stop = None if options.playback_duration_s < 0 else start + int(round(options.playback_duration_s * 1e9))
         excluded = set(options.exclude_topics)

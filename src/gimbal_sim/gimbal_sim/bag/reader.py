@@ -1,12 +1,15 @@
-"""Read any rosbag2 bag, including truncated ones, and recover what a crash left.
+"""Read any rosbag2 bag, including truncated or damaged ones, and recover what is left.
 
 Two storages, as rosbag2 writes them:
 
 * MCAP (ours, ``ros2 bag record``'s, ``rosbags``'s, any writer of the ``ros2`` profile;
-  chunks uncompressed, zstd or lz4; one file or a split bag's several). Each file is
-  streamed record by record (``mcap.stream_reader``) rather than through its summary, so a
-  file cut short by a SIGKILL still yields every complete chunk; the first incomplete or
-  corrupt record ends the stream and is reported.
+  chunks uncompressed, zstd or lz4; one file or a split bag's several, in the order
+  ``metadata.yaml`` gives). Each file is walked record by record (:mod:`.mcap_walk`) rather
+  than through its summary: every chunk is CRC-checked, a damaged chunk or a cut record is
+  reported as :class:`~.mcap_walk.Damage` and skipped, and every chunk after it that checks
+  is still read. A file cut short by a SIGKILL or a full disk yields every complete chunk.
+  A channel without a schema (``schema_id`` 0, which MCAP allows) is typed from
+  ``metadata.yaml`` when it names the topic, else that topic alone is refused by name.
 * sqlite3 (``.db3``, the rosbag2 default before Iron): read through ``rosbags``
   (:mod:`.any_reader`), never by a parser of ours. A sqlite3 bag commits each row, so a
   killed recording loses no stored message but leaves no ``metadata.yaml``: rosbags then
@@ -22,10 +25,8 @@ from pathlib import Path
 from typing import Iterator
 
 import yaml
-from mcap.exceptions import McapError
-from mcap.records import Channel, Footer, Message, Schema
-from mcap.stream_reader import StreamReader
 
+from .mcap_walk import Damage, FileWalk, Lost, walk
 from .writer import BagWriter, TopicRecord
 
 
@@ -58,10 +59,16 @@ class BagContents:
     metadata_required: bool = True   # False for a lone .mcap file: its footer and summary index it
     files: list[Path] = field(default_factory=list)
     compression: set[str] = field(default_factory=set)   # chunk compressions met ("" = none)
+    damage: list[Damage] = field(default_factory=list)   # every part of a file that could not be read
+    lost: dict[str, Lost] = field(default_factory=dict)  # topic -> messages its damaged chunks held
+    unreadable: dict[str, str] = field(default_factory=dict)   # topic -> why none of it can be read
+    refused: dict[str, int] = field(default_factory=dict)      # topic -> its messages skipped for that
+    spans: dict[str, list[int]] = field(default_factory=dict)  # topic -> [first, last] log time read
 
     @property
     def closed_cleanly(self) -> bool:
-        return self.complete and (self.has_metadata or not self.metadata_required) and self.error is None
+        return self.complete and (self.has_metadata or not self.metadata_required) and self.error is None \
+            and not self.damage
 
     @property
     def message_count(self) -> int:
@@ -69,6 +76,11 @@ class BagContents:
 
     def _count(self, topic: str, t_ns: int) -> None:
         self.topics[topic].count += 1
+        span = self.spans.get(topic)
+        if span is None:
+            self.spans[topic] = [t_ns, t_ns]
+        else:
+            span[0], span[1] = min(span[0], t_ns), max(span[1], t_ns)
         self.start_ns = t_ns if self.start_ns is None else min(self.start_ns, t_ns)
         self.end_ns = t_ns if self.end_ns is None else max(self.end_ns, t_ns)
 
@@ -82,11 +94,13 @@ class BagFiles:
     files: list[Path]
     has_metadata: bool
     metadata_required: bool = True
+    metadata: dict | None = None     # metadata.yaml's rosbag2_bagfile_information, when read
 
 
-def locate(path: Path) -> BagFiles:
+def locate(path: Path, merge: bool = False) -> BagFiles:
     """The storage files of the bag at ``path`` (a bag directory, or one .mcap/.db3 file);
-    raises :class:`BagError` saying why it is not a readable bag."""
+    raises :class:`BagError` saying why it is not a readable bag. Several .mcap files without
+    a ``metadata.yaml`` to order them are refused unless ``merge`` (then: in name order)."""
     path = Path(path)
     if not path.exists():
         raise BagError(f"{path}: no such file or directory")
@@ -111,8 +125,12 @@ def locate(path: Path) -> BagFiles:
         if not files or missing:
             raise BagError(f"{path}: metadata names {[f.name for f in files]}, of which {missing or 'none'} "
                            f"do not exist")
-        return BagFiles(path, storage, files, True)
+        return BagFiles(path, storage, files, True, metadata=info)
     mcaps, db3s = sorted(path.glob("*.mcap")), sorted(path.glob("*.db3"))
+    if len(mcaps) > 1 and not db3s and not merge:
+        raise BagError(f"{path}: {len(mcaps)} .mcap files ({', '.join(p.name for p in mcaps)}) and no metadata.yaml "
+                       f"to say whether they are one split bag or several bags; give one file, or --merge to read "
+                       f"them all as one bag in name order")
     if mcaps and not db3s:
         return BagFiles(path, "mcap", mcaps, False)
     if db3s and not mcaps:
@@ -135,39 +153,87 @@ def _type_name(schema_name: str) -> str:
     return f"{pkg.split('/')[0]}/msg/{name}"
 
 
-def _stream_mcap(contents: BagContents, topics: set[str] | None) -> Iterator[RawMessage]:
+def _metadata_types(found: BagFiles) -> dict[str, str]:
+    """topic -> type that ``metadata.yaml`` states (types a channel without a schema)."""
+    out = {}
+    for entry in (found.metadata or {}).get("topics_with_message_count") or []:
+        try:
+            out[entry["topic_metadata"]["name"]] = entry["topic_metadata"]["type"]
+        except (KeyError, TypeError):
+            continue
+    return out
+
+
+def _channel_type(walk_: FileWalk, channel, meta_types: dict[str, str]) -> str | None:
+    """``pkg/msg/Name`` of a channel: from its schema, else from the metadata; None when neither says."""
+    schema = walk_.schema(channel.schema_id) if channel.schema_id else None
+    if schema is not None:
+        return _type_name(schema.name)
+    return meta_types.get(channel.topic)
+
+
+def _refuse_channel(contents: BagContents, walk_: FileWalk, channel) -> None:
+    why = ("its channel has no schema (schema_id 0) and metadata.yaml names no type for it" if not channel.schema_id
+           else f"its schema {channel.schema_id} is in no readable Schema record")
+    contents.unreadable.setdefault(channel.topic, f"{walk_.path.name}: {why}; its messages are skipped")
+
+
+def _stream_mcap(contents: BagContents, topics: set[str] | None, meta_types: dict[str, str]) -> Iterator[RawMessage]:
     """Messages of every MCAP file of the bag in file order; sets ``contents`` as it goes."""
     contents.complete = True
     for path in contents.files:
-        schemas: dict[int, str] = {}
-        channels: dict[int, TopicRecord] = {}
-        complete = False
-        with open(path, "rb") as f:
-            try:
-                for record in StreamReader(f, validate_crcs=True).records:
-                    if isinstance(record, Schema):
-                        schemas[record.id] = record.name
-                    elif isinstance(record, Channel):
-                        qos = yaml.safe_load(record.metadata.get("offered_qos_profiles", "") or "[]") or []
-                        type_name = _type_name(schemas[record.schema_id])
-                        channels[record.id] = TopicRecord(record.topic, type_name, qos, record.id)
-                        contents.topics.setdefault(record.topic, TopicRecord(record.topic, type_name, qos, record.id))
-                    elif isinstance(record, Message):
-                        channel = channels[record.channel_id]
-                        contents._count(channel.name, record.log_time)
-                        if topics is None or channel.name in topics:
-                            yield RawMessage(channel.name, channel.type_name, record.data, record.log_time,
-                                             record.publish_time)
-                    elif isinstance(record, Footer):
-                        complete = True
-            except (McapError, EOFError, KeyError, ValueError, OSError) as exc:
-                contents.error = f"{path.name}: " + (f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
-                contents.complete = False
-                return
-        if not complete:
-            contents.error = f"{path.name} ends before the MCAP footer (truncated)"
-            contents.complete = False
-            return
+        file_walk = FileWalk(path)
+        known: dict[int, TopicRecord | None] = {}
+        for channel, message in walk(path, file_walk):
+            record = known.get(channel.id, False)
+            if record is False:
+                type_name = _channel_type(file_walk, channel, meta_types)
+                record = known[channel.id] = None if type_name is None else TopicRecord(
+                    channel.topic, type_name, _qos(channel), channel.id)
+                if record is None:
+                    _refuse_channel(contents, file_walk, channel)
+                else:
+                    contents.topics.setdefault(channel.topic, TopicRecord(channel.topic, type_name, record.qos_profiles,
+                                                                          channel.id))
+            if record is None:
+                contents.refused[channel.topic] = contents.refused.get(channel.topic, 0) + 1
+                continue
+            contents._count(channel.topic, message.log_time)
+            if topics is None or channel.topic in topics:
+                yield RawMessage(channel.topic, record.type_name, message.data, message.log_time,
+                                 message.publish_time)
+        _account(contents, file_walk)
+
+
+def _qos(channel) -> list[dict]:
+    try:
+        return yaml.safe_load(channel.metadata.get("offered_qos_profiles", "") or "[]") or []
+    except yaml.YAMLError:
+        return []
+
+
+def _account(contents: BagContents, file_walk: FileWalk) -> None:
+    """Fold one file's damage into the bag's: losses per topic, the first problem, completeness."""
+    contents.compression |= file_walk.compressions
+    for damage in file_walk.damage:
+        contents.damage.append(damage)
+        for channel_id, lost in damage.lost.items():
+            channel = file_walk.channel(channel_id)
+            topic = channel.topic if channel is not None else f"(channel {channel_id})"
+            if topic in contents.lost:
+                contents.lost[topic].add(lost.count, lost.first_ns, lost.last_ns)
+            else:
+                contents.lost[topic] = Lost(lost.count, lost.first_ns, lost.last_ns)
+    if not file_walk.footer:
+        contents.complete = False
+        if not file_walk.damage:
+            file_walk.damage.append(Damage(file_walk.path.name, file_walk.path.stat().st_size,
+                                           "the file ends before the MCAP footer (truncated)"))
+            contents.damage.append(file_walk.damage[-1])
+    if contents.damage and contents.error is None:
+        first = contents.damage[0]
+        more = len(contents.damage) - 1
+        contents.error = first.line() + (f"; and {more} more damaged part{'s' * (more > 1)}" if more else "")
 
 
 def _stream_rosbags(contents: BagContents, topics: set[str] | None) -> Iterator[RawMessage]:
@@ -214,22 +280,22 @@ def _rosbags_qos(connection) -> list[dict]:
     return out
 
 
-def stream(directory: Path, topics: set[str] | None = None) -> Iterator[RawMessage | BagContents]:
+def stream(directory: Path, topics: set[str] | None = None, merge: bool = False) -> Iterator[RawMessage | BagContents]:
     """Yield every readable message (MCAP: in file order; sqlite3: in log-time order), then
     the :class:`BagContents` summary. ``topics``: only these (None: all; counts cover all)."""
-    found = locate(directory)
+    found = locate(directory, merge)
     contents = BagContents(found.directory, found.files[0], found.has_metadata, storage=found.storage,
                            files=list(found.files), metadata_required=found.metadata_required)
     if found.storage == "mcap":
-        yield from _stream_mcap(contents, topics)
+        yield from _stream_mcap(contents, topics, _metadata_types(found))
     else:
         yield from _stream_rosbags(contents, topics)
     yield contents
 
 
-def scan(directory: Path) -> BagContents:
+def scan(directory: Path, merge: bool = False) -> BagContents:
     """Counts, span and state of a bag without keeping its messages."""
-    for item in stream(directory, topics=set()):
+    for item in stream(directory, topics=set(), merge=merge):
         if isinstance(item, BagContents):
             return item
     raise AssertionError("stream always ends with its summary")
@@ -247,17 +313,18 @@ def require_messages(directory: Path) -> None:
                        + (f" ({first.error})" if first.error else " (it holds none)"))
 
 
-def read_messages(directory: Path, topics: set[str] | None = None) -> tuple[list[RawMessage], BagContents]:
+def read_messages(directory: Path, topics: set[str] | None = None,
+                  merge: bool = False) -> tuple[list[RawMessage], BagContents]:
     messages: list[RawMessage] = []
-    for item in stream(directory, topics):
+    for item in stream(directory, topics, merge):
         if isinstance(item, BagContents):
             return messages, item
         messages.append(item)
     raise AssertionError("stream always ends with its summary")
 
 
-def recover(directory: Path, output: Path | None = None) -> tuple[Path, BagContents]:
-    """Write every complete chunk's messages of a (truncated) bag to a new, valid bag.
+def recover(directory: Path, output: Path | None = None, merge: bool = False) -> tuple[Path, BagContents]:
+    """Write every message of a (truncated or damaged) bag's chunks that check to a new, valid bag.
 
     The new bag goes beside the old one (``<dir>_recovered``) unless ``output`` is given;
     an existing output is refused. Returns the new directory and what was read.
@@ -266,12 +333,12 @@ def recover(directory: Path, output: Path | None = None) -> tuple[Path, BagConte
     output = Path(output) if output is not None else directory.with_name(directory.name + "_recovered")
     if output.exists():
         raise BagError(f"{output} already exists; not overwriting it")
-    if locate(directory).storage != "mcap":
+    if locate(directory, merge).storage != "mcap":
         raise BagError(f"{directory}: a sqlite3 bag has no chunks to recover: sqlite commits every message, "
                        f"and a killed recording only lacks metadata.yaml, which `ros2 bag reindex` rebuilds")
-    messages, contents = read_messages(directory)
+    messages, contents = read_messages(directory, merge=merge)
     if not messages:
-        raise BagError(f"{directory}: nothing to recover: " + (f"no complete chunk can be read ({contents.error})"
+        raise BagError(f"{directory}: nothing to recover: " + (f"no chunk that checks can be read ({contents.error})"
                                                                if contents.error else "the bag holds no messages"))
     writer = BagWriter(output)
     for topic in contents.topics.values():

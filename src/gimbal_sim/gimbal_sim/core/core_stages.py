@@ -208,6 +208,7 @@ def geo_pointer_stage(values: dict[str, Any], name: str = "geo_pointer") -> Call
     rate = values["sim_rate_hz"]
     topic = values["operator_topic"]
     held = [(0.0, 0.0)]
+    aim: list = [None]  # the LOS of the step's pointer output (what ~/aim carries)
 
     def stage(bus: Bus) -> None:
         bus.geo_budget = None
@@ -218,12 +219,12 @@ def geo_pointer_stage(values: dict[str, Any], name: str = "geo_pointer") -> Call
         if bus.ekf.quat_nm is not None and bus.encoders is not None:
             q_nb = quat_canonical(quat_from_euler321(*bus.ins.euler))
             out = core.step(tuple(bus.ekf.quat_nm), quat_to_dcm(q_nb), bus.encoders.angles[0])
-            held[0] = out.command
+            held[0], aim[0] = out.command, tuple(out.aim_n)
             bus.geo_budget = (stamp, out.budget.total_rad, *out.budget.principal_sigmas_rad)
         bus.operator = (stamp, *held[0])
         if bus.record is not None:
             budget = None if bus.geo_budget is None else bus.geo_budget[1:]
-            bus.record(name, geo_pointer_messages(stamp, topic, held[0], budget))
+            bus.record(name, geo_pointer_messages(stamp, topic, held[0], budget, None if budget is None else aim[0]))
     return stage
 
 

@@ -8,8 +8,8 @@ The report and its page come from the bag, by the same report function as a grap
 the campaign's core runs).
 
 The engine steps in lockstep: a scenario with a node in ``realtime`` or ``free`` timing (whose
-data depend on the wall clock) is refused, as is one with a node it has no stage for
-(:func:`check_engine`).
+data depend on the wall clock) is refused, as are one whose plant takes ros2_control's command
+contract and one with a node it has no stage for (:func:`check_engine`).
 """
 from __future__ import annotations
 
@@ -38,6 +38,11 @@ def check_engine(scenario: Scenario) -> None:
     if clocked:
         raise NoCoreError(f"{', '.join(clocked)} in realtime or free timing: their data depend on the wall clock, "
                           f"which the engine does not have")
+    contract = sorted(n for n, spec in scenario.nodes.items()
+                      if spec["params"].get("command_interface", "graph") != "graph")
+    if contract:
+        raise NoCoreError(f"{', '.join(contract)} with command_interface ros2_control: that contract (a command "
+                          f"applied from the plant's next step, on another topic) is the graph's only")
     check_stages(node_values(scenario))
 
 

@@ -32,10 +32,12 @@ from typing import Callable
 
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_control.wire import platform_servo_messages
+from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_estimators.wire import navigator_messages
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 from gimbal_kinematics.stamps import step_stamp_ns
 
 from .core_stages import Bus, joint_sample
@@ -155,6 +157,8 @@ def platform_navigator_node_stage(values: dict, name: str = "platform_navigator"
         raise ValueError(f"parameter 'joint_topic' = {topic!r}: the engine reads the azimuth joint from "
                          f"/platform/resolvers or /truth/platform/joint_states")
     navigator = PlatformNavigator(PlatformNavigatorParams.from_values(values))
+    frames = (values["odom_frame_id"], values["odom_child_frame_id"])
+    odometry = NavigatorOdometry(OdometryModel.from_values(values, heading_known=True), UNMEASURED_VARIANCE)
     joint_name, max_age_ns, fix_every = values["azimuth_joint"], int(round(values["max_joint_age_s"] * 1e9)), \
         values["fix_every_samples"]
     joint: list = [None, None]  # (stamp ns, θ, rate) of the newest joint sample; the last command
@@ -176,7 +180,8 @@ def platform_navigator_node_stage(values: dict, name: str = "platform_navigator"
         if out is not None:
             joint[1] = out.command_rate_n
         bus.nav_command = joint[1]
+        fix = out if out is not None and (navigator.accepted - 1) % fix_every == 0 else None
+        odom = None if fix is None else (*frames, *odometry(fix))  # the node's odometry, at each fix
         if bus.record is not None:
-            fix = out if out is not None and (navigator.accepted - 1) % fix_every == 0 else None
-            bus.record(name, navigator_messages(bus.t_ns, fix, joint[1]))
+            bus.record(name, navigator_messages(bus.t_ns, fix, joint[1], odom))
     return stage

@@ -1,7 +1,7 @@
 """Paper 1's LOS rate loop alone, without ROS: vehicle, gyro and LosRateController on the core
 engine (:func:`..core_loop.run_stages`) with ideal encoders and INS.
 
-Used by the acceptance figure of issue 5 (LOS pointing error over 120 s, ideal gyro and
+Used by the acceptance figure (LOS pointing error over 120 s, ideal gyro and
 paper 1's gyro noise; docs/results/paper1.md) and by the tests at a shorter span.
 
 Measurements (:func:`..core_ideal.ideal_sensor_stage`): the gyro reads the truth's inertial

@@ -1,4 +1,4 @@
-"""Paper 4's error study (issue 25): the linear error model
+"""Paper 4's error study: the linear error model
 (:mod:`gimbal_estimators.free_gyro_error_model`, eq. 8–38) against seeded Monte Carlo through
 the simulated free-gyro sensor and the positioning core, one error source at a time and all
 together, plus the FDOP circle and a sailing ship::

@@ -1,4 +1,4 @@
-"""Slew acceptance (issue 24): paper 1's vehicle and sensors (scenario
+"""Slew acceptance: paper 1's vehicle and sensors (scenario
 ``sighting_land_vehicle``), the LOS held for ``hold_s`` (the EKF converges), then an
 operator's step command of ``az_rate_deg_s`` in azimuth (r) and ``el_rate_deg_s`` in
 elevation (q) for ``slew_s``, sent at ``command_rate_hz`` (a joystick's autorepeat) on the
@@ -178,7 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import argparse
 
     ap = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.slew",
-                                 description="Slew acceptance (issue 24) on paper 1's vehicle, no ROS: a step "
+                                 description="Slew acceptance on paper 1's vehicle, no ROS: a step "
                                              "command followed by the LOS rate loop, and the EKF's NEES while "
                                              "slewing, over seeds (a campaign).")
     ap.add_argument("--seeds", type=int, default=1, metavar="N", help="runs per variant (seeds 1..N)")

@@ -34,6 +34,10 @@ from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams
 from gimbal_kinematics.params import Param
 
+from ..mavlink import mavlink_gimbal_device_params, mavlink_gimbal_manager_params
+from ..mavlink.device_core import DeviceParams
+from ..mavlink.link import endpoint_values
+from ..mavlink.manager_core import ManagerParams
 from ..nodes import bag_recorder_params, operator_params, sensor_models_params, vehicle_dynamics_params
 from ..world.operator_model import OperatorModelParams
 from ..world.sensor_suite import SensorSuiteConfig
@@ -126,6 +130,16 @@ def _platform_navigator() -> type:
     return PlatformNavigatorNode
 
 
+def _mavlink_gimbal_device() -> type:
+    from ..mavlink.mavlink_gimbal_device_node import MavlinkGimbalDeviceNode
+    return MavlinkGimbalDeviceNode
+
+
+def _mavlink_gimbal_manager() -> type:
+    from ..mavlink.mavlink_gimbal_manager_node import MavlinkGimbalManagerNode
+    return MavlinkGimbalManagerNode
+
+
 def _node_type(package: str, params_module, load_class: Callable[[], type],
                *checks: Callable[[dict], object]) -> NodeType:
     def check(values: dict) -> None:
@@ -165,4 +179,8 @@ NODE_TYPES: dict[str, NodeType] = {
     "geo_pointer": _node_type("gimbal_control", geo_pointer_params, _geo_pointer, GeoPointerParams.from_values),
     "platform_navigator": _node_type("gimbal_estimators", platform_navigator_params, _platform_navigator,
                                      PlatformNavigatorParams.from_values),
+    "mavlink_gimbal_device": _node_type("gimbal_sim", mavlink_gimbal_device_params, _mavlink_gimbal_device,
+                                        DeviceParams.from_values, endpoint_values),
+    "mavlink_gimbal_manager": _node_type("gimbal_sim", mavlink_gimbal_manager_params, _mavlink_gimbal_manager,
+                                         ManagerParams.from_values, endpoint_values),
 }

@@ -10,7 +10,7 @@ from gimbal_kinematics.params import Param
 from ..world.operator_model import OperatorModelParams
 
 DESCRIPTION = (
-    "Simulated sight operator (issue 24): watches the true angle between the LOS (/truth/gimbal/imu) and an "
+    "Simulated sight operator: watches the true angle between the LOS (/truth/gimbal/imu) and an "
     "inertially fixed target (the LOS captured capture_s after the start); beyond tolerance_mrad it reacts after "
     "reaction_time_s and slews the LOS back at a rate proportional to the error (gain_1_s, at most "
     "peak_rate_deg_s) until settle_band_mrad. Publishes /operator/los_rate (sight frame, rad/s, y = q, z = r) "

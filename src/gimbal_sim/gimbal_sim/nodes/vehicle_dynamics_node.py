@@ -20,6 +20,15 @@ the wall clock):
   the newest one is held for the next step (a real plant applies the newest command it
   has), and that step is still counted late.
 
+Command interface (``command_interface``): ``graph`` (above: the stamp names the step) or
+``ros2_control``, the joint-command contract of ``topic_based_ros2_control``: a JointState of
+joint names and efforts on ``ros2_control_topic`` (reliable, volatile), stamped with the
+sender's clock, which names no step. Each such command is applied from the plant's next step
+on: in lockstep one command per step, in the order they arrive (the sender answers each
+truth step with one command, as a ros2_control read/update/write cycle does), so the same
+commands give the same run; in realtime timing the newest is held, as a motor driver holds
+its last setpoint. A command before step 0 is ignored (counted).
+
 Step 0 is published once every truth topic has at least ``wait_for_subscribers`` matched
 subscriptions (and, when controlled, the command topic a publisher).
 
@@ -34,6 +43,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections import deque
 
 from rclpy.node import Node
 from rclpy.task import Future
@@ -45,7 +55,8 @@ from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_io import input_qos
 from gimbal_kinematics.ros.node_main import run_node
-from gimbal_kinematics.ros.qos import GRAPH_QOS
+from gimbal_kinematics.ros.qos import GRAPH_QOS, ROS2_CONTROL_QOS
+from gimbal_kinematics.params import ros2_control_topic
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
@@ -99,11 +110,18 @@ class VehicleDynamicsNode(Node):
         self._pace_subs = [self.create_subscription(Clock, topic, lambda data, t=topic: self._on_progress(t, data),
                                                     GRAPH_QOS, raw=True) for topic in self._next_needed]
         self.sub_cmd = None
+        self.ros2_control = values["command_interface"] == "ros2_control"
+        command_topic = ros2_control_topic(values) if self.ros2_control else ""
+        self._queued: deque[tuple[float, ...] | None] = deque()  # ros2_control in lockstep: one per step
         if plant != "host_only" and (self.controlled or self.realtime):
-            topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
-            # realtime: the command comes from a free-timing controller (node_io's outputs are volatile)
-            qos = input_qos("free") if self.realtime else GRAPH_QOS
-            self.sub_cmd = self.create_subscription(JointState, topic, self._on_command, qos, raw=True)
+            if self.ros2_control:
+                topic, qos, on_command = command_topic, ROS2_CONTROL_QOS, self._on_ros2_control
+            else:
+                topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
+                # realtime: the command comes from a free-timing controller (node_io's outputs are volatile)
+                qos = input_qos("free") if self.realtime else GRAPH_QOS
+                on_command = self._on_command
+            self.sub_cmd = self.create_subscription(JointState, topic, on_command, qos, raw=True)
         self._needed = self._subscriber_counts(values["subscriber_counts"])
         # topic -> subscriptions the graph must show before step 0
         self._graph_needed = topic_counts(values["topic_subscriber_counts"], "topic_subscriber_counts")
@@ -173,6 +191,30 @@ class VehicleDynamicsNode(Node):
         if not self.realtime:
             self._advance()
 
+    def _on_ros2_control(self, data: bytes) -> None:
+        """A command in ros2_control's contract (module docstring): for the next step, whatever
+        its stamp; a bad one is counted and that step holds the last good command."""
+        try:
+            msg = m.joint_state_from_cdr(data)
+        except CdrError as exc:
+            self.rejected_commands += 1
+            self.get_logger().warning(f"malformed command ignored: {exc} ({self.rejected_commands} rejected)",
+                                      throttle_duration_sec=1.0)
+            return
+        if not self._started:
+            self.rejected_commands += 1
+            self.get_logger().warning(f"command before step 0: ignored ({self.rejected_commands} rejected)",
+                                      throttle_duration_sec=1.0)
+            return
+        values = self._command_values(msg)
+        if self.realtime:
+            if values is not None:
+                self._command = values
+            self._command_k = self.core.k
+            return
+        self._queued.append(values)
+        self._advance()
+
     def _on_progress(self, topic: str, data: bytes) -> None:
         step = m.step_of_stamp(m.clock_from_cdr(data), self.config.sim_rate_hz)
         self._next_needed[topic] = max(step, self._next_needed[topic] or 0)
@@ -212,8 +254,15 @@ class VehicleDynamicsNode(Node):
         """Take step k -> k+1 if its command is in and no reader would be outrun."""
         if self.core.finished or self._paced():
             return False
-        if self.controlled and not self.realtime and self._command_k != self.core.k:
-            return False
+        if self.controlled and not self.realtime:
+            if self.ros2_control:
+                if not self._queued:
+                    return False
+                values = self._queued.popleft()
+                if values is not None:
+                    self._command = values
+            elif self._command_k != self.core.k:
+                return False
         self.core.step(self._command)
         self._publish_truth(self.core.truth())
         if self.core.finished:

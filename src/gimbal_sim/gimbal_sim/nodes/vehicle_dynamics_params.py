@@ -5,7 +5,7 @@ the core's config is :meth:`..world.vehicle.VehicleConfig.from_values`.
 from __future__ import annotations
 
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params import COMMAND_INTERFACE_PARAM, ROS2_CONTROL_TOPIC_PARAM, Param
 
 from ..world.plant.motion_profiles import PROFILE_NAMES
 from ..world.vehicle import PLANTS
@@ -35,6 +35,8 @@ PARAMS = (
           "below 1 slows the wall clock down, giving a loaded machine headroom; stamps stay sim time)",
           0.01, 10.0),
     Param("controlled", False, "a controller commands the plant (lockstep waits for its command)"),
+    COMMAND_INTERFACE_PARAM,
+    ROS2_CONTROL_TOPIC_PARAM,
     Param("wait_for_subscribers", 1, "matched subscriptions each truth topic needs before step 0", 0, 1000),
     Param("subscriber_counts", [], "per-topic overrides of wait_for_subscribers, as 'topic=count' entries",
           array_type="string_array"),

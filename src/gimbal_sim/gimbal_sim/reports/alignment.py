@@ -41,7 +41,7 @@ ARCSEC = math.pi / (180.0 * 3600.0)
 ARCMIN = 60.0 * ARCSEC
 DEG_H = ARCSEC  # 1 °/h = 1″/s
 UG = 9.80665e-6
-#: issue 8 / paper 3 Table 2 accuracy: horizontal misalignment, azimuth, north drift
+#: paper 3 Table 2 accuracy: horizontal misalignment, azimuth, north drift
 LIMITS = {"tilt_arcsec": 3.0, "azimuth_arcmin": 1.5, "north_drift_deg_h": 0.006}
 
 NODE = "/platform_alignment"
@@ -179,7 +179,7 @@ def _figure(path: Path, title: str, runs: dict[str, dict]) -> None:
         limit_lines(ax, limit)
         ax.set_ylim(-8 * limit, 8 * limit)
         style(ax, label, legend_loc="upper right", fontsize=7, ncol=2)
-    save_stacked(fig, axes, path, title + " (dashed: issue 8 accuracy)", xlabel="alignment time [s]")
+    save_stacked(fig, axes, path, title + " (dashed: Table 2 accuracy)", xlabel="alignment time [s]")
 
 
 def alignment_report(bag_dir: Path, out: Path) -> dict:
@@ -232,7 +232,7 @@ def column_stats(cols: dict[str, Sequence[float]]) -> dict[str, dict[str, float]
 
 def alignment_campaign(runs: dict[str, Path], out: Path) -> dict:
     """Table 2 over seeded runs: per-run final errors, their mean and std (ddof = 1, as the
-    paper), RMS and max |·|, and the issue 8 acceptance (RMS over the runs under the limits)."""
+    paper), RMS and max |·|, and the Table 2 acceptance (RMS over the runs under the limits)."""
     series = {name: alignment_series(Path(bag)) for name, bag in runs.items()}
     per_run = {name: final_errors(s) for name, s in series.items()}
     cols = {

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 from pathlib import Path
 
@@ -17,7 +18,8 @@ import yaml
 
 from gimbal_kinematics.cli_boundary import cli_boundary, read_text
 
-from ..bag.reader import BagError, require_messages
+from ..bag.checks import damage_warnings
+from ..bag.reader import BagError, require_messages, scan
 from ..campaign.report import regenerate
 from ..page import write_comparison_page, write_run_page
 from . import COMPARISONS, REPORTS, comparison_function, report_function
@@ -63,11 +65,17 @@ def write_report(bag_dir: Path, name: str | None = None) -> tuple[Path, dict]:
     if name not in REPORTS:
         raise BagError(f"unknown report {name!r}; known: {', '.join(sorted(REPORTS))}")
     out = bag_dir / "report"
+    created = not out.exists()
     out.mkdir(exist_ok=True)
-    metrics = report_function(name)(bag_dir, out)
-    metrics["report"] = name
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float) + "\n")
-    write_run_page(bag_dir, out, metrics, run_paper_lookup(bag_dir / "scenario.yaml"))
+    try:
+        metrics = report_function(name)(bag_dir, out)
+        metrics["report"] = name
+        (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float) + "\n")
+        write_run_page(bag_dir, out, metrics, run_paper_lookup(bag_dir / "scenario.yaml"))
+    except BaseException:
+        if created:  # a report that failed leaves no folder that looks like one
+            shutil.rmtree(out, ignore_errors=True)
+        raise
     return out, metrics
 
 
@@ -116,6 +124,9 @@ def main(argv: list[str] | None = None) -> int:
     if not metrics.get("closed_cleanly", True):
         why = metrics.get("read_error") or "no metadata.yaml (the recording was not finalized)"
         print(f"warning: the bag was not closed cleanly: {why}", file=sys.stderr)
+        if metrics.get("read_error") and variants is None:  # each damaged part, as every bag command says it
+            for line in damage_warnings(scan(Path(args.bag))):
+                print(line, file=sys.stderr)
     return 0
 
 

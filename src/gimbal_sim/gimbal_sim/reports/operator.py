@@ -1,4 +1,4 @@
-"""The simulated operator's figures (scenario ``sighting_operator``, issue 24): how often a
+"""The simulated operator's figures (scenario ``sighting_operator``): how often a
 person at the sight must re-centre the target with the gyro-bias EKF off and on (paper 1,
 §1 and §6: without the filter "the biases should be corrected periodically by the user").
 
@@ -118,5 +118,5 @@ def sighting_operator_comparison(runs: dict[str, Path], out: Path) -> dict:
     widths = [max(len(str(r[i])) for r in rows) for i in range(len(rows[0]))]
     table = "\n".join("  ".join(str(c).rjust(w) if i else str(c).ljust(w) for i, (c, w) in
                                 enumerate(zip(r, widths))) for r in rows)
-    return {"cases": cases, "table": "Simulated operator's corrections (issue 24):\n" + table, "plots": [],
+    return {"cases": cases, "table": "Simulated operator's corrections:\n" + table, "plots": [],
             "runs": {k: str(v) for k, v in runs.items()}}

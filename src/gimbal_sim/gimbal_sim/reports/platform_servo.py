@@ -20,7 +20,7 @@ Figures (arc-seconds unless named otherwise):
 * level errors: Δθ_qm, Δθ_pm, Δθ_rm (sensed) and the truth tilts relative to their start;
 * torque current: the azimuth motor's armature current, truth torque / k_t (Table 1), in mA.
 
-Acceptance (issue 5): steady control error < 40″ (goal 20″), reversal transient < 240″
+Acceptance: steady control error < 40″ (goal 20″), reversal transient < 240″
 (goal 120″), both for the sensed and the truth error.
 """
 from __future__ import annotations

@@ -47,7 +47,7 @@ TERMS = {"arw_deg_rt_h": ("ins_gyro_arw_deg_rt_h", "arw_sigma"),
          "bias_instability_deg_h": ("ins_gyro_bi_deg_h", "bias_instability_sigma"),
          "bias_tau_s": ("ins_gyro_bi_tau_s", "bias_tau_sigma"),
          "rrw_deg_h_rt_h": ("ins_gyro_rrw_deg_h_rt_h", "rrw_sigma")}
-#: Acceptance of issue 18: ARW within 10 % on every seed; bias instability and RRW within 15 %
+#: Acceptance: ARW within 10 % on every seed; bias instability and RRW within 15 %
 #: as the mean over seeds and axes and 35 % on every seed; the correlation time within x2.
 BOUNDS = {"arw_deg_rt_h": (None, 0.10), "bias_instability_deg_h": (0.15, 0.35), "rrw_deg_h_rt_h": (0.15, 0.35),
           "bias_tau_s": (None, "x2")}

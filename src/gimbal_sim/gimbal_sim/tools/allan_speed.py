@@ -1,4 +1,4 @@
-"""Speed and memory of ``gimbal-allan`` on long bags (issue 18: a 2 h bag at 100 Hz, 720k
+"""Speed and memory of ``gimbal-allan`` on long bags (a 2 h bag at 100 Hz, 720k
 messages, in under 60 s; memory growing with the message count by no more than the sample
 arrays).
 

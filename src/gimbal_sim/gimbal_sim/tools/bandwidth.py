@@ -1,4 +1,4 @@
-"""Paper 1's loop bandwidth beside the default (issue 24): ``python -m gimbal_sim.tools.bandwidth``.
+"""Paper 1's loop bandwidth beside the default: ``python -m gimbal_sim.tools.bandwidth``.
 
 For each loop design, the headline scenario that runs it (``sighting_land_vehicle``: ω_n =
 25 Hz at 1 kHz; ``sighting_land_vehicle_100hz``: the paper's ω_n = 100 Hz, ξ = 0.8 at 4 kHz):

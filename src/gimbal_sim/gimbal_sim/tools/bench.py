@@ -455,9 +455,18 @@ def bench_compare(args: argparse.Namespace) -> int:
     except BagError as exc:
         print(f"gimbal-bench compare: {exc}", file=sys.stderr)
         return 2
+    for line in diff.warnings:
+        print(line, file=sys.stderr)
     print("\n".join(diff.lines()))
+    unreadable = sorted(t.topic for t in diff.topics.values() if t.unreadable)
     ok = diff.identical or (args.rel_tol > 0 and diff.within_tolerance)
-    print("same data" if diff.identical else ("within tolerance" if ok else "DIFFERENT data"))
+    if unreadable:
+        print(f"NOT COMPARABLE: a bag is damaged: {len(unreadable)} topic(s) cannot be read on a side "
+              f"({', '.join(unreadable)}); `gimbal-bag info` on each bag says where")
+        return 2   # a damaged bag is bad input, as for every command
+    else:
+        print("same data" if diff.identical else (f"within tolerance (--rel-tol {args.rel_tol:g})" if ok
+                                                  else "DIFFERENT data"))
     return 0 if ok else 1
 
 
@@ -534,7 +543,9 @@ def main(argv: list[str] | None = None) -> int:
                       help="quasi-static models, each by both methods (default random_walk_rate)")
     flex.add_argument("--turn", action="store_true", help="on the turning manoeuvre of ship_flexure_turn")
     flex.set_defaults(func=bench_flexure)
-    cmp_ = sub.add_parser("compare", help="do two bags hold the same data? (exit 0 yes, 1 no)")
+    cmp_ = sub.add_parser("compare", help="do two bags hold the same data? every file of each, every chunk "
+                                          "CRC-checked; per topic: same, different (where first) or unreadable "
+                                          "(exit 0 only when every topic is readable and the same, 1 otherwise)")
     cmp_.add_argument("a")
     cmp_.add_argument("b")
     cmp_.add_argument("--rel-tol", type=float, default=0.0,

@@ -1,0 +1,148 @@
+"""``mavlink_gimbal_device`` node: the simulated gimbal as a MAVLink Gimbal Protocol v2
+device (:mod:`.device_core`) on a UDP socket (:mod:`.link`).
+
+The graph side, in free timing (the shape of ``geo_pointer_node`` on the controllers'
+``FreeControl`` policy): it steps on each attitude estimate (``attitude_topic``, Imu with
+C(n,m)) with the newest encoder (``/gimbal/joint_states``) and gimbal gyro (``/gimbal/imu``)
+samples no older than ``max_input_age_s``, and publishes the core's LOS rate command on
+``operator_topic`` stamped like the estimate; with a stale encoder sample it publishes
+nothing, so the controller's operator dead-man stops the slew (a stale gyro only makes the
+reported rates unknown). ``/diagnostics`` carries the protocol
+counters every ``diagnostics_period_s`` of stamp time.
+
+The MAVLink side runs on the wall clock (steady timers): the socket is drained every
+10 ms, ``HEARTBEAT`` goes out at 1 Hz and ``GIMBAL_DEVICE_ATTITUDE_STATUS`` at
+``status_rate_hz``, to every address heard from and to ``peers``. Everything runs in the
+node's one executor thread, so the core needs no lock. ``timing: lockstep`` is refused: a
+ground station cannot wait for the step grid.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from sensor_msgs.msg import Imu, JointState
+
+from gimbal_kinematics.control_policy import ControlStep, FreeControl
+from gimbal_kinematics.frames import GIMBAL_FRAME
+from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.diagnostics import health_msg
+from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_main import run_node
+from gimbal_kinematics.ros.params import declare_and_read
+
+from .device_core import DeviceParams, GimbalDevice
+from .link import open_link
+from .mavlink_gimbal_device_params import DESCRIPTION, PARAMS
+
+POLL_PERIOD_S = 0.01
+HEARTBEAT_PERIOD_S = 1.0
+CLOCK_JUMP_S = 0.5
+NODE_COUNTERS = ("malformed_ros", "rejected_inputs", "no_command_steps")
+
+
+class MavlinkGimbalDeviceNode(Node):
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("mavlink_gimbal_device", **node_kwargs)
+        v = declare_and_read(self, PARAMS)
+        if v["timing"] != "free":
+            raise ValueError("parameter timing: free only (the MAVLink side runs against the wall clock)")
+        try:
+            self.core = GimbalDevice(DeviceParams.from_values(v))
+        except ParameterError as exc:
+            raise ValueError(str(exc)) from exc
+        self.link = open_link(v, self.get_logger())
+        self.counts = dict.fromkeys(NODE_COUNTERS, 0)
+        self.io = NodeIo(self)
+        self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], "free")
+        self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", "free")
+        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self._next_diag_ns = 0
+        age = v["max_input_age_s"]
+        # the gyro only feeds the reported rates: stale, they are reported unknown (NaN)
+        self.policy = FreeControl("att", {"enc": age, "gyro": age}, 1.0 / v["ins_rate_hz"], CLOCK_JUMP_S,
+                                  held=("gyro",), warn=self._log)
+        inputs = (("att", Imu, v["attitude_topic"], m.imu_from_cdr),
+                  ("enc", JointState, "/gimbal/joint_states", m.joint_state_from_cdr),
+                  ("gyro", Imu, "/gimbal/imu", m.imu_from_cdr))
+        for kind, msg_type, topic, decode in inputs:
+            self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), "free",
+                              raw=True)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(POLL_PERIOD_S, self._poll, clock=steady)
+        self.create_timer(HEARTBEAT_PERIOD_S, lambda: self.link.send(self.core.heartbeat()), clock=steady)
+        self.create_timer(1.0 / v["status_rate_hz"], self._send_status, clock=steady)
+
+    def _log(self, text: str) -> None:
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    def _poll(self) -> None:
+        for datagram in self.link.receive():
+            for reply in self.core.receive(datagram, time.monotonic()):
+                self.link.send(reply)
+
+    def _send_status(self) -> None:
+        status = self.core.status()
+        if status is not None:
+            self.link.send(status)
+
+    def _on_input(self, kind: str, data: bytes, decode) -> None:
+        try:
+            msg = decode(data)
+        except CdrError as exc:
+            self.counts["malformed_ros"] += 1
+            self._log(f"malformed {kind} message ignored: {exc}")
+            return
+        for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
+            self._step(step)
+
+    def _validate(self, kind: str, msg):
+        """What a step takes from an input (a quaternion, the sight's azimuth relative to the
+        vehicle, body rates); None (counted) when it cannot be used."""
+        if kind == "enc":
+            readings = m.encoder_readings(msg)
+            value = None if readings is None else (readings[0][0] + readings[0][1],)
+        elif kind == "att":
+            value = msg.orientation if m.field_provided(msg.orientation_covariance) else None
+        else:
+            value = msg.angular_velocity if m.field_provided(msg.angular_velocity_covariance) else None
+        if value is None or not all(map(math.isfinite, value)):
+            self.counts["rejected_inputs"] += 1
+            self._log(f"{kind} sample without a usable value; not used")
+            return None
+        return value
+
+    def _step(self, step: ControlStep) -> None:
+        att, enc, gyro = (step.inputs.get(k) for k in ("att", "enc", "gyro"))
+        if "att" not in step.inputs or step.zero_command or att is None or enc is None:
+            self.counts["no_command_steps"] += 1
+            return
+        q, r = self.core.step(step.stamp_ns * 1e-9, att.value, enc.value[0], time.monotonic(),
+                              None if gyro is None else gyro.value)
+        self.pub_cmd.publish(m.vector3_cdr(step.stamp_ns, GIMBAL_FRAME, (0.0, q, r)))
+        if step.stamp_ns >= self._next_diag_ns:
+            self._next_diag_ns = step.stamp_ns + self.diag_period_ns
+            fields = {**self.policy.counters(), **self.counts, **self.core.counts,
+                      "status_flags": self.core.status_flags(), "send_errors": self.link.send_errors,
+                      "incompatible_qos": self.io.incompatible_qos}
+            self.pub_diag.publish(health_msg(step.stamp_ns, self.get_name(), fields,
+                                             warn=("malformed", "rejected_setpoints", "earth_lock_drops")))
+
+    def destroy_node(self) -> None:
+        self.link.close()
+        super().destroy_node()
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(MavlinkGimbalDeviceNode, "mavlink_gimbal_device", DESCRIPTION, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
