@@ -32,8 +32,10 @@ from typing import Any, Callable
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.stamps import step_stamp_ns
 
-from .core_stages import Bus, encoder_fusion_stage, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, \
-    sensor_stage, truth_stage
+from .core_stages import (
+    Bus, encoder_fusion_stage, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage,
+    sensor_stage, truth_stage,
+)
 from .estimator_stages import flexure_estimator_stage, free_gyro_positioning_stage, platform_alignment_stage
 from .platform_stages import platform_navigator_node_stage, platform_servo_node_stage
 from ..graph.plan import plan_nodes, process_stats

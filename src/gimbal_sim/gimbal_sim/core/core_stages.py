@@ -51,9 +51,9 @@ class Bus:
     geo-pointer's budget when it stepped (``geo_budget``: (stamp [ns], 1σ RMS, semi-axes)
     [rad], what its ~/budget carries; None otherwise)."""
 
-    __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias", "ekf", "operator",
-                 "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation", "geo_budget", "lgu",
-                 "free_gyro")
+    __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias",
+                 "ekf", "operator", "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation",
+                 "geo_budget", "lgu", "free_gyro")
 
     def __init__(self) -> None:
         self.k, self.t, self.t_ns = 0, 0.0, 0
