@@ -91,10 +91,12 @@ EXIT_TIMEOUT_S = 60.0    # and to stop after the SIGINT
 
 
 def interrupt_when(cmd: list[str], env: dict, out_dir: Path, ready: Callable[[], bool],
-                   wait: Callable[[], None] = lambda: time.sleep(0.05)) -> tuple[int, str]:
-    """Start ``cmd``; SIGINT it once ``ready()`` (polled between ``wait()`` calls, never a
-    wall-clock guess); its exit code and its stdout then stderr (kept in files in ``out_dir``:
-    no pipe can fill up while we wait). The process is killed if it outlives this."""
+                   wait: Callable[[], None] = lambda: time.sleep(0.05),
+                   sig: int = signal.SIGINT) -> tuple[int, str]:
+    """Start ``cmd``; send it ``sig`` (SIGINT: Ctrl-C) once ``ready()`` (polled between
+    ``wait()`` calls, never a wall-clock guess); its exit code and its stdout then stderr
+    (kept in files in ``out_dir``: no pipe can fill up while we wait). The process is killed
+    if it outlives this."""
     out, err = out_dir / "interrupted.stdout", out_dir / "interrupted.stderr"
     with open(out, "w") as fo, open(err, "w") as fe:
         proc = subprocess.Popen(cmd, env=env, stdout=fo, stderr=fe, text=True)
@@ -104,7 +106,7 @@ def interrupt_when(cmd: list[str], env: dict, out_dir: Path, ready: Callable[[],
             wait()
         assert proc.poll() is None, f"{cmd[0]} ended before it was interrupted:\n{out.read_text()}{err.read_text()}"
         assert ready(), f"{cmd[0]} did not get to work within {START_TIMEOUT_S:g} s:\n{err.read_text()}"
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(sig)
         proc.wait(timeout=EXIT_TIMEOUT_S)
     finally:
         if proc.poll() is None:
@@ -135,7 +137,8 @@ def graph_names(domain_id: int):
         rclpy.try_shutdown(context=ctx)
 
 
-def interrupt_when_on_graph(cmd: list[str], env: dict, name: str, out_dir: Path) -> tuple[int, str]:
+def interrupt_when_on_graph(cmd: list[str], env: dict, name: str, out_dir: Path,
+                            sig: int = signal.SIGINT) -> tuple[int, str]:
     """:func:`interrupt_when` its node ``name`` is on the graph."""
     with graph_names(int(env["ROS_DOMAIN_ID"])) as names:
-        return interrupt_when(cmd, env, out_dir, lambda: name in names(), wait=lambda: time.sleep(0.1))
+        return interrupt_when(cmd, env, out_dir, lambda: name in names(), wait=lambda: time.sleep(0.1), sig=sig)

@@ -7,6 +7,8 @@ if it were fused:
 
 * a NaN in a field (gimbal gyro q, INS orientation, an encoder angle);
 * a gyro stamp going backwards, a duplicate gyro stamp (with a different payload);
+* one gyro stamp 3 years ahead and one stamp of zero: single outliers, counted
+  (``gyro_outliers``), never a clock jump: no reset, no samples counted as dropped;
 * an Imu whose covariance[0] is -1 where a value is needed: the gimbal gyro's angular
   velocity without y/z variances, the INS orientation;
 * a JointState without the gimbal's joint names.
@@ -40,17 +42,19 @@ BAD_GYRO_NAN, BAD_INS_NAN, BAD_ENC_NAN = 60, 64, 70
 BAD_GYRO_NO_RATES, BAD_INS_NO_ATTITUDE, BAD_ENC_NAMES = 80, 84, 90
 # after step DUP_AFTER: a gyro at the same stamp and one BACK_STEPS earlier, both absurd
 DUP_AFTER, BACK_STEPS = 100, 3
+# after step k: one absurd gyro stamped at that time [ns] (3 years ahead, zero): an outlier
+OUTLIERS = {110: EPOCH_NS + 3 * 365 * 86_400 * 10**9, 120: 0}
 
 
 def _stamp(msg, t_ns: int) -> None:
     msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t_ns, 10**9)
 
 
-def _gyro(k: int, q: float = None, cov=None):
+def _gyro(k: int, q: float = None, cov=None, stamp_ns: int | None = None):
     from sensor_msgs.msg import Imu
 
     msg = Imu()
-    _stamp(msg, EPOCH_NS + k * GYRO_PERIOD_NS)
+    _stamp(msg, EPOCH_NS + k * GYRO_PERIOD_NS if stamp_ns is None else stamp_ns)
     msg.header.frame_id = "gimbal_inner_frd"
     msg.orientation_covariance[0] = -1.0
     msg.linear_acceleration_covariance[0] = -1.0
@@ -111,6 +115,8 @@ def _schedule():
         if k == DUP_AFTER:
             out.append(("gyro", _gyro(k, q=1.0), False))                 # duplicate stamp
             out.append(("gyro", _gyro(k - BACK_STEPS, q=1.0), False))    # stamp going backwards
+        if k in OUTLIERS:
+            out.append(("gyro", _gyro(k, q=1.0, stamp_ns=OUTLIERS[k]), False))
     return out
 
 
@@ -191,10 +197,14 @@ def test_bad_inputs_are_counted_on_diagnostics_and_never_fused(ros_domain_env):
     assert int(d["rejected_nonfinite"]) == 3, d           # gyro q, INS orientation, encoder angle
     assert int(d["gyro_duplicates"]) == 1 and int(d["gyro_out_of_order"]) == 1, d
     assert int(d["gyro_not_provided"]) == 1, d
+    # the outlier stamps: counted as such, no clock jump, no reset, nothing counted as dropped
+    assert int(d["gyro_outliers"]) == len(OUTLIERS), d
+    assert int(d["gyro_clock_jumps"]) == 0 and int(d["resets"]) == 0 and node_counters.resets == 0, d
+    assert int(d["gyro_dropped"]) == 0, d
     assert int(d["ins_attitude_not_provided"]) == 1, d
     assert int(d["joint_names_missing"]) == 1, d
     # (the last /diagnostics goes out with the last INS update, before the last few gyro samples)
-    assert N_STEPS - INS_EVERY + 2 <= int(d["gyro_received"]) <= N_STEPS + 2, d
+    assert N_STEPS - INS_EVERY + 2 + len(OUTLIERS) <= int(d["gyro_received"]) <= N_STEPS + 2 + len(OUTLIERS), d
     assert int(d["ins_rates_not_provided"]) == 0 and int(d["incompatible_qos"]) == 0, d
     assert d["nis_verdict"] in ("insufficient", "consistent", "conservative", "overconfident"), d
 

@@ -6,6 +6,7 @@ import pytest
 from gimbal_kinematics.input_policy import (
     FreeOrder, FreeSamples, LockstepGroups, LockstepOrder, LockstepSamples, order_policy, sample_policy,
 )
+from gimbal_kinematics.stamps import JUMP_SAMPLES
 
 EPOCH = 1_800_000_000_000_000_000
 MS = 1_000_000
@@ -38,8 +39,14 @@ def test_free_order_drops_late_restarts_on_a_jump_and_runs_from_the_first_stamp(
     assert p.add("enc", EPOCH + 2 * MS, "e2") == []
     (e, g) = p.add("gyro", EPOCH + 2 * MS, "g2")
     assert g.t == pytest.approx(0.002) and p.progress(e) is None and p.progress(g) == EPOCH + 2 * MS
-    assert p.add("gyro", EPOCH - 10**9, "loop") == [] and len(resets) == 1 and p.t0_ns == EPOCH - 10**9
+    # a bag loop: believed once JUMP_SAMPLES stamps in a row agree on it, then a restart at its first
+    loop = [EPOCH - 10**9 + 2 * i * MS for i in range(JUMP_SAMPLES)]
+    for i, stamp in enumerate(loop[:-1]):
+        assert p.add("gyro", stamp, f"loop{i}") == [] and resets == []
+    p.add("gyro", loop[-1], "loop-last")
+    assert len(resets) == 1 and p.t0_ns == EPOCH - 10**9
     assert p.counters()["gyro_clock_jumps"] == 1 and p.stamp_of(0.5) == EPOCH - 10**9 + 500 * MS
+    assert p.counters()["gyro_outliers"] == 0 and p.counters()["gyro_dropped"] == 0
 
 
 def test_lockstep_samples_report_one_sample_after_the_older_stream():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from gimbal_estimators.nis import NisWindow
-from gimbal_kinematics.stamps import Stamp as Verdict
+from gimbal_kinematics.stamps import JUMP_SAMPLES, Stamp as Verdict
 from gimbal_kinematics.stream_stats import StreamStats
 
 
@@ -95,5 +95,7 @@ def test_stream_stats_counts_an_epoch_stream_with_jitter_drops_duplicates_and_la
     # uniform(0.7, 1.3) intervals: RMS deviation 0.3/sqrt(3)
     assert st.jitter_rms == pytest.approx(0.3 / math.sqrt(3), rel=0.1)
     assert st.received == len(events)
-    # a bag loop: far back is a jump, accepted
-    assert st.offer(t0) is Verdict.JUMPED_BACK and st.jumps == 1
+    # a bag loop: far back is a jump, accepted once JUMP_SAMPLES stamps in a row agree on it
+    loop = [t0 + i * period for i in range(JUMP_SAMPLES)]
+    assert [st.offer(s) for s in loop] == [Verdict.HELD] * (JUMP_SAMPLES - 1) + [Verdict.JUMPED_BACK]
+    assert st.jumps == 1 and st.released == tuple(loop[:-1]) and st.outliers == 0

@@ -167,7 +167,7 @@ class EncoderFusionControllerNode(Node):
     def health(self, step: ControlStep):
         """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
         core = self.core
-        fields = {**self.policy.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
+        fields = {**self.policy.counters(), **self.counts, **self.io.counters(),
                   "held_commands": core.held_commands, "core_rejected_nonfinite": core.rejected_nonfinite,
                   "core_rejected_out_of_order": core.rejected_out_of_order, "resets": len(core.reset_reasons)}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)

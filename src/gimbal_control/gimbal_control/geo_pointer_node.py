@@ -223,7 +223,7 @@ class GeoPointerNode(Node):
         if step.stamp_ns >= self._next_diag_ns:
             self._next_diag_ns = step.stamp_ns + self.diag_period_ns
             fields = {**self.policy.counters(), **self.counts, **self.core.counts,
-                      "incompatible_qos": self.io.incompatible_qos}
+                      **self.io.counters()}
             self.pub_diag.publish(health_msg(step.stamp_ns, self.get_name(), fields))
 
 

@@ -238,7 +238,7 @@ class LosRateControllerNode(Node):
     def health(self, step: ControlStep):
         """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
         core = self.core
-        fields = {**self.policy.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
+        fields = {**self.policy.counters(), **self.counts, **self.io.counters(),
                   "saturated_steps": core.saturated_steps, "singular_steps": core.singular_steps,
                   "rejected_bias": core.rejected_bias, "resets": core.resets,
                   **{f"operator_{k}": n for k, n in self.operator.counters().items()}}

@@ -180,7 +180,7 @@ class PlatformServoNode(Node):
     def health(self, step: ControlStep):
         """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
         core = self.core
-        fields = {**self.policy.counters(), **self.counts, "incompatible_qos": self.io.incompatible_qos,
+        fields = {**self.policy.counters(), **self.counts, **self.io.counters(),
                   "core_rejected_nonfinite": core.rejected_nonfinite, "held_commands": core.held_commands,
                   "rejected_gimbal_lock": core.rejected_gimbal_lock}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)

@@ -84,7 +84,8 @@ _REJECTIONS = {"nonfinite": "non-finite value", "malformed": "malformed (rates n
                "out_of_order": "stamp not after the last fused pair", "duplicates": "duplicate stamp"}
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
-                 "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos")
+                 "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos",
+                 "wrong_type")
 
 
 class FlexureEstimatorNode(Node):
@@ -175,7 +176,7 @@ class FlexureEstimatorNode(Node):
             self.pubs[topic[2:]].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
-            fields, nis_verdict = self.policy.report(self.core.counters, {"incompatible_qos": self.io.incompatible_qos},
+            fields, nis_verdict = self.policy.report(self.core.counters, self.io.counters(),
                                                      self.nis.as_dict(), self.nis.verdict().verdict)
             self.pub_diag.publish(health_msg(t_ns, self.get_name(), fields, ready=self.core.initialized,
                                              not_ready="no estimate yet", warn=WARN_COUNTERS, nis_verdict=nis_verdict))

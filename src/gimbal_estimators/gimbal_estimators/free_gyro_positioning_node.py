@@ -193,9 +193,9 @@ class FreeGyroPositioningNode(Node):
                                            "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
                                            "rejected_stale_level", "fixes", "degenerate", "resets")}
         fields, _ = self.policy.report(core, {"rejected_stamps": self.policy.rejected, "node_resets": self.resets,
-                                              "incompatible_qos": self.io.incompatible_qos}, {}, None)
+                                              **self.io.counters()}, {}, None)
         warn = ("rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
-                "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos")
+                "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos", "wrong_type")
         return health_msg(t_ns, self.get_name(), fields, ready=c.fixes > 0, not_ready="no estimate yet", warn=warn)
 
     # -- outputs ---------------------------------------------------------------------------

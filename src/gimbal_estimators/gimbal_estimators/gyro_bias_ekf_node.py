@@ -35,7 +35,9 @@ Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
   jitter are counted (:class:`gimbal_kinematics.stream_stats.StreamStats`); ±30 % jitter
   needs nothing else, since every step uses its own dt. A stream whose stamps jump back by
   more than ``clock_jump_s`` (a bag loop, a restarted driver) resets the filter and
-  re-bases the relative time. ``~/progress`` still reports the newest gyro stamp
+  re-bases the relative time, once 3 stamps in a row agree on the jump; a single stamp that
+  far off (3 years ahead, zero) is an outlier, dropped and counted (``<stream>_outliers``),
+  and the filter goes on (:mod:`gimbal_kinematics.stamps`). ``~/progress`` still reports the newest gyro stamp
   processed (absolute), every ``progress_every_steps`` gyro samples, for a pacing player.
 
 The node chooses its input policy once, in its constructor
@@ -101,7 +103,7 @@ from .wire import ekf_messages
 STREAMS = ("encoders", "ins", "gyro")
 #: Filter counters whose increase is a WARN on /diagnostics (with the input-check counters).
 WARN_COUNTERS = ("resets", "realignments", "gated", "rejected_nonfinite", "rejected_out_of_order",
-                 *m.BAD_INPUT_KEYS, "incompatible_qos")
+                 *m.BAD_INPUT_KEYS, "incompatible_qos", "wrong_type")
 
 
 class GyroBiasEkfNode(Node):
@@ -228,7 +230,7 @@ class GyroBiasEkfNode(Node):
     def health(self, t_ns: int) -> DiagnosticArray:
         """The /diagnostics message: what the input policy reports (module docstring)."""
         fields, nis_verdict = self.policy.report(self.core.counters._asdict(),
-                                                 {**self.bad, "incompatible_qos": self.io.incompatible_qos},
+                                                 {**self.bad, **self.io.counters()},
                                                  self.nis.as_dict(), self.nis.verdict().verdict)
         return health_msg(t_ns, self.get_name(), fields, ready=self.core.aligned, warn=WARN_COUNTERS,
                           nis_verdict=nis_verdict)

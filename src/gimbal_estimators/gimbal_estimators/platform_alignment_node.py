@@ -87,7 +87,8 @@ CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_out_of_order", "rej
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
                  "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
-                 "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos")
+                 "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos",
+                 "wrong_type")
 
 
 class PlatformAlignmentNode(Node):
@@ -156,7 +157,7 @@ class PlatformAlignmentNode(Node):
         c = self.core.counters
         core = {k: getattr(c, k) for k in CORE_COUNTERS}
         core.update(updates=self.core.n_updates, rejected_joints=self.rejected_joints)
-        fields, nis_verdict = self.policy.report(core, {"incompatible_qos": self.io.incompatible_qos},
+        fields, nis_verdict = self.policy.report(core, self.io.counters(),
                                                  self.nis.as_dict(), self.nis.verdict().verdict)
         return health_msg(t_ns, self.get_name(), fields, ready=self.core.n_updates > 0, not_ready="no estimate yet",
                           warn=WARN_COUNTERS, nis_verdict=nis_verdict)

@@ -72,7 +72,7 @@ SERVO_MODULATION_TOPIC = "/platform_servo/modulation"
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_resolver", "resets",
                  "rejected_joints", "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order",
-                 "incompatible_qos")
+                 "incompatible_qos", "wrong_type")
 
 
 class PlatformNavigatorNode(Node):
@@ -190,7 +190,7 @@ class PlatformNavigatorNode(Node):
     def health(self, t_ns: int):
         """/diagnostics: what the input policy reports (module docstring)."""
         core = {**self.core.counters(), "rejected_joints": self.rejected_joints}
-        fields, _ = self.policy.report(core, {"incompatible_qos": self.io.incompatible_qos}, {}, None)
+        fields, _ = self.policy.report(core, self.io.counters(), {}, None)
         return health_msg(t_ns, self.get_name(), fields, ready=self.core.accepted > 0, not_ready="not navigating yet",
                           warn=WARN_COUNTERS)
 

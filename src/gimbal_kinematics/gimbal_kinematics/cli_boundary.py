@@ -6,6 +6,11 @@ path, a file that is not text, YAML that does not parse, a value out of range, a
 bag) exits 2; a run that started and failed exits 1; Ctrl-C exits 130 after saying what it
 stopped. Anything else is a bug: its traceback is kept, followed by a line saying so.
 
+Stop signals (:data:`STOP_SIGNALS`): SIGTERM (what systemd, Docker, Kubernetes and Slurm send)
+and SIGHUP (a closed terminal) stop a command exactly as Ctrl-C does, through the same code
+(a ``KeyboardInterrupt``, or the flag of a command that stops in order, :func:`on_stop_signals`);
+the exit code is then 128 + the signal's number (130, 143, 129), as a shell reports it.
+
 Project errors that mean "bad input" derive from :class:`ValueError` (``ScenarioError``,
 ``BagError``, ``CampaignError``, ``ParameterError``, ...), as do ``UnicodeDecodeError`` and
 the errors of ``float('x')``; a failed run raises :class:`RunFailed` or another
@@ -18,7 +23,9 @@ import functools
 import math
 import os
 import select
+import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 from typing import Callable
@@ -26,9 +33,16 @@ from typing import Callable
 #: exit code -> meaning, the table docs/usage.md shows
 EXIT_CODES = {0: "success", 1: "the run or check failed (a node died or stalled, a bag differs, a run of the "
                                 "campaign failed, a wait timed out)",
-              2: "bad usage or input, refused before anything was changed", 130: "interrupted (Ctrl-C / SIGINT)"}
+              2: "bad usage or input, refused before anything was changed", 130: "interrupted (Ctrl-C / SIGINT)",
+              129: "stopped by SIGHUP (a closed terminal), as by Ctrl-C",
+              141: "the output pipe was closed by its reader (e.g. | head): ended quietly",
+              143: "stopped by SIGTERM (systemd, Docker, Kubernetes, Slurm, kill), as by Ctrl-C"}
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 EXIT_CLOSED_PIPE = 141   # 128 + SIGPIPE: what a shell reports for a reader that stopped reading
+#: The signals that stop a command as Ctrl-C does (module docstring).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: The stop signals this process received, in order (the exit code follows the last).
+_received: list[int] = []
 BUG_LINE = ("{prog}: this is a bug, not a problem with your input: please report it, with the traceback above and "
             "the command line, on the project's issue tracker (README.md)")
 
@@ -43,6 +57,42 @@ class RunFailed(RuntimeError):
 
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C, caught where the command knows what it stopped and kept (exit 130)."""
+
+
+def on_stop_signals(handler: Callable[[int], None]) -> Callable[[], None]:
+    """Call ``handler(signum)`` on each of :data:`STOP_SIGNALS` (noting the signal for the exit
+    code), once per SIGTERM or SIGHUP; returns the function that puts the previous handlers
+    back. Only the main thread receives signals: elsewhere nothing is installed."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+
+    def noted(signum: int, _frame) -> None:
+        # a SIGTERM or SIGHUP that came before: the stop is under way (Linux sends the
+        # parent-death signal again each time a thread of the dead parent is gone); a repeated
+        # Ctrl-C is the user's, and the handler decides (e.g. abort at once)
+        repeat = signum != signal.SIGINT and signum in _received
+        _received.append(signum)
+        if not repeat:
+            handler(signum)
+
+    previous = {s: signal.getsignal(s) for s in STOP_SIGNALS}
+    for s in STOP_SIGNALS:
+        signal.signal(s, noted)
+
+    def restore() -> None:
+        for s, h in previous.items():
+            signal.signal(s, signal.SIG_DFL if h is None else h)
+    return restore
+
+
+def raise_interrupt(_signum: int) -> None:
+    """A stop signal raises ``KeyboardInterrupt``, as Python's own Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
+def stop_signal() -> int:
+    """The last stop signal received (SIGINT when none was: a KeyboardInterrupt raised in code)."""
+    return _received[-1] if _received else signal.SIGINT
 
 
 def _yaml_error() -> tuple[type[BaseException], ...]:
@@ -66,8 +116,10 @@ def describe(exc: BaseException) -> str:
 def outcome(prog: str, exc: BaseException, interrupted: str) -> int:
     """Print the line for ``exc`` (a traceback and the bug line when it is unexpected); the exit code."""
     if isinstance(exc, KeyboardInterrupt):
-        print(f"{prog}: interrupted: {str(exc) or interrupted}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        signum = stop_signal()
+        how = "interrupted" if signum == signal.SIGINT else f"interrupted by {signal.Signals(signum).name}"
+        print(f"{prog}: {how}: {str(exc) or interrupted}", file=sys.stderr)
+        return 128 + signum
     if isinstance(exc, OSError) and exc.filename is not None or \
             not isinstance(exc, OSError) and isinstance(exc, (ValueError, *_yaml_error())):
         print(f"{prog}: {describe(exc)}", file=sys.stderr)
@@ -108,6 +160,8 @@ def cli_boundary(prog: str, interrupted: str = "stopped before the end; nothing 
     def wrap(main: Callable[..., int]) -> Callable[..., int]:
         @functools.wraps(main)
         def bounded(*args, **kwargs) -> int:
+            _received.clear()
+            restore = on_stop_signals(raise_interrupt)
             try:
                 code = main(*args, **kwargs)
                 sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
@@ -118,6 +172,8 @@ def cli_boundary(prog: str, interrupted: str = "stopped before the end; nothing 
                 raise
             except BaseException as exc:  # noqa: BLE001 - the one place every failure is sorted
                 return outcome(prog, exc, interrupted)
+            finally:
+                restore()
         return bounded
     return wrap
 

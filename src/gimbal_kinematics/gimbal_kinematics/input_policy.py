@@ -35,7 +35,10 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
   were;
 * free: a driver or a bag. Each stream's stamps are judged
   (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples are
-  dropped and counted; a clock jump back restarts, or is left to the core); the core runs
+  dropped and counted; a single stamp off the stream's timeline is an outlier, dropped and
+  counted; a clock jump, believed when several samples in a row agree on it
+  (:data:`gimbal_kinematics.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts when it
+  goes back, or is left to the core); the core runs
   on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
   resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every
   ``progress_every`` steps of the pacing stream; ``/diagnostics`` adds the input
@@ -227,6 +230,45 @@ class LockstepGroups:
         return dict(core), None
 
 
+class HeldSamples:
+    """The samples a stream's stamp judge holds (the clock-jump rule of
+    :mod:`gimbal_kinematics.stamps`): ``take(stream, verdict, stamp_ns, msg)`` returns the
+    samples to use now, in order: none while held or rejected, the held ones then this one
+    once a jump is believed, this one alone otherwise. ``warn(text)`` hears of each
+    rejection and of outliers dropped."""
+
+    def __init__(self, stats: Mapping[str, StreamStats], warn: Callable[[str], None] | None) -> None:
+        self.stats = stats
+        self.warn = warn
+        self._held: dict[str, list[tuple[int, Any]]] = {s: [] for s in stats}
+        self._outliers = dict.fromkeys(stats, 0)
+
+    def take(self, stream: str, verdict: Stamp, stamp_ns: int, msg: Any) -> list[tuple[int, Any]]:
+        st, held = self.stats[stream], self._held[stream]
+        if verdict is Stamp.OK and not held:  # the usual case (a bag replayed at full speed: per message)
+            return [(stamp_ns, msg)]
+        if st.outliers != self._outliers[stream]:
+            held.clear()  # the ones held were outliers (the judge counted them)
+        self._say(stream, st, verdict, stamp_ns)
+        if verdict is Stamp.HELD:
+            held.append((stamp_ns, msg))
+            return []
+        released = set(st.released)
+        kept = [(s, m) for s, m in held if s in released]
+        held.clear()
+        return [*kept, (stamp_ns, msg)] if verdict.accepted else []
+
+    def _say(self, stream: str, st: StreamStats, verdict: Stamp, stamp_ns: int) -> None:
+        new_outliers, self._outliers[stream] = st.outliers - self._outliers[stream], st.outliers
+        if self.warn is None:
+            return
+        if new_outliers:
+            self.warn(f"{stream}: {new_outliers} sample(s) with a stamp off the stream's timeline dropped as "
+                      "outliers (counted; a clock jump needs several samples in a row)")
+        if verdict is Stamp.DUPLICATE or verdict is Stamp.OUT_OF_ORDER:
+            self.warn(f"{stream} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
+
+
 class FreeOrder:
     """Free-timing input policy (module docstring): each stream's stamps judged, a stamp
     more than ``clock_jump_ns`` back restarts (``on_restart(reason)``: the node resets its
@@ -250,20 +292,22 @@ class FreeOrder:
         #: the run's first stamp [ns], the origin of the core's time
         self.t0_ns: int | None = None
         self._paced = 0
+        self.held = HeldSamples(self.stats, warn)
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         verdict = self.stats[kind].offer(stamp_ns)
-        if verdict is not Stamp.OK:
-            if verdict is not Stamp.JUMPED_BACK:
-                if self.warn is not None:
-                    self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp (counted)")
-                return []  # counted; the core already used a later sample of this stream
-            if self.on_restart is not None:
-                self._restart(kind, stamp_ns)
-        if self.t0_ns is None:
-            self.t0_ns = stamp_ns
-        t0 = self.t0_ns
-        return [Step(k, s, (s - t0) * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+        samples = self.held.take(kind, verdict, stamp_ns, msg)
+        if not samples:
+            return []
+        if verdict is Stamp.JUMPED_BACK and self.on_restart is not None:
+            self._restart(kind, samples[0][0])
+        out: list[Step] = []
+        for stamp, item in samples:
+            if self.t0_ns is None:
+                self.t0_ns = stamp
+            t0 = self.t0_ns
+            out += [Step(k, s, (s - t0) * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp, (stamp, item))]
+        return out
 
     def _restart(self, stream: str, stamp_ns: int) -> None:
         """A clock jump back (bag loop, restarted driver): forget the old run's buffered
@@ -364,16 +408,20 @@ class FreeSamples:
         self._last: dict[str, int | None] = dict.fromkeys(streams)
         self.interval_unknown = dict.fromkeys(streams, 0)
         self._samples = 0
+        self.held = HeldSamples(self.stats, warn)
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         verdict = self.stats[kind].offer(stamp_ns)
-        if not verdict.accepted:
-            self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s dropped: {verdict.value} stamp")
-            return []
+        out: list[Step] = []
+        for i, (stamp, item) in enumerate(self.held.take(kind, verdict, stamp_ns, msg)):
+            out += self._sample(kind, stamp, item, new_run=i == 0 and verdict is Stamp.JUMPED_BACK)
+        return out
+
+    def _sample(self, kind: str, stamp_ns: int, msg: Any, new_run: bool) -> list[Step]:
         if self.t0_ns is None:
             self.t0_ns = stamp_ns
         last, self._last[kind] = self._last[kind], stamp_ns
-        if verdict is Stamp.JUMPED_BACK or last is None:
+        if new_run or last is None:
             dt = self.period_s  # first sample, or a new run (the core resets)
         elif is_gap(stamp_ns - last, self.period_ns):
             self.interval_unknown[kind] += 1

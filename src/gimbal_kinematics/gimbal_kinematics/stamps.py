@@ -17,6 +17,15 @@ seconds or integer nanoseconds, as long as ``t``, ``last`` and ``clock_jump`` ag
   consumer resets;
 * ``OK``: anything later (or the first stamp).
 
+The clock-jump rule of a stream (:class:`gimbal_kinematics.stream_stats.StreamStats`, the
+free-timing policies' judge): one stamp is not enough to believe a jump. A stamp more than
+``clock_jump`` from the stream's timeline, back or ahead, is ``HELD``; the jump is believed
+(``JUMPED_BACK``, or ``JUMPED_AHEAD``: accepted, no reset, no samples counted as dropped)
+only when :data:`JUMP_SAMPLES` stamps in a row agree on the new timeline (each after the
+one before, by at most ``clock_jump``); the held samples then go on in order. A stamp back
+on the old timeline first shows the held ones were outliers (a single message 3 years
+ahead, a stamp of zero): they are dropped and counted, and nothing resets.
+
 Drop rule (:func:`dropped_samples`): an interval longer than :data:`GAP_PERIODS` nominal
 periods counts ``round(interval / period) − 1`` samples as dropped. Why 1.5: with interval
 jitter up to ±30 % (:data:`JITTER_FRACTION`, what a driver on a loaded machine shows), one
@@ -38,6 +47,8 @@ from enum import Enum
 GAP_PERIODS = 1.5
 #: An interval off the nominal period by more than this fraction is jittered.
 JITTER_FRACTION = 0.3
+#: Stamps in a row that must agree on a new timeline before a clock jump is believed.
+JUMP_SAMPLES = 3
 
 
 class Stamp(Enum):
@@ -48,11 +59,13 @@ class Stamp(Enum):
     DUPLICATE = "duplicate"
     OUT_OF_ORDER = "out_of_order"
     JUMPED_BACK = "jumped_back"
+    JUMPED_AHEAD = "jumped_ahead"
+    HELD = "held"
 
     @property
     def accepted(self) -> bool:
-        """Whether the stamp is used (OK, or JUMPED_BACK as the first of a new run)."""
-        return self is Stamp.OK or self is Stamp.JUMPED_BACK
+        """Whether the stamp is used (OK; JUMPED_BACK as the first of a new run; JUMPED_AHEAD)."""
+        return self is Stamp.OK or self is Stamp.JUMPED_BACK or self is Stamp.JUMPED_AHEAD
 
 
 def judge(t: float, last: float | None, clock_jump: float) -> Stamp:

@@ -9,12 +9,16 @@ stamp against the stream's last accepted one (the verdicts and the drop rule of
 * ``duplicates``: a stamp equal to the last accepted one (rejected);
 * ``out_of_order``: a stamp before the last accepted one, by no more than ``jump_ns``
   (rejected: the sample is late, its successor was already used);
-* ``jumps``: a stamp more than ``jump_ns`` before the last one (a bag loop, a clock reset:
-  accepted, as the first of a new run; the consumer resets);
+* ``jumps``: clock jumps, back (a bag loop, a clock reset: the consumer resets) or ahead
+  (no reset), each believed only when :data:`~gimbal_kinematics.stamps.JUMP_SAMPLES` stamps
+  in a row agree on the new timeline (the clock-jump rule of :mod:`gimbal_kinematics.stamps`);
+* ``outliers``: stamps off the timeline by more than ``jump_ns`` that the next stamp on
+  the timeline showed to be single outliers (a message 3 years ahead, a stamp of zero):
+  dropped, never a reset and never a gap;
 * ``dropped``: samples missing from the gaps (the drop rule), the nominal period being the
   median of the last :data:`PERIOD_WINDOW` accepted intervals that were not gaps (so it
   follows the sensor's real rate; a late sample rejected as out of order leaves a gap and
-  counts here too);
+  counts here too); a gap longer than ``jump_ns`` is a clock jump, not drops;
 * ``jitter_rms``: RMS of (interval / period − 1) over the accepted intervals that are not
   gaps [-].
 
@@ -27,7 +31,7 @@ import math
 import statistics
 from collections import deque
 
-from .stamps import Stamp, dropped_samples, is_gap, judge
+from .stamps import JUMP_SAMPLES, Stamp, dropped_samples, is_gap, judge
 
 #: Accepted intervals the nominal period is the median of.
 PERIOD_WINDOW = 51
@@ -45,10 +49,14 @@ class StreamStats:
         self.duplicates = 0
         self.out_of_order = 0
         self.jumps = 0
+        self.outliers = 0
         self.dropped = 0
         self._intervals: deque[int] = deque(maxlen=PERIOD_WINDOW)
         self._jitter_sq = 0.0
         self._jitter_n = 0
+        self._held: list[int] = []
+        #: after a believed jump: the held stamps, accepted before the one just offered
+        self.released: tuple[int, ...] = ()
 
     @property
     def period_ns(self) -> float | None:
@@ -61,13 +69,24 @@ class StreamStats:
         return math.sqrt(self._jitter_sq / self._jitter_n) if self._jitter_n else 0.0
 
     def offer(self, stamp_ns: int) -> Stamp:
-        """Judge ``stamp_ns`` [ns] and count it; OK and JUMPED_BACK are accepted (the stamp
-        becomes the last one), DUPLICATE and OUT_OF_ORDER are not (stamps are integers:
-        never NONFINITE)."""
+        """Judge ``stamp_ns`` [ns] and count it (module docstring). OK, JUMPED_BACK and
+        JUMPED_AHEAD are accepted (the stamp becomes the last one; after a jump the held
+        stamps, :attr:`released`, go first), DUPLICATE and OUT_OF_ORDER are not, HELD waits
+        for the clock-jump rule (stamps are integers: never NONFINITE)."""
         self.received += 1
+        self.released = ()
         last = self.last_ns
         # the usual case first (a bag replayed at full speed goes through here per message)
-        verdict = Stamp.OK if last is not None and stamp_ns > last else judge(stamp_ns, last, self.jump_ns)
+        if last is not None and last < stamp_ns <= last + self.jump_ns and not self._held:
+            self.last_ns = stamp_ns
+            self._interval(stamp_ns - last)
+            return Stamp.OK
+        if last is not None and abs(stamp_ns - last) > self.jump_ns:
+            return self._hold(stamp_ns)
+        if self._held:  # back on the timeline: the held stamps were outliers
+            self.outliers += len(self._held)
+            self._held = []
+        verdict = judge(stamp_ns, last, self.jump_ns)
         if verdict is Stamp.DUPLICATE:
             self.duplicates += 1
             return verdict
@@ -75,24 +94,42 @@ class StreamStats:
             self.out_of_order += 1
             return verdict
         self.last_ns = stamp_ns
-        if verdict is Stamp.JUMPED_BACK:
-            self.jumps += 1
-            self._intervals.clear()
-        if last is None or verdict is Stamp.JUMPED_BACK:
-            return verdict
-        dt = stamp_ns - last
+        if last is not None:
+            self._interval(stamp_ns - last)
+        return Stamp.OK
+
+    def _hold(self, stamp_ns: int) -> Stamp:
+        """A stamp off the timeline: held until :data:`JUMP_SAMPLES` in a row agree on a jump."""
+        held = self._held
+        if held and not held[-1] < stamp_ns <= held[-1] + self.jump_ns:
+            self.outliers += len(held)  # they do not agree with this one: single outliers
+            held = []
+        held.append(stamp_ns)
+        self._held = held
+        if len(held) < JUMP_SAMPLES:
+            return Stamp.HELD
+        back = held[0] < self.last_ns
+        self._held, self.released, self.last_ns = [], tuple(held[:-1]), held[-1]
+        self.jumps += 1
+        self._intervals.clear()
+        for a, b in zip(held, held[1:]):
+            self._interval(b - a)
+        return Stamp.JUMPED_BACK if back else Stamp.JUMPED_AHEAD
+
+    def _interval(self, dt: int) -> None:
+        """Count an accepted interval [ns]: drops in a gap, else jitter and the period window."""
         period = self.period_ns
         if period is not None and is_gap(dt, period):
             self.dropped += dropped_samples(dt, period)
-            return Stamp.OK  # a gap: neither a period sample nor jitter
+            return  # a gap: neither a period sample nor jitter
         if period is not None:
             self._jitter_sq += (dt / period - 1.0) ** 2
             self._jitter_n += 1
         self._intervals.append(dt)
-        return Stamp.OK
 
     def as_dict(self, prefix: str) -> dict[str, float | int]:
         """The counters named ``<prefix>_<counter>``, for a diagnostics KeyValue list."""
         return {f"{prefix}_received": self.received, f"{prefix}_duplicates": self.duplicates,
                 f"{prefix}_out_of_order": self.out_of_order, f"{prefix}_clock_jumps": self.jumps,
-                f"{prefix}_dropped": self.dropped, f"{prefix}_jitter_rms": round(self.jitter_rms, 4)}
+                f"{prefix}_outliers": self.outliers, f"{prefix}_dropped": self.dropped,
+                f"{prefix}_jitter_rms": round(self.jitter_rms, 4)}

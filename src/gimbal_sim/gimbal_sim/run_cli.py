@@ -12,9 +12,12 @@ prelude's run ends up in the run's ``prelude/`` (bag, report, the parameter file
 hand-off's figures in the run's ``hand_off.json``, which the scenario's report reads.
 
 Exit codes: 0 success; 1 the run failed (a node died or stalled; the bag is still
-finalized); 2 bad input (unknown scenario or node, malformed --set, output exists), with
-nothing started and nothing overwritten; 130 Ctrl-C (the graph stopped in order, the bag
-closed, run.json with ``interrupted: true`` and the report of the simulated time written).
+finalized) or the disk filled up (the bag closed at its last chunk on disk, run.json with
+``stopped: disk full`` and the report of the simulated time written); 2 bad input (unknown
+scenario or node, malformed --set, output exists, not enough free space for the run's
+estimated size without --force), with nothing started and nothing overwritten; 130 Ctrl-C,
+143 SIGTERM, 129 SIGHUP (the graph stopped in order, the bag closed, run.json with
+``interrupted: true`` and the report of the simulated time written).
 """
 from __future__ import annotations
 
@@ -29,12 +32,16 @@ import time
 from pathlib import Path
 
 from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
-from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
+from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent, localhost_env
 
 from .bag.live import parse_topic_rates
+from .bag.disk import (
+    disk_error_line, estimate_run_bytes, free_bytes, human, is_disk_error, space_line, stop_kind,
+)
+from .bag.reader import scan
+from .bag.writer import DiskStopped
 from .core.core_loop import NoCoreError
 from .core.engine_run import check_engine, run_engine
-from .bag.reader import scan
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.plan import check_nodes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
@@ -76,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="run only this variant of a scenario that has variants; repeatable")
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
                         help="run up to N variants at once, each in its own process and ROS domain (default 1)")
+    parser.add_argument("--force", action="store_true",
+                        help="run even when the output's disk has less free space than the run's estimated size "
+                             "(a full disk then stops the run, keeping the bag up to there)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-compress", action="store_true",
                         help="store the bag's MCAP chunks uncompressed (default: zstd-compressed)")
@@ -152,6 +162,17 @@ def _check_inputs(args: argparse.Namespace) -> None:
         finite(args.duration, "--duration", 0.0, strict=True)
 
 
+def _check_space(out: Path, runs: list[Scenario], args: argparse.Namespace) -> None:
+    """Refuse runs whose estimated bags and reports do not fit on ``out``'s disk, unless --force."""
+    need = sum(estimate_run_bytes(s.duration_s + (s.prelude or {}).get("duration_s", 0.0), s.sim_rate_hz,
+                                  not args.no_compress) for s in runs)
+    if need > free_bytes(out) and not args.force:
+        raise UsageError(f"--out {out}: not enough room: the run needs about {human(need)} (bag, report and the "
+                         f"room to close the bag), and {space_line(out)}. Free some space, choose another --out, "
+                         f"shorten --duration, or add --force to run until the disk is full (the bag is then "
+                         f"kept up to there)")
+
+
 @cli_boundary("gimbal-run")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
@@ -181,6 +202,7 @@ def main(argv: list[str] | None = None) -> int:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
     if args.engine == "core":
         _check_engine(runs, args)
+    _check_space(out, [single for _, single in runs], args)
     if args.live and args.jobs > 1 and len(runs) > 1:
         raise UsageError("--live shows one run at a time: drop --jobs or pick one --variant")
     args.live_params = _live_params(args)
@@ -211,6 +233,10 @@ def main(argv: list[str] | None = None) -> int:
                 return 1
             ok = ok and metrics["closed_cleanly"]
             rows += [(f"{name}: {k}" if name else k, v) for k, v in row]
+            if metrics.get("stopped"):
+                print(summary_table(rows), flush=True)
+                print(_stopped_line(metrics, single, bag), file=sys.stderr)
+                return 1
             if metrics.get("interrupted"):
                 print(summary_table(rows), flush=True)  # before the interruption's line (stderr), the page's last
                 closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
@@ -258,7 +284,8 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
                                          str(out / name), "--mode", args.mode, "--engine", args.engine,
                                          "--no-progress",
                                          *(["--no-compress"] if args.no_compress else [])],
-                                        env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+                                        env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                        preexec_fn=die_with_parent())
             tqdm.write(f"== variant {name}: started (ROS domain {claim.domain_id}, log {log_path})", file=sys.stderr)
             active.append((name, proc, claim, log_path, spec))
         time.sleep(0.2)
@@ -363,7 +390,10 @@ def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace) -> tupl
     """:func:`_run_one` on the engine (``--engine core``): its bag, run.json, report and page."""
     if not args.no_progress:
         print(f"stepping {scenario.name} on the engine ({scenario.duration_s:g} s simulated) ...", file=sys.stderr)
-    done = run_engine(scenario, out, compress=not args.no_compress)
+    try:
+        done = run_engine(scenario, out, compress=not args.no_compress)
+    except DiskStopped as exc:  # the bag is closed at its last chunk on disk
+        raise RunError(f"{exc}; the engine stopped there") from None
     report_dir, metrics = write_report(out)
     return metrics, [
         ("scenario", f"{scenario.name} (engine core, seed {scenario.seed})"),
@@ -385,7 +415,7 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
         return _run_engine(scenario, out, args)
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress,
                  live=args.live_params)
-    if result.interrupted:
+    if result.interrupted or result.stopped:
         # the nodes stepped on while they were being stopped: the run is what the bag holds
         contents = scan(out)
         if contents.start_ns is not None:
@@ -395,14 +425,15 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
     (out / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,
         "sim_s": result.sim_s, "interrupted": result.interrupted,
+        **({"stopped": stop_kind(result.stopped), "stop_reason": result.stopped} if result.stopped else {}),
         "wall_s": result.wall_s, "real_time_factor": result.real_time_factor,
         "steps_per_s": result.sim_s * scenario.sim_rate_hz / result.wall_s if result.wall_s > 0 else None,
         "processes": {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v
                       for k, v in (result.processes or {}).items()},
     }, indent=2, default=str) + "\n")
-    report_dir, metrics = write_report(out)
-    if result.interrupted:
-        metrics = dict(metrics, interrupted=True, sim_s=result.sim_s)
+    report_dir, metrics = _write_report(out, result.stopped)
+    if result.interrupted or result.stopped:
+        metrics = dict(metrics, interrupted=result.interrupted, sim_s=result.sim_s, stopped=result.stopped)
     return metrics, [
         ("scenario", f"{scenario.name} ({args.mode} mode, seed {scenario.seed})"),
         ("simulated", f"{result.sim_s:.3f} s at {scenario.sim_rate_hz:g} Hz"),
@@ -410,8 +441,31 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
         ("recorded", f"{metrics['message_count']} messages on {len(metrics['topics'])} topics, "
                      f"{'closed cleanly' if metrics['closed_cleanly'] else 'NOT closed cleanly'}"),
         ("bag", str(out)),
-        ("report", f"{report_dir}/metrics.json + {len(metrics.get('plots', []))} plots"),
+        ("report", f"{report_dir}/metrics.json + {len(metrics.get('plots', []))} plots" if report_dir else "none: no room"),
     ]
+
+
+def _stopped_line(metrics: dict, scenario: Scenario, bag: Path) -> str:
+    """The one line of a run a full disk stopped: why (the device, its free space), how far, what was kept."""
+    closed = "closed cleanly" if metrics["closed_cleanly"] else "NOT closed cleanly"
+    return (f"gimbal-run: {metrics['stopped']}; stopped the run at {metrics['sim_s']:g} s of {scenario.duration_s:g} s "
+            f"simulated and kept the bag ({closed}), run.json (stopped: {stop_kind(metrics['stopped'])}) and "
+            f"{'the report' if metrics.get('report') else 'no report (no room for it)'} in {bag}")
+
+
+def _write_report(out: Path, stopped: str | None) -> tuple[Path | None, dict]:
+    """The run's report and its metrics; after a full disk, a report there is no room for is
+    said so (the bag and run.json are kept), with the bag's own counts as the metrics."""
+    try:
+        report_dir, metrics = write_report(out)
+        return report_dir, dict(metrics, report=True)
+    except OSError as exc:
+        if not stopped or not is_disk_error(exc):
+            raise
+        print(f"gimbal-run: no room for the report: {disk_error_line(exc, out)}", file=sys.stderr)
+        contents = scan(out)
+        return None, {"message_count": contents.message_count, "topics": contents.topics,
+                      "closed_cleanly": contents.closed_cleanly, "report": False}
 
 
 if __name__ == "__main__":

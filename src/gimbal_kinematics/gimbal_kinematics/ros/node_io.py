@@ -23,11 +23,21 @@ added because a durability mismatch is the other way a subscription and a publis
 to match.) An incompatible-QoS event is logged once per topic and direction, naming the
 topic, the policy and the parameter that fixes it, and every event is counted
 (:attr:`NodeIo.incompatible_qos`, for ``/diagnostics``).
+
+A publisher of another type on an input topic (a ``std_msgs/String`` on ``/gimbal/imu``)
+never matches the subscription, so its messages never arrive, and Fast DDS raises no
+incompatible-type event (an RMW that does runs the check at once). Every
+:data:`TYPE_CHECK_S` seconds (a steady timer: graph polling, not stepping) the node's input
+topics are looked up on the graph (``get_publishers_info_by_topic``); each
+publisher of another type is logged once per topic and type, naming both types and the
+publishing node, and counted (:attr:`NodeIo.wrong_type`, for ``/diagnostics``).
+:meth:`NodeIo.counters` gives both counters, as a node's /diagnostics carries them.
 """
 from __future__ import annotations
 
 from typing import Any, Callable
 
+from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.publisher import Publisher
@@ -50,6 +60,9 @@ FREE_INPUT_DEPTH = 100
 
 #: Output depth in free timing: the ROS default profile's 10.
 FREE_OUTPUT_DEPTH = 10
+
+#: Period of the check of the input topics' publisher types [s].
+TYPE_CHECK_S = 1.0
 
 #: The policies a user can override per topic (rclpy's defaults plus durability).
 OVERRIDABLE_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
@@ -81,6 +94,11 @@ def output_qos(timing: str) -> QoSProfile:
                       reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
 
+def type_name(msg_type: Any) -> str:
+    """The ROS name of a message class, as the graph gives it: ``sensor_msgs/msg/Imu``."""
+    return f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
+
+
 def _policy_name(kind: Any) -> str:
     try:
         return qos_policy_name_from_kind(kind)
@@ -96,12 +114,43 @@ class NodeIo:
         self.node = node
         self._logged: set[tuple[str, str]] = set()
         self._totals: dict[int, int] = {}  # per entity: rmw's cumulative incompatible count
+        self._inputs: dict[str, str] = {}  # input topic -> the type it takes
+        self._wrong: set[tuple[str, str]] = set()  # (topic, type) of publishers of another type
+        self._type_timer = None
 
     @property
     def incompatible_qos(self) -> int:
         """Incompatible-QoS peers seen so far, summed over this node's publishers and
         subscriptions (rmw's cumulative ``total_count`` of each), for ``/diagnostics``."""
         return sum(self._totals.values())
+
+    @property
+    def wrong_type(self) -> int:
+        """(topic, type) pairs seen so far of publishers of another type on an input topic."""
+        return len(self._wrong)
+
+    def counters(self) -> dict[str, int]:
+        """This plumbing's counters, for ``/diagnostics``."""
+        return {"incompatible_qos": self.incompatible_qos, "wrong_type": self.wrong_type}
+
+    def _watch_types(self, topic: str, msg_type: Any) -> None:
+        """Remember the type ``topic`` takes; start the periodic check (module docstring)."""
+        self._inputs[topic] = type_name(msg_type)
+        if self._type_timer is None:
+            self._type_timer = self.node.create_timer(TYPE_CHECK_S, self.check_types,
+                                                      clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def check_types(self) -> None:
+        """Log and count each publisher of another type on an input topic (once per topic and type)."""
+        for topic, wanted in self._inputs.items():
+            for info in self.node.get_publishers_info_by_topic(topic):
+                if info.topic_type == wanted or (topic, info.topic_type) in self._wrong:
+                    continue
+                self._wrong.add((topic, info.topic_type))
+                who = f"{info.node_namespace.rstrip('/')}/{info.node_name}" if info.node_name else "a publisher"
+                self.node.get_logger().error(
+                    f"wrong message type on {topic}: {who} publishes {info.topic_type}, this node takes {wanted}; "
+                    "its messages never arrive. Counted on /diagnostics as wrong_type; logged once per topic and type.")
 
     def _on_incompatible(self, entity: int, topic: str, kind: str, profile: QoSProfile, event: Any) -> None:
         """Count the event; log it the first time for this topic and direction."""
@@ -132,9 +181,12 @@ class NodeIo:
 
         sub = self.node.create_subscription(
             msg_type, topic, self._watched(callback) if timing == "lockstep" else callback, profile, raw=raw,
-            event_callbacks=SubscriptionEventCallbacks(incompatible_qos=on_event),
+            # an RMW that reports a type mismatch has it named at once (the check looks the type up)
+            event_callbacks=SubscriptionEventCallbacks(incompatible_qos=on_event,
+                                                       incompatible_type=lambda _event: self.check_types()),
             qos_overriding_options=QoSOverridingOptions(policy_kinds=OVERRIDABLE_POLICIES))
         holder["qos"] = sub.qos_profile
+        self._watch_types(name, msg_type)
         return sub
 
     def _watched(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:

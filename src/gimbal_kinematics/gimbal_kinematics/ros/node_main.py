@@ -2,16 +2,17 @@
 
 ``--help`` is answered before rclpy starts. The node runs inside the commands' one error
 boundary (:func:`gimbal_kinematics.cli_boundary.cli_boundary`): a parameter the node refuses,
-or a ``--params-file`` that is missing or not text, ends the process with exit code 2 and
-a message naming the parameter or the file; Ctrl-C (SIGINT) ends it with 130 and no
-traceback; an unexpected exception keeps its traceback, followed by the line saying it is
-a bug. Otherwise the node spins until an external shutdown (exit 0) or (if it has one) its
-``done`` future completes (exit 0).
+a ``--params-file`` that is missing or not text, or one that has no block for the node or
+names parameters it does not have (:func:`check_params_addressed`), ends the process with
+exit code 2 and a message naming the parameter, the block or the file; Ctrl-C (SIGINT) ends
+it with 130 and no traceback, SIGTERM (143) and SIGHUP (129) likewise; an unexpected
+exception keeps its traceback, followed by the line saying it is a bug. Otherwise the node spins until an external shutdown (exit 0) or (if it has one) its
+``done`` future completes (exit 0, or 1 with its ``failure`` line when it has one).
 """
 from __future__ import annotations
 
 import argparse
-import signal
+import difflib
 import sys
 from typing import Callable
 
@@ -20,12 +21,14 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.utilities import remove_ros_args
+import yaml
 
-from ..cli_boundary import Interrupted, UsageError, cli_boundary, read_text
+from ..cli_boundary import Interrupted, RunFailed, UsageError, cli_boundary, on_stop_signals, read_text
+from ..params_file import ParamsFileError, blocks, load_ros_yaml
 from .ros_domain import localhost_env
 
 #: How long one spin slice lasts [s]: a SIGINT is acted on within it.
-SPIN_SLICE_S = 1.0
+SPIN_SLICE_S = 0.5
 
 ROS_ARGS_EPILOG = (
     "ROS arguments follow --ros-args, e.g. "
@@ -46,17 +49,55 @@ def make_executor(context=None):
     return EventsExecutor(context=context)
 
 
-def _check_params_files(argv: list[str]) -> None:
-    """Each ``--params-file`` after ``--ros-args`` is a readable text file (rcl itself takes a
-    file that is not UTF-8 without a word, and the node would start without its parameters)."""
-    in_ros_args = False
+def _params_files(argv: list[str]) -> list[str]:
+    """The ``--params-file`` paths after ``--ros-args``."""
+    in_ros_args, out = False, []
     for flag, value in zip(argv, argv[1:] + [""]):
         if flag == "--ros-args":
             in_ros_args = True
         elif flag == "--":
             in_ros_args = False
         elif in_ros_args and flag == "--params-file":
-            read_text(value, "--params-file")
+            out.append(value)
+    return out
+
+
+def _check_params_files(argv: list[str]) -> None:
+    """Each ``--params-file`` after ``--ros-args`` is a readable text file (rcl itself takes a
+    file that is not UTF-8 without a word, and the node would start without its parameters)."""
+    for path in _params_files(argv):
+        read_text(path, "--params-file")
+
+
+def check_params_addressed(node: Node, argv: list[str]) -> None:
+    """Each ``--params-file`` names this node and only parameters it has, or the node refuses
+    to start (:class:`UsageError`, exit 2) naming the block or the parameters.
+
+    ROS 2 itself starts the node on its defaults without a word when a block's node name is
+    misspelt or a parameter name is; a run on defaults the user did not choose is a wrong
+    result, so we refuse it, as ``gimbal-run`` refuses the same file. A wildcard block
+    (``/**``) addresses every node, so a parameter it holds that this node lacks is left
+    alone, as ROS 2 does; ``qos_overrides.*`` are rclpy's own."""
+    fqn = node.get_fully_qualified_name()
+    for path in _params_files(argv):
+        where = f"--params-file {path}"
+        try:
+            found = blocks(load_ros_yaml(read_text(path, "--params-file")), where)
+        except (ParamsFileError, yaml.YAMLError) as exc:
+            raise UsageError(f"refused to start: {exc}") from None
+        mine = [b for b in found if b.matches(fqn)]
+        if not mine:
+            raise UsageError(f"refused to start: {where} has no block for node {fqn} (its blocks: "
+                             f"{', '.join(b.pattern for b in found)}): a misspelt node name? ROS 2 would run the node "
+                             f"on its defaults without a word")
+        for block in (b for b in mine if not b.wildcard):
+            unknown = [n for n in block.params if not node.has_parameter(n) and not n.startswith("qos_overrides.")]
+            if unknown:
+                declared = list(node.get_parameters_by_prefix(""))
+                hints = {n: difflib.get_close_matches(n, declared, 1) for n in unknown}
+                names = ", ".join(f"{n!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for n, h in hints.items())
+                raise UsageError(f"refused to start: {where}: block {block.pattern} names parameters node {fqn} does "
+                                 f"not have: {names}; ROS 2 would ignore them and run on the defaults")
 
 
 def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: list[str] | None = None) -> int:
@@ -75,20 +116,21 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
     _check_params_files(argv)
     localhost_env()
     rclpy.init(args=argv)
-    # Ctrl-C / the orchestrator's SIGINT ends the spin between slices, in place of rclpy's
-    # handler: that one shuts the context down under a running callback, whose next publish
-    # fails, and a KeyboardInterrupt raised inside a callback is no better (both are logged
-    # as [FATAL]). Installed before the node is built, so a Ctrl-C during its start-up (its
-    # parameter declarations publish) stops it cleanly too. A second Ctrl-C aborts at once
-    # (a flooded EventsExecutor may not return).
+    # Ctrl-C / the orchestrator's SIGINT (and SIGTERM, SIGHUP: cli_boundary.STOP_SIGNALS) ends
+    # the spin between slices, in place of rclpy's handler: that one shuts the context down
+    # under a running callback, whose next publish fails, and a KeyboardInterrupt raised
+    # inside a callback is no better (both are logged as [FATAL]). Installed before the node
+    # is built, so a stop during its start-up (its parameter declarations publish) is clean
+    # too. A Ctrl-C after the first stop signal aborts at once (a flooded EventsExecutor may
+    # not return); a repeated SIGTERM or SIGHUP is not handed on (cli_boundary.on_stop_signals).
     stopping: list[int] = []
 
-    def on_sigint(signum, _frame) -> None:
+    def on_stop(signum: int) -> None:
         if stopping:
             raise KeyboardInterrupt
         stopping.append(signum)
 
-    signal.signal(signal.SIGINT, on_sigint)
+    on_stop_signals(on_stop)
     try:
         node = make_node()
     except ValueError as exc:
@@ -101,6 +143,12 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
         node.destroy_node()
         rclpy.try_shutdown()
         raise Interrupted("stopped the node while it started")
+    try:
+        check_params_addressed(node, argv)
+    except UsageError:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        raise
     executor = make_executor()
     executor.add_node(node)
     try:
@@ -117,4 +165,6 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
         rclpy.try_shutdown()
     if stopping:
         raise Interrupted("stopped the node")
+    if getattr(node, "failure", None):  # the node ended itself, failed (e.g. the recorder on a full disk)
+        raise RunFailed(node.failure)
     return 0

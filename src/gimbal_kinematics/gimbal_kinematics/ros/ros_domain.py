@@ -9,12 +9,14 @@ so a crashed run never leaks its id.
 """
 from __future__ import annotations
 
+import ctypes
 import fcntl
 import os
+import signal
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, MutableMapping
+from typing import IO, Callable, MutableMapping
 
 #: Domain ids handed out. 0 is left to the user's own systems; Fast DDS derives UDP ports
 #: from the id, and ids above 101 collide with Linux's ephemeral port range.
@@ -59,3 +61,26 @@ def localhost_env(env: MutableMapping[str, str] | None = None) -> MutableMapping
     if not env.get("ROS_AUTOMATIC_DISCOVERY_RANGE"):
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     return env
+
+
+#: Linux prctl option: the signal a process gets when the thread that started it dies.
+PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(signum: int = signal.SIGTERM) -> Callable[[], None]:
+    """A ``preexec_fn`` for a run's child process (a node, a child ``gimbal-run``): it gets
+    ``signum`` when the process starting it dies, however it dies (SIGKILL included;
+    Linux ``PR_SET_PDEATHSIG``), and stops as on that signal, so no node outlives its run.
+    libc is resolved here, before the fork: the child only makes the call. A parent that
+    died before the call is caught by comparing the parent pid. Elsewhere than Linux: a no-op."""
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return lambda: None
+    parent = os.getpid()
+
+    def preexec() -> None:
+        prctl(PR_SET_PDEATHSIG, int(signum))
+        if os.getppid() != parent:
+            os.kill(os.getpid(), signum)
+    return preexec

@@ -7,15 +7,22 @@ default (``compress=False``: stored as they are); compression is inside the MCAP
 so ``metadata.yaml`` names no rosbag2 compression and every MCAP reader (the ``mcap``
 library, ``rosbags``, ``ros2 bag``, Foxglove) decompresses it itself.
 
-Crash safety: the current chunk is finished and flushed to the OS whenever the log time
+Crash safety: the current chunk is finished, written and fsync'd whenever the log time
 has advanced ``chunk_duration_ns`` past the last flush, or one wall second has passed, so
-a SIGKILL loses at most that much. ``metadata.yaml`` is written by :meth:`close`; a bag
-without it (or whose MCAP has no footer) was not closed cleanly.
+a SIGKILL or a power cut loses at most that much. ``metadata.yaml`` is written by
+:meth:`close`; a bag without it (or whose MCAP has no footer) was not closed cleanly.
+
+A full or failing disk (:mod:`.disk`) stops the bag in order: the file is cut back to the
+last chunk boundary on disk, the reserve kept beside the bag is freed, and the bag is
+closed from there (summary, footer, ``metadata.yaml`` with ``custom_data.stopped``); the
+write raises :class:`DiskStopped` saying so, with the device and its free space.
 """
 from __future__ import annotations
 
+import os
 import struct
 import time
+from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,12 +31,52 @@ import yaml
 from mcap.records import MessageIndex
 from mcap.writer import CompressionType, Writer
 
+from .disk import disk_error_line, free_reserve, is_disk_error, take_reserve
 from .qos_yaml import qos_yaml
 from .schemas import ros2msg_schema
 
 METADATA_VERSION = 9
 ROS_DISTRO = "jazzy"
 LIBRARY = "gimbal_sim bag writer (mcap python)"
+
+
+class DiskStopped(RuntimeError):
+    """The disk filled up (or failed) under the bag: it was closed at its last chunk on disk."""
+
+
+class _DiskFile:
+    """The MCAP's file, unbuffered: each write reaches the OS at once, so a full disk fails
+    the write that fills it, and the file can be cut back to a chunk boundary."""
+
+    def __init__(self, path: Path) -> None:
+        self.fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        self.pos = 0
+
+    def write(self, data: bytes) -> int:
+        view = memoryview(data)
+        while view:
+            n = os.write(self.fd, view)
+            view, self.pos = view[n:], self.pos + n
+        return len(data)
+
+    def tell(self) -> int:
+        return self.pos
+
+    def flush(self) -> None:
+        pass
+
+    def sync(self) -> None:
+        os.fsync(self.fd)
+
+    def cut(self, offset: int) -> None:
+        os.ftruncate(self.fd, offset)
+        os.lseek(self.fd, offset, os.SEEK_SET)
+        self.pos = offset
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
 
 
 @dataclass
@@ -114,17 +161,21 @@ class BagWriter:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.name = self.name or self.directory.name
         self.mcap_path = self.directory / f"{self.name}_0.mcap"
-        self._file = open(self.mcap_path, "wb")
+        self._reserve = take_reserve(self.directory)
+        self._file = _DiskFile(self.mcap_path)
         self._writer = Writer(self._file, chunk_size=1 << 24,
                               compression=CompressionType.ZSTD if self.compress else CompressionType.NONE)
-        self._writer.start(profile="ros2", library=LIBRARY)
-        self._add = _Appender(self._writer).add if _Appender.available(self._writer) else self._add_message
         self._schemas: dict[str, int] = {}
         self._start_ns: int | None = None
         self._end_ns = 0
         self._last_flush_ns = 0
         self._last_flush_wall = time.monotonic()
         self.closed = False
+        #: why the bag stopped before it was closed (a full disk), else None
+        self.stopped: str | None = None
+        self._on_disk(lambda: self._writer.start(profile="ros2", library=LIBRARY))
+        self._add = _Appender(self._writer).add if _Appender.available(self._writer) else self._add_message
+        self._mark_on_disk()
 
     def add_topic(self, topic: str, type_name: str, qos_profiles: list[dict[str, Any]]) -> None:
         """Register a topic before writing its messages (idempotent)."""
@@ -133,12 +184,12 @@ class BagWriter:
         schema_id = self._schemas.get(type_name)
         if schema_id is None:
             pkg, _, name = type_name.split("/")
-            schema_id = self._writer.register_schema(
-                name=f"{pkg}/msg/{name}", encoding="ros2msg", data=ros2msg_schema(type_name).encode())
+            schema_id = self._on_disk(lambda: self._writer.register_schema(
+                name=f"{pkg}/msg/{name}", encoding="ros2msg", data=ros2msg_schema(type_name).encode()))
             self._schemas[type_name] = schema_id
-        channel_id = self._writer.register_channel(
+        channel_id = self._on_disk(lambda: self._writer.register_channel(
             topic=topic, message_encoding="cdr", schema_id=schema_id,
-            metadata={"offered_qos_profiles": qos_yaml(qos_profiles)})
+            metadata={"offered_qos_profiles": qos_yaml(qos_profiles)}))
         self.topics[topic] = TopicRecord(topic, type_name, qos_profiles, channel_id)
 
     def _add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> None:
@@ -147,8 +198,13 @@ class BagWriter:
 
     def write(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None) -> None:
         record = self.topics[topic]
-        self._add(record.channel_id, log_time_ns, data, log_time_ns if publish_time_ns is None else publish_time_ns,
-                  record.count)
+        if self.closed:
+            self._on_disk(lambda: None)  # raises DiskStopped
+        try:  # inline, not through _on_disk: the recorder's per-message path
+            self._add(record.channel_id, log_time_ns, data, log_time_ns if publish_time_ns is None else publish_time_ns,
+                      record.count)
+        except OSError as exc:
+            self._stop_on(exc)
         record.count += 1
         if self._start_ns is None or log_time_ns < self._start_ns:
             self._start_ns = log_time_ns
@@ -158,10 +214,71 @@ class BagWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Finish the chunk in progress and hand it to the OS."""
-        self._writer.flush()
+        """Finish the chunk in progress, write it and fsync it: a chunk boundary on disk."""
+        self._on_disk(lambda: (self._writer.flush(), self._file.sync()))
+        self._mark_on_disk()
         self._last_flush_ns = self._end_ns
         self._last_flush_wall = time.monotonic()
+
+    def _mark_on_disk(self) -> None:
+        """What the file holds up to here, all on disk: where a full disk cuts it back to."""
+        self._good = (self._file.tell(), {t: r.count for t, r in self.topics.items()}, self._start_ns, self._end_ns)
+
+    def _on_disk(self, write):
+        """``write()``; a full or failing disk closes the bag at its last chunk on disk and
+        raises :class:`DiskStopped`."""
+        if self.closed:
+            raise DiskStopped(self.stopped or f"the bag {self.directory} is closed")
+        try:
+            return write()
+        except OSError as exc:
+            self._stop_on(exc)
+
+    def _stop_on(self, exc: OSError) -> None:
+        """A write failed: re-raise it, unless the disk is full or failing; then close the bag
+        at its last chunk on disk and raise :class:`DiskStopped`."""
+        if not is_disk_error(exc):
+            raise exc
+        self.stopped = disk_error_line(exc, self.directory)
+        try:
+            self._close_at_last_chunk()
+        except OSError as again:  # not even the reserve's room: the chunks on disk stay readable
+            self.stopped += (f"; no room to close the bag ({again.strerror}): its complete chunks are kept, "
+                             f"`gimbal-bag recover` reads them")
+        raise DiskStopped(self.stopped) from None
+
+    def _close_at_last_chunk(self) -> None:
+        """Cut the file back to its last chunk on disk and close the bag from there, in the
+        room the reserve gives back. The mcap writer has no call for dropping the chunk it
+        was writing: its chunk, index list and statistics are reset here to the file's."""
+        offset, counts, start, end = self._good
+        free_reserve(self._reserve)
+        self._file.cut(offset)
+        for name, record in self.topics.items():
+            record.count = counts.get(name, 0)
+        self._start_ns, self._end_ns = start, end
+        w = self._writer
+        w._Writer__chunk_builder.reset()  # noqa: SLF001 - mcap 1.6.0 (pinned)
+        w._Writer__record_builder.end()  # noqa: SLF001
+        indices = w._Writer__chunk_indices  # noqa: SLF001
+        indices[:] = [i for i in indices if i.chunk_start_offset + i.chunk_length + i.message_index_length <= offset]
+        stats = w._Writer__statistics  # noqa: SLF001
+        stats.chunk_count, stats.message_count = len(indices), self.message_count
+        stats.channel_message_counts = defaultdict(int, {r.channel_id: r.count for r in self.topics.values()
+                                                         if r.count})
+        stats.message_start_time, stats.message_end_time = start or 0, end
+        self.closed = True
+        try:
+            w.finish()
+        finally:
+            self._file.close()
+            write_metadata(self.directory, [self.mcap_path.name], list(self.topics.values()),
+                           self._start_ns or 0, self._end_ns, stopped=self.stopped)
+
+    @property
+    def end_ns(self) -> int:
+        """Log time of the newest message written [ns]."""
+        return self._end_ns
 
     @property
     def message_count(self) -> int:
@@ -171,15 +288,18 @@ class BagWriter:
         """Finish the MCAP (summary, footer) and write ``metadata.yaml``."""
         if self.closed:
             return
-        self._writer.finish()
+        free_reserve(self._reserve)  # its room is the summary's
+        self._on_disk(lambda: (self._writer.finish(), self._file.sync()))
         self._file.close()
         self.closed = True
         write_metadata(self.directory, [self.mcap_path.name], list(self.topics.values()),
                        self._start_ns or 0, self._end_ns)
 
 
-def write_metadata(directory: Path, files: list[str], topics: list[TopicRecord], start_ns: int, end_ns: int) -> None:
-    """``metadata.yaml`` in rosbag2 format version 9."""
+def write_metadata(directory: Path, files: list[str], topics: list[TopicRecord], start_ns: int, end_ns: int,
+                   stopped: str | None = None) -> None:
+    """``metadata.yaml`` in rosbag2 format version 9; ``stopped``: why the recording stopped
+    before its end (``custom_data.stopped``)."""
     count = sum(t.count for t in topics)
     duration = max(0, end_ns - start_ns)
     info = {
@@ -199,7 +319,7 @@ def write_metadata(directory: Path, files: list[str], topics: list[TopicRecord],
         "relative_file_paths": files,
         "files": [{"path": f, "starting_time": {"nanoseconds_since_epoch": start_ns},
                    "duration": {"nanoseconds": duration}, "message_count": count} for f in files],
-        "custom_data": {},
+        "custom_data": {"stopped": stopped} if stopped else {},
         "ros_distro": ROS_DISTRO,
     }
     text = yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False, default_flow_style=False)

@@ -24,7 +24,6 @@ with its reason and log tail; the campaign carries on.
 """
 from __future__ import annotations
 
-import ctypes
 import json
 import logging
 import os
@@ -43,7 +42,7 @@ from typing import Any, Callable
 
 import yaml
 
-from gimbal_kinematics.ros.ros_domain import claim_domain_id
+from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent
 
 from ..graph.scenario import Scenario, validate
 from .results import RESULT_FILE, CampaignResult, flatten_metrics, read_results, results_digest, write_results
@@ -74,13 +73,16 @@ class Runners:
 
 
 # ------------------------------------------------------------------ the task (worker side)
-def _die_with_parent() -> None:
-    """In the child, before exec: SIGINT when the worker that started it dies (Linux
-    PR_SET_PDEATHSIG), so a killed worker leaves no run going on that nobody waits for."""
+def _stop_child(proc: subprocess.Popen) -> None:
+    """SIGINT the child ``gimbal-run`` by PID (it closes its bag and stops its nodes); SIGKILL
+    it when it outlives the grace time."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
     try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGINT)
-    except OSError:
-        pass
+        proc.wait(timeout=STOP_GRACE_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
 
 
 def _tail(text: str, lines: int = LOG_TAIL_LINES) -> str:
@@ -103,19 +105,17 @@ def _run_graph(task: RunTask, attempt: Path) -> tuple[str, str]:
     try:
         with open(log_file, "w") as log:
             proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                    preexec_fn=_die_with_parent, pass_fds=(lock_fd,))
+                                    preexec_fn=die_with_parent(), pass_fds=(lock_fd,))
         try:
             code = proc.wait(timeout=task.timeout_s)
             if code != 0:
                 reason = f"gimbal-run exited with code {code}"
         except subprocess.TimeoutExpired:
-            proc.send_signal(signal.SIGINT)  # by PID: it closes its bag and stops its nodes
-            try:
-                proc.wait(timeout=STOP_GRACE_S)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+            _stop_child(proc)
             reason = f"timed out after {task.timeout_s:g} s"
+        except KeyboardInterrupt:  # a stop signal to this process alone (SIGTERM): the run stops too
+            _stop_child(proc)
+            raise
     finally:
         claim.release()
     text = log_file.read_text(errors="replace")

@@ -12,16 +12,18 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
+import yaml
+
+from gimbal_kinematics.cli_boundary import on_stop_signals
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_kinematics.ros.ros_domain import claim_domain_id, localhost_env
+from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent, localhost_env
 
 from .plan import ProcessStats, RECORDER, plan_nodes, process_stats, resident_mb, write_run_files
 from .registry import NODE_TYPES
@@ -52,8 +54,10 @@ class RunResult:
     rss_samples: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: process name -> CPU seconds it had used when the first step was seen (start-up cost)
     cpu_at_start: dict[str, float] = field(default_factory=dict)
-    #: Ctrl-C (SIGINT) stopped the run before its end; ``sim_s`` is the time it reached
+    #: Ctrl-C (SIGINT, SIGTERM, SIGHUP) stopped the run before its end; ``sim_s`` is the time it reached
     interrupted: bool = False
+    #: why the recorder stopped the run before its end (a full disk: the device, its free space), else None
+    stopped: str | None = None
 
     @property
     def real_time_factor(self) -> float:
@@ -179,14 +183,12 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
     nodes = plan_nodes(scenario, out_dir, compress, live)
     write_run_files(scenario, nodes, out_dir)
     env, claim = _ros_env()
-    main_thread = threading.current_thread() is threading.main_thread()
-    sigint = signal.getsignal(signal.SIGINT) if main_thread else None
+    stop = _StopRequest()
     try:
         runner = _run_processes if mode == "processes" else _run_container
-        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s, _StopRequest())
+        return runner(scenario, nodes, out_dir, env, progress, stall_timeout_s, stop)
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, sigint)
+        stop.restore()
         if claim is not None:
             # the id is free again: a later run in this process must claim its own
             os.environ.pop("ROS_DOMAIN_ID", None)
@@ -195,8 +197,9 @@ def run(scenario: Scenario, out_dir: Path, mode: str = "processes", progress: bo
 
 def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_timeout_s: float,
            check_nodes, pids: dict[str, int | str], stop: _StopRequest) -> tuple[float, bool]:
-    """Spin until the recorder has the last step or Ctrl-C; returns the wall time [s] and
-    whether Ctrl-C stopped it (the graph is then stopped like at the end, the bag closed).
+    """Spin until the recorder has the last step, Ctrl-C (or SIGTERM, SIGHUP) or the recorder
+    stopped (a full disk: ``stop.reason``); returns the wall time [s] and whether a signal
+    stopped it (the graph is then stopped like at the end, the bag closed).
 
     ``spin(timeout)`` handles callbacks until the run is done or ``timeout`` [s] passed;
     between slices the nodes are checked, the progress bar drawn and, about once a second,
@@ -209,18 +212,19 @@ def _watch(scenario: Scenario, monitor: Monitor, spin, bar: Progress, stall_time
 
 
 class _StopRequest:
-    """Ctrl-C (SIGINT) during the run asks the watch to stop, as its end would: a flag read
-    between spin slices, never an exception raised inside a node's callback (rclpy logs
-    that as [FATAL]). A second Ctrl-C must not abort the orderly stop that closes the bag.
-    Only the main thread receives signals; elsewhere nothing is installed (``run`` puts the
-    previous handler back)."""
+    """Ctrl-C (SIGINT), SIGTERM or SIGHUP during the run asks the watch to stop, as its end
+    would: a flag read between spin slices, never an exception raised inside a node's
+    callback (rclpy logs that as [FATAL]). A second signal must not abort the orderly stop
+    that closes the bag. Only the main thread receives signals; elsewhere nothing is
+    installed (``run`` puts the previous handlers back with :meth:`restore`)."""
 
     def __init__(self) -> None:
         self.requested = False
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGINT, self._on_sigint)
+        #: why the recorder stopped the run (a full disk), set by the watch
+        self.reason: str | None = None
+        self.restore = on_stop_signals(self._on_signal)
 
-    def _on_sigint(self, *_) -> None:
+    def _on_signal(self, _signum: int) -> None:
         if self.requested:
             print("gimbal-run: still stopping the nodes and closing the bag; please wait", file=sys.stderr)
         self.requested = True
@@ -230,9 +234,9 @@ def _watch_loop(monitor: Monitor, spin, bar: Progress, stall_timeout_s: float, c
                 pids: dict[str, int | str], stop: _StopRequest) -> None:
     last_change, last_state = time.monotonic(), None
     next_rss = last_change
-    while not monitor.finished and not stop.requested:
+    while not monitor.finished and not stop.requested and stop.reason is None:
         spin(0.1)
-        check_nodes()
+        stop.reason = check_nodes()
         bar.update(monitor.sim_ns / 1e9)
         state, now = (monitor.sim_ns, monitor.recorded_ns), time.monotonic()
         if now >= next_rss:
@@ -280,12 +284,16 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
     executor.add_node(monitor.node)
     bar = Progress(scenario.duration_s, progress)
 
-    def check_nodes() -> None:
+    def check_nodes() -> str | None:
+        """None while every node runs; why the recorder stopped the run; else RunError."""
         for name, proc in procs.items():
             code = proc.poll()
+            if code is not None and name == RECORDER and _recorder_stopped(out_dir):
+                return _recorder_stopped(out_dir)
             if code is not None:
                 raise RunError(f"node {name!r} exited with code {code} during the run; its last log lines:\n"
                                f"{_tail(logs[name])}")
+        return None
 
     try:
         for node in nodes:
@@ -294,25 +302,39 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
                 raise RunError(f"executable {node.executable} not found in {bin_dir}; run `make venv`")
             with open(logs[node.name], "w") as log:
                 # a process group of its own: a terminal's Ctrl-C reaches the orchestrator only,
-                # which stops the nodes in order (the recorder last)
+                # which stops the nodes in order (the recorder last); and SIGTERM when the
+                # orchestrator dies, however it dies (SIGKILL included): no node outlives it
                 procs[node.name] = subprocess.Popen([str(exe), *node.ros_args()], env=env, stdout=log,
                                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                                    process_group=0)
+                                                    process_group=0, preexec_fn=die_with_parent())
         wall, interrupted = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
                       bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()},
                                    stop)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
-        while time.monotonic() < quiet_until:
+        while time.monotonic() < quiet_until and stop.reason is None:
             executor.spin_once(timeout_sec=0.05)
-            check_nodes()
-        stats = {name: process_stats(proc.pid) for name, proc in procs.items()}
-        return _result(out_dir, wall, monitor, logs=logs, processes=stats, interrupted=interrupted)
+            stop.reason = check_nodes()
+        # a recorder the disk stopped has exited: nothing left to read of it
+        stats = {name: process_stats(proc.pid) for name, proc in procs.items() if proc.poll() is None}
+        return _result(out_dir, wall, monitor, logs=logs, processes=stats, interrupted=interrupted,
+                       stopped=stop.reason)
     finally:
         bar.close()
         _stop(procs, first=[n.name for n in nodes if n.name != RECORDER], last=[RECORDER])
         executor.shutdown()
         monitor.node.destroy_node()
         rclpy.shutdown(context=context)
+
+
+def _recorder_stopped(out_dir: Path) -> str | None:
+    """Why the recorder stopped the recording before its end, from the bag's metadata (its
+    ``custom_data.stopped``: a full disk, the device and its free space), else None."""
+    try:
+        info = yaml.safe_load((out_dir / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        stopped = (info.get("custom_data") or {}).get("stopped")
+    except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError):
+        return None
+    return f"recording stopped: {stopped}" if stopped else None
 
 
 def stop_processes(procs: Iterable[subprocess.Popen], grace_s: float = STOP_GRACE_S) -> None:
@@ -370,12 +392,19 @@ def _run_container(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
             except Exception as exc:  # noqa: BLE001 - any node's failure ends the run, named
                 raise RunError(f"a node failed in container mode: {type(exc).__name__}: {exc}") from exc
 
-        wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, lambda: None, {"container": "self"},
+        def check_nodes() -> str | None:
+            """Why the recorder stopped the run (as the bag's metadata says, or its own line), else None."""
+            failure = getattr(built.get(RECORDER), "failure", None)
+            return failure and (_recorder_stopped(out_dir) or failure)
+
+        wall, interrupted = _watch(scenario, monitor, spin, bar, stall_timeout_s, check_nodes, {"container": "self"},
                                    stop)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
-        while time.monotonic() < quiet_until:
+        while time.monotonic() < quiet_until and stop.reason is None:
             spin(0.05, until_done=False)
-        return _result(out_dir, wall, monitor, processes={"container": process_stats()}, interrupted=interrupted)
+            stop.reason = check_nodes()
+        return _result(out_dir, wall, monitor, processes={"container": process_stats()}, interrupted=interrupted,
+                       stopped=stop.reason)
     finally:
         bar.close()
         recorder = built.pop(RECORDER, None)

@@ -38,7 +38,8 @@ from typing import Any
 
 import yaml
 
-from .params_file import ParamsFileError, blocks
+from gimbal_kinematics.params_file import ParamsFileError, blocks, load_ros_yaml
+
 from .registry import NODE_TYPES
 
 BUILTIN_DIR = Path(__file__).parent / "scenarios"
@@ -263,7 +264,7 @@ def apply_set(scenario: Scenario, assignment: str) -> Scenario:
     if node not in scenario.nodes:
         raise ScenarioError(f"--set {assignment!r}: no node {node!r} in scenario (nodes: {', '.join(scenario.nodes)})")
     try:
-        value = yaml.safe_load(text)
+        value = load_ros_yaml(text)
     except yaml.YAMLError as exc:
         raise ScenarioError(f"--set {assignment!r}: value is not valid YAML: {exc}") from exc
     return _override(scenario, target, value, f"--set {assignment!r}")
@@ -282,7 +283,7 @@ def apply_params_file(scenario: Scenario, path: Path) -> Scenario:
     Unknown, mistyped or out-of-range values raise :class:`ScenarioError` saying which."""
     where = f"--params-file {path}"
     try:
-        data = yaml.safe_load(Path(path).read_text())
+        data = load_ros_yaml(Path(path).read_text())
     except OSError as exc:
         raise ScenarioError(f"{where}: cannot read it: {exc}") from exc
     except (yaml.YAMLError, UnicodeDecodeError) as exc:

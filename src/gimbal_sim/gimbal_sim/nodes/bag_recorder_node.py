@@ -9,6 +9,11 @@ reliable, transient-local, depth 100), reports ready on ``~/progress`` only when
 wanted topic has a matched publisher, and then reports the next step it needs after each
 ``/clock``, so ``vehicle_dynamics`` never outruns it. Loss it can detect is counted: the
 middleware's message-lost events and per-topic stamps that go backwards.
+
+A full or failing disk stops the recording in order (:class:`..bag.writer.DiskStopped`): the
+bag is closed at its last chunk on disk, with ``custom_data.stopped`` in its metadata, the
+node logs one line naming the device and its free space and ends (exit 1 alone;
+``gimbal-run`` then stops the run, keeps what was recorded and writes its report).
 """
 from __future__ import annotations
 
@@ -19,6 +24,7 @@ from pathlib import Path
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
 
 from gimbal_kinematics.ros import messages as m
@@ -30,7 +36,7 @@ from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS
 from ..bag.schemas import message_class, msg_text, split_type
 from ..bag.record_rates import RecordRates
-from ..bag.writer import BagWriter
+from ..bag.writer import BagWriter, DiskStopped
 from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LiveGuard, LivePortError, LiveRelay, parse_topic_rates
 from ..bag.live_scene import scene_config
 
@@ -89,6 +95,9 @@ class BagRecorderNode(Node):
         self.lost = 0           # middleware message-lost events
         self.out_of_order = 0   # stamps going backwards within a topic
         self.ready = False
+        #: why the recording stopped before its end (a full disk), for node_main's exit code
+        self.failure: str | None = None
+        self.done = Future()
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
         self._discovery = self.create_timer(0.05, self._discover)
 
@@ -154,7 +163,13 @@ class BagRecorderNode(Node):
                 message_class(type_name), topic, lambda data, t=topic: self._relay_only(t, data),
                 subscription_qos(offered), raw=True)
             return
-        self.writer.add_topic(topic, type_name, [qos_to_dict(q) for q in offered] or [qos_to_dict(GRAPH_QOS)])
+        if self.failure is not None:
+            return
+        try:
+            self.writer.add_topic(topic, type_name, [qos_to_dict(q) for q in offered] or [qos_to_dict(GRAPH_QOS)])
+        except DiskStopped as exc:
+            self._stop(exc)
+            return
         if self.live is not None:
             self.live.add_topic(topic, type_name)
         events = SubscriptionEventCallbacks(message_lost=lambda status, t=topic: self._on_lost(t, status))
@@ -173,8 +188,14 @@ class BagRecorderNode(Node):
         if last is not None and stamp < last:
             self.out_of_order += 1
         self._last_stamp[topic] = stamp
+        if self.failure is not None:
+            return
         if not self.rates or self.rates.keep(topic, stamp):
-            self.writer.write(topic, data, stamp)
+            try:
+                self.writer.write(topic, data, stamp)
+            except DiskStopped as exc:
+                self._stop(exc)
+                return
         if self.live is not None:
             self.live.publish(topic, data, stamp)
         if topic == "/clock":
@@ -182,6 +203,14 @@ class BagRecorderNode(Node):
             step = m.step_of_stamp(stamp, self.rate)
             if self.ready and ((step + 1) % self.progress_every == 0 or (self.end_ns and stamp >= self.end_ns)):
                 self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(step + 1, self.rate)))
+
+    def _stop(self, exc: DiskStopped) -> None:
+        """The disk stopped the recording: the bag is closed; say so once and end the node."""
+        self.failure = (f"recording stopped: {exc}; kept {self.writer.message_count} messages up to "
+                        f"{self.writer.end_ns * 1e-9:.3f} s in {self.writer.directory}")
+        self.get_logger().error(self.failure)
+        if not self.done.done():
+            self.done.set_result(True)
 
     def _relay_only(self, topic: str, data: bytes) -> None:
         if self.live is not None:

@@ -6,6 +6,10 @@ namespace holding further keys (``/ns: {node: {ros__parameters: ...}}``); nested
 mappings are parameter namespaces (``a: {b: 1}`` is ``a.b``). Node names may hold wildcards
 as rclcpp and rclpy resolve them: ``*`` is one name token, ``**`` any number of tokens, so
 ``/**`` is every node. Every matching block applies, in file order, a later value winning.
+
+Scalars are read as rcl reads them (:func:`load_ros_yaml`): YAML 1.1 (PyYAML) takes a
+number with an exponent and no dot, or no sign in its exponent (``1e2``, ``1.5e3``), for a
+string, where rcl (and so a node started alone) reads a double.
 """
 from __future__ import annotations
 
@@ -13,8 +17,24 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+import yaml
+
 
 _TOKEN = re.compile(r"[A-Za-z0-9_]+")
+
+
+class RosLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, with rcl's doubles: ``1e2``, ``1.5e3``, ``-2E-3`` (module docstring)."""
+
+
+RosLoader.add_implicit_resolver("tag:yaml.org,2002:float",
+                                re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+                                list("-+0123456789."))
+
+
+def load_ros_yaml(text: str) -> Any:
+    """``text`` parsed as a ROS 2 parameter file or ``-p`` value is (:class:`RosLoader`)."""
+    return yaml.load(text, Loader=RosLoader)  # noqa: S506 - a SafeLoader subclass
 
 
 class ParamsFileError(ValueError):
