@@ -102,7 +102,7 @@ def test_plan_refuses_unknown_scenario_variant_parameter_and_owned_parameters():
              ({"sweep": {"los_rate_controller.omega_n_hz": "abc,def"}}, "omega_n_hz"),
              ({"set": {"sensor_models.gimbal_gyro_bias_deg_h": "x"}}, "gimbal_gyro_bias_deg_h"),
              ({"scenario": "sim_open_loop", "variants": ["a"]}, "has no variants"),
-             ({"scenario": "ship_flexure", "engine": "core"}, "core loop cannot step")]
+             ({"scenario": "sighting_realtime", "engine": "core"}, "core loop cannot step")]
     for overrides, message in cases:
         with pytest.raises(CampaignError, match=message):
             plan(_spec(**overrides))

@@ -37,7 +37,9 @@ def free_run(messages, **params) -> tuple[object, dict[str, dict[int, np.ndarray
 
     def recorder(topic):
         out[topic] = {}
-        return lambda msg: out[topic].__setitem__(m.stamp_ns(msg.header.stamp), np.array(m.vec_of(msg.vector)))
+        # the node publishes serialized messages (gimbal_estimators.wire)
+        return lambda data: (msg := m.vector3_stamped_from_cdr(data)) and \
+            out[topic].__setitem__(msg.stamp_ns, np.array(msg.vector))
 
     try:
         assert node.policy.timing == "free" and node.pub_diag is not None

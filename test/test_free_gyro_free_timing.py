@@ -8,7 +8,10 @@ import math
 
 import pytest
 import rclpy
+from geometry_msgs.msg import Vector3Stamped
+from sensor_msgs.msg import NavSatFix
 from rclpy.context import Context
+from rclpy.serialization import deserialize_message
 
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_estimators.free_gyro_positioning_params import PARAMS
@@ -31,8 +34,9 @@ def test_epoch_stamped_readouts_fix_like_the_core_and_bad_ones_are_counted():
     out: dict[str, list] = {"fix": [], "heading": [], "progress": [], "diag": []}
     try:
         assert node.policy.timing == "free"
-        node.pub_fix.publish = out["fix"].append
-        node.pub_heading.publish = out["heading"].append
+        # the node publishes serialized messages (gimbal_estimators.wire): decoded by rclpy's own deserializer
+        node.pub_fix.publish = lambda data: out["fix"].append(deserialize_message(data, NavSatFix))
+        node.pub_heading.publish = lambda data: out["heading"].append(deserialize_message(data, Vector3Stamped))
         node.pub_progress.publish = out["progress"].append
         node.pub_diag.publish = out["diag"].append
         for k, s in enumerate(samples):

@@ -9,7 +9,9 @@ from collections import defaultdict
 
 import numpy as np
 import rclpy
+from geometry_msgs.msg import Vector3Stamped
 from rclpy.context import Context
+from rclpy.serialization import deserialize_message
 import pytest
 
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
@@ -45,7 +47,8 @@ def test_jittered_epoch_stamps_align_like_the_truth_and_bad_stamps_are_counted()
     try:
         assert node.policy.timing == "free"
         for name, pub in node.pubs.items():
-            pub.publish = sent[name].append
+            # serialized by the node (gimbal_estimators.wire): decoded by rclpy's own deserializer
+            pub.publish = lambda data, out=sent[name]: out.append(deserialize_message(data, Vector3Stamped))
         node.pub_progress.publish = sent["progress"].append
         node.pub_diag.publish = sent["diag"].append
         t_ns = EPOCH_NS

@@ -13,7 +13,9 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 import rclpy
+from geometry_msgs.msg import Vector3Stamped
 from rclpy.context import Context
+from rclpy.serialization import deserialize_message
 
 from conftest import VENV_BIN
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
@@ -78,7 +80,8 @@ def alignment_node(domain_env, params: dict | None = None):
     node = PlatformAlignmentNode(context=context, cli_args=ros_args(params), use_global_arguments=False)
     sent = defaultdict(list)
     for name, pub in node.pubs.items():
-        pub.publish = sent[name].append
+        # serialized by the node (gimbal_estimators.wire): decoded by rclpy's own deserializer
+        pub.publish = lambda data, out=sent[name]: out.append(deserialize_message(data, Vector3Stamped))
     node.pub_progress.publish = sent["progress"].append
     try:
         yield node, sent

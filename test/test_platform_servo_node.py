@@ -13,7 +13,9 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 import rclpy
+from sensor_msgs.msg import JointState
 from rclpy.context import Context
+from rclpy.serialization import deserialize_message
 
 from conftest import VENV_BIN
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
@@ -54,7 +56,8 @@ def servo_node(domain_env, params: dict | None = None):
     node = PlatformServoNode(context=context, cli_args=ros_args({"timing": "lockstep", **(params or {})}), use_global_arguments=False)
     sent = defaultdict(list)
     for name, pub in (("cmd", node.pub), ("error", node.pub_error), ("mod", node.pub_mod)):
-        pub.publish = sent[name].append
+        # serialized by the node (gimbal_control.wire): decoded by rclpy's own deserializer
+        pub.publish = lambda data, out=sent[name]: out.append(deserialize_message(data, JointState))
     try:
         yield node, sent
     finally:

@@ -49,6 +49,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from . import messages as m
 from .encoder_fusion import EncoderFusionController, EncoderFusionParams
 from .encoder_fusion_controller_params import DESCRIPTION, PARAMS
+from .wire import encoder_fusion_messages
 
 #: An incomplete step this many steps older than a complete one is given up.
 _STALE_STEPS = 1000
@@ -74,6 +75,8 @@ class EncoderFusionControllerNode(Node):
         self.pub_cmd = self.io.advertise_command(JointState, "/gimbal/torque_cmd", v)
         self.pub_feedback = self.io.advertise(Vector3Stamped, "~/feedback_velocity", timing)
         self.pub_correction = self.io.advertise(Vector3Stamped, "~/drift_correction", timing)
+        self.pubs = {"/gimbal/torque_cmd": self.pub_cmd, "~/feedback_velocity": self.pub_feedback,
+                     "~/drift_correction": self.pub_correction}
         # the one choice of timing (module docstring). Lockstep: a complete step runs at once,
         # so an older step still waiting for a lost input cannot stall the loop behind it.
         self.policy = control_policy(
@@ -134,6 +137,7 @@ class EncoderFusionControllerNode(Node):
         for reason in step.resets:
             core.reset(reason)
         t_ns = step.stamp_ns
+        feedback = None
         if step.zero_command:
             tau = ZERO
         elif None in inputs.values():
@@ -148,12 +152,14 @@ class EncoderFusionControllerNode(Node):
                 tau = self._hold(step, "non-finite measurement")
             else:
                 tau = (out.torque_azimuth, out.torque_elevation)
-                self.pub_feedback.publish(m.gimbal_axes_msg(t_ns, out.velocity_q, out.velocity_r))
-        self.pub_cmd.publish(m.torque_command_msg(t_ns, tau))
-        updates = self.core.kf_q.updates
-        if updates != self._kf_updates:
-            self._kf_updates = updates
-            self.pub_correction.publish(m.gimbal_axes_msg(t_ns, *self.core.corrections))
+                feedback = (out.velocity_q, out.velocity_r)
+        correction = None
+        if self.core.kf_q.updates != self._kf_updates:
+            self._kf_updates = self.core.kf_q.updates
+            correction = self.core.corrections
+        # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in encoder_fusion_messages(t_ns, tau, feedback, correction):
+            self.pubs[topic].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             self.pub_diag.publish(self.health(step))

@@ -51,11 +51,9 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
-from gimbal_kinematics.frames import NAV_FRAME
 from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import health_msg
-from gimbal_kinematics.ros.messages import vector3_cdr
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
@@ -64,6 +62,7 @@ from gimbal_kinematics.rotations import quat_to_dcm
 from . import messages as m
 from .geo_pointer import GeoPointer, GeoPointerParams
 from .geo_pointer_params import DESCRIPTION, PARAMS
+from .wire import geo_pointer_messages
 
 COUNTERS = ("malformed", "rejected_inputs", "held_commands", "fixes_no_fix", "fixes_out_of_order", "stale_fixes",
             "rejected_velocities")
@@ -85,9 +84,11 @@ class GeoPointerNode(Node):
         self.command = (0.0, 0.0)
         vehicle_inputs = self._vehicle_inputs(v)
         self.io = NodeIo(self)
-        self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], timing)
+        self.operator_topic = v["operator_topic"]
+        self.pub_cmd = self.io.advertise(Vector3Stamped, self.operator_topic, timing)
         self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
         self.pub_aim = self.io.advertise(Vector3Stamped, "~/aim", timing)
+        self.pubs = {"~/budget": self.pub_budget, "~/aim": self.pub_aim}
         self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
         self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
@@ -207,19 +208,18 @@ class GeoPointerNode(Node):
         if "att" not in inputs or step.zero_command:  # an encoder-only step between INS samples, or stale inputs
             return
         att, ins, enc = inputs.get("att"), inputs.get("ins"), inputs.get("enc")
-        budget = None
+        budget = aim = None
         fix, vel = inputs.get("fix"), inputs.get("vel")
         if att is None or ins is None or enc is None or (fix is not None and not self.core.set_vehicle(
                 fix.value, None if vel is None else vel.value)):
             self.counts["held_commands"] += 1
         else:
             out = self.core.step(att.value, quat_to_dcm(np.asarray(ins.value)), enc.value[0])
-            self.command, budget = out.command, out.budget
-            self.pub_aim.publish(vector3_cdr(step.stamp_ns, NAV_FRAME, tuple(out.aim_n)))
-        self.pub_cmd.publish(vector3_cdr(step.stamp_ns, m.GIMBAL_FRAME, (0.0, *self.command)))
-        if budget is not None:
-            self.pub_budget.publish(vector3_cdr(step.stamp_ns, m.GIMBAL_FRAME,
-                                                (budget.total_rad, *budget.principal_sigmas_rad)))
+            self.command, budget, aim = out.command, out.budget, tuple(out.aim_n)
+        figures = None if budget is None else (budget.total_rad, *budget.principal_sigmas_rad)
+        # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in geo_pointer_messages(step.stamp_ns, self.operator_topic, self.command, figures, aim):
+            self.pubs.get(topic, self.pub_cmd).publish(data)
         if step.stamp_ns >= self._next_diag_ns:
             self._next_diag_ns = step.stamp_ns + self.diag_period_ns
             fields = {**self.policy.counters(), **self.counts, **self.core.counts,

@@ -70,6 +70,7 @@ from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
 from .los_rate_controller_params import DESCRIPTION, PARAMS
 from .operator_command import OperatorCommand, OperatorCommandParams
+from .wire import torque_command_messages
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
@@ -228,7 +229,8 @@ class LosRateControllerNode(Node):
                                 core.reference(step.stamp_ns))
                 if core.rejected_inputs > before:
                     self._count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
-        self.pub.publish(m.torque_command_cdr(step.stamp_ns, tau))
+        for _, _, data in torque_command_messages(step.stamp_ns, tau):  # as the engine writes it
+            self.pub.publish(data)
         if step.stamp_ns >= self._next_diag_ns:
             self._next_diag_ns = step.stamp_ns + self.diag_period_ns
             self.pub_diag.publish(self.health(step))

@@ -2,7 +2,6 @@
 ROS messages). Stamps map to lockstep steps as in :mod:`gimbal_kinematics.ros.messages`."""
 from __future__ import annotations
 
-from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import JointState
 
 from gimbal_kinematics.frames import (  # noqa: F401  (MODULATION_JOINT: used by the servo node)
@@ -13,21 +12,7 @@ from gimbal_kinematics.ros.messages import (  # noqa: F401
     joint_state_msg, quat_of, stamp_ns, step_of_stamp, step_stamp_ns, vec_of, vector3_msg, vector3_stamped_from_cdr,
 )
 
-
-def torque_command_msg(t_ns: int, tau: tuple[float, float]) -> JointState:
-    return joint_state_msg(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
-
-
-def torque_command_cdr(t_ns: int, tau: tuple[float, float]) -> bytes:
-    """:func:`torque_command_msg`, serialized."""
-    return joint_state_cdr(t_ns, GIMBAL_COMMAND_JOINTS, effort=tau)
-
-
-# ---------------------------------------------------------------- paper 2 (encoder fusion)
-def gimbal_axes_msg(t_ns: int, q: float, r: float) -> Vector3Stamped:
-    """A per-axis quantity of the two gyro axes as (0, q, r) in the inner-gimbal frame
-    (x, the roll axis the two-axis gyro does not measure, is 0)."""
-    return vector3_msg(t_ns, GIMBAL_FRAME, (0.0, q, r))
+from .wire import torque_command_cdr  # noqa: F401,E402  (re-exported; the serialized form is rclpy-free)
 
 
 # --- paper 3 four-gimbal platform servo ------------------------------------------------------
@@ -39,18 +24,3 @@ def platform_joint_positions(msg: JointState) -> tuple[float, float, float, floa
         return None
     pos = msg.position
     return tuple(float(pos[names.index(j)]) for j in PLATFORM_JOINTS)  # type: ignore[return-value]
-
-
-def platform_voltage_msg(t_ns: int, volts: tuple[float, ...]) -> JointState:
-    """The gimbal motor voltages (a, q, p, r) [V] as effort of the platform joints."""
-    return joint_state_msg(t_ns, PLATFORM_JOINTS, effort=volts)
-
-
-def platform_control_error_msg(t_ns: int, signals: tuple[float, ...]) -> JointState:
-    """Paper 3 eq. 1 control signals (Δθ_am, Δθ_qm, Δθ_pm, Δθ_rm) [rad] as positions."""
-    return joint_state_msg(t_ns, PLATFORM_JOINTS, position=signals)
-
-
-def modulation_msg(t_ns: int, phi_z: float, phi_z_rate: float) -> JointState:
-    """Commanded modulation angle φz [rad] (about NED down, from the start) and rate [rad/s]."""
-    return joint_state_msg(t_ns, (MODULATION_JOINT,), position=(phi_z,), velocity=(phi_z_rate,))

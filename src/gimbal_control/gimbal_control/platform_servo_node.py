@@ -57,6 +57,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from . import messages as m
 from .platform_servo import PlatformServo, PlatformServoParams
 from .platform_servo_params import DESCRIPTION, PARAMS
+from .wire import platform_servo_messages
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
@@ -83,6 +84,7 @@ class PlatformServoNode(Node):
         self.pub = self.io.advertise_command(JointState, "/platform/voltage_cmd", v)
         self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
         self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
+        self.pubs = {"/platform/voltage_cmd": self.pub, "~/control_error": self.pub_error, "~/modulation": self.pub_mod}
         # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
         nav_age = {"nav": v["command_max_age_s"]} if self.follows_navigator else {}
         self.policy = control_policy(
@@ -165,12 +167,12 @@ class PlatformServoNode(Node):
             self._log(f"step at {step.t:.6f} s: bad measurement; {core.rejected_nonfinite} non-finite samples "
                       f"rejected, {core.held_commands} commands held, {core.rejected_gimbal_lock} at gimbal lock")
         t_ns = step.stamp_ns
-        self.pub.publish(m.platform_voltage_msg(t_ns, volts))
         if out is not None:
             self._ticks += 1
-            if (self._ticks - 1) % self.diag_every == 0:
-                self.pub_error.publish(m.platform_control_error_msg(t_ns, out.control_signals))
-                self.pub_mod.publish(m.modulation_msg(t_ns, out.phi_z, out.phi_z_rate))
+        due = out is not None and (self._ticks - 1) % self.diag_every == 0
+        # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in platform_servo_messages(t_ns, volts, out if due else None):
+            self.pubs[topic].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             self.pub_diag.publish(self.health(step))

@@ -61,7 +61,6 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from gimbal_kinematics.frames import LGU1_FRAME
 from gimbal_kinematics.input_policy import Step, sample_policy
 from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
@@ -75,9 +74,8 @@ from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParam
 from .flexure_estimator_params import DESCRIPTION, PARAMS
 from .flexure_kf import FlexureEstimate, FlexureKf, FlexureKfParams
 from .nis import NisWindow
+from .wire import FLEXURE_OUTPUTS as OUTPUTS, flexure_messages  # noqa: F401  (OUTPUTS: the output stems)
 
-#: Output topic stems, each published with a ``_sigma`` companion.
-OUTPUTS = ("flexure", "quasi_static", "dynamic", "bias_diff")
 #: The two input streams (LGU1, LGU2).
 UNITS = ("lgu1", "lgu2")
 #: Counters whose increase means a sample was rejected, with the log text.
@@ -173,13 +171,9 @@ class FlexureEstimatorNode(Node):
             if b == self._last_bin:
                 return
             self._last_bin = b
-        frame = LGU1_FRAME
-        values = {"flexure": est.flexure, "flexure_sigma": est.flexure_sigma,
-                  "quasi_static": est.quasi_static, "quasi_static_sigma": est.quasi_static_sigma,
-                  "dynamic": est.dynamic, "dynamic_sigma": est.dynamic_sigma,
-                  "bias_diff": est.bias_diff, "bias_diff_sigma": est.bias_diff_sigma}
-        for topic, vec in values.items():
-            self.pubs[topic].publish(m.vector3_msg(t_ns, frame, vec))
+        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in flexure_messages(t_ns, est):
+            self.pubs[topic[2:]].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             fields, nis_verdict = self.policy.report(self.core.counters, self.io.counters(),

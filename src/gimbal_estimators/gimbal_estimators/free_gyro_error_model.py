@@ -521,3 +521,15 @@ class FixPredictor:
                               drift_elapsed_s=max(t - self.t_set, 0.0), samples_per_fix=samples,
                               heading_window_s=self.heading_window_s, height_m=self.height_m)
         return model.predict(self.sources)
+
+
+def fix_predictor(values: dict, params) -> FixPredictor | None:
+    """The ``free_gyro_positioning`` node's error model of its fixes from its parameter
+    ``values`` and core ``params`` (:class:`.free_gyro_positioning.FreeGyroPositioningParams`);
+    None unless ``predict_error``."""
+    if not values["predict_error"]:
+        return None
+    sources = ErrorSources(values["error_triad_bias_deg_h"], values["error_level_arcsec"],
+                           values["error_spin_drift_deg_h"], params.nadir_noise_arcsec, params.triad_arw_deg_rt_h)
+    return FixPredictor(params.u_a_i, params.u_b_i, sources, t_set=values["spin_reference_time_s"],
+                        heading_window_s=params.heading_window_s, height_m=params.height_m)

@@ -64,7 +64,6 @@ from __future__ import annotations
 import math
 import sys
 
-import numpy as np
 
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
@@ -80,17 +79,15 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.stamps import Stamp, judge
-from gimbal_kinematics.frames import BASE_FRAME
 
 from . import messages as m
-from .free_gyro_error_model import ErrorPrediction, ErrorSources, FixPredictor
+from .free_gyro_error_model import fix_predictor
 from .free_gyro_positioning import FreeGyroFix, FreeGyroPositioning, FreeGyroPositioningParams
 from .free_gyro_positioning_params import DESCRIPTION, PARAMS
+from .wire import free_gyro_fix_messages
 
 SPIN_A, SPIN_B, IMU = "/free_gyro/spin_axis_a", "/free_gyro/spin_axis_b", "/free_gyro/imu"
 VELOCITY = "/free_gyro/velocity"
-FRAME_ID = BASE_FRAME
-STATUS_FIX, STATUS_DEGENERATE = 0.0, 1.0
 
 
 class FreeGyroPositioningNode(Node):
@@ -107,12 +104,7 @@ class FreeGyroPositioningNode(Node):
         inputs = (SPIN_A, SPIN_B, IMU) + ((VELOCITY,) if self.velocity_input else ())
         # the one choice of timing (module docstring)
         self.policy = synced_policy(timing, inputs, rate_hz=v["sim_rate_hz"], progress_every=v["progress_every_steps"])
-        p = self.core.params
-        self.predictor = FixPredictor(
-            p.u_a_i, p.u_b_i, ErrorSources(v["error_triad_bias_deg_h"], v["error_level_arcsec"],
-                                           v["error_spin_drift_deg_h"], p.nadir_noise_arcsec, p.triad_arw_deg_rt_h),
-            t_set=v["spin_reference_time_s"], heading_window_s=p.heading_window_s,
-            height_m=p.height_m) if v["predict_error"] else None
+        self.predictor = fix_predictor(v, self.core.params)
         self.degenerate = 0
         self.resets = 0
         self._rejected_seen = 0
@@ -127,8 +119,10 @@ class FreeGyroPositioningNode(Node):
         self.pub_heading_er = pub(Vector3Stamped, "heading_earth_rate")
         self.outputs = (self.pub_fix, self.pub_heading, self.pub_geometry, self.pub_nadir, self.pub_heading_er)
         if self.predictor is not None:
-            self.pub_predicted = tuple(pub(Vector3Stamped, f"predicted_{k}") for k in ("nadir", "position", "heading"))
-            self.outputs += self.pub_predicted
+            self.outputs += tuple(pub(Vector3Stamped, f"predicted_{k}") for k in ("nadir", "position", "heading"))
+        self.pubs = {f"~/{name}": p for name, p in zip(("fix", "heading", "geometry", "nadir", "heading_earth_rate",
+                                                         "predicted_nadir", "predicted_position", "predicted_heading"),
+                                                        self.outputs)}
         self.pub_progress = pub(Clock, "progress")
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
@@ -206,39 +200,21 @@ class FreeGyroPositioningNode(Node):
 
     # -- outputs ---------------------------------------------------------------------------
     def _publish_fix(self, fix: FreeGyroFix, t_close: float) -> None:
-        stamp = m.seconds_ns(fix.t)
-        status = STATUS_FIX if fix.valid else STATUS_DEGENERATE
-        self.pub_geometry.publish(m.vector3_msg(stamp, FRAME_ID, (fix.fdop, fix.crossing_angle, status)))
-        self.pub_nadir.publish(m.vector3_msg(stamp, FRAME_ID, (fix.nadir[0], fix.nadir[1], fix.nadir_sigma)))
-        if fix.valid:
-            self.pub_fix.publish(m.free_gyro_fix_msg(fix, FRAME_ID, self.height_m, self.height_sigma_m))
-            # uniform read-outs: the window is symmetric about its mean time
-            span = 2.0 * (t_close - fix.t)
-            self.pub_heading.publish(m.vector3_msg(stamp, FRAME_ID, (fix.heading, fix.heading_sigma, span)))
-            if self.predictor is not None:
-                self._publish_prediction(stamp, self.predictor.predict(fix.lat, fix.lon, fix.t, fix.heading,
-                                                                       fix.n_samples))
-        else:
+        prediction = None
+        if fix.valid and self.predictor is not None:
+            prediction = self.predictor.predict(fix.lat, fix.lon, fix.t, fix.heading, fix.n_samples)
+        if not fix.valid:
             self.degenerate += 1
             self.get_logger().warning(f"degenerate fix geometry, no fix published: {fix.reason} "
                                       f"({self.degenerate} windows so far)", throttle_duration_sec=1.0)
         t_er = fix.heading_earth_rate_t
-        if math.isfinite(fix.heading_earth_rate) and (self._er_t is None or t_er > self._er_t):
+        earth_rate = math.isfinite(fix.heading_earth_rate) and (self._er_t is None or t_er > self._er_t)
+        if earth_rate:
             self._er_t = t_er
-            self.pub_heading_er.publish(m.vector3_msg(
-                m.seconds_ns(t_er), FRAME_ID,
-                (fix.heading_earth_rate, fix.heading_earth_rate_sigma, self.core.params.heading_window_s)))
-
-
-    def _publish_prediction(self, stamp: int, pred: ErrorPrediction) -> None:
-        """The model's σ of the fix (module docstring)."""
-        c = pred.cov
-        sd = np.sqrt(np.diag(c))
-        corr = [float(c[i, i + 1] / (sd[i] * sd[i + 1])) if sd[i] > 0.0 and sd[i + 1] > 0.0 else 0.0 for i in (0, 2)]
-        nadir, position, heading = self.pub_predicted
-        nadir.publish(m.vector3_msg(stamp, FRAME_ID, (sd[0], sd[1], corr[0])))
-        position.publish(m.vector3_msg(stamp, FRAME_ID, (sd[2], sd[3], corr[1])))
-        heading.publish(m.vector3_msg(stamp, FRAME_ID, (sd[4], sd[5], pred.position_fdop_m)))
+        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in free_gyro_fix_messages(fix, t_close, self.height_m, self.height_sigma_m, prediction,
+                                                     self.core.params.heading_window_s if earth_rate else None):
+            self.pubs[topic].publish(data)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -96,6 +96,7 @@ from . import messages as m
 from .gyro_bias_ekf import GyroBiasEkf
 from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
 from .nis import NisWindow
+from .wire import ekf_messages
 
 #: The input streams, in the order the filter takes them within one stamp: encoders and
 #: INS before the gyro sample that completes the step.
@@ -218,11 +219,10 @@ class GyroBiasEkfNode(Node):
             self._publish(t_ns, core.bias, core.bias_sigma, None, None)
 
     def _publish(self, t_ns: int, bias, sigma, quat, att_cov) -> None:
-        self.pub_bias.publish(wire.vector3_cdr(t_ns, m.GIMBAL_FRAME, bias))
-        self.pub_sigma.publish(wire.vector3_cdr(t_ns, m.GIMBAL_FRAME, sigma))
-        cov = m.NOT_PROVIDED if att_cov is None else tuple(float(v) for row in att_cov for v in row)
-        self.pub_attitude.publish(wire.imu_cdr(t_ns, m.NAV_FRAME, orientation=quat, orientation_cov=cov,
-                                              angular_velocity=self.core.corrected_rate))
+        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+        for (_, _, data), pub in zip(ekf_messages(t_ns, bias, sigma, quat, att_cov, self.core.corrected_rate),
+                                     (self.pub_bias, self.pub_sigma, self.pub_attitude)):
+            pub.publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             self.pub_diag.publish(self.health(t_ns))

@@ -6,7 +6,7 @@ import math
 from typing import Sequence
 
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
-from sensor_msgs.msg import Imu, JointState, NavSatFix
+from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401
 from gimbal_kinematics.rotations import euler321_from_quat
@@ -15,7 +15,7 @@ from gimbal_kinematics.ros.messages import (  # noqa: F401
     stamp_ns, step_of_stamp, step_stamp_ns, time_msg, vec_of, vector3_msg,
 )
 
-from .free_gyro_positioning import FreeGyroFix, navsat_covariance_enu
+from .wire import NOT_ESTIMATED, enu_to_ned, north_only, planar, sigma_enu_to_ned  # noqa: F401  (re-exported)
 
 
 
@@ -60,16 +60,6 @@ def level_of(msg: Imu) -> tuple[float, float]:
     return roll, pitch
 
 
-def free_gyro_fix_msg(fix: FreeGyroFix, frame_id: str, height_m: float, height_sigma_m: float) -> NavSatFix:
-    """``NavSatFix`` of a valid free-gyro fix stamped at the window's mean time: latitude and
-    longitude, ``height_m`` as altitude (the free gyros do not observe it) and the ENU
-    covariance = the fix's FDOP²σ² north/east block plus ``height_sigma_m``² vertically."""
-    if not fix.valid:
-        raise ValueError(f"no NavSatFix for a {fix.status} fix ({fix.reason})")
-    cov = navsat_covariance_enu(fix.cov_ne_m, height_sigma_m**2)
-    return navsat_fix_msg(seconds_ns(fix.t), frame_id, fix.lat, fix.lon, height_m, cov)
-
-
 def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:
     """Incremental angle Δα [rad] (3,) of an LGU message over its sample interval ``dt``
     [s]: the sensor publishes Δα/Δt in ``angular_velocity`` (docs/interfaces.md, topic table), so this
@@ -82,12 +72,6 @@ def lgu_increment(msg: Imu, dt: float) -> tuple[float, float, float] | None:
     return (w.x * dt, w.y * dt, w.z * dt)
 
 
-# --- paper 3 rotation-modulated alignment -----------------------------------------------------
-#: Standard-deviation component of a vector element the estimator does not estimate
-#: (the REP 145 "not provided" marker, used per element).
-NOT_ESTIMATED = -1.0
-
-
 def joint_position_velocity(msg: JointState, name: str) -> tuple[float, float | None] | None:
     """(position, velocity or None) of joint ``name``; None when the message lacks it."""
     names = list(msg.name)
@@ -98,27 +82,6 @@ def joint_position_velocity(msg: JointState, name: str) -> tuple[float, float | 
         return None
     vel = float(msg.velocity[i]) if i < len(msg.velocity) else None
     return float(msg.position[i]), vel
-
-
-def enu_to_ned(v: Sequence[float]) -> tuple[float, float, float]:
-    """Components (E, N, U) → (N, E, D) of the same vector."""
-    return float(v[1]), float(v[0]), -float(v[2])
-
-
-def sigma_enu_to_ned(s: Sequence[float]) -> tuple[float, float, float]:
-    """Standard deviations (E, N, U) → (N, E, D)."""
-    return float(s[1]), float(s[0]), float(s[2])
-
-
-def planar(v: Sequence[float], sigma: bool = False) -> tuple[float, float, float]:
-    """An (x, y) estimate as a 3-vector: z = 0, or the not-estimated marker for a σ vector."""
-    return float(v[0]), float(v[1]), NOT_ESTIMATED if sigma else 0.0
-
-
-def north_only(value: float, sigma: bool = False) -> tuple[float, float, float]:
-    """A north component as an NED vector (east/down 0, or not-estimated for a σ vector)."""
-    rest = NOT_ESTIMATED if sigma else 0.0
-    return float(value), rest, rest
 
 
 # --- free timing: what a driver or another tool may send -----------------------------------

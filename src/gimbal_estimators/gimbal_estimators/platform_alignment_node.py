@@ -75,6 +75,7 @@ from . import messages as m
 from .nis import NisWindow
 from .platform_alignment_params import DESCRIPTION, PARAMS
 from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
+from .wire import alignment_messages
 
 #: Output topics, under the node's namespace (module docstring).
 OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initial_misalignment_sigma",
@@ -182,22 +183,9 @@ class PlatformAlignmentNode(Node):
 
     # --- outputs ---------------------------------------------------------------------------
     def _publish(self, t_ns: int, e: AlignmentEstimate) -> None:
-        nav, plat = m.NAV_FRAME, m.PLATFORM_FRAME
-        out = {
-            "misalignment": (nav, m.enu_to_ned(e.misalignment_enu)),
-            "misalignment_sigma": (nav, m.sigma_enu_to_ned(e.misalignment_sigma_enu)),
-            "initial_misalignment": (nav, m.enu_to_ned(e.misalignment0_enu)),
-            "initial_misalignment_sigma": (nav, m.sigma_enu_to_ned(e.misalignment0_sigma_enu)),
-            "north_drift": (nav, m.north_only(e.north_drift)),
-            "north_drift_sigma": (nav, m.north_only(e.north_drift_sigma, sigma=True)),
-            "gyro_drift": (plat, m.planar(e.gyro_drift_xy)),
-            "gyro_drift_sigma": (plat, m.planar(e.gyro_drift_sigma_xy, sigma=True)),
-            "accel_bias": (plat, m.planar(e.accel_bias_xy)),
-            "accel_bias_sigma": (plat, m.planar(e.accel_bias_sigma_xy, sigma=True)),
-            "status": (plat, (e.age_s, float(e.n_updates), 1.0 if e.converged else 0.0)),
-        }
-        for name, (frame, vec) in out.items():
-            self.pubs[name].publish(m.vector3_msg(t_ns, frame, vec))
+        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in alignment_messages(t_ns, e):
+            self.pubs[topic[2:]].publish(data)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -65,6 +65,7 @@ from . import messages as m
 from .navigator_odometry import NavigatorOdometry, OdometryModel
 from .platform_navigator import NavigatorOutput, PlatformNavigator
 from .platform_navigator_params import DESCRIPTION, PARAMS, PlatformNavigatorParams
+from .wire import navigator_messages
 
 #: ``platform_servo``'s φz (``~/modulation``, joint ``modulation_angle``) for ``azimuth_source: servo``
 SERVO_MODULATION_TOPIC = "/platform_servo/modulation"
@@ -115,6 +116,8 @@ class PlatformNavigatorNode(Node):
         self.pub_velocity = io.advertise(Vector3Stamped, "~/velocity", timing)
         self.pub_odom = io.advertise(Odometry, "~/odom", timing)
         self.pub_command = io.advertise(Vector3Stamped, "~/command_rate", timing)
+        self.pubs = {"~/fix": self.pub_fix, "~/velocity": self.pub_velocity, "~/odom": self.pub_odom,
+                     "~/command_rate": self.pub_command}
         self.pub_progress = io.advertise(Clock, "~/progress", timing)
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
@@ -175,12 +178,11 @@ class PlatformNavigatorNode(Node):
     def _publish(self, t_ns: int, out: NavigatorOutput | None) -> None:
         if out is not None:
             self._last_command = out.command_rate_n
-            if (self.core.accepted - 1) % self.fix_every == 0:
-                self.pub_fix.publish(m.navsat_fix_msg(t_ns, m.NAV_FRAME, out.lat, out.lon, out.height))
-                self.pub_velocity.publish(wire.vector3_cdr(t_ns, m.NAV_FRAME, out.velocity_n))
-                self.pub_odom.publish(wire.odometry_cdr(t_ns, *self.odom_frames, *self.odometry(out)))
-        if self._last_command is not None:
-            self.pub_command.publish(wire.vector3_cdr(t_ns, m.NAV_FRAME, self._last_command))
+        fix = out if out is not None and (self.core.accepted - 1) % self.fix_every == 0 else None
+        odom = None if fix is None else (*self.odom_frames, *self.odometry(fix))
+        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+        for topic, _, data in navigator_messages(t_ns, fix, self._last_command, odom):
+            self.pubs[topic].publish(data)
         if t_ns >= self._next_diag_ns:
             self._next_diag_ns = t_ns + self.diag_period_ns
             self.pub_diag.publish(self.health(t_ns))

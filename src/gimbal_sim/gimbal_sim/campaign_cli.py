@@ -79,6 +79,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "the same cores in one Python loop, no ROS")
     p.add_argument("--keep-bags", choices=KEEP_BAGS, help="keep every run's bag (all, default), only failed runs' "
                    "or none (each run keeps its metrics and report)")
+    p.add_argument("--no-bags", action="store_true", help="keep no run's bag (--keep-bags none); by default every "
+                   "run keeps its zstd-compressed bag, on either engine, so every figure can be recomputed from them")
     p.add_argument("--no-compress", action="store_true", help="uncompressed MCAP chunks in the bags")
     p.add_argument("--timeout", type=float, metavar="S", help="a run taking longer fails (default 120 + 10 x duration)")
     p.add_argument("--out", type=Path, help="campaign directory (default bags/campaigns/<time>_<scenario>)")
@@ -154,6 +156,10 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
         data["variants"] = list(args.variant)
     if args.no_compress:
         data["compress"] = False
+    if args.no_bags:
+        if args.keep_bags not in (None, "none"):
+            raise CampaignError(f"--no-bags contradicts --keep-bags {args.keep_bags}")
+        data["keep_bags"] = "none"
     if args.sweep:
         data["sweep"] = _assignments(args.sweep, "--sweep")
     if args.disperse:

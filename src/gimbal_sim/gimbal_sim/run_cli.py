@@ -39,6 +39,9 @@ from .bag.disk import (
     disk_error_line, estimate_run_bytes, free_bytes, human, is_disk_error, space_line, stop_kind,
 )
 from .bag.reader import scan
+from .bag.writer import DiskStopped
+from .core.core_loop import NoCoreError
+from .core.engine_run import check_engine, run_engine
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.plan import check_nodes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
@@ -72,6 +75,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, help="run directory (default bags/<timestamp>_<scenario>)")
     parser.add_argument("--mode", choices=("processes", "container"), default="processes",
                         help="one OS process per node, or all nodes in this process (default processes)")
+    parser.add_argument("--engine", choices=("graph", "core"), default="graph",
+                        help="graph: the scenario's nodes (default); core: the same cores stepped in one Python "
+                             "loop, no ROS, recording the same bag (same topics, stamps and bytes, without "
+                             "/diagnostics and the nodes' progress; docs/architecture.md)")
     parser.add_argument("--variant", action="append", default=[], metavar="NAME",
                         help="run only this variant of a scenario that has variants; repeatable")
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
@@ -115,6 +122,21 @@ def _live_params(args: argparse.Namespace) -> dict | None:
         probe.close()
     return {"live_port": args.live_port, "live_rate_hz": args.live_rate_hz,
             "live_topic_rates": list(args.live_topic_rate)}
+
+
+def _check_engine(runs: list[tuple[str, Scenario]], args: argparse.Namespace) -> None:
+    """``--engine core``: every run's node set is one the engine steps, in lockstep (module
+    docstring of :mod:`.core.engine_run`), refused before anything starts."""
+    if args.live:
+        raise UsageError("--live shows the graph's topics as they are published: drop it with --engine core")
+    for name, single in runs:
+        where = f"variant {name!r}: " if name else ""
+        if single.prelude:
+            raise UsageError(f"--engine core: {where}a prelude runs on the graph only")
+        try:
+            check_engine(single)
+        except NoCoreError as exc:
+            raise UsageError(f"--engine core: {where}{exc}") from None
 
 
 def _print_list() -> None:
@@ -178,6 +200,8 @@ def main(argv: list[str] | None = None) -> int:
     out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")
     if args.jobs < 1:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.engine == "core":
+        _check_engine(runs, args)
     _check_space(out, [single for _, single in runs], args)
     if args.live and args.jobs > 1 and len(runs) > 1:
         raise UsageError("--live shows one run at a time: drop --jobs or pick one --variant")
@@ -257,7 +281,8 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
             log_path = out / f".{name}.log"
             with open(log_path, "w") as log:  # the child keeps its own handle
                 proc = subprocess.Popen([sys.executable, "-m", "gimbal_sim.run_cli", str(spec), "--out",
-                                         str(out / name), "--mode", args.mode, "--no-progress",
+                                         str(out / name), "--mode", args.mode, "--engine", args.engine,
+                                         "--no-progress",
                                          *(["--no-compress"] if args.no_compress else [])],
                                         env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                         preexec_fn=die_with_parent())
@@ -361,10 +386,33 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     return metrics, prelude_rows + [_hand_off_row(figures)] + rows
 
 
+def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
+    """:func:`_run_one` on the engine (``--engine core``): its bag, run.json, report and page."""
+    if not args.no_progress:
+        print(f"stepping {scenario.name} on the engine ({scenario.duration_s:g} s simulated) ...", file=sys.stderr)
+    try:
+        done = run_engine(scenario, out, compress=not args.no_compress)
+    except DiskStopped as exc:  # the bag is closed at its last chunk on disk
+        raise RunError(f"{exc}; the engine stopped there") from None
+    report_dir, metrics = write_report(out)
+    return metrics, [
+        ("scenario", f"{scenario.name} (engine core, seed {scenario.seed})"),
+        ("simulated", f"{done.result.sim_s:.3f} s at {scenario.sim_rate_hz:g} Hz"),
+        ("wall time", f"{done.wall_s:.2f} s (real-time factor {done.result.sim_s / done.wall_s:.2f}, "
+                      f"{done.result.steps / done.wall_s:,.0f} steps/s)"),
+        ("recorded", f"{metrics['message_count']} messages on {len(metrics['topics'])} topics, "
+                     f"{'closed cleanly' if metrics['closed_cleanly'] else 'NOT closed cleanly'}"),
+        ("bag", str(out)),
+        ("report", f"{report_dir}/metrics.json + {len(metrics.get('plots', []))} plots"),
+    ]
+
+
 def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
                hand_off: dict | None = None) -> tuple[dict, list[tuple[str, str]]]:
     """:func:`_run_one` without a prelude; ``hand_off``: the prelude's hand-off figures,
     written into ``out`` for the report."""
+    if args.engine == "core":
+        return _run_engine(scenario, out, args)
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress,
                  live=args.live_params)
     if result.interrupted or result.stopped:

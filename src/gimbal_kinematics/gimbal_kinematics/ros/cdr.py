@@ -148,6 +148,21 @@ def vector3_stamped_layout(frame_id: str) -> Layout:
 
 
 @lru_cache(maxsize=None)
+def navsat_fix_layout(frame_id: str) -> Layout:
+    """sensor_msgs/NavSatFix: values = sec, nanosec, status (int8), service (uint16),
+    latitude, longitude, altitude, position_covariance (9), position_covariance_type (uint8)."""
+    def build(field, string):
+        field("i", 4)
+        field("I", 4)
+        string(frame_id)
+        field("b", 1)
+        field("H", 2)
+        field("d", 8, 3 + 9)
+        field("B", 1)
+    return _layout(build)
+
+
+@lru_cache(maxsize=None)
 def odometry_layout(frame_id: str, child_frame_id: str) -> Layout:
     """nav_msgs/Odometry: values = sec, nanosec, position (3), orientation (4), pose
     covariance (36), linear (3), angular (3), twist covariance (36)."""

@@ -27,16 +27,13 @@ from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, NAV_FRAME  # noqa: F
 from gimbal_kinematics.stamps import step_of_stamp, step_stamp_ns  # noqa: F401  (re-exported)
 
 from . import cdr
+# the serialized forms and the REP 145 constants (rclpy-free: the engine writes bags with them)
+from .wire import (  # noqa: F401  (re-exported)
+    NOT_PROVIDED, UNMEASURED_VARIANCE, ZERO_COV, clock_cdr, diag_cov, gimbal_gyro_covariance, imu_cdr, joint_state_cdr,
+    navsat_fix_cdr, odometry_cdr, vector3_cdr,
+)
 
-#: Covariance marking a field as not provided (REP 145).
-NOT_PROVIDED = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-ZERO_COV = (0.0,) * 9
-#: Variance [rad²/s²] marking one unmeasured axis of a provided rate field (σ = 1000 rad/s,
-#: ~160 turns/s: no gimbal turns that fast, so a consumer gives that axis no weight). Not
-#: larger: a consumer that inverts the covariance then divides it by measured variances of
-#: ~1e-7 rad²/s², and 1e6 / 1e-7 = 1e13 stays well inside double precision (1/eps = 4.5e15),
-#: where 1e9 (also seen in drivers) would leave barely two digits.
-UNMEASURED_VARIANCE = 1e6
+
 
 
 
@@ -50,19 +47,6 @@ def stamp_ns(stamp: Time) -> int:
 
 def clock_msg(t_ns: int) -> Clock:
     return Clock(clock=time_msg(t_ns))
-
-
-def diag_cov(variances: Sequence[float]) -> tuple[float, ...]:
-    """Row-major 3×3 covariance with ``variances`` on the diagonal."""
-    a, b, c = variances
-    return (a, 0.0, 0.0, 0.0, b, 0.0, 0.0, 0.0, c)
-
-
-def gimbal_gyro_covariance(var_q: float, var_r: float) -> tuple[float, ...]:
-    """Angular-velocity covariance of the two-axis gimbal gyro: the unmeasured roll axis x
-    marked with :data:`UNMEASURED_VARIANCE`, the noise variances of q and r [rad²/s²] on
-    elements 4 and 8 (module docstring)."""
-    return diag_cov((UNMEASURED_VARIANCE, var_q, var_r))
 
 
 def gyro_qr_provided(cov: Sequence[float]) -> bool:
@@ -176,8 +160,6 @@ def navsat_fix_msg(t_ns: int, frame_id: str, lat: float, lon: float, altitude_m:
 # Publish the bytes with ``publisher.publish(data)``; take them with ``raw=True``.
 # ----------------------------------------------------------------------------------------
 
-_IDENTITY_QUAT = (0.0, 0.0, 0.0, 1.0)
-_ZERO3 = (0.0, 0.0, 0.0)
 
 
 class ImuData(NamedTuple):
@@ -206,49 +188,6 @@ class Vector3StampedData(NamedTuple):
     stamp_ns: int
     frame_id: str
     vector: tuple[float, float, float]
-
-
-def imu_cdr(t_ns: int, frame_id: str, *, orientation: Sequence[float] | None = None,
-            orientation_cov: Sequence[float] = ZERO_COV, angular_velocity: Sequence[float] | None = None,
-            angular_velocity_cov: Sequence[float] = ZERO_COV, linear_acceleration: Sequence[float] | None = None,
-            linear_acceleration_cov: Sequence[float] = ZERO_COV) -> bytes:
-    """:func:`imu_msg`, serialized."""
-    return cdr.imu_layout(frame_id).pack(
-        t_ns // 1_000_000_000, t_ns % 1_000_000_000,
-        *(_IDENTITY_QUAT if orientation is None else orientation),
-        *(NOT_PROVIDED if orientation is None else orientation_cov),
-        *(_ZERO3 if angular_velocity is None else angular_velocity),
-        *(NOT_PROVIDED if angular_velocity is None else angular_velocity_cov),
-        *(_ZERO3 if linear_acceleration is None else linear_acceleration),
-        *(NOT_PROVIDED if linear_acceleration is None else linear_acceleration_cov))
-
-
-def joint_state_cdr(t_ns: int, names: Sequence[str], position: Sequence[float] = (),
-                    velocity: Sequence[float] = (), effort: Sequence[float] = ()) -> bytes:
-    """:func:`joint_state_msg`, serialized."""
-    layout = cdr.joint_state_layout("", tuple(names), len(position), len(velocity), len(effort))
-    return layout.pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000, *position, *velocity, *effort)
-
-
-def vector3_cdr(t_ns: int, frame_id: str, vec: Sequence[float]) -> bytes:
-    """:func:`vector3_msg`, serialized."""
-    return cdr.vector3_stamped_layout(frame_id).pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000, *vec)
-
-
-def odometry_cdr(t_ns: int, frame_id: str, child_frame_id: str, position: Sequence[float],
-                 orientation: Sequence[float], pose_cov: Sequence[float], linear: Sequence[float],
-                 angular: Sequence[float], twist_cov: Sequence[float]) -> bytes:
-    """nav_msgs/Odometry, serialized: the pose (position, quaternion (x, y, z, w)) in
-    ``frame_id``, the twist in ``child_frame_id``, each with its 6×6 row-major covariance
-    (x, y, z, rotation about x, y, z)."""
-    return cdr.odometry_layout(frame_id, child_frame_id).pack(
-        t_ns // 1_000_000_000, t_ns % 1_000_000_000, *position, *orientation, *pose_cov, *linear, *angular,
-        *twist_cov)
-
-
-def clock_cdr(t_ns: int) -> bytes:
-    """:func:`clock_msg`, serialized."""
-    return cdr.clock_layout().pack(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
 
 
 def imu_from_cdr(data: bytes) -> ImuData:

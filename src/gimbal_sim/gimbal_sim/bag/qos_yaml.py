@@ -5,10 +5,12 @@ the MCAP channel metadata carries the same list as a YAML string.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
+
+if TYPE_CHECKING:  # rclpy loads only to build a profile: the engine writes bags without ROS
+    from rclpy.qos import QoSProfile
 
 _INFINITE = {"sec": 2147483647, "nsec": 4294967295}
 
@@ -40,6 +42,7 @@ def qos_yaml(profiles: list[dict[str, Any]]) -> str:
 
 def qos_from_dict(entry: dict[str, Any], fallback: QoSProfile) -> QoSProfile:
     """An rclpy profile from a recorded entry; fields it cannot read come from ``fallback``."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
 
     def policy(enum, key, default):
         value = entry.get(key)

@@ -20,6 +20,7 @@ write raises :class:`DiskStopped` saying so, with the device and its free space.
 from __future__ import annotations
 
 import os
+import struct
 import time
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+from mcap.records import MessageIndex
 from mcap.writer import CompressionType, Writer
 
 from .disk import disk_error_line, free_reserve, is_disk_error, take_reserve
@@ -86,6 +88,59 @@ class TopicRecord:
     count: int = 0
 
 
+#: An MCAP Message record's head: opcode 0x05, record length, channel id, sequence, log and
+#: publish time (the MCAP specification's layout).
+_MESSAGE = struct.Struct("<BQHIQQ")
+_MESSAGE_OPCODE = 0x05
+
+
+class _Appender:
+    """The mcap writer's ``add_message`` in one ``struct`` call per message (the library's own
+    builds a record object and writes it in six calls: most of what recording costs the
+    engine). It keeps the writer's statistics, the chunk's message index and time range, and
+    finishes a chunk when it is full, as ``add_message`` does, through the writer's state as
+    mcap 1.6 holds it; :meth:`available` is False for another layout, and the writer then
+    uses ``add_message`` itself."""
+
+    def __init__(self, writer: Writer) -> None:
+        self.writer = writer
+        self.stats = writer._Writer__statistics  # noqa: SLF001 - see the class docstring
+        self.chunk = writer._Writer__chunk_builder  # noqa: SLF001
+        self.chunk_size = writer._Writer__chunk_size  # noqa: SLF001
+        self.finish_chunk = writer._Writer__maybe_finalize_chunk  # noqa: SLF001
+
+    @staticmethod
+    def available(writer: Writer) -> bool:
+        names = ("_Writer__statistics", "_Writer__chunk_builder", "_Writer__chunk_size", "_Writer__maybe_finalize_chunk")
+        chunk = getattr(writer, "_Writer__chunk_builder", None)
+        return all(hasattr(writer, n) for n in names) and chunk is not None and \
+            all(hasattr(chunk, n) for n in ("message_indices", "record_writer", "num_messages", "message_start_time",
+                                            "message_end_time")) and hasattr(chunk.record_writer, "_buffer")
+
+    def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> None:
+        stats, chunk = self.stats, self.chunk
+        if stats.message_count == 0 or log_time < stats.message_start_time:
+            stats.message_start_time = log_time
+        if log_time > stats.message_end_time:
+            stats.message_end_time = log_time
+        stats.channel_message_counts[channel_id] += 1
+        stats.message_count += 1
+        if chunk.num_messages == 0 or log_time < chunk.message_start_time:
+            chunk.message_start_time = log_time
+        if log_time > chunk.message_end_time:
+            chunk.message_end_time = log_time
+        buf = chunk.record_writer._buffer  # noqa: SLF001
+        index = chunk.message_indices.get(channel_id)
+        if index is None:
+            index = chunk.message_indices[channel_id] = MessageIndex(channel_id=channel_id, records=[])
+        index.records.append((log_time, buf.tell()))
+        chunk.num_messages += 1
+        buf.write(_MESSAGE.pack(_MESSAGE_OPCODE, 22 + len(data), channel_id, sequence, log_time, publish_time))
+        buf.write(data)
+        if buf.tell() > self.chunk_size:
+            self.finish_chunk()
+
+
 @dataclass
 class BagWriter:
     """Write one bag directory; :meth:`close` finishes the MCAP and writes metadata."""
@@ -119,6 +174,7 @@ class BagWriter:
         #: why the bag stopped before it was closed (a full disk), else None
         self.stopped: str | None = None
         self._on_disk(lambda: self._writer.start(profile="ros2", library=LIBRARY))
+        self._add = _Appender(self._writer).add if _Appender.available(self._writer) else self._add_message
         self._mark_on_disk()
 
     def add_topic(self, topic: str, type_name: str, qos_profiles: list[dict[str, Any]]) -> None:
@@ -136,14 +192,17 @@ class BagWriter:
             metadata={"offered_qos_profiles": qos_yaml(qos_profiles)}))
         self.topics[topic] = TopicRecord(topic, type_name, qos_profiles, channel_id)
 
+    def _add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> None:
+        self._writer.add_message(channel_id=channel_id, log_time=log_time, data=data, publish_time=publish_time,
+                                 sequence=sequence)
+
     def write(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None) -> None:
         record = self.topics[topic]
         if self.closed:
             self._on_disk(lambda: None)  # raises DiskStopped
         try:  # inline, not through _on_disk: the recorder's per-message path
-            self._writer.add_message(channel_id=record.channel_id, log_time=log_time_ns, data=data,
-                                     publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
-                                     sequence=record.count)
+            self._add(record.channel_id, log_time_ns, data, log_time_ns if publish_time_ns is None else publish_time_ns,
+                      record.count)
         except OSError as exc:
             self._stop_on(exc)
         record.count += 1

@@ -15,7 +15,7 @@ cores, or ``scheduler="tcp://host:port"``), and writes the campaign directory::
 A task (:func:`execute_run`) runs on whichever worker gets it. Engine ``graph`` runs the
 real node graph as a child ``gimbal-run`` of the single-run scenario, in a ROS domain
 claimed on that host with discovery kept on it; engine ``core`` steps the same cores in
-the worker (the ``core_run`` it is handed); a caller's own ``run_fn(task, run_dir) -> metrics``
+the worker (the ``core_run`` it is handed), which records the same bag; a caller's own ``run_fn(task, run_dir) -> metrics``
 replaces both (the hook for the experiment runners). Each attempt writes into a fresh
 ``runs/.attempts/<id>-<token>/<id>/`` and is renamed to ``runs/<id>/`` only when complete, so a
 task Dask reschedules after its worker died starts clean, and a half-done attempt never
@@ -57,8 +57,9 @@ LOG_TAIL_LINES = 25
 _SCHEDULER = re.compile(r"^(tcp|tls)://[^\s/:]+:\d{1,5}$")
 
 
-#: The core engine's run of a scenario: (scenario, run_dir to create) -> the run's metrics.
-CoreRun = Callable[[Scenario, Path], dict]
+#: The core engine's run of a scenario: (scenario, run_dir to create, compress the bag) -> the
+#: run's metrics (its bag and report in run_dir, like a graph run's).
+CoreRun = Callable[[Scenario, Path, bool], dict]
 
 
 @dataclass(frozen=True)
@@ -135,7 +136,7 @@ def _check_metrics(run_dir: Path, engine: str) -> tuple[dict[str, Any] | None, s
         return None, f"report/metrics.json unreadable: {exc}"
     if not isinstance(metrics, dict):
         return None, "report/metrics.json is not a mapping"
-    if engine == "graph" and not metrics.get("closed_cleanly", False):
+    if engine in ("graph", "core") and not metrics.get("closed_cleanly", False):
         return metrics, f"bag not closed cleanly ({metrics.get('read_error')})"
     return metrics, ""
 
@@ -172,8 +173,8 @@ def execute_run(task: RunTask, runners: Runners) -> dict[str, Any]:
         elif task.engine == "graph":
             reason, log_tail = _run_graph(task, attempt)
         else:
-            runners.core_run(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt)
-        # only a graph run has a bag to check; an experiment's run function is its core engine
+            runners.core_run(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt, task.compress)
+        # both engines' scenario runs leave a bag to check; an experiment's run function is its own
         engine = "custom" if run_fn is not None and not task.experiment else task.engine
         metrics, why = _check_metrics(attempt, engine) if not reason or attempt.exists() else (None, "")
         reason = reason or why

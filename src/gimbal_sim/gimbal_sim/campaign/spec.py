@@ -57,7 +57,8 @@ import yaml
 
 from gimbal_kinematics.cli_boundary import read_text
 
-from ..core.core_loop import STAGES, node_values
+from ..core.core_loop import NoCoreError
+from ..core.engine_run import check_engine
 from ..graph.plan import check_nodes
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, check_param, load, variant
@@ -386,11 +387,11 @@ def _round_for_int_params(base: Scenario, point: dict[str, Any]) -> dict[str, An
 
 def check_core_engine(scenario: Scenario) -> None:
     """Refuse (:class:`CampaignError`) a scenario the core loop cannot step."""
-    executables = {exe for exe, _ in node_values(scenario).values()}
-    unknown = sorted(executables - set(STAGES) - {"vehicle_dynamics"})
-    if unknown or "vehicle_dynamics" not in executables:
-        raise CampaignError(f"--engine core: scenario {scenario.name!r} has nodes the core loop cannot step "
-                            f"({', '.join(unknown) or 'no vehicle_dynamics'}); use --engine graph")
+    try:
+        check_engine(scenario)
+    except NoCoreError as exc:
+        raise CampaignError(f"--engine core: the core loop cannot step scenario {scenario.name!r} ({exc}); "
+                            f"use --engine graph") from None
 
 
 def _check_nodes(single: Scenario, variant_name: str) -> None:

@@ -1,21 +1,21 @@
-"""The no-ROS engine: a scenario's pure-Python cores stepped in one loop, the speed limit of its maths.
+"""The one engine, no ROS: a scenario's cores stepped in one loop, the speed limit of its maths.
 
-Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``,
-``LosRateController`` with its ``LosHold`` outer loop, ``GyroBiasEkf``), built from the same
-parameter values the orchestrator would give the node, and the loop passes between them
-exactly what the nodes' messages carry (float64 fields, the Imu quaternion ↔ Euler
-conversions of the sensor node), in lockstep order: truth k → sensors k → estimator k →
-command k → step k → k+1. So for a seed the loop computes the same numbers as the graph,
-and its torque commands can be checked against a recorded ``/gimbal/torque_cmd`` bit for
-bit (``gimbal-bench``'s limit (a)).
+Each node of the scenario is replaced by its core (``VehicleCore``, ``SensorSuite``, the
+controllers' and estimators' cores), built from the same parameter values the orchestrator
+would give the node, and the loop passes between them exactly what the nodes' messages
+carry (float64 fields, the Imu quaternion ↔ Euler conversions of the sensor node), in
+lockstep order: truth k → sensors k → estimators k → commands k → step k → k+1 (:data:`STAGES`
+holds the order). So for a seed the loop computes the same numbers as the graph; recorded
+(``record``, :class:`.recording.EngineBag`), each stage hands over what its node publishes,
+made by the node's own serialisation function, and the bag holds the graph's data
+(:mod:`.engine_run`, ``gimbal-run --engine core``).
 
 :func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
 runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
-stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus, as
-``gimbal-campaign --engine core`` does with ``experiments.core_metrics``.
+stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
-(``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
+unrecorded (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
 """
 from __future__ import annotations
 
@@ -32,8 +32,12 @@ from typing import Any, Callable
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.stamps import step_stamp_ns
 
-from .core_stages import Bus, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage, \
-    sensor_stage
+from .core_stages import (
+    Bus, encoder_fusion_stage, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage,
+    sensor_stage, truth_stage,
+)
+from .estimator_stages import flexure_estimator_stage, free_gyro_positioning_stage, platform_alignment_stage
+from .platform_stages import platform_navigator_node_stage, platform_servo_node_stage
 from ..graph.plan import plan_nodes, process_stats
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load
@@ -60,14 +64,20 @@ def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
     return out
 
 
-#: executable -> the function making its stage from the node's parameter values, in
+#: executable -> the function making its stage from the node's parameter values and name, in
 #: lockstep order (vehicle_dynamics is the loop itself).
-STAGES: dict[str, Callable[[dict[str, Any]], Callable[[Bus], None]]] = {
+STAGES: dict[str, Callable[[dict[str, Any], str], Callable[[Bus], None]]] = {
     "sensor_models": sensor_stage,
     "gyro_bias_ekf": gyro_bias_ekf_stage,
     "operator": operator_stage,
     "geo_pointer": geo_pointer_stage,
     "los_rate_controller": los_rate_controller_stage,
+    "encoder_fusion_controller": encoder_fusion_stage,
+    "platform_navigator": platform_navigator_node_stage,
+    "platform_servo": platform_servo_node_stage,
+    "flexure_estimator": flexure_estimator_stage,
+    "platform_alignment": platform_alignment_stage,
+    "free_gyro_positioning": free_gyro_positioning_stage,
 }
 
 
@@ -85,32 +95,44 @@ class CoreLoopResult:
         return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
+def check_stages(values: dict[str, tuple[str, dict[str, Any]]]) -> None:
+    """Raise :class:`NoCoreError` unless the nodes (:func:`node_values`) are one
+    ``vehicle_dynamics`` and nodes that have a stage."""
+    unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
+    if unknown:
+        raise NoCoreError(f"no engine stage for {', '.join(unknown)}")
+    if [exe for exe, _ in values.values()].count("vehicle_dynamics") != 1:
+        raise NoCoreError("the engine needs exactly one vehicle_dynamics")
+
+
 def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus], None]]]:
     """The scenario's vehicle core, whether it takes commands, and its nodes' stages in
-    lockstep order; raises :class:`NoCoreError`."""
+    lockstep order (the vehicle's messages first); raises :class:`NoCoreError`."""
     values = node_values(scenario)
-    vehicles = [v for exe, v in values.values() if exe == "vehicle_dynamics"]
-    unknown = sorted({exe for exe, _ in values.values()} - set(STAGES) - {"vehicle_dynamics"})
-    if len(vehicles) != 1 or unknown:
-        raise NoCoreError(f"no pure-core loop for this node set (needs one vehicle_dynamics; "
-                          f"no core stepper for {unknown})" if unknown else "needs exactly one vehicle_dynamics")
-    stages = [STAGES[exe](v) for exe in STAGES for name, (e, v) in values.items() if e == exe]
-    vehicle = VehicleCore(VehicleConfig.from_values(vehicles[0]), GIMBAL_MODELS[vehicles[0]["gimbal_model"]])
-    return vehicle, vehicles[0]["controlled"], stages
+    check_stages(values)
+    name, v = next((n, v) for n, (exe, v) in values.items() if exe == "vehicle_dynamics")
+    vehicle = VehicleCore(VehicleConfig.from_values(v), GIMBAL_MODELS[v["gimbal_model"]])
+    stages = [truth_stage(vehicle.config.plant, v["position_truth_every_steps"], vehicle.profile.site, name)]
+    stages += [STAGES[exe](v, n) for exe in STAGES for n, (e, v) in values.items() if e == exe]
+    return vehicle, v["controlled"], stages
 
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False,
-                  observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+                  observer: Callable[[Bus], None] | None = None,
+                  record: Callable[[str, list], None] | None = None) -> CoreLoopResult:
     """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
 
     ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
-    vehicle steps (what the step's messages carry: a run's metrics are computed from it)."""
+    vehicle steps (what the step's messages carry: a run's metrics are computed from it);
+    ``record`` (:class:`.recording.EngineBag`) gets every node's messages."""
     vehicle, controlled, stages = core_plan(scenario)
-    return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer)
+    return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer,
+                      record=record)
 
 
 def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, controlled: bool = True,
-               keep_commands: bool = False, observer: Callable[[Bus], None] | None = None) -> CoreLoopResult:
+               keep_commands: bool = False, observer: Callable[[Bus], None] | None = None,
+               record: Callable[[str, list], None] | None = None) -> CoreLoopResult:
     """The loop itself: for k = 0 … n, the vehicle's truth of step k, then each stage in
     order, then ``observer``, then (k < n) the vehicle steps under the step's command (held
     at zero while no stage made one, or always when not ``controlled``).
@@ -119,6 +141,7 @@ def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, con
     :mod:`.core_ideal`) calls this with its own vehicle and stages; the stages at k = n see
     the final truth, which the graph's vehicle also publishes."""
     bus = Bus()
+    bus.record = record
     hold = (0.0,) * vehicle.config.command_size
     commands = [] if keep_commands else None
     lat = array("d")
@@ -128,7 +151,8 @@ def run_stages(vehicle: VehicleCore, stages: list[Callable[[Bus], None]], *, con
     c0 = time.process_time()
     t0 = prev = clock()
     for k in range(n + 1):
-        bus.k, bus.t, bus.command = k, step_stamp_ns(k, rate) * 1e-9, None  # a node's stamp in s
+        bus.t_ns = step_stamp_ns(k, rate)
+        bus.k, bus.t, bus.command = k, bus.t_ns * 1e-9, None  # a node's stamp in s
         bus.truth = vehicle.truth()
         for stage in stages:
             stage(bus)

@@ -1,5 +1,10 @@
 """Pure-core stages of paper 3's platform INS for :func:`.core_loop.run_stages` (no ROS).
 
+Two sets of stages: the paper runners' (:func:`servo_stage`, :func:`navigator_stage`, with
+their multi-rate navigator), and the scenario nodes' (:func:`platform_servo_node_stage`,
+:func:`platform_navigator_node_stage`), which do what the nodes do in lockstep and record
+their messages.
+
 The lockstep order of one step k (stamp t_k): the platform's sensors sample the truth of
 step k (resolvers, then the stable element's IMU, as ``sensor_models`` publishes them), the
 navigator integrates the step's specific force resolved through the step's azimuth angle
@@ -25,11 +30,17 @@ from __future__ import annotations
 
 from typing import Callable
 
-from gimbal_control.platform_servo import PlatformServo
+from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
+from gimbal_control.wire import platform_servo_messages
+from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
+from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
+from gimbal_estimators.wire import navigator_messages
+from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 from gimbal_kinematics.stamps import step_stamp_ns
 
-from .core_stages import Bus
+from .core_stages import Bus, joint_sample
 from ..world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite
 
 
@@ -98,4 +109,79 @@ def servo_stage(servo: PlatformServo) -> Callable[[Bus], None]:
             if out is not None:
                 bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
         bus.command = servo.command_voltages
+    return stage
+
+
+def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Callable[[Bus], None]:
+    """The ``platform_servo`` node of a scenario (lockstep): per step the resolvers, the
+    navigator's command rate of the step (``command_source: navigator``), then the gyro
+    tick; the step's voltages on ``bus.command`` (held between ticks) and every
+    ``diagnostics_every_steps``-th tick's control error and modulation, as the node
+    publishes them (``gimbal_control.wire.platform_servo_messages``)."""
+    servo = PlatformServo(PlatformServoParams.from_values(values))
+    follows = values["command_source"] == "navigator"
+    every = values["diagnostics_every_steps"]
+    rate = values["sim_rate_hz"]
+    ticks = [0]
+
+    def stage(bus: Bus) -> None:
+        out = None
+        if bus.resolvers is not None:
+            servo.on_resolvers(bus.t, bus.resolvers.angles)
+        if follows and bus.nav_command is not None:
+            servo.on_command_rate(bus.t, bus.nav_command)
+        if bus.platform_imu is not None:
+            out = servo.on_gyro(bus.k / rate, bus.platform_imu.omega)  # the node's step time, k / rate
+        volts = out.voltages if out is not None else servo.command_voltages
+        bus.command = volts
+        if out is not None:
+            ticks[0] += 1
+            bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
+        if bus.record is not None:
+            due = out is not None and (ticks[0] - 1) % every == 0
+            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None))
+    return stage
+
+
+def platform_navigator_node_stage(values: dict, name: str = "platform_navigator") -> Callable[[Bus], None]:
+    """The ``platform_navigator`` node of a scenario (lockstep, ``azimuth_source:
+    resolver``): the newest azimuth joint sample (``joint_topic``: the resolvers or the true
+    joint states) extrapolated with its rate to each accelerometer sample, no older than
+    ``max_joint_age_s``; one navigator step per sample, its fix every ``fix_every_samples``
+    accepted samples and its command rate (the last one again when a sample is refused) on
+    ``bus.nav_command``, as the node publishes them (``gimbal_estimators.wire``)."""
+    if values["azimuth_source"] != "resolver":
+        raise ValueError("parameter 'azimuth_source': the engine steps the navigator in lockstep, on the resolver")
+    topic = values["joint_topic"]
+    if topic not in ("/platform/resolvers", "/truth/platform/joint_states"):
+        raise ValueError(f"parameter 'joint_topic' = {topic!r}: the engine reads the azimuth joint from "
+                         f"/platform/resolvers or /truth/platform/joint_states")
+    navigator = PlatformNavigator(PlatformNavigatorParams.from_values(values))
+    frames = (values["odom_frame_id"], values["odom_child_frame_id"])
+    odometry = NavigatorOdometry(OdometryModel.from_values(values, heading_known=True), UNMEASURED_VARIANCE)
+    joint_name, max_age_ns, fix_every = values["azimuth_joint"], int(round(values["max_joint_age_s"] * 1e9)), \
+        values["fix_every_samples"]
+    joint: list = [None, None]  # (stamp ns, θ, rate) of the newest joint sample; the last command
+    every_joint = steps_per_sample(values, "joint_rate_hz")
+
+    def stage(bus: Bus) -> None:
+        sample = joint_sample(bus, topic, every_joint, joint_name)
+        if sample is not None:
+            joint[0] = (bus.t_ns, sample[0], sample[1] or 0.0)
+        bus.nav_command = None
+        imu = bus.platform_imu
+        if imu is None:
+            return
+        theta = None
+        if joint[0] is not None and 0 <= bus.t_ns - joint[0][0] <= max_age_ns:
+            age = bus.t_ns - joint[0][0]
+            theta = joint[0][1] + joint[0][2] * age * 1e-9 if age else joint[0][1]
+        out = navigator.step(bus.t_ns, imu.specific_force, theta)
+        if out is not None:
+            joint[1] = out.command_rate_n
+        bus.nav_command = joint[1]
+        fix = out if out is not None and (navigator.accepted - 1) % fix_every == 0 else None
+        odom = None if fix is None else (*frames, *odometry(fix))  # the node's odometry, at each fix
+        if bus.record is not None:
+            bus.record(name, navigator_messages(bus.t_ns, fix, joint[1], odom))
     return stage

@@ -10,6 +10,7 @@ from typing import Any
 
 import yaml
 
+from ..bag.record_rates import rate_entries
 from .registry import NODE_TYPES
 from .scenario import Scenario, ScenarioError
 
@@ -110,6 +111,7 @@ def plan_nodes(scenario: Scenario, out_dir: Path, compress: bool = True,
     recorder = {"output_dir": str(out_dir), "compress": compress,
                 "sim_rate_hz": scenario.sim_rate_hz, "end_time_s": scenario.duration_s,
                 "topics": [] if scenario.record == "all" else list(scenario.record),
+                "record_topic_rates": rate_entries(scenario.record_rates_hz),
                 "wait_for_nodes": list(scenario.nodes), **(live or {})}
     # the recorder starts first so that it is listening before anyone publishes
     return [PlannedNode(RECORDER, RECORDER, recorder, {})] + planned

@@ -9,6 +9,7 @@ the user's own file::
     sim_rate_hz: 1000.0
     seed: 0
     record: all            # or a list of topics
+    record_rates_hz: {}    # optional: topic -> rate [Hz] it is recorded at (runs of hours; bag.record_rates)
     report: generic        # which report gimbal-report writes
     nodes:
       vehicle_dynamics:    # node name
@@ -45,7 +46,7 @@ BUILTIN_DIR = Path(__file__).parent / "scenarios"
 
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",
-             "comparison", "prelude"}
+             "comparison", "prelude", "record_rates_hz"}
 _PRELUDE_KEYS = {"scenario", "variant", "duration_s", "hand_off"}
 _NODE_KEYS = {"executable", "params", "remap"}
 
@@ -69,6 +70,8 @@ class Scenario:
     comparison: str = ""
     #: a scenario run first, whose run hands over to this one (gimbal-run; keys: _PRELUDE_KEYS)
     prelude: dict[str, Any] | None = None
+    #: topic -> the rate [Hz] it is recorded at, by stamp (:mod:`gimbal_sim.bag.record_rates`); others: all
+    record_rates_hz: dict[str, float] = field(default_factory=dict)
 
     def to_yaml(self) -> str:
         data = {"name": self.name, "description": self.description, "duration_s": self.duration_s,
@@ -78,6 +81,8 @@ class Scenario:
             data.update(variants=self.variants, comparison=self.comparison)
         if self.prelude:
             data["prelude"] = self.prelude
+        if self.record_rates_hz:
+            data["record_rates_hz"] = dict(self.record_rates_hz)
         return yaml.safe_dump(data, sort_keys=False)
 
 
@@ -180,13 +185,19 @@ def validate(data: Any, where: str = "scenario") -> Scenario:
     record = data.get("record", "all")
     if record != "all" and not (isinstance(record, list) and all(isinstance(t, str) for t in record)):
         raise ScenarioError(f"{where}: 'record' must be 'all' or a list of topics")
+    rates = data.get("record_rates_hz") or {}
+    if not isinstance(rates, dict) or not all(isinstance(t, str) and t.startswith("/") and not isinstance(r, bool)
+                                              and isinstance(r, (int, float)) and 0 <= r < float("inf")
+                                              for t, r in rates.items()):
+        raise ScenarioError(f"{where}: 'record_rates_hz' must map topics (/...) to rates [Hz] >= 0")
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ScenarioError(f"{where}: 'seed' must be an integer >= 0")
     scenario = Scenario(name=str(data["name"]), description=str(data.get("description", "")),
                         duration_s=_number(f"{where}: duration_s", data["duration_s"]),
                         sim_rate_hz=_number(f"{where}: sim_rate_hz", data.get("sim_rate_hz", 1000.0)),
-                        seed=seed, record=record, report=str(data.get("report", "generic")), nodes=checked)
+                        seed=seed, record=record, report=str(data.get("report", "generic")), nodes=checked,
+                        record_rates_hz={t: float(r) for t, r in rates.items()})
     variants = data.get("variants") or {}
     if not isinstance(variants, dict) or not all(isinstance(v, dict) for v in variants.values()):
         raise ScenarioError(f"{where}: 'variants' must map variant names to mappings of overrides")

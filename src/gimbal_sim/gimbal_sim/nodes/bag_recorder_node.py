@@ -35,6 +35,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS
 from ..bag.schemas import message_class, msg_text, split_type
+from ..bag.record_rates import RecordRates
 from ..bag.writer import BagWriter, DiskStopped
 from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LiveGuard, LivePortError, LiveRelay, parse_topic_rates
 from ..bag.live_scene import scene_config
@@ -68,6 +69,10 @@ class BagRecorderNode(Node):
         values = declare_and_read(self, PARAMS)
         if not values["output_dir"]:
             raise ParameterError("parameter 'output_dir' is required")
+        try:
+            self.rates = RecordRates(parse_topic_rates(values["record_topic_rates"]))
+        except ValueError as exc:
+            raise ParameterError(f"parameter 'record_topic_rates': {exc}") from exc
         self.live = self._start_live(values)  # before the bag: a port in use leaves nothing behind
         try:
             self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9),
@@ -185,11 +190,12 @@ class BagRecorderNode(Node):
         self._last_stamp[topic] = stamp
         if self.failure is not None:
             return
-        try:
-            self.writer.write(topic, data, stamp)
-        except DiskStopped as exc:
-            self._stop(exc)
-            return
+        if not self.rates or self.rates.keep(topic, stamp):
+            try:
+                self.writer.write(topic, data, stamp)
+            except DiskStopped as exc:
+                self._stop(exc)
+                return
         if self.live is not None:
             self.live.publish(topic, data, stamp)
         if topic == "/clock":

@@ -20,6 +20,9 @@ PARAMS = (
     Param("progress_every_steps", 10, "report the next step needed on ~/progress every N steps", 1, 10**6),
     Param("end_time_s", 0.0, "sim time of the run's last step [s]: reaching it on /clock is reported on "
           "~/progress at once (0: unknown)", 0.0, 1e9),
+    Param("record_topic_rates", [], "per-topic record rates 'TOPIC=HZ', by stamp: a topic's first message, then "
+          "each one at least 1/HZ after the last kept (0: every message); for runs of hours",
+          array_type="string_array"),
     Param("compress", True, "zstd-compress the MCAP chunks (false: store them uncompressed)"),
     Param("chunk_duration_s", 0.5, "finish and flush an MCAP chunk at least every this much log time [s]",
           1e-3, 60.0),

@@ -17,7 +17,6 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from gimbal_kinematics.frames import GIMBAL_FRAME
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
@@ -28,6 +27,7 @@ from gimbal_kinematics.ros.readiness import announce_when_connected
 
 from ..world.operator_model import OperatorModelParams, SightOperator
 from .operator_params import DESCRIPTION, PARAMS
+from .wire import operator_messages
 
 NAN3 = (float("nan"),) * 3
 
@@ -61,8 +61,8 @@ class OperatorNode(Node):
             q, r = self.core.step(msg.stamp_ns, msg.orientation)
             model = self.core.model
             err = (model.error, *model.error_qr) if self.core.target_i is not None else NAN3
-            self.pub_cmd.publish(m.vector3_cdr(msg.stamp_ns, GIMBAL_FRAME, (0.0, q, r)))
-            self.pub_err.publish(m.vector3_cdr(msg.stamp_ns, GIMBAL_FRAME, err))
+            for topic, _, data in operator_messages(msg.stamp_ns, q, r, err):  # as the engine writes them
+                (self.pub_cmd if topic == "/operator/los_rate" else self.pub_err).publish(data)
         if (k + 1) % self.progress_every == 0:
             self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(k + 1, self.rate)))
 

@@ -5,17 +5,16 @@ publishes their measurements stamped with the step's time. See the topic table i
 """
 from __future__ import annotations
 
-import math
 import sys
 
-from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat, quat_canonical, quat_from_euler321
-from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, LGU2_FRAME, PLATFORM_FRAME
+from gimbal_kinematics.rotations import euler321_from_quat
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
 from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.ros import wire as w
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
@@ -24,11 +23,8 @@ from gimbal_kinematics.params import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.sync import StampSync
 from .sensor_models_params import DESCRIPTION, PARAMS
-from ..world.sensor_suite import (
-    EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
-    SensorSuiteConfig,
-)
-from ..world.sensors.free_gyro_sensor import FreeGyroSample
+from .wire import noise_covariances, sensor_messages
+from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
 from ..world.vehicle import VehicleTruth
 
 #: Truth topic -> message type; which ones a run needs follows from the enabled sensors.
@@ -50,6 +46,22 @@ NEEDS = {
     "free_gyro": ("/truth/host/imu", "/truth/host/delta_angle"),
     "resolvers": ("/truth/platform/joint_states",),
 }
+
+#: sensor -> the topics (and types) its samples are published on (:func:`.wire.sensor_messages`)
+SENSOR_TOPICS = {
+    "ins": (("/ins/imu", w.IMU), ("/truth/ins/gyro_bias", w.VECTOR3_STAMPED)),
+    "gimbal_gyro": (("/gimbal/imu", w.IMU), ("/truth/gimbal/gyro_bias", w.VECTOR3_STAMPED)),
+    "encoders": (("/gimbal/joint_states", w.JOINT_STATE),),
+    "lgu": (("/ship/lgu1/imu", w.IMU), ("/ship/lgu2/imu", w.IMU), ("/truth/ship/flexure", w.VECTOR3_STAMPED),
+            ("/truth/ship/flexure_quasi_static", w.VECTOR3_STAMPED)),
+    "platform_imu": (("/platform/imu", w.IMU), ("/truth/platform/accel_bias", w.VECTOR3_STAMPED),
+                     ("/truth/platform/gyro_bias", w.VECTOR3_STAMPED)),
+    "free_gyro": (("/free_gyro/spin_axis_a", w.VECTOR3_STAMPED), ("/free_gyro/spin_axis_b", w.VECTOR3_STAMPED),
+                  ("/free_gyro/imu", w.IMU), ("/truth/free_gyro/position", w.NAVSAT_FIX),
+                  ("/truth/free_gyro/triad_bias", w.VECTOR3_STAMPED), ("/free_gyro/velocity", w.VECTOR3_STAMPED)),
+    "resolvers": (("/platform/resolvers", w.JOINT_STATE),),
+}
+_TYPES = {w.IMU: Imu, w.JOINT_STATE: JointState, w.VECTOR3_STAMPED: Vector3Stamped, w.NAVSAT_FIX: NavSatFix}
 
 
 def truth_from_group(k: int, t: float, group: dict) -> VehicleTruth:
@@ -89,58 +101,18 @@ class SensorModelsNode(Node):
         self.subs = [self.create_subscription(TRUTH_TOPICS[t], t, lambda data, t=t: self._on_truth(t, data), GRAPH_QOS,
                                               raw=True) for t in topics]
         on = set(self.config.sensors)
-        pub = lambda typ, topic: self.create_publisher(typ, topic, GRAPH_QOS)  # noqa: E731
-        self.pubs = {}
-        if "ins" in on:
-            self.pubs["ins"] = (pub(Imu, "/ins/imu"), pub(Vector3Stamped, "/truth/ins/gyro_bias"))
-        if "gimbal_gyro" in on:
-            self.pubs["gimbal_gyro"] = (pub(Imu, "/gimbal/imu"), pub(Vector3Stamped, "/truth/gimbal/gyro_bias"))
-        if "encoders" in on:
-            self.pubs["encoders"] = (pub(JointState, "/gimbal/joint_states"),)
-        if "lgu" in on:
-            self.pubs["lgu"] = (pub(Imu, "/ship/lgu1/imu"), pub(Imu, "/ship/lgu2/imu"),
-                                pub(Vector3Stamped, "/truth/ship/flexure"),
-                                pub(Vector3Stamped, "/truth/ship/flexure_quasi_static"))
-        if "platform_imu" in on:
-            self.pubs["platform_imu"] = (pub(Imu, "/platform/imu"), pub(Vector3Stamped, "/truth/platform/accel_bias"),
-                                         pub(Vector3Stamped, "/truth/platform/gyro_bias"))
-        if "free_gyro" in on:
-            self.pubs["free_gyro"] = (pub(Vector3Stamped, "/free_gyro/spin_axis_a"),
-                                      pub(Vector3Stamped, "/free_gyro/spin_axis_b"), pub(Imu, "/free_gyro/imu"),
-                                      pub(NavSatFix, "/truth/free_gyro/position"),
-                                      pub(Vector3Stamped, "/truth/free_gyro/triad_bias"))
-            if values["free_gyro_publish_velocity"]:
-                self.pubs["free_gyro_velocity"] = (pub(Vector3Stamped, "/free_gyro/velocity"),)
-        if "resolvers" in on:
-            self.pubs["resolvers"] = (pub(JointState, "/platform/resolvers"),)
-        self._noise_cov = self._white_noise_covariances()
+        self.free_gyro_velocity = bool(values["free_gyro_publish_velocity"])
+        self.pubs = {topic: self.create_publisher(_TYPES[type_name], topic, GRAPH_QOS)
+                     for sensor in SENSOR_TOPICS if sensor in on for topic, type_name in SENSOR_TOPICS[sensor]
+                     if topic != "/free_gyro/velocity" or self.free_gyro_velocity}
+        self._noise_cov = noise_covariances(self.config)
         self.progress_every = values["progress_every_steps"]
         self.wait_for_subscribers = values["wait_for_subscribers"]
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
-        outputs = [p for group in self.pubs.values() for p in group]
+        outputs = list(self.pubs.values())
         counts = topic_counts(values["subscriber_counts"], "subscriber_counts", [p.topic_name for p in outputs])
         announce_when_connected(self, self.pub_progress, outputs=outputs, readers=self.wait_for_subscribers,
                                 counts=counts)
-
-    def _white_noise_covariances(self) -> dict:
-        """Per-sample variances of the white noise each measurement carries (for the
-        covariance fields; biases are not white and are not in them)."""
-        c = self.config
-        deg = math.pi / 180.0
-        arw = lambda deg_rt_h, rate_hz: (deg_rt_h * deg / 60.0) ** 2 * rate_hz  # noqa: E731
-        return {
-            "ins_att": m.diag_cov([(c.ins.roll_pitch_rms_deg * deg) ** 2] * 2 + [(c.ins.heading_rms_deg * deg) ** 2]),
-            "ins_rate": m.diag_cov([arw(c.ins.gyro.arw_deg_rt_h, c.ins_rate_hz)] * 3),
-            # the roll axis x has no gyro: REP 145's large-variance marking of one axis
-            "gyro": m.gimbal_gyro_covariance(*[arw(c.gimbal_gyro.arw_deg_rt_h, c.gimbal_gyro_rate_hz)] * 2),
-            "lgu": m.diag_cov([arw(c.lgu1.arw_deg_rt_h, c.lgu_rate_hz)] * 3),
-            "p_gyro": m.diag_cov([arw(c.platform_gyro.arw_deg_rt_h, c.platform_imu_rate_hz)] * 3),
-            "p_accel": m.diag_cov([(c.platform_accel.noise_ug_rt_hz * 9.80665e-6) ** 2 * c.platform_imu_rate_hz] * 3),
-            "fg_rate": m.diag_cov([arw(c.free_gyro.triad.arw_deg_rt_h, c.free_gyro_rate_hz)] * 3),
-            # roll, pitch from the vertical reference; the heading is not measured: its variance
-            # is that of a heading uniform on (−π, π], π²/3
-            "fg_level": m.diag_cov([(c.free_gyro.level_noise_arcsec * deg / 3600.0) ** 2] * 2 + [math.pi**2 / 3.0]),
-        }
 
     def _on_truth(self, topic: str, data: bytes) -> None:
         try:
@@ -163,55 +135,11 @@ class SensorModelsNode(Node):
                                       throttle_duration_sec=1.0)
             return
         for sample in samples:
-            self._publish(t_ns, sample)
+            # serialized by nodes.wire (the engine writes the same bytes into its bag)
+            for topic, _, data in sensor_messages(t_ns, sample, self._noise_cov, self.free_gyro_velocity):
+                self.pubs[topic].publish(data)
         if (k + 1) % self.progress_every == 0:
             self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(k + 1, self.rate)))
-
-    def _publish(self, t_ns: int, s) -> None:
-        # serialized by hand (messages.*_cdr): the same messages, without message objects
-        cov = self._noise_cov
-        if isinstance(s, GimbalGyroSample):
-            imu, bias = self.pubs["gimbal_gyro"]
-            imu.publish(m.imu_cdr(t_ns, GIMBAL_FRAME, angular_velocity=(0.0, s.q_m, s.r_m),
-                                  angular_velocity_cov=cov["gyro"]))
-            bias.publish(m.vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *s.true_bias)))
-        elif isinstance(s, EncoderSample):
-            self.pubs["encoders"][0].publish(m.joint_state_cdr(t_ns, s.names, s.angles, s.rates))
-        elif isinstance(s, InsSample):
-            imu, bias = self.pubs["ins"]
-            imu.publish(m.imu_cdr(t_ns, BASE_FRAME, orientation=quat_canonical(quat_from_euler321(*s.euler)),
-                                  orientation_cov=cov["ins_att"], angular_velocity=s.omega_b,
-                                  angular_velocity_cov=cov["ins_rate"]))
-            bias.publish(m.vector3_cdr(t_ns, BASE_FRAME, s.true_gyro_bias))
-        elif isinstance(s, LguSample):
-            lgu1, lgu2, flex, flex_qs = self.pubs["lgu"]
-            # angular_velocity carries the increment over the sample interval divided by it
-            lgu1.publish(m.imu_cdr(t_ns, LGU1_FRAME, angular_velocity=[d / s.dt for d in s.dalpha1],
-                                   angular_velocity_cov=cov["lgu"]))
-            lgu2.publish(m.imu_cdr(t_ns, LGU2_FRAME, angular_velocity=[d / s.dt for d in s.dalpha2],
-                                   angular_velocity_cov=cov["lgu"]))
-            flex.publish(m.vector3_cdr(t_ns, LGU1_FRAME, s.flexure))
-            flex_qs.publish(m.vector3_cdr(t_ns, LGU1_FRAME, s.flexure_quasi_static))
-        elif isinstance(s, ResolverSample):
-            self.pubs["resolvers"][0].publish(m.joint_state_cdr(t_ns, s.names, s.angles, s.rates))
-        elif isinstance(s, PlatformImuSample):
-            imu, accel_bias, gyro_bias = self.pubs["platform_imu"]
-            imu.publish(m.imu_cdr(t_ns, PLATFORM_FRAME, angular_velocity=s.omega, angular_velocity_cov=cov["p_gyro"],
-                                  linear_acceleration=s.specific_force, linear_acceleration_cov=cov["p_accel"]))
-            accel_bias.publish(m.vector3_cdr(t_ns, PLATFORM_FRAME, s.true_accel_bias))
-            gyro_bias.publish(m.vector3_cdr(t_ns, PLATFORM_FRAME, s.true_gyro_bias))
-        elif isinstance(s, FreeGyroSample):
-            spin_a, spin_b, imu, position, bias = self.pubs["free_gyro"]
-            spin_a.publish(m.vector3_msg(t_ns, BASE_FRAME, s.spin_a_b))
-            spin_b.publish(m.vector3_msg(t_ns, BASE_FRAME, s.spin_b_b))
-            # orientation = the vertical reference: roll and pitch, heading 0 (not measured)
-            imu.publish(m.imu_msg(t_ns, BASE_FRAME, orientation=euler321_to_quat(s.roll, s.pitch, 0.0),
-                                  orientation_cov=cov["fg_level"], angular_velocity=s.omega_ib_b,
-                                  angular_velocity_cov=cov["fg_rate"]))
-            position.publish(m.navsat_fix_msg(t_ns, BASE_FRAME, s.true_lat, s.true_lon, 0.0, m.ZERO_COV))
-            bias.publish(m.vector3_msg(t_ns, BASE_FRAME, s.true_triad_bias))
-            if "free_gyro_velocity" in self.pubs:
-                self.pubs["free_gyro_velocity"][0].publish(m.vector3_msg(t_ns, BASE_FRAME, s.velocity_n))
 
 
 def main(argv: list[str] | None = None) -> int:

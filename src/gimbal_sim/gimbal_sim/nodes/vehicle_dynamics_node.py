@@ -51,7 +51,6 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 from geometry_msgs.msg import Vector3Stamped
 
-from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, PLATFORM_FRAME
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_io import input_qos
@@ -64,6 +63,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 from .vehicle_dynamics_params import DESCRIPTION, PARAMS
+from .wire import truth_messages
 
 
 class VehicleDynamicsNode(Node):
@@ -127,7 +127,7 @@ class VehicleDynamicsNode(Node):
         self._graph_needed = topic_counts(values["topic_subscriber_counts"], "topic_subscriber_counts")
         self._rearm = None  # open loop: zero-period timer that re-runs _open_loop_step (see there)
         self._startup_timer = self.create_timer(0.02, self._try_start)
-        self._plant_frame = GIMBAL_FRAME if plant == "two_axis_gimbal" else PLATFORM_FRAME
+        self._pub_by_topic = {p.topic_name: p for p in self._truth_pubs}
 
     # --- start-up handshake -------------------------------------------------------------
     def _subscriber_counts(self, entries: list[str]) -> dict:
@@ -290,24 +290,11 @@ class VehicleDynamicsNode(Node):
         self._advance()
 
     def _publish_truth(self, truth: VehicleTruth) -> None:
-        # serialized by hand (messages.*_cdr): the same messages, without message objects
+        # serialized by nodes.wire (the engine writes the same bytes into its bag)
         t_ns = m.step_stamp_ns(truth.k, self.config.sim_rate_hz)
-        self.pub_host.publish(m.imu_cdr(t_ns, BASE_FRAME, orientation=truth.quat_nb,
-                                        angular_velocity=truth.omega_ib_b,
-                                        linear_acceleration=truth.specific_force_b))
-        self.pub_delta.publish(m.vector3_cdr(t_ns, BASE_FRAME, truth.delta_angle_b))
-        if self.pub_joints is not None:
-            self.pub_joints.publish(m.joint_state_cdr(t_ns, truth.joint_names, truth.joint_position,
-                                                      truth.joint_velocity, truth.joint_effort))
-            self.pub_plant_imu.publish(m.imu_cdr(t_ns, self._plant_frame, orientation=truth.quat_nm,
-                                                 angular_velocity=truth.omega_im_m,
-                                                 linear_acceleration=truth.specific_force_m))
-        if self.position_every and truth.k % self.position_every == 0:
-            site = self.core.profile.site
-            self.pub_fix.publish(m.navsat_fix_msg(t_ns, m.NAV_FRAME, site.lat_rad, math.radians(site.lon_deg),
-                                                  site.height_m))
-            self.pub_velocity.publish(m.vector3_cdr(t_ns, m.NAV_FRAME, (0.0, 0.0, 0.0)))
-        self.pub_clock.publish(m.clock_cdr(t_ns))
+        site = self.core.profile.site if self.position_every and truth.k % self.position_every == 0 else None
+        for topic, _, data in truth_messages(t_ns, truth, self.config.plant, site):
+            self._pub_by_topic[topic].publish(data)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,30 +1,25 @@
-"""The ``core`` engine's run: the scenario's cores stepped in one Python loop (no ROS,
-:func:`gimbal_sim.core.core_loop.run_core_loop`), and the same metrics the scenario's report
-computes from a bag.
+"""A paper runner's series from the engine's bus, without a bag: the same metrics the
+scenario's report computes from a bag.
 
-A collector watches each step's bus and keeps what the graph would have recorded, with the
-stamps the nodes would have put on it; its metrics come from the report's own function on
-those series (for ``sighting``: :func:`..reports.sighting.sighting_figures`), so the two
-engines' figures are one computation on the same numbers, not two implementations.
-Scenarios whose report has no collector get the core loop's counters only.
+A collector watches each step's bus (an observer of
+:func:`gimbal_sim.core.core_loop.run_stages`) and keeps what the graph would have recorded,
+with the stamps the nodes would have put on it; its metrics come from the report's own
+function on those series (for ``sighting``: :func:`..reports.sighting.sighting_figures`), so
+the two are one computation on the same numbers. A scenario run on the engine writes its bag
+and gets its report from it (``gimbal_sim.core.engine_run``).
 """
 from __future__ import annotations
 
-import json
-import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
 from gimbal_kinematics.stamps import step_stamp_ns
-from ..core.core_loop import run_core_loop
 from ..graph.scenario import Scenario
-from ..page import write_run_page
 from .common import vehicle_site
 from .geo_pointing import analyse_series as geo_pointing_series, geo_pointing_figures
 from .operator import operator_figures, operator_tolerance
-from .paper import run_paper_lookup
 from .sighting import SightingSeries, sighting_figures
 
 
@@ -119,32 +114,3 @@ class GeoPointingCollector:
         a = geo_pointing_series(run_dir, seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
                                 np.array(self.budget).reshape(-1, 3))
         return {"geo_pointing": geo_pointing_figures(a)}
-
-
-#: report name -> collector class (constructed with the run's scenario)
-COLLECTORS: dict[str, Callable[[Scenario], Any]] = {"sighting": SightingCollector,
-                                                     "sighting_operator": SightingOperatorCollector,
-                                                     "geo_pointing": GeoPointingCollector}
-
-
-def run_core(scenario: Scenario, run_dir: Path) -> dict[str, Any]:
-    """Run ``scenario``'s cores into ``run_dir`` (created; must not exist): writes
-    ``scenario.yaml``, ``run.json``, ``report/metrics.json`` and the run's page
-    ``report/index.html``; returns the metrics."""
-    run_dir = Path(run_dir)
-    (run_dir / "report").mkdir(parents=True)
-    (run_dir / "scenario.yaml").write_text(scenario.to_yaml())
-    factory = COLLECTORS.get(scenario.report)
-    collector = factory(scenario) if factory is not None else None
-    t0 = time.perf_counter()
-    result = run_core_loop(scenario, observer=collector)
-    metrics: dict[str, Any] = collector.metrics(run_dir) if collector is not None else {}
-    metrics["report"] = scenario.report if collector is not None else "core_loop"
-    metrics["core_loop"] = {"steps": result.steps, "sim_s": result.sim_s, "wall_s": result.wall_s,
-                            "cpu_s": result.cpu_s, "steps_per_s": result.steps_per_s}
-    (run_dir / "report" / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float) + "\n")
-    (run_dir / "run.json").write_text(json.dumps({
-        "scenario": scenario.name, "engine": "core", "seed": scenario.seed, "sim_s": result.sim_s,
-        "wall_s": time.perf_counter() - t0, "cpu_s": result.cpu_s}, indent=2) + "\n")
-    write_run_page(run_dir, run_dir / "report", metrics, run_paper_lookup(run_dir / "scenario.yaml"))
-    return metrics

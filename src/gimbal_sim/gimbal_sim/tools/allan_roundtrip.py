@@ -24,12 +24,10 @@ import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
 from gimbal_kinematics.ros import messages as m
-from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
 
 from ..allan.analyze import analyze, to_json
 from ..allan.params import sensor_models_params
@@ -38,6 +36,7 @@ from ..bag.writer import BagWriter
 from ..core.core_loop import node_values
 from ..core.core_stages import Bus, sensor_stage
 from ..graph.scenario import Scenario, ScenarioError, apply_set, load, variant
+from ..nodes.wire import noise_covariances, sensor_messages
 from ..world.sensor_suite import SensorSuiteConfig
 from ..world.vehicle import VehicleConfig, VehicleCore
 
@@ -57,14 +56,12 @@ BOUNDS = {"arw_deg_rt_h": (None, 0.10), "bias_instability_deg_h": (0.15, 0.35), 
 def write_at_rest_bag(scenario: Scenario, out: Path) -> dict[str, float]:
     """Run ``scenario``'s vehicle and sensor cores and write its ``/ins/imu`` to a bag at ``out``
     as ``sensor_models`` would publish it; returns the sensor_models parameter values."""
-    from ..nodes.sensor_models_node import SensorModelsNode
-
     values = node_values(scenario)
     sensors = next(v for exe, v in values.values() if exe == "sensor_models")
     vehicle = VehicleCore(VehicleConfig.from_values(next(v for exe, v in values.values() if exe == "vehicle_dynamics")))
     stage = sensor_stage(sensors)
     # the node's own covariance fields (they depend on its config only)
-    cov = SensorModelsNode._white_noise_covariances(SimpleNamespace(config=SensorSuiteConfig.from_values(sensors)))
+    cov = noise_covariances(SensorSuiteConfig.from_values(sensors))
     writer = BagWriter(out, chunk_duration_ns=60_000_000_000)  # big chunks: a recorder's 0.5 s ones slow reading
     writer.add_topic(TOPIC, "sensor_msgs/msg/Imu", [])
     bus = Bus()
@@ -74,12 +71,11 @@ def write_at_rest_bag(scenario: Scenario, out: Path) -> dict[str, float]:
         bus.k = k
         bus.truth = vehicle.truth()
         stage(bus)
-        s = bus.ins
-        if s is not None:
+        if bus.ins is not None:  # as sensor_models serialises it (nodes.wire)
             t_ns = m.step_stamp_ns(k, rate)
-            quat = quat_canonical(quat_from_euler321(*s.euler))
-            writer.write(TOPIC, m.imu_cdr(t_ns, "base_link_frd", orientation=quat, orientation_cov=cov["ins_att"],
-                                          angular_velocity=s.omega_b, angular_velocity_cov=cov["ins_rate"]), t_ns)
+            for topic, _, data in sensor_messages(t_ns, bus.ins, cov):
+                if topic == TOPIC:
+                    writer.write(TOPIC, data, t_ns)
         if k < n:
             vehicle.step(())
     writer.close()
