@@ -151,6 +151,15 @@ def _drop_bag(run_dir: Path) -> bool:
     return found
 
 
+def _checked_as(task: RunTask, run_fn: Any) -> str:
+    """How a run's output is checked: a scenario run on either engine leaves a bag to check;
+    an experiment runner's graph run does too, its core loop leaves none ("custom", as a
+    caller's own run function)."""
+    if run_fn is not None and (not task.experiment or task.engine == "core"):
+        return "custom"
+    return task.engine
+
+
 def execute_run(task: RunTask, runners: Runners) -> dict[str, Any]:
     """Run one task where it lands (a Dask worker, or this process) and return its row.
 
@@ -174,8 +183,7 @@ def execute_run(task: RunTask, runners: Runners) -> dict[str, Any]:
             reason, log_tail = _run_graph(task, attempt)
         else:
             runners.core_run(validate(yaml.safe_load(task.scenario_yaml), task.scenario_name), attempt, task.compress)
-        # both engines' scenario runs leave a bag to check; an experiment's run function is its own
-        engine = "custom" if run_fn is not None and not task.experiment else task.engine
+        engine = _checked_as(task, run_fn)
         metrics, why = _check_metrics(attempt, engine) if not reason or attempt.exists() else (None, "")
         reason = reason or why
     except Exception as exc:  # noqa: BLE001 - any failure of one run is recorded, the campaign goes on

@@ -69,7 +69,7 @@ def probe_metrics(campaign: CampaignPlan) -> set[str] | None:
             else:
                 scenario_campaign.check_core_engine(first.scenario)
                 short = dataclasses.replace(first.scenario, duration_s=min(PROBE_S, first.scenario.duration_s))
-                metrics = run_core(short, Path(tmp) / "probe")
+                metrics = run_on_engine(short, Path(tmp) / "probe", compress=False)
         except (CampaignError, ValueError, RuntimeError):
             return None
     return set(flatten_metrics(metrics))
