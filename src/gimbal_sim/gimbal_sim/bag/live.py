@@ -25,7 +25,8 @@ from typing import Callable
 
 from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
 from .live_plots import SCHEMAS as PLOT_SCHEMAS, SOURCE_TOPICS as PLOT_SOURCES, LivePlots
-from .live_scene import (OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene, SceneConfig)
+from .live_scene import OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene
+from .scene_config import SceneConfig
 from .schemas import ros2msg_schema
 
 SDK_SUBPROTOCOL = b"foxglove.sdk.v1"
