@@ -84,7 +84,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.input_policy import Step, order_policy
-from gimbal_kinematics.ros import messages as wire
+from gimbal_kinematics.ros.wire import clock_cdr
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
@@ -157,7 +157,7 @@ class GyroBiasEkfNode(Node):
         self._after()
         progress = self.policy.progress(step)
         if progress is not None:
-            self.pub_progress.publish(wire.clock_cdr(progress))
+            self.pub_progress.publish(clock_cdr(progress))
 
     def _encoders(self, step: Step) -> None:
         readings = m.encoder_angles(step.msg)

@@ -54,7 +54,7 @@ from sensor_msgs.msg import Imu, JointState, NavSatFix
 from gimbal_kinematics.frames import MODULATION_JOINT
 from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params import ParameterError, steps_per_sample
-from gimbal_kinematics.ros import messages as wire
+from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE, clock_cdr
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
@@ -93,7 +93,7 @@ class PlatformNavigatorNode(Node):
             raise ParameterError(f"parameter 'odom_child_frame_id' = {frames[1]!r} must differ from odom_frame_id")
         self.odom_frames = frames
         self.odometry = NavigatorOdometry(OdometryModel.from_values(v, heading_known=not from_servo),
-                                          wire.UNMEASURED_VARIANCE)
+                                          UNMEASURED_VARIANCE)
         joint_topic = SERVO_MODULATION_TOPIC if from_servo else v["joint_topic"]
         self.azimuth_joint = MODULATION_JOINT if from_servo else v["azimuth_joint"]
         self.max_joint_age_ns = int(round(v["max_joint_age_s"] * 1e9))
@@ -144,7 +144,7 @@ class PlatformNavigatorNode(Node):
             self._publish(step.stamp_ns, out)
         progress = self.policy.progress(step)
         if progress is not None:
-            self.pub_progress.publish(wire.clock_cdr(progress))
+            self.pub_progress.publish(clock_cdr(progress))
 
     def _validate_joint(self, step: Step) -> None:
         joint = m.joint_position_velocity(step.msg, self.azimuth_joint)

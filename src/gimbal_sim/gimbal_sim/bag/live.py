@@ -3,10 +3,12 @@ Lichtblick over the Foxglove WebSocket protocol (``gimbal-run --live``), plus th
 run's frames (:mod:`.live_frames`), its line of sight and target (:mod:`.live_scene`) for the 3D
 panel.
 
-It runs inside the ``bag_recorder`` node: the recorder already subscribes to every topic and
-holds each message's CDR bytes and stamp, so relaying them costs no second subscription, no
-re-serialisation and no new participant in the lockstep pacing. Relaying only reads those
-bytes: what is recorded does not depend on it.
+In a run it lives inside the ``bag_recorder`` node: the recorder already subscribes to every
+topic and holds each message's CDR bytes and stamp, so relaying them costs no second
+subscription, no re-serialisation and no new participant in the lockstep pacing. Relaying only
+reads those bytes: what is recorded does not depend on it. ``gimbal-bag play --live`` builds it
+and hands it to the player, which gives it each message it plays (:class:`.player.PlaySink`).
+Either reads the run's :class:`.scene_config.SceneConfig` beside the bag and hands it in.
 
 The server is the Foxglove SDK's (``foxglove-sdk``), which accepts only the WebSocket
 subprotocol ``foxglove.sdk.v1``. Lichtblick and older Foxglove builds (``@foxglove/ws-protocol``

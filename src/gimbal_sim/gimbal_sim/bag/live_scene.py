@@ -105,8 +105,8 @@ class LiveScene:
             if topic == TRUTH_GIMBAL_JOINTS and self.config.target_n is not None:
                 entities.append(geo_target_entity(stamp_ns, self.config.target_n))
         elif topic == OPERATOR_ERROR:
-            v = deserialize_message(data, Vector3Stamped).vector
-            u = operator_target_direction(v.x, v.y, v.z)
+            error = deserialize_message(data, Vector3Stamped).vector  # (ε, e_q, e_r)
+            u = operator_target_direction(error.x, error.y, error.z)
             if u is not None:
                 entities.append(_entity(stamp_ns, GIMBAL_FRAME, "target:operator", True,
                                         spheres=[_sphere(*(LOS_LENGTH_M * c for c in u))]))
