@@ -151,7 +151,8 @@ def _live_view(args: argparse.Namespace):
         raise BagError(f"--live-port must be in 1..65535, got {args.live_port}")
     from .live import LiveGuard, LivePortError, LiveRelay
 
-    scene, missing = SceneConfig.beside(Path(args.bag))
+    bag = Path(args.bag)
+    scene, missing = SceneConfig.beside(bag if bag.is_dir() else bag.parent)  # a bag named by its .mcap too
     try:
         relay = LiveRelay("127.0.0.1", args.live_port, args.live_rate_hz, {}, scene)
     except LivePortError as exc:
