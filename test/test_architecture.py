@@ -65,6 +65,7 @@ LAZY_TARGETS = {
               "scenario checks, config files and the core loop read the registry without ROS",
     "gimbal_kinematics.ros.node_main": "loads rclpy (the executor): only the command that starts nodes needs it",
     "gimbal_sim.bag.player": "loads rclpy: gimbal-bag's other commands run without ROS",
+    "gimbal_sim.bag.live": "loads rclpy and the Foxglove SDK: only gimbal-bag play --live needs the live view",
     "gimbal_sim.bag.any_reader": "loads rosbags (slow to import): only a bag that is not ours needs it",
 }
 

@@ -23,8 +23,9 @@ from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
 from gimbal_kinematics.frames import PLATFORM_JOINTS
 from gimbal_sim.bag.live_frames import LiveFrames
 from gimbal_sim.bag.live_plots import SCHEMAS as PLOT_SCHEMAS, LivePlots
-from gimbal_sim.bag.live_scene import LOS_LENGTH_M, LiveScene, SceneConfig, operator_target_direction, scene_config
-from gimbal_sim.graph.scenario import builtin_scenarios
+from gimbal_sim.bag.live_scene import LOS_LENGTH_M, LiveScene, SceneConfig, operator_target_direction
+from gimbal_sim.graph.live_scene import write_scene
+from gimbal_sim.graph.scenario import builtin_scenarios, load
 from gimbal_sim.world.operator_model import sight_error
 
 REPO = Path(__file__).resolve().parents[1]
@@ -91,7 +92,8 @@ def test_alignment_estimate_is_the_believed_frame_turned_by_the_misalignment():
 def test_geo_target_drawn_on_its_direction_with_its_range(tmp_path):
     spec = yaml.safe_load(builtin_scenarios()["sighting_geo_pointing"].read_text())
     (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(spec))
-    config = scene_config(tmp_path / "scenario.yaml")
+    write_scene(load(str(tmp_path / "scenario.yaml")), tmp_path)  # as a run writes it beside its bag
+    config, _ = SceneConfig.beside(tmp_path)
     geo = spec["nodes"]["geo_pointer"]["params"]
     (lat, lon, h), (tlat, tlon, th) = geo["vehicle_llh_deg"], geo["target_llh_deg"]
     n, e, d = pm.geodetic2ned(tlat, tlon, th, lat, lon, h)
@@ -106,9 +108,9 @@ def test_geo_target_drawn_on_its_direction_with_its_range(tmp_path):
     assert np.allclose([p["x"], p["y"], p["z"]], LOS_LENGTH_M * np.array([n, e, d]) / rng, atol=1e-9)
     assert target["lines"][0]["points"][1] == pytest.approx({"x": n, "y": e, "z": d}, abs=1e-6)
     assert f"{rng / 1000:.2f} km" in target["texts"][0]["text"]
-    # no target in the scenario: the LOS alone; no scenario file: the defaults
+    # no target in the scenario: the LOS alone; no scene description: the defaults
     assert len(json.loads(LiveScene().update("/truth/gimbal/joint_states", b"", EPOCH_NS))["entities"]) == 1
-    assert scene_config(tmp_path / "missing.yaml") == SceneConfig()
+    assert SceneConfig.beside(tmp_path / "missing")[0] == SceneConfig()
 
 
 def test_operator_target_is_where_the_pointing_error_says():

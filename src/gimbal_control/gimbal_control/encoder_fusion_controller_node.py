@@ -41,6 +41,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
@@ -53,6 +54,8 @@ from .wire import encoder_fusion_messages
 
 #: An incomplete step this many steps older than a complete one is given up.
 _STALE_STEPS = 1000
+#: the inputs besides the gyro, each sampled slower than it: the host's rates and the encoders
+_SAMPLED = (InputKind.HOST, InputKind.ENCODERS)
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
 ZERO = (0.0, 0.0)
@@ -61,39 +64,41 @@ ZERO = (0.0, 0.0)
 class EncoderFusionControllerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("encoder_fusion_controller", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        timing = v["timing"]
-        self.enc_every = steps_per_sample(v, "encoder_rate_hz")
-        self.base_every = steps_per_sample(v, "base_rate_hz")
-        self.rate = rate = v["sim_rate_hz"]
-        self.core = EncoderFusionController(EncoderFusionParams.from_values(v))
+        values = declare_and_read(self, PARAMS)
+        timing = values["timing"]
+        self.enc_every = steps_per_sample(values, "encoder_rate_hz")
+        self.base_every = steps_per_sample(values, "base_rate_hz")
+        self.rate = rate = values["sim_rate_hz"]
+        self.core = EncoderFusionController(EncoderFusionParams.from_values(values))
         clock_jump_s = self.core.params.clock_jump_s
         self._kf_updates = 0
         self.held = 0  # steps whose command was held (bad or missing input)
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.io = NodeIo(self)
-        self.pub_cmd = self.io.advertise_command(JointState, "/gimbal/torque_cmd", v)
+        self.pub_cmd = self.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
         self.pub_feedback = self.io.advertise(Vector3Stamped, "~/feedback_velocity", timing)
         self.pub_correction = self.io.advertise(Vector3Stamped, "~/drift_correction", timing)
         self.pubs = {"/gimbal/torque_cmd": self.pub_cmd, "~/feedback_velocity": self.pub_feedback,
                      "~/drift_correction": self.pub_correction}
         # the one choice of timing (module docstring). Lockstep: a complete step runs at once,
         # so an older step still waiting for a lost input cannot stall the loop behind it.
+        max_age_s = values["max_input_age_s"]
         self.policy = control_policy(
             timing,
             lockstep=lambda: LockstepControl(self._needs, rate, clock_jump_s, eager_stale_steps=_STALE_STEPS,
-                                             sample_hold=("base", "enc"), stamp_time=True, logger=self.get_logger()),
-            free=lambda: FreeControl("gyro", {"enc": v["max_input_age_s"], "base": v["max_input_age_s"]},
-                                     1.0 / rate, clock_jump_s, once=("base", "enc"), finite=("base", "enc"),
+                                             sample_hold=_SAMPLED, stamp_time=True, logger=self.get_logger()),
+            free=lambda: FreeControl(InputKind.GYRO, {InputKind.ENCODERS: max_age_s, InputKind.HOST: max_age_s},
+                                     1.0 / rate, clock_jump_s, once=_SAMPLED, finite=_SAMPLED,
                                      on_nonfinite=lambda kind: self._count("rejected_nonfinite",
                                                                            f"non-finite {kind} sample; not fused"),
                                      warn=self._log))
         self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
-        self.io.subscribe(Imu, "/gimbal/imu", lambda msg: self._on_input("gyro", msg), timing)
-        self.io.subscribe(JointState, "/gimbal/joint_states", lambda msg: self._on_input("enc", msg), timing)
-        self.io.subscribe(Imu, "/truth/host/imu", lambda msg: self._on_input("base", msg), timing)
+        self.io.subscribe(Imu, "/gimbal/imu", lambda msg: self._on_input(InputKind.GYRO, msg), timing)
+        self.io.subscribe(JointState, "/gimbal/joint_states", lambda msg: self._on_input(InputKind.ENCODERS, msg),
+                          timing)
+        self.io.subscribe(Imu, "/truth/host/imu", lambda msg: self._on_input(InputKind.HOST, msg), timing)
 
     def _log(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=1.0)
@@ -110,8 +115,8 @@ class EncoderFusionControllerNode(Node):
     def _needs(self, step: int) -> tuple[str, ...]:
         """The inputs step ``step`` waits for: the gyro, and the encoders and base rates at
         the steps where they sample."""
-        return (("gyro",) + (("enc",) if step % self.enc_every == 0 else ())
-                + (("base",) if step % self.base_every == 0 else ()))
+        return ((InputKind.GYRO,) + ((InputKind.ENCODERS,) if step % self.enc_every == 0 else ())
+                + ((InputKind.HOST,) if step % self.base_every == 0 else ()))
 
     def _on_input(self, kind: str, msg) -> None:
         for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), self._validate(kind, msg)):
@@ -120,17 +125,17 @@ class EncoderFusionControllerNode(Node):
     def _validate(self, kind: str, msg):
         """What the loop takes from a message, or None (counted) when it cannot be used; a
         gyro NaN is the core's to reject (it holds the command)."""
-        if kind == "enc":
+        if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             if readings is None:
                 self._count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
                 return None
             return readings[0][1], readings[0][2]
-        if not (m.gyro_qr_provided if kind == "gyro" else m.field_provided)(msg.angular_velocity_covariance):
+        if not (m.gyro_qr_provided if kind == InputKind.GYRO else m.field_provided)(msg.angular_velocity_covariance):
             self._count("rejected_no_rates", f"{kind} angular velocity marked not provided; not fused")
             return None
         w = msg.angular_velocity
-        return (w.y, w.z) if kind == "gyro" else (w.x, w.y, w.z)  # gyro: (q, r)
+        return (w.y, w.z) if kind == InputKind.GYRO else (w.x, w.y, w.z)  # gyro: (q, r)
 
     def _step(self, step: ControlStep) -> None:
         core, inputs = self.core, step.inputs
@@ -143,7 +148,7 @@ class EncoderFusionControllerNode(Node):
         elif None in inputs.values():
             tau = self._hold(step, "encoder joints or base rates missing")
         else:
-            base, enc, gyro = inputs.get("base"), inputs.get("enc"), inputs["gyro"].value
+            base, enc, gyro = inputs.get(InputKind.HOST), inputs.get(InputKind.ENCODERS), inputs[InputKind.GYRO].value
             out = core.tick(step.t, gyro[0], gyro[1], base, None if enc is None else (enc.t, *enc.value))
             if out is None:  # a stamp the core refused (counted there)
                 tau = self._hold(step, "input rejected (stamp out of order)")

@@ -52,6 +52,7 @@ from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import ParameterError, steps_per_sample
+from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
@@ -73,27 +74,27 @@ CLOCK_JUMP_S = 0.5
 class GeoPointerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("geo_pointer", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        timing = v["timing"]
-        rate = v["sim_rate_hz"]
+        values = declare_and_read(self, PARAMS)
+        timing = values["timing"]
+        rate = values["sim_rate_hz"]
         try:
-            self.core = GeoPointer(GeoPointerParams.from_values(v))
+            self.core = GeoPointer(GeoPointerParams.from_values(values))
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.command = (0.0, 0.0)
-        vehicle_inputs = self._vehicle_inputs(v)
+        vehicle_inputs = self._vehicle_inputs(values)
         self.io = NodeIo(self)
-        self.operator_topic = v["operator_topic"]
+        self.operator_topic = values["operator_topic"]
         self.pub_cmd = self.io.advertise(Vector3Stamped, self.operator_topic, timing)
         self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
         self.pub_aim = self.io.advertise(Vector3Stamped, "~/aim", timing)
         self.pubs = {"~/budget": self.pub_budget, "~/aim": self.pub_aim}
         self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
-        ins_every = steps_per_sample(v, "ins_rate_hz")
-        step_needs = ("att", "ins", "enc")
+        ins_every = steps_per_sample(values, "ins_rate_hz")
+        step_needs = (InputKind.ATTITUDE, InputKind.INS, InputKind.ENCODERS)
 
         def needs(k: int) -> tuple[str, ...]:
             return step_needs if k % ins_every == 0 else ()
@@ -101,32 +102,34 @@ class GeoPointerNode(Node):
         self.policy = control_policy(
             timing,
             lockstep=lambda: LockstepControl(needs, rate, CLOCK_JUMP_S, logger=self.get_logger()),
-            free=lambda: FreeControl("att", {"ins": MAX_INPUT_AGE_S, "enc": MAX_INPUT_AGE_S,
-                                             **dict.fromkeys(vehicle_inputs, v["vehicle_fix_max_age_s"])},
-                                     1.0 / v["ins_rate_hz"], CLOCK_JUMP_S, warn=self._log))
-        inputs = (("att", Imu, v["attitude_topic"], m.imu_from_cdr), ("ins", Imu, "/ins/imu", m.imu_from_cdr),
-                  ("enc", JointState, "/gimbal/joint_states", m.joint_state_from_cdr))
+            free=lambda: FreeControl(InputKind.ATTITUDE, {**dict.fromkeys((InputKind.INS, InputKind.ENCODERS),
+                                                                          MAX_INPUT_AGE_S),
+                                             **dict.fromkeys(vehicle_inputs, values["vehicle_fix_max_age_s"])},
+                                     1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, warn=self._log))
+        inputs = ((InputKind.ATTITUDE, Imu, values["attitude_topic"], m.imu_from_cdr),
+                  (InputKind.INS, Imu, "/ins/imu", m.imu_from_cdr),
+                  (InputKind.ENCODERS, JointState, "/gimbal/joint_states", m.joint_state_from_cdr))
         for kind, msg_type, topic, decode in inputs:
             self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), timing,
                               raw=True)
-        if v["target_topic"]:
-            self.io.subscribe(NavSatFix, v["target_topic"], self._on_target, timing)
-        self._last_ns = {"fix": None, "vel": None, "att": None}
-        self.max_fix_age_ns = int(round(v["vehicle_fix_max_age_s"] * 1e9))
-        if "fix" in vehicle_inputs:
-            self.io.subscribe(NavSatFix, v["vehicle_fix_topic"], self._on_fix, timing)
-        if "vel" in vehicle_inputs:
-            self.io.subscribe(Vector3Stamped, v["vehicle_velocity_topic"], self._on_velocity, timing)
+        if values["target_topic"]:
+            self.io.subscribe(NavSatFix, values["target_topic"], self._on_target, timing)
+        self._last_ns = {InputKind.FIX: None, InputKind.VELOCITY: None, InputKind.ATTITUDE: None}
+        self.max_fix_age_ns = int(round(values["vehicle_fix_max_age_s"] * 1e9))
+        if InputKind.FIX in vehicle_inputs:
+            self.io.subscribe(NavSatFix, values["vehicle_fix_topic"], self._on_fix, timing)
+        if InputKind.VELOCITY in vehicle_inputs:
+            self.io.subscribe(Vector3Stamped, values["vehicle_velocity_topic"], self._on_velocity, timing)
 
     @staticmethod
-    def _vehicle_inputs(v: dict) -> tuple[str, ...]:
+    def _vehicle_inputs(values: dict) -> tuple[str, ...]:
         """The vehicle's inputs the parameters ask for; ValueError naming the parameter when
         they cannot be had (a velocity without a position, or either in lockstep)."""
-        inputs = tuple(kind for kind, name in (("fix", "vehicle_fix_topic"), ("vel", "vehicle_velocity_topic"))
-                       if v[name])
-        if "vel" in inputs and "fix" not in inputs:
+        inputs = tuple(kind for kind, name in ((InputKind.FIX, "vehicle_fix_topic"),
+                                               (InputKind.VELOCITY, "vehicle_velocity_topic")) if values[name])
+        if InputKind.VELOCITY in inputs and InputKind.FIX not in inputs:
             raise ValueError("parameter vehicle_velocity_topic needs vehicle_fix_topic (a moving vehicle's position)")
-        if inputs and v["timing"] == "lockstep":
+        if inputs and values["timing"] == "lockstep":
             raise ValueError("parameter vehicle_fix_topic: free timing only (a lockstep step cannot wait for a "
                              "position no simulated INS publishes)")
         return inputs
@@ -134,11 +137,11 @@ class GeoPointerNode(Node):
     def _vehicle_sample(self, kind: str, stamp_ns: int, value, counter: str) -> None:
         """A validated fix or velocity (None: refused, counted in ``counter``) to the policy,
         unless its stamp is not after the last one's or it is stale on arrival (counted)."""
-        last, newest_att = self._last_ns[kind], self._last_ns["att"]
+        last, newest_att = self._last_ns[kind], self._last_ns[InputKind.ATTITUDE]
         if value is not None and last is not None and stamp_ns <= last:
-            counter, value = ("fixes_out_of_order" if kind == "fix" else counter), None
+            counter, value = ("fixes_out_of_order" if kind == InputKind.FIX else counter), None
         elif value is not None and newest_att is not None and newest_att - stamp_ns > self.max_fix_age_ns:
-            counter, value = ("stale_fixes" if kind == "fix" else counter), None
+            counter, value = ("stale_fixes" if kind == InputKind.FIX else counter), None
         if value is None:
             if counter in self.counts:
                 self.counts[counter] += 1
@@ -152,17 +155,18 @@ class GeoPointerNode(Node):
         llh = (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         if msg.status.status == NavSatStatus.STATUS_NO_FIX:
-            self._vehicle_sample("fix", stamp, None, "fixes_no_fix")
+            self._vehicle_sample(InputKind.FIX, stamp, None, "fixes_no_fix")
         elif self.core.fix_error(llh) is not None:
             self.core.counts["rejected_fixes"] += 1
-            self._vehicle_sample("fix", stamp, None, "rejected_fixes")
+            self._vehicle_sample(InputKind.FIX, stamp, None, "rejected_fixes")
         else:
-            self._vehicle_sample("fix", stamp, llh, "rejected_fixes")
+            self._vehicle_sample(InputKind.FIX, stamp, llh, "rejected_fixes")
 
     def _on_velocity(self, msg: Vector3Stamped) -> None:
         vel = (msg.vector.x, msg.vector.y, msg.vector.z)
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self._vehicle_sample("vel", stamp, vel if all(map(math.isfinite, vel)) else None, "rejected_velocities")
+        self._vehicle_sample(InputKind.VELOCITY, stamp, vel if all(map(math.isfinite, vel)) else None,
+                             "rejected_velocities")
 
     def _log(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=1.0)
@@ -182,15 +186,15 @@ class GeoPointerNode(Node):
             self.counts["malformed"] += 1
             self._log(f"malformed {kind} message ignored: {exc}")
             return
-        if kind == "att":
-            self._last_ns["att"] = max(msg.stamp_ns, self._last_ns["att"] or msg.stamp_ns)
+        if kind == InputKind.ATTITUDE:
+            self._last_ns[InputKind.ATTITUDE] = max(msg.stamp_ns, self._last_ns[InputKind.ATTITUDE] or msg.stamp_ns)
         for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
             self._step(step)
 
     def _validate(self, kind: str, msg):
         """What the step takes from an input: a quaternion, or the turret angle; None
         (counted) when it cannot be used."""
-        if kind == "enc":
+        if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             value = None if readings is None else (readings[0][0],)
         elif m.field_provided(msg.orientation_covariance):
@@ -205,11 +209,12 @@ class GeoPointerNode(Node):
 
     def _step(self, step: ControlStep) -> None:
         inputs = step.inputs
-        if "att" not in inputs or step.zero_command:  # an encoder-only step between INS samples, or stale inputs
+        # an encoder-only step between INS samples, or stale inputs
+        if InputKind.ATTITUDE not in inputs or step.zero_command:
             return
-        att, ins, enc = inputs.get("att"), inputs.get("ins"), inputs.get("enc")
+        att, ins, enc = inputs.get(InputKind.ATTITUDE), inputs.get(InputKind.INS), inputs.get(InputKind.ENCODERS)
         budget = aim = None
-        fix, vel = inputs.get("fix"), inputs.get("vel")
+        fix, vel = inputs.get(InputKind.FIX), inputs.get(InputKind.VELOCITY)
         if att is None or ins is None or enc is None or (fix is not None and not self.core.set_vehicle(
                 fix.value, None if vel is None else vel.value)):
             self.counts["held_commands"] += 1

@@ -59,6 +59,7 @@ from sensor_msgs.msg import Imu, Joy, JointState
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
@@ -74,58 +75,60 @@ from .wire import torque_command_messages
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
-ESTIMATES = ("bias", "att")
+ESTIMATES = (InputKind.BIAS, InputKind.ATTITUDE)
 ZERO = (0.0, 0.0)
 
 
 class LosRateControllerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("los_rate_controller", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        timing = v["timing"]
-        self.rate = rate = v["sim_rate_hz"]
-        hold_mode = v["mode"] == "los_hold"
-        params = LosRateControllerParams.from_values(v)
-        self.operator = OperatorCommand(OperatorCommandParams.from_values(v))
+        values = declare_and_read(self, PARAMS)
+        timing = values["timing"]
+        self.rate = rate = values["sim_rate_hz"]
+        hold_mode = values["mode"] == "los_hold"
+        params = LosRateControllerParams.from_values(values)
+        self.operator = OperatorCommand(OperatorCommandParams.from_values(values))
         self.core = LosRateController(params, operator=self.operator)
-        self.hold = LosHold(LosHoldParams.from_values(v)) if hold_mode else None
+        self.hold = LosHold(LosHoldParams.from_values(values)) if hold_mode else None
         self.counts = dict.fromkeys(COUNTERS, 0)
         self.io = NodeIo(self)
-        self.pub = self.io.advertise_command(JointState, "/gimbal/torque_cmd", v)
+        self.pub = self.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
         # taken serialized and decoded here (messages.*_from_cdr): no message objects per step
         imu, joints, vec = m.imu_from_cdr, m.joint_state_from_cdr, m.vector3_stamped_from_cdr
-        inputs = [("gyro", Imu, "/gimbal/imu", imu), ("enc", JointState, "/gimbal/joint_states", joints),
-                  ("ins", Imu, "/ins/imu", imu)]
+        inputs = [(InputKind.GYRO, Imu, "/gimbal/imu", imu),
+                  (InputKind.ENCODERS, JointState, "/gimbal/joint_states", joints),
+                  (InputKind.INS, Imu, "/ins/imu", imu)]
         if params.feedback:
-            inputs.append(("bias", Vector3Stamped, v["bias_topic"], vec))
+            inputs.append((InputKind.BIAS, Vector3Stamped, values["bias_topic"], vec))
         if hold_mode:
-            inputs.append(("att", Imu, v["attitude_topic"], imu))
+            inputs.append((InputKind.ATTITUDE, Imu, values["attitude_topic"], imu))
         estimates = tuple(kind for kind, *_ in inputs if kind in ESTIMATES)
-        ins_every = steps_per_sample(v, "ins_rate_hz")
-        ins_step_needs = ("gyro", "enc", "ins") + estimates  # an INS step also waits for the estimates in use
-        op_topic = v["operator_topic"]
-        op_waited = bool(op_topic) and v["operator_rate_hz"] > 0.0
+        ins_every = steps_per_sample(values, "ins_rate_hz")
+        # an INS step also waits for the estimates in use
+        ins_step_needs = (InputKind.GYRO, InputKind.ENCODERS, InputKind.INS) + estimates
+        op_topic = values["operator_topic"]
+        op_waited = bool(op_topic) and values["operator_rate_hz"] > 0.0
         # in lockstep a sampled operator command is one of the step's inputs; free, it is used as it arrives
-        op_every = control_policy(timing, lockstep=lambda: steps_per_sample(v, "operator_rate_hz") if op_waited else 0,
-                                  free=lambda: 0)
+        op_every = control_policy(timing, free=lambda: 0,
+                                  lockstep=lambda: steps_per_sample(values, "operator_rate_hz") if op_waited else 0)
         if op_every:
-            inputs.append(("op", Vector3Stamped, op_topic, vec))
+            inputs.append((InputKind.OPERATOR, Vector3Stamped, op_topic, vec))
 
         def needs(k: int) -> tuple[str, ...]:
-            base = ins_step_needs if k % ins_every == 0 else ("gyro", "enc")
-            return base + ("op",) if op_every and k % op_every == 0 else base
+            base = ins_step_needs if k % ins_every == 0 else (InputKind.GYRO, InputKind.ENCODERS)
+            return base + (InputKind.OPERATOR,) if op_every and k % op_every == 0 else base
 
-        ages = {kind: v["max_estimate_age_s"] if kind in ESTIMATES else v["max_input_age_s"]
-                for kind, *_ in inputs[1:] if kind != "op"}
+        ages = {kind: values["max_estimate_age_s"] if kind in ESTIMATES else values["max_input_age_s"]
+                for kind, *_ in inputs[1:] if kind != InputKind.OPERATOR}
         # the one choice of timing (module docstring); a step back of more than clock_jump_s is a bag loop
         self.policy = control_policy(
             timing,
             lockstep=lambda: LockstepControl(needs, rate, params.clock_jump_s, estimates=estimates,
                                              logger=self.get_logger()),
-            free=lambda: FreeControl("gyro", ages, 1.0 / rate, params.clock_jump_s, held=estimates,
-                                     on_arrival=("att",) if hold_mode else (), warn=self._log))
+            free=lambda: FreeControl(InputKind.GYRO, ages, 1.0 / rate, params.clock_jump_s, held=estimates,
+                                     on_arrival=(InputKind.ATTITUDE,) if hold_mode else (), warn=self._log))
         self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self._ins_rates: tuple[float, float, float] | None = None
         for kind, msg_type, topic, decode in inputs:
@@ -133,8 +136,8 @@ class LosRateControllerNode(Node):
                               raw=True)
         if op_topic and not op_every:
             self.io.subscribe(Vector3Stamped, op_topic, self._on_operator, timing, raw=True)
-        if v["joy_topic"]:
-            self.io.subscribe(Joy, v["joy_topic"], self._on_joy, timing)
+        if values["joy_topic"]:
+            self.io.subscribe(Joy, values["joy_topic"], self._on_joy, timing)
 
     @property
     def rejected(self) -> int:
@@ -171,27 +174,27 @@ class LosRateControllerNode(Node):
 
     def _validate(self, kind: str, msg):
         """What the loop takes from an input message, or None (counted) when it cannot be used."""
-        if kind == "op":  # the operator's waited-for command: the shaper judges it
+        if kind == InputKind.OPERATOR:  # the operator's waited-for command: the shaper judges it
             return (msg.stamp_ns, msg.vector[1], msg.vector[2])
-        if kind == "gyro":
+        if kind == InputKind.GYRO:
             if not m.gyro_qr_provided(msg.angular_velocity_covariance):
                 self._count("rejected_no_rates", "gyro angular velocity marked not provided; not fused")
                 return None
             return msg.angular_velocity[1:]  # (q, r); x, the roll axis, is not measured; NaN: the core holds
-        if kind == "enc":
+        if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             if readings is None:
                 self._count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
                 return None
             values = (*readings[0], *readings[1])
-        elif kind == "ins":
+        elif kind == InputKind.INS:
             if not m.field_provided(msg.angular_velocity_covariance):
                 self._count("rejected_no_rates", "INS angular velocity marked not provided; not fused")
                 return None
             values = readings = msg.angular_velocity
-        elif kind == "bias":
+        elif kind == InputKind.BIAS:
             values = readings = msg.vector
-        else:  # att
+        else:  # InputKind.ATTITUDE
             if not m.field_provided(msg.orientation_covariance):
                 self._count("rejected_no_rates", "attitude estimate marked not provided; not fused")
                 return None
@@ -205,7 +208,7 @@ class LosRateControllerNode(Node):
         core, inputs = self.core, step.inputs
         for reason in step.resets:
             core.reset(reason)
-        bias, att, op = inputs.get("bias"), inputs.get("att"), inputs.get("op")
+        bias, att, op = inputs.get(InputKind.BIAS), inputs.get(InputKind.ATTITUDE), inputs.get(InputKind.OPERATOR)
         if op is not None:
             self.operator.set_rate(*op.value)
         if bias is not None:
@@ -217,7 +220,7 @@ class LosRateControllerNode(Node):
         if step.zero_command:
             tau = ZERO
         else:
-            ins, gyro, enc = inputs.get("ins"), inputs.get("gyro"), inputs.get("enc")
+            ins, gyro, enc = inputs.get(InputKind.INS), inputs.get(InputKind.GYRO), inputs.get(InputKind.ENCODERS)
             if ins is not None:
                 self._ins_rates = ins.value
             if gyro is None or enc is None or self._ins_rates is None:

@@ -69,33 +69,34 @@ NAVIGATOR_TOPIC = "/platform_navigator/command_rate"
 class PlatformServoNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_servo", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        timing = v["timing"]
-        self.rate = v["sim_rate_hz"]
-        self.imu_every = steps_per_sample(v, "imu_rate_hz")
-        self.res_every = steps_per_sample(v, "resolver_rate_hz")
-        self.core = PlatformServo(PlatformServoParams.from_values(v))
-        self.follows_navigator = v["command_source"] == "navigator"
-        self.diag_every = v["diagnostics_every_steps"]
+        values = declare_and_read(self, PARAMS)
+        timing = values["timing"]
+        self.rate = values["sim_rate_hz"]
+        self.imu_every = steps_per_sample(values, "imu_rate_hz")
+        self.res_every = steps_per_sample(values, "resolver_rate_hz")
+        self.core = PlatformServo(PlatformServoParams.from_values(values))
+        self.follows_navigator = values["command_source"] == "navigator"
+        self.diag_every = values["diagnostics_every_steps"]
         self._ticks = 0
         self.counts = dict.fromkeys(COUNTERS, 0)
         self._seen = (0, 0, 0)  # core counters already warned about
         self.io = NodeIo(self)
-        self.pub = self.io.advertise_command(JointState, "/platform/voltage_cmd", v)
+        self.pub = self.io.advertise_command(JointState, "/platform/voltage_cmd", values)
         self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
         self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
         self.pubs = {"/platform/voltage_cmd": self.pub, "~/control_error": self.pub_error, "~/modulation": self.pub_mod}
         # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
-        nav_age = {"nav": v["command_max_age_s"]} if self.follows_navigator else {}
+        nav_age = {"nav": values["command_max_age_s"]} if self.follows_navigator else {}
         self.policy = control_policy(
             timing,
-            lockstep=lambda: LockstepControl(self._needs, self.rate, v["clock_jump_s"],
+            lockstep=lambda: LockstepControl(self._needs, self.rate, values["clock_jump_s"],
                                              ticks=("clock",) if self.imu_every > 1 else (),
                                              logger=self.get_logger()),
-            free=lambda: FreeControl("imu", {"res": v["max_input_age_s"], **nav_age}, 1.0 / v["imu_rate_hz"],
-                                     v["clock_jump_s"], held=tuple(nav_age), once=("res", *nav_age), warn=self._log))
+            free=lambda: FreeControl("imu", {"res": values["max_input_age_s"], **nav_age},
+                                     1.0 / values["imu_rate_hz"], values["clock_jump_s"], held=tuple(nav_age),
+                                     once=("res", *nav_age), warn=self._log))
         self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing)
         self.io.subscribe(JointState, "/platform/resolvers", lambda msg: self._on_input("res", msg), timing)

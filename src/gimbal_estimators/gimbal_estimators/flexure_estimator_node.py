@@ -91,24 +91,24 @@ WARN_COUNTERS = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "d
 class FlexureEstimatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("flexure_estimator", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        steps_per_sample(v, "lgu_rate_hz")  # refuses a rate that does not divide sim_rate_hz
-        if v["filter_period_s"] * v["lgu_rate_hz"] < 1.0 - 1e-9:
-            raise ParameterError(f"parameter 'filter_period_s' = {v['filter_period_s']} s is shorter than one "
-                                 f"LGU sample (1/lgu_rate_hz = {1.0 / v['lgu_rate_hz']:g} s)")
+        values = declare_and_read(self, PARAMS)
+        steps_per_sample(values, "lgu_rate_hz")  # refuses a rate that does not divide sim_rate_hz
+        if values["filter_period_s"] * values["lgu_rate_hz"] < 1.0 - 1e-9:
+            raise ParameterError(f"parameter 'filter_period_s' = {values['filter_period_s']} s is shorter than one "
+                                 f"LGU sample (1/lgu_rate_hz = {1.0 / values['lgu_rate_hz']:g} s)")
         # the attitude-matching method: paper 5's simplified filter or the original (eq. 1)
-        self.core = (AttitudeMatchingKf(AttitudeMatchingParams.from_values(v)) if v["model"] == "original"
-                     else FlexureKf(FlexureKfParams.from_values(v)))
-        timing = v["timing"]
+        self.core = (AttitudeMatchingKf(AttitudeMatchingParams.from_values(values)) if values["model"] == "original"
+                     else FlexureKf(FlexureKfParams.from_values(values)))
+        timing = values["timing"]
         # the one choice of timing (module docstring)
-        self.policy = sample_policy(timing, UNITS, rate_hz=v["sim_rate_hz"], sample_rate_hz=v["lgu_rate_hz"],
-                                    progress_every=v["progress_every_steps"],
-                                    clock_jump_ns=int(round(v["clock_jump_s"] * 1e9)), warn=self._warn)
-        self.publish_period_ns = int(round(v["publish_period_s"] * 1e9))
+        self.policy = sample_policy(timing, UNITS, rate_hz=values["sim_rate_hz"], sample_rate_hz=values["lgu_rate_hz"],
+                                    progress_every=values["progress_every_steps"],
+                                    clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)), warn=self._warn)
+        self.publish_period_ns = int(round(values["publish_period_s"] * 1e9))
         self._last_bin: int | None = None
-        self.wait_for_subscribers = v["wait_for_subscribers"]
-        self.nis = NisWindow(3, window=v["nis_window"])
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.wait_for_subscribers = values["wait_for_subscribers"]
+        self.nis = NisWindow(3, window=values["nis_window"])
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
         self.pubs = {}

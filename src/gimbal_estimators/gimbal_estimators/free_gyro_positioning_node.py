@@ -93,18 +93,19 @@ VELOCITY = "/free_gyro/velocity"
 class FreeGyroPositioningNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("free_gyro_positioning", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        self.core = FreeGyroPositioning(FreeGyroPositioningParams.from_values(v))
-        self.height_m = v["height_m"]
-        self.height_sigma_m = v["height_sigma_m"]
-        self.backjump_ns = int(round(v["clock_jump_s"] * 1e9))
-        self.wait_for_subscribers = v["wait_for_subscribers"]
-        timing = v["timing"]
-        self.velocity_input = v["velocity_input"]
+        values = declare_and_read(self, PARAMS)
+        self.core = FreeGyroPositioning(FreeGyroPositioningParams.from_values(values))
+        self.height_m = values["height_m"]
+        self.height_sigma_m = values["height_sigma_m"]
+        self.backjump_ns = int(round(values["clock_jump_s"] * 1e9))
+        self.wait_for_subscribers = values["wait_for_subscribers"]
+        timing = values["timing"]
+        self.velocity_input = values["velocity_input"]
         inputs = (SPIN_A, SPIN_B, IMU) + ((VELOCITY,) if self.velocity_input else ())
         # the one choice of timing (module docstring)
-        self.policy = synced_policy(timing, inputs, rate_hz=v["sim_rate_hz"], progress_every=v["progress_every_steps"])
-        self.predictor = fix_predictor(v, self.core.params)
+        self.policy = synced_policy(timing, inputs, rate_hz=values["sim_rate_hz"],
+                                    progress_every=values["progress_every_steps"])
+        self.predictor = fix_predictor(values, self.core.params)
         self.degenerate = 0
         self.resets = 0
         self._rejected_seen = 0

@@ -84,7 +84,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.input_policy import Step, order_policy
-from gimbal_kinematics.ros import messages as wire
+from gimbal_kinematics.ros.wire import clock_cdr
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
@@ -109,20 +109,20 @@ WARN_COUNTERS = ("resets", "realignments", "gated", "rejected_nonfinite", "rejec
 class GyroBiasEkfNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("gyro_bias_ekf", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(v))
-        timing = v["timing"]
+        values = declare_and_read(self, PARAMS)
+        self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+        timing = values["timing"]
         # the one choice of timing (module docstring)
-        self.policy = order_policy(timing, STREAMS, max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)),
-                                   rate_hz=v["sim_rate_hz"], progress_every=v["progress_every_steps"],
-                                   clock_jump_ns=int(round(v["clock_jump_s"] * 1e9)),
+        self.policy = order_policy(timing, STREAMS, max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)),
+                                   rate_hz=values["sim_rate_hz"], progress_every=values["progress_every_steps"],
+                                   clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)),
                                    on_restart=lambda reason: self.core.reset(reason, 0.0))
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self._resets_seen = 0
         self._warned = 0
         self.bad = {k: 0 for k in m.BAD_INPUT_KEYS}
-        self.nis = NisWindow(3, window=v["nis_window"])
+        self.nis = NisWindow(3, window=values["nis_window"])
         self.io = io = NodeIo(self)
         self.pub_bias = io.advertise(m.Vector3Stamped, "~/bias", timing)
         self.pub_sigma = io.advertise(m.Vector3Stamped, "~/bias_sigma", timing)
@@ -157,7 +157,7 @@ class GyroBiasEkfNode(Node):
         self._after()
         progress = self.policy.progress(step)
         if progress is not None:
-            self.pub_progress.publish(wire.clock_cdr(progress))
+            self.pub_progress.publish(clock_cdr(progress))
 
     def _encoders(self, step: Step) -> None:
         readings = m.encoder_angles(step.msg)

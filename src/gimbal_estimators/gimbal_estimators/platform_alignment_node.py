@@ -94,24 +94,25 @@ WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joi
 class PlatformAlignmentNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_alignment", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        grid = SampleGrid({"joint": steps_per_sample(v, "joint_rate_hz"), "imu": steps_per_sample(v, "imu_rate_hz")})
-        self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(v))
-        self.azimuth_joint = v["azimuth_joint"]
-        self.heading = math.radians(v["base_heading_deg"])
-        timing = v["timing"]
+        values = declare_and_read(self, PARAMS)
+        grid = SampleGrid({"joint": steps_per_sample(values, "joint_rate_hz"),
+                           "imu": steps_per_sample(values, "imu_rate_hz")})
+        self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(values))
+        self.azimuth_joint = values["azimuth_joint"]
+        self.heading = math.radians(values["base_heading_deg"])
+        timing = values["timing"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=v["sim_rate_hz"],
-                                     next_due=grid.next_due, progress_every=v["progress_every_steps"],
-                                     clock_jump_s=v["clock_jump_s"],
-                                     max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)), paced="imu",
+        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=values["sim_rate_hz"],
+                                     next_due=grid.next_due, progress_every=values["progress_every_steps"],
+                                     clock_jump_s=values["clock_jump_s"],
+                                     max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
                                      logger=self.get_logger())
-        self.wait_for_subscribers = v["wait_for_subscribers"]
+        self.wait_for_subscribers = values["wait_for_subscribers"]
         self.rejected_joints = 0
         self._seen: tuple[int, ...] = ()
-        self.nis = NisWindow(2, window=v["nis_window"])
+        self.nis = NisWindow(2, window=values["nis_window"])
         self._updates_seen = 0
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
         self.pubs = {name: io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
@@ -119,7 +120,7 @@ class PlatformAlignmentNode(Node):
         self.pub_diag = advertise_diagnostics(io, timing, self.policy)
         self.subs = [
             io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing),
-            io.subscribe(JointState, v["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
+            io.subscribe(JointState, values["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
 

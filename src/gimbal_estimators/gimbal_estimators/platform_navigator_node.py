@@ -54,7 +54,7 @@ from sensor_msgs.msg import Imu, JointState, NavSatFix
 from gimbal_kinematics.frames import MODULATION_JOINT
 from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params import ParameterError, steps_per_sample
-from gimbal_kinematics.ros import messages as wire
+from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE, clock_cdr
 from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.node_main import run_node
@@ -78,38 +78,39 @@ WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_res
 class PlatformNavigatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_navigator", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        grid = SampleGrid({"joint": steps_per_sample(v, "joint_rate_hz"), "imu": steps_per_sample(v, "imu_rate_hz")})
-        self.core = PlatformNavigator(PlatformNavigatorParams.from_values(v))
-        from_servo = v["azimuth_source"] == "servo"
-        if from_servo and v["timing"] == "lockstep":
+        values = declare_and_read(self, PARAMS)
+        grid = SampleGrid({"joint": steps_per_sample(values, "joint_rate_hz"),
+                           "imu": steps_per_sample(values, "imu_rate_hz")})
+        self.core = PlatformNavigator(PlatformNavigatorParams.from_values(values))
+        from_servo = values["azimuth_source"] == "servo"
+        if from_servo and values["timing"] == "lockstep":
             raise ParameterError("parameter 'azimuth_source' = 'servo' needs timing free: in lockstep the servo's "
                                  "phi_z of a step follows the navigator's command of that step (a cycle)")
-        frames = (v["odom_frame_id"], v["odom_child_frame_id"])
+        frames = (values["odom_frame_id"], values["odom_child_frame_id"])
         for name, frame in zip(("odom_frame_id", "odom_child_frame_id"), frames):
             if not isinstance(frame, str) or not frame.strip():
                 raise ParameterError(f"parameter '{name}' must name a frame, got {frame!r}")
         if frames[0] == frames[1]:
             raise ParameterError(f"parameter 'odom_child_frame_id' = {frames[1]!r} must differ from odom_frame_id")
         self.odom_frames = frames
-        self.odometry = NavigatorOdometry(OdometryModel.from_values(v, heading_known=not from_servo),
-                                          wire.UNMEASURED_VARIANCE)
-        joint_topic = SERVO_MODULATION_TOPIC if from_servo else v["joint_topic"]
-        self.azimuth_joint = MODULATION_JOINT if from_servo else v["azimuth_joint"]
-        self.max_joint_age_ns = int(round(v["max_joint_age_s"] * 1e9))
-        self.fix_every = v["fix_every_samples"]
-        timing = v["timing"]
+        self.odometry = NavigatorOdometry(OdometryModel.from_values(values, heading_known=not from_servo),
+                                          UNMEASURED_VARIANCE)
+        joint_topic = SERVO_MODULATION_TOPIC if from_servo else values["joint_topic"]
+        self.azimuth_joint = MODULATION_JOINT if from_servo else values["azimuth_joint"]
+        self.max_joint_age_ns = int(round(values["max_joint_age_s"] * 1e9))
+        self.fix_every = values["fix_every_samples"]
+        timing = values["timing"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=v["sim_rate_hz"],
-                                     next_due=grid.next_due, progress_every=v["progress_every_steps"],
-                                     clock_jump_s=v["clock_jump_s"],
-                                     max_wait_ns=int(round(v["max_sync_wait_s"] * 1e9)), paced="imu",
+        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=values["sim_rate_hz"],
+                                     next_due=grid.next_due, progress_every=values["progress_every_steps"],
+                                     clock_jump_s=values["clock_jump_s"],
+                                     max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
                                      logger=self.get_logger())
         self.rejected_joints = 0
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
         self._seen: tuple[int, ...] = ()
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
         self.io = io = NodeIo(self)
         self.pub_fix = io.advertise(NavSatFix, "~/fix", timing)
@@ -125,7 +126,8 @@ class PlatformNavigatorNode(Node):
             io.subscribe(JointState, joint_topic, lambda msg: self._on_input("joint", msg), timing),
         ]
         announce_when_connected(self, self.pub_progress, self.subs,
-                                (self.pub_fix, self.pub_velocity, self.pub_odom, self.pub_command), v["wait_for_subscribers"])
+                                (self.pub_fix, self.pub_velocity, self.pub_odom, self.pub_command),
+                                values["wait_for_subscribers"])
 
     # --- inputs ----------------------------------------------------------------------------
     def _warn(self, text: str) -> None:
@@ -144,7 +146,7 @@ class PlatformNavigatorNode(Node):
             self._publish(step.stamp_ns, out)
         progress = self.policy.progress(step)
         if progress is not None:
-            self.pub_progress.publish(wire.clock_cdr(progress))
+            self.pub_progress.publish(clock_cdr(progress))
 
     def _validate_joint(self, step: Step) -> None:
         joint = m.joint_position_velocity(step.msg, self.azimuth_joint)

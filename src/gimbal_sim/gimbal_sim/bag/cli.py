@@ -16,6 +16,7 @@ from gimbal_kinematics.ros.ros_domain import localhost_env
 
 from .checks import damage_warnings, metadata_mismatches, topic_lines
 from .reader import BagError, locate, recover, scan
+from .scene_config import SceneConfig
 
 
 def _fmt_time(ns: int | None) -> str:
@@ -106,8 +107,6 @@ def cmd_play(args: argparse.Namespace) -> int:
 
     from .player import BagPlayer, PlayOptions, load_qos_overrides, parse_remaps
 
-    if args.live and not 1 <= args.live_port <= 65535:
-        raise BagError(f"--live-port must be in 1..65535, got {args.live_port}")
     options = PlayOptions(rate=args.rate, clock_hz=args.clock or 0.0, topics=args.topics,
                           exclude_topics=args.exclude_topics, remap=parse_remaps(args.remap),
                           start_offset_s=args.start_offset, playback_duration_s=args.playback_duration,
@@ -115,13 +114,13 @@ def cmd_play(args: argparse.Namespace) -> int:
                           wait_for_subscribers=args.wait_for_subscribers, pace_topics=args.pace,
                           wait_timeout_s=args.wait_timeout,
                           qos_overrides=load_qos_overrides(args.qos_profile_overrides_path),
-                          live_port=args.live_port if args.live else 0, live_rate_hz=args.live_rate_hz,
                           merge=args.merge)
+    live = _live_view(args)
     localhost_env()
     rclpy.init(args=[])  # our own --remap OLD:=NEW must not be read as a global ROS remap rule
     player = None
     try:
-        player = BagPlayer(Path(args.bag), options)
+        player = BagPlayer(Path(args.bag), options, sink=live)
         executor = make_executor()
         executor.add_node(player)
         count = player.play(executor)
@@ -135,7 +134,32 @@ def cmd_play(args: argparse.Namespace) -> int:
     finally:
         if player is not None:
             player.destroy_node()
+        if live is not None:  # a bag refused before the player took it
+            live.close()
         rclpy.try_shutdown()
+
+
+def _live_view(args: argparse.Namespace):
+    """``--live``: the live view the player hands what it plays, with the scene description
+    beside the bag (:class:`.scene_config.SceneConfig`); None without ``--live``. An error
+    inside it later is said once and turns it off; playing goes on."""
+    if not 0.0 <= args.live_rate_hz < float("inf"):
+        raise BagError(f"--live-rate-hz must be a finite rate >= 0 Hz, got {args.live_rate_hz}")
+    if not args.live:
+        return None
+    if not 1 <= args.live_port <= 65535:
+        raise BagError(f"--live-port must be in 1..65535, got {args.live_port}")
+    from .live import LiveGuard, LivePortError, LiveRelay
+
+    bag = Path(args.bag)
+    scene, missing = SceneConfig.beside(bag if bag.is_dir() else bag.parent)  # a bag named by its .mcap too
+    try:
+        relay = LiveRelay("127.0.0.1", args.live_port, args.live_rate_hz, {}, scene)
+    except LivePortError as exc:
+        raise BagError(f"--live-port: {exc}") from None
+    print(f"gimbal-bag play: live view on ws://127.0.0.1:{relay.port}" + (f"; {missing}" if missing else ""),
+          file=sys.stderr, flush=True)
+    return LiveGuard(relay, lambda line: print(f"gimbal-bag play: error: {line}", file=sys.stderr, flush=True))
 
 
 MERGE_HELP = ("a folder of several .mcap files and no metadata.yaml: read them all as one bag, in name order "

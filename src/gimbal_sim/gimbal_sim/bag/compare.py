@@ -100,8 +100,8 @@ def _raw(bag: Path) -> tuple[Raw, dict[str, str], BagContents]:
     """Per topic, (log time, publish time, payload) in log-time order; topic -> type; what was read."""
     messages, contents = read_messages(Path(bag))
     out: Raw = {}
-    for m in messages:
-        out.setdefault(m.topic, []).append((m.log_time_ns, m.publish_time_ns, m.data))
+    for raw in messages:
+        out.setdefault(raw.topic, []).append((raw.log_time_ns, raw.publish_time_ns, raw.data))
     for series in out.values():
         series.sort(key=lambda x: x[0])
     return out, {name: t.type_name for name, t in contents.topics.items()}, contents

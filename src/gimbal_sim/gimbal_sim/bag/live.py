@@ -3,10 +3,12 @@ Lichtblick over the Foxglove WebSocket protocol (``gimbal-run --live``), plus th
 run's frames (:mod:`.live_frames`), its line of sight and target (:mod:`.live_scene`) for the 3D
 panel.
 
-It runs inside the ``bag_recorder`` node: the recorder already subscribes to every topic and
-holds each message's CDR bytes and stamp, so relaying them costs no second subscription, no
-re-serialisation and no new participant in the lockstep pacing. Relaying only reads those
-bytes: what is recorded does not depend on it.
+In a run it lives inside the ``bag_recorder`` node: the recorder already subscribes to every
+topic and holds each message's CDR bytes and stamp, so relaying them costs no second
+subscription, no re-serialisation and no new participant in the lockstep pacing. Relaying only
+reads those bytes: what is recorded does not depend on it. ``gimbal-bag play --live`` builds it
+and hands it to the player, which gives it each message it plays (:class:`.player.PlaySink`).
+Either reads the run's :class:`.scene_config.SceneConfig` beside the bag and hands it in.
 
 The server is the Foxglove SDK's (``foxglove-sdk``), which accepts only the WebSocket
 subprotocol ``foxglove.sdk.v1``. Lichtblick and older Foxglove builds (``@foxglove/ws-protocol``
@@ -25,7 +27,8 @@ from typing import Callable
 
 from .live_frames import JSON_SCHEMA, SCHEMA_NAME, SOURCE_TOPICS as FRAME_SOURCES, TOPIC as FRAMES_TOPIC, LiveFrames
 from .live_plots import SCHEMAS as PLOT_SCHEMAS, SOURCE_TOPICS as PLOT_SOURCES, LivePlots
-from .live_scene import (OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene, SceneConfig)
+from .live_scene import OPERATOR_ERROR, SCENE_JSON_SCHEMA, SCENE_SCHEMA_NAME, SCENE_TOPIC, LiveScene
+from .scene_config import SceneConfig
 from .schemas import ros2msg_schema
 
 SDK_SUBPROTOCOL = b"foxglove.sdk.v1"

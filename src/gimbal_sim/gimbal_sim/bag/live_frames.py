@@ -151,9 +151,9 @@ class LiveFrames:
         if self._azimuth is None:
             return []
         t_ns, theta_a, rate = self._azimuth
-        v = deserialize_message(data, Vector3Stamped).vector
-        if not all(math.isfinite(c) for c in (v.x, v.y, v.z)):
+        phi = deserialize_message(data, Vector3Stamped).vector  # the estimated misalignment φ̂
+        if not all(math.isfinite(c) for c in (phi.x, phi.y, phi.z)):
             return []
         psi = theta_a + rate * (stamp_ns - t_ns) * 1e-9 + self.platform_heading
-        quat = quat_mul(quat_from_rotation_vector(v.x, v.y, v.z), axis_quat("z", psi))
+        quat = quat_mul(quat_from_rotation_vector(phi.x, phi.y, phi.z), axis_quat("z", psi))
         return [_transform(stamp_ns, NAV_FRAME, ALIGNMENT_PLATFORM_FRAME, quat)]

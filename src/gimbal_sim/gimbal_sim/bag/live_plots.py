@@ -65,8 +65,8 @@ class LivePlots:
             return self._drift(stamp_ns, data)
         if topic in (EKF_BIAS, EKF_SIGMA):
             msg = deserialize_message(data, Vector3Stamped)
-            v = msg.vector
-            self._bias[topic] = (stamp_ns, (v.x, v.y, v.z), msg.header.frame_id)
+            bias = msg.vector  # the estimate or its σ
+            self._bias[topic] = (stamp_ns, (bias.x, bias.y, bias.z), msg.header.frame_id)
             return self._bounds()
         return None
 

@@ -4,11 +4,14 @@ live view's 3D panel.
 * The LOS is the m frame's x axis (spec §2): an arrow locked to the true inner gimbal, sent
   with each relayed ``/truth/gimbal/joint_states``, and one locked to the EKF's, with each
   ``/gyro_bias_ekf/attitude``.
-* The geo-pointing target (``geo_pointer``'s ``target_llh_deg`` seen from its
-  ``vehicle_llh_deg``, in the run's ``scenario.yaml``), in ``map_ned``: a sphere on the
+* The geo-pointing target (:attr:`SceneConfig.target_n`), in ``map_ned``: a sphere on the
   direction to it at the LOS arrow's length, so the arrow's tip shows the pointing error, a
   line to where it really is, and its range. Sent with the true LOS. The sight pivot's lever
   arm (metres) is not drawn at the target's kilometres.
+
+What the live view knows of the run besides its messages is a :class:`SceneConfig`, handed
+in by whoever builds the live view (:mod:`.scene_config`): this module knows no node or
+parameter of the scenario.
 * The simulated operator's target (``sighting_operator``: captured from the LOS, held fixed
   in inertial space, in no parameter): from ``/operator/pointing_error`` (ε, e_q, e_r), the
   direction it makes in the true inner gimbal's frame, u_m = (cos ε, sin ε e_r/ε, −sin ε e_q/ε)
@@ -18,16 +21,13 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
-from pathlib import Path
 
-import yaml
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.serialization import deserialize_message
 
 from gimbal_kinematics.frames import GIMBAL_FRAME, NAV_FRAME
-from gimbal_kinematics.geo_pointing import los_to_target
 
+from .scene_config import SceneConfig
 from .live_frames import EKF_ATTITUDE, EKF_GIMBAL_FRAME, TRUTH_GIMBAL_JOINTS, stamp_dict
 
 SCENE_TOPIC = "/live/los"
@@ -40,40 +40,6 @@ OPERATOR_ERROR = "/operator/pointing_error"
 _LOS_FRAMES = {TRUTH_GIMBAL_JOINTS: (GIMBAL_FRAME, (0.1, 0.8, 0.2)), EKF_ATTITUDE: (EKF_GIMBAL_FRAME, (0.9, 0.5, 0.1))}
 _TARGET_COLOUR = {"r": 0.9, "g": 0.1, "b": 0.1, "a": 1.0}
 _IDENTITY = {"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
-
-
-@dataclass(frozen=True)
-class SceneConfig:
-    """What the live view needs besides the messages, from the run's scenario: the geo target,
-    NED from the vehicle [m] (None: no geo-pointing), the heading the platform alignment
-    assumes [rad], the site's latitude [rad] and whether the earth turns (the LOS drift's
-    inertial frame, as ``reports.common.vehicle_site`` reads them)."""
-
-    target_n: tuple[float, float, float] | None = None
-    platform_heading_rad: float = 0.0
-    site_lat_rad: float = 0.0
-    earth_rate: bool = True
-
-
-def scene_config(scenario_file: Path) -> SceneConfig:
-    """The :class:`SceneConfig` of the run whose ``scenario.yaml`` this is (none: the defaults)."""
-    try:
-        nodes = (yaml.safe_load(Path(scenario_file).read_text()) or {}).get("nodes") or {}
-    except (OSError, yaml.YAMLError):
-        return SceneConfig()
-    params = {spec.get("executable", name): spec.get("params") or {} for name, spec in nodes.items()
-              if isinstance(spec, dict)}
-    target = None
-    geo = params.get("geo_pointer", {})
-    if "target_llh_deg" in geo and "vehicle_llh_deg" in geo:
-        def llh(v):
-            return math.radians(v[0]), math.radians(v[1]), float(v[2])
-        los = los_to_target(llh(geo["vehicle_llh_deg"]), llh(geo["target_llh_deg"]))
-        target = tuple(float(c) * los.range_m for c in los.los_n)
-    heading = math.radians(float(params.get("platform_alignment", {}).get("base_heading_deg", 0.0)))
-    vehicle = params.get("vehicle_dynamics", {})
-    lat_deg = (yaml.safe_load(vehicle.get("profile_params", "{}")) or {}).get("lat_deg", 0.0)
-    return SceneConfig(target, heading, math.radians(float(lat_deg)), bool(vehicle.get("earth_rate", True)))
 
 
 def _entity(stamp_ns: int, frame: str, ident: str, frame_locked: bool, **primitives) -> dict:
@@ -139,8 +105,8 @@ class LiveScene:
             if topic == TRUTH_GIMBAL_JOINTS and self.config.target_n is not None:
                 entities.append(geo_target_entity(stamp_ns, self.config.target_n))
         elif topic == OPERATOR_ERROR:
-            v = deserialize_message(data, Vector3Stamped).vector
-            u = operator_target_direction(v.x, v.y, v.z)
+            error = deserialize_message(data, Vector3Stamped).vector  # (ε, e_q, e_r)
+            u = operator_target_direction(error.x, error.y, error.z)
             if u is not None:
                 entities.append(_entity(stamp_ns, GIMBAL_FRAME, "target:operator", True,
                                         spheres=[_sphere(*(LOS_LENGTH_M * c for c in u))]))

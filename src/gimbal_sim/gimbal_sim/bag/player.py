@@ -32,6 +32,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol
 
 import yaml
 from rclpy.node import Node
@@ -45,8 +46,6 @@ from gimbal_kinematics.ros.qos import GRAPH_QOS
 from .qos_yaml import qos_from_dict
 from .checks import damage_warnings
 from .reader import BagContents, BagError, RawMessage, read_messages
-from .live import LiveGuard, LivePortError, LiveRelay
-from .live_scene import scene_config
 from .schemas import message_class
 
 PLAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
@@ -128,8 +127,6 @@ class PlayOptions:
     pace_window_s: float = 0.05
     wait_timeout_s: float = 30.0      # give up waiting for readers or their progress after this [s]
     qos_overrides: dict[str, dict] = field(default_factory=dict)
-    live_port: int = 0                # > 0: also relay the played messages to a live view on this port
-    live_rate_hz: float = 50.0        # the live view's rate per topic (0: every message)
     merge: bool = False               # several .mcap files without metadata.yaml: read as one bag
 
     def __post_init__(self) -> None:
@@ -145,10 +142,6 @@ class PlayOptions:
             raise BagError("--playback-duration must be a number of seconds (< 0: to the end)")
         if not 0.0 < self.wait_timeout_s < float("inf"):
             raise BagError(f"--wait-timeout must be a finite number of seconds > 0, got {self.wait_timeout_s}")
-        if not 0 <= self.live_port <= 65535:
-            raise BagError(f"--live-port must be in 1..65535, got {self.live_port}")
-        if not 0.0 <= self.live_rate_hz < float("inf"):
-            raise BagError(f"--live-rate-hz must be a finite rate >= 0 Hz, got {self.live_rate_hz}")
         for name in ("rate", "start_offset_s", "clock_hz", "playback_duration_s"):
             if abs(getattr(self, name)) == float("inf"):
                 raise BagError(f"--{name.removesuffix('_s').removesuffix('_hz').replace('_', '-')} must be finite")
@@ -182,12 +175,26 @@ def wait_for_key(stream=None) -> None:
         stream.readline()
 
 
-class BagPlayer(Node):
-    """Publishes a bag's messages; :meth:`play` blocks until done (or forever with loop)."""
+class PlaySink(Protocol):
+    """Where the player also hands each message it publishes (the live view, ``--live``): told
+    each topic it will get, under its played name, then each message's CDR bytes and log
+    time; closed with the player. The player never builds one: its caller does."""
 
-    def __init__(self, bag_dir: Path, options: PlayOptions, **node_kwargs) -> None:
+    def add_topic(self, topic: str, type_name: str) -> None: ...
+
+    def publish(self, topic: str, data: bytes, stamp_ns: int) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class BagPlayer(Node):
+    """Publishes a bag's messages; :meth:`play` blocks until done (or forever with loop).
+    ``sink``: also handed every published message (:class:`PlaySink`); the player closes it."""
+
+    def __init__(self, bag_dir: Path, options: PlayOptions, sink: PlaySink | None = None, **node_kwargs) -> None:
         super().__init__("bag_player", **node_kwargs)
         self.options = options
+        self.sink = sink
         wanted = set(options.topics) if options.topics else None
         if wanted is not None:
             wanted -= set(options.exclude_topics)
@@ -229,7 +236,9 @@ class BagPlayer(Node):
             self.pubs[topic] = self.create_publisher(message_class(record.type_name),
                                                      options.remap.get(topic, topic), qos)
         self.pub_clock = self.create_publisher(Clock, "/clock", PLAY_QOS) if options.clock_hz > 0 else None
-        self.live = self._start_live(contents, Path(bag_dir) / "scenario.yaml")
+        if sink is not None:
+            for topic in self.pubs:
+                sink.add_topic(options.remap.get(topic, topic), contents.topics[topic].type_name)
         self._paced: dict[str, int | None] = {t: None for t in options.pace_topics}
         self._pace_subs: dict[str, object] = {}
         self.t_bag0 = self.messages[0].log_time_ns if self.messages else 0
@@ -238,19 +247,6 @@ class BagPlayer(Node):
         self.published = 0
         self.retries = 0
         self.clocks = 0
-
-    def _start_live(self, contents: BagContents, scenario_file: Path) -> LiveGuard | None:
-        if not self.options.live_port:
-            return None
-        try:
-            live = LiveRelay("127.0.0.1", self.options.live_port, self.options.live_rate_hz, {},
-                             scene_config(scenario_file))
-        except LivePortError as exc:
-            raise BagError(f"--live-port: {exc}") from None
-        for topic in self.pubs:
-            live.add_topic(self.options.remap.get(topic, topic), contents.topics[topic].type_name)
-        self.get_logger().info(f"live view on ws://127.0.0.1:{live.port}")
-        return LiveGuard(live, self.get_logger().error)  # an error in it: logged once, off; playing goes on
 
     def _on_progress(self, topic: str, msg: Clock) -> None:
         # Any report means "connected, send me the bag": "ready" is step 0, which is epoch 0 for a
@@ -401,8 +397,8 @@ class BagPlayer(Node):
                 if period:
                     next_clock = self._clock_until(t, next_clock, period)
                 self._publish(pubs[msg.topic], msg.data)
-                if self.live is not None:
-                    self.live.publish(self.options.remap.get(msg.topic, msg.topic), msg.data, t)
+                if self.sink is not None:
+                    self.sink.publish(self.options.remap.get(msg.topic, msg.topic), msg.data, t)
                 self.published += 1
                 if i % SPIN_EVERY == 0:
                     self._spin(executor)
@@ -414,9 +410,9 @@ class BagPlayer(Node):
                 return self.published
 
     def destroy_node(self) -> None:
-        if self.live is not None:
-            self.live.close()
-            self.live = None
+        sink, self.sink = self.sink, None
+        if sink is not None:
+            sink.close()
         super().destroy_node()
 
     def drain(self, timeout_s: float = 30.0) -> None:

@@ -11,6 +11,7 @@ from typing import Any
 import yaml
 
 from ..bag.record_rates import rate_entries
+from .live_scene import write_scene
 from .registry import NODE_TYPES
 from .scenario import Scenario, ScenarioError
 
@@ -138,6 +139,7 @@ def write_run_files(scenario: Scenario, nodes: list[PlannedNode], out_dir: Path)
     (out_dir / "params").mkdir(parents=True)
     (out_dir / "logs").mkdir()
     (out_dir / "scenario.yaml").write_text(scenario.to_yaml())
+    write_scene(scenario, out_dir)  # what the live view needs of it, recorder and replay alike
     for node in nodes:
         node.params_file = out_dir / "params" / f"{node.name}.yaml"
         node.params_file.write_text(yaml.safe_dump({node.name: {"ros__parameters": node.file_params()}},

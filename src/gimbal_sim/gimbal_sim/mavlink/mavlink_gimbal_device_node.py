@@ -31,6 +31,7 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_kinematics.control_policy import ControlStep, FreeControl
 from gimbal_kinematics.frames import GIMBAL_FRAME
 from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import health_msg
@@ -51,34 +52,34 @@ NODE_COUNTERS = ("malformed_ros", "rejected_inputs", "no_command_steps")
 class MavlinkGimbalDeviceNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("mavlink_gimbal_device", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        if v["timing"] != "free":
+        values = declare_and_read(self, PARAMS)
+        if values["timing"] != "free":
             raise ValueError("parameter timing: free only (the MAVLink side runs against the wall clock)")
         try:
-            self.core = GimbalDevice(DeviceParams.from_values(v))
+            self.core = GimbalDevice(DeviceParams.from_values(values))
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
-        self.link = open_link(v, self.get_logger())
+        self.link = open_link(values, self.get_logger())
         self.counts = dict.fromkeys(NODE_COUNTERS, 0)
         self.io = NodeIo(self)
-        self.pub_cmd = self.io.advertise(Vector3Stamped, v["operator_topic"], "free")
+        self.pub_cmd = self.io.advertise(Vector3Stamped, values["operator_topic"], "free")
         self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", "free")
-        self.diag_period_ns = int(round(v["diagnostics_period_s"] * 1e9))
+        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
         self._next_diag_ns = 0
-        age = v["max_input_age_s"]
+        age = values["max_input_age_s"]
         # the gyro only feeds the reported rates: stale, they are reported unknown (NaN)
-        self.policy = FreeControl("att", {"enc": age, "gyro": age}, 1.0 / v["ins_rate_hz"], CLOCK_JUMP_S,
-                                  held=("gyro",), warn=self._log)
-        inputs = (("att", Imu, v["attitude_topic"], m.imu_from_cdr),
-                  ("enc", JointState, "/gimbal/joint_states", m.joint_state_from_cdr),
-                  ("gyro", Imu, "/gimbal/imu", m.imu_from_cdr))
+        self.policy = FreeControl(InputKind.ATTITUDE, {InputKind.ENCODERS: age, InputKind.GYRO: age},
+                                  1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, held=(InputKind.GYRO,), warn=self._log)
+        inputs = ((InputKind.ATTITUDE, Imu, values["attitude_topic"], m.imu_from_cdr),
+                  (InputKind.ENCODERS, JointState, "/gimbal/joint_states", m.joint_state_from_cdr),
+                  (InputKind.GYRO, Imu, "/gimbal/imu", m.imu_from_cdr))
         for kind, msg_type, topic, decode in inputs:
             self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), "free",
                               raw=True)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(POLL_PERIOD_S, self._poll, clock=steady)
         self.create_timer(HEARTBEAT_PERIOD_S, lambda: self.link.send(self.core.heartbeat()), clock=steady)
-        self.create_timer(1.0 / v["status_rate_hz"], self._send_status, clock=steady)
+        self.create_timer(1.0 / values["status_rate_hz"], self._send_status, clock=steady)
 
     def _log(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=1.0)
@@ -106,10 +107,10 @@ class MavlinkGimbalDeviceNode(Node):
     def _validate(self, kind: str, msg):
         """What a step takes from an input (a quaternion, the sight's azimuth relative to the
         vehicle, body rates); None (counted) when it cannot be used."""
-        if kind == "enc":
+        if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             value = None if readings is None else (readings[0][0] + readings[0][1],)
-        elif kind == "att":
+        elif kind == InputKind.ATTITUDE:
             value = msg.orientation if m.field_provided(msg.orientation_covariance) else None
         else:
             value = msg.angular_velocity if m.field_provided(msg.angular_velocity_covariance) else None
@@ -120,8 +121,8 @@ class MavlinkGimbalDeviceNode(Node):
         return value
 
     def _step(self, step: ControlStep) -> None:
-        att, enc, gyro = (step.inputs.get(k) for k in ("att", "enc", "gyro"))
-        if "att" not in step.inputs or step.zero_command or att is None or enc is None:
+        att, enc, gyro = (step.inputs.get(k) for k in (InputKind.ATTITUDE, InputKind.ENCODERS, InputKind.GYRO))
+        if InputKind.ATTITUDE not in step.inputs or step.zero_command or att is None or enc is None:
             self.counts["no_command_steps"] += 1
             return
         q, r = self.core.step(step.stamp_ns * 1e-9, att.value, enc.value[0], time.monotonic(),

@@ -46,24 +46,25 @@ HEARTBEAT_PERIOD_S = 1.0
 class MavlinkGimbalManagerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("mavlink_gimbal_manager", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        if bool(v["aim_topic"]) == bool(v["rate_topic"]):
+        values = declare_and_read(self, PARAMS)
+        if bool(values["aim_topic"]) == bool(values["rate_topic"]):
             raise ValueError("parameter aim_topic / rate_topic: exactly one must be set (one source of setpoints), "
-                             f"got {v['aim_topic']!r} and {v['rate_topic']!r}")
+                             f"got {values['aim_topic']!r} and {values['rate_topic']!r}")
         try:
-            self.core = GimbalManagerClient(ManagerParams.from_values(v))
+            self.core = GimbalManagerClient(ManagerParams.from_values(values))
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
-        self.link = open_link(v, self.get_logger())
-        sigma = math.radians(v["attitude_sigma_deg"])
+        self.link = open_link(values, self.get_logger())
+        sigma = math.radians(values["attitude_sigma_deg"])
         self.orientation_cov = tuple(float(x) for x in (np.eye(3) * sigma * sigma).ravel())
         self.counts = {"superseded": 0, "rejected_inputs": 0, "unpublished_reports": 0}
         self._pending: bytes | None = None
         self._next_send = 0.0
-        self.send_period = 1.0 / v["max_send_rate_hz"]
+        self.send_period = 1.0 / values["max_send_rate_hz"]
         self.io = NodeIo(self)
         self.pub_attitude = self.io.advertise(Imu, "~/attitude", "free")
-        topic, handler = ((v["aim_topic"], self._on_aim) if v["aim_topic"] else (v["rate_topic"], self._on_rate))
+        topic, handler = ((values["aim_topic"], self._on_aim) if values["aim_topic"]
+                          else (values["rate_topic"], self._on_rate))
         self.io.subscribe(Vector3Stamped, topic, handler, "free")
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(POLL_PERIOD_S, self._poll, clock=steady)

@@ -38,7 +38,7 @@ from ..bag.schemas import message_class, msg_text, split_type
 from ..bag.record_rates import RecordRates
 from ..bag.writer import BagWriter, DiskStopped
 from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LiveGuard, LivePortError, LiveRelay, parse_topic_rates
-from ..bag.live_scene import scene_config
+from ..bag.scene_config import SceneConfig
 
 _STAMP = struct.Struct("<iI")
 
@@ -108,13 +108,15 @@ class BagRecorderNode(Node):
             rates = parse_topic_rates(values["live_topic_rates"])
         except ValueError as exc:
             raise ParameterError(f"parameter 'live_topic_rates': {exc}") from exc
+        # the run's scene description, written beside the bag before any node starts: its target, ...
+        scene, missing = SceneConfig.beside(Path(values["output_dir"]))
         try:
-            # the run's scenario.yaml, written beside the bag before any node starts: its target, ...
-            live = LiveRelay(values["live_host"], values["live_port"], values["live_rate_hz"], rates,
-                             scene_config(Path(values["output_dir"]) / "scenario.yaml"))
+            live = LiveRelay(values["live_host"], values["live_port"], values["live_rate_hz"], rates, scene)
         except LivePortError as exc:
             raise ParameterError(f"parameter 'live_port': {exc}") from exc
         self.get_logger().info(f"live view on ws://{values['live_host']}:{live.port}")
+        if missing:
+            self.get_logger().info(missing)
         # an error in the live view logs once and turns it off; the recording goes on
         return LiveGuard(live, self.get_logger().error)
 

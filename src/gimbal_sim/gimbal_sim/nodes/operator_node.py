@@ -35,18 +35,19 @@ NAN3 = (float("nan"),) * 3
 class OperatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("operator", **node_kwargs)
-        v = declare_and_read(self, PARAMS)
-        self.core = SightOperator(OperatorModelParams.from_values(v), v["capture_s"], v["lat_deg"], v["earth_rate"])
-        self.rate = v["sim_rate_hz"]
-        self.every = steps_per_sample(v, "rate_hz")
-        self.progress_every = v["progress_every_steps"]
+        values = declare_and_read(self, PARAMS)
+        self.core = SightOperator(OperatorModelParams.from_values(values), values["capture_s"], values["lat_deg"],
+                                  values["earth_rate"])
+        self.rate = values["sim_rate_hz"]
+        self.every = steps_per_sample(values, "rate_hz")
+        self.progress_every = values["progress_every_steps"]
         self.rejected_truth = 0
         self.sub = self.create_subscription(Imu, "/truth/gimbal/imu", self._on_truth, GRAPH_QOS, raw=True)
         self.pub_cmd = self.create_publisher(Vector3Stamped, "/operator/los_rate", GRAPH_QOS)
         self.pub_err = self.create_publisher(Vector3Stamped, "~/pointing_error", GRAPH_QOS)
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
         announce_when_connected(self, self.pub_progress, inputs=[self.sub], outputs=[self.pub_cmd, self.pub_err],
-                                readers=v["wait_for_subscribers"])
+                                readers=values["wait_for_subscribers"])
 
     def _on_truth(self, data: bytes) -> None:
         try:
