@@ -33,6 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .host_kernels import host_fields
+
 
 class HostState(NamedTuple):
     """Exact host motion at time ``t`` [s]; every field is a float.
@@ -105,30 +107,10 @@ def host_state_from_euler(
     ``turret`` is (ψt, ψ̇t, ψ̈t); ``accel_b`` the pivot acceleration in b [m/s²].
     Body rates and accelerations follow the module docstring.
     """
-    phi, theta, psi = euler
-    dphi, dtheta, dpsi = euler_dot
-    ddphi, ddtheta, ddpsi = euler_ddot
-    cf, sf = math.cos(phi), math.sin(phi)
-    ct, st = math.cos(theta), math.sin(theta)
-    p = dphi - st * dpsi
-    q = cf * dtheta + sf * ct * dpsi
-    r = -sf * dtheta + cf * ct * dpsi
-    # Time derivatives of E(φ, θ) ė: each sine/cosine contributes its own rate term.
-    p_dot = ddphi - ct * dtheta * dpsi - st * ddpsi
-    q_dot = (
-        -sf * dphi * dtheta + cf * ddtheta
-        + (cf * dphi * ct - sf * st * dtheta) * dpsi + sf * ct * ddpsi
-    )
-    r_dot = (
-        -cf * dphi * dtheta - sf * ddtheta
-        - (sf * dphi * ct + cf * st * dtheta) * dpsi + cf * ct * ddpsi
-    )
-    return HostState(
-        t, phi, theta, psi, dphi, dtheta, dpsi, ddphi, ddtheta, ddpsi,
-        p, q, r, p_dot, q_dot, r_dot,
-        turret[0], turret[1], turret[2],
-        accel_b[0], accel_b[1], accel_b[2],
-    )
+    return HostState(*host_fields(
+        float(t), float(euler[0]), float(euler[1]), float(euler[2]), float(euler_dot[0]), float(euler_dot[1]),
+        float(euler_dot[2]), float(euler_ddot[0]), float(euler_ddot[1]), float(euler_ddot[2]), float(turret[0]),
+        float(turret[1]), float(turret[2]), float(accel_b[0]), float(accel_b[1]), float(accel_b[2])))
 
 
 def inertial_rates_scalar(

@@ -32,10 +32,11 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from gimbal_kinematics.four_gimbal import dcm_sb, outer_member_rates, platform_rate_s
+from gimbal_kinematics.four_gimbal import outer_member_rates
+from gimbal_kinematics.platform_kernels import platform_truth
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import (
-    dcm_to_quat, euler321_to_dcm, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
+    quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
     quat_mul, rotation_vector_from_quat,
 )
 
@@ -269,10 +270,9 @@ class VehicleCore:
             names = PLATFORM_JOINTS
             pos = tuple(self._platform_x[:, 0].tolist())
             vel = tuple(self._platform_x[:, 1].tolist())
-            C_sb = dcm_sb(pos)
-            quat_nm = dcm_to_quat(euler321_to_dcm(host.roll, host.pitch, host.yaw) @ C_sb.T)
-            omega_m = tuple(float(v) for v in platform_rate_s(omega_b, pos, vel))
-            f_m = tuple(float(v) for v in C_sb @ np.array(f_b))
+            q, omega_m, f_m = platform_truth(np.array((host.roll, host.pitch, host.yaw)), self._platform_x[:, 0],
+                                             self._platform_x[:, 1], np.array(omega_b), np.array(f_b))
+            quat_nm = np.array(q)
             effort = tuple((self._platform_x[:, 2] * self._platform_params[:, P_KT]).tolist())
         else:
             effort = ()

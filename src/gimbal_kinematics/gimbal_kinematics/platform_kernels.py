@@ -1,0 +1,114 @@
+"""Compiled per-sample kernels of the four-gimbal platform's geometry (numba ``njit``).
+
+Plain functions over floats and float64 arrays with no state; the vehicle core's truth of
+each step calls :func:`platform_truth`. The closed forms are those of
+:mod:`.four_gimbal` (``dcm_bs``, ``platform_rate_s``) and :mod:`.rotations`
+(``euler321_to_dcm``, Shepperd's ``dcm_to_quat``), written out in scalars; the matrix product
+C_ns = C_nb C_bs is summed in index order, so results may differ from numpy's ``@`` in the
+last bit.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def dcm_bs(a: float, q: float, p: float, r: float) -> np.ndarray:
+    """C_bs (platform to base) of the gimbal angles (θ_a, θ_q, θ_p, θ_r) [rad], (3, 3)."""
+    ca, sa = math.cos(a), math.sin(a)
+    cq, sq = math.cos(q), math.sin(q)
+    cp, sp = math.cos(p), math.sin(p)
+    cr, sr = math.cos(r), math.sin(r)
+    n10, n11, n12 = sq * sp, cq * cr - sq * cp * sr, cq * sr + sq * cp * cr
+    n20, n21, n22 = cq * sp, -sq * cr - cq * cp * sr, -sq * sr + cq * cp * cr
+    m01, m02 = sp * sr, -sp * cr
+    C = np.empty((3, 3))
+    C[0, 0], C[0, 1], C[0, 2] = ca * cp + sa * n10, -sa * cp + ca * n10, n20
+    C[1, 0], C[1, 1], C[1, 2] = ca * m01 + sa * n11, -sa * m01 + ca * n11, n21
+    C[2, 0], C[2, 1], C[2, 2] = ca * m02 + sa * n12, -sa * m02 + ca * n12, n22
+    return C
+
+
+@njit(cache=True)
+def euler321_to_dcm(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """C_nb of 3-2-1 Euler angles [rad], (3, 3)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    C = np.empty((3, 3))
+    C[0, 0], C[0, 1], C[0, 2] = cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy
+    C[1, 0], C[1, 1], C[1, 2] = cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy
+    C[2, 0], C[2, 1], C[2, 2] = -sp, sr * cp, cr * cp
+    return C
+
+
+@njit(cache=True)
+def dcm_to_quat(C: np.ndarray) -> np.ndarray:
+    """Quaternion (x, y, z, w), w ≥ 0, of a rotation matrix by Shepperd's method (the
+    largest of the four squared components; ties to the first), normalised."""
+    tr = C[0, 0] + C[1, 1] + C[2, 2]
+    k, best = 0, tr
+    for j in range(3):
+        if C[j, j] > best:
+            k, best = j + 1, C[j, j]
+    q = np.empty(4)
+    if k == 0:
+        w = 0.5 * math.sqrt(1.0 + tr)
+        f = 0.25 / w
+        q[0], q[1], q[2], q[3] = (C[2, 1] - C[1, 2]) * f, (C[0, 2] - C[2, 0]) * f, (C[1, 0] - C[0, 1]) * f, w
+    elif k == 1:
+        x = 0.5 * math.sqrt(1.0 + 2.0 * C[0, 0] - tr)
+        f = 0.25 / x
+        q[0], q[1], q[2], q[3] = x, (C[0, 1] + C[1, 0]) * f, (C[0, 2] + C[2, 0]) * f, (C[2, 1] - C[1, 2]) * f
+    elif k == 2:
+        y = 0.5 * math.sqrt(1.0 + 2.0 * C[1, 1] - tr)
+        f = 0.25 / y
+        q[0], q[1], q[2], q[3] = (C[0, 1] + C[1, 0]) * f, y, (C[1, 2] + C[2, 1]) * f, (C[0, 2] - C[2, 0]) * f
+    else:
+        z = 0.5 * math.sqrt(1.0 + 2.0 * C[2, 2] - tr)
+        f = 0.25 / z
+        q[0], q[1], q[2], q[3] = (C[0, 2] + C[2, 0]) * f, (C[1, 2] + C[2, 1]) * f, z, (C[1, 0] - C[0, 1]) * f
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    q = q / n
+    return -q if q[3] < 0.0 else q
+
+
+@njit(cache=True)
+def platform_rate_s(omega_b: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> tuple:
+    """ω_s = C_sb ω_b + C_sr θ̇_r e1 + C_sp θ̇_p e2 + C_sq θ̇_q e1 + θ̇_a e3 [rad/s], as the
+    outer-to-inner recursion of rotations about x (r), y (p), x (q), z (a)."""
+    x, y, z = omega_b[0], omega_b[1], omega_b[2]
+    c, s = math.cos(angles[3]), math.sin(angles[3])
+    x, y, z = x, c * y + s * z, -s * y + c * z
+    c, s = math.cos(angles[2]), math.sin(angles[2])
+    x = x + rates[3]
+    x, y, z = c * x - s * z, y, s * x + c * z
+    c, s = math.cos(angles[1]), math.sin(angles[1])
+    y = y + rates[2]
+    x, y, z = x, c * y + s * z, -s * y + c * z
+    c, s = math.cos(angles[0]), math.sin(angles[0])
+    x = x + rates[1]
+    x, y = c * x + s * y, -s * x + c * y
+    return x, y, z + rates[0]
+
+
+@njit(cache=True)
+def platform_truth(euler: np.ndarray, angles: np.ndarray, rates: np.ndarray, omega_b: np.ndarray,
+                   f_b: np.ndarray) -> tuple:
+    """The stable element's truth: q_ns (x, y, z, w) of C_ns = C_nb C_bs, its inertial rate
+    ω_s [rad/s] and specific force f_s = C_sb f_b [m/s²] (tuples), from the host's Euler
+    angles, the gimbal angles/rates (a, q, p, r) and the host's ω_b, f_b."""
+    C_bs = dcm_bs(angles[0], angles[1], angles[2], angles[3])
+    C_nb = euler321_to_dcm(euler[0], euler[1], euler[2])
+    C_ns = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            C_ns[i, j] = C_nb[i, 0] * C_bs[0, j] + C_nb[i, 1] * C_bs[1, j] + C_nb[i, 2] * C_bs[2, j]
+    q = dcm_to_quat(C_ns)
+    f = (C_bs[0, 0] * f_b[0] + C_bs[1, 0] * f_b[1] + C_bs[2, 0] * f_b[2],
+         C_bs[0, 1] * f_b[0] + C_bs[1, 1] * f_b[1] + C_bs[2, 1] * f_b[2],
+         C_bs[0, 2] * f_b[0] + C_bs[1, 2] * f_b[1] + C_bs[2, 2] * f_b[2])
+    return (q[0], q[1], q[2], q[3]), platform_rate_s(omega_b, angles, rates), f
