@@ -73,6 +73,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from .platform_kernels import inner_signals
 from .earth import earth_rate_n, transport_rate_n
 from .rotations import dcm_to_euler321, rot1, rot2, rot3, rotation_vector_from_dcm
 
@@ -445,8 +446,7 @@ def inner_gimbal_control_signals(
     cq = math.cos(theta_q)
     _lock_check(cq, theta_q, "inner-roll gimbal", "azimuth and pitch axes align")
     gx, gy, gz = _unpack(pickoff_s, 3, "pickoff_s")
-    v1, v2, v3 = _r3(math.cos(theta_a), -math.sin(theta_a), gx, gy, gz)
-    return InnerGimbalSignals(v1, v2 / cq, v3 + v2 * math.sin(theta_q) / cq)
+    return InnerGimbalSignals(*inner_signals(gx, gy, gz, float(theta_a), float(theta_q)))
 
 
 def outer_roll_control_signal(theta_q: float, theta_p: float) -> float:

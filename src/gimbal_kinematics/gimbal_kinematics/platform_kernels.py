@@ -112,3 +112,27 @@ def platform_truth(euler: np.ndarray, angles: np.ndarray, rates: np.ndarray, ome
          C_bs[0, 1] * f_b[0] + C_bs[1, 1] * f_b[1] + C_bs[2, 1] * f_b[2],
          C_bs[0, 2] * f_b[0] + C_bs[1, 2] * f_b[1] + C_bs[2, 2] * f_b[2])
     return (q[0], q[1], q[2], q[3]), platform_rate_s(omega_b, angles, rates), f
+
+
+@njit(cache=True)
+def inner_signals(gx: float, gy: float, gz: float, theta_a: float, theta_q: float) -> tuple:
+    """(Δθ_qm, Δθ_pm, Δθ_am) of a pickoff (or rate) vector g resolved in s (paper 3 eq. 1):
+    v = C_qs g, Δθ_qm = v1, Δθ_pm = v2 / cos θ_q, Δθ_am = v3 + v2 tan θ_q. No lock check."""
+    c, s = math.cos(theta_a), -math.sin(theta_a)
+    cq = math.cos(theta_q)
+    v1, v2, v3 = c * gx + s * gy, -s * gx + c * gy, gz
+    return v1, v2 / cq, v3 + v2 * math.sin(theta_q) / cq
+
+
+@njit(cache=True)
+def servo_signals(d0: float, d1: float, d2: float, ex: float, ey: float, ez: float, theta_a: float,
+                  theta_q: float, theta_p: float, lock_cos: float) -> tuple:
+    """The platform servo's control signals of one tick: the pickoff δ and the rate error e
+    resolved onto the inner-roll, pitch and azimuth axes (:func:`inner_signals`) and the
+    outer-roll null Δθ_rm = θ_q / cos θ_p. Returns (ok, (q, p, a) of δ, (q, p, a) of e, Δθ_rm);
+    ok is False within the lock margin (|cos θ_q| or |cos θ_p| < ``lock_cos``)."""
+    cq, cp = math.cos(theta_q), math.cos(theta_p)
+    if abs(cq) < lock_cos or abs(cp) < lock_cos:
+        return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0
+    return (True, inner_signals(d0, d1, d2, theta_a, theta_q), inner_signals(ex, ey, ez, theta_a, theta_q),
+            theta_q / cp)
