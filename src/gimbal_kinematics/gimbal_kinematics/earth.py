@@ -9,22 +9,23 @@ import math
 
 import numpy as np
 
+from . import earth_kernels as ek
+
 #: WGS-84 semi-major axis [m].
-A = 6378137.0
+A = ek.A
 #: WGS-84 flattening [-].
-F = 1.0 / 298.257223563
+F = ek.F
 #: First eccentricity squared [-].
-E2 = F * (2.0 - F)
+E2 = ek.E2
 #: Semi-minor axis [m].
-B = A * (1.0 - F)
+B = ek.B
 #: Earth rotation rate [rad/s] (docs/spec.md §2).
-OMEGA_IE = 7.292115e-5
+OMEGA_IE = ek.OMEGA_IE
 #: Earth gravitational constant GM [m³/s²].
-GM = 3.986004418e14
+GM = ek.GM
 #: Normal gravity at the equator and the Somigliana constant.
-GAMMA_E = 9.7803253359
-SOMIGLIANA_K = 0.00193185265241
-_M = OMEGA_IE**2 * A**2 * B / GM
+GAMMA_E = ek.GAMMA_E
+SOMIGLIANA_K = ek.SOMIGLIANA_K
 
 
 def _check_lat(lat: float) -> None:
@@ -35,13 +36,13 @@ def _check_lat(lat: float) -> None:
 def meridian_radius(lat: float) -> float:
     """Meridian radius of curvature R_M [m] at geodetic latitude ``lat`` [rad]."""
     _check_lat(lat)
-    return A * (1.0 - E2) / (1.0 - E2 * math.sin(lat) ** 2) ** 1.5
+    return ek.meridian_radius(float(lat))
 
 
 def prime_vertical_radius(lat: float) -> float:
     """Prime-vertical (transverse) radius of curvature R_N [m] at ``lat`` [rad]."""
     _check_lat(lat)
-    return A / math.sqrt(1.0 - E2 * math.sin(lat) ** 2)
+    return ek.prime_vertical_radius(float(lat))
 
 
 def earth_rate_n(lat: float) -> np.ndarray:
@@ -68,9 +69,7 @@ def transport_rate_n(lat: float, h: float, v_n: np.ndarray) -> np.ndarray:
 def normal_gravity(lat: float, h: float = 0.0) -> float:
     """Magnitude of WGS-84 normal gravity [m/s²] (Somigliana, second-order in height)."""
     _check_lat(lat)
-    s2 = math.sin(lat) ** 2
-    g0 = GAMMA_E * (1.0 + SOMIGLIANA_K * s2) / math.sqrt(1.0 - E2 * s2)
-    return g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    return ek.normal_gravity(float(lat), float(h))
 
 
 def gravity_n(lat: float, h: float = 0.0) -> np.ndarray:
