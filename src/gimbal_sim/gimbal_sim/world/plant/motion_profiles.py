@@ -176,6 +176,11 @@ class SinusoidProfile:
         object.__setattr__(self, "_packed", profile_kernels.pack(
             (self.roll, self.pitch, self.yaw, self.psi_t, self.accel_x, self.accel_y, self.accel_z)))
 
+    @property
+    def packed(self) -> tuple:
+        """(lines, terms, starts): the profile as the arrays of :mod:`.profile_kernels`."""
+        return self._packed
+
     def sample(self, t: float) -> HostState:
         """Exact host state at time ``t`` [s] (the compiled :func:`.profile_kernels.sample`)."""
         lines, terms, starts = self._packed
