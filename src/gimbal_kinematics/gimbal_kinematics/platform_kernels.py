@@ -1,11 +1,10 @@
 """Compiled per-sample kernels of the four-gimbal platform's geometry (numba ``njit``).
 
 Plain functions over floats and float64 arrays with no state; the vehicle core's truth of
-each step calls :func:`platform_truth`. The closed forms are those of
-:mod:`.four_gimbal` (``dcm_bs``, ``platform_rate_s``) and :mod:`.rotations`
-(``euler321_to_dcm``, Shepperd's ``dcm_to_quat``), written out in scalars; the matrix product
-C_ns = C_nb C_bs is summed in index order, so results may differ from numpy's ``@`` in the
-last bit.
+each step calls :func:`platform_truth`, :mod:`.four_gimbal` calls :func:`dcm_bs`,
+:func:`platform_rate_s` and :func:`inner_signals` (the closed forms are documented there).
+The matrix product C_ns = C_nb C_bs is summed in index order, so results may differ from
+numpy's ``@`` in the last bit.
 """
 from __future__ import annotations
 
@@ -14,10 +13,15 @@ import math
 import numpy as np
 from numba import njit
 
+from .rotation_kernels import dcm_to_quat, euler321_to_dcm
+
 
 @njit(cache=True)
 def dcm_bs(a: float, q: float, p: float, r: float) -> np.ndarray:
-    """C_bs (platform to base) of the gimbal angles (θ_a, θ_q, θ_p, θ_r) [rad], (3, 3)."""
+    """C_bs (platform to base) of the gimbal angles (θ_a, θ_q, θ_p, θ_r) [rad], (3, 3):
+    C_pb = rot2(p) rot1(r) has rows m0 = (cp, sp sr, −sp cr), m1 = (0, cr, sr),
+    m2 = (sp, −cp sr, cp cr); C_qb = rot1(q) C_pb has rows m0, n1, n2; C_sb = rot3(a) C_qb
+    has rows k0, k1, n2; C_bs is its transpose."""
     ca, sa = math.cos(a), math.sin(a)
     cq, sq = math.cos(q), math.sin(q)
     cp, sp = math.cos(p), math.sin(p)
@@ -30,50 +34,6 @@ def dcm_bs(a: float, q: float, p: float, r: float) -> np.ndarray:
     C[1, 0], C[1, 1], C[1, 2] = ca * m01 + sa * n11, -sa * m01 + ca * n11, n21
     C[2, 0], C[2, 1], C[2, 2] = ca * m02 + sa * n12, -sa * m02 + ca * n12, n22
     return C
-
-
-@njit(cache=True)
-def euler321_to_dcm(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """C_nb of 3-2-1 Euler angles [rad], (3, 3)."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    C = np.empty((3, 3))
-    C[0, 0], C[0, 1], C[0, 2] = cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy
-    C[1, 0], C[1, 1], C[1, 2] = cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy
-    C[2, 0], C[2, 1], C[2, 2] = -sp, sr * cp, cr * cp
-    return C
-
-
-@njit(cache=True)
-def dcm_to_quat(C: np.ndarray) -> np.ndarray:
-    """Quaternion (x, y, z, w), w ≥ 0, of a rotation matrix by Shepperd's method (the
-    largest of the four squared components; ties to the first), normalised."""
-    tr = C[0, 0] + C[1, 1] + C[2, 2]
-    k, best = 0, tr
-    for j in range(3):
-        if C[j, j] > best:
-            k, best = j + 1, C[j, j]
-    q = np.empty(4)
-    if k == 0:
-        w = 0.5 * math.sqrt(1.0 + tr)
-        f = 0.25 / w
-        q[0], q[1], q[2], q[3] = (C[2, 1] - C[1, 2]) * f, (C[0, 2] - C[2, 0]) * f, (C[1, 0] - C[0, 1]) * f, w
-    elif k == 1:
-        x = 0.5 * math.sqrt(1.0 + 2.0 * C[0, 0] - tr)
-        f = 0.25 / x
-        q[0], q[1], q[2], q[3] = x, (C[0, 1] + C[1, 0]) * f, (C[0, 2] + C[2, 0]) * f, (C[2, 1] - C[1, 2]) * f
-    elif k == 2:
-        y = 0.5 * math.sqrt(1.0 + 2.0 * C[1, 1] - tr)
-        f = 0.25 / y
-        q[0], q[1], q[2], q[3] = (C[0, 1] + C[1, 0]) * f, y, (C[1, 2] + C[2, 1]) * f, (C[0, 2] - C[2, 0]) * f
-    else:
-        z = 0.5 * math.sqrt(1.0 + 2.0 * C[2, 2] - tr)
-        f = 0.25 / z
-        q[0], q[1], q[2], q[3] = (C[0, 2] + C[2, 0]) * f, (C[1, 2] + C[2, 1]) * f, z, (C[1, 0] - C[0, 1]) * f
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    q = q / n
-    return -q if q[3] < 0.0 else q
 
 
 @njit(cache=True)
