@@ -160,3 +160,19 @@ def test_fused_gimbal_step_is_the_separate_kernels_and_turret_base_its_source():
         x, t = x1, sim.t
     host = tuple(sim.host)
     close(hk.turret_base(host, 9.8, 1e-5, 2e-5, -3e-5), hk.turret_base.py_func(host, 9.8, 1e-5, 2e-5, -3e-5))
+
+
+def test_a_constant_host_keeps_its_delta_angle_the_earth_rate_over_a_step():
+    """On a static base every step's δ is the same: the earth's rotation over dt resolved in b,
+    C_bn ω_ie^n dt (here from scipy's Euler angles), to rounding."""
+    core = VehicleCore(VehicleConfig(profile="static", plant="four_gimbal_platform", duration_s=1.0,
+                                     profile_params={"lat_deg": 40.0, "roll_deg": 1.0, "pitch_deg": -2.0, "yaw_deg": 30.0}))
+    assert core.profile.constant and not make_profile("paper1_land_vehicle").constant
+    deltas = []
+    for _ in range(4):
+        core.step((0.0, 0.0, 0.0, 0.0))
+        deltas.append(tuple(core.truth().delta_angle_b))
+    assert deltas[1:] == deltas[:-1]
+    C_nb = Rotation.from_euler("ZYX", np.radians([30.0, -2.0, 1.0])).as_matrix()
+    expected = C_nb.T @ np.asarray(core.env.omega_in_n) * core.config.dt
+    np.testing.assert_allclose(deltas[-1], expected, rtol=1e-9, atol=1e-22)

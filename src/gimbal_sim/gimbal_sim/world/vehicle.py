@@ -196,6 +196,7 @@ class VehicleCore:
             self._platform_quasi_static = config.platform_integrator == "quasi_static"
         self._q_nb = quat_canonical(quat_from_euler321(self._host.roll, self._host.pitch, self._host.yaw))
         self._delta = (0.0, 0.0, 0.0)
+        self._constant_delta: tuple[float, float, float] | None = None
         self._outer_rates: tuple[float, ...] | None = None  # ω_A of the last step (platform_base_motion)
 
     def _base_torques(self) -> tuple[float, ...]:
@@ -239,10 +240,14 @@ class VehicleCore:
             torques = self._base_torques() if self.config.platform_base_motion else (0.0, 0.0, 0.0, 0.0)
             platform_step(self._platform_x, np.array(self._applied), np.array(torques), dt,
                           self.config.platform_substeps, self._platform_quasi_static, self._platform_params)
-        q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
-        # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
-        self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
-        self._q_nb, self._host = q_nb1, host1
+        if self._constant_delta is None:
+            q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
+            # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
+            self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
+            self._q_nb = q_nb1
+            if self.profile.constant:  # the same attitude every step: the same δ, bit for bit
+                self._constant_delta = self._delta
+        self._host = host1
         self.k += 1
 
     def truth(self) -> VehicleTruth:

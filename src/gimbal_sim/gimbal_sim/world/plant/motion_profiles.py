@@ -177,6 +177,12 @@ class SinusoidProfile:
             (self.roll, self.pitch, self.yaw, self.psi_t, self.accel_x, self.accel_y, self.accel_z)))
 
     @property
+    def constant(self) -> bool:
+        """Whether the host never moves relative to NED (every channel a constant)."""
+        lines, terms, _ = self._packed
+        return terms.shape[0] == 0 and not lines[:, 1].any()
+
+    @property
     def packed(self) -> tuple:
         """(lines, terms, starts): the profile as the arrays of :mod:`.profile_kernels`."""
         return self._packed
