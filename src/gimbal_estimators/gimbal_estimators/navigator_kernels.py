@@ -14,7 +14,8 @@ import math
 
 from numba import njit
 
-from gimbal_kinematics.earth_kernels import OMEGA_IE, meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.earth_kernels import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.wgs84 import OMEGA_IE
 
 
 @njit(cache=True)

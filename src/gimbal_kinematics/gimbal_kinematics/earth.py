@@ -9,23 +9,7 @@ import math
 
 import numpy as np
 
-from . import earth_kernels as ek
-
-#: WGS-84 semi-major axis [m].
-A = ek.A
-#: WGS-84 flattening [-].
-F = ek.F
-#: First eccentricity squared [-].
-E2 = ek.E2
-#: Semi-minor axis [m].
-B = ek.B
-#: Earth rotation rate [rad/s] (docs/spec.md §2).
-OMEGA_IE = ek.OMEGA_IE
-#: Earth gravitational constant GM [m³/s²].
-GM = ek.GM
-#: Normal gravity at the equator and the Somigliana constant.
-GAMMA_E = ek.GAMMA_E
-SOMIGLIANA_K = ek.SOMIGLIANA_K
+from .wgs84 import A, B, E2, F, GAMMA_E, GM, OMEGA_IE, SOMIGLIANA_K  # noqa: F401  (re-exported)
 
 
 def _check_lat(lat: float) -> None:
@@ -36,12 +20,16 @@ def _check_lat(lat: float) -> None:
 def meridian_radius(lat: float) -> float:
     """Meridian radius of curvature R_M [m] at geodetic latitude ``lat`` [rad]."""
     _check_lat(lat)
+    from . import earth_kernels as ek  # lazily: numba loads only where a kernel runs
+
     return ek.meridian_radius(float(lat))
 
 
 def prime_vertical_radius(lat: float) -> float:
     """Prime-vertical (transverse) radius of curvature R_N [m] at ``lat`` [rad]."""
     _check_lat(lat)
+    from . import earth_kernels as ek  # lazily: numba loads only where a kernel runs
+
     return ek.prime_vertical_radius(float(lat))
 
 
@@ -69,6 +57,8 @@ def transport_rate_n(lat: float, h: float, v_n: np.ndarray) -> np.ndarray:
 def normal_gravity(lat: float, h: float = 0.0) -> float:
     """Magnitude of WGS-84 normal gravity [m/s²] (Somigliana, second-order in height)."""
     _check_lat(lat)
+    from . import earth_kernels as ek  # lazily: numba loads only where a kernel runs
+
     return ek.normal_gravity(float(lat), float(h))
 
 

@@ -1,21 +1,14 @@
 """Compiled per-sample kernels of the WGS-84 earth (numba ``njit``): plain functions of
 floats, no checks (:mod:`.earth` checks the latitude, then calls these, so the navigator's
-compiled step and every other caller compute the same radii and gravity)."""
+compiled step and every other caller compute the same radii and gravity); the constants are
+:mod:`.wgs84`'s."""
 from __future__ import annotations
 
 import math
 
 from numba import njit
 
-A = 6378137.0
-F = 1.0 / 298.257223563
-E2 = F * (2.0 - F)
-B = A * (1.0 - F)
-OMEGA_IE = 7.292115e-5
-GM = 3.986004418e14
-GAMMA_E = 9.7803253359
-SOMIGLIANA_K = 0.00193185265241
-_M = OMEGA_IE**2 * A**2 * B / GM
+from .wgs84 import A, E2, F, GAMMA_E, M, SOMIGLIANA_K
 
 
 @njit(cache=True)
@@ -37,4 +30,4 @@ def normal_gravity(lat: float, h: float) -> float:
     γ = γ₀ (1 − 2/a (1 + f + m − 2 f sin² L) h + 3 h²/a²)."""
     s2 = math.sin(lat) ** 2
     g0 = GAMMA_E * (1.0 + SOMIGLIANA_K * s2) / math.sqrt(1.0 - E2 * s2)
-    return g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    return g0 * (1.0 - 2.0 / A * (1.0 + F + M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)

@@ -20,8 +20,6 @@ import math
 
 import numpy as np
 
-from . import rotation_kernels as rk
-
 #: Largest deviation of ``C @ C.T`` from the identity accepted as a rotation matrix.
 ORTHONORMAL_TOL = 1e-6
 
@@ -100,6 +98,8 @@ def orthonormalize(C: np.ndarray) -> np.ndarray:
 def euler321_to_dcm(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """``C_nb`` (body to navigation) from 3-2-1 Euler angles [rad]; shape (3, 3) (the compiled
     :func:`.rotation_kernels.euler321_to_dcm`)."""
+    from . import rotation_kernels as rk  # lazily: numba loads only where a kernel runs
+
     return rk.euler321_to_dcm(float(roll), float(pitch), float(yaw))
 
 
@@ -145,6 +145,8 @@ def dcm_to_quat(C: np.ndarray) -> np.ndarray:
     Shepperd's method: it picks the largest of the four squared components so that no
     branch divides by a small number (the compiled :func:`.rotation_kernels.dcm_to_quat`).
     """
+    from . import rotation_kernels as rk  # lazily: numba loads only where a kernel runs
+
     return rk.dcm_to_quat(check_dcm(C, "C"))
 
 
