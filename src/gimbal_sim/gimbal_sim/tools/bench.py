@@ -503,6 +503,11 @@ def bench_engine(args: argparse.Namespace) -> int:
         return 2
     factor = args.memory_factor if args.memory else None
     try:
+        if args.profile:
+            for python in (sys.executable, args.baseline):
+                if python is not None:
+                    print(engine_speed.profile_report(python, args.duration))
+            return 0
         result = engine_speed.measure(args.duration, args.pairs, args.baseline, factor)
     except RuntimeError as exc:
         print(f"gimbal-bench engine: {exc}", file=sys.stderr)
@@ -579,6 +584,7 @@ def main(argv: list[str] | None = None) -> int:
     eng.add_argument("--pairs", type=int, default=3, help="runs per side, alternating the order (default 3)")
     eng.add_argument("--memory", action="store_true", help="also the peak RSS of a --memory-factor longer run")
     eng.add_argument("--memory-factor", type=float, default=10.0, help="(default 10)")
+    eng.add_argument("--profile", action="store_true", help="instead: each case once under cProfile, each side")
     eng.set_defaults(func=bench_engine)
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] not in ("run", "record", "flexure", "compare", "live", "engine", "-h", "--help"):

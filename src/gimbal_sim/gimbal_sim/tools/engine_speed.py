@@ -12,7 +12,9 @@ baseline's, alternating which goes first, the median of ``--pairs`` taken:
 
 Each case runs a small script that only uses what older checkouts have too
 (:data:`NAV_SCRIPT`, :data:`CORE_SCRIPT`), so the baseline runs the same work; each first
-runs 10 ms (loading the compiled kernels from their cache), then times its run. Figures: steps/s (engine loop, wall
+runs 10 ms (loading the compiled kernels from their cache), then times its run.
+``--profile`` runs each case once under cProfile instead, on each side, and prints its
+functions by own time (:func:`profile_report`). Figures: steps/s (engine loop, wall
 time), the ratio to the baseline, the wall time of one 3-hour run projected from the
 steps/s, and the peak RSS of a run ``--memory-factor`` times longer against the short one
 (flat: within 10 %). The 1-minute load average is printed before and after: the wall-time
@@ -28,7 +30,7 @@ import sys
 from statistics import median
 from typing import Any
 
-#: One navigation run at 1 kHz, rotation on, seed 1, the motors' full dynamics; prints JSON.
+#: One navigation run at 1 kHz, rotation on, seed 1, the motors' full dynamics: ``work()``.
 NAV_SCRIPT = """
 import json, resource, sys
 from gimbal_sim.experiments import navigation as nav
@@ -38,21 +40,37 @@ def full_dynamics(**kw):
     return config(**{**kw, "platform_integrator": "rk4", "platform_substeps": substeps})
 nav.VehicleConfig = full_dynamics
 nav.run_navigation(0.01, 1, rotate=True, rate_hz=1000.0)  # warm-up: compiled kernels loaded
-m = nav.run_navigation(duration, 1, rotate=True, rate_hz=1000.0, record_every_s=10.0)
-print(json.dumps({"steps": round(duration * 1000.0), "wall_s": m["wall_s"], "cpu_s": m["cpu_s"],
-                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-                  "radial_error_m": m["radial_error_m"]}))
+def work():
+    m = nav.run_navigation(duration, 1, rotate=True, rate_hz=1000.0, record_every_s=10.0)
+    return {"steps": round(duration * 1000.0), "wall_s": m["wall_s"], "cpu_s": m["cpu_s"]}
 """
-#: One core-loop run of a scenario (``python -m gimbal_sim.core.core_loop``'s loop); prints JSON.
+#: One core-loop run of a scenario (``python -m gimbal_sim.core.core_loop``'s loop): ``work()``.
 CORE_SCRIPT = """
 import dataclasses, json, resource, sys
 from gimbal_sim.core.core_loop import run_core_loop
 from gimbal_sim.graph.scenario import load
 scenario = load(sys.argv[1])
 run_core_loop(dataclasses.replace(scenario, duration_s=0.01))  # warm-up: compiled kernels loaded
-r = run_core_loop(dataclasses.replace(scenario, duration_s=float(sys.argv[2])))
-print(json.dumps({"steps": r.steps, "wall_s": r.wall_s, "cpu_s": r.cpu_s,
-                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}))
+def work():
+    r = run_core_loop(dataclasses.replace(scenario, duration_s=float(sys.argv[2])))
+    return {"steps": r.steps, "wall_s": r.wall_s, "cpu_s": r.cpu_s}
+"""
+#: Either script's end: its figures as JSON.
+TIMED = """
+out = work()
+out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+print(json.dumps(out))
+"""
+#: Or, profiled: each function's own and cumulative share of the work, the largest first.
+PROFILED = """
+import cProfile, pstats
+profile = cProfile.Profile()
+profile.runcall(work)
+stats = pstats.Stats(profile).stats
+total = max(v[3] for v in stats.values())
+rows = sorted(((v[2] / total, v[3] / total, v[1], f"{f.rsplit('/', 1)[-1]}:{n}") for (f, l, n), v in stats.items()),
+              reverse=True)
+print(json.dumps({"profile": rows[:int(sys.argv[-1])]}))
 """
 SUBSTEPS = 4
 THREE_HOURS_STEPS = 3 * 3600 * 1000
@@ -63,16 +81,32 @@ THREE_HOUR_TARGET_S = 180.0
 RSS_GROWTH_TARGET = 0.10
 
 
-def run_case(python: str, case: str, duration_s: float) -> dict[str, Any]:
-    """One run of ``case`` by interpreter ``python``: its JSON figures plus steps_per_s."""
+def _script(python: str, case: str, duration_s: float, tail: str, *extra: str) -> dict[str, Any]:
+    """Run ``case``'s script with ``tail`` by interpreter ``python``; its JSON."""
     if case == "rotational_ins_navigation":
-        cmd = [python, "-c", NAV_SCRIPT, str(duration_s), str(SUBSTEPS)]
+        cmd = [python, "-c", NAV_SCRIPT + tail, str(duration_s), str(SUBSTEPS), *extra]
     else:
-        cmd = [python, "-c", CORE_SCRIPT, case, str(duration_s)]
+        cmd = [python, "-c", CORE_SCRIPT + tail, case, str(duration_s), *extra]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"{case} with {python} failed (exit {proc.returncode}): {proc.stderr.strip()[-400:]}")
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def profile_report(python: str, duration_s: float, top: int = 15) -> str:
+    """Each case once under cProfile by ``python``: its ``top`` functions by own time, as
+    shares of the engine loop's time (own, cumulative) and their call counts."""
+    lines = []
+    for case, (label, _) in TARGETS.items():
+        rows = _script(python, case, duration_s, PROFILED, str(top))["profile"]
+        lines.append(f"{label}, {duration_s:g} s, {python}: own %  cumulative %  calls  function")
+        lines.extend(f"  {100 * own:6.1f} {100 * cum:12.1f} {calls:>9,}  {name}" for own, cum, calls, name in rows)
+    return "\n".join(lines)
+
+
+def run_case(python: str, case: str, duration_s: float) -> dict[str, Any]:
+    """One run of ``case`` by interpreter ``python``: its JSON figures plus steps_per_s."""
+    out = _script(python, case, duration_s, TIMED)
     out["steps_per_s"] = out["steps"] / out["wall_s"]
     out["steps_per_cpu_s"] = out["steps"] / out["cpu_s"]
     return out
