@@ -28,6 +28,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from . import control_kernels as ck
+
 
 def _check(name: str, value: float, *, allow_zero: bool = True, allow_inf: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
@@ -90,82 +94,58 @@ def pole_placement_gains(inertia_kg_m2: float, bandwidth_hz: float, gain_per_tor
 
 
 class Pid:
-    """One discrete PID channel (module docstring). Call :meth:`step` once per sample."""
+    """One discrete PID channel (module docstring). Call :meth:`step` once per sample.
 
-    def __init__(self, params: PidParams) -> None:
+    The state is the vector ``state`` (:mod:`.control_kernels`' ``S_*``; a row of a caller's
+    array when one is given, so several channels can step in one kernel call) and the
+    arithmetic the compiled :func:`.control_kernels.pid_step`."""
+
+    def __init__(self, params: PidParams, state: np.ndarray | None = None) -> None:
         if not isinstance(params, PidParams):
             raise ValueError("params must be a PidParams")
         self.params = params
-        self._kp, self._ki, self._kd = params.kp, params.ki, params.kd
-        self._tau = params.derivative_tau_s
-        self._lim = params.output_limit
-        self._ilim = params.integrator_limit
-        self._dt_cached = -1.0
-        self._a = 0.0
+        self.gains = np.array([params.kp, params.ki, params.kd, params.derivative_tau_s, params.output_limit,
+                               params.integrator_limit], dtype=float)
+        self.state = np.zeros(ck.N_STATE) if state is None else state
+        self.state[ck.S_DT] = -1.0
         self.reset()
+
+    @property
+    def integral(self) -> float:
+        """The integrator's output contribution I."""
+        return float(self.state[ck.S_INTEGRAL])
+
+    @property
+    def output(self) -> float:
+        """The last output u."""
+        return float(self.state[ck.S_OUTPUT])
+
+    @property
+    def saturated(self) -> bool:
+        """Whether the last output was clipped."""
+        return bool(self.state[ck.S_SATURATED])
 
     def reset(self, integral: float = 0.0) -> None:
         """Clear the state; ``integral`` presets the integrator output."""
-        self.integral = float(integral)
-        self._d = 0.0
-        self._e_prev = 0.0
-        self._first = True
-        self.output = 0.0
-        self.saturated = False
+        s = self.state
+        s[ck.S_INTEGRAL] = float(integral)
+        s[ck.S_D] = s[ck.S_E_PREV] = s[ck.S_OUTPUT] = s[ck.S_SATURATED] = 0.0
+        s[ck.S_FIRST] = 1.0
 
     def forget_previous(self) -> None:
         """Drop the previous sample (after a data gap): the next step neither differences
         nor integrates across the gap; the integrator value is kept."""
-        self._first = True
-        self._d = 0.0
+        self.state[ck.S_FIRST] = 1.0
+        self.state[ck.S_D] = 0.0
 
     def preset_integral(self, value: float) -> None:
         """Set the integrator's output contribution to ``value`` (clipped to its limit)."""
-        lim = self._ilim
-        self.integral = max(-lim, min(lim, float(value)))
-
-    def _coeff(self, dt: float) -> float:
-        if dt != self._dt_cached:
-            self._dt_cached = dt
-            self._a = math.exp(-dt / self._tau) if self._tau > 0.0 else 0.0
-        return self._a
+        lim = self.params.integrator_limit
+        self.state[ck.S_INTEGRAL] = max(-lim, min(lim, float(value)))
 
     def step(self, error: float, dt: float, error_rate: float | None = None) -> float:
         """Output for the error ``error`` at this sample; ``dt`` [s] is the time since the
         previous sample (> 0). ``error_rate`` [error/s], when given, replaces the differenced
         error in the derivative term."""
-        kd = self._kd
-        if kd != 0.0:
-            a = self._coeff(dt)
-            if error_rate is not None:
-                self._d = a * self._d + (1.0 - a) * kd * error_rate
-            elif not self._first:
-                if self._tau > 0.0:
-                    self._d = a * self._d + kd / self._tau * (error - self._e_prev)
-                else:
-                    self._d = kd * (error - self._e_prev) / dt
-            elif self._tau > 0.0:
-                # first sample: the error steps from 0 to its value
-                self._d = kd / self._tau * error
-        if not self._first and self._ki != 0.0:
-            self._integrate(self._e_prev, dt)
-        self._first = False
-        self._e_prev = error
-        u = self._kp * error + self.integral + self._d
-        lim = self._lim
-        if u > lim:
-            u, self.saturated = lim, True
-        elif u < -lim:
-            u, self.saturated = -lim, True
-        else:
-            self.saturated = False
-        self.output = u
-        return u
-
-    def _integrate(self, e: float, dt: float) -> None:
-        inc = self._ki * e * dt
-        # conditional integration: never wind further into a clipped output
-        if self.saturated and (inc > 0.0) == (self.output > 0.0):
-            return
-        lim = self._ilim
-        self.integral = max(-lim, min(lim, self.integral + inc))
+        return ck.pid_step(self.state, self.gains, float(error), float(dt),
+                           0.0 if error_rate is None else float(error_rate), error_rate is not None)

@@ -83,17 +83,21 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
+import numpy as np
+
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.four_gimbal import (
-    BidirectionalRotation, command_rate_from_n, command_rate_s, inner_gimbal_control_signals,
-    outer_roll_control_signal,
+    GIMBAL_LOCK_MARGIN, BidirectionalRotation, command_rate_from_n, command_rate_s,
 )
+from gimbal_kinematics.platform_kernels import servo_signals
 
+from . import control_kernels as ck
 from .pid import Pid, PidParams, pole_placement_gains
 
 _DEG = math.pi / 180.0
 _DEG_H = _DEG / 3600.0
+_LOCK_COS = math.sin(GIMBAL_LOCK_MARGIN)
 
 #: Paper 3 Table 1: axis -> (J [kg·m²], k_t [N·m/A], R_a [Ω]); used for the default gains.
 TABLE1 = {"a": (0.0026, 0.21, 31.2), "q": (0.0066, 0.21, 35.5), "p": (0.0093, 0.21, 28.7),
@@ -278,10 +282,13 @@ class PlatformServo(StampGate):
         self.schedule = p.schedule()
         self._lat = p.lat_deg * _DEG
         self._drift = tuple(v * _DEG_H for v in p.drift_deg_h)
-        self.pid_a = Pid(p.azimuth_pid)
-        self.pid_q = Pid(p.inner_roll_pid)
-        self.pid_p = Pid(p.pitch_pid)
-        self.pid_r = Pid(p.outer_roll_pid)
+        # the four channels' states are the rows of one array: one kernel call steps them
+        self._pid_state = np.zeros((4, ck.N_STATE))
+        self.pid_a = Pid(p.azimuth_pid, self._pid_state[0])
+        self.pid_q = Pid(p.inner_roll_pid, self._pid_state[1])
+        self.pid_p = Pid(p.pitch_pid, self._pid_state[2])
+        self.pid_r = Pid(p.outer_roll_pid, self._pid_state[3])
+        self._pid_gains = np.array([pid.gains for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r)])
         self.rejected_nonfinite = 0
         self.rejected_out_of_order = 0
         self.held_commands = 0
@@ -411,11 +418,8 @@ class PlatformServo(StampGate):
         self._prev = (ex, ey, ez0, phi)
 
         th_a, th_q, th_p, _ = self._angles
-        try:
-            sig = inner_gimbal_control_signals(d, th_a, th_q)
-            rate_sig = inner_gimbal_control_signals((ex, ey, ez0 - phi_rate), th_a, th_q)
-            sig_r = outer_roll_control_signal(th_q, th_p)
-        except ValueError:
+        ok, sig, rate_sig, sig_r = servo_signals(d[0], d[1], d[2], ex, ey, ez0 - phi_rate, th_a, th_q, th_p, _LOCK_COS)
+        if not ok:
             # resolvers within 1° of gimbal lock (θ_q or θ_p at ±90°): eq. 1 is singular
             self.rejected_gimbal_lock += 1
             return self._held(t)
@@ -425,12 +429,9 @@ class PlatformServo(StampGate):
         else:
             dt = self._dt_last
         self._maybe_preset(phi_rate)
-        va = self.pid_a.step(-sig.azimuth, dt, error_rate=-rate_sig.azimuth)
-        vq = self.pid_q.step(-sig.inner_roll, dt, error_rate=-rate_sig.inner_roll)
-        vp = self.pid_p.step(-sig.pitch, dt, error_rate=-rate_sig.pitch)
-        vr = self.pid_r.step(sig_r, dt)
-        self._volts = (va, vq, vp, vr)
-        self._signals = (sig.azimuth, sig.inner_roll, sig.pitch, sig_r)
+        (sq, sp, sa), (rq, rp, ra) = sig, rate_sig
+        self._volts = ck.pid_step4(self._pid_state, self._pid_gains, -sa, -sq, -sp, sig_r, -ra, -rq, -rp, dt)
+        self._signals = (sa, sq, sp, sig_r)
         return ServoCommand(t, self._volts, self._signals, phi, phi_rate, False)
 
     def _maybe_preset(self, phi_rate: float) -> None:

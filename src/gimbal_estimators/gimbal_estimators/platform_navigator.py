@@ -112,9 +112,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Sequence
 
-from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_vertical_radius
 from gimbal_kinematics.stamps import Stamp, judge
 
+from . import navigator_kernels as nk
 from .platform_navigator_params import PlatformNavigatorParams
 
 
@@ -288,39 +289,15 @@ class PlatformNavigator:
                                self._command_rate(math.cos(psi_c), math.sin(psi_c), torquing), psi, torquing)
 
     def _integrate(self, dt: float, f_n: float, f_e: float, f_d: float) -> None:
-        lat, hgt = self.lat, self.height
-        vn, ve, vd = self.vn, self.ve, self.vd
-        cl, sl = math.cos(lat), math.sin(lat)
-        rm = meridian_radius(lat) + hgt
-        rn = prime_vertical_radius(lat) + hgt
-        # w = 2 ω_ie^n + ω_en^n; the Coriolis term is w × v
-        wx = 2.0 * OMEGA_IE * cl + ve / rn
-        wy = -vn / rm
-        wz = -2.0 * OMEGA_IE * sl - ve * sl / (cl * rn)
-        vn1 = vn + dt * (f_n - (wy * vd - wz * ve))
-        ve1 = ve + dt * (f_e - (wz * vn - wx * vd))
-        # vertical channel, damped by the reference height (module docstring)
         k1, k2, k3 = self._k
-        err = hgt - self.h_ref
-        a_up = -(f_d + normal_gravity(lat, hgt) - (wx * ve - wy * vn))
-        vu1 = -vd + dt * (a_up - k2 * err - self._da)
-        self._da += dt * k3 * err
-        self.height = hgt + dt * (0.5 * (vu1 - vd) - k1 * err)
-        self.lat = lat + dt * 0.5 * (vn + vn1) / rm
-        self.lon = math.remainder(self.lon + dt * 0.5 * (ve + ve1) / (rn * cl), math.tau)
-        self.vn, self.ve, self.vd = vn1, ve1, -vu1
+        (self.lat, self.lon, self.height, self.vn, self.ve, self.vd, self._da) = nk.integrate(
+            self.lat, self.lon, self.height, self.vn, self.ve, self.vd, self._da, dt, f_n, f_e, f_d, k1, k2, k3,
+            self.h_ref)
 
     def _command_rate(self, c: float, s: float, torquing: bool) -> tuple[float, float, float]:
-        lat, hgt = self.lat, self.height
-        cl, sl = math.cos(lat), math.sin(lat)
-        rm = meridian_radius(lat) + hgt
-        rn = prime_vertical_radius(lat) + hgt
         h = self._handoff
         ex, ey, ez = h.gyro_drift_s
-        # ω_ie^n + ω_en^n − ε̂^n (ε̂_s resolved through ψ̂: rot3(ψ̂)ᵀ)
-        wn = OMEGA_IE * cl + self.ve / rn - (h.north_drift + c * ex - s * ey)
-        we = -self.vn / rm - (s * ex + c * ey)
-        wd = -OMEGA_IE * sl - self.ve * sl / (cl * rn) - ez
+        wn, we, wd = nk.command_rate(self.lat, self.height, self.vn, self.ve, c, s, h.north_drift, ex, ey, ez)
         if torquing:
             tn, te, td = self._torque_n
             return wn + tn, we + te, wd + td

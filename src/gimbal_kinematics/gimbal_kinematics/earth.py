@@ -9,22 +9,7 @@ import math
 
 import numpy as np
 
-#: WGS-84 semi-major axis [m].
-A = 6378137.0
-#: WGS-84 flattening [-].
-F = 1.0 / 298.257223563
-#: First eccentricity squared [-].
-E2 = F * (2.0 - F)
-#: Semi-minor axis [m].
-B = A * (1.0 - F)
-#: Earth rotation rate [rad/s] (docs/spec.md §2).
-OMEGA_IE = 7.292115e-5
-#: Earth gravitational constant GM [m³/s²].
-GM = 3.986004418e14
-#: Normal gravity at the equator and the Somigliana constant.
-GAMMA_E = 9.7803253359
-SOMIGLIANA_K = 0.00193185265241
-_M = OMEGA_IE**2 * A**2 * B / GM
+from .wgs84 import A, B, E2, F, GAMMA_E, GM, OMEGA_IE, SOMIGLIANA_K  # noqa: F401  (re-exported)
 
 
 def _check_lat(lat: float) -> None:
@@ -35,13 +20,17 @@ def _check_lat(lat: float) -> None:
 def meridian_radius(lat: float) -> float:
     """Meridian radius of curvature R_M [m] at geodetic latitude ``lat`` [rad]."""
     _check_lat(lat)
-    return A * (1.0 - E2) / (1.0 - E2 * math.sin(lat) ** 2) ** 1.5
+    from . import earth_kernels as ek  # lazily: numba loads only where a kernel runs
+
+    return ek.meridian_radius(float(lat))
 
 
 def prime_vertical_radius(lat: float) -> float:
     """Prime-vertical (transverse) radius of curvature R_N [m] at ``lat`` [rad]."""
     _check_lat(lat)
-    return A / math.sqrt(1.0 - E2 * math.sin(lat) ** 2)
+    from . import earth_kernels as ek  # lazily: numba loads only where a kernel runs
+
+    return ek.prime_vertical_radius(float(lat))
 
 
 def earth_rate_n(lat: float) -> np.ndarray:
@@ -68,9 +57,9 @@ def transport_rate_n(lat: float, h: float, v_n: np.ndarray) -> np.ndarray:
 def normal_gravity(lat: float, h: float = 0.0) -> float:
     """Magnitude of WGS-84 normal gravity [m/s²] (Somigliana, second-order in height)."""
     _check_lat(lat)
-    s2 = math.sin(lat) ** 2
-    g0 = GAMMA_E * (1.0 + SOMIGLIANA_K * s2) / math.sqrt(1.0 - E2 * s2)
-    return g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    from . import earth_kernels as ek  # lazily: numba loads only where a kernel runs
+
+    return ek.normal_gravity(float(lat), float(h))
 
 
 def gravity_n(lat: float, h: float = 0.0) -> np.ndarray:

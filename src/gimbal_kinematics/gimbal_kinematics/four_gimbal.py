@@ -73,6 +73,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from . import platform_kernels as fk
+from .platform_kernels import inner_signals
 from .earth import earth_rate_n, transport_rate_n
 from .rotations import dcm_to_euler321, rot1, rot2, rot3, rotation_vector_from_dcm
 
@@ -171,22 +173,7 @@ def dcm_bs(angles: Sequence[float]) -> np.ndarray:
 
     Closed form of ``dcm_br(θ_r) @ dcm_rp(θ_p) @ dcm_pq(θ_q) @ dcm_qs(θ_a)``; shape (3, 3).
     """
-    a, q, p, r = _unpack(angles, 4, "angles")
-    ca, sa = math.cos(a), math.sin(a)
-    cq, sq = math.cos(q), math.sin(q)
-    cp, sp = math.cos(p), math.sin(p)
-    cr, sr = math.cos(r), math.sin(r)
-    # C_pb = rot2(p) rot1(r) has rows m0 = (cp, sp sr, -sp cr), m1 = (0, cr, sr),
-    # m2 = (sp, -cp sr, cp cr); C_qb = rot1(q) C_pb has rows m0, n1, n2; C_sb = rot3(a) C_qb
-    # has rows k0, k1, n2. C_bs is its transpose, so the rows below are those columns.
-    n10, n11, n12 = sq * sp, cq * cr - sq * cp * sr, cq * sr + sq * cp * cr
-    n20, n21, n22 = cq * sp, -sq * cr - cq * cp * sr, -sq * sr + cq * cp * cr
-    m01, m02 = sp * sr, -sp * cr
-    return np.array((
-        (ca * cp + sa * n10, -sa * cp + ca * n10, n20),
-        (ca * m01 + sa * n11, -sa * m01 + ca * n11, n21),
-        (ca * m02 + sa * n12, -sa * m02 + ca * n12, n22),
-    ))
+    return fk.dcm_bs(*_unpack(angles, 4, "angles"))
 
 
 def dcm_sb(angles: Sequence[float]) -> np.ndarray:
@@ -316,14 +303,8 @@ def platform_rate_s(
     outer-to-inner recursion. ``omega_b_b`` (3,) [rad/s]; ``angles``/``rates`` (4,) in
     (a, q, p, r) order [rad, rad/s].
     """
-    x, y, z = _unpack(omega_b_b, 3, "omega_b_b")
-    a, q, p, r = _unpack(angles, 4, "angles")
-    da, dq, dp, dr = _unpack(rates, 4, "rates")
-    x, y, z = _r1(math.cos(r), math.sin(r), x, y, z)
-    x, y, z = _r2(math.cos(p), math.sin(p), x + dr, y, z)
-    x, y, z = _r1(math.cos(q), math.sin(q), x, y + dp, z)
-    x, y, z = _r3(math.cos(a), math.sin(a), x + dq, y, z)
-    return np.array((x, y, z + da))
+    w = np.array(_unpack(omega_b_b, 3, "omega_b_b"))
+    return np.array(fk.platform_rate_s(w, np.array(_unpack(angles, 4, "angles")), np.array(_unpack(rates, 4, "rates"))))
 
 
 def outer_member_rates(
@@ -445,8 +426,7 @@ def inner_gimbal_control_signals(
     cq = math.cos(theta_q)
     _lock_check(cq, theta_q, "inner-roll gimbal", "azimuth and pitch axes align")
     gx, gy, gz = _unpack(pickoff_s, 3, "pickoff_s")
-    v1, v2, v3 = _r3(math.cos(theta_a), -math.sin(theta_a), gx, gy, gz)
-    return InnerGimbalSignals(v1, v2 / cq, v3 + v2 * math.sin(theta_q) / cq)
+    return InnerGimbalSignals(*inner_signals(gx, gy, gz, float(theta_a), float(theta_q)))
 
 
 def outer_roll_control_signal(theta_q: float, theta_p: float) -> float:

@@ -96,17 +96,11 @@ def orthonormalize(C: np.ndarray) -> np.ndarray:
 
 
 def euler321_to_dcm(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """``C_nb`` (body to navigation) from 3-2-1 Euler angles [rad]; shape (3, 3)."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [
-            [cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy],
-            [cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy],
-            [-sp, sr * cp, cr * cp],
-        ]
-    )
+    """``C_nb`` (body to navigation) from 3-2-1 Euler angles [rad]; shape (3, 3) (the compiled
+    :func:`.rotation_kernels.euler321_to_dcm`)."""
+    from . import rotation_kernels as rk  # lazily: numba loads only where a kernel runs
+
+    return rk.euler321_to_dcm(float(roll), float(pitch), float(yaw))
 
 
 def dcm_to_euler321(C_nb: np.ndarray) -> tuple[float, float, float]:
@@ -149,30 +143,11 @@ def dcm_to_quat(C: np.ndarray) -> np.ndarray:
     """Quaternion (x, y, z, w) with w ≥ 0 of a rotation matrix; shape (4,).
 
     Shepperd's method: it picks the largest of the four squared components so that no
-    branch divides by a small number.
+    branch divides by a small number (the compiled :func:`.rotation_kernels.dcm_to_quat`).
     """
-    C = check_dcm(C, "C")
-    tr = C[0, 0] + C[1, 1] + C[2, 2]
-    cands = (tr, C[0, 0], C[1, 1], C[2, 2])
-    k = int(np.argmax(cands))
-    if k == 0:
-        w = 0.5 * math.sqrt(1.0 + tr)
-        f = 0.25 / w
-        q = np.array([(C[2, 1] - C[1, 2]) * f, (C[0, 2] - C[2, 0]) * f, (C[1, 0] - C[0, 1]) * f, w])
-    elif k == 1:
-        x = 0.5 * math.sqrt(1.0 + 2.0 * C[0, 0] - tr)
-        f = 0.25 / x
-        q = np.array([x, (C[0, 1] + C[1, 0]) * f, (C[0, 2] + C[2, 0]) * f, (C[2, 1] - C[1, 2]) * f])
-    elif k == 2:
-        y = 0.5 * math.sqrt(1.0 + 2.0 * C[1, 1] - tr)
-        f = 0.25 / y
-        q = np.array([(C[0, 1] + C[1, 0]) * f, y, (C[1, 2] + C[2, 1]) * f, (C[0, 2] - C[2, 0]) * f])
-    else:
-        z = 0.5 * math.sqrt(1.0 + 2.0 * C[2, 2] - tr)
-        f = 0.25 / z
-        q = np.array([(C[0, 2] + C[2, 0]) * f, (C[1, 2] + C[2, 1]) * f, z, (C[1, 0] - C[0, 1]) * f])
-    q /= math.sqrt(float(q @ q))
-    return -q if q[3] < 0.0 else q
+    from . import rotation_kernels as rk  # lazily: numba loads only where a kernel runs
+
+    return rk.dcm_to_quat(check_dcm(C, "C"))
 
 
 def euler321_to_quat(roll: float, pitch: float, yaw: float) -> np.ndarray:

@@ -33,6 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .host_kernels import host_fields, inertial_rates
+
 
 class HostState(NamedTuple):
     """Exact host motion at time ``t`` [s]; every field is a float.
@@ -105,30 +107,10 @@ def host_state_from_euler(
     ``turret`` is (ψt, ψ̇t, ψ̈t); ``accel_b`` the pivot acceleration in b [m/s²].
     Body rates and accelerations follow the module docstring.
     """
-    phi, theta, psi = euler
-    dphi, dtheta, dpsi = euler_dot
-    ddphi, ddtheta, ddpsi = euler_ddot
-    cf, sf = math.cos(phi), math.sin(phi)
-    ct, st = math.cos(theta), math.sin(theta)
-    p = dphi - st * dpsi
-    q = cf * dtheta + sf * ct * dpsi
-    r = -sf * dtheta + cf * ct * dpsi
-    # Time derivatives of E(φ, θ) ė: each sine/cosine contributes its own rate term.
-    p_dot = ddphi - ct * dtheta * dpsi - st * ddpsi
-    q_dot = (
-        -sf * dphi * dtheta + cf * ddtheta
-        + (cf * dphi * ct - sf * st * dtheta) * dpsi + sf * ct * ddpsi
-    )
-    r_dot = (
-        -cf * dphi * dtheta - sf * ddtheta
-        - (sf * dphi * ct + cf * st * dtheta) * dpsi + cf * ct * ddpsi
-    )
-    return HostState(
-        t, phi, theta, psi, dphi, dtheta, dpsi, ddphi, ddtheta, ddpsi,
-        p, q, r, p_dot, q_dot, r_dot,
-        turret[0], turret[1], turret[2],
-        accel_b[0], accel_b[1], accel_b[2],
-    )
+    return HostState(*host_fields(
+        float(t), float(euler[0]), float(euler[1]), float(euler[2]), float(euler_dot[0]), float(euler_dot[1]),
+        float(euler_dot[2]), float(euler_ddot[0]), float(euler_ddot[1]), float(euler_ddot[2]), float(turret[0]),
+        float(turret[1]), float(turret[2]), float(accel_b[0]), float(accel_b[1]), float(accel_b[2])))
 
 
 def inertial_rates_scalar(
@@ -146,24 +128,11 @@ def inertial_rates_scalar(
 def inertial_rates_trig(
     state: HostState, omega_in_n: tuple[float, float, float], cf: float, sf: float, ct: float, st: float
 ) -> tuple[float, float, float, float, float, float]:
-    """:func:`inertial_rates_scalar` for a caller that already has cos, sin of roll and pitch."""
-    p, q, r = state.p, state.q, state.r
+    """:func:`inertial_rates_scalar` for a caller that already has cos, sin of roll and pitch
+    (the compiled :func:`.host_kernels.inertial_rates`)."""
     x, y, z = omega_in_n
-    if x == 0.0 and y == 0.0 and z == 0.0:
-        return p, q, r, state.p_dot, state.q_dot, state.r_dot
-    # C_bn w_n with C_bn = rot1(φ) rot2(θ) rot3(ψ): rot3(ψ), then rot2(θ), then rot1(φ).
-    cy, sy = math.cos(state.yaw), math.sin(state.yaw)
-    x1 = cy * x + sy * y
-    y1 = -sy * x + cy * y
-    e1 = ct * x1 - st * z
-    z2 = st * x1 + ct * z
-    e2, e3 = cf * y1 + sf * z2, -sf * y1 + cf * z2
-    return (
-        p + e1, q + e2, r + e3,
-        state.p_dot - (q * e3 - r * e2),
-        state.q_dot - (r * e1 - p * e3),
-        state.r_dot - (p * e2 - q * e1),
-    )
+    return inertial_rates(state.p, state.q, state.r, state.p_dot, state.q_dot, state.r_dot, state.yaw,
+                          float(x), float(y), float(z), cf, sf, ct, st)
 
 
 def body_inertial_rates(state: HostState, omega_in_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,8 @@ import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, normal_gravity
 
-from .host_state import HostState, inertial_rates_trig
+from .host_kernels import turret_base
+from .host_state import HostState
 
 
 class TurretBase(NamedTuple):
@@ -73,24 +74,10 @@ def turret_base_from_host(
 
     ``gravity_m_s2``: magnitude of normal gravity at the site (``earth.normal_gravity``);
     ``omega_in_n``: rate of NED relative to inertial space in n [rad/s] (earth rate, or
-    zeros to treat n as inertial). Hot path: scalar maths only.
+    zeros to treat n as inertial). The compiled :func:`.host_kernels.turret_base`.
     """
-    cf, sf = math.cos(state.roll), math.sin(state.roll)
-    ct, st = math.cos(state.pitch), math.sin(state.pitch)
-    w1, w2, w3, a1, a2, a3 = inertial_rates_trig(state, omega_in_n, cf, sf, ct, st)
-    # f_b = a_b − C_bn (0, 0, g): the third column of C_bn is (−sθ, sφ cθ, cφ cθ).
-    f1 = state.accel_x + gravity_m_s2 * st
-    f2 = state.accel_y - gravity_m_s2 * sf * ct
-    f3 = state.accel_z - gravity_m_s2 * cf * ct
-    c, s = math.cos(state.psi_t), math.sin(state.psi_t)
-    d, dd = state.psi_t_dot, state.psi_t_ddot
-    u1 = c * w1 + s * w2
-    u2 = -s * w1 + c * w2
-    return TurretBase(
-        u1, u2, w3 + d,
-        c * a1 + s * a2 + d * u2, -s * a1 + c * a2 - d * u1, a3 + dd,
-        c * f1 + s * f2, -s * f1 + c * f2, f3,
-    )
+    x, y, z = omega_in_n
+    return TurretBase(*turret_base(tuple(map(float, state)), float(gravity_m_s2), float(x), float(y), float(z)))
 
 
 class SiteEnvironment(NamedTuple):

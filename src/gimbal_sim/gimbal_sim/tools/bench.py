@@ -22,6 +22,8 @@ mode), with zstd-compressed chunks and without.
 ``compare A B``: do two bags hold the same data (:mod:`..bag.compare`)?
 ``live``: steps/s without and with ``--live`` and one client over alternating pairs of runs,
 their median, same data (:mod:`.live_speed`).
+``engine``: the no-ROS engine at the papers' 1 kHz loops, each figure against its target,
+side by side with another checkout's Python (``--baseline``) (:mod:`.engine_speed`).
 """
 from __future__ import annotations
 
@@ -52,6 +54,7 @@ from ..experiments.flexure_methods import QS_MODELS, method_table, run_method_st
 from ..graph.orchestrator import run
 from ..graph.registry import NODE_TYPES
 from ..graph.scenario import Scenario, ScenarioError, load, variant
+from . import engine_speed
 from .live_speed import live_report, measure_live
 from .deliveries import DELIVERY_STEPS, deliveries_row
 from .replay_speed import measure
@@ -499,6 +502,29 @@ def bench_live(args: argparse.Namespace) -> int:
     return 0 if r["same_data"] and r["client_connected"] else 1
 
 
+def bench_engine(args: argparse.Namespace) -> int:
+    """``gimbal-bench engine``: :mod:`.engine_speed`'s figures against their targets."""
+    if args.pairs < 1:
+        print(f"gimbal-bench engine: --pairs must be >= 1, got {args.pairs}", file=sys.stderr)
+        return 2
+    if args.baseline is not None and not (os.path.isfile(args.baseline) and os.access(args.baseline, os.X_OK)):
+        print(f"gimbal-bench engine: --baseline {args.baseline}: not an executable Python", file=sys.stderr)
+        return 2
+    factor = args.memory_factor if args.memory else None
+    try:
+        if args.profile:
+            for python in (sys.executable, args.baseline):
+                if python is not None:
+                    print(engine_speed.profile_report(python, args.duration))
+            return 0
+        result = engine_speed.measure(args.duration, args.pairs, args.baseline, factor)
+    except RuntimeError as exc:
+        print(f"gimbal-bench engine: {exc}", file=sys.stderr)
+        return 1
+    print(engine_speed.report(result, args.duration, factor))
+    return 0
+
+
 def _check_numbers(args: argparse.Namespace) -> None:
     """Durations and factors finite and positive, and --keep a folder that can be created,
     before anything runs."""
@@ -562,8 +588,17 @@ def main(argv: list[str] | None = None) -> int:
     live.add_argument("--mode", choices=("processes", "container"), default="processes",
                       help="how the nodes run (default processes: the client's work is not the run's)")
     live.set_defaults(func=bench_live)
+    eng = sub.add_parser("engine", help="the no-ROS engine at 1 kHz (paper 3's platform with full motor dynamics, "
+                                        "paper 1's sighting loop): steps/s, ratios to --baseline, 3-hour projection")
+    eng.add_argument("--baseline", help="another checkout's Python (its .venv/bin/python) to run the same cases")
+    eng.add_argument("--duration", type=float, default=20.0, help="simulated seconds per run (default 20)")
+    eng.add_argument("--pairs", type=int, default=3, help="runs per side, alternating the order (default 3)")
+    eng.add_argument("--memory", action="store_true", help="also the peak RSS of a --memory-factor longer run")
+    eng.add_argument("--memory-factor", type=float, default=10.0, help="(default 10)")
+    eng.add_argument("--profile", action="store_true", help="instead: each case once under cProfile, each side")
+    eng.set_defaults(func=bench_engine)
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in ("run", "record", "flexure", "compare", "live", "-h", "--help"):
+    if not argv or argv[0] not in ("run", "record", "flexure", "compare", "live", "engine", "-h", "--help"):
         argv = ["run", *argv]
     args = parser.parse_args(argv)
     _check_numbers(args)

@@ -4,7 +4,11 @@ messages the bag records."""
 from __future__ import annotations
 
 import dataclasses
+import os
+import threading
 from pathlib import Path
+
+from gimbal_kinematics.ros.ros_domain import claim_domain_id
 
 from ..bag.reader import read_messages
 from ..graph.orchestrator import run
@@ -19,15 +23,36 @@ def measure_deliveries(scenario: Scenario, out: Path) -> tuple[float, dict[str, 
     :data:`DELIVERY_STEPS` steps recording every topic (so each publication is counted),
     while a probe node samples each topic's matched subscriptions; a delivery is one message
     to one subscription, the recorder's own left out on topics the scenario does not record.
+    The probe joins the run's own ROS domain (claimed here when none is set, as the
+    orchestrator would): in another domain it would see no subscriptions at all.
     Returns (deliveries per step, topic -> (messages, subscriptions))."""
-    import threading
+    short = dataclasses.replace(scenario, duration_s=DELIVERY_STEPS / scenario.sim_rate_hz, record="all")
+    claim = None
+    if not os.environ.get("ROS_DOMAIN_ID"):
+        claim = claim_domain_id()
+        os.environ["ROS_DOMAIN_ID"] = str(claim.domain_id)
+    try:
+        subs = _probe_run(short, out)
+    finally:
+        if claim is not None:
+            os.environ.pop("ROS_DOMAIN_ID", None)
+            claim.release()
+    counts: dict[str, int] = {}
+    for msg in read_messages(out)[0]:
+        counts[msg.topic] = counts.get(msg.topic, 0) + 1
+    recorded = set(scenario.record) if scenario.record != "all" else set(counts)
+    table = {t: (n, max(0, subs.get(t, 0) - (0 if t in recorded else 1))) for t, n in sorted(counts.items())}
+    return sum(n * k for n, k in table.values()) / DELIVERY_STEPS, table
 
+
+def _probe_run(short: Scenario, out: Path) -> dict[str, int]:
+    """Run ``short`` (processes mode) while a probe node in the run's domain samples each
+    topic's matched subscriptions every 0.1 s; topic -> the most seen."""
     import rclpy
     from rclpy.context import Context
 
-    short = dataclasses.replace(scenario, duration_s=DELIVERY_STEPS / scenario.sim_rate_hz, record="all")
     ctx = Context()
-    rclpy.init(context=ctx)
+    rclpy.init(context=ctx, domain_id=int(os.environ["ROS_DOMAIN_ID"]))
     probe = rclpy.create_node("gimbal_bench_probe", context=ctx)
     subs: dict[str, int] = {}
     stop = threading.Event()
@@ -45,12 +70,7 @@ def measure_deliveries(scenario: Scenario, out: Path) -> tuple[float, dict[str, 
         thread.join()
         probe.destroy_node()
         rclpy.shutdown(context=ctx)
-    counts: dict[str, int] = {}
-    for msg in read_messages(out)[0]:
-        counts[msg.topic] = counts.get(msg.topic, 0) + 1
-    recorded = set(scenario.record) if scenario.record != "all" else set(counts)
-    table = {t: (n, subs.get(t, 0) - (0 if t in recorded else 1)) for t, n in sorted(counts.items())}
-    return sum(n * k for n, k in table.values()) / DELIVERY_STEPS, table
+    return subs
 
 
 def deliveries_row(scenario: Scenario, out: Path) -> tuple[str, str]:

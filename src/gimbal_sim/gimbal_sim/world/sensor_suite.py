@@ -246,7 +246,7 @@ def sensor_rng(seed: int, sensor: str) -> np.random.Generator:
 
 
 def _floats(values: Sequence[float]) -> tuple[float, ...]:
-    return tuple(float(v) for v in values)
+    return tuple(map(float, values))
 
 
 class SensorSuite:

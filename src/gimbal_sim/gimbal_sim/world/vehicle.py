@@ -32,10 +32,11 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from gimbal_kinematics.four_gimbal import dcm_sb, outer_member_rates, platform_rate_s
+from gimbal_kinematics.four_gimbal import outer_member_rates
+from gimbal_kinematics.platform_kernels import platform_truth
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import (
-    dcm_to_quat, euler321_to_dcm, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
+    quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
     quat_mul, rotation_vector_from_quat,
 )
 
@@ -44,6 +45,7 @@ from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS, PLA
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.gimbal.host_state import inertial_rates_trig
 from .plant.motion_profiles import PROFILE_NAMES, make_profile
+from .plant.platform_kernels import P_KT, platform_step
 from .plant.platform_loops import PlatformAxis, paper3_axis_params
 from gimbal_kinematics.gimbal.turret_base import site_environment
 
@@ -178,7 +180,7 @@ class VehicleCore:
         self.k = 0
         self._gimbal: GimbalSimulator | None = None
         self._platform: list[PlatformAxis] = []
-        self._platform_x: list[tuple[float, float, float]] = []
+        self._platform_x = np.zeros((0, 3))  # (θ, ω, i) per axis a, q, p, r
         self._applied: tuple[float, ...] = (0.0,) * config.command_size
         init = [math.radians(v) for v in config.initial_joints_deg] or [0.0] * config.command_size
         if config.plant == "two_axis_gimbal":
@@ -189,9 +191,12 @@ class VehicleCore:
             self._host = self.profile.sample(0.0)
         if config.plant == "four_gimbal_platform":
             self._platform = [PlatformAxis(paper3_axis_params(axis)) for axis in _PLATFORM_AXES]
-            self._platform_x = [(angle, 0.0, 0.0) for angle in init]
+            self._platform_x = np.array([(angle, 0.0, 0.0) for angle in init], dtype=float)
+            self._platform_params = np.array([axis.kernel_params for axis in self._platform])
+            self._platform_quasi_static = config.platform_integrator == "quasi_static"
         self._q_nb = quat_canonical(quat_from_euler321(self._host.roll, self._host.pitch, self._host.yaw))
         self._delta = (0.0, 0.0, 0.0)
+        self._constant_delta: tuple[float, float, float] | None = None
         self._outer_rates: tuple[float, ...] | None = None  # ω_A of the last step (platform_base_motion)
 
     def _base_torques(self) -> tuple[float, ...]:
@@ -199,7 +204,7 @@ class VehicleCore:
         host = self._host
         omega_b = inertial_rates_trig(host, self.env.omega_in_n, math.cos(host.roll), math.sin(host.roll),
                                       math.cos(host.pitch), math.sin(host.pitch))[:3]
-        w = outer_member_rates(omega_b, [x[0] for x in self._platform_x], [x[1] for x in self._platform_x])
+        w = outer_member_rates(omega_b, self._platform_x[:, 0].tolist(), self._platform_x[:, 1].tolist())
         last = self._outer_rates if self._outer_rates is not None else w
         self._outer_rates = w
         dt = self.config.dt
@@ -233,18 +238,16 @@ class VehicleCore:
         if self._platform:
             self._applied = self.saturate(command)
             torques = self._base_torques() if self.config.platform_base_motion else (0.0, 0.0, 0.0, 0.0)
-            if self.config.platform_integrator == "quasi_static":
-                self._platform_x = [axis.step_quasi_static(x, v, dt, disturbance_nm=d) for axis, x, v, d
-                                    in zip(self._platform, self._platform_x, self._applied, torques)]
-            else:
-                self._platform_x = [
-                    axis.step(x, v, dt, disturbance_nm=d, substeps=self.config.platform_substeps)
-                    for axis, x, v, d in zip(self._platform, self._platform_x, self._applied, torques)
-                ]
-        q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
-        # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
-        self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
-        self._q_nb, self._host = q_nb1, host1
+            platform_step(self._platform_x, np.array(self._applied), np.array(torques), dt,
+                          self.config.platform_substeps, self._platform_quasi_static, self._platform_params)
+        if self._constant_delta is None:
+            q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
+            # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
+            self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
+            self._q_nb = q_nb1
+            if self.profile.constant:  # the same attitude every step: the same δ, bit for bit
+                self._constant_delta = self._delta
+        self._host = host1
         self.k += 1
 
     def truth(self) -> VehicleTruth:
@@ -270,13 +273,12 @@ class VehicleCore:
             effort = (0.0,) + tuple(self._applied)
         elif self._platform:
             names = PLATFORM_JOINTS
-            pos = tuple(x[0] for x in self._platform_x)
-            vel = tuple(x[1] for x in self._platform_x)
-            C_sb = dcm_sb(pos)
-            quat_nm = dcm_to_quat(euler321_to_dcm(host.roll, host.pitch, host.yaw) @ C_sb.T)
-            omega_m = tuple(float(v) for v in platform_rate_s(omega_b, pos, vel))
-            f_m = tuple(float(v) for v in C_sb @ np.array(f_b))
-            effort = tuple(self._platform_x[j][2] * self._platform[j].params.torque_constant_nm_a for j in range(4))
+            pos = tuple(self._platform_x[:, 0].tolist())
+            vel = tuple(self._platform_x[:, 1].tolist())
+            q, omega_m, f_m = platform_truth(np.array((host.roll, host.pitch, host.yaw)), self._platform_x[:, 0],
+                                             self._platform_x[:, 1], np.array(omega_b), np.array(f_b))
+            quat_nm = np.array(q)
+            effort = tuple((self._platform_x[:, 2] * self._platform_params[:, P_KT]).tolist())
         else:
             effort = ()
         return VehicleTruth(

@@ -11,6 +11,7 @@ from gimbal_kinematics.gimbal.host_state import HostState
 from gimbal_kinematics.gimbal.turret_base import TurretBase, site_environment, turret_base_from_host
 
 from .motion_profiles import SinusoidProfile
+from .sighting_plant_kernels import gimbal_step
 
 
 class GimbalSimulator:
@@ -64,13 +65,17 @@ class GimbalSimulator:
         return self._base
 
     def step(self, tau: Sequence[float]) -> tuple[float, float, float, float]:
-        """Advance one ``dt`` with commanded torques ``tau`` = (τ_a, τ_e) [N·m] held."""
+        """Advance one ``dt`` with commanded torques ``tau`` = (τ_a, τ_e) [N·m] held (one call of
+        the compiled :func:`.sighting_plant_kernels.gimbal_step`)."""
         t = self.t
-        mid = self.base_from_host(self.profile.sample(t + 0.5 * self.dt))
-        host1 = self.profile.sample(self._t0 + (self._step_index + 1) * self.dt)
-        base1 = self.base_from_host(host1)
+        lines, terms, starts = self.profile.packed
+        wx, wy, wz = self.env.omega_in_n
         self.applied_torque = self.dynamics.saturate(tau)
-        self._x = self.dynamics.step(self._x, self.applied_torque, self._base, mid, base1, self.dt)
+        x, host1, base1 = gimbal_step(
+            self._x, self.applied_torque[0], self.applied_torque[1], tuple(self._base), t + 0.5 * self.dt,
+            self._t0 + (self._step_index + 1) * self.dt, self.dt, lines, terms, starts,
+            float(self.env.gravity_m_s2), float(wx), float(wy), float(wz), self.dynamics.kernel_params)
+        self._x = x
         self._step_index += 1
-        self._host, self._base = host1, base1
+        self._host, self._base = HostState(*host1), TurretBase(*base1)
         return self._x

@@ -7,7 +7,7 @@ acceleration channels (in b, relative to the earth) is
     x(t) = offset + rate·t + Σ_k A_k sin(ω_k t + φ_k),
 
 differentiated term by term, so ``sample(t)`` is exact to rounding. Body rates and
-accelerations come from :func:`.host_state.host_state_from_euler`.
+accelerations come from :func:`gimbal_kinematics.gimbal.host_kernels.host_fields`.
 
 Profiles (``make_profile(name, params)``; every ``params`` key is optional):
 
@@ -50,7 +50,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from gimbal_kinematics.gimbal.host_state import HostState, host_state_from_euler
+from gimbal_kinematics.gimbal.host_state import HostState
+
+from . import profile_kernels
 
 _DEG = math.pi / 180.0
 
@@ -156,7 +158,7 @@ class SinusoidProfile:
     accel_x: SinusoidChannel = _ZERO
     accel_y: SinusoidChannel = _ZERO
     accel_z: SinusoidChannel = _ZERO
-    _accels: tuple = field(init=False, repr=False, compare=False)
+    _packed: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for label in ("roll", "pitch", "yaw", "psi_t", "accel_x", "accel_y", "accel_z"):
@@ -171,24 +173,24 @@ class SinusoidProfile:
                 f"{self.name}: pitch must stay within ±89° (no drift rate), bound is "
                 f"{math.degrees(bound):.3f}° with rate {self.pitch.rate}"
             )
-        # Acceleration channels that are identically zero (most profiles) are not evaluated:
-        # offset + rate·t with no terms is exactly 0.0 when offset and rate are.
-        object.__setattr__(self, "_accels", tuple(
-            None if not ch._terms and ch.offset == 0.0 and ch.rate == 0.0 else ch
-            for ch in (self.accel_x, self.accel_y, self.accel_z)))
+        object.__setattr__(self, "_packed", profile_kernels.pack(
+            (self.roll, self.pitch, self.yaw, self.psi_t, self.accel_x, self.accel_y, self.accel_z)))
+
+    @property
+    def constant(self) -> bool:
+        """Whether the host never moves relative to NED (every channel a constant)."""
+        lines, terms, _ = self._packed
+        return terms.shape[0] == 0 and not lines[:, 1].any()
+
+    @property
+    def packed(self) -> tuple:
+        """(lines, terms, starts): the profile as the arrays of :mod:`.profile_kernels`."""
+        return self._packed
 
     def sample(self, t: float) -> HostState:
-        """Exact host state at time ``t`` [s]."""
-        r0, r1, r2 = self.roll.evaluate(t)
-        p0, p1, p2 = self.pitch.evaluate(t)
-        y0, y1, y2 = self.yaw.evaluate(t)
-        ax, ay, az = self._accels
-        return host_state_from_euler(
-            t, (r0, p0, y0), (r1, p1, y1), (r2, p2, y2),
-            self.psi_t.evaluate(t),
-            (0.0 if ax is None else ax.evaluate(t)[0], 0.0 if ay is None else ay.evaluate(t)[0],
-             0.0 if az is None else az.evaluate(t)[0]),
-        )
+        """Exact host state at time ``t`` [s] (the compiled :func:`.profile_kernels.sample`)."""
+        lines, terms, starts = self._packed
+        return HostState(*profile_kernels.sample(lines, terms, starts, float(t)))
 
 
 # ---------------------------------------------------------------- the named profiles

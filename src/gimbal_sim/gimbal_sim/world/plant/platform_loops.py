@@ -34,6 +34,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+import numpy as np
+
+from . import platform_kernels as kernels
+
 #: Paper 3 Table 1: axis -> (J [kg·m²], k_t [N·m/A], R_a [Ω]).
 PAPER3_TABLE1: dict[str, tuple[float, float, float]] = {
     "a": (0.0026, 0.21, 31.2),
@@ -106,20 +110,17 @@ def _triple(name: str, value: float | Sequence[float]) -> tuple[float, float, fl
 
 
 class PlatformAxis:
-    """DC-motor gimbal loop: derivative and RK4 step (module docstring)."""
+    """DC-motor gimbal loop: derivative and RK4 step (module docstring); the arithmetic is
+    the compiled kernels' of :mod:`.platform_kernels`, over :attr:`kernel_params`."""
 
     def __init__(self, params: PlatformAxisParams) -> None:
         if not isinstance(params, PlatformAxisParams):
             raise ValueError("params must be a PlatformAxisParams")
         self.params = params
-        self._inv_j = 1.0 / params.inertia_kg_m2
-        self._inv_l = 1.0 / params.inductance_h
-        self._r = params.resistance_ohm
-        self._kt = params.torque_constant_nm_a
-        self._ke = params.back_emf
-        self._b = params.viscous_friction_nm_s_rad
+        self.kernel_params = kernel_params(params)
         self._tc = params.coulomb_friction_nm
         self._inv_ws = 1.0 / params.friction_smoothing_rad_s
+        self._b = params.viscous_friction_nm_s_rad
         self._vmax = params.voltage_limit_v
 
     def saturate(self, voltage: float) -> float:
@@ -134,12 +135,8 @@ class PlatformAxis:
     def derivative(self, x: Sequence[float], voltage: float, base_rate: float = 0.0,
                    disturbance_nm: float = 0.0) -> tuple[float, float, float]:
         """ẋ = (ω, dω/dt, di/dt) for state ``x`` = (θ, ω, i); ``voltage`` is clipped."""
-        return self._f(x[1], x[2], self.saturate(voltage), base_rate, disturbance_nm)
-
-    def _f(self, w: float, i: float, v: float, wa: float, td: float) -> tuple[float, float, float]:
-        rel = w - wa
-        torque = self._kt * i - self._tc * math.tanh(rel * self._inv_ws) - self._b * rel + td
-        return w, torque * self._inv_j, (v - self._r * i - self._ke * rel) * self._inv_l
+        return kernels.axis_derivative(float(x[1]), float(x[2]), self.saturate(voltage), float(base_rate),
+                                       float(disturbance_nm), self.kernel_params)
 
     def step(self, x: Sequence[float], voltage: float, dt: float,
              base_rate: float | Sequence[float] = 0.0,
@@ -153,21 +150,9 @@ class PlatformAxis:
         """
         if substeps < 1:
             raise ValueError(f"substeps must be >= 1, got {substeps}")
-        v = self.saturate(voltage)
-        wa = _triple("base_rate", base_rate)
-        td = _triple("disturbance_nm", disturbance_nm)
-        th, w, i = (float(c) for c in x)
-        h = dt / substeps
-        for k in range(substeps):
-            s0 = k / substeps
-            if substeps == 1:
-                wa0, wam, wa1 = wa
-                td0, tdm, td1 = td
-            else:
-                wa0, wam, wa1 = (_quad(wa, s0), _quad(wa, s0 + 0.5 / substeps), _quad(wa, s0 + 1.0 / substeps))
-                td0, tdm, td1 = (_quad(td, s0), _quad(td, s0 + 0.5 / substeps), _quad(td, s0 + 1.0 / substeps))
-            th, w, i = self._rk4(th, w, i, v, wa0, wam, wa1, td0, tdm, td1, h)
-        return th, w, i
+        return kernels.axis_rk4(float(x[0]), float(x[1]), float(x[2]), float(voltage),
+                                _triple("base_rate", base_rate), _triple("disturbance_nm", disturbance_nm),
+                                float(dt), int(substeps), self.kernel_params)
 
     def step_quasi_static(self, x: Sequence[float], voltage: float, dt: float, base_rate: float = 0.0,
                           disturbance_nm: float = 0.0) -> tuple[float, float, float]:
@@ -182,46 +167,21 @@ class PlatformAxis:
         steps for, and 2.3 ms with the armature. ``base_rate``, ``disturbance_nm``: their
         values at the end of the step (held inputs).
         """
-        v = self.saturate(voltage)
-        th, w0 = float(x[0]), float(x[1])
-        wa, td = float(base_rate), float(disturbance_nm)
-        jdt = self.params.inertia_kg_m2 / dt
-        lin = jdt + self._kt * self._ke / self._r + self._b  # slope of the linear part in ω₁
-        rhs = jdt * w0 + self._kt * v / self._r + (self._kt * self._ke / self._r + self._b) * wa + td
-        # root of g(ω) = lin ω − rhs + T_c tanh((ω − ω_A)/ω_s); tanh ∈ [−1, 1] brackets it
-        lo, hi = (rhs - self._tc) / lin, (rhs + self._tc) / lin
-        w = min(max(w0, lo), hi)
-        for _ in range(60):
-            th_rel = math.tanh((w - wa) * self._inv_ws)
-            g = lin * w - rhs + self._tc * th_rel
-            if g > 0.0:
-                hi = w
-            else:
-                lo = w
-            w_new = w - g / (lin + self._tc * self._inv_ws * (1.0 - th_rel * th_rel))
-            if not lo <= w_new <= hi:
-                w_new = 0.5 * (lo + hi)
-            if abs(w_new - w) <= 1e-15 + 1e-13 * abs(w):
-                w = w_new
-                break
-            w = w_new
-        return th + 0.5 * dt * (w0 + w), w, (v - self._ke * (w - wa)) / self._r
-
-    def _rk4(self, th: float, w: float, i: float, v: float, wa0: float, wam: float, wa1: float,
-             td0: float, tdm: float, td1: float, dt: float) -> tuple[float, float, float]:
-        f = self._f
-        h = 0.5 * dt
-        a1, b1, c1 = f(w, i, v, wa0, td0)
-        a2, b2, c2 = f(w + h * b1, i + h * c1, v, wam, tdm)
-        a3, b3, c3 = f(w + h * b2, i + h * c2, v, wam, tdm)
-        a4, b4, c4 = f(w + dt * b3, i + dt * c3, v, wa1, td1)
-        k = dt / 6.0
-        return (th + k * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
-                w + k * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
-                i + k * (c1 + 2.0 * c2 + 2.0 * c3 + c4))
+        return kernels.axis_quasi_static(float(x[0]), float(x[1]), float(voltage), float(base_rate),
+                                         float(disturbance_nm), float(dt), self.kernel_params)
 
 
-def _quad(samples: tuple[float, float, float], s: float) -> float:
-    """Quadratic through samples at s = 0, 1/2, 1, evaluated at ``s``."""
-    y0, ym, y1 = samples
-    return y0 * (1.0 - s) * (1.0 - 2.0 * s) + ym * 4.0 * s * (1.0 - s) + y1 * s * (2.0 * s - 1.0)
+def kernel_params(params: PlatformAxisParams) -> np.ndarray:
+    """The kernels' parameter vector of one axis (:mod:`.platform_kernels`, ``P_*`` order)."""
+    p = np.empty(kernels.N_PARAMS)
+    p[kernels.P_J] = params.inertia_kg_m2
+    p[kernels.P_INV_J] = 1.0 / params.inertia_kg_m2
+    p[kernels.P_INV_L] = 1.0 / params.inductance_h
+    p[kernels.P_R] = params.resistance_ohm
+    p[kernels.P_KT] = params.torque_constant_nm_a
+    p[kernels.P_KE] = params.back_emf
+    p[kernels.P_B] = params.viscous_friction_nm_s_rad
+    p[kernels.P_TC] = params.coulomb_friction_nm
+    p[kernels.P_INV_WS] = 1.0 / params.friction_smoothing_rad_s
+    p[kernels.P_VMAX] = params.voltage_limit_v
+    return p
