@@ -47,7 +47,7 @@ from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 
 from ..bag.compare import compare_bags
-from ..bag.reader import BagError, find_mcap, read_messages, scan
+from ..bag.reader import BagError, read_messages
 from ..core.core_loop import NoCoreError, node_values, run_core_loop
 from ..bag.ekf_replay import EKF_INPUTS, replay_bag
 from ..experiments.flexure_methods import QS_MODELS, method_table, run_method_study
@@ -58,19 +58,15 @@ from . import engine_speed
 from .live_speed import live_report, measure_live
 from .deliveries import DELIVERY_STEPS, deliveries_row
 from .replay_speed import measure
+from .record_speed import bench_record, note as _note
 
 HEADLINE = "sighting_land_vehicle"
 EKF_EXECUTABLE = "gyro_bias_ekf"
 
-#: Targets of issue 9 (steps/s, ratios, ms, x real time, fraction of a core, fraction).
+#: The speed targets (steps/s, ratios, ms, x real time, fraction of a core, fraction).
 TARGETS = {"core_steps_s": 20_000.0, "container_steps_s": 5_000.0, "container_ratio": 3.0,
            "processes_steps_s": 2_000.0, "processes_ratio": 8.0, "p99_ms": 1.0, "replay_x": 50.0, "play_x": 8.0,
            "recorder_core": 0.15, "rss_growth": 0.10}
-
-
-def _note(text: str) -> None:
-    """One progress line per phase on stderr (no bars: the run takes minutes, not hours)."""
-    print(f"gimbal-bench: {text}", file=sys.stderr, flush=True)
 
 
 def _percentile(values: list[float], q: float) -> float:
@@ -254,7 +250,7 @@ def report(scenario: Scenario, results: list[ModeResult], extra: list[tuple[str,
         w = max(len(k) for k, _ in extra)
         lines += [f"{k:<{w}}  {v}" for k, v in extra]
     if verdicts:
-        lines += ["", "targets (issue 9):"]
+        lines += ["", "targets:"]
         w = max(len(k) for k, _, _ in verdicts)
         for name, value, ok in verdicts:
             mark = "met" if ok else ("NOT MET" if ok is not None else "not measured")
@@ -404,52 +400,6 @@ def _check_commands(scenario: Scenario, bag: Path) -> str:
     same = sum(tuple(a) == tuple(b) for a, b in zip(recorded, ours))
     return (f"same torque commands as the graph at all {same} steps" if same == len(recorded) == len(ours) else
             f"DIFFERENT torque commands: {same} of {len(recorded)} recorded steps equal ({len(ours)} computed)")
-
-
-# ------------------------------------------------------------------------------ record
-def _record_once(scenario: Scenario, compress: bool) -> dict[str, str]:
-    """One processes-mode run recorded with or without zstd chunks: the recorder's figures."""
-    with tempfile.TemporaryDirectory(prefix="gimbal-bench-") as tmp:
-        out = Path(tmp) / "run"
-        result = run(scenario, out, "processes", progress=False, compress=compress)
-        if result.interrupted:
-            raise KeyboardInterrupt("stopped the recorder benchmark; nothing was kept")
-        contents = scan(out)
-        size = find_mcap(out)[0].stat().st_size
-    rec = result.processes["bag_recorder"]
-    rec_cpu = rec.cpu_s - result.cpu_at_start.get("bag_recorder", 0.0)
-    return {
-        "wall time": f"{result.wall_s:.2f} s (real-time factor {result.real_time_factor:.2f})",
-        "messages recorded": f"{contents.message_count} on {len(contents.topics)} topics, "
-                             f"{'closed cleanly' if contents.closed_cleanly else 'NOT closed cleanly'}",
-        "bag size": f"{size / 2**20:.1f} MiB ({size / max(1, contents.message_count):.0f} B per message)",
-        "recorder throughput": f"{contents.message_count / result.wall_s:,.0f} msg/s wall",
-        "recorder CPU": f"{rec_cpu:.2f} s while stepping = {100 * rec_cpu / result.wall_s:.1f} % of one core; "
-                        f"{1e6 * rec_cpu / max(1, contents.message_count):.1f} us per message",
-        "recorder at real time": f"{100 * rec_cpu / result.sim_s:.1f} % of one core for the scenario's rates "
-                                 f"in real time",
-        "recorder peak RSS": f"{rec.peak_rss_mb:.0f} MiB",
-        "other processes CPU": ", ".join(f"{name} {st.cpu_s:.2f} s" for name, st in sorted(result.processes.items())
-                                         if name != "bag_recorder"),
-    }
-
-
-def bench_record(args: argparse.Namespace) -> int:
-    scenario = dataclasses.replace(load(args.scenario), duration_s=args.duration)
-    settings = {"both": (True, False), "on": (True,), "off": (False,)}[args.compress]
-    columns = {}
-    for compress in settings:
-        _note(f"recording {scenario.name} ({scenario.duration_s:g} s, processes mode), compression "
-              f"{'on (zstd chunks)' if compress else 'off'} ...")
-        columns["zstd chunks" if compress else "uncompressed"] = _record_once(scenario, compress)
-    print(f"scenario: {scenario.name}, {scenario.duration_s:g} s simulated at {scenario.sim_rate_hz:g} Hz "
-          f"(processes mode)")
-    names = list(next(iter(columns.values())))
-    width = max(len(k) for k in names)
-    for name in names:
-        for label, values in columns.items():
-            print(f"{name:<{width}}  [{label}] {values[name]}")
-    return 0
 
 
 def bench_compare(args: argparse.Namespace) -> int:
