@@ -163,13 +163,19 @@ class VehicleDynamicsNode(Node):
             self._rearm = self.create_timer(0.0, self._open_loop_step)
 
     # --- commands --------------------------------------------------------------------------
-    def _on_command(self, data: bytes) -> None:
+    def _decoded(self, data: bytes):
+        """The command's JointState, or None for a malformed one (counted and logged)."""
         try:
-            msg = m.joint_state_from_cdr(data)
+            return m.joint_state_from_cdr(data)
         except CdrError as exc:
             self.rejected_commands += 1
             self.get_logger().warning(f"malformed command ignored: {exc} ({self.rejected_commands} rejected)",
                                       throttle_duration_sec=1.0)
+            return None
+
+    def _on_command(self, data: bytes) -> None:
+        msg = self._decoded(data)
+        if msg is None:
             return
         k = m.step_of_stamp(msg.stamp_ns, self.config.sim_rate_hz)
         if self.realtime and self._started and k < self.core.k and (self._command_k is None or k > self._command_k):
@@ -194,12 +200,8 @@ class VehicleDynamicsNode(Node):
     def _on_ros2_control(self, data: bytes) -> None:
         """A command in ros2_control's contract (module docstring): for the next step, whatever
         its stamp; a bad one is counted and that step holds the last good command."""
-        try:
-            msg = m.joint_state_from_cdr(data)
-        except CdrError as exc:
-            self.rejected_commands += 1
-            self.get_logger().warning(f"malformed command ignored: {exc} ({self.rejected_commands} rejected)",
-                                      throttle_duration_sec=1.0)
+        msg = self._decoded(data)
+        if msg is None:
             return
         if not self._started:
             self.rejected_commands += 1

@@ -123,19 +123,6 @@ class SinusoidChannel:
         )
         object.__setattr__(self, "_terms", terms)
 
-    def evaluate(self, t: float) -> tuple[float, float, float]:
-        """(x, ẋ, ẍ) at time ``t`` [s]."""
-        x = self.offset + self.rate * t
-        dx = self.rate
-        ddx = 0.0
-        for w, ph, a, aw, aw2 in self._terms:
-            arg = w * t + ph
-            s = math.sin(arg)
-            x += a * s
-            dx += aw * math.cos(arg)
-            ddx -= aw2 * s
-        return x, dx, ddx
-
 
 _ZERO = SinusoidChannel(name="zero")
 
