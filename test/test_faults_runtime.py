@@ -127,6 +127,7 @@ def tmpfs(tmp_path):
 SIGNAL_ROWS = [
     ("SIGTERM", "processes", 143, "gimbal-run: interrupted by SIGTERM: stopped the run at", INTERRUPT_AT_S),
     ("SIGTERM", "container", 143, "gimbal-run: interrupted by SIGTERM: stopped the run at", INTERRUPT_AT_S),
+    ("SIGHUP", "processes", 129, "gimbal-run: interrupted by SIGHUP: stopped the run at", INTERRUPT_AT_S),
     ("SIGHUP", "container", 129, "gimbal-run: interrupted by SIGHUP: stopped the run at", INTERRUPT_AT_S),
     ("SIGKILL", "processes", -9, None, INTERRUPT_AT_S),
     ("SIGKILL", "container", -9, None, 1.5),
