@@ -93,7 +93,6 @@ def test_flexure_single_seed_prints_each_models_figures(tmp_path, capsys):
     (sighting_loop.main, ["--monte-carlo", "0"], "--monte-carlo"),
     (flexure.main, ["--engine", "graph", "--sim-rate", "50"], "sim_rate_hz"),
     (flexure.main, ["--engine", "graph", "--turn"], "turn"),
-    (free_gyro.main, ["--engine", "graph", "--lat-deg", "40"], "lat_deg"),
     (free_gyro.main, ["--runs", "2", "--jobs", "0"], "--jobs"),
 ])
 def test_what_a_runner_cannot_do_exits_2_naming_it(main, args, named, capsys):
@@ -106,6 +105,8 @@ def test_what_a_runner_cannot_do_exits_2_naming_it(main, args, named, capsys):
 def test_experiment_specs_are_validated_before_anything_runs():
     for spec, named in ((CampaignSpec("", (1,), experiment="nope"), "unknown experiment"),
                         (CampaignSpec("", (1,), experiment="free_gyro", options=(("runs", 3),)), "unknown option"),
+                        # the scenario's rate is no node parameter: refused on either engine
+                        (CampaignSpec("", (1,), experiment="free_gyro", options=(("rate_hz", 20.0),)), "rate_hz"),
                         (CampaignSpec("", (1,), experiment="alignment", variants=("spin",)), "no variant"),
                         (CampaignSpec("", (1,), experiment="flexure", sweeps=(Sweep("a.b", (1,)),)), "sweeps")):
         with pytest.raises(CampaignError, match=named):
