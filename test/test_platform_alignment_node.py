@@ -23,7 +23,7 @@ from gimbal_estimators.rotation_alignment import RotationAlignmentParams
 from gimbal_kinematics.sync import StepGroups
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.ros import messages as m
-from gimbal_sim.experiments.alignment import KinematicPlatformTruth
+from kinematic_alignment import KinematicPlatformTruth
 from gimbal_sim.core.engine_run import run_engine
 from gimbal_sim.experiments.platform_servo import (
     ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup,
