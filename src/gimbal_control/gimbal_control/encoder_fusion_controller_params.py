@@ -1,13 +1,12 @@
-"""The ``encoder_fusion_controller`` node's parameters, declared once in
-:class:`EncoderFusionControllerNodeParams` (its table, ``config/encoder_fusion_controller.yaml`` and
-docs/parameters.md come from it), and its --help text. The mapping to the core's parameters is
+"""The ``encoder_fusion_controller`` node's parameters and --help text, declared once in
+:class:`EncoderFusionControllerNodeParams`. The mapping to the core's parameters is
 :meth:`.encoder_fusion.EncoderFusionParams.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, param, param_table, same_as
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, CommandingParams, declaration, param, same_as
 
 from .encoder_fusion import (
     ENCODER_LOOP_BANDWIDTH_HZ, LOOP_BANDWIDTH_HZ, MODES, TORQUE_LIMIT_NM, UAV_AZIMUTH_INERTIA_KG_M2,
@@ -15,26 +14,21 @@ from .encoder_fusion import (
 )
 from .fusion_kf import FusionKfParams
 
-DESCRIPTION = (
-    "Paper 2 two-axis gimbal stabilization: a PID per axis whose feedback velocity is the encoder "
-    "pulse-count rate (mode encoder), the raw MEMS gyro (gyro) or the gyro corrected by the "
-    "closed-loop complementary Kalman filter on encoder-minus-gyro (fused). Publishes "
-    "/gimbal/torque_cmd for each step, plus ~/feedback_velocity and ~/drift_correction."
-)
 INF = float("inf")
 _KF = FusionKfParams()
 _CORE = EncoderFusionParams()
 
 
 @dataclass(frozen=True)
-class EncoderFusionControllerNodeParams:
-    """The ``encoder_fusion_controller`` node's parameters."""
+class EncoderFusionControllerNodeParams(CommandingParams):
+    """Paper 2 two-axis gimbal stabilization: a PID per axis whose feedback velocity is the encoder pulse-count
+    rate (mode encoder), the raw MEMS gyro (gyro) or the gyro corrected by the closed-loop complementary Kalman
+    filter on encoder-minus-gyro (fused). Publishes /gimbal/torque_cmd for each step, plus ~/feedback_velocity
+    and ~/drift_correction.
+    """
 
     mode: str = param("fused", "feedback velocity: encoder (pulse-count rate), gyro (raw MEMS gyro) or fused (gyro "
         "corrected by the complementary KF)", choices=MODES)
-    timing: str = same_as(SHARED["timing"])
-    command_interface: str = same_as(SHARED["command_interface"])
-    ros2_control_topic: str = same_as(SHARED["ros2_control_topic"])
     sim_rate_hz: float = param(1000.0, "lockstep rate; the controller runs once per step on the gyro sample. In free "
         "timing: the gyro's nominal rate (the drop count)", 1.0, 100000.0, unit="Hz")
     max_input_age_s: float = param(0.1, "free timing: the newest encoder and base-rate samples may be this much "
@@ -78,4 +72,4 @@ class EncoderFusionControllerNodeParams:
     kf_gate_sigma: float = param(0.0, "KF innovation gate (0: no gate)", 0.0, 1e3, unit="sigma")
 
 
-PARAMS = param_table(EncoderFusionControllerNodeParams)
+PARAMS, DESCRIPTION = declaration(EncoderFusionControllerNodeParams)

@@ -1,27 +1,23 @@
-"""The ``geo_pointer`` node's parameters, declared once in :class:`GeoPointerNodeParams` (its table,
-``config/geo_pointer.yaml`` and docs/parameters.md come from it), and its --help text. The mapping
-to the core's parameters is :meth:`.geo_pointer.GeoPointerParams.from_values`.
+"""The ``geo_pointer`` node's parameters and --help text, declared once in
+:class:`GeoPointerNodeParams`. The mapping to the core's parameters is
+:meth:`.geo_pointer.GeoPointerParams.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, param, param_table, same_as
-
-DESCRIPTION = (
-    "Geo-pointing: keeps the LOS on a WGS-84 target (sensor_msgs/NavSatFix) from the INS attitude, the "
-    "gyro-bias EKF's gimbal attitude and the encoders' turret angle, by publishing a LOS rate command "
-    "(feed-forward of the target's inertial rate + k times the pointing error) on the LOS-rate controller's "
-    "operator input; the vehicle at a fixed site or at its INS position and velocity (NavSatFix, "
-    "Vector3Stamped); stops at the gimbal limits (counted); publishes the 1-sigma pointing-error budget."
-)
+from gimbal_kinematics.params import TimedParams, declaration, param
 
 
 @dataclass(frozen=True)
-class GeoPointerNodeParams:
-    """The ``geo_pointer`` node's parameters."""
+class GeoPointerNodeParams(TimedParams):
+    """Geo-pointing: keeps the LOS on a WGS-84 target (sensor_msgs/NavSatFix) from the INS attitude, the gyro-bias
+    EKF's gimbal attitude and the encoders' turret angle, by publishing a LOS rate command (feed-forward of the
+    target's inertial rate + k times the pointing error) on the LOS-rate controller's operator input; the
+    vehicle at a fixed site or at its INS position and velocity (NavSatFix, Vector3Stamped); stops at the gimbal
+    limits (counted); publishes the 1-sigma pointing-error budget.
+    """
 
-    timing: str = same_as(SHARED["timing"])
     sim_rate_hz: float = param(1000.0, "lockstep rate", 1.0, 100000.0, unit="Hz")
     ins_rate_hz: float = param(100.0, "INS and EKF attitude rate: the pointer steps at each INS sample",
         1e-3, 100000.0, unit="Hz")
@@ -63,4 +59,4 @@ class GeoPointerNodeParams:
         1e-3, 3600.0, unit="s")
 
 
-PARAMS = param_table(GeoPointerNodeParams)
+PARAMS, DESCRIPTION = declaration(GeoPointerNodeParams)

@@ -1,27 +1,20 @@
-"""The ``los_rate_controller`` node's parameters, declared once in :class:`LosRateControllerNodeParams`
-(its table, ``config/los_rate_controller.yaml`` and docs/parameters.md come from it), and its --help
-text.
+"""The ``los_rate_controller`` node's parameters and --help text, declared once in
+:class:`LosRateControllerNodeParams`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, param, param_table, same_as
-
-DESCRIPTION = (
-    "Paper 1 LOS rate stabilization controller: dynamic inversion of the linearized gimbal and a PI "
-    "on the inertial LOS rate error (k_p = 2 zeta omega_n, k_i = omega_n^2), torque saturation with "
-    "anti-windup, optional gyro-bias feedback. Publishes /gimbal/torque_cmd for each step."
-)
+from gimbal_kinematics.params import SHARED, CommandingParams, declaration, param, same_as
 
 
 @dataclass(frozen=True)
-class LosRateControllerNodeParams:
-    """The ``los_rate_controller`` node's parameters."""
+class LosRateControllerNodeParams(CommandingParams):
+    """Paper 1 LOS rate stabilization controller: dynamic inversion of the linearized gimbal and a PI on the
+    inertial LOS rate error (k_p = 2 zeta omega_n, k_i = omega_n^2), torque saturation with anti-windup,
+    optional gyro-bias feedback. Publishes /gimbal/torque_cmd for each step.
+    """
 
-    timing: str = same_as(SHARED["timing"])
-    command_interface: str = same_as(SHARED["command_interface"])
-    ros2_control_topic: str = same_as(SHARED["ros2_control_topic"])
     sim_rate_hz: float = param(1000.0, "lockstep rate; the controller runs once per step. In free timing: the gyro's "
         "nominal rate (the integrator's nominal step, the drop count)", 1.0, 100000.0, unit="Hz")
     max_input_age_s: float = param(0.1, "free timing: the newest encoder and INS samples may be this much older than "
@@ -72,4 +65,4 @@ class LosRateControllerNodeParams:
     joy_invert_elevation: bool = param(False, "flip the elevation axis (joy_node: stick up = +1 raises the LOS)")
 
 
-PARAMS = param_table(LosRateControllerNodeParams)
+PARAMS, DESCRIPTION = declaration(LosRateControllerNodeParams)

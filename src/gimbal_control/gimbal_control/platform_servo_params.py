@@ -1,29 +1,24 @@
-"""The ``platform_servo`` node's parameters, declared once in :class:`PlatformServoNodeParams` (its
-table, ``config/platform_servo.yaml`` and docs/parameters.md come from it), and its --help text. The
-mapping to the core's parameters is :meth:`.platform_servo.PlatformServoParams.from_values`.
+"""The ``platform_servo`` node's parameters and --help text, declared once in
+:class:`PlatformServoNodeParams`. The mapping to the core's parameters is
+:meth:`.platform_servo.PlatformServoParams.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, param, param_table, same_as
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, CommandingParams, declaration, param, same_as
 
-DESCRIPTION = (
-    "Paper 3 four-gimbal platform servo: four PID loops (azimuth, inner roll, pitch, outer roll) on the "
-    "emulated gyro pickoffs resolved through the gimbal angles (eq. 1), outer roll holding the inner roll "
-    "at null, bidirectional azimuth modulation at +-1.2 deg/s with the integrator preset at reversals. "
-    "Publishes /platform/voltage_cmd for each step."
-)
 INF = float("inf")
 
 
 @dataclass(frozen=True)
-class PlatformServoNodeParams:
-    """The ``platform_servo`` node's parameters."""
+class PlatformServoNodeParams(CommandingParams):
+    """Paper 3 four-gimbal platform servo: four PID loops (azimuth, inner roll, pitch, outer roll) on the emulated
+    gyro pickoffs resolved through the gimbal angles (eq. 1), outer roll holding the inner roll at null,
+    bidirectional azimuth modulation at +-1.2 deg/s with the integrator preset at reversals. Publishes
+    /platform/voltage_cmd for each step.
+    """
 
-    timing: str = same_as(SHARED["timing"])
-    command_interface: str = same_as(SHARED["command_interface"])
-    ros2_control_topic: str = same_as(SHARED["ros2_control_topic"])
     sim_rate_hz: float = param(1000.0, "lockstep rate; one command per step. In free timing: the platform gyro's "
         "nominal rate (the drop count)", 1.0, 100000.0, unit="Hz")
     max_input_age_s: float = param(0.1, "free timing: the newest resolver sample may be this much older than the "
@@ -67,4 +62,4 @@ class PlatformServoNodeParams:
         1, 10**6)
 
 
-PARAMS = param_table(PlatformServoNodeParams)
+PARAMS, DESCRIPTION = declaration(PlatformServoNodeParams)

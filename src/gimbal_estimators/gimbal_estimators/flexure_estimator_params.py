@@ -1,12 +1,12 @@
-"""The ``flexure_estimator`` node's parameters, declared once in :class:`FlexureEstimatorNodeParams`
-(its table, ``config/flexure_estimator.yaml`` and docs/parameters.md come from it), and its --help
-text. The mapping to the core's parameters is :meth:`.flexure_kf.FlexureKfParams.from_values`.
+"""The ``flexure_estimator`` node's parameters and --help text, declared once in
+:class:`FlexureEstimatorNodeParams`. The mapping to the core's parameters is
+:meth:`.flexure_kf.FlexureKfParams.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, param, param_table, same_as
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, param, same_as
 
 from .flexure_kf import QS_MODELS
 
@@ -14,22 +14,18 @@ from .flexure_kf import QS_MODELS
 #: (:mod:`.flexure_kf`) or the original eq. 1 filter it replaces (:mod:`.flexure_attitude_matching`).
 METHODS = ("simplified", "original")
 
-DESCRIPTION = (
-    "Paper 5 ship angular-flexure Kalman filter: integrates the two LGUs' attitudes from "
-    "their incremental angles, matches them (model simplified: Z = phi - A theta_d, 18 states; "
-    "model original: paper 5 eq. 1, 27 states with each unit's attitude error and bias) "
-    "with a random-constant or random-walk-rate quasi-static model, second-order Markov "
-    "dynamic flexure and the bias difference; publishes the total flexure, its quasi-static "
-    "and dynamic parts and the bias difference with 1-sigma companions on private topics."
-)
 INF = float("inf")
 
 
 @dataclass(frozen=True)
-class FlexureEstimatorNodeParams:
-    """The ``flexure_estimator`` node's parameters."""
+class FlexureEstimatorNodeParams(TimedParams):
+    """Paper 5 ship angular-flexure Kalman filter: integrates the two LGUs' attitudes from their incremental
+    angles, matches them (model simplified: Z = phi - A theta_d, 18 states; model original: paper 5 eq. 1, 27
+    states with each unit's attitude error and bias) with a random-constant or random-walk-rate quasi-static
+    model, second-order Markov dynamic flexure and the bias difference; publishes the total flexure, its
+    quasi-static and dynamic parts and the bias difference with 1-sigma companions on private topics.
+    """
 
-    timing: str = same_as(SHARED["timing"])
     model: str = param("simplified", "attitude matching: simplified (paper 5 eq. 5, 18 states) or original (paper 5 "
         "eq. 1, 27 states)", choices=METHODS)
     quasi_static_model: str = param("random_walk_rate", "quasi-static flexure model: random_constant (conventional) "
@@ -71,11 +67,12 @@ class FlexureEstimatorNodeParams:
     lgu_arw_deg_rt_h: float = param(0.001, "angle random walk of each LGU", 0.0, INF, unit="deg/sqrt(h)")
     meas_noise_arcsec: float = param(1.0, "1-sigma of the attitude-matching measurement", 1e-9, INF, unit="arcsec")
     second_order_observation: bool = param(True, "predict Z to second order (BCH term) instead of the paper's H x")
-    gate_probability: float = param(0.99999, "chi-square gate probability (3 dof); 0 disables the gate", 0.0, 1.0, unit="-")
+    gate_probability: float = param(0.99999, "chi-square gate probability (3 dof); 0 disables the gate", 0.0, 1.0,
+        unit="-")
     max_gate_rejections: int = param(200, "gated measurements in a row that re-anchor (then reset)", 1, 10**9)
     max_gap_s: float = param(5.0, "a data gap longer than this resets instead of re-anchoring", 1e-3, 1e6, unit="s")
     clock_jump_s: float = param(1.0, "a stamp this far behind the newest is a clock jump (reset)",
         1e-6, 1e9, unit="s", aliases=CLOCK_JUMP_ALIASES)
 
 
-PARAMS = param_table(FlexureEstimatorNodeParams)
+PARAMS, DESCRIPTION = declaration(FlexureEstimatorNodeParams)

@@ -1,6 +1,5 @@
-"""The ``free_gyro_positioning`` node's parameters, declared once in
-:class:`FreeGyroPositioningNodeParams` (its table, ``config/free_gyro_positioning.yaml`` and
-docs/parameters.md come from it), and its --help text. The mapping to the core's parameters is
+"""The ``free_gyro_positioning`` node's parameters and --help text, declared once in
+:class:`FreeGyroPositioningNodeParams`. The mapping to the core's parameters is
 :meth:`.free_gyro_positioning.FreeGyroPositioningParams.from_values`.
 """
 from __future__ import annotations
@@ -8,22 +7,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, param, param_table, same_as
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, param, same_as
 
-DESCRIPTION = (
-    "Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free "
-    "gyros over each fix window, fixes latitude/longitude from them (eq. 1) with an FDOP-scaled "
-    "covariance, and the heading from the gyro azimuths (Fig. 4) and from the earth rate (eq. 3-4). "
-    "Publishes sensor_msgs/NavSatFix on /free_gyro_positioning/fix; no fix for degenerate geometry."
-)
 INF = math.inf
 
 
 @dataclass(frozen=True)
-class FreeGyroPositioningNodeParams:
-    """The ``free_gyro_positioning`` node's parameters."""
+class FreeGyroPositioningNodeParams(TimedParams):
+    """Paper 4 free-gyro positioning and directional system: integrates the nadir angles of two free gyros over
+    each fix window, fixes latitude/longitude from them (eq. 1) with an FDOP-scaled covariance, and the heading
+    from the gyro azimuths (Fig. 4) and from the earth rate (eq. 3-4). Publishes sensor_msgs/NavSatFix on
+    /free_gyro_positioning/fix; no fix for degenerate geometry.
+    """
 
-    timing: str = same_as(SHARED["timing"])
     sim_rate_hz: float = param(10.0, "simulation rate, to turn read-out stamps into lockstep steps",
         1.0, 100000.0, unit="Hz")
     progress_every_steps: int = same_as(SHARED["progress_every_steps"])
@@ -66,4 +62,4 @@ class FreeGyroPositioningNodeParams:
         1e-9, INF, unit="s", aliases=CLOCK_JUMP_ALIASES)
 
 
-PARAMS = param_table(FreeGyroPositioningNodeParams)
+PARAMS, DESCRIPTION = declaration(FreeGyroPositioningNodeParams)

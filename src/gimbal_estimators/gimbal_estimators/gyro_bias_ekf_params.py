@@ -1,23 +1,27 @@
 """Parameters of the gyro-bias EKF (:mod:`.gyro_bias_ekf`), readable without ROS, declared once:
 the core's frozen :class:`GyroBiasEkfParams` and the node's own :class:`GyroBiasEkfNodeParams`
-give the ``gyro_bias_ekf`` node's parameter table :data:`PARAMS`; and
+(its docstring is the node's --help text) give the ``gyro_bias_ekf`` node's parameter table
+:data:`PARAMS`; and
 :meth:`GyroBiasEkfParams.from_values`, the one mapping from the node's values to the core's
 parameters, which the node and the no-ROS core loop both use.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, ParameterError, param, param_table, same_as
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TimedParams, declaration, from_values, param
 from gimbal_kinematics.validate import finite, nonneg_finite, positive
 
 
 @dataclass(frozen=True)
-class GyroBiasEkfNodeParams:
-    """The ``gyro_bias_ekf`` node's own parameters (lockstep rate, progress, diagnostics)."""
+class GyroBiasEkfNodeParams(TimedParams):
+    """Paper 1 gyro-bias EKF: propagates the inner-gimbal attitude C(n,m) with the two-axis gimbal gyro (roll rate
+    reconstructed from the INS and encoders, earth and transport rate included) and fuses the attitude built
+    from the INS Euler angles and the encoders. Publishes the gyro-bias estimate and its 1-sigma (~/bias,
+    ~/bias_sigma), the attitude estimate (~/attitude) and health (/diagnostics).
+    """
 
-    timing: str = same_as(SHARED["timing"])
     sim_rate_hz: float = param(1000.0, "lockstep rate: maps gyro stamps to steps for ~/progress", 1.0, 100000.0,
                                unit="Hz")
     progress_every_steps: int = param(10, "report the next step needed on ~/progress every N gyro steps", 1, 10**6)
@@ -111,27 +115,10 @@ class GyroBiasEkfParams:
             raise ValueError(f"max_consecutive_gated must be an int >= 1, got {self.max_consecutive_gated!r}")
 
     @classmethod
-    def field_names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))
-
-    @classmethod
     def from_values(cls, values: dict) -> GyroBiasEkfParams:
         """The parameters from a ``gyro_bias_ekf`` node's values (name -> value, as declared
         in :data:`PARAMS`); :class:`ParameterError` names the parameter refused."""
-        kw = {name: values[name] for name in cls.field_names()}
-        kw["velocity_n_m_s"] = tuple(values["velocity_n_m_s"])
-        try:
-            return cls(**kw)
-        except ValueError as exc:
-            raise ParameterError(f"parameter {exc}") from exc
+        return from_values(cls, {**values, "velocity_n_m_s": tuple(values["velocity_n_m_s"])})
 
 
-DESCRIPTION = (
-    "Paper 1 gyro-bias EKF: propagates the inner-gimbal attitude C(n,m) with the two-axis gimbal "
-    "gyro (roll rate reconstructed from the INS and encoders, earth and transport rate included) and "
-    "fuses the attitude built from the INS Euler angles and the encoders. Publishes the gyro-bias "
-    "estimate and its 1-sigma (~/bias, ~/bias_sigma), the attitude estimate (~/attitude) and health "
-    "(/diagnostics)."
-)
-
-PARAMS = param_table(GyroBiasEkfNodeParams, GyroBiasEkfParams)
+PARAMS, DESCRIPTION = declaration(GyroBiasEkfNodeParams, GyroBiasEkfParams)

@@ -1,6 +1,5 @@
-"""The ``platform_alignment`` node's parameters, declared once in :class:`PlatformAlignmentNodeParams`
-(its table, ``config/platform_alignment.yaml`` and docs/parameters.md come from it), and its --help
-text. The mapping to the core's parameters is
+"""The ``platform_alignment`` node's parameters and --help text, declared once in
+:class:`PlatformAlignmentNodeParams`. The mapping to the core's parameters is
 :meth:`.rotation_alignment.RotationAlignmentParams.from_values`.
 """
 from __future__ import annotations
@@ -8,21 +7,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, param, param_table, same_as
+from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, param, same_as
 
-DESCRIPTION = (
-    "Paper 3 rotation-modulated fine alignment: 8-state recursive least squares on the platform's level "
-    "accelerometers and azimuth joint angle, estimating the initial misalignment, the north gyro drift and "
-    "the level gyro drifts and accelerometer biases. Publishes the estimates with their sigma once per block."
-)
 INF = math.inf
 
 
 @dataclass(frozen=True)
-class PlatformAlignmentNodeParams:
-    """The ``platform_alignment`` node's parameters."""
+class PlatformAlignmentNodeParams(TimedParams):
+    """Paper 3 rotation-modulated fine alignment: 8-state recursive least squares on the platform's level
+    accelerometers and azimuth joint angle, estimating the initial misalignment, the north gyro drift and the
+    level gyro drifts and accelerometer biases. Publishes the estimates with their sigma once per block.
+    """
 
-    timing: str = same_as(SHARED["timing"])
     sim_rate_hz: float = param(1000.0, "lockstep rate, to turn stamps into steps", 1.0, 100000.0, unit="Hz")
     imu_rate_hz: float = param(1000.0, "platform IMU rate; divides sim_rate_hz", 1e-3, 100000.0, unit="Hz")
     joint_rate_hz: float = param(1000.0, "rate of the azimuth joint topic; divides sim_rate_hz",
@@ -61,4 +57,4 @@ class PlatformAlignmentNodeParams:
     wait_for_subscribers: int = same_as(SHARED["wait_for_subscribers"])
 
 
-PARAMS = param_table(PlatformAlignmentNodeParams)
+PARAMS, DESCRIPTION = declaration(PlatformAlignmentNodeParams)

@@ -1,7 +1,7 @@
 """Parameters of the platform INS navigator (:mod:`.platform_navigator`), readable without ROS:
 the core's frozen :class:`PlatformNavigatorParams` (engineering units at this edge, SI
-properties for the core) and the node's own :class:`PlatformNavigatorNodeParams`, declared once:
-they give the ``platform_navigator`` parameter table :data:`PARAMS`; and
+properties for the core) and the node's own :class:`PlatformNavigatorNodeParams` (its docstring
+is the node's --help text), declared once: they give the ``platform_navigator`` parameter table :data:`PARAMS`; and
 :meth:`PlatformNavigatorParams.from_values`, the one mapping from a node's values to the core's
 parameters.
 
@@ -13,9 +13,11 @@ params file; one run with phases hands over with
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, ParameterError, param, param_table, same_as
+from gimbal_kinematics.params import (
+    CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, from_values, param, same_as,
+)
 from gimbal_kinematics.validate import finite, per_axis, positive
 
 _DEG = math.pi / 180.0
@@ -84,17 +86,10 @@ class PlatformNavigatorParams:
             raise ValueError(f"azimuth_source must be one of {AZIMUTH_SOURCES}, got {self.azimuth_source!r}")
 
     @classmethod
-    def field_names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))
-
-    @classmethod
     def from_values(cls, values: dict) -> PlatformNavigatorParams:
         """The parameters from a ``platform_navigator`` node's values (name -> value, as
         declared in :data:`PARAMS`); :class:`ParameterError` names the parameter refused."""
-        try:
-            return cls(**{name: values[name] for name in cls.field_names()})
-        except ValueError as exc:
-            raise ParameterError(f"parameter {exc}") from exc
+        return from_values(cls, values)
 
     # -- SI views ------------------------------------------------------------------------
     @property
@@ -126,17 +121,14 @@ class PlatformNavigatorParams:
         return tuple(v * _ARCSEC for v in self.misalignment_arcsec)  # type: ignore[return-value]
 
 
-DESCRIPTION = (
-    "Paper 3 local-level platform INS navigator: resolves the stable element's accelerometers through the "
-    "azimuth rotation angle into NED, adds WGS-84 normal gravity, removes the Coriolis terms and integrates "
-    "velocity and position (latitude, longitude; height damped by a reference altitude). Publishes the fix, "
-    "the NED velocity and the platform command rate (earth rate + transport rate - drift compensation, "
-    "resolved in NED) that closes the Schuler loop through the platform servo."
-)
-
 @dataclass(frozen=True)
-class PlatformNavigatorNodeParams:
-    """The ``platform_navigator`` node's own parameters (not the core's)."""
+class PlatformNavigatorNodeParams(TimedParams):
+    """Paper 3 local-level platform INS navigator: resolves the stable element's accelerometers through the azimuth
+    rotation angle into NED, adds WGS-84 normal gravity, removes the Coriolis terms and integrates velocity and
+    position (latitude, longitude; height damped by a reference altitude). Publishes the fix, the NED velocity
+    and the platform command rate (earth rate + transport rate - drift compensation, resolved in NED) that
+    closes the Schuler loop through the platform servo.
+    """
 
     sim_rate_hz: float = param(1000.0, "lockstep rate, to turn stamps into steps", 1.0, 100000.0, unit="Hz")
     imu_rate_hz: float = param(1000.0, "platform IMU rate; divides sim_rate_hz", 1e-3, 100000.0, unit="Hz")
@@ -175,4 +167,4 @@ class PlatformNavigatorNodeParams:
                                            unit="deg")
 
 
-PARAMS = (SHARED["timing"], *param_table(PlatformNavigatorParams, PlatformNavigatorNodeParams))
+PARAMS, DESCRIPTION = declaration(PlatformNavigatorNodeParams, PlatformNavigatorParams)

@@ -11,12 +11,15 @@ the node's section of ``docs/parameters.md`` from it.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence, TypeVar
 
 #: Element types of an empty-list default (rcl cannot infer them from ``[]``).
 ARRAY_TYPES = ("string_array", "double_array", "integer_array", "bool_array")
+
+T = TypeVar("T")
 
 #: The metadata key of a :func:`param` field.
 _SPEC = "gimbal_param"
@@ -101,6 +104,16 @@ def param_table(*declarations: type) -> tuple[Param, ...]:
     return tuple(field_param(f) for cls in declarations for f in dataclasses.fields(cls) if _SPEC in f.metadata)
 
 
+def from_values(declaration: type[T], values: Mapping[str, Any]) -> T:
+    """The ``declaration`` dataclass built from a node's values (name -> value, a superset of
+    its fields); a ValueError of its checks becomes a :class:`ParameterError` naming the
+    parameter."""
+    try:
+        return declaration(**{f.name: values[f.name] for f in dataclasses.fields(declaration) if f.init})
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc
+
+
 def same_as(shared: Param) -> Any:
     """A field that declares ``shared`` again (a parameter several nodes share), with the same
     default, description, unit, range and aliases."""
@@ -154,6 +167,27 @@ SHARED = {p.name: p for p in param_table(SharedParams)}
 TIMING_PARAM = SHARED["timing"]
 COMMAND_INTERFACE_PARAM = SHARED["command_interface"]
 ROS2_CONTROL_TOPIC_PARAM = SHARED["ros2_control_topic"]
+
+
+@dataclass(frozen=True)
+class TimedParams:
+    """The first parameter of every estimator and controller node: its ``timing``."""
+
+    timing: str = same_as(TIMING_PARAM)
+
+
+@dataclass(frozen=True)
+class CommandingParams(TimedParams):
+    """A controller's first parameters: its ``timing`` and how it sends its effort commands."""
+
+    command_interface: str = same_as(COMMAND_INTERFACE_PARAM)
+    ros2_control_topic: str = same_as(ROS2_CONTROL_TOPIC_PARAM)
+
+
+def declaration(*declarations: type) -> tuple[tuple[Param, ...], str]:
+    """A node's parameter table (:func:`param_table` of ``declarations``, in order) and its
+    ``--help`` text: the first declaration's docstring, on one line."""
+    return param_table(*declarations), " ".join(inspect.cleandoc(declarations[0].__doc__ or "").split())
 
 
 class ParameterError(ValueError):

@@ -1,29 +1,24 @@
-"""The ``mavlink_gimbal_device`` node's parameters, declared once in
-:class:`MavlinkGimbalDeviceNodeParams` (its table, ``config/mavlink_gimbal_device.yaml`` and
-docs/parameters.md come from it), and its --help text. The mapping to the core's parameters is
+"""The ``mavlink_gimbal_device`` node's parameters and --help text, declared once in
+:class:`MavlinkGimbalDeviceNodeParams`. The mapping to the core's parameters is
 :meth:`.device_core.DeviceParams.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, param, param_table, same_as
-
-DESCRIPTION = (
-    "MAVLink Gimbal Protocol v2 device over UDP: presents the simulated two-axis gimbal to a ground station or "
-    "an autopilot (HEARTBEAT as MAV_TYPE_GIMBAL, GIMBAL_DEVICE_INFORMATION on request, "
-    "GIMBAL_DEVICE_ATTITUDE_STATUS at status_rate_hz), takes GIMBAL_DEVICE_SET_ATTITUDE (angles and/or rates, "
-    "NaN = ignore, yaw lock / follow) and AUTOPILOT_STATE_FOR_GIMBAL_DEVICE (earth-frame yaw while it is fresh), "
-    "and drives the LOS-rate controller's operator input from the EKF attitude estimate. Free timing only: it "
-    "runs against the wall clock. Binds 127.0.0.1 unless told otherwise."
-)
+from gimbal_kinematics.params import TimedParams, declaration, param
 
 
 @dataclass(frozen=True)
-class MavlinkGimbalDeviceNodeParams:
-    """The ``mavlink_gimbal_device`` node's parameters."""
+class MavlinkGimbalDeviceNodeParams(TimedParams):
+    """MAVLink Gimbal Protocol v2 device over UDP: presents the simulated two-axis gimbal to a ground station or an
+    autopilot (HEARTBEAT as MAV_TYPE_GIMBAL, GIMBAL_DEVICE_INFORMATION on request, GIMBAL_DEVICE_ATTITUDE_STATUS
+    at status_rate_hz), takes GIMBAL_DEVICE_SET_ATTITUDE (angles and/or rates, NaN = ignore, yaw lock / follow)
+    and AUTOPILOT_STATE_FOR_GIMBAL_DEVICE (earth-frame yaw while it is fresh), and drives the LOS-rate
+    controller's operator input from the EKF attitude estimate. Free timing only: it runs against the wall
+    clock. Binds 127.0.0.1 unless told otherwise.
+    """
 
-    timing: str = same_as(SHARED["timing"])
     bind_address: str = param("127.0.0.1", "IPv4 address the UDP socket binds (loopback by default; 0.0.0.0 exposes "
         "the device to the network)")
     port: int = param(14580, "UDP port the device listens on (0: any free port, logged); it answers every address it "
@@ -52,4 +47,4 @@ class MavlinkGimbalDeviceNodeParams:
         1e-3, 3600.0, unit="s")
 
 
-PARAMS = param_table(MavlinkGimbalDeviceNodeParams)
+PARAMS, DESCRIPTION = declaration(MavlinkGimbalDeviceNodeParams)

@@ -1,26 +1,22 @@
-"""The ``mavlink_gimbal_manager`` node's parameters, declared once in
-:class:`MavlinkGimbalManagerNodeParams` (its table, ``config/mavlink_gimbal_manager.yaml`` and
-docs/parameters.md come from it), and its --help text. The mapping to the core's parameters is
+"""The ``mavlink_gimbal_manager`` node's parameters and --help text, declared once in
+:class:`MavlinkGimbalManagerNodeParams`. The mapping to the core's parameters is
 :meth:`.manager_core.ManagerParams.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import param, param_table
-
-DESCRIPTION = (
-    "MAVLink Gimbal Protocol v2 manager client over UDP: sends geo_pointer's aim (a LOS direction) or an "
-    "operator LOS rate as GIMBAL_DEVICE_SET_ATTITUDE to a gimbal device, or as GIMBAL_MANAGER_SET_ATTITUDE / "
-    "GIMBAL_MANAGER_SET_PITCHYAW to a gimbal manager (an autopilot), in the earth frame; publishes the "
-    "gimbal's GIMBAL_DEVICE_ATTITUDE_STATUS as sensor_msgs/Imu (~/attitude, orientation C(n,m) in NED). "
-    "Binds 127.0.0.1 unless told otherwise."
-)
+from gimbal_kinematics.params import declaration, param
 
 
 @dataclass(frozen=True)
 class MavlinkGimbalManagerNodeParams:
-    """The ``mavlink_gimbal_manager`` node's parameters."""
+    """MAVLink Gimbal Protocol v2 manager client over UDP: sends geo_pointer's aim (a LOS direction) or an operator
+    LOS rate as GIMBAL_DEVICE_SET_ATTITUDE to a gimbal device, or as GIMBAL_MANAGER_SET_ATTITUDE /
+    GIMBAL_MANAGER_SET_PITCHYAW to a gimbal manager (an autopilot), in the earth frame; publishes the gimbal's
+    GIMBAL_DEVICE_ATTITUDE_STATUS as sensor_msgs/Imu (~/attitude, orientation C(n,m) in NED). Binds 127.0.0.1
+    unless told otherwise.
+    """
 
     bind_address: str = param("127.0.0.1", "IPv4 address the UDP socket binds (loopback by default)")
     port: int = param(0, "UDP port the node binds (0: any free port, logged)", 0, 65535)
@@ -47,4 +43,4 @@ class MavlinkGimbalManagerNodeParams:
         "~/attitude; 0: unknown (all-zero covariance)", 0.0, 180.0, unit="deg")
 
 
-PARAMS = param_table(MavlinkGimbalManagerNodeParams)
+PARAMS, DESCRIPTION = declaration(MavlinkGimbalManagerNodeParams)

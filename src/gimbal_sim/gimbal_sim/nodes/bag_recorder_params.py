@@ -1,22 +1,19 @@
-"""The ``bag_recorder`` node's parameters, declared once in :class:`BagRecorderNodeParams` (its table,
-``config/bag_recorder.yaml`` and docs/parameters.md come from it), and its --help text.
+"""The ``bag_recorder`` node's parameters and --help text, declared once in
+:class:`BagRecorderNodeParams`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import param, param_table
-
-DESCRIPTION = (
-    "Record topics, serialized and unchanged, into a rosbag2-style bag (metadata.yaml + MCAP, "
-    "profile ros2, ros2msg schemas, cdr) logged in sim time. Takes part in the run's readiness "
-    "and pacing so that no step is missed."
-)
+from gimbal_kinematics.params import declaration, param
 
 
 @dataclass(frozen=True)
 class BagRecorderNodeParams:
-    """The ``bag_recorder`` node's parameters."""
+    """Record topics, serialized and unchanged, into a rosbag2-style bag (metadata.yaml + MCAP, profile ros2,
+    ros2msg schemas, cdr) logged in sim time. Takes part in the run's readiness and pacing so that no step is
+    missed.
+    """
 
     output_dir: str = param("", "bag directory to write (refused if it already holds a bag)")
     topics: tuple[str, ...] = param((), "topics to record; empty: every topic discovered", array_type="string_array")
@@ -41,4 +38,4 @@ class BagRecorderNodeParams:
         array_type="string_array")
 
 
-PARAMS = param_table(BagRecorderNodeParams)
+PARAMS, DESCRIPTION = declaration(BagRecorderNodeParams)

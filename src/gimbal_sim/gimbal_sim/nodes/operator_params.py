@@ -1,29 +1,27 @@
-"""The ``operator`` node's parameters, declared once in :class:`OperatorNodeParams` (its table,
-``config/operator.yaml`` and docs/parameters.md come from it), and its --help text. The mapping to
-the core's parameters is :meth:`..world.operator_model.OperatorModelParams.from_values`; the
-defaults are argued in :mod:`..world.operator_model`.
+"""The ``operator`` node's parameters and --help text, declared once in :class:`OperatorNodeParams`.
+The mapping to the core's parameters is
+:meth:`..world.operator_model.OperatorModelParams.from_values`; the defaults are argued in
+:mod:`..world.operator_model`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, param, param_table, same_as
+from gimbal_kinematics.params import SHARED, declaration, param, same_as
 
 from ..world.operator_model import OperatorModelParams
 
-DESCRIPTION = (
-    "Simulated sight operator: watches the true angle between the LOS (/truth/gimbal/imu) and an "
-    "inertially fixed target (the LOS captured capture_s after the start); beyond tolerance_mrad it reacts after "
-    "reaction_time_s and slews the LOS back at a rate proportional to the error (gain_1_s, at most "
-    "peak_rate_deg_s) until settle_band_mrad. Publishes /operator/los_rate (sight frame, rad/s, y = q, z = r) "
-    "and ~/pointing_error (x = angle, y, z = its components about m-y, m-z) [rad] at rate_hz."
-)
 _DEFAULT = OperatorModelParams()
 
 
 @dataclass(frozen=True)
 class OperatorNodeParams:
-    """The ``operator`` node's parameters."""
+    """Simulated sight operator: watches the true angle between the LOS (/truth/gimbal/imu) and an inertially fixed
+    target (the LOS captured capture_s after the start); beyond tolerance_mrad it reacts after reaction_time_s
+    and slews the LOS back at a rate proportional to the error (gain_1_s, at most peak_rate_deg_s) until
+    settle_band_mrad. Publishes /operator/los_rate (sight frame, rad/s, y = q, z = r) and ~/pointing_error (x =
+    angle, y, z = its components about m-y, m-z) [rad] at rate_hz.
+    """
 
     sim_rate_hz: float = param(1000.0, "lockstep rate (the truth's)", 1.0, 100000.0, unit="Hz")
     rate_hz: float = param(100.0, "the operator's decision and publish rate (divides sim_rate_hz; the controller's "
@@ -44,5 +42,5 @@ class OperatorNodeParams:
     wait_for_subscribers: int = same_as(SHARED["wait_for_subscribers"])
 
 
-PARAMS = param_table(OperatorNodeParams)
+PARAMS, DESCRIPTION = declaration(OperatorNodeParams)
 

@@ -1,28 +1,25 @@
-"""The ``sensor_models`` node's parameters, declared once in :class:`SensorModelsNodeParams` (its
-table, ``config/sensor_models.yaml`` and docs/parameters.md come from it), and its --help text. The
-mapping to the suite's config is :meth:`..world.sensor_suite.SensorSuiteConfig.from_values`.
+"""The ``sensor_models`` node's parameters and --help text, declared once in
+:class:`SensorModelsNodeParams`. The mapping to the suite's config is
+:meth:`..world.sensor_suite.SensorSuiteConfig.from_values`.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, param, param_table, same_as
+from gimbal_kinematics.params import SHARED, declaration, param, same_as
 
 from ..world.sensor_suite import SENSORS
 
-DESCRIPTION = (
-    "Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the "
-    "two-axis gimbal gyro, the encoders, the paper 5 LGUs, the paper 3 platform IMU and gimbal resolvers and "
-    "the paper 4 free gyros, each at its own rate with the papers' error models, plus the error truth (biases, "
-    "flexure, the ship's position)."
-)
 INF = math.inf
 
 
 @dataclass(frozen=True)
 class SensorModelsNodeParams:
-    """The ``sensor_models`` node's parameters."""
+    """Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the two-axis gimbal gyro, the
+    encoders, the paper 5 LGUs, the paper 3 platform IMU and gimbal resolvers and the paper 4 free gyros, each
+    at its own rate with the papers' error models, plus the error truth (biases, flexure, the ship's position).
+    """
 
     sensors: tuple[str, ...] = param(("ins", "gimbal_gyro", "encoders"), f"enabled sensors, any of {list(SENSORS)}")
     sim_rate_hz: float = param(1000.0, "simulation rate; must equal vehicle_dynamics'", 1.0, 100000.0, unit="Hz")
@@ -124,4 +121,4 @@ class SensorModelsNodeParams:
         1e-9, INF, unit="s")
 
 
-PARAMS = param_table(SensorModelsNodeParams)
+PARAMS, DESCRIPTION = declaration(SensorModelsNodeParams)

@@ -1,27 +1,23 @@
-"""The ``vehicle_dynamics`` node's parameters, declared once in :class:`VehicleDynamicsNodeParams` (its
-table, ``config/vehicle_dynamics.yaml`` and docs/parameters.md come from it), and its --help text.
-The mapping to the core's config is :meth:`..world.vehicle.VehicleConfig.from_values`.
+"""The ``vehicle_dynamics`` node's parameters and --help text, declared once in
+:class:`VehicleDynamicsNodeParams`. The mapping to the core's config is
+:meth:`..world.vehicle.VehicleConfig.from_values`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from gimbal_kinematics.params import SHARED, param, param_table, same_as
+from gimbal_kinematics.params import SHARED, declaration, param, same_as
 
 from ..world.plant.motion_profiles import PROFILE_NAMES
 from ..world.vehicle import PLANTS
 
-DESCRIPTION = (
-    "Simulated host vehicle and gimbal/platform dynamics. Owns /clock and publishes the "
-    "truth topics every step; in lockstep it integrates step k -> k+1 only after the "
-    "command stamped k has arrived."
-)
-
 
 @dataclass(frozen=True)
 class VehicleDynamicsNodeParams:
-    """The ``vehicle_dynamics`` node's parameters."""
+    """Simulated host vehicle and gimbal/platform dynamics. Owns /clock and publishes the truth topics every step;
+    in lockstep it integrates step k -> k+1 only after the command stamped k has arrived.
+    """
 
     profile: str = param("paper1_land_vehicle", "host motion profile", choices=PROFILE_NAMES)
     profile_params: str = param("{}", "profile parameters as a YAML mapping, e.g. '{lat_deg: 39.9}' "
@@ -60,4 +56,4 @@ class VehicleDynamicsNodeParams:
         "NED velocity (/truth/host/velocity, m/s) every N steps; 0: not published", 0, 10**9)
 
 
-PARAMS = param_table(VehicleDynamicsNodeParams)
+PARAMS, DESCRIPTION = declaration(VehicleDynamicsNodeParams)
