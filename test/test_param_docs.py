@@ -15,7 +15,7 @@ from rclpy.context import Context
 from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 
-from gimbal_kinematics.params import Param, param, param_table
+from gimbal_kinematics.params import Param, declaration, param, param_table
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_sim.graph.config_files import DOCS_PATH, parameters_doc
 from gimbal_sim.graph.registry import NODE_TYPES
@@ -98,6 +98,9 @@ def test_a_declaration_field_becomes_its_table_entry():
 
     @dataclass(frozen=True)
     class Example:
+        """An example node:
+        its help text."""
+
         rate_hz: float = param(100.0, "sample rate", 1e-3, math.inf, unit="Hz")
         names: tuple[str, ...] = param((), "topics", array_type="string_array", aliases=("topics_old",))
         not_a_parameter: int = 3
@@ -107,8 +110,14 @@ def test_a_declaration_field_becomes_its_table_entry():
     assert rate.text == "sample rate"
     assert names.default == [] and names.array_type == "string_array" and names.aliases == ("topics_old",)
     assert Example().rate_hz == 100.0 and Example().names == ()
+    assert declaration(Example) == ((rate, names), "An example node: its help text.")
     with pytest.raises(ValueError, match="array_type"):
         @dataclass(frozen=True)
         class Untyped:
             names: tuple[str, ...] = param((), "topics")
         param_table(Untyped)
+    with pytest.raises(ValueError, match="docstring"):
+        @dataclass(frozen=True)
+        class Undocumented:
+            rate_hz: float = param(1.0, "rate", unit="Hz")
+        declaration(Undocumented)

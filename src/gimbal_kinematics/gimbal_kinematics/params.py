@@ -6,7 +6,10 @@ table of :class:`Param` entries, which the node declares through
 :mod:`gimbal_kinematics.ros.params` (rclpy turns the ranges into descriptors and refuses an
 out-of-range value at startup); the core loop and the experiments read the same defaults
 without rclpy; :func:`params_yaml` writes ``config/<node>.yaml`` and :func:`params_markdown`
-the node's section of ``docs/parameters.md`` from it.
+the node's section of ``docs/parameters.md`` from it. :func:`declaration` gives a node's table
+and its --help text (the declaration's docstring). Parameters several nodes declare alike are
+declared once in :class:`SharedParams` (taken with :func:`same_as`), and the leading ones of the
+estimators and controllers by inheriting :class:`TimedParams` or :class:`CommandingParams`.
 """
 from __future__ import annotations
 
@@ -187,7 +190,10 @@ class CommandingParams(TimedParams):
 def declaration(*declarations: type) -> tuple[tuple[Param, ...], str]:
     """A node's parameter table (:func:`param_table` of ``declarations``, in order) and its
     ``--help`` text: the first declaration's docstring, on one line."""
-    return param_table(*declarations), " ".join(inspect.cleandoc(declarations[0].__doc__ or "").split())
+    doc = declarations[0].__doc__ or ""
+    if not doc.strip() or doc.startswith(f"{declarations[0].__name__}("):  # dataclass' own stand-in
+        raise ValueError(f"{declarations[0].__name__} needs a docstring: the node's --help text")
+    return param_table(*declarations), " ".join(inspect.cleandoc(doc).split())
 
 
 class ParameterError(ValueError):
