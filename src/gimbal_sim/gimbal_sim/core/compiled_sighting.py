@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -30,9 +30,14 @@ from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 
 from . import sighting_kernels as sk
-from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
+from gimbal_control.wire import torque_command_messages
+from gimbal_estimators.wire import ekf_messages
+from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
+
+from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
+from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors.sensor_kernels import encoder_arrays, inertial_arrays
-from ..world.vehicle import VehicleConfig, VehicleCore
+from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
 #: Steps per compiled block (the noise of a block is drawn before it).
 BLOCK = 8192
@@ -79,9 +84,10 @@ def _vehicle_arrays(vehicle: VehicleCore) -> tuple[np.ndarray, np.ndarray, tuple
     vs[sk.V_BASE:sk.V_BASE + 9] = tuple(sim.base)
     vs[sk.V_QNB:sk.V_QNB + 4] = vehicle._q_nb
     vs[sk.V_HOST:sk.V_HOST + 22] = tuple(sim.host)
+    vs[sk.V_DELTA:sk.V_DELTA + 3] = vehicle._delta
     w = tuple(float(v) for v in sim.env.omega_in_n)
     lim = sim.dynamics.saturate((math.inf, math.inf))
-    vg = np.array([sim.dt, sim._t0, float(sim.env.gravity_m_s2), *w, *lim])
+    vg = np.array([sim.dt, sim._t0, float(sim.env.gravity_m_s2), *w, *lim, *vehicle._q_earth])
     return vs, vg, tuple(sim.profile.packed), sim.dynamics.kernel_params
 
 
@@ -133,9 +139,11 @@ def _sensor_arrays(suite: SensorSuite) -> tuple:
     return ins_att, tuple(ins_gyro), tuple(gyro), enc, streams
 
 
-def run(values: dict[str, tuple[str, dict[str, Any]]], keep_commands: bool = False) -> tuple:
+def run(values: dict[str, tuple[str, dict[str, Any]]], keep_commands: bool = False,
+        record: Callable[[str, list], None] | None = None) -> tuple:
     """Run the chain (:func:`matches` must hold): (steps, simulated s, wall s, CPU s, the applied
-    command of every step 0 … n as tuples when ``keep_commands``, else None)."""
+    command of every step 0 … n as tuples when ``keep_commands``, else None); ``record``
+    (:class:`.recording.EngineBag`) gets every node's messages (:class:`_Publisher`)."""
     vehicle, suite, ctrl, ekf, controlled = _cores(values)
     n, rate = vehicle.config.n_steps, vehicle.config.sim_rate_hz
     ins_dec = suite._dec["ins_rate_hz"]
@@ -144,6 +152,8 @@ def run(values: dict[str, tuple[str, dict[str, Any]]], keep_commands: bool = Fal
     ekf_arrays = _ekf_arrays(ekf if ekf is not None else GyroBiasEkf(), ins_dec)
     ctrl_arrays = controller_arrays(ctrl if ctrl is not None else LosRateController())
     kept = []
+    publish = _Publisher(values, vehicle, suite, record) if record is not None else None
+    rec = np.empty((BLOCK if publish is not None else 0, sk.N_REC))
     c0, t0 = time.process_time(), time.perf_counter()
     for k in range(0, n + 1, BLOCK):
         k1 = min(k + BLOCK, n + 1)
@@ -154,8 +164,55 @@ def run(values: dict[str, tuple[str, dict[str, Any]]], keep_commands: bool = Fal
         sk.run_block(k, k1, n, stamps, rate, vs, vg, profile, gp, ins_dec, ins_att, att.take_block(a, m_ins),
                      ins_gyro, insg.take_block(b, m_ins), gyro, gyr.take_block(c, k1 - k), enc,
                      en.take_block(d, k1 - k), ekf_arrays, ekf is not None, ctrl_arrays, ctrl is not None,
-                     controlled, commands)
+                     controlled, commands, rec, publish is not None)
+        if publish is not None:
+            publish(k, stamps, rec, ins_dec)
         if keep_commands:
             kept.extend(map(tuple, commands.tolist()))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return n, n * vehicle.config.dt, wall, cpu, kept if keep_commands else None
+
+
+class _Publisher:
+    """What each node of the chain publishes at each step of a block, from the block's record
+    rows (:data:`.sighting_kernels.N_REC`), made by the nodes' own serialisation functions in
+    the stages' order (:mod:`.core_stages`): truth, sensors, EKF output, torque command."""
+
+    def __init__(self, values, vehicle: VehicleCore, suite: SensorSuite, record) -> None:
+        names = {exe: name for name, (exe, _) in values.items()}
+        self.record, self.names = record, names
+        v = values[names["vehicle_dynamics"]][1]
+        self.position_every, self.site = v["position_truth_every_steps"], vehicle.profile.site
+        self.cov = noise_covariances(suite.config)
+        self.rate = vehicle.config.sim_rate_hz
+
+    def __call__(self, k0: int, stamps: np.ndarray, rec: np.ndarray, ins_dec: int) -> None:
+        record, names, cov = self.record, self.names, self.cov
+        veh, sen = names["vehicle_dynamics"], names["sensor_models"]
+        ekf, ctrl = names.get("gyro_bias_ekf"), names.get("los_rate_controller")
+        for j, (t_ns, r) in enumerate(zip(stamps.tolist(), rec[:len(stamps)].tolist())):
+            k = k0 + j
+            t = t_ns * 1e-9
+            pos, vel = tuple(r[sk.R_POS:sk.R_POS + 3]), tuple(r[sk.R_VEL:sk.R_VEL + 3])
+            truth = VehicleTruth(k, t, None, r[sk.R_QNB:sk.R_QNB + 4], tuple(r[sk.R_W:sk.R_W + 3]),
+                                 tuple(r[sk.R_FB:sk.R_FB + 3]), r[sk.R_DELTA:sk.R_DELTA + 3], GIMBAL_ENCODER_JOINTS,
+                                 pos, vel, (0.0, *r[sk.R_EFF:sk.R_EFF + 2]), r[sk.R_QNM:sk.R_QNM + 4],
+                                 tuple(r[sk.R_WM:sk.R_WM + 3]), tuple(r[sk.R_FM:sk.R_FM + 3]))
+            due = self.position_every and k % self.position_every == 0
+            record(veh, truth_messages(t_ns, truth, "two_axis_gimbal", self.site if due else None))
+            if k % ins_dec == 0:
+                record(sen, sensor_messages(t_ns, InsSample(t, tuple(r[sk.R_INS_E:sk.R_INS_E + 3]),
+                                                            tuple(r[sk.R_INS_W:sk.R_INS_W + 3]),
+                                                            tuple(r[sk.R_INS_B:sk.R_INS_B + 3])), cov))
+            record(sen, sensor_messages(t_ns, GimbalGyroSample(t, r[sk.R_GYRO], r[sk.R_GYRO + 1],
+                                                               tuple(r[sk.R_GBIAS:sk.R_GBIAS + 2])), cov))
+            record(sen, sensor_messages(t_ns, EncoderSample(t, GIMBAL_ENCODER_JOINTS, tuple(r[sk.R_ENC:sk.R_ENC + 3]),
+                                                            tuple(r[sk.R_ENCR:sk.R_ENCR + 3])), cov))
+            if ekf is not None and r[sk.R_EKF]:
+                c = r[sk.R_EKF_COV:sk.R_EKF_COV + 9]
+                record(ekf, ekf_messages(int(round(t * 1e9)), r[sk.R_EKF_B:sk.R_EKF_B + 3],
+                                         r[sk.R_EKF_SIG:sk.R_EKF_SIG + 3], r[sk.R_EKF_Q:sk.R_EKF_Q + 4],
+                                         (c[0:3], c[3:6], c[6:9]),
+                                         r[sk.R_EKF_W:sk.R_EKF_W + 3] if r[sk.R_EKF_HAS_W] else None))
+            if ctrl is not None:
+                record(ctrl, torque_command_messages(t_ns, (r[sk.R_CMD], r[sk.R_CMD + 1])))

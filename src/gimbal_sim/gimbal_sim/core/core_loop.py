@@ -126,14 +126,13 @@ def run_core_loop(scenario: Scenario, keep_commands: bool = False,
 
     ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
     vehicle steps (what the step's messages carry: a run's metrics are computed from it);
-    ``record`` (:class:`.recording.EngineBag`) gets every node's messages. Unobserved,
-    unrecorded runs of a chain with a compiled runner (:mod:`.compiled`) run compiled
+    ``record`` (:class:`.recording.EngineBag`) gets every node's messages. Unobserved runs
+    of a chain with a compiled runner (:mod:`.compiled`) run compiled
     (``compiled=False``: always this loop)."""
     values = node_values(scenario)
-    runner = compiled_runner(values) if compiled and observer is None and record is None and not keep_latency \
-        else None
+    runner = compiled_runner(values) if compiled and observer is None and not keep_latency else None
     if runner is not None:
-        steps, sim_s, wall, cpu, commands = runner(values, keep_commands)
+        steps, sim_s, wall, cpu, commands = runner(values, keep_commands, record)
         return CoreLoopResult(steps, sim_s, wall, cpu, array("d"), commands)
     vehicle, controlled, stages = core_plan(scenario)
     return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer,

@@ -29,7 +29,7 @@ from gimbal_estimators.gyro_bias_ekf_kernels import (
 )
 from gimbal_kinematics.gimbal.host_kernels import inertial_rates
 from gimbal_kinematics.quat_kernels import (
-    euler321_from_quat, quat_canonical, quat_from_euler321, quat_from_rotation_vector, quat_mul,
+    euler321_from_quat, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector, quat_mul,
     rotation_vector_from_quat,
 )
 
@@ -46,11 +46,20 @@ N_EKF = 38
 (G_WX, G_WY, G_WZ, G_GATE, G_ENC_VAR, G_FLOOR_VAR, G_TAU_E, G_COV_PERIOD, G_MAX_GAP, G_MAX_GATED,
  G_N_PSD, G_QB_PSD, G_PE_VAR) = (*range(10), 10, 13, 16)
 N_EKF_PARAMS = 19
-# vehicle state (``vs``): x (4), base (9), q_nb (4), applied torque (2), host (22)
-V_X, V_BASE, V_QNB, V_TAU, V_HOST = 0, 4, 13, 17, 19
-N_VEHICLE = 41
-# vehicle parameters (``vg``): dt, t0, gravity, ω_in^n (3), torque limits (2)
-VG_DT, VG_T0, VG_G, VG_WX, VG_WY, VG_WZ, VG_LIM_A, VG_LIM_E = range(8)
+# vehicle state (``vs``): x (4), base (9), q_nb (4), applied torque (2), host (22), δ of the last step (3)
+V_X, V_BASE, V_QNB, V_TAU, V_HOST, V_DELTA = 0, 4, 13, 17, 19, 41
+N_VEHICLE = 44
+# vehicle parameters (``vg``): dt, t0, gravity, ω_in^n (3), torque limits (2), exp([ω_in dt×]) (4)
+VG_DT, VG_T0, VG_G, VG_WX, VG_WY, VG_WZ, VG_LIM_A, VG_LIM_E, VG_QE = range(9)
+N_VEHICLE_PARAMS = 12
+# a recorded step's row: the vehicle's truth (q_nb, ω_ib^b, f_b, δ, joint angles, rates, applied
+# torques, q_nm, ω_im^m, f_m), the gyro (q_m, r_m, true bias), encoders (angles, rates), the INS
+# (Euler angles, rates, true bias), the controller's command, the EKF's output (flag, bias, σ,
+# q_nm, P_ψψ, corrected-rate flag and rate)
+(R_QNB, R_W, R_FB, R_DELTA, R_POS, R_VEL, R_EFF, R_QNM, R_WM, R_FM, R_GYRO, R_GBIAS, R_ENC, R_ENCR, R_INS_E,
+ R_INS_W, R_INS_B, R_CMD, R_EKF, R_EKF_B, R_EKF_SIG, R_EKF_Q, R_EKF_COV, R_EKF_HAS_W, R_EKF_W) = (
+    0, 4, 7, 10, 13, 16, 19, 21, 25, 28, 31, 33, 35, 38, 41, 44, 47, 50, 52, 53, 56, 59, 63, 72, 73)
+N_REC = 76
 
 
 @njit(cache=True)
@@ -97,6 +106,12 @@ def vehicle_step(vs: np.ndarray, vg: np.ndarray, i: int, ta: float, te: float, l
     for j in range(22):
         vs[V_HOST + j] = host1[j]
     q = quat_canonical(quat_from_euler321(host1[1], host1[2], host1[3]))
+    q0 = (vs[V_QNB], vs[V_QNB + 1], vs[V_QNB + 2], vs[V_QNB + 3])
+    qe = (vg[VG_QE], vg[VG_QE + 1], vg[VG_QE + 2], vg[VG_QE + 3])
+    # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1))
+    d = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(q0), qe), q))
+    for j in range(3):
+        vs[V_DELTA + j] = d[j]
     for j in range(4):
         vs[V_QNB + j] = q[j]
     vs[V_TAU], vs[V_TAU + 1] = ta, te
@@ -301,17 +316,19 @@ def ekf_step(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P
 def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: float, vs: np.ndarray,
               vg: np.ndarray, profile: tuple, gp: np.ndarray, ins_dec: int, ins_att: tuple, z_att: np.ndarray,
               ins_gyro: tuple, z_ins: np.ndarray, gyro: tuple, z_gyro: np.ndarray, enc: tuple, z_enc: np.ndarray,
-              ekf: tuple, has_ekf: bool, ctrl: tuple, has_ctrl: bool, controlled: bool, commands: np.ndarray) -> None:
+              ekf: tuple, has_ekf: bool, ctrl: tuple, has_ctrl: bool, controlled: bool, commands: np.ndarray,
+              rec: np.ndarray, recording: bool) -> None:
     """Lockstep steps k0 … k1 − 1 (the vehicle steps while k < ``n_steps``), each step's
-    applied command into ``commands`` (k1 − k0, 2); noise rows: one per INS sample of the
-    block (``z_att``, ``z_ins``), one per step (``z_gyro``, ``z_enc``)."""
+    applied command into ``commands`` (k1 − k0, 2) and, ``recording``, what its nodes publish
+    into ``rec`` (k1 − k0, N_REC); noise rows: one per INS sample of the block (``z_att``,
+    ``z_ins``), one per step (``z_gyro``, ``z_enc``)."""
     lines, terms, starts = profile
     e_att, phi_att, drive_att = ins_att
     ef, eg, P, A_cov, P_keep, Pb0, queue = ekf
     cs, cg = ctrl
     omega_b, ins_rates, qr, qr_m = np.empty(3), np.zeros(3), np.empty(2), np.empty(2)
     pos, pos_m, rate_m = np.empty(3), np.empty(3), np.empty(3)
-    ins_euler = (0.0, 0.0, 0.0)
+    ins_euler = em = (0.0, 0.0, 0.0)
     ia = 0
     for k in range(k0, k1):
         j = k - k0
@@ -330,6 +347,12 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
         encoder_step(enc[0], enc[1], pos, z_enc[j], pos_m, rate_m)
         updated = has_ekf and ekf_step(ef, eg, P, A_cov, P_keep, Pb0, queue, t, ins_due, ins_rates, ins_euler,
                                        qr_m[0], qr_m[1], pos_m)
+        if recording:
+            rec[j, R_EKF] = 0.0
+            record_truth(rec[j], vs, vg, w, p, v)
+            record_sensors(rec[j], ins_due, em, ins_rates, ins_gyro[0], qr_m, gyro[0], pos_m, rate_m)
+            if updated:
+                record_ekf(rec[j], ef, P)
         ta = te = 0.0
         if has_ctrl:
             if updated and math.isfinite(t) and math.isfinite(ef[F_B0]) and math.isfinite(ef[F_B1]) \
@@ -338,8 +361,72 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
             ta, te = los_rate_step(cs, cg, k / rate_hz, qr_m[0], qr_m[1], pos_m[0], pos_m[1], pos_m[2], rate_m[0],
                                    rate_m[1], rate_m[2], ins_rates[0], ins_rates[1], ins_rates[2], cs[S_CMD_Q],
                                    cs[S_CMD_R])
+        if recording:
+            rec[j, R_CMD], rec[j, R_CMD + 1] = ta, te
         if not controlled:
             ta = te = 0.0
         commands[j, 0], commands[j, 1] = ta, te
         if k < n_steps:
             vehicle_step(vs, vg, k, ta, te, lines, terms, starts, gp)
+
+
+@njit(cache=True)
+def record_truth(r: np.ndarray, vs: np.ndarray, vg: np.ndarray, w: tuple, pos: tuple, vel: tuple) -> None:
+    """The vehicle's truth of the step into the row ``r`` (``VehicleCore.truth``: f_b = a_b −
+    C_bn (0, 0, g); q_nm = q_nb ⊗ q_z(ψt + ψm) ⊗ q_y(θm), ω_im^m and f_m along the chain)."""
+    h = vs[V_HOST:V_HOST + 22]
+    cr, sr = math.cos(h[1]), math.sin(h[1])
+    cp, sp = math.cos(h[2]), math.sin(h[2])
+    g = vg[VG_G]
+    f = (h[19] - (-sp) * g, h[20] - (sr * cp) * g, h[21] - (cr * cp) * g)
+    q_nb = (vs[V_QNB], vs[V_QNB + 1], vs[V_QNB + 2], vs[V_QNB + 3])
+    psi_a, theta = pos[0] + pos[1], pos[2]
+    ha, he = 0.5 * psi_a, 0.5 * theta
+    sa2, se2 = math.sin(ha), math.sin(he)
+    q_nm = quat_canonical(quat_mul(q_nb, (-sa2 * se2, math.cos(ha) * se2, sa2 * math.cos(he),
+                                          math.cos(ha) * math.cos(he))))
+    ca, sa = math.cos(psi_a), math.sin(psi_a)
+    ce, se = math.cos(theta), math.sin(theta)
+    u0 = ca * w[0] + sa * w[1]
+    u1 = -sa * w[0] + ca * w[1]
+    u2 = w[2] + vel[0] + vel[1]
+    g0 = ca * f[0] + sa * f[1]
+    g1 = -sa * f[0] + ca * f[1]
+    wm = (ce * u0 - se * u2, u1 + vel[2], se * u0 + ce * u2)
+    fm = (ce * g0 - se * f[2], g1, se * g0 + ce * f[2])
+    for i in range(3):
+        r[R_W + i], r[R_FB + i], r[R_DELTA + i] = w[i], f[i], vs[V_DELTA + i]
+        r[R_POS + i], r[R_VEL + i], r[R_WM + i], r[R_FM + i] = pos[i], vel[i], wm[i], fm[i]
+    for i in range(4):
+        r[R_QNB + i], r[R_QNM + i] = q_nb[i], q_nm[i]
+    r[R_EFF], r[R_EFF + 1] = vs[V_TAU], vs[V_TAU + 1]
+
+
+@njit(cache=True)
+def record_ekf(r: np.ndarray, ef: np.ndarray, P: np.ndarray) -> None:
+    """The EKF's output after an update into the row ``r`` (``GyroBiasEkf._output`` and its
+    ``corrected_rate``)."""
+    r[R_EKF] = 1.0
+    for i in range(3):
+        r[R_EKF_B + i] = ef[F_B0 + i]
+        r[R_EKF_SIG + i] = math.sqrt(P[3 + i, 3 + i])
+        r[R_EKF_W + i] = ef[F_WP + i]
+        for j in range(3):
+            r[R_EKF_COV + 3 * i + j] = P[i, j]
+    for i in range(4):
+        r[R_EKF_Q + i] = ef[F_QX + i]
+    r[R_EKF_HAS_W] = ef[F_HAS_W]
+
+
+@njit(cache=True)
+def record_sensors(r: np.ndarray, ins_due: bool, em: tuple, ins_rates: np.ndarray, ins_s: np.ndarray,
+                   qr_m: np.ndarray, gyro_s: np.ndarray, pos_m: np.ndarray, rate_m: np.ndarray) -> None:
+    """The sensors' samples of the step into the row ``r``, each true bias fixed + GM + random walk."""
+    for i in range(2):
+        r[R_GYRO + i] = qr_m[i]
+        r[R_GBIAS + i] = gyro_s[0, i] + gyro_s[1, i] + gyro_s[2, i]
+    for i in range(3):
+        r[R_ENC + i], r[R_ENCR + i] = pos_m[i], rate_m[i]
+        if ins_due:
+            r[R_INS_E + i], r[R_INS_W + i] = em[i], ins_rates[i]
+            r[R_INS_B + i] = ins_s[0, i] + ins_s[1, i] + ins_s[2, i]
