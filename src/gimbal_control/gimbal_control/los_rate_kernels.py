@@ -1,7 +1,7 @@
-"""Compiled per-sample kernel of paper 1's LOS rate controller (numba ``njit``): the maths of
-:meth:`.los_rate_controller.LosRateController.step`, operation for operation, over a state
-and a parameter vector made from a constructed controller (:func:`controller_arrays`), for
-the engine's compiled sighting loop (``test_control_kernels`` checks it against the class).
+"""Compiled per-sample kernel of paper 1's LOS rate controller (numba ``njit``):
+:class:`.los_rate_controller.LosRateController` holds the state vector (``S_*``) and the
+parameter vector (``G_*``, :func:`controller_params`) and calls :func:`los_rate_step` once a
+sample; the engine's compiled sighting loop steps copies of them (:func:`controller_arrays`).
 
 One sample at stamp t (the class's docstring has the derivation), c, s = cos, sin θm
 (|c| floored), w the turret's inertial rate in the outer gimbal frame::
@@ -22,25 +22,28 @@ import numpy as np
 from numba import njit
 
 # state
+# state: integrators, last rate error, last stamp (NaN: none), command, bias (q, r) subtracted,
+# outer-loop rate command, counters, last joint-rate command and unsaturated command
 S_IA, S_IE, S_EA_PREV, S_EE_PREV, S_LAST_T, S_TAU_A, S_TAU_E, S_BIAS_Q, S_BIAS_R, S_CMD_Q, S_CMD_R, \
-    S_REJECTED_INPUTS, S_REJECTED_STAMPS, S_SINGULAR, S_SATURATED, S_RESETS = range(16)
-N_STATE = 16
+    S_REJECTED_INPUTS, S_REJECTED_STAMPS, S_SINGULAR, S_SATURATED, S_RESETS, S_JR_A, S_JR_E, S_UNSAT_A, \
+    S_UNSAT_E = range(20)
+N_STATE = 20
 # parameters (A′ rows at G_A0, G_A1, four each)
 G_KP, G_KI, G_B00, G_B01, G_B10, G_B11, G_TRIM_A, G_TRIM_E, G_LIM_A, G_LIM_E, G_IMAX_A, G_IMAX_E, G_AW_MODE, \
     G_FEEDBACK, G_MIN_COS, G_DT_NOMINAL, G_DT_MAX, G_CLOCK_JUMP, G_A0, G_A1 = (*range(18), 18, 22)
 N_PARAMS = 26
 
 
-def controller_arrays(core) -> tuple[np.ndarray, np.ndarray]:
-    """(state, parameters) of a :class:`.los_rate_controller.LosRateController` as it stands."""
-    p = core.params
+def initial_state() -> np.ndarray:
+    """The state of a controller that has stepped no sample."""
     s = np.zeros(N_STATE)
-    s[S_IA], s[S_IE] = core.integrator
-    s[S_EA_PREV], s[S_EE_PREV] = core._e_prev
-    s[S_LAST_T] = math.nan if core.last_t is None else core.last_t
-    s[S_TAU_A], s[S_TAU_E] = core.command
-    s[S_BIAS_Q], s[S_BIAS_R] = core.bias_estimate_qr
-    s[S_CMD_Q], s[S_CMD_R] = core._rate_cmd
+    s[S_LAST_T] = math.nan
+    return s
+
+
+def controller_params(core) -> np.ndarray:
+    """The parameter vector of a :class:`.los_rate_controller.LosRateController`."""
+    p = core.params
     g = np.zeros(N_PARAMS)
     g[G_KP], g[G_KI] = core.kp, core.ki
     g[G_B00], g[G_B01], g[G_B10], g[G_B11] = core._b00, core._b01, core._b10, core._b11
@@ -50,7 +53,13 @@ def controller_arrays(core) -> tuple[np.ndarray, np.ndarray]:
     g[G_AW_MODE], g[G_FEEDBACK], g[G_MIN_COS] = core._aw_mode, p.feedback, p.min_cos_elevation
     g[G_DT_NOMINAL], g[G_DT_MAX], g[G_CLOCK_JUMP] = core.dt_nominal, core._dt_max, p.clock_jump_s
     g[G_A0:G_A0 + 4], g[G_A1:G_A1 + 4] = core._a
-    return s, g
+    return g
+
+
+def controller_arrays(core) -> tuple[np.ndarray, np.ndarray]:
+    """(state, parameters) of a :class:`.los_rate_controller.LosRateController` as it stands,
+    copies for a compiled loop to step."""
+    return core._s.copy(), core._g.copy()
 
 
 @njit(cache=True)
@@ -84,7 +93,8 @@ def los_rate_step(s: np.ndarray, g: np.ndarray, t: float, q_g: float, r_g: float
     first = math.isnan(last)
     if not first and t <= last:
         if last - t > g[G_CLOCK_JUMP]:
-            s[S_IA] = s[S_IE] = s[S_EA_PREV] = s[S_EE_PREV] = s[S_TAU_A] = s[S_TAU_E] = 0.0
+            for i in (S_IA, S_IE, S_EA_PREV, S_EE_PREV, S_TAU_A, S_TAU_E, S_JR_A, S_JR_E, S_UNSAT_A, S_UNSAT_E):
+                s[i] = 0.0
             s[S_RESETS] += 1.0
             first = True
         else:
@@ -109,6 +119,7 @@ def los_rate_step(s: np.ndarray, g: np.ndarray, t: float, q_g: float, r_g: float
     w3 = wr + psi_t_d
     psi_md = (r_md - sn * w1) / c - w3
     th_md = q_md - w2
+    s[S_JR_A], s[S_JR_E] = psi_md, th_md
     e_a = psi_md - ((r_g - sn * w1) / c - w3)
     e_e = th_md - (q_g - w2)
     i_a_old, i_e_old = s[S_IA], s[S_IE]
@@ -139,6 +150,7 @@ def los_rate_step(s: np.ndarray, g: np.ndarray, t: float, q_g: float, r_g: float
             sat_a = tau_a > lim_a or tau_a < -lim_a
             sat_e = tau_e > lim_e or tau_e < -lim_e
     s[S_IA], s[S_IE] = i_a, i_e
+    s[S_UNSAT_A], s[S_UNSAT_E] = tau_a, tau_e
     if sat_a or sat_e:
         s[S_SATURATED] += 1.0
         tau_a = lim_a if tau_a > lim_a else -lim_a if tau_a < -lim_a else tau_a
