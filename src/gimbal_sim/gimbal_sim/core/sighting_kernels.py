@@ -33,7 +33,7 @@ from gimbal_kinematics.quat_kernels import (
     rotation_vector_from_quat,
 )
 
-from ..world.plant.sighting_plant_kernels import gimbal_step
+from ..world.plant.sighting_plant_kernels import gimbal_step, inner_gimbal_truth
 from ..world.sensors.sensor_kernels import encoder_step, inertial_rate, ins_attitude
 
 # EKF scalar state (``ef``)
@@ -64,25 +64,23 @@ N_REC = 76
 
 @njit(cache=True)
 def vehicle_truth(vs: np.ndarray, vg: np.ndarray) -> tuple:
-    """(euler as the sensors read it from the Imu quaternion, ω_ib^b, joint angles (ψt, ψm, θm),
-    joint rates, (q, r) of ω_im^m) of the current step (``VehicleCore.truth``)."""
+    """(euler as the sensors read it from the Imu quaternion, ω_ib^b, f_b, joint angles (ψt, ψm,
+    θm), joint rates, the inner gimbal's (q_nm, ω_im^m, f_m)) of the current step
+    (``VehicleCore.truth``: f_b = a_b − C_bn (0, 0, g))."""
     h = vs[V_HOST:V_HOST + 22]
     x = vs[V_X:V_X + 4]
     cr, sr = math.cos(h[1]), math.sin(h[1])
     cp, sp = math.cos(h[2]), math.sin(h[2])
     w = inertial_rates(h[10], h[11], h[12], h[13], h[14], h[15], h[3], vg[VG_WX], vg[VG_WY], vg[VG_WZ],
                        cr, sr, cp, sp)
-    q = vs[V_QNB:V_QNB + 4]
+    g = vg[VG_G]
+    f = (h[19] - (-sp) * g, h[20] - (sr * cp) * g, h[21] - (cr * cp) * g)
+    q = (vs[V_QNB], vs[V_QNB + 1], vs[V_QNB + 2], vs[V_QNB + 3])
     euler = euler321_from_quat(q[0], q[1], q[2], q[3])
     pos = (h[16], x[0], x[1])
     vel = (h[17], x[2], x[3])
-    psi_a = pos[0] + pos[1]
-    ca, sa = math.cos(psi_a), math.sin(psi_a)
-    ce, se = math.cos(pos[2]), math.sin(pos[2])
-    u0 = ca * w[0] + sa * w[1]
-    u1 = -sa * w[0] + ca * w[1]
-    u2 = w[2] + vel[0] + vel[1]
-    return euler, (w[0], w[1], w[2]), pos, vel, (u1 + vel[2], se * u0 + ce * u2)
+    w3 = (w[0], w[1], w[2])
+    return euler, w3, f, pos, vel, inner_gimbal_truth(q, pos, vel, w3, f)
 
 
 @njit(cache=True)
@@ -333,7 +331,7 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
     for k in range(k0, k1):
         j = k - k0
         t = stamps_ns[j] * 1e-9
-        euler, w, p, v, wm = vehicle_truth(vs, vg)
+        euler, w, f, p, v, inner = vehicle_truth(vs, vg)
         ins_due = k % ins_dec == 0
         if ins_due:
             em = ins_attitude(e_att, phi_att, drive_att, z_att[ia], euler[0], euler[1], euler[2])
@@ -341,7 +339,7 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
             inertial_rate(ins_gyro[0], ins_gyro[1], omega_b, z_ins[ia], ins_rates)
             ins_euler = euler321_from_quat(*quat_canonical(quat_from_euler321(em[0], em[1], em[2])))
             ia += 1
-        qr[0], qr[1] = wm
+        qr[0], qr[1] = inner[1][1], inner[1][2]
         inertial_rate(gyro[0], gyro[1], qr, z_gyro[j], qr_m)
         pos[0], pos[1], pos[2] = p
         encoder_step(enc[0], enc[1], pos, z_enc[j], pos_m, rate_m)
@@ -349,7 +347,7 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
                                        qr_m[0], qr_m[1], pos_m)
         if recording:
             rec[j, R_EKF] = 0.0
-            record_truth(rec[j], vs, vg, w, p, v)
+            record_truth(rec[j], vs, w, f, p, v, inner)
             record_sensors(rec[j], ins_due, em, ins_rates, ins_gyro[0], qr_m, gyro[0], pos_m, rate_m)
             if updated:
                 record_ekf(rec[j], ef, P)
@@ -371,34 +369,15 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
 
 
 @njit(cache=True)
-def record_truth(r: np.ndarray, vs: np.ndarray, vg: np.ndarray, w: tuple, pos: tuple, vel: tuple) -> None:
-    """The vehicle's truth of the step into the row ``r`` (``VehicleCore.truth``: f_b = a_b −
-    C_bn (0, 0, g); q_nm = q_nb ⊗ q_z(ψt + ψm) ⊗ q_y(θm), ω_im^m and f_m along the chain)."""
-    h = vs[V_HOST:V_HOST + 22]
-    cr, sr = math.cos(h[1]), math.sin(h[1])
-    cp, sp = math.cos(h[2]), math.sin(h[2])
-    g = vg[VG_G]
-    f = (h[19] - (-sp) * g, h[20] - (sr * cp) * g, h[21] - (cr * cp) * g)
-    q_nb = (vs[V_QNB], vs[V_QNB + 1], vs[V_QNB + 2], vs[V_QNB + 3])
-    psi_a, theta = pos[0] + pos[1], pos[2]
-    ha, he = 0.5 * psi_a, 0.5 * theta
-    sa2, se2 = math.sin(ha), math.sin(he)
-    q_nm = quat_canonical(quat_mul(q_nb, (-sa2 * se2, math.cos(ha) * se2, sa2 * math.cos(he),
-                                          math.cos(ha) * math.cos(he))))
-    ca, sa = math.cos(psi_a), math.sin(psi_a)
-    ce, se = math.cos(theta), math.sin(theta)
-    u0 = ca * w[0] + sa * w[1]
-    u1 = -sa * w[0] + ca * w[1]
-    u2 = w[2] + vel[0] + vel[1]
-    g0 = ca * f[0] + sa * f[1]
-    g1 = -sa * f[0] + ca * f[1]
-    wm = (ce * u0 - se * u2, u1 + vel[2], se * u0 + ce * u2)
-    fm = (ce * g0 - se * f[2], g1, se * g0 + ce * f[2])
+def record_truth(r: np.ndarray, vs: np.ndarray, w: tuple, f: tuple, pos: tuple, vel: tuple, inner: tuple) -> None:
+    """The vehicle's truth of the step (:func:`vehicle_truth`, the step's δ and applied
+    torques) into the row ``r``."""
+    q_nm, wm, fm = inner
     for i in range(3):
         r[R_W + i], r[R_FB + i], r[R_DELTA + i] = w[i], f[i], vs[V_DELTA + i]
         r[R_POS + i], r[R_VEL + i], r[R_WM + i], r[R_FM + i] = pos[i], vel[i], wm[i], fm[i]
     for i in range(4):
-        r[R_QNB + i], r[R_QNM + i] = q_nb[i], q_nm[i]
+        r[R_QNB + i], r[R_QNM + i] = vs[V_QNB + i], q_nm[i]
     r[R_EFF], r[R_EFF + 1] = vs[V_TAU], vs[V_TAU + 1]
 
 
