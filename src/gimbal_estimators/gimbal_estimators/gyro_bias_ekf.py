@@ -85,7 +85,6 @@ from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, qua
 
 from . import gyro_bias_ekf_kernels as kernels
 from . import kalman
-from .gyro_bias_ekf_model import encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler
 from .gyro_bias_ekf_params import GyroBiasEkfParams
 
 _DEG = math.pi / 180.0
@@ -490,10 +489,7 @@ class GyroBiasEkf:
         angles = self._interp(self._enc_hist, t_ins)
         if angles is None:
             return None
-        q_nb = quat_nb_from_euler(euler)
-        q_meas = measured_quat_nm(q_nb, angles)
-        Je = ins_error_jacobian(euler)
-        Jenc = encoder_error_jacobian(q_nb, q_meas)
+        q_meas, Je, Jenc = kernels.measurement(tuple(euler), tuple(angles))
         R = kernels.measurement_cov(Jenc, Je, self._enc_var, self._floor_var, self._pe_var, self.n_states == 6)
         if self._q is None:
             return self._align(t_ins, q_meas, Je, R)

@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from gimbal_kinematics.quat_kernels import quat_from_rotation_vector, quat_mul
+from gimbal_kinematics.quat_kernels import quat_from_euler321, quat_from_rotation_vector, quat_mul
 
 #: |cos θm| below which eq. 4 is singular (the core's ``_SINGULAR_COS``).
 SINGULAR_COS = 1e-3
@@ -67,6 +67,41 @@ def mat_mul_t(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def symmetrize(a: np.ndarray) -> np.ndarray:
     """½(a + aᵀ)."""
     return 0.5 * (a + a.T)
+
+
+@njit(cache=True)
+def measured_quat_nm(q_nb: tuple, a0: float, a1: float, a2: float) -> tuple:
+    """(x, y, z, w) of C_nm = C_nb C_bm(ψt, ψm, θm): q_nb ⊗ q_z(ψt + ψm) ⊗ q_y(θm)."""
+    ha, he = 0.5 * (a0 + a1), 0.5 * a2
+    ca, sa, ce, se = math.cos(ha), math.sin(ha), math.cos(he), math.sin(he)
+    return quat_mul(q_nb, (-sa * se, ca * se, sa * ce, ca * ce))
+
+
+@njit(cache=True)
+def ins_error_jacobian(pitch: float, yaw: float) -> np.ndarray:
+    """J_e (3, 3) = [C_nb e1, rot3(ψ)ᵀ e2, e3]: n-frame rotation per Euler-angle error."""
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([[cp * cy, -sy, 0.0], [cp * sy, cy, 0.0], [-sp, 0.0, 1.0]])
+
+
+@njit(cache=True)
+def encoder_error_jacobian(q_nb: tuple, q_nm: tuple) -> np.ndarray:
+    """(3, 3) = [u, u, v], u = C_nb e3 (turret and azimuth), v = C_nm e2 (elevation)."""
+    bx, by, bz, bw = q_nb
+    mx, my, mz, mw = q_nm
+    u0, u1, u2 = 2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by)
+    v0, v1, v2 = 2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw)
+    return np.array([[u0, u0, v0], [u1, u1, v1], [u2, u2, v2]])
+
+
+@njit(cache=True)
+def measurement(euler: tuple, angles: tuple) -> tuple:
+    """(q_meas, J_e, J_enc) of an INS attitude read as 3-2-1 ``euler`` and the encoder
+    ``angles`` (ψt, ψm, θm) (:mod:`.gyro_bias_ekf_model`, "Measurement")."""
+    q_nb = quat_from_euler321(euler[0], euler[1], euler[2])
+    q_meas = measured_quat_nm(q_nb, angles[0], angles[1], angles[2])
+    return q_meas, ins_error_jacobian(euler[1], euler[2]), encoder_error_jacobian(q_nb, q_meas)
 
 
 @njit(cache=True)

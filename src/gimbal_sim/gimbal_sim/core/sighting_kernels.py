@@ -25,7 +25,7 @@ from numba import njit
 
 from gimbal_control.los_rate_kernels import S_BIAS_Q, S_BIAS_R, S_CMD_Q, S_CMD_R, los_rate_step
 from gimbal_estimators.gyro_bias_ekf_kernels import (
-    SINGULAR_COS, a_matrix, align_cov, joseph_update3, measurement_cov, mechanize, propagate,
+    SINGULAR_COS, a_matrix, align_cov, joseph_update3, measurement, measurement_cov, mechanize, propagate,
 )
 from gimbal_kinematics.gimbal.host_kernels import inertial_rates
 from gimbal_kinematics.quat_kernels import (
@@ -193,23 +193,6 @@ def ekf_integrate(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarr
 
 
 @njit(cache=True)
-def _measurement(euler: tuple, angles: tuple) -> tuple:
-    """(q_meas, J_e, J_enc) of an INS attitude read as ``euler`` and the encoder angles
-    (``gyro_bias_ekf_model``: measured_quat_nm, ins_error_jacobian, encoder_error_jacobian)."""
-    bx, by, bz, bw = quat_from_euler321(euler[0], euler[1], euler[2])
-    ha, he = 0.5 * (angles[0] + angles[1]), 0.5 * angles[2]
-    ca, sa, ce, se = math.cos(ha), math.sin(ha), math.cos(he), math.sin(he)
-    mx, my, mz, mw = quat_mul((bx, by, bz, bw), (-sa * se, ca * se, sa * ce, ca * ce))
-    cp, sp = math.cos(euler[1]), math.sin(euler[1])
-    cy, sy = math.cos(euler[2]), math.sin(euler[2])
-    Je = np.array([[cp * cy, -sy, 0.0], [cp * sy, cy, 0.0], [-sp, 0.0, 1.0]])
-    u0, u1, u2 = 2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by)
-    v0, v1, v2 = 2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw)
-    Jenc = np.array([[u0, u0, v0], [u1, u1, v1], [u2, u2, v2]])
-    return (mx, my, mz, mw), Je, Jenc
-
-
-@njit(cache=True)
 def _align(ef: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P_keep: np.ndarray, Pb0: np.ndarray, eg: np.ndarray,
            q_meas: tuple, Je: np.ndarray, R: np.ndarray) -> None:
     """Ĉ = C_meas and its covariance (``GyroBiasEkf._align``)."""
@@ -248,7 +231,7 @@ def ekf_update(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarray,
                Pb0: np.ndarray, euler: tuple, angles: tuple) -> None:
     """The update with the INS attitude of the gyro stamp just integrated (``GyroBiasEkf._try_update``)."""
     n = P.shape[0]
-    q_meas, Je, Jenc = _measurement(euler, angles)
+    q_meas, Je, Jenc = measurement(euler, angles)
     R = measurement_cov(Jenc, Je, eg[G_ENC_VAR], eg[G_FLOOR_VAR], eg[G_PE_VAR:G_PE_VAR + 3], n == 6)
     if ef[F_ALIGNED] == 0.0:
         _align(ef, P, A_cov, P_keep, Pb0, eg, q_meas, Je, R)
