@@ -31,7 +31,7 @@ from gimbal_control.wire import encoder_fusion_messages, geo_pointer_messages, t
 from gimbal_estimators.wire import ekf_messages
 
 from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
-from ..world.operator_model import OperatorModelParams, SightOperator
+from ..world.operator_model import operator_core
 from ..world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
     SensorSuiteConfig,
@@ -172,12 +172,11 @@ def ekf_stage(ekf: GyroBiasEkf, name: str = "gyro_bias_ekf") -> Callable[[Bus], 
 
 def operator_stage(values: dict[str, Any], name: str = "operator") -> Callable[[Bus], None]:
     """``operator``: at each of its steps (``rate_hz``) the command and pointing error from the
-    true sight attitude of the step (the node's ``_on_truth``); None on the bus between."""
-    core = SightOperator(OperatorModelParams.from_values(values), values["capture_s"], values["lat_deg"],
-                         values["earth_rate"])
+    true sight attitude of the step, or its scripted step (``script: step``) (the node's
+    ``_on_truth``); None on the bus between."""
+    core = operator_core(values)
     rate = values["sim_rate_hz"]
     every = steps_per_sample(values, "rate_hz")
-    nan3 = (math.nan,) * 3
 
     def stage(bus: Bus) -> None:
         if bus.k % every:
@@ -186,7 +185,7 @@ def operator_stage(values: dict[str, Any], name: str = "operator") -> Callable[[
         stamp = step_stamp_ns(bus.k, rate)
         q, r = core.step(stamp, bus.truth.quat_nm)
         bus.operator = (stamp, q, r)
-        bus.operator_error = (core.model.error, *core.model.error_qr) if core.target_i is not None else nan3
+        bus.operator_error = core.pointing_error()
         if bus.record is not None:
             bus.record(name, operator_messages(stamp, q, r, bus.operator_error))
     return stage

@@ -14,7 +14,9 @@ DESCRIPTION = (
     "inertially fixed target (the LOS captured capture_s after the start); beyond tolerance_mrad it reacts after "
     "reaction_time_s and slews the LOS back at a rate proportional to the error (gain_1_s, at most "
     "peak_rate_deg_s) until settle_band_mrad. Publishes /operator/los_rate (sight frame, rad/s, y = q, z = r) "
-    "and ~/pointing_error (x = angle, y, z = its components about m-y, m-z) [rad] at rate_hz."
+    "and ~/pointing_error (x = angle, y, z = its components about m-y, m-z) [rad] at rate_hz. "
+    "script: step instead publishes a scripted stick: step_rate_deg_s (q, r) from step_start_s for "
+    "step_duration_s, zero before and after (no target: the pointing error is NaN)."
 )
 _DEFAULT = OperatorModelParams()
 PARAMS = (
@@ -32,6 +34,11 @@ PARAMS = (
     Param("lat_deg", 0.0, "site latitude [deg] (the earth rate that turns NED under the inertial target)",
           -89.999, 89.999),
     Param("earth_rate", True, "NED turns with the earth (vehicle_dynamics' earth_rate)"),
+    Param("script", "watch", "watch: the simulated operator above; step: a scripted step command (step_*)",
+          choices=("watch", "step")),
+    Param("step_start_s", 30.0, "script step: the command starts this long after the first step [s]", 0.0, 1e6),
+    Param("step_duration_s", 10.0, "script step: and lasts this long [s]", 0.0, 1e6),
+    Param("step_rate_deg_s", [2.0, 5.0], "script step: the LOS rate command (q: elevation, r: azimuth) [deg/s]"),
     Param("progress_every_steps", 10, "report on ~/progress (time of the next step needed) every N steps; "
           "vehicle_dynamics waits for and paces on it", 1, 10**6),
     Param("wait_for_subscribers", 0, "matched subscriptions each output needs before ~/progress reports ready",
