@@ -1,6 +1,7 @@
-"""Paper 5 flexure experiment: the ship simulation (gimbal_sim cores, no ROS) feeding
+"""Paper 5 flexure experiment: the ship simulation on the engine's one loop (the
+``sensor_models`` stage, :func:`..core.core_loop.run_stages`, no ROS) feeding
 :class:`~gimbal_estimators.flexure_kf.FlexureKf`, one filter per quasi-static model on the
-same LGU samples, scored against the simulator's flexure truth.
+same LGU samples, scored against the simulator's flexure truth at every filter epoch.
 
 Command line (prints the metrics of both models; with several seeds, a Monte Carlo table)::
 
