@@ -65,13 +65,6 @@ def nees_per_step(series: list[dict[str, list[float]]], dof: int = 2) -> dict[st
             "below": float(np.mean(avg < lo)), "nees": avg, "t_s": np.array(t)}
 
 
-#: A declaration: scenario ``sighting_slew``'s variants on the one engine (``engine: core``, each
-#: run's bag and ``slew`` report) or in the node graph (``engine: graph``).
-CAMPAIGN = ExperimentCampaign(name="slew", variants=MODES, defaults=dict(DEFAULTS), run=None,
-                              graph=GraphEquivalent("sighting_slew", {m: m for m in MODES}, tuple(DEFAULTS),
-                                                    scenario_values))
-
-
 def summarize(runs: dict[str, list[tuple[int, dict]]]) -> str:
     """Per variant: each slew figure's mean and 95 % interval over the runs, the per-step NEES
     while slewing averaged over the runs (:func:`nees_per_step`), and the runs' time-averaged
@@ -96,6 +89,20 @@ def summarize(runs: dict[str, list[tuple[int, dict]]]) -> str:
         lines.append(f"  bias NEES after 30 s (2 dof)           {v['mean']:.3f}  95 % band "
                      f"[{v['band95'][0]:.3f}, {v['band95'][1]:.3f}]: {v['verdict']}")
     return "\n".join(lines)
+
+
+def campaign_table(runs: dict[str, list[dict]]) -> str:
+    """:func:`summarize` of a campaign's runs (each variant's report metrics, in order), the
+    table its campaign report carries."""
+    return summarize({v: list(enumerate(ms)) for v, ms in runs.items()})
+
+
+#: A declaration: scenario ``sighting_slew``'s variants on the one engine (``engine: core``, each
+#: run's bag and ``slew`` report) or in the node graph (``engine: graph``).
+CAMPAIGN = ExperimentCampaign(name="slew", variants=MODES, defaults=dict(DEFAULTS), run=None,
+                              graph=GraphEquivalent("sighting_slew", {m: m for m in MODES}, tuple(DEFAULTS),
+                                                    scenario_values),
+                              table=campaign_table)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
