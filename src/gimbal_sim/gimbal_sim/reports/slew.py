@@ -81,7 +81,8 @@ def slew_figures(t: np.ndarray, w_qr: np.ndarray, b_qr: np.ndarray, cmd: tuple[f
 
 def slew_analysis(bag_dir: Path) -> dict[str, Any]:
     """The run's figures: ``slew`` (:func:`slew_figures`), ``sighting`` and ``slew_nees``
-    (module docstring), with the series plotted (``t``, ``rate_qr``, ``command``)."""
+    (module docstring), with the series plotted (``t``, ``rate_qr``, ``command``); ``slew``
+    None (and a ``note``) when the run ends before the command."""
     start, duration, cmd, rate = step_command(bag_dir)
     series, _ = load_series(bag_dir, {TRUTH_LOS, TRUTH_BIAS})
     truth, bias = series.get(TRUTH_LOS), series.get(TRUTH_BIAS)
@@ -92,12 +93,12 @@ def slew_analysis(bag_dir: Path) -> dict[str, Any]:
     w = {round(t * 1e9): (m.angular_velocity.y, m.angular_velocity.z) for t, m in truth}
     b = {round(t * 1e9): (y, z) for t, (_, y, z) in zip(times(bias), vectors(bias))}
     stamps = [s for s in sorted(w) if s in b and (s - round(t0 * 1e9)) * 1e-9 >= start - 0.5 / rate]
-    if len(stamps) < 2:
-        raise BagError(f"{bag_dir}: the run ends before its step command ({start:g} s)")
+    a = analyse(bag_dir)
+    if len(stamps) < 2:  # the run ended before the command: its sighting figures only
+        return {"slew": None, "sighting": _figures(a), "note": f"the run ends before its step command ({start:g} s)"}
     t = np.array([(s - stamps[0]) * 1e-9 for s in stamps])
     slew = slew_figures(t, np.array([w[s] for s in stamps]), np.array([b[s] for s in stamps]), cmd,
                         max(1, int(round(SMOOTH_S * rate))))
-    a = analyse(bag_dir)
     out: dict[str, Any] = {"slew": slew, "sighting": _figures(a), "t": t, "command": cmd,
                            "rate_qr": np.array([w[s] for s in stamps])}
     if "nees_bias" in a:
@@ -113,6 +114,9 @@ def slew_report(bag_dir: Path, out: Path) -> dict:
     metrics = generic_report(bag_dir, out)
     a = slew_analysis(bag_dir)
     metrics.update(slew=a["slew"], sighting=a["sighting"])
+    if a["slew"] is None:
+        metrics["slew_note"] = a["note"]
+        return metrics
     if "slew_nees" in a:
         metrics["slew_nees"] = a["slew_nees"]
     deg = np.degrees(a["rate_qr"])
@@ -126,7 +130,12 @@ def slew_report(bag_dir: Path, out: Path) -> dict:
 
 def slew_comparison(runs: dict[str, Path], out: Path) -> dict:
     """Variants side by side: each case's slew figures in one table."""
-    cases = {name: slew_analysis(bag)["slew"] for name, bag in runs.items()}
+    analysed = {name: slew_analysis(bag) for name, bag in runs.items()}
+    cases = {name: a["slew"] for name, a in analysed.items()}
+    if any(c is None for c in cases.values()):
+        note = next(a["note"] for a in analysed.values() if a["slew"] is None)
+        return {"cases": cases, "table": f"Step command: none ({note})", "plots": [],
+                "runs": {k: str(v) for k, v in runs.items()}}
     keys = list(next(iter(cases.values())))
     rows = [("figure", *cases)] + [(key, *(f"{c[key]:+.4f}" for c in cases.values())) for key in keys]
     widths = [max(len(str(r[i])) for r in rows) for i in range(len(rows[0]))]
