@@ -100,8 +100,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m gimbal_sim.experiments.sighting_loop",
         description="Paper 1 headline experiment: LOS drift without and with the gyro-bias EKF fed back, and "
-                    "with the LOS-hold outer loop; a Monte Carlo over seeds of scenario sighting_land_vehicle "
-                    "(variants ekf_off, ekf_on, los_hold), run as a campaign (gimbal-campaign's engine: --jobs, "
+                    "with the LOS-hold outer loop; a Monte Carlo over seeds of scenarios sighting_land_vehicle "
+                    "(ekf_off, ekf_on) and sighting_los_hold, run as campaigns (gimbal-campaign's engine: --jobs, "
                     "--scheduler, --out, --resume) on the one engine (default, no ROS) or the real nodes "
                     "(--engine graph); each run keeps its bag and report, the table comes from the reports.")
     ap.add_argument("--monte-carlo", type=int, default=1, metavar="N", help="runs per mode (seeds 1..N)")
