@@ -20,7 +20,9 @@ class OperatorNodeParams:
     target (the LOS captured capture_s after the start); beyond tolerance_mrad it reacts after reaction_time_s
     and slews the LOS back at a rate proportional to the error (gain_1_s, at most peak_rate_deg_s) until
     settle_band_mrad. Publishes /operator/los_rate (sight frame, rad/s, y = q, z = r) and ~/pointing_error (x =
-    angle, y, z = its components about m-y, m-z) [rad] at rate_hz.
+    angle, y, z = its components about m-y, m-z) [rad] at rate_hz. script: step instead publishes a scripted stick:
+    step_rate_deg_s (q, r) from step_start_s for step_duration_s, zero before and after (no target: the pointing
+    error is NaN).
     """
 
     sim_rate_hz: float = param(1000.0, "lockstep rate (the truth's)", 1.0, 100000.0, unit="Hz")
@@ -38,6 +40,13 @@ class OperatorNodeParams:
     lat_deg: float = param(0.0, "site latitude (the earth rate that turns NED under the inertial target)",
         -89.999, 89.999, unit="deg")
     earth_rate: bool = param(True, "NED turns with the earth (vehicle_dynamics' earth_rate)")
+    script: str = param("watch", "watch: the simulated operator above; step: a scripted step command (step_*)",
+        choices=("watch", "step"))
+    step_start_s: float = param(30.0, "script step: the command starts this long after the first step", 0.0, 1e6,
+        unit="s")
+    step_duration_s: float = param(10.0, "script step: and lasts this long", 0.0, 1e6, unit="s")
+    step_rate_deg_s: tuple[float, ...] = param((2.0, 5.0), "script step: the LOS rate command (q: elevation, "
+        "r: azimuth)", unit="deg/s")
     progress_every_steps: int = same_as(SHARED["progress_every_steps"])
     wait_for_subscribers: int = same_as(SHARED["wait_for_subscribers"])
 
