@@ -1,0 +1,198 @@
+"""The platform chain's cores, built as :mod:`.core_loop` builds them, and their states
+packed into the arrays :func:`.compiled_platform.platform_block` steps.
+
+:func:`chain_values` says whether a scenario's node set is the chain the compiled block
+loop reproduces (any other falls back to the Python loop); :func:`build_chain` builds the
+cores from the nodes' parameter values (so a refused value is refused by the same check)
+and packs them (:class:`PlatformChain`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gimbal_control import servo_kernels as sk
+from gimbal_control.platform_servo import _LOCK_COS, PlatformServo, PlatformServoParams
+from gimbal_estimators import navigator_kernels as nk
+from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
+from gimbal_estimators.platform_navigator import PlatformNavigator
+from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
+from gimbal_kinematics.frames import PLATFORM_JOINTS
+from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
+from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
+from gimbal_kinematics.wgs84 import OMEGA_IE
+
+from .loop_plan import node_values
+from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
+from ..world.sensors.encoder import EncoderModel
+from ..world.sensors.inertial_core import InertialErrorCore
+from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
+
+CHAIN = ("vehicle_dynamics", "sensor_models", "platform_navigator", "platform_servo")
+
+#: The block's output row of a step (recorded runs): truth (joint angles, rates, efforts,
+#: q_ns, ω_s, f_s), the resolver and IMU samples, the navigator (output this step, accepted
+#: samples, L, λ, h, v, held command and whether there is one, ψ̂, torquing) and the servo
+#: (tick result, ticks, voltages, signals, φz, φ̇z).
+OUT_COLUMNS = (
+    "pos0", "pos1", "pos2", "pos3", "vel0", "vel1", "vel2", "vel3", "eff0", "eff1", "eff2", "eff3",
+    "qx", "qy", "qz", "qw", "wx", "wy", "wz", "fx", "fy", "fz",
+    "ra0", "ra1", "ra2", "ra3", "rr0", "rr1", "rr2", "rr3", "if0", "if1", "if2", "iw0", "iw1", "iw2",
+    "nav_out", "accepted", "lat", "lon", "h", "vn", "ve", "vd", "cmd_n", "cmd_e", "cmd_d", "has_cmd", "psi", "torquing",
+    "tick", "ticks", "v0", "v1", "v2", "v3", "g0", "g1", "g2", "g3", "phi", "phi_rate")
+O = {name: i for i, name in enumerate(OUT_COLUMNS)}
+N_OUT = len(OUT_COLUMNS)
+
+
+def _simple_inertial(model: InertialErrorCore) -> bool:
+    """Whether the model is one the compiled step reproduces (biases held, white noise)."""
+    spec = model.spec
+    return (not model._has_gm and not model._has_rrw and spec.misalignment is None and spec.quantum == 0.0
+            and spec.saturation == math.inf)
+
+
+def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tuple[str, dict]] | None:
+    """executable -> (node name, values) when the nodes are the chain with the parameters the
+    compiled step reproduces (resolver azimuth, a static base, the IMU's simple error
+    terms); None otherwise."""
+    by_exe = {exe: (name, v) for name, (exe, v) in values.items()}
+    if len(values) != len(CHAIN) or set(by_exe) != set(CHAIN):
+        return None
+    veh = by_exe["vehicle_dynamics"][1]
+    sen = by_exe["sensor_models"][1]
+    nav = by_exe["platform_navigator"][1]
+    if veh["plant"] != "four_gimbal_platform" or set(sen["sensors"]) != {"platform_imu", "resolvers"}:
+        return None
+    if nav["azimuth_source"] != "resolver" or nav["joint_topic"] != "/platform/resolvers" \
+            or nav["azimuth_joint"] not in PLATFORM_JOINTS:
+        return None
+    try:
+        vehicle = VehicleCore(VehicleConfig.from_values(veh), GIMBAL_MODELS[veh["gimbal_model"]])
+        suite = SensorSuite(SensorSuiteConfig.from_values(sen))
+    except (ValueError, KeyError):
+        return None  # the Python loop refuses it, naming the parameter
+    if not vehicle.profile.constant or vehicle.config.platform_base_motion:
+        return None
+    if not (_simple_inertial(suite.platform_accel) and _simple_inertial(suite.platform_gyro)):
+        return None
+    return by_exe
+
+
+@dataclass
+class PlatformChain:
+    """The packed chain: the block's arrays and what its recording needs."""
+
+    n_steps: int
+    rate_hz: float
+    dt: float
+    config: np.ndarray
+    host: np.ndarray
+    x: np.ndarray
+    plant_params: np.ndarray
+    res_every: int
+    imu_every: int
+    res_noise: float
+    res_state: np.ndarray
+    res_stream: Any
+    acc: np.ndarray
+    acc_need: int
+    acc_stream: Any
+    gyr: np.ndarray
+    gyr_need: int
+    gyr_stream: Any
+    nav_state: np.ndarray
+    nav_params: np.ndarray
+    joint: np.ndarray
+    servo_state: np.ndarray
+    servo_params: np.ndarray
+    pid_state: np.ndarray
+    pid_gains: np.ndarray
+    names: dict[str, str]             # executable -> node name
+    values: dict[str, dict]           # executable -> node values
+    truth0: VehicleTruth              # the truth of step 0 (host and joints)
+    truth1: VehicleTruth              # a truth after one step (the host's step rotation)
+    suite: SensorSuite
+    site: Any
+    odometry: NavigatorOdometry
+
+
+def _inertial(model: InertialErrorCore) -> np.ndarray:
+    """(4, 3): the scale factors 1 + s, fixed biases, Gauss-Markov and random-walk states."""
+    return np.array([model._kdiag, model._fixed, model._gm, model._rrw], dtype=float)
+
+
+def _encoder_state(model: EncoderModel) -> np.ndarray:
+    return np.zeros(2 + 2 * model.n_axes)
+
+
+def navigator_arrays(navigator: PlatformNavigator) -> tuple[np.ndarray, np.ndarray]:
+    """The navigator's state (:data:`~gimbal_estimators.navigator_kernels.N_STATE`) and
+    parameters (``N_PARAMS``) as its core holds them after its hand-off."""
+    s = np.zeros(nk.N_STATE)
+    s[nk.N_LAT:nk.N_DA + 1] = (navigator.lat, navigator.lon, navigator.height, navigator.vn, navigator.ve,
+                               navigator.vd, navigator._da)
+    h = navigator._handoff
+    q = np.array([*h.accel_bias_s, navigator.params.base_heading_rad, navigator.params.torque_out_s, *navigator._k,
+                  navigator.h_ref, h.north_drift, *h.gyro_drift_s, *navigator._torque_n], dtype=float)
+    return s, q
+
+
+def servo_arrays(servo: PlatformServo) -> tuple[np.ndarray, np.ndarray]:
+    """The servo's state (:data:`~gimbal_control.servo_kernels.N_STATE`, before its first
+    sample) and parameters (``N_PARAMS``)."""
+    p, sched = servo.params, servo.schedule
+    lim = servo.pid_a.params.integrator_limit
+    volts = [max(-lim, min(lim, float(p.friction.voltage(d * sched.rate_rad_s)))) for d in (1, -1)]
+    params = np.array([1.0 if p.rotate else 0.0, sched._rate, sched._sweep, sched._leg, 0.5 * p.reversal_time_s,
+                       1.0 if p.command_source == "navigator" else 0.0, p.command_max_age_s, p.max_gap_s,
+                       OMEGA_IE * math.cos(servo._lat), OMEGA_IE * -math.sin(servo._lat), *servo._drift, _LOCK_COS,
+                       1.0 if p.preset_integrator else 0.0, *volts], dtype=float)
+    return sk.initial_state(), params
+
+
+def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, controlled: bool) -> np.ndarray:
+    res = suite.resolvers
+    c = np.zeros(17)
+    c[:] = (vehicle.config.dt, vehicle.config.platform_substeps, 1.0 if vehicle._platform_quasi_static else 0.0,
+            suite._dec["resolver_rate_hz"], suite._dec["platform_imu_rate_hz"], res.quantum_rad, res._noise,
+            res._gate_steps, res.gate_time_s, suite.platform_accel._white_sd, suite.platform_gyro._white_sd,
+            int(round(nav["max_joint_age_s"] * 1e9)), 1.0 if servo["command_source"] == "navigator" else 0.0,
+            1.0 if controlled else 0.0, vehicle.config.sim_rate_hz, vehicle.config.n_steps,
+            PLATFORM_JOINTS.index(nav["azimuth_joint"]))
+    return c
+
+
+def build_chain(scenario) -> PlatformChain:
+    """The scenario's chain, built and packed (module docstring)."""
+    by_exe = chain_values(node_values(scenario))
+    if by_exe is None:
+        raise ValueError(f"scenario {scenario.name!r} is not the platform chain")
+    names = {exe: name for exe, (name, _) in by_exe.items()}
+    values = {exe: v for exe, (_, v) in by_exe.items()}
+    veh, nav, srv = values["vehicle_dynamics"], values["platform_navigator"], values["platform_servo"]
+    vehicle = VehicleCore(VehicleConfig.from_values(veh), GIMBAL_MODELS[veh["gimbal_model"]])
+    suite = SensorSuite(SensorSuiteConfig.from_values(values["sensor_models"]))
+    navigator = PlatformNavigator(PlatformNavigatorParams.from_values(nav))
+    servo = PlatformServo(PlatformServoParams.from_values(srv))
+    odometry = NavigatorOdometry(OdometryModel.from_values(nav, heading_known=True), UNMEASURED_VARIANCE)
+    truth0 = vehicle.truth()
+    scratch = VehicleCore(vehicle.config, GIMBAL_MODELS[veh["gimbal_model"]])
+    scratch.step((0.0,) * 4)
+    host = np.array([*truth0.euler, *truth0.omega_ib_b, *truth0.specific_force_b], dtype=float)
+    nav_state, nav_params = navigator_arrays(navigator)
+    servo_state, servo_params = servo_arrays(servo)
+    acc, gyr = suite.platform_accel, suite.platform_gyro
+    return PlatformChain(
+        n_steps=vehicle.config.n_steps, rate_hz=vehicle.config.sim_rate_hz, dt=vehicle.config.dt,
+        config=_config(vehicle, suite, nav, srv, veh["controlled"]), host=host, x=vehicle._platform_x.copy(),
+        plant_params=vehicle._platform_params, res_every=suite._dec["resolver_rate_hz"],
+        imu_every=suite._dec["platform_imu_rate_hz"], res_noise=suite.resolvers._noise,
+        res_state=_encoder_state(suite.resolvers), res_stream=suite.resolvers._normals, acc=_inertial(acc),
+        acc_need=acc._need, acc_stream=acc._normals, gyr=_inertial(gyr), gyr_need=gyr._need,
+        gyr_stream=gyr._normals, nav_state=nav_state, nav_params=nav_params, joint=np.zeros(8),
+        servo_state=servo_state, servo_params=servo_params, pid_state=servo._pid_state.copy(),
+        pid_gains=servo._pid_gains.copy(), names=names, values=values, truth0=truth0, truth1=scratch.truth(),
+        suite=suite, site=vehicle.profile.site, odometry=odometry)
