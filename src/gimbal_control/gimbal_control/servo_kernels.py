@@ -15,6 +15,7 @@ messages. Per tick (gyro ω, resolver angles θ, the newest command ω_c^n, stam
 with the azimuth integrator preset to the friction voltage of the new direction at each
 change of sign of φ̇z. Stamps are the lockstep engine's (rising): the stamp checks of the
 core (:class:`gimbal_kinematics.sync.StampGate`) are the node's, not repeated here.
+:class:`.platform_servo.PlatformServo` holds the same vectors and calls the same kernels.
 """
 from __future__ import annotations
 
@@ -113,7 +114,8 @@ def _command_rate(s: np.ndarray, p: np.ndarray, t: float, phi: float, phi_rate: 
 
 
 @njit(cache=True)
-def _held(s: np.ndarray, p: np.ndarray, t: float) -> int:
+def servo_held(s: np.ndarray, p: np.ndarray, t: float) -> int:
+    """The last command held at ``t`` (bad input): counted, with the schedule's φz, φ̇z."""
     s[S_HELD] += 1.0
     s[S_PHI], s[S_PHI_RATE] = _phi(s, p, t)
     return TICK_HELD
@@ -126,7 +128,7 @@ def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarra
     docstring); the voltages in ``s[S_V0:S_V3+1]``, the signals in ``s[S_G0:S_G3+1]``."""
     if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
         s[S_NONFINITE] += 1.0
-        return _held(s, p, t)
+        return servo_held(s, p, t)
     if s[S_HAS_ANGLES] == 0.0:
         return TICK_NONE
     if math.isnan(s[S_T0]):
@@ -155,7 +157,7 @@ def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarra
                                              s[S_A2], p[P_LOCK_COS])
     if not ok:
         s[S_LOCK] += 1.0
-        return _held(s, p, t)
+        return servo_held(s, p, t)
     if dt > 0.0:
         s[S_DT_LAST] = dt
     else:

@@ -31,7 +31,10 @@ from gimbal_kinematics.platform_kernels import platform_truth
 
 from .loop_plan import CoreLoopResult, node_values
 from .compiled_platform_record import ChainRecorder
-from .compiled_platform_setup import N_OUT, PlatformChain, build_chain, chain_values
+from .compiled_platform_setup import (
+    J_CMD, J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_RATE, J_T_NS, J_THETA, N_OUT, PlatformChain, build_chain,
+    chain_values,
+)
 from ..world.plant.platform_kernels import P_KT, P_VMAX, platform_step, saturate
 from ..world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_rate
 
@@ -39,9 +42,6 @@ from ..world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_
 (C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
  C_RES_GATE_TIME, C_ACC_SD, C_GYR_SD, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT) = range(17)
 N_CONFIG = 17
-#: the navigator node's joint sample (has one, stamp ns, θ, rate) and held command (has one, N, E, D)
-J_HAS, J_T_NS, J_THETA, J_RATE, J_HAS_CMD, J_CMD = 0, 1, 2, 3, 4, 5
-N_JOINT = 8
 #: steps per block: the normals and (recorded) the output rows of one block in memory
 BLOCK_STEPS = 16384
 
@@ -69,7 +69,12 @@ def _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, f) -> bool
     theta = joint[J_THETA] + joint[J_RATE] * age * 1e-9 if age != 0.0 else joint[J_THETA]
     if not (math.isfinite(f[0]) and math.isfinite(f[1]) and math.isfinite(f[2]) and math.isfinite(theta)):
         return False
-    nk.navigator_step(ns, nq, t_ns, f[0], f[1], f[2], theta)
+    first = math.isnan(joint[J_NAV_LAST])
+    if first:
+        joint[J_NAV_T0] = t_ns
+    dt = 0.0 if first else (t_ns - joint[J_NAV_LAST]) * 1e-9
+    joint[J_NAV_LAST] = t_ns
+    nk.navigator_step(ns, nq, first, dt, (t_ns - joint[J_NAV_T0]) * 1e-9, f[0], f[1], f[2], theta)
     joint[J_HAS_CMD] = 1.0
     joint[J_CMD], joint[J_CMD + 1], joint[J_CMD + 2] = ns[nk.N_CMD_N], ns[nk.N_CMD_E], ns[nk.N_CMD_D]
     return True

@@ -14,16 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from gimbal_control import servo_kernels as sk
-from gimbal_control.platform_servo import _LOCK_COS, PlatformServo, PlatformServoParams
-from gimbal_estimators import navigator_kernels as nk
+from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_kinematics.frames import PLATFORM_JOINTS
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
-from gimbal_kinematics.wgs84 import OMEGA_IE
 
 from .loop_plan import node_values
 from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
@@ -45,6 +42,10 @@ OUT_COLUMNS = (
     "tick", "ticks", "v0", "v1", "v2", "v3", "g0", "g1", "g2", "g3", "phi", "phi_rate")
 O = {name: i for i, name in enumerate(OUT_COLUMNS)}
 N_OUT = len(OUT_COLUMNS)
+#: the navigator node's joint sample (has one, stamp ns, θ, rate), held command (has one, N, E,
+#: D) and the navigator's last and first stamps [ns] (NaN: none yet)
+J_HAS, J_T_NS, J_THETA, J_RATE, J_HAS_CMD, J_CMD, J_NAV_LAST, J_NAV_T0 = 0, 1, 2, 3, 4, 5, 8, 9
+N_JOINT = 10
 
 
 def _simple_inertial(model: InertialErrorCore) -> bool:
@@ -128,29 +129,11 @@ def _encoder_state(model: EncoderModel) -> np.ndarray:
     return np.zeros(2 + 2 * model.n_axes)
 
 
-def navigator_arrays(navigator: PlatformNavigator) -> tuple[np.ndarray, np.ndarray]:
-    """The navigator's state (:data:`~gimbal_estimators.navigator_kernels.N_STATE`) and
-    parameters (``N_PARAMS``) as its core holds them after its hand-off."""
-    s = np.zeros(nk.N_STATE)
-    s[nk.N_LAT:nk.N_DA + 1] = (navigator.lat, navigator.lon, navigator.height, navigator.vn, navigator.ve,
-                               navigator.vd, navigator._da)
-    h = navigator._handoff
-    q = np.array([*h.accel_bias_s, navigator.params.base_heading_rad, navigator.params.torque_out_s, *navigator._k,
-                  navigator.h_ref, h.north_drift, *h.gyro_drift_s, *navigator._torque_n], dtype=float)
-    return s, q
-
-
-def servo_arrays(servo: PlatformServo) -> tuple[np.ndarray, np.ndarray]:
-    """The servo's state (:data:`~gimbal_control.servo_kernels.N_STATE`, before its first
-    sample) and parameters (``N_PARAMS``)."""
-    p, sched = servo.params, servo.schedule
-    lim = servo.pid_a.params.integrator_limit
-    volts = [max(-lim, min(lim, float(p.friction.voltage(d * sched.rate_rad_s)))) for d in (1, -1)]
-    params = np.array([1.0 if p.rotate else 0.0, sched._rate, sched._sweep, sched._leg, 0.5 * p.reversal_time_s,
-                       1.0 if p.command_source == "navigator" else 0.0, p.command_max_age_s, p.max_gap_s,
-                       OMEGA_IE * math.cos(servo._lat), OMEGA_IE * -math.sin(servo._lat), *servo._drift, _LOCK_COS,
-                       1.0 if p.preset_integrator else 0.0, *volts], dtype=float)
-    return sk.initial_state(), params
+def _joint() -> np.ndarray:
+    """The navigator node's joint sample, held command and stamps, before the first sample."""
+    j = np.zeros(N_JOINT)
+    j[J_NAV_LAST] = j[J_NAV_T0] = math.nan
+    return j
 
 
 def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, controlled: bool) -> np.ndarray:
@@ -182,8 +165,6 @@ def build_chain(scenario) -> PlatformChain:
     scratch = VehicleCore(vehicle.config, GIMBAL_MODELS[veh["gimbal_model"]])
     scratch.step((0.0,) * 4)
     host = np.array([*truth0.euler, *truth0.omega_ib_b, *truth0.specific_force_b], dtype=float)
-    nav_state, nav_params = navigator_arrays(navigator)
-    servo_state, servo_params = servo_arrays(servo)
     acc, gyr = suite.platform_accel, suite.platform_gyro
     return PlatformChain(
         n_steps=vehicle.config.n_steps, rate_hz=vehicle.config.sim_rate_hz, dt=vehicle.config.dt,
@@ -192,7 +173,7 @@ def build_chain(scenario) -> PlatformChain:
         imu_every=suite._dec["platform_imu_rate_hz"], res_noise=suite.resolvers._noise,
         res_state=_encoder_state(suite.resolvers), res_stream=suite.resolvers._normals, acc=_inertial(acc),
         acc_need=acc._need, acc_stream=acc._normals, gyr=_inertial(gyr), gyr_need=gyr._need,
-        gyr_stream=gyr._normals, nav_state=nav_state, nav_params=nav_params, joint=np.zeros(8),
-        servo_state=servo_state, servo_params=servo_params, pid_state=servo._pid_state.copy(),
+        gyr_stream=gyr._normals, nav_state=navigator.state.copy(), nav_params=navigator.kernel_params.copy(), joint=_joint(),
+        servo_state=servo.state.copy(), servo_params=servo.kernel_params, pid_state=servo._pid_state.copy(),
         pid_gains=servo._pid_gains.copy(), names=names, values=values, truth0=truth0, truth1=scratch.truth(),
         suite=suite, site=vehicle.profile.site, odometry=odometry)
