@@ -181,10 +181,12 @@ def _block_normals(chain: PlatformChain, k0: int, k1: int) -> tuple:
     return rz, az, gz
 
 
-def run(scenario, record=None) -> CoreLoopResult:
+def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopResult:
     """Step ``scenario``'s chain (module docstring); ``record`` (an
-    :class:`.recording.EngineBag` or any ``record(node, messages)``) gets the nodes' messages."""
-    chain = build_chain(scenario)
+    :class:`.recording.EngineBag` or any ``record(node, messages)``) gets the nodes' messages.
+    ``chain``: the scenario's chain already built (:func:`build_chain`), to read its final
+    state after the run."""
+    chain = build_chain(scenario) if chain is None else chain
     recorder = None if record is None else ChainRecorder(chain, record)
     n = chain.n_steps
     counts = np.zeros(3)

@@ -1,0 +1,108 @@
+"""The compiled platform chain: its kernels against the models they compile (the modulation
+schedule against ``BidirectionalRotation``, the encoder and inertial kernels against
+``EncoderModel`` and ``InertialErrorCore`` fed the same normals, the block normals against
+the stream's own takes), and the compiled block loop against the Python loop over the same
+cores: the same messages, byte for byte, across a modulation reversal; and the engine's
+dispatch, which compiles only the chain it reproduces."""
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from gimbal_control import servo_kernels as sk
+from gimbal_kinematics.four_gimbal import BidirectionalRotation
+from gimbal_sim.core import compiled, compiled_platform
+from gimbal_sim.core.core_loop import core_plan, run_core_loop, run_stages
+from gimbal_sim.graph.scenario import apply_set, load, variant
+from gimbal_sim.tools.engine_speed import paper_rate_navigation
+from gimbal_sim.world.sensors import EncoderModel, EncoderParams, GyroModel, GyroParams
+from gimbal_sim.world.sensors._normals import NormalStream
+from gimbal_sim.world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_rate
+
+
+@pytest.mark.parametrize("reversal_s", [0.0, 0.4])
+def test_the_schedule_kernel_is_the_bidirectional_rotation(reversal_s):
+    sched = BidirectionalRotation(rate_deg_s=1.2, sweep_deg=2.0, reversal_time_s=reversal_s)
+    for t in np.linspace(-0.5, 7.0, 1501):
+        phi, rate, _ = sched.state(float(t))
+        assert sk.schedule_state(float(t), sched.rate_rad_s, math.radians(2.0), sched.leg_duration_s,
+                                 0.5 * reversal_s) == (phi, rate)
+
+
+def test_block_normals_are_the_streams_own_takes():
+    a, b = NormalStream(np.random.default_rng(7)), NormalStream(np.random.default_rng(7))
+    a.take(2)
+    b.take(2)
+    block = draw_normals(a, 3, 5000)  # crosses two 4096-blocks, each leaving a tail too short for a take
+    for row in block:
+        buf, j = b.take(3)
+        assert list(row) == buf[j:j + 3]
+    buf, j = b.take(3)
+    assert list(draw_normals(a, 3, 1)[0]) == list(buf[j:j + 3])
+
+
+def test_encoder_kernel_is_the_encoder_model():
+    params = EncoderParams(noise_deg=0.01, lines_per_rev=2 ** 19, velocity_gate_s=0.005)
+    model = EncoderModel(params, 4, np.random.default_rng(3), 1e-3)
+    twin = NormalStream(np.random.default_rng(3))
+    state, angles, rates = np.zeros(2 + 8), np.zeros(4), np.zeros(4)
+    for k in range(40):
+        truth = np.array([0.3 + 0.02 * k, -0.1 * k, 1e-6 * k, 2.0])
+        z = draw_normals(twin, 4, 1)[0]
+        encoder_step(state, 4, truth, model.quantum_rad, params.noise_deg * math.pi / 180.0, model._gate_steps,
+                     model.gate_time_s, z, angles, rates)
+        pos, vel = model.step(truth.tolist())
+        assert angles.tolist() == pos and rates.tolist() == vel
+
+
+def test_inertial_kernel_is_the_inertial_error_core():
+    gyro = GyroModel(GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=0.003, scale_factor_ppm=(10.0, -5.0, 0.0)), 3,
+                     np.random.default_rng(11), 1e-3)
+    twin = NormalStream(np.random.default_rng(11))
+    twin.take(3)  # the drawn bias
+    out = np.zeros(3)
+    for k in range(20):
+        u = np.array([1e-4 * k, -2e-5, 7e-5])
+        inertial_rate(u, np.array(gyro._kdiag), np.array(gyro._fixed), np.array(gyro._gm), np.array(gyro._rrw),
+                      gyro._white_sd, draw_normals(twin, 3, 1)[0], out)
+        assert out.tolist() == gyro.step_rate(u.tolist())
+
+
+def _messages(scenario, compiled_run: bool) -> dict:
+    got: dict = {}
+
+    def record(node, messages):
+        for topic, _, data in messages:
+            got.setdefault((node, topic), []).append(data)
+    if compiled_run:
+        compiled_platform.run(scenario, record)
+    else:
+        vehicle, controlled, stages = core_plan(scenario)
+        run_stages(vehicle, stages, controlled=controlled, record=record)
+    return got
+
+
+def test_the_compiled_chain_publishes_the_python_loops_bytes_across_a_reversal():
+    # a 1.2° sweep at 1.2 °/s with 0.2 s ramps: reversals at 1.1 s and 2.2 s, integrator presets
+    scenario = paper_rate_navigation(2.5)
+    for assignment in ("platform_servo.sweep_deg=1.2", "platform_servo.reversal_time_s=0.2"):
+        scenario = apply_set(scenario, assignment)
+    python, fast = _messages(scenario, False), _messages(scenario, True)
+    assert python.keys() == fast.keys() and len(python) >= 18
+    for key, data in python.items():
+        assert data == fast[key], key
+
+
+def test_the_engine_compiles_the_chain_only():
+    nav = variant(load("rotational_ins_navigation"), "rotation_off")
+    assert compiled.compiled_runner(nav) is compiled_platform.run
+    # the servo's azimuth instead of the resolver's, another plant's node set: the Python loop
+    assert compiled.compiled_runner(apply_set(nav, "platform_navigator.azimuth_source=servo")) is None
+    assert compiled.compiled_runner(load("rotational_platform_servo")) is None
+    assert compiled.compiled_runner(load("sighting_land_vehicle")) is None
+    short = dataclasses.replace(nav, duration_s=1.0)
+    seen = []
+    python = run_core_loop(short, observer=lambda bus: seen.append(bus.k))  # an observer keeps the Python loop
+    fast = run_core_loop(short)
+    assert seen == list(range(51)) and python.steps == fast.steps == 50 and fast.sim_s == python.sim_s
