@@ -1,6 +1,6 @@
 """The compiled platform chain: its kernels against the models they compile (the modulation
-schedule against ``BidirectionalRotation``, the encoder and inertial kernels against
-``EncoderModel`` and ``InertialErrorCore`` fed the same normals, the block normals against
+schedule against ``BidirectionalRotation``, the encoder kernel against its source and the
+counting closed form, the inertial kernel against ``InertialErrorCore`` fed the same normals, the block normals against
 the stream's own takes), and the compiled block loop against the Python loop over the same
 cores: the same messages, byte for byte, across a modulation reversal; and the engine's
 dispatch, which compiles only the chain it reproduces."""
@@ -42,18 +42,36 @@ def test_block_normals_are_the_streams_own_takes():
     assert list(draw_normals(a, 3, 1)[0]) == list(buf[j:j + 3])
 
 
-def test_encoder_kernel_is_the_encoder_model():
+def test_encoder_kernel_matches_its_source_and_the_counting_closed_form():
+    quantum, noise, gate = 2.0 * math.pi / 2 ** 19, math.radians(0.01), 5
+    state, src = np.zeros(2 + 8), np.zeros(2 + 8)
+    angles, rates, a2, r2 = np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4)
+    rng = np.random.default_rng(3)
+    counts = []
+    for k in range(40):
+        truth = np.array([0.3 + 0.02 * k, -0.1 * k, 1e-6 * k, 2.0])
+        z = rng.standard_normal(4)
+        encoder_step(state, 4, truth, quantum, noise, gate, gate * 1e-3, z, angles, rates)
+        encoder_step.py_func(src, 4, truth, quantum, noise, gate, gate * 1e-3, z, a2, r2)
+        assert angles.tolist() == a2.tolist() and rates.tolist() == r2.tolist()
+        c = np.floor(truth / quantum + 0.5)  # mid-tread count, then the readout noise
+        np.testing.assert_allclose(angles, c * quantum + noise * z, rtol=0, atol=1e-15)
+        counts.append(c)
+        if k >= gate:  # the count difference over the last completed gate
+            last = k - k % gate
+            np.testing.assert_allclose(rates, (counts[last] - counts[last - gate]) * quantum / (gate * 1e-3), rtol=1e-14)
+
+
+def test_the_encoder_model_draws_its_noise_as_the_block_normals():
     params = EncoderParams(noise_deg=0.01, lines_per_rev=2 ** 19, velocity_gate_s=0.005)
     model = EncoderModel(params, 4, np.random.default_rng(3), 1e-3)
     twin = NormalStream(np.random.default_rng(3))
     state, angles, rates = np.zeros(2 + 8), np.zeros(4), np.zeros(4)
-    for k in range(40):
-        truth = np.array([0.3 + 0.02 * k, -0.1 * k, 1e-6 * k, 2.0])
-        z = draw_normals(twin, 4, 1)[0]
-        encoder_step(state, 4, truth, model.quantum_rad, params.noise_deg * math.pi / 180.0, model._gate_steps,
-                     model.gate_time_s, z, angles, rates)
-        pos, vel = model.step(truth.tolist())
-        assert angles.tolist() == pos and rates.tolist() == vel
+    for z in draw_normals(twin, 4, 40):
+        truth = np.array([0.3, -0.1, 1e-6, 2.0]) * (1.0 + z[0])
+        encoder_step(state, 4, truth, model.quantum_rad, math.radians(0.01), model._gate_steps, model.gate_time_s, z,
+                     angles, rates)
+        assert (angles.tolist(), rates.tolist()) == model.step(truth.tolist())
 
 
 def test_inertial_kernel_is_the_inertial_error_core():

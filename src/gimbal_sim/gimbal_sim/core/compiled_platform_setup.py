@@ -24,7 +24,6 @@ from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 
 from .loop_plan import node_values
 from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
-from ..world.sensors.encoder import EncoderModel
 from ..world.sensors.inertial_core import InertialErrorCore
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
@@ -125,10 +124,6 @@ def _inertial(model: InertialErrorCore) -> np.ndarray:
     return np.array([model._kdiag, model._fixed, model._gm, model._rrw], dtype=float)
 
 
-def _encoder_state(model: EncoderModel) -> np.ndarray:
-    return np.zeros(2 + 2 * model.n_axes)
-
-
 def _joint() -> np.ndarray:
     """The navigator node's joint sample, held command and stamps, before the first sample."""
     j = np.zeros(N_JOINT)
@@ -171,7 +166,7 @@ def build_chain(scenario) -> PlatformChain:
         config=_config(vehicle, suite, nav, srv, veh["controlled"]), host=host, x=vehicle._platform_x.copy(),
         plant_params=vehicle._platform_params, res_every=suite._dec["resolver_rate_hz"],
         imu_every=suite._dec["platform_imu_rate_hz"], res_noise=suite.resolvers._noise,
-        res_state=_encoder_state(suite.resolvers), res_stream=suite.resolvers._normals, acc=_inertial(acc),
+        res_state=suite.resolvers._state.copy(), res_stream=suite.resolvers._normals, acc=_inertial(acc),
         acc_need=acc._need, acc_stream=acc._normals, gyr=_inertial(gyr), gyr_need=gyr._need,
         gyr_stream=gyr._normals, nav_state=navigator.state.copy(), nav_params=navigator.kernel_params.copy(), joint=_joint(),
         servo_state=servo.state.copy(), servo_params=servo.kernel_params, pid_state=servo._pid_state.copy(),

@@ -6,8 +6,9 @@ stream in its order (:func:`draw_normals`). The maths is :mod:`.encoder`'s and
     encoder:   c = ⌊θ/δ + ½⌋,  θ̃ = c δ + σ z,  ω̃ = (c − c_ref) δ / T_g every gate (held between)
     inertial:  y = (1 + s) u + b_fix + b_gm + b_rrw + (N/√Δt) z     (step-average, no quantum)
 
-The compiled engine (``gimbal_sim.core.compiled_platform``) keeps each model's state in a
-vector (``E_*`` for an encoder set) and calls these per sample.
+:class:`.encoder.EncoderModel` holds its state in the vector of :func:`encoder_step` and calls
+it per sample; the compiled engine (``gimbal_sim.core.compiled_platform``) calls both kernels
+over the models' states (``E_*`` for an encoder set).
 """
 from __future__ import annotations
 
