@@ -10,8 +10,10 @@ holds the order). So for a seed the loop computes the same numbers as the graph;
 made by the node's own serialisation function, and the bag holds the graph's data
 (:mod:`.engine_run`, ``gimbal-run --engine core``).
 
-:func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
-runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
+:func:`run_core_loop` runs a scenario (a node set that a compiled runner of :mod:`.compiled`
+steps whole goes there: the same numbers, block by block); :func:`run_stages` is the loop
+itself, which paper 1's runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``)
+call with their own
 stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
