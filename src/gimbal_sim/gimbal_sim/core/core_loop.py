@@ -13,8 +13,8 @@ made by the node's own serialisation function, and the bag holds the graph's dat
 :func:`run_core_loop` runs a scenario (a node set that a compiled runner of :mod:`.compiled`
 steps whole goes there: the same numbers, block by block); :func:`run_stages` is the loop
 itself, which paper 1's runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``)
-call with their own
-stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus.
+call with their own stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each
+step's bus.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
 unrecorded (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
