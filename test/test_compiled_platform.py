@@ -1,6 +1,7 @@
 """The compiled platform chain: its kernels against the models they compile (the modulation
 schedule against ``BidirectionalRotation``, the encoder kernel against its source and the
-counting closed form, the inertial kernel against ``InertialErrorCore`` fed the same normals, the block normals against
+counting closed form, the inertial kernel against its source and the
+error model's closed form, the block normals against
 the stream's own takes), and the compiled block loop against the Python loop over the same
 cores: the same messages, byte for byte, across a modulation reversal; and the engine's
 dispatch, which compiles only the chain it reproduces."""
@@ -18,7 +19,10 @@ from gimbal_sim.graph.scenario import apply_set, load, variant
 from gimbal_sim.tools.engine_speed import paper_rate_navigation
 from gimbal_sim.world.sensors import EncoderModel, EncoderParams, GyroModel, GyroParams
 from gimbal_sim.world.sensors._normals import NormalStream
-from gimbal_sim.world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_rate
+
+RNG = np.random.default_rng(20261128)
+from gimbal_sim.world.sensors import sensor_kernels as sk_
+from gimbal_sim.world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_step
 
 
 @pytest.mark.parametrize("reversal_s", [0.0, 0.4])
@@ -74,17 +78,31 @@ def test_the_encoder_model_draws_its_noise_as_the_block_normals():
         assert (angles.tolist(), rates.tolist()) == model.step(truth.tolist())
 
 
-def test_inertial_kernel_is_the_inertial_error_core():
-    gyro = GyroModel(GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=0.003, scale_factor_ppm=(10.0, -5.0, 0.0)), 3,
-                     np.random.default_rng(11), 1e-3)
-    twin = NormalStream(np.random.default_rng(11))
-    twin.take(3)  # the drawn bias
-    out = np.zeros(3)
-    for k in range(20):
-        u = np.array([1e-4 * k, -2e-5, 7e-5])
-        inertial_rate(u, np.array(gyro._kdiag), np.array(gyro._fixed), np.array(gyro._gm), np.array(gyro._rrw),
-                      gyro._white_sd, draw_normals(twin, 3, 1)[0], out)
-        assert out.tolist() == gyro.step_rate(u.tolist())
+@pytest.mark.parametrize("increment", [False, True])
+def test_inertial_kernel_matches_its_source_and_the_error_model_closed_form(increment):
+    # every term: scale factors, misalignment, drawn and Gauss-Markov biases, random walk,
+    # white noise, a quantum with its residual, saturation
+    gyro = GyroModel(GyroParams(bias_deg_h=(1.0, 2.0, 3.0), bias_sigma_deg_h=5.0, bias_instability_deg_h=30.0,
+                                bias_instability_tau_s=50.0, arw_deg_rt_h=0.5, rrw_deg_h_rt_h=20.0,
+                                scale_factor_ppm=(300.0, -200.0, 0.0),
+                                misalignment_rad=((0.0, 1e-3, 0.0), (-1e-3, 0.0, 2e-3), (0.0, 0.0, 0.0)),
+                                quantisation_rad=1e-6, saturation_deg_s=1.0), 3, np.random.default_rng(11), 1e-3)
+    rows, src_rows, out, src = gyro.rows.copy(), gyro.rows.copy(), np.zeros(3), np.zeros(3)
+    c = gyro.constants
+    for k in range(30):
+        u = np.array([1e-3 * k, -2e-3, 0.03 * (k % 3)])  # the last axis beyond ±1 °/s at times
+        z = RNG.standard_normal(9)
+        gm0, rrw0, res0 = rows[sk_.R_GM].copy(), rows[sk_.R_RRW].copy(), rows[sk_.R_RESIDUAL].copy()
+        inertial_step(u, rows, gyro.K, c, z, increment, out)
+        inertial_step.py_func(u, src_rows, gyro.K, c, z, increment, src)
+        assert out.tolist() == src.tolist() and np.array_equal(rows, src_rows)
+        gm = c[sk_.I_PHI] * gm0 + c[sk_.I_GM_DRIVE] * z[0:3]
+        rrw = rrw0 + c[sk_.I_RRW_DRIVE] * z[3:6]
+        y = np.clip(gyro.K @ u + rows[sk_.R_FIXED] + gm + rrw + c[sk_.I_WHITE_SD] * z[6:9], -math.radians(1.0),
+                    math.radians(1.0))
+        inc = y * 1e-3 + res0
+        q = 1e-6 * np.floor(inc / 1e-6 + 0.5)
+        np.testing.assert_allclose(out, q if increment else q / 1e-3, rtol=1e-12, atol=1e-18)
 
 
 def _messages(scenario, compiled_run: bool) -> dict:

@@ -36,12 +36,12 @@ from .compiled_platform_setup import (
     chain_values,
 )
 from ..world.plant.platform_kernels import P_KT, P_VMAX, platform_step, saturate
-from ..world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_rate
+from ..world.sensors.sensor_kernels import draw_normals, encoder_step, inertial_step
 
 #: configuration vector of the block (``C_*``)
 (C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
- C_RES_GATE_TIME, C_ACC_SD, C_GYR_SD, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT) = range(17)
-N_CONFIG = 17
+ C_RES_GATE_TIME, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT) = range(15)
+N_CONFIG = 15
 #: steps per block: the normals and (recorded) the output rows of one block in memory
 BLOCK_STEPS = 16384
 
@@ -128,8 +128,8 @@ def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks) -> Non
 
 
 @njit(cache=True)
-def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, az, gyr, gz, ns, nq, joint, ss, sp,
-                   pid_s, pid_g, counts, out) -> None:
+def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c, az, gyr, gyr_k, gyr_c, gz, ns,
+                   nq, joint, ss, sp, pid_s, pid_g, counts, out) -> None:
     """Steps k0 … k1−1 of the chain (module docstring); ``stamps`` their stamps [ns] (as
     floats), ``rz``/``az``/``gz`` the resolvers', accelerometers' and gyros' normals of the
     block (row per sample), ``counts`` (servo ticks, rows of normals used: resolver, IMU),
@@ -149,8 +149,8 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, az, gyr, gz,
                          c[C_RES_GATE_TIME], rz[int(counts[1])], ra, rr)
             counts[1] += 1.0
         if imu_due:
-            inertial_rate(ft, acc[0], acc[1], acc[2], acc[3], c[C_ACC_SD], az[int(counts[2])], fm)
-            inertial_rate(wt, gyr[0], gyr[1], gyr[2], gyr[3], c[C_GYR_SD], gz[int(counts[2])], wm)
+            inertial_step(ft, acc, acc_k, acc_c, az[int(counts[2])], False, fm)
+            inertial_step(wt, gyr, gyr_k, gyr_c, gz[int(counts[2])], False, wm)
             counts[2] += 1.0
         nav_out = _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, fm)
         tick = _servo_node(c, ss, sp, pid_s, pid_g, joint, t_ns * 1e-9, k / c[C_RATE], res_due, ra, imu_due, wm)
@@ -176,8 +176,8 @@ def _block_normals(chain: PlatformChain, k0: int, k1: int) -> tuple:
     imu = _multiples(k0, k1, chain.imu_every)
     rz = draw_normals(chain.res_stream, 4 if chain.res_noise > 0.0 else 0, res) if chain.res_noise > 0.0 \
         else np.zeros((res, 4))
-    az = draw_normals(chain.acc_stream, chain.acc_need, imu) if chain.acc_need else np.zeros((imu, 3))
-    gz = draw_normals(chain.gyr_stream, chain.gyr_need, imu) if chain.gyr_need else np.zeros((imu, 3))
+    az = draw_normals(chain.acc_stream, chain.acc_need, imu) if chain.acc_need else np.zeros((imu, 1))
+    gz = draw_normals(chain.gyr_stream, chain.gyr_need, imu) if chain.gyr_need else np.zeros((imu, 1))
     return rz, az, gz
 
 
@@ -200,7 +200,7 @@ def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopRe
         counts[1] = counts[2] = 0.0
         out = np.empty((k1 - k0, N_OUT)) if recorder is not None else np.empty((0, N_OUT))
         platform_block(k0, k1, stamps, chain.config, chain.host, chain.x, chain.plant_params, chain.res_state, rz,
-                       chain.acc, az, chain.gyr, gz, chain.nav_state, chain.nav_params, chain.joint, chain.servo_state,
+                       chain.acc, chain.acc_k, chain.acc_c, az, chain.gyr, chain.gyr_k, chain.gyr_c, gz, chain.nav_state, chain.nav_params, chain.joint, chain.servo_state,
                        chain.servo_params, chain.pid_state, chain.pid_gains, counts, out)
         if recorder is not None:
             recorder.block(k0, stamps.astype(np.int64), out)

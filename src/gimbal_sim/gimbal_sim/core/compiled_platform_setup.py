@@ -24,7 +24,6 @@ from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 
 from .loop_plan import node_values
 from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
-from ..world.sensors.inertial_core import InertialErrorCore
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
 CHAIN = ("vehicle_dynamics", "sensor_models", "platform_navigator", "platform_servo")
@@ -47,17 +46,9 @@ J_HAS, J_T_NS, J_THETA, J_RATE, J_HAS_CMD, J_CMD, J_NAV_LAST, J_NAV_T0 = 0, 1, 2
 N_JOINT = 10
 
 
-def _simple_inertial(model: InertialErrorCore) -> bool:
-    """Whether the model is one the compiled step reproduces (biases held, white noise)."""
-    spec = model.spec
-    return (not model._has_gm and not model._has_rrw and spec.misalignment is None and spec.quantum == 0.0
-            and spec.saturation == math.inf)
-
-
 def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tuple[str, dict]] | None:
     """executable -> (node name, values) when the nodes are the chain with the parameters the
-    compiled step reproduces (resolver azimuth, a static base, the IMU's simple error
-    terms); None otherwise."""
+    compiled step reproduces (resolver azimuth, a static base); None otherwise."""
     by_exe = {exe: (name, v) for name, (exe, v) in values.items()}
     if len(values) != len(CHAIN) or set(by_exe) != set(CHAIN):
         return None
@@ -75,8 +66,6 @@ def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tup
     except (ValueError, KeyError):
         return None  # the Python loop refuses it, naming the parameter
     if not vehicle.profile.constant or vehicle.config.platform_base_motion:
-        return None
-    if not (_simple_inertial(suite.platform_accel) and _simple_inertial(suite.platform_gyro)):
         return None
     return by_exe
 
@@ -98,9 +87,13 @@ class PlatformChain:
     res_state: np.ndarray
     res_stream: Any
     acc: np.ndarray
+    acc_k: np.ndarray
+    acc_c: np.ndarray
     acc_need: int
     acc_stream: Any
     gyr: np.ndarray
+    gyr_k: np.ndarray
+    gyr_c: np.ndarray
     gyr_need: int
     gyr_stream: Any
     nav_state: np.ndarray
@@ -119,11 +112,6 @@ class PlatformChain:
     odometry: NavigatorOdometry
 
 
-def _inertial(model: InertialErrorCore) -> np.ndarray:
-    """(4, 3): the scale factors 1 + s, fixed biases, Gauss-Markov and random-walk states."""
-    return np.array([model._kdiag, model._fixed, model._gm, model._rrw], dtype=float)
-
-
 def _joint() -> np.ndarray:
     """The navigator node's joint sample, held command and stamps, before the first sample."""
     j = np.zeros(N_JOINT)
@@ -133,10 +121,10 @@ def _joint() -> np.ndarray:
 
 def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, controlled: bool) -> np.ndarray:
     res = suite.resolvers
-    c = np.zeros(17)
+    c = np.zeros(15)
     c[:] = (vehicle.config.dt, vehicle.config.platform_substeps, 1.0 if vehicle._platform_quasi_static else 0.0,
             suite._dec["resolver_rate_hz"], suite._dec["platform_imu_rate_hz"], res.quantum_rad, res._noise,
-            res._gate_steps, res.gate_time_s, suite.platform_accel._white_sd, suite.platform_gyro._white_sd,
+            res._gate_steps, res.gate_time_s,
             int(round(nav["max_joint_age_s"] * 1e9)), 1.0 if servo["command_source"] == "navigator" else 0.0,
             1.0 if controlled else 0.0, vehicle.config.sim_rate_hz, vehicle.config.n_steps,
             PLATFORM_JOINTS.index(nav["azimuth_joint"]))
@@ -166,8 +154,9 @@ def build_chain(scenario) -> PlatformChain:
         config=_config(vehicle, suite, nav, srv, veh["controlled"]), host=host, x=vehicle._platform_x.copy(),
         plant_params=vehicle._platform_params, res_every=suite._dec["resolver_rate_hz"],
         imu_every=suite._dec["platform_imu_rate_hz"], res_noise=suite.resolvers._noise,
-        res_state=suite.resolvers._state.copy(), res_stream=suite.resolvers._normals, acc=_inertial(acc),
-        acc_need=acc._need, acc_stream=acc._normals, gyr=_inertial(gyr), gyr_need=gyr._need,
+        res_state=suite.resolvers._state.copy(), res_stream=suite.resolvers._normals, acc=acc.rows.copy(),
+        acc_k=acc.K, acc_c=acc.constants, acc_need=acc._need, acc_stream=acc._normals, gyr=gyr.rows.copy(),
+        gyr_k=gyr.K, gyr_c=gyr.constants, gyr_need=gyr._need,
         gyr_stream=gyr._normals, nav_state=navigator.state.copy(), nav_params=navigator.kernel_params.copy(), joint=_joint(),
         servo_state=servo.state.copy(), servo_params=servo.kernel_params, pid_state=servo._pid_state.copy(),
         pid_gains=servo._pid_gains.copy(), names=names, values=values, truth0=truth0, truth1=scratch.truth(),

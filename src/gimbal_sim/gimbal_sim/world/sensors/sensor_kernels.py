@@ -4,10 +4,12 @@ stream in its order (:func:`draw_normals`). The maths is :mod:`.encoder`'s and
 :mod:`.inertial_core`'s docstrings:
 
     encoder:   c = ⌊θ/δ + ½⌋,  θ̃ = c δ + σ z,  ω̃ = (c − c_ref) δ / T_g every gate (held between)
-    inertial:  y = (1 + s) u + b_fix + b_gm + b_rrw + (N/√Δt) z     (step-average, no quantum)
+    inertial:  y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z   (b_gm, b_rrw advanced first; clamped;
+               the increment y Δt quantised with its residual carried)
 
-:class:`.encoder.EncoderModel` holds its state in the vector of :func:`encoder_step` and calls
-it per sample; the compiled engine (``gimbal_sim.core.compiled_platform``) calls both kernels
+:class:`.encoder.EncoderModel` and :class:`.inertial_core.InertialErrorCore` hold their state
+in the arrays of :func:`encoder_step` and :func:`inertial_step` and call them per sample; the
+compiled engine (``gimbal_sim.core.compiled_platform``) calls both kernels
 over the models' states (``E_*`` for an encoder set).
 """
 from __future__ import annotations
@@ -54,17 +56,70 @@ def encoder_step(state: np.ndarray, n: int, angles: np.ndarray, quantum: float, 
         out_rates[i] = state[vel + i]
 
 
+#: an inertial model's constants (``I_*``): Gauss-Markov φ and drive, random-walk drive,
+#: white-noise σ of the step average, saturation, increment quantum, step Δt, which bias
+#: states evolve, whether the full matrix K (misalignment) applies
+(I_PHI, I_GM_DRIVE, I_RRW_DRIVE, I_WHITE_SD, I_SATURATION, I_QUANTUM, I_DT, I_HAS_GM, I_HAS_RRW, I_HAS_K) = range(10)
+N_INERTIAL = 10
+#: rows of an inertial model's state array: scale factors 1 + s, fixed bias, Gauss-Markov
+#: and random-walk bias states, the quantiser's carried residual
+R_KDIAG, R_FIXED, R_GM, R_RRW, R_RESIDUAL = range(5)
+
+
 @njit(cache=True)
-def inertial_rate(u: np.ndarray, kdiag: np.ndarray, fixed: np.ndarray, gm: np.ndarray, rrw: np.ndarray,
-                  white_sd: float, z: np.ndarray, out: np.ndarray) -> None:
-    """Step-average measurement of an inertial triad with fixed biases, held Gauss-Markov
-    and random-walk states and white noise ``white_sd`` · z (``InertialErrorCore.step_rate``
-    for a model without misalignment, quantum, saturation or evolving bias states)."""
-    for i in range(u.shape[0]):
-        y = kdiag[i] * u[i] + fixed[i] + gm[i] + rrw[i]
-        if white_sd > 0.0:
-            y += white_sd * z[i]
+def _quantise(inc: np.ndarray, residual: np.ndarray, q: float) -> None:
+    for i in range(inc.shape[0]):
+        v = inc[i] + residual[i]
+        out = q * np.floor(v / q + 0.5)
+        residual[i] = v - out
+        inc[i] = out
+
+
+@njit(cache=True)
+def inertial_step(u: np.ndarray, rows: np.ndarray, K: np.ndarray, c: np.ndarray, z: np.ndarray, increment: bool,
+                  out: np.ndarray) -> None:
+    """One step of an n-axis inertial sensor (``InertialErrorCore``): the bias states
+    advanced to the step's end by the normals ``z`` (Gauss-Markov n, then random walk n,
+    then white n, each when it applies), then
+
+        y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z,   clamped to ±saturation,
+
+    into ``out`` as the step average (``increment`` False) or the increment y Δt, a quantum
+    set quantising the increment with the residual carried (``rows[R_RESIDUAL]``)."""
+    n = u.shape[0]
+    j = 0
+    gm, rrw = rows[R_GM], rows[R_RRW]
+    if c[I_HAS_GM] != 0.0:
+        for i in range(n):
+            gm[i] = c[I_PHI] * gm[i] + c[I_GM_DRIVE] * z[j + i]
+        j += n
+    if c[I_HAS_RRW] != 0.0:
+        for i in range(n):
+            rrw[i] += c[I_RRW_DRIVE] * z[j + i]
+        j += n
+    sat = c[I_SATURATION]
+    for i in range(n):
+        if c[I_HAS_K] != 0.0:
+            y = 0.0
+            for k in range(n):
+                y += K[i, k] * u[k]
+            y = y + rows[R_FIXED, i] + gm[i] + rrw[i]
+        else:
+            y = rows[R_KDIAG, i] * u[i] + rows[R_FIXED, i] + gm[i] + rrw[i]
+        if c[I_WHITE_SD] > 0.0:
+            y += c[I_WHITE_SD] * z[j + i]
+        if sat != np.inf:
+            y = sat if y > sat else -sat if y < -sat else y
         out[i] = y
+    dt, q = c[I_DT], c[I_QUANTUM]
+    if increment or q > 0.0:
+        for i in range(n):
+            out[i] = out[i] * dt
+        if q > 0.0:
+            _quantise(out, rows[R_RESIDUAL], q)
+        if not increment:
+            for i in range(n):
+                out[i] = out[i] / dt
 
 
 def draw_normals(stream: NormalStream, k: int, m: int) -> np.ndarray:
