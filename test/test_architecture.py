@@ -382,9 +382,6 @@ def test_no_function_is_over_80_lines_unless_it_says_why():
 
 # ------------------------------------------------------------------ one engine
 EXPERIMENTS = SRC / "gimbal_sim" / "gimbal_sim" / "experiments"
-#: Experiment modules that still step a core in their own loop, being turned into declarations
-#: on a parallel branch. TEMPORARY: emptied when that work is merged; add nothing to it.
-STEP_LOOP_ALLOWED_UNTIL_MERGE = {"flexure.py"}
 
 
 def _steps_in_loop(loop: ast.AST) -> bool:
@@ -419,8 +416,7 @@ def step_loops(path: Path) -> list[str]:
 def test_experiments_have_no_step_loop_of_their_own():
     """``core/`` is the only stepper outside the graph: an experiment declares (scenario,
     variants, options, table) or hands stages and an observer to ``core_loop.run_stages``."""
-    bad = [f for path in sorted(EXPERIMENTS.glob("*.py")) if path.name not in STEP_LOOP_ALLOWED_UNTIL_MERGE
-           for f in step_loops(path)]
+    bad = [f for path in sorted(EXPERIMENTS.glob("*.py")) for f in step_loops(path)]
     assert not bad, "experiments stepping in their own loop:\n" + "\n".join(bad)
 
 
