@@ -378,3 +378,72 @@ def test_no_function_is_over_80_lines_unless_it_says_why():
                     if len(body) > MAX_FUNCTION_LINES and not any(b.strip().startswith(LONG_MARK) for b in body):
                         long.append(f"{path.relative_to(SRC)}:{node.lineno} {node.name} ({len(body)} lines)")
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines without a '{LONG_MARK}' comment:\n" + "\n".join(long)
+
+
+# ------------------------------------------------------------------ one engine
+EXPERIMENTS = SRC / "gimbal_sim" / "gimbal_sim" / "experiments"
+
+
+def _steps_in_loop(loop: ast.AST) -> bool:
+    """A ``for``/``while`` loop that steps something itself: a ``*.step(...)`` call in its body
+    (nested function definitions excluded: an engine stage is a function the engine calls), or
+    a ``while`` on ``*.finished``."""
+    if isinstance(loop, ast.While) and any(isinstance(n, ast.Attribute) and n.attr == "finished"
+                                           for n in ast.walk(loop.test)):
+        return True
+    todo = list(loop.body) + list(loop.orelse)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            continue
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "step":
+            return True
+        todo.extend(ast.iter_child_nodes(node))
+    return False
+
+
+def step_loops(path: Path) -> list[str]:
+    """Where ``path`` steps in a loop of its own (:func:`_steps_in_loop`), or says ``for k in
+    range`` (the step loop's usual form)."""
+    text = path.read_text()
+    found = [f"{path.name}:{i} 'for k in range'" for i, line in enumerate(text.splitlines(), 1)
+             if "for k in range" in line]
+    found += [f"{path.name}:{n.lineno} {type(n).__name__.lower()} loop stepping a core"
+              for n in ast.walk(ast.parse(text, str(path))) if isinstance(n, (ast.For, ast.While)) and _steps_in_loop(n)]
+    return found
+
+
+def test_experiments_have_no_step_loop_of_their_own():
+    """``core/`` is the only stepper outside the graph: an experiment declares (scenario,
+    variants, options, table) or hands stages and an observer to ``core_loop.run_stages``."""
+    bad = [f for path in sorted(EXPERIMENTS.glob("*.py")) for f in step_loops(path)]
+    assert not bad, "experiments stepping in their own loop:\n" + "\n".join(bad)
+
+
+def test_the_step_loop_rule_finds_planted_loops(tmp_path):
+    planted = tmp_path / "planted.py"
+    planted.write_text("def a(core):\n    while not core.finished:\n        core.step(())\n\n"
+                       "def b(truth, n):\n    for k in range(n):\n        pass\n\n"
+                       "def c(items):\n    for x in items:\n        x.step(1.0)\n\n"
+                       "def d(items):\n    for x in items:\n        def stage(bus):\n            bus.core.step(())\n")
+    assert sorted(f.split()[0] for f in step_loops(planted)) == ["planted.py:10", "planted.py:2", "planted.py:6"]
+
+
+#: What ``reports/`` may read from the graph room: the scenario files and the node tables
+#: (metadata: what a run was, a parameter's default). Nothing that runs a node or the engine.
+REPORTS_GRAPH_METADATA = {"gimbal_sim.graph.scenario", "gimbal_sim.graph.registry"}
+
+
+def test_reports_run_nothing():
+    """A report reads recordings: no module of ``reports/`` imports the engine (``core/``) or
+    the graph's running parts (``graph/`` beyond :data:`REPORTS_GRAPH_METADATA`)."""
+    index = module_index(SRC)
+    bad = []
+    for name, path in sorted(index.items()):
+        if not name.startswith("gimbal_sim.reports"):
+            continue
+        for target in sorted({t for t, _ in imports_in(name, path, index)}):
+            if target.startswith("gimbal_sim.core") or (target.startswith("gimbal_sim.graph")
+                                                         and target not in REPORTS_GRAPH_METADATA):
+                bad.append(f"{name} imports {target}")
+    assert not bad, "reports importing a runner:\n" + "\n".join(bad)

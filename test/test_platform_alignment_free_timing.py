@@ -18,7 +18,7 @@ from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignment
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.ros import messages as m
-from gimbal_sim.experiments.alignment import KinematicPlatformTruth
+from kinematic_alignment import KinematicPlatformTruth
 from ros_harness import ros_args
 
 pytestmark = pytest.mark.ros
