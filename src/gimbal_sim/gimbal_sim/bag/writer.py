@@ -28,7 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from mcap.records import MessageIndex
+import numpy as np
+from mcap.opcode import Opcode
 from mcap.writer import CompressionType, Writer
 
 from .disk import disk_error_line, free_reserve, is_disk_error, take_reserve
@@ -92,6 +93,27 @@ class TopicRecord:
 #: publish time (the MCAP specification's layout).
 _MESSAGE = struct.Struct("<BQHIQQ")
 _MESSAGE_OPCODE = 0x05
+_INDEX_HEAD = struct.Struct("<BQHI")
+
+
+class _ChannelIndex:
+    """A channel's MessageIndex in a chunk (the mcap library's ``MessageIndex``, whose
+    ``write`` packs each entry in two calls), its entries kept as lists (:meth:`_Appender.add`)
+    and arrays (:meth:`_Appender.add_block`) and written in one call."""
+
+    def __init__(self, channel_id: int) -> None:
+        self.channel_id = channel_id
+        self.pieces: list = []
+
+    def append(self, log_time: int, offset: int) -> None:
+        if not self.pieces or not isinstance(self.pieces[-1], list):
+            self.pieces.append([])
+        self.pieces[-1].append((log_time, offset))
+
+    def write(self, stream) -> None:
+        entries = np.concatenate([np.asarray(p, dtype="<u8").reshape(-1, 2) for p in self.pieces]).tobytes()
+        stream.write(_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + len(entries), self.channel_id, len(entries)))
+        stream.write(entries)
 
 
 class _Appender:
@@ -130,15 +152,44 @@ class _Appender:
         if log_time > chunk.message_end_time:
             chunk.message_end_time = log_time
         buf = chunk.record_writer._buffer  # noqa: SLF001
-        index = chunk.message_indices.get(channel_id)
-        if index is None:
-            index = chunk.message_indices[channel_id] = MessageIndex(channel_id=channel_id, records=[])
-        index.records.append((log_time, buf.tell()))
+        self._index(channel_id).append(log_time, buf.tell())
         chunk.num_messages += 1
         buf.write(_MESSAGE.pack(_MESSAGE_OPCODE, 22 + len(data), channel_id, sequence, log_time, publish_time))
         buf.write(data)
         if buf.tell() > self.chunk_size:
             self.finish_chunk()
+
+    def _index(self, channel_id: int) -> _ChannelIndex:
+        index = self.chunk.message_indices.get(channel_id)
+        if index is None:
+            index = self.chunk.message_indices[channel_id] = _ChannelIndex(channel_id)
+        return index
+
+    @property
+    def position(self) -> int:
+        """Bytes in the chunk in progress."""
+        return self.chunk.record_writer._buffer.tell()  # noqa: SLF001
+
+    def add_block(self, data: np.ndarray, starts: np.ndarray, log_times: np.ndarray, channels: np.ndarray) -> None:
+        """:meth:`add` for Message records already laid out back to back in ``data`` (each
+        starting at ``starts[i] - starts[0]``), in log-time order; the caller finishes the chunk."""
+        stats, chunk = self.stats, self.chunk
+        lo, hi = int(log_times[0]), int(log_times[-1])
+        if stats.message_count == 0 or lo < stats.message_start_time:
+            stats.message_start_time = lo
+        stats.message_end_time = max(stats.message_end_time, hi)
+        if chunk.num_messages == 0 or lo < chunk.message_start_time:
+            chunk.message_start_time = lo
+        chunk.message_end_time = max(chunk.message_end_time, hi)
+        buf = chunk.record_writer._buffer  # noqa: SLF001
+        offsets = starts - starts[0] + buf.tell()
+        for channel_id in np.unique(channels).tolist():
+            mine = channels == channel_id
+            self._index(channel_id).pieces.append(np.stack([log_times[mine], offsets[mine]], axis=1))
+            stats.channel_message_counts[channel_id] += int(np.count_nonzero(mine))
+        stats.message_count += len(starts)
+        chunk.num_messages += len(starts)
+        buf.write(data)
 
 
 @dataclass
@@ -174,7 +225,8 @@ class BagWriter:
         #: why the bag stopped before it was closed (a full disk), else None
         self.stopped: str | None = None
         self._on_disk(lambda: self._writer.start(profile="ros2", library=LIBRARY))
-        self._add = _Appender(self._writer).add if _Appender.available(self._writer) else self._add_message
+        self._appender = _Appender(self._writer) if _Appender.available(self._writer) else None
+        self._add = self._appender.add if self._appender is not None else self._add_message
         self._mark_on_disk()
 
     def add_topic(self, topic: str, type_name: str, qos_profiles: list[dict[str, Any]]) -> None:
@@ -212,6 +264,63 @@ class BagWriter:
         if log_time_ns - self._last_flush_ns >= self.chunk_duration_ns or \
                 time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
             self.flush()
+
+    def sequence(self, topic: str) -> int:
+        """The sequence number the next message of ``topic`` gets (its count so far)."""
+        return self.topics[topic].count
+
+    def write_records(self, data: np.ndarray, starts: np.ndarray, log_times: np.ndarray, topics: list[str],
+                      topic_of: np.ndarray) -> None:
+        """Write many messages at once, as :meth:`write` writes them one by one: ``data`` holds
+        their MCAP Message records back to back (uint8), ``starts`` where each begins, in
+        log-time order; message i is on ``topics[topic_of[i]]`` (registered) and its sequence number is
+        that topic's :meth:`sequence` plus the number of its messages before it. Chunks are
+        finished, written and fsync'd where :meth:`write` would finish them."""
+        if self.closed:
+            self._on_disk(lambda: None)  # raises DiskStopped
+        records = [self.topics.get(t) for t in topics]  # a topic without messages here may be unregistered
+        channels = np.array([0 if r is None else r.channel_id for r in records], dtype=np.uint64)[topic_of]
+        ends = np.append(starts[1:], len(data))
+        i, n = 0, len(starts)
+        while i < n:
+            k = self._segment_end(starts, ends, log_times, i)
+            try:
+                if self._appender is None:
+                    self._add_each(data, starts, ends, log_times, channels, i, k)
+                else:
+                    self._appender.add_block(data[starts[i]:ends[k]], starts[i:k + 1], log_times[i:k + 1],
+                                             channels[i:k + 1])
+                    if self._appender.position > self._appender.chunk_size:
+                        self._appender.finish_chunk()
+            except OSError as exc:
+                self._stop_on(exc)
+            for j, count in enumerate(np.bincount(topic_of[i:k + 1], minlength=len(records)).tolist()):
+                if count:
+                    records[j].count += count
+            lo, hi = int(log_times[i]), int(log_times[k])
+            if self._start_ns is None or lo < self._start_ns:
+                self._start_ns = lo
+            self._end_ns = max(self._end_ns, hi)
+            if hi - self._last_flush_ns >= self.chunk_duration_ns or \
+                    time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
+                self.flush()
+            i = k + 1
+
+    def _segment_end(self, starts: np.ndarray, ends: np.ndarray, log_times: np.ndarray, i: int) -> int:
+        """The last message from ``i`` on after which :meth:`write` would finish a chunk: the
+        log time ``chunk_duration_ns`` past the last flush, or the chunk over its size."""
+        k = int(np.searchsorted(log_times, self._last_flush_ns + self.chunk_duration_ns, side="left"))
+        if self._appender is not None:
+            room = self._appender.chunk_size - self._appender.position
+            k = min(k, int(np.searchsorted(ends, starts[i] + room, side="right")))
+        return min(max(k, i), len(starts) - 1)
+
+    def _add_each(self, data, starts, ends, log_times, channels, i: int, k: int) -> None:
+        """The mcap library's ``add_message`` for each record i … k (another mcap layout)."""
+        for j in range(i, k + 1):
+            head = _MESSAGE.unpack_from(data, int(starts[j]))
+            self._add(int(channels[j]), int(log_times[j]), bytes(data[starts[j] + _MESSAGE.size:ends[j]]), head[5],
+                      head[3])
 
     def flush(self) -> None:
         """Finish the chunk in progress, write it and fsync it: a chunk boundary on disk."""

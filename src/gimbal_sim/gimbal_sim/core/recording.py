@@ -62,13 +62,22 @@ class EngineBag:
         self._names: dict[tuple[str, str], object] = {}
 
     def _register(self, node: str, topic: str, type_name: str) -> object:
-        name = resolve(node, topic, self.remaps.get(node, {}))
-        if self.wanted is not None and name not in self.wanted:
+        name = self.topic_name(node, topic)
+        if name is None:
             name = _SKIP
         else:
-            self.writer.add_topic(name, type_name, GRAPH_OFFERED_QOS)
+            self.add_topic(name, type_name)
         self._names[(node, topic)] = name
         return name
+
+    def topic_name(self, node: str, topic: str) -> str | None:
+        """The bag's name of ``node``'s ``topic``, or None when the scenario does not record
+        it; :meth:`add_topic` registers it before its first message."""
+        name = resolve(node, topic, self.remaps.get(node, {}))
+        return None if self.wanted is not None and name not in self.wanted else name
+
+    def add_topic(self, name: str, type_name: str) -> None:
+        self.writer.add_topic(name, type_name, GRAPH_OFFERED_QOS)
 
     def __call__(self, node: str, messages: list[tuple[str, str, bytes]]) -> None:
         names, rates, write = self._names, self.rates, self.writer.write
