@@ -59,17 +59,17 @@ class Template:
                                "itemsize": self.size})
         self.n_stamps, self.columns = len(stamp_at), [c for _, c in fields]
 
-    def fill(self, stamps: np.ndarray, rows: np.ndarray, index) -> np.ndarray:
-        """The messages of steps ``index`` (rows of ``rows``, stamps [ns]) as (m, size) bytes."""
-        st = stamps[index]
-        out = np.empty(len(st), dtype=self.dtype)
-        raw = out.view(np.uint8).reshape(len(st), self.size)
+    def fill(self, stamps: np.ndarray, column: Callable[[int], np.ndarray]) -> np.ndarray:
+        """The messages at ``stamps`` [ns], ``column(c)`` their values of column c, as
+        (m, size) bytes."""
+        out = np.empty(len(stamps), dtype=self.dtype)
+        raw = out.view(np.uint8).reshape(len(stamps), self.size)
         raw[:] = self.data
-        sec, nsec = np.divmod(st, 1_000_000_000)
+        sec, nsec = np.divmod(stamps, 1_000_000_000)
         for i in range(self.n_stamps):
             out[f"s{i}"], out[f"n{i}"] = sec, nsec
         for i, c in enumerate(self.columns):
-            out[f"f{i}"] = rows[index, c]
+            out[f"f{i}"] = column(c)
         return raw
 
     @staticmethod
@@ -85,29 +85,41 @@ class Template:
 
 class BlockSource:
     """One serialisation call of a node, ``fn(t_ns, row)``, as templates (module docstring);
-    ``n_columns``: the row's length."""
+    ``n_columns``: the row's length; ``extra(row)``: values ``fn`` computes from the row
+    (e.g. a quaternion from Euler angles), by the same scalar code, as more columns."""
 
-    def __init__(self, node: str, fn: Callable[[int, np.ndarray], Messages], n_columns: int) -> None:
-        self.node, self.fn = node, fn
+    def __init__(self, node: str, fn: Callable[[int, np.ndarray], Messages], n_columns: int,
+                 extra: Callable[[np.ndarray], tuple] | None = None) -> None:
+        self.node, self.fn, self.n_columns, self.extra = node, fn, n_columns, extra
         rng = np.random.default_rng(20260901)
         row = rng.uniform(1.0, 2.0, n_columns) * np.exp2(rng.integers(-20, 20, n_columns))
         t_ns = 1_734_567 * 1_000_000_000 + 987_654_321
         messages = fn(t_ns, row)
         self.messages = [(topic, type_name) for topic, type_name, _ in messages]
-        self.templates = [Template.derive(data, t_ns, row) for _, _, data in messages]
+        full = row if extra is None else np.concatenate([row, np.asarray(extra(row), dtype=float)])
+        self.templates = [Template.derive(data, t_ns, full) for _, _, data in messages]
         for j in range(_CHECKS):
             t = t_ns + 1_000_003_331 * (j + 1)
             rows = (rng.normal(size=n_columns) * 10.0 ** rng.integers(-6, 6, n_columns))[None, :]
+            column = self.columns(rows, np.array([0]))
             for i, (_, _, data) in enumerate(fn(t, rows[0])):
                 tpl = self.templates[i]
-                if tpl is not None and tpl.fill(np.array([t]), rows, [0]).tobytes() != data:
+                if tpl is not None and tpl.fill(np.array([t]), column).tobytes() != data:
                     self.templates[i] = None
 
-    def payloads(self, i: int, stamps: np.ndarray, rows: np.ndarray, index: np.ndarray) -> np.ndarray:
-        """Message ``i`` of the steps ``index`` as (m, size) bytes."""
+    def columns(self, rows: np.ndarray, index: np.ndarray) -> Callable[[int], np.ndarray]:
+        """``column(c)``: column c of the rows ``index`` (past the row: :attr:`extra`'s)."""
+        if self.extra is None:
+            return lambda c: rows[index, c]
+        ext = np.array([self.extra(rows[k]) for k in index.tolist()], dtype=float).reshape(len(index), -1)
+        return lambda c: rows[index, c] if c < self.n_columns else ext[:, c - self.n_columns]
+
+    def payloads(self, i: int, stamps: np.ndarray, rows: np.ndarray, index: np.ndarray,
+                 column: Callable[[int], np.ndarray]) -> np.ndarray:
+        """Message ``i`` of the steps ``index`` as (m, size) bytes (``column``: :meth:`columns`)."""
         tpl = self.templates[i]
         if tpl is not None:
-            return tpl.fill(stamps, rows, index)
+            return tpl.fill(stamps[index], column)
         data = [self.fn(int(stamps[k]), rows[k])[i][2] for k in index.tolist()]
         return np.frombuffer(bytearray(b"".join(data)), dtype=np.uint8).reshape(len(data), -1)
 
@@ -131,9 +143,12 @@ class BlockRecorder:
         for (s, i, name), idx in zip(self.parts, index):
             if len(idx):  # registered at its first message, as the recorder does
                 self.bag.add_topic(name, s.messages[i][1])
-        payloads = List()
+        payloads, columns = List(), {}
         for (s, i, _), idx in zip(self.parts, index):
-            payloads.append(np.ascontiguousarray(s.payloads(i, stamps, rows, idx)))
+            key = (id(s), id(idx))  # a source's messages share its steps' array unless a rate cut it
+            if key not in columns:
+                columns = {key: s.columns(rows, idx)}
+            payloads.append(np.ascontiguousarray(s.payloads(i, stamps, rows, idx, columns[key])))
         part_of = np.concatenate([np.full(len(idx), p, dtype=np.int64) for p, idx in enumerate(index)])
         log = np.concatenate([stamps[idx] for idx in index]).astype(np.int64)
         order = np.lexsort((part_of, log))
@@ -191,5 +206,7 @@ def _lay_out(payloads, part_of, row_of, log, channel, topic_of_part, seq, out, s
         seq[t] += 1
         _put(out, at + 15, log[i], 8)
         _put(out, at + 23, log[i], 8)
-        out[at + _HEAD:at + _HEAD + n] = payload[row_of[i]]
+        r = row_of[i]
+        for b in range(n):
+            out[at + _HEAD + b] = payload[r, b]
         at += _HEAD + n

@@ -34,6 +34,7 @@ from .block_bag import BlockRecorder, BlockSource
 from gimbal_control.wire import torque_command_messages
 from gimbal_estimators.wire import ekf_messages
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
+from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
 
 from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
@@ -201,7 +202,8 @@ class _Publisher:
             sources += [(ekf, lambda t, r: _ekf(t, r, True)), (ekf, lambda t, r: _ekf(t, r, False))]
         if ctrl is not None:
             sources.append((ctrl, lambda t, r: torque_command_messages(t, (r[sk.R_CMD], r[sk.R_CMD + 1]))))
-        self.sources = [BlockSource(node, fn, sk.N_REC) for node, fn in sources]
+        self.sources = [BlockSource(node, fn, sk.N_REC, _ins_quat if i == 2 else None)
+                        for i, (node, fn) in enumerate(sources)]
         self.record = BlockRecorder(record, self.sources)
 
     def __call__(self, k0: int, stamps: np.ndarray, rec: np.ndarray, ins_dec: int) -> None:
@@ -228,6 +230,11 @@ def _truth(t_ns: int, r) -> VehicleTruth:
 def _ins(t_ns: int, r) -> InsSample:
     return InsSample(t_ns * 1e-9, tuple(r[sk.R_INS_E:sk.R_INS_E + 3]), tuple(r[sk.R_INS_W:sk.R_INS_W + 3]),
                      tuple(r[sk.R_INS_B:sk.R_INS_B + 3]))
+
+
+def _ins_quat(r) -> tuple:
+    """The INS message's orientation, as ``sensor_messages`` computes it."""
+    return quat_canonical(quat_from_euler321(*r[sk.R_INS_E:sk.R_INS_E + 3]))
 
 
 def _ekf(t_ns: int, r, has_w: bool):
