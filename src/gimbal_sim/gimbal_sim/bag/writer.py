@@ -100,24 +100,44 @@ _MESSAGE_OPCODE = 0x05
 _INDEX_HEAD = struct.Struct("<BQHI")
 
 
+class _BlockEntries:
+    """The MessageIndex entries of the blocks a chunk holds (:meth:`_Appender.add_block`),
+    split by channel once, when the chunk's indexes are written."""
+
+    def __init__(self, indices: dict) -> None:
+        self.indices = indices  # the chunk's message_indices: a new chunk has a new dict
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._split: dict[int, np.ndarray] | None = None
+
+    def of(self, channel_id: int) -> np.ndarray:
+        if self._split is None:
+            channels, logs, offsets = (np.concatenate(a) for a in zip(*self.parts))
+            order = np.argsort(channels, kind="stable")
+            ids, first = np.unique(channels[order], return_index=True)
+            entries = np.stack([logs[order], offsets[order]], axis=1).astype("<u8")
+            self._split = dict(zip(ids.tolist(), np.split(entries, first[1:])))
+        return self._split.get(channel_id, np.empty((0, 2), dtype="<u8"))
+
+
 class _ChannelIndex:
     """A channel's MessageIndex in a chunk (the mcap library's ``MessageIndex``, whose
-    ``write`` packs each entry in two calls), its entries kept as lists (:meth:`_Appender.add`)
-    and arrays (:meth:`_Appender.add_block`) and written in one call."""
+    ``write`` packs each entry in two calls), its entries those :meth:`_Appender.add` made
+    and those of the chunk's blocks (:class:`_BlockEntries`), written in one call."""
 
     def __init__(self, channel_id: int) -> None:
         self.channel_id = channel_id
-        self.pieces: list = []
-
-    def append(self, log_time: int, offset: int) -> None:
-        if not self.pieces or not isinstance(self.pieces[-1], list):
-            self.pieces.append([])
-        self.pieces[-1].append((log_time, offset))
+        self.records: list[tuple[int, int]] = []
+        self.blocks: _BlockEntries | None = None
 
     def write(self, stream) -> None:
-        entries = np.concatenate([np.asarray(p, dtype="<u8").reshape(-1, 2) for p in self.pieces]).tobytes()
-        stream.write(_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + len(entries), self.channel_id, len(entries)))
-        stream.write(entries)
+        entries = np.asarray(self.records, dtype="<u8").reshape(-1, 2)
+        if self.blocks is not None:
+            entries = np.concatenate([entries, self.blocks.of(self.channel_id)])
+            if self.records:  # both kinds: in the order they are in the chunk
+                entries = entries[np.argsort(entries[:, 1], kind="stable")]
+        data = entries.tobytes()
+        stream.write(_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + len(data), self.channel_id, len(data)))
+        stream.write(data)
 
 
 class _Appender:
@@ -134,6 +154,7 @@ class _Appender:
         self.chunk = writer._Writer__chunk_builder  # noqa: SLF001
         self.chunk_size = writer._Writer__chunk_size  # noqa: SLF001
         self.finish_chunk = writer._Writer__maybe_finalize_chunk  # noqa: SLF001
+        self._blocks: _BlockEntries | None = None
 
     @staticmethod
     def available(writer: Writer) -> bool:
@@ -156,7 +177,7 @@ class _Appender:
         if log_time > chunk.message_end_time:
             chunk.message_end_time = log_time
         buf = chunk.record_writer._buffer  # noqa: SLF001
-        self._index(channel_id).append(log_time, buf.tell())
+        self._index(channel_id).records.append((log_time, buf.tell()))
         chunk.num_messages += 1
         buf.write(_MESSAGE.pack(_MESSAGE_OPCODE, 22 + len(data), channel_id, sequence, log_time, publish_time))
         buf.write(data)
@@ -174,9 +195,11 @@ class _Appender:
         """Bytes in the chunk in progress."""
         return self.chunk.record_writer._buffer.tell()  # noqa: SLF001
 
-    def add_block(self, data: np.ndarray, starts: np.ndarray, log_times: np.ndarray, channels: np.ndarray) -> None:
+    def add_block(self, data: np.ndarray, starts: np.ndarray, log_times: np.ndarray, channels: np.ndarray,
+                  counts: dict[int, int]) -> None:
         """:meth:`add` for Message records already laid out back to back in ``data`` (each
-        starting at ``starts[i] - starts[0]``), in log-time order; the caller finishes the chunk."""
+        starting at ``starts[i] - starts[0]``), in log-time order, ``counts`` of them on each
+        channel; the caller finishes the chunk."""
         stats, chunk = self.stats, self.chunk
         lo, hi = int(log_times[0]), int(log_times[-1])
         if stats.message_count == 0 or lo < stats.message_start_time:
@@ -186,11 +209,13 @@ class _Appender:
             chunk.message_start_time = lo
         chunk.message_end_time = max(chunk.message_end_time, hi)
         buf = chunk.record_writer._buffer  # noqa: SLF001
-        offsets = starts - starts[0] + buf.tell()
-        for channel_id in np.unique(channels).tolist():
-            mine = channels == channel_id
-            self._index(channel_id).pieces.append(np.stack([log_times[mine], offsets[mine]], axis=1))
-            stats.channel_message_counts[channel_id] += int(np.count_nonzero(mine))
+        blocks = self._blocks
+        if blocks is None or blocks.indices is not chunk.message_indices:
+            blocks = self._blocks = _BlockEntries(chunk.message_indices)
+        blocks.parts.append((channels, log_times, starts - starts[0] + buf.tell()))
+        for channel_id, count in counts.items():
+            self._index(channel_id).blocks = blocks
+            stats.channel_message_counts[channel_id] += count
         stats.message_count += len(starts)
         chunk.num_messages += len(starts)
         buf.write(data)
@@ -296,17 +321,19 @@ class BagWriter:
         i, n = 0, len(starts)
         while i < n:
             k = self._segment_end(starts, ends, log_times, i)
+            counts = np.bincount(topic_of[i:k + 1], minlength=len(records)).tolist()
             try:
                 if self._appender is None:
                     self._add_each(data, starts, ends, log_times, channels, i, k)
                 else:
                     self._appender.add_block(data[starts[i]:ends[k]], starts[i:k + 1], log_times[i:k + 1],
-                                             channels[i:k + 1])
+                                             channels[i:k + 1], {records[j].channel_id: c for j, c in
+                                                                 enumerate(counts) if c})
                     if self._appender.position > self._appender.chunk_size:
                         self._appender.finish_chunk()
             except OSError as exc:
                 self._stop_on(exc)
-            for j, count in enumerate(np.bincount(topic_of[i:k + 1], minlength=len(records)).tolist()):
+            for j, count in enumerate(counts):
                 if count:
                     records[j].count += count
             lo, hi = int(log_times[i]), int(log_times[k])

@@ -25,7 +25,6 @@ from typing import Callable
 
 import numpy as np
 from numba import njit
-from numba.typed import List
 
 from .recording import EngineBag
 
@@ -59,11 +58,10 @@ class Template:
                                "itemsize": self.size})
         self.n_stamps, self.columns = len(stamp_at), [c for _, c in fields]
 
-    def fill(self, stamps: np.ndarray, column: Callable[[int], np.ndarray]) -> np.ndarray:
-        """The messages at ``stamps`` [ns], ``column(c)`` their values of column c, as
-        (m, size) bytes."""
-        out = np.empty(len(stamps), dtype=self.dtype)
-        raw = out.view(np.uint8).reshape(len(stamps), self.size)
+    def fill(self, stamps: np.ndarray, column: Callable[[int], np.ndarray], raw: np.ndarray) -> np.ndarray:
+        """The messages at ``stamps`` [ns], ``column(c)`` their values of column c, into
+        ``raw`` ((m, size) bytes)."""
+        out = raw.reshape(-1).view(self.dtype)
         raw[:] = self.data
         sec, nsec = np.divmod(stamps, 1_000_000_000)
         for i in range(self.n_stamps):
@@ -96,6 +94,7 @@ class BlockSource:
         t_ns = 1_734_567 * 1_000_000_000 + 987_654_321
         messages = fn(t_ns, row)
         self.messages = [(topic, type_name) for topic, type_name, _ in messages]
+        self.sizes = [len(data) for _, _, data in messages]
         full = row if extra is None else np.concatenate([row, np.asarray(extra(row), dtype=float)])
         self.templates = [Template.derive(data, t_ns, full) for _, _, data in messages]
         for j in range(_CHECKS):
@@ -104,7 +103,8 @@ class BlockSource:
             column = self.columns(rows, np.array([0]))
             for i, (_, _, data) in enumerate(fn(t, rows[0])):
                 tpl = self.templates[i]
-                if tpl is not None and tpl.fill(np.array([t]), column).tobytes() != data:
+                if tpl is not None and tpl.fill(np.array([t]), column, np.empty((1, tpl.size), np.uint8)).tobytes() \
+                        != data:
                     self.templates[i] = None
 
     def columns(self, rows: np.ndarray, index: np.ndarray) -> Callable[[int], np.ndarray]:
@@ -115,13 +115,15 @@ class BlockSource:
         return lambda c: rows[index, c] if c < self.n_columns else ext[:, c - self.n_columns]
 
     def payloads(self, i: int, stamps: np.ndarray, rows: np.ndarray, index: np.ndarray,
-                 column: Callable[[int], np.ndarray]) -> np.ndarray:
-        """Message ``i`` of the steps ``index`` as (m, size) bytes (``column``: :meth:`columns`)."""
+                 column: Callable[[int], np.ndarray], raw: np.ndarray) -> None:
+        """Message ``i`` of the steps ``index`` into ``raw`` ((m, size) bytes; ``column``:
+        :meth:`columns`)."""
         tpl = self.templates[i]
         if tpl is not None:
-            return tpl.fill(stamps[index], column)
-        data = [self.fn(int(stamps[k]), rows[k])[i][2] for k in index.tolist()]
-        return np.frombuffer(bytearray(b"".join(data)), dtype=np.uint8).reshape(len(data), -1)
+            tpl.fill(stamps[index], column, raw)
+            return
+        data = b"".join(self.fn(int(stamps[k]), rows[k])[i][2] for k in index.tolist())
+        raw[:] = np.frombuffer(data, dtype=np.uint8).reshape(raw.shape)
 
 
 class BlockRecorder:
@@ -143,12 +145,14 @@ class BlockRecorder:
         for (s, i, name), idx in zip(self.parts, index):
             if len(idx):  # registered at its first message, as the recorder does
                 self.bag.add_topic(name, s.messages[i][1])
-        payloads, columns = List(), {}
-        for (s, i, _), idx in zip(self.parts, index):
+        sizes = np.array([s.sizes[i] for s, i, _ in self.parts], dtype=np.int64)
+        base = np.concatenate([[0], np.cumsum([len(idx) for idx in index] * sizes)])
+        flat, columns = self._buffer("_flat", int(base[-1])), {}
+        for p, ((s, i, _), idx) in enumerate(zip(self.parts, index)):
             key = (id(s), id(idx))  # a source's messages share its steps' array unless a rate cut it
             if key not in columns:
                 columns = {key: s.columns(rows, idx)}
-            payloads.append(np.ascontiguousarray(s.payloads(i, stamps, rows, idx, columns[key])))
+            s.payloads(i, stamps, rows, idx, columns[key], flat[base[p]:base[p + 1]].reshape(len(idx), sizes[p]))
         part_of = np.concatenate([np.full(len(idx), p, dtype=np.int64) for p, idx in enumerate(index)])
         log = np.concatenate([stamps[idx] for idx in index]).astype(np.int64)
         order = np.lexsort((part_of, log))
@@ -159,11 +163,20 @@ class BlockRecorder:
         channel = np.array([writer.topics[name].channel_id if name in writer.topics else 0
                             for _, _, name in self.parts], dtype=np.int64)
         seq = np.array([writer.sequence(t) if t in writer.topics else 0 for t in self.topics], dtype=np.int64)
-        size = sum(len(idx) * (_HEAD + p.shape[1]) for idx, p in zip(index, payloads))
-        out, starts = np.empty(size, dtype=np.uint8), np.empty(len(log), dtype=np.int64)
-        _lay_out(payloads, part_of, row_of, log, channel, topic_of_part, seq, out, starts)
+        size = int(base[-1]) + _HEAD * len(log)
+        out, starts = self._buffer("_out", size), np.empty(len(log), dtype=np.int64)
+        _lay_out(flat, base, sizes, part_of, row_of, log, channel, topic_of_part, seq, out, starts)
         if len(log):
             writer.write_records(out, starts, log, self.topics, topic_of_part[part_of])
+
+    def _buffer(self, name: str, size: int) -> np.ndarray:
+        """``size`` bytes of a buffer kept from block to block (fresh pages cost more than
+        filling them)."""
+        buf = getattr(self, name, None)
+        if buf is None or len(buf) < size:
+            buf = np.empty(size, dtype=np.uint8)
+            setattr(self, name, buf)
+        return buf[:size]
 
     def _apply_rates(self, stamps: np.ndarray, index: list[np.ndarray]) -> None:
         """Drop from ``index`` the messages the topics' record rates leave out."""
@@ -182,31 +195,28 @@ class BlockRecorder:
 
 
 @njit(cache=True)
-def _put(out, at, value, size):
-    for b in range(size):
-        out[at + b] = (value >> (8 * b)) & 0xFF
-
-
-@njit(cache=True)
-def _lay_out(payloads, part_of, row_of, log, channel, topic_of_part, seq, out, starts):  # pragma: no cover - numba
+def _lay_out(flat, base, sizes, part_of, row_of, log, channel, topic_of_part, seq, out, starts):  # pragma: no cover - numba
     """The MCAP Message records (opcode 0x05, length, channel, sequence, log and publish time,
-    payload) of the messages in order, back to back in ``out``; ``starts``: where each begins;
-    ``seq``: each topic's next sequence number (advanced)."""
+    payload: message ``row_of[i]`` of part ``part_of[i]`` in ``flat``, the part's from ``base``,
+    ``sizes`` bytes each) of the messages in order, back to back in ``out``; ``starts``: where
+    each begins; ``seq``: each topic's next sequence number (advanced)."""
     at = 0
     for i in range(part_of.size):
         p = part_of[i]
-        payload = payloads[p]
-        n = payload.shape[1]
+        n = sizes[p]
+        t = topic_of_part[p]
         starts[i] = at
         out[at] = 5
-        _put(out, at + 1, 22 + n, 8)
-        _put(out, at + 9, channel[p], 2)
-        t = topic_of_part[p]
-        _put(out, at + 11, seq[t], 4)
+        length, ch, sq, lt = 22 + n, channel[p], seq[t], log[i]
         seq[t] += 1
-        _put(out, at + 15, log[i], 8)
-        _put(out, at + 23, log[i], 8)
-        r = row_of[i]
-        for b in range(n):
-            out[at + _HEAD + b] = payload[r, b]
+        for b in range(8):
+            out[at + 1 + b] = (length >> (8 * b)) & 0xFF
+            out[at + 15 + b] = (lt >> (8 * b)) & 0xFF
+            out[at + 23 + b] = (lt >> (8 * b)) & 0xFF
+        for b in range(2):
+            out[at + 9 + b] = (ch >> (8 * b)) & 0xFF
+        for b in range(4):
+            out[at + 11 + b] = (sq >> (8 * b)) & 0xFF
+        src = base[p] + row_of[i] * n
+        out[at + _HEAD:at + _HEAD + n] = flat[src:src + n]
         at += _HEAD + n
