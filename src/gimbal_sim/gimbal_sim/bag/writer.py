@@ -104,8 +104,8 @@ class _BlockEntries:
     """The MessageIndex entries of the blocks a chunk holds (:meth:`_Appender.add_block`),
     split by channel once, when the chunk's indexes are written."""
 
-    def __init__(self, indices: dict) -> None:
-        self.indices = indices  # the chunk's message_indices: a new chunk has a new dict
+    def __init__(self, chunk: int) -> None:
+        self.chunk = chunk  # the chunks finished before this one
         self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._split: dict[int, np.ndarray] | None = None
 
@@ -210,8 +210,8 @@ class _Appender:
         chunk.message_end_time = max(chunk.message_end_time, hi)
         buf = chunk.record_writer._buffer  # noqa: SLF001
         blocks = self._blocks
-        if blocks is None or blocks.indices is not chunk.message_indices:
-            blocks = self._blocks = _BlockEntries(chunk.message_indices)
+        if blocks is None or blocks.chunk != stats.chunk_count:
+            blocks = self._blocks = _BlockEntries(stats.chunk_count)
         blocks.parts.append((channels, log_times, starts - starts[0] + buf.tell()))
         for channel_id, count in counts.items():
             self._index(channel_id).blocks = blocks
