@@ -57,7 +57,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
-from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
+from .stamps import Stamp, is_gap, judge, step_of_stamp, step_stamp_ns
 from .stream_stats import StreamStats
 from .sync import StampOrder, StampSync, StepGroups
 
@@ -136,33 +136,12 @@ class SampleGrid:
         return min(k - k % n + n for n in self.every.values())
 
 
-class LockstepOrder:
-    """Lockstep input policy (module docstring): ``streams`` in stamp order (within a
-    stamp in the order given), released when every stream has reached the stamp or after
-    ``max_wait_ns``; ``~/progress`` every ``progress_every`` steps of ``rate_hz``;
-    /diagnostics with the core's counters."""
-
-    timing = "lockstep"
-    diagnostics = True
-
-    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int) -> None:
-        self.order = StampOrder(streams, max_wait_ns)
-        self.rate_hz = rate_hz
-        self.progress_every = int(progress_every)
-        self.silence = SilenceWatch()
-
-    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
-        out = [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
-        self.silence.heard(len(out))
-        return out
+class _CoreReport:
+    """A lockstep policy's core time (the stamp in seconds) and /diagnostics (the core's
+    counters only; module docstring)."""
 
     def stamp_of(self, t: float) -> int:
         return int(round(t * 1e9))
-
-    def progress(self, step: Step) -> int | None:
-        """The next step's stamp when it starts a new block of ``progress_every`` steps."""
-        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
-        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
 
     def counters(self) -> dict[str, int]:
         return {}
@@ -172,7 +151,57 @@ class LockstepOrder:
         return dict(core), None
 
 
-class LockstepGroups:
+class LockstepOrder(_CoreReport):
+    """Lockstep input policy (module docstring): each stream's stamp judged against its last
+    (:func:`gimbal_kinematics.stamps.judge`: a duplicate or late stamp dropped and counted in
+    ``rejected``; one more than ``clock_jump_ns`` back restarts, ``on_restart(reason)``
+    resetting the node's core), then ``streams`` in stamp order (within a stamp in the order
+    given), released when every stream has reached the stamp or after ``max_wait_ns``;
+    ``~/progress`` every ``progress_every`` steps of ``rate_hz``; /diagnostics with the
+    core's counters."""
+
+    timing = "lockstep"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int,
+                 clock_jump_ns: int = 0, on_restart: Callable[[str], None] | None = None) -> None:
+        self.order = StampOrder(streams, max_wait_ns)
+        self.rate_hz = rate_hz
+        self.progress_every = int(progress_every)
+        self.clock_jump_ns = int(clock_jump_ns)
+        self.on_restart = on_restart
+        self._last: dict[str, int | None] = dict.fromkeys(streams)
+        #: stamps dropped as duplicate or late, over every stream
+        self.rejected = 0
+        self.silence = SilenceWatch()
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        last = self._last[kind]
+        if last is not None and stamp_ns <= last:
+            if judge(stamp_ns, last, self.clock_jump_ns) is not Stamp.JUMPED_BACK:
+                self.rejected += 1
+                self.silence.heard(0)
+                return []
+            self._restart(kind, last, stamp_ns)
+        self._last[kind] = stamp_ns
+        out = [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+        self.silence.heard(len(out))
+        return out
+
+    def _restart(self, stream: str, last_ns: int, stamp_ns: int) -> None:
+        """A clock jump back (a bag looping): forget the old run's buffered inputs and stamps."""
+        if self.on_restart is not None:
+            self.on_restart(f"clock jumped back on {stream}: {last_ns * 1e-9:.6f} s -> {stamp_ns * 1e-9:.6f} s")
+        self.order = StampOrder(self.order.streams, self.order.max_wait_ns)
+        self._last = dict.fromkeys(self._last)
+
+    def progress(self, step: Step) -> int | None:
+        """The next step's stamp when it starts a new block of ``progress_every`` steps."""
+        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
+        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
+
+
+class LockstepGroups(_CoreReport):
     """Lockstep policy of a node whose inputs are grouped by step
     (:class:`gimbal_kinematics.sync.StepGroups`): an input stamped off the steps its stream
     samples at (``needs(k)``) is rejected and counted (``off_grid``); a complete step is
@@ -212,22 +241,12 @@ class LockstepGroups:
         self.silence.heard(len(out))
         return out
 
-    def stamp_of(self, t: float) -> int:
-        return int(round(t * 1e9))
-
     def progress(self, step: Step) -> int | None:
         if not step.ends_step:
             return None
         k = step_of_stamp(step.stamp_ns, self.rate_hz)
         nxt = self.next_due(k)
         return step_stamp_ns(nxt, self.rate_hz) if nxt // self.progress_every > k // self.progress_every else None
-
-    def counters(self) -> dict[str, int]:
-        return {}
-
-    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
-               ) -> tuple[dict[str, Any], str | None]:
-        return dict(core), None
 
 
 class HeldSamples:
@@ -319,6 +338,11 @@ class FreeOrder:
                 st.last_ns = None  # the other streams' next stamps belong to the new run
         self.t0_ns = None
 
+    @property
+    def rejected(self) -> int:
+        """Stamps dropped as duplicate or late, over every stream."""
+        return sum(st.duplicates + st.out_of_order for st in self.stats.values())
+
     def stamp_of(self, t: float) -> int:
         return self.t0_ns + int(round(t * 1e9))
 
@@ -340,7 +364,7 @@ class FreeOrder:
         return {**core, **self.counters(), **node, **nis}, nis_verdict
 
 
-class LockstepSamples:
+class LockstepSamples(_CoreReport):
     """Lockstep policy of a sampled node (module docstring): each sample is a step at once,
     covering the nominal ``period_s``; ``~/progress`` names the step one sample after the
     older of the streams' newest, every ``progress_every`` steps of ``rate_hz``. No
@@ -360,9 +384,6 @@ class LockstepSamples:
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         return [Step(kind, stamp_ns, stamp_ns * 1e-9, msg, self.period_s)]
 
-    def stamp_of(self, t: float) -> int:
-        return int(round(t * 1e9))
-
     def progress(self, step: Step) -> int | None:
         newest = self._newest[step.kind]
         if newest is None or step.stamp_ns > newest:
@@ -374,13 +395,6 @@ class LockstepSamples:
             return None
         self._reported = k
         return step_stamp_ns(k, self.rate_hz)
-
-    def counters(self) -> dict[str, int]:
-        return {}
-
-    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
-               ) -> tuple[dict[str, Any], str | None]:
-        return dict(core), None
 
 
 class FreeSamples:
@@ -457,7 +471,7 @@ def order_policy(timing: str, streams: Sequence[str], *, max_wait_ns: int, rate_
                  clock_jump_ns: int, on_restart: Callable[[str], None]) -> LockstepOrder | FreeOrder:
     """The stamp-ordered input policy of ``timing`` (a node's one choice, in its constructor)."""
     if timing == "lockstep":
-        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every)
+        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every, clock_jump_ns, on_restart)
     if timing == "free":
         return FreeOrder(streams, max_wait_ns, clock_jump_ns, progress_every, on_restart)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")

@@ -164,13 +164,13 @@ def ekf_stage(ekf: GyroBiasEkf, name: str = "gyro_bias_ekf") -> Callable[[Bus], 
         t = bus.t
         out = None
         if bus.encoders is not None:
-            out = ekf.on_encoders(t, bus.encoders.angles, bus.encoders.rates) or out
+            out = ekf.on_encoders(t, bus.encoders.angles, bus.encoders.rates).output or out
             _publish_ekf(bus, ekf, name)
         if bus.ins is not None:
-            out = ekf.on_ins(t, bus.ins_euler, bus.ins.omega_b) or out
+            out = ekf.on_ins(t, bus.ins_euler, bus.ins.omega_b).output or out
             _publish_ekf(bus, ekf, name)
         if bus.gyro is not None:
-            out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
+            out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m).output or out
             _publish_ekf(bus, ekf, name)
         bus.bias = None if out is None else tuple(out.bias.tolist())
         bus.ekf = out
