@@ -113,8 +113,7 @@ class GyroBiasEkfNode(Node):
         super().__init__("gyro_bias_ekf", **node_kwargs)
         values = declare_and_read(self, PARAMS)
         self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
-        self.edge = edge = NodeEdge(self, values)
-        edge.declare_counters(*m.BAD_INPUT_KEYS)
+        self.edge = edge = NodeEdge(self, values, m.BAD_INPUT_KEYS)
         # the one choice of timing (module docstring)
         self.policy = order_policy(values["timing"], STREAMS, max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)),
                                    rate_hz=values["sim_rate_hz"], progress_every=values["progress_every_steps"],

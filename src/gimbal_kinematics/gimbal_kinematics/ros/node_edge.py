@@ -41,37 +41,45 @@ Messages = list[tuple[str, str, bytes]]
 
 class NodeEdge:
     """The shared plumbing of one node (module docstring); ``values`` its parameters
-    (``timing``, and ``diagnostics_period_s`` when it publishes /diagnostics)."""
+    (``timing``, and ``diagnostics_period_s`` when it publishes /diagnostics); ``counters``
+    the input-check counters /diagnostics carries from the start."""
 
-    def __init__(self, node: Node, values: dict[str, Any]) -> None:
+    def __init__(self, node: Node, values: dict[str, Any], counters: tuple[str, ...] = ()) -> None:
         self.node = node
         self.timing = values["timing"]
         self.io = NodeIo(node)
         self.diag_period_ns = int(round(values.get("diagnostics_period_s", 0.0) * 1e9))
         self._next_diag_ns = 0
         #: the input-check counters, by name (:meth:`reject`), for /diagnostics
-        self.counts: dict[str, int] = {}
+        self.counts: dict[str, int] = dict.fromkeys(counters, 0)
         self.warnings = 0
         self.pubs: dict[str, Any] = {}
+        self._inputs: dict[str, tuple[Callable[[bytes], Any], Callable[[Any], None]]] = {}
 
     # ----------------------------------------------------------------- inputs
     def subscribe(self, msg_type: Any, topic: str, on_input: Callable[[Any], None]) -> Subscription:
         """A subscription to ``topic`` whose messages reach ``on_input`` decoded (module docstring)."""
-        decode = decoder(msg_type)
-
-        def take(data: bytes) -> None:
-            try:
-                msg = decode(data)
-            except Exception as exc:  # noqa: BLE001  (rclpy's deserialiser raises several kinds)
-                self.reject("malformed", f"malformed message on {topic} ignored: {exc}")
-                return
-            on_input(msg)
-        return self.io.subscribe(msg_type, topic, take, self.timing, raw=True)
+        self._inputs[topic] = (decoder(msg_type), on_input)
+        return self.io.subscribe(msg_type, topic, lambda data: self.take(topic, data), self.timing, raw=True)
 
     def subscribe_all(self, inputs: Any, on_input: Callable[[str, Any], None]) -> list[Subscription]:
-        """:meth:`subscribe` to each (kind, type, topic) of ``inputs``, ``on_input(kind, msg)``."""
-        return [self.subscribe(msg_type, topic, lambda msg, k=kind: on_input(k, msg))
+        """:meth:`subscribe` to each (kind, type, topic) of ``inputs``, ``on_input(kind, msg)``;
+        :meth:`take` knows each input by its kind too."""
+        subs = [self.subscribe(msg_type, topic, lambda msg, k=kind: on_input(k, msg))
                 for kind, msg_type, topic in inputs]
+        self._inputs.update((kind, self._inputs[topic]) for kind, _, topic in inputs)
+        return subs
+
+    def take(self, name: str, data: bytes) -> None:
+        """Serialized bytes of an input (its topic, or its kind for :meth:`subscribe_all`'s),
+        decoded and passed on, or counted as ``malformed``: what a subscription does."""
+        decode, on_input = self._inputs[name]
+        try:
+            msg = decode(data)
+        except Exception as exc:  # noqa: BLE001  (rclpy's deserialiser raises several kinds)
+            self.reject("malformed", f"malformed message on {name} ignored: {exc}")
+            return
+        on_input(msg)
 
     # ----------------------------------------------------------------- outputs
     def advertise(self, msg_type: Any, topic: str, profile: Any = None) -> Any:
@@ -100,11 +108,6 @@ class NodeEdge:
         what a ``_validate`` returns for it."""
         n = self.counts[counter] = self.counts.get(counter, 0) + 1
         self.warn(f"{text} ({n} {counter})")
-
-    def declare_counters(self, *names: str) -> None:
-        """Input-check counters that /diagnostics carries from the start (at zero)."""
-        for name in names:
-            self.counts.setdefault(name, 0)
 
     # ----------------------------------------------------------------- warnings
     def warn(self, text: str) -> None:
