@@ -100,8 +100,8 @@ class PlatformNavigatorNode(Node):
         self.fix_every = values["fix_every_samples"]
         # the one choice of timing (module docstring); within a step the joint goes first
         self.policy = grouped_policy(values["timing"], ("joint", "imu"), needs=grid.needs,
-                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due, progress_every=values["progress_every_steps"],
-                                     clock_jump_s=values["clock_jump_s"],
+                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
+                                     progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
                                      max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
                                      logger=self.get_logger())
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample

@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 from typing import Any, Callable, Mapping, NamedTuple, Sequence, TypeVar
 
-from .input_policy import SilenceWatch
+from .stream_stats import SilenceWatch
 from .stamps import step_of_stamp, step_stamp_ns
 from .sync import EagerStepGroups, FreshInputs, StepGroups
 

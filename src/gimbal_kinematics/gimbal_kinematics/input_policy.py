@@ -31,76 +31,33 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
 * lockstep: the orchestrator's graph. Stamps are simulation time from 0 (the core's time is
   the stamp in seconds, or k / ``sim_rate_hz`` for a step), ``~/progress`` names the next
   step on the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only
-  (or is not advertised, for a node that never had it), so the scenario bags stay as they
-  were;
+  (or is not advertised), so the scenario bags stay as they were; a duplicate or late stamp
+  is dropped and counted here, a jump back restarts (:func:`gimbal_kinematics.stamps.judge`);
 * free: a driver or a bag. Each stream's stamps are judged
-  (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples are
-  dropped and counted; a single stamp off the stream's timeline is an outlier, dropped and
-  counted; a clock jump, believed when several samples in a row agree on it
-  (:data:`gimbal_kinematics.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts when it
-  goes back, or is left to the core); the core runs
-  on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
-  resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every
-  ``progress_every`` steps of the pacing stream; ``/diagnostics`` adds the input
-  counters, the node's and the NIS window.
+  (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples dropped
+  and counted; a single stamp off the stream's timeline an outlier, dropped and counted; a
+  clock jump, believed when several samples in a row agree on it
+  (:data:`gimbal_kinematics.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts); the core
+  runs on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
+  resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every ``progress_every``
+  steps of the pacing stream; ``/diagnostics`` adds the input counters, the node's, the NIS's.
 
-The ordered policies release the streams to the core in stamp order
-(:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any speed computes what the
-run computed; the sampled ones release each sample at once with the interval it covers
-(a core that pairs the streams itself, by stamp).
+A restart calls the node's ``on_restart(reason)``, which resets its core: a core sees only
+checked samples in stamp order, and judges no stamp itself. The ordered policies release the
+streams in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any
+speed computes what the run computed; the sampled ones release each sample at once with the
+interval it covers.
 
 The controllers' policies (fresh inputs, the stale-input policy) are in
 :mod:`gimbal_kinematics.control_policy`.
 """
 from __future__ import annotations
 
-import time
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
 from .stamps import Stamp, is_gap, judge, step_of_stamp, step_stamp_ns
-from .stream_stats import StreamStats
+from .stream_stats import SilenceWatch, StreamStats
 from .sync import StampOrder, StampSync, StepGroups
-
-
-#: Seconds a lockstep node hears inputs without releasing a step before it says so.
-SILENCE_S = 5.0
-
-
-class SilenceWatch:
-    """Notices a lockstep node that hears inputs but releases no step (started alone, with
-    no step grid: a saved ``timing: lockstep`` replayed by a player). ``heard(released)``
-    after each input (``released``: the steps it made ready) returns, once per silence, the
-    text to log; ``now_ns`` is the clock (steady time in a node, injected by tests)."""
-
-    def __init__(self, after_s: float = SILENCE_S, now_ns: Callable[[], int] = time.monotonic_ns) -> None:
-        self.after_ns = int(round(after_s * 1e9))
-        self.now_ns = now_ns
-        self._since: int | None = None
-        self._inputs = 0
-        self._warned = False
-        self.alarm: str | None = None
-
-    def heard(self, released: int) -> str | None:
-        if released:
-            self._since, self._inputs, self._warned = None, 0, False
-            return None
-        now = self.now_ns()
-        self._inputs += 1
-        if self._since is None:
-            self._since = now
-        if self._warned or now - self._since < self.after_ns:
-            return None
-        self._warned = True
-        self.alarm = (f"{self._inputs} inputs in {(now - self._since) * 1e-9:.1f} s and no step released: parameter "
-                      "'timing' is 'lockstep', which steps only on the orchestrator's step grid (/clock and every "
-                      "input of a step). Started alone (a driver, gimbal-bag play), run with timing free: "
-                      "--ros-args -p timing:=free")
-        return self.alarm
-
-    def take(self) -> str | None:
-        """The alarm not yet logged, once."""
-        text, self.alarm = self.alarm, None
-        return text
 
 
 class Step(NamedTuple):
@@ -505,13 +462,16 @@ def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int]
 
 class _Synced:
     """One step per complete exact-stamp group of ``streams``
-    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]; the
-    node calls :meth:`restart` when its stamps jump back. ``rejected``: stamps refused
-    (late or repeated) over every run."""
+    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]. A stamp
+    more than ``clock_jump_ns`` before the last group's restarts (``on_restart(reason)``:
+    the node resets its core). ``rejected``: stamps refused (late or repeated), every run."""
 
-    def __init__(self, streams: Sequence[str]) -> None:
+    def __init__(self, streams: Sequence[str], clock_jump_ns: int | None = None,
+                 on_restart: Callable[[str], None] | None = None) -> None:
         self.streams = tuple(streams)
         self.sync = StampSync(self.streams)
+        self.clock_jump_ns, self.on_restart = clock_jump_ns, on_restart
+        self._last_ns: int | None = None  # the last group's stamp
         self._rejected_before = 0
 
     @property
@@ -519,12 +479,22 @@ class _Synced:
         return self._rejected_before + self.sync.rejected
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        jump = self.clock_jump_ns
+        if jump is not None and judge(stamp_ns, self._last_ns, jump) is Stamp.JUMPED_BACK:
+            if self.on_restart is not None:
+                self.on_restart(f"read-out stamp jumped back {(self._last_ns - stamp_ns) * 1e-9:.3f} s "
+                                "(clock reset or bag loop)")
+            self.restart()
         group = self.sync.add(kind, stamp_ns, msg)
-        return [] if group is None else [Step("group", stamp_ns, stamp_ns * 1e-9, group)]
+        if group is None:
+            return []
+        self._last_ns = stamp_ns
+        return [Step("group", stamp_ns, stamp_ns * 1e-9, group)]
 
     def restart(self) -> None:
         self._rejected_before += self.sync.rejected
         self.sync = StampSync(self.streams)
+        self._last_ns = None
 
     def stamp_of(self, t: float) -> int:
         return int(round(t * 1e9))
@@ -545,8 +515,9 @@ class LockstepSynced(_Synced):
     timing = "lockstep"
     diagnostics = False
 
-    def __init__(self, streams: Sequence[str], rate_hz: float, progress_every: int) -> None:
-        super().__init__(streams)
+    def __init__(self, streams: Sequence[str], rate_hz: float, progress_every: int, clock_jump_ns: int | None = None,
+                 on_restart: Callable[[str], None] | None = None) -> None:
+        super().__init__(streams, clock_jump_ns, on_restart)
         self.rate_hz = rate_hz
         self.progress_every = int(progress_every)
         self._clear()
@@ -578,8 +549,9 @@ class FreeSynced(_Synced):
     timing = "free"
     diagnostics = True
 
-    def __init__(self, streams: Sequence[str], progress_every: int) -> None:
-        super().__init__(streams)
+    def __init__(self, streams: Sequence[str], progress_every: int, clock_jump_ns: int | None = None,
+                 on_restart: Callable[[str], None] | None = None) -> None:
+        super().__init__(streams, clock_jump_ns, on_restart)
         self.progress_every = int(progress_every)
         self._groups = 0
 
@@ -588,11 +560,12 @@ class FreeSynced(_Synced):
         return step.stamp_ns if self._groups % self.progress_every == 0 else None
 
 
-def synced_policy(timing: str, streams: Sequence[str], *, rate_hz: float,
-                  progress_every: int) -> LockstepSynced | FreeSynced:
+def synced_policy(timing: str, streams: Sequence[str], *, rate_hz: float, progress_every: int,
+                  clock_jump_ns: int | None = None, on_restart: Callable[[str], None] | None = None
+                  ) -> LockstepSynced | FreeSynced:
     """The exact-stamp-group input policy of ``timing`` (a node's one choice, in its constructor)."""
     if timing == "lockstep":
-        return LockstepSynced(streams, rate_hz, progress_every)
+        return LockstepSynced(streams, rate_hz, progress_every, clock_jump_ns, on_restart)
     if timing == "free":
-        return FreeSynced(streams, progress_every)
+        return FreeSynced(streams, progress_every, clock_jump_ns, on_restart)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")

@@ -42,9 +42,11 @@ Messages = list[tuple[str, str, bytes]]
 class NodeEdge:
     """The shared plumbing of one node (module docstring); ``values`` its parameters
     (``timing``, and ``diagnostics_period_s`` when it publishes /diagnostics); ``counters``
-    the input-check counters /diagnostics carries from the start."""
+    the input-check counters /diagnostics carries from the start; ``malformed`` the one that
+    counts inputs that do not decode."""
 
-    def __init__(self, node: Node, values: dict[str, Any], counters: tuple[str, ...] = ()) -> None:
+    def __init__(self, node: Node, values: dict[str, Any], counters: tuple[str, ...] = (),
+                 malformed: str = "malformed") -> None:
         self.node = node
         self.timing = values["timing"]
         self.io = NodeIo(node)
@@ -53,6 +55,7 @@ class NodeEdge:
         #: the input-check counters, by name (:meth:`reject`), for /diagnostics
         self.counts: dict[str, int] = dict.fromkeys(counters, 0)
         self.warnings = 0
+        self.malformed = malformed
         self.pubs: dict[str, Any] = {}
         self._inputs: dict[str, tuple[Callable[[bytes], Any], Callable[[Any], None]]] = {}
 
@@ -77,7 +80,7 @@ class NodeEdge:
         try:
             msg = decode(data)
         except Exception as exc:  # noqa: BLE001  (rclpy's deserialiser raises several kinds)
-            self.reject("malformed", f"malformed message on {name} ignored: {exc}")
+            self.reject(self.malformed, f"malformed message on {name} ignored: {exc}")
             return
         on_input(msg)
 
@@ -129,11 +132,12 @@ class NodeEdge:
         if self.diagnostics_due(t_ns):
             self.pubs["/diagnostics"].publish(health())
 
-    def health(self, t_ns: int, policy: Any, core: dict[str, Any], nis: Any = None, **level: Any) -> DiagnosticArray:
+    def health(self, t_ns: int, policy: Any, core: dict[str, Any], nis: Any = None, node: dict[str, Any] | None = None,
+               **level: Any) -> DiagnosticArray:
         """The node's /diagnostics at ``t_ns``: the fields its input ``policy`` reports from the
-        ``core``'s counters, the edge's (:meth:`counters`) and the ``nis`` window's
-        (:func:`.diagnostics.health_msg`; ``level``: its keyword arguments)."""
-        fields, verdict = policy.report(core, self.counters(), {} if nis is None else nis.as_dict(),
+        ``core``'s counters, the ``node``'s own and the edge's (:meth:`counters`), and the ``nis``
+        window's (:func:`.diagnostics.health_msg`; ``level``: its keyword arguments)."""
+        fields, verdict = policy.report(core, {**(node or {}), **self.counters()}, {} if nis is None else nis.as_dict(),
                                         None if nis is None else nis.verdict().verdict)
         return health_msg(t_ns, self.node.get_name(), fields, nis_verdict=verdict, **level)
 
