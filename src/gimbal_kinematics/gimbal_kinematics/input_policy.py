@@ -42,8 +42,9 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
   resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every ``progress_every``
   steps of the pacing stream; ``/diagnostics`` adds the input counters, the node's, the NIS's.
 
-A restart calls the node's ``on_restart(reason)``, which resets its core: a core sees only
-checked samples in stamp order, and judges no stamp itself. The ordered policies release the
+A restart calls the node's ``on_restart(reason)``, which resets its core: the core sees only
+checked samples in stamp order (a node without ``on_restart`` still leaves the jump to its
+core: :func:`grouped_policy` in free timing). The ordered policies release the
 streams in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any
 speed computes what the run computed; the sampled ones release each sample at once with the
 interval it covers.
