@@ -134,23 +134,19 @@ class FlexureEstimatorNode(Node):
         self.edge.progress(self.policy.progress(step))
 
     def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
-        c = self.core.counters
-        log = self.get_logger()
-        t = t_ns * 1e-9
+        c, warn, t = self.core.counters, self.edge.warn, t_ns * 1e-9
         for key, text in _REJECTIONS.items():
             if c[key] > before[key]:
-                log.warning(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)",
-                            throttle_duration_sec=1.0)
+                warn(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)")
         if c["resets"] > before["resets"]:
-            log.warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} ({c['resets']} resets)")
+            self.get_logger().warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} "
+                                      f"({c['resets']} resets)")  # every one: not throttled
         elif c["reanchors"] > before["reanchors"]:
             cause = "gated measurements in a row" if c["gaps"] == before["gaps"] else "lost LGU sample(s)"
-            log.warning(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, "
-                        f"covariance kept; {c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, "
-                        f"{c['reanchors']} re-anchors)", throttle_duration_sec=1.0)
+            warn(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, covariance kept; "
+                 f"{c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, {c['reanchors']} re-anchors)")
         if c["gated"] > before["gated"]:
-            log.warning(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)",
-                        throttle_duration_sec=1.0)
+            warn(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)")
 
     # ------------------------------------------------------------------ output
     def _publish(self, t_ns: int, est: FlexureEstimate) -> None:
