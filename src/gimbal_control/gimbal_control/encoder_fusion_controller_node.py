@@ -133,8 +133,8 @@ class EncoderFusionControllerNode(Node):
         else:
             base, enc, gyro = inputs.get(InputKind.HOST), inputs.get(InputKind.ENCODERS), inputs[InputKind.GYRO].value
             out = core.tick(step.t, gyro[0], gyro[1], base, None if enc is None else (enc.t, *enc.value))
-            if out is None:  # a stamp the core refused (counted there)
-                tau = self._hold(step, "input rejected (stamp out of order)")
+            if out is None:  # before the core has base rates and encoder angles
+                tau = self._hold(step, "base rates or encoder angles not in yet")
             elif out.held:
                 self.edge.reject("rejected_nonfinite", "non-finite measurement")
                 tau = self._hold(step, "non-finite measurement")
@@ -154,7 +154,7 @@ class EncoderFusionControllerNode(Node):
         core = self.core
         fields = {**self.policy.counters(), **self.edge.counters(),
                   "held_commands": core.held_commands, "core_rejected_nonfinite": core.rejected_nonfinite,
-                  "core_rejected_out_of_order": core.rejected_out_of_order, "resets": len(core.reset_reasons)}
+                  "resets": len(core.reset_reasons)}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 
 
