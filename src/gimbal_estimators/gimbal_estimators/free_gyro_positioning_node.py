@@ -86,9 +86,9 @@ VELOCITY = "/free_gyro/velocity"
 OUTPUTS = ((NavSatFix, "~/fix"), *((Vector3Stamped, f"~/{k}") for k in ("heading", "geometry", "nadir",
                                                                         "heading_earth_rate")))
 PREDICTIONS = tuple((Vector3Stamped, f"~/predicted_{k}") for k in ("nadir", "position", "heading"))
-CORE_COUNTERS = ("spin_accepted", "rates_accepted", "rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order",
-                 "rejected_no_level", "rejected_stale_level", "fixes", "degenerate", "resets")
-WARN_COUNTERS = ("rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
+CORE_COUNTERS = ("spin_accepted", "rates_accepted", "rejected_nonfinite", "rejected_not_unit", "rejected_no_level",
+                 "rejected_stale_level", "fixes", "degenerate", "resets")
+WARN_COUNTERS = ("rejected_nonfinite", "rejected_not_unit", "rejected_no_level",
                  "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos",
                  "wrong_type")
 
@@ -126,7 +126,7 @@ class FreeGyroPositioningNode(Node):
         """Inputs rejected so far: stamps out of order and non-finite/non-unit/unlevelled data."""
         c = self.core.counters
         return (self.policy.rejected + c.rejected_nonfinite + c.rejected_not_unit
-                + c.rejected_out_of_order + c.rejected_no_level + c.rejected_stale_level)
+                + c.rejected_no_level + c.rejected_stale_level)
 
     def _warn_rejected(self) -> None:
         n = self.rejected
