@@ -39,7 +39,7 @@ CORES_WITH_STAMP_LOGIC = {
     "operator_command": "the command stamps' order and the clock-jump reset",
     "flexure_kf": "the pair stamps' order and the clock-jump reset",
     "free_gyro_positioning": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
-    "rotation_alignment": "per-stream stamp order and the clock-jump reset",
+    "rotation_alignment": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
 }
 
 

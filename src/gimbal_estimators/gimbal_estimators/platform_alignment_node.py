@@ -81,11 +81,11 @@ OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initia
            "north_drift", "north_drift_sigma", "gyro_drift", "gyro_drift_sigma", "accel_bias", "accel_bias_sigma",
            "status")
 #: The core's counters on /diagnostics.
-CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
-                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets")
+CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_no_joint", "rejected_stale_joint",
+                 "joint_rejected_nonfinite", "resets")
 #: Counters whose non-zero value is a WARN on /diagnostics.
-WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
-                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
+WARN_COUNTERS = ("rejected_nonfinite", "rejected_no_joint", "rejected_stale_joint", "joint_rejected_nonfinite",
+                 "resets", "rejected_joints",
                  "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos",
                  "wrong_type")
 
@@ -105,7 +105,7 @@ class PlatformAlignmentNode(Node):
                                      progress_every=values["progress_every_steps"],
                                      clock_jump_s=values["clock_jump_s"],
                                      max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger())
+                                     logger=self.get_logger(), on_restart=self.core.reset)
         self._seen: tuple[int, ...] = ()
         self.nis = NisWindow(2, window=values["nis_window"])
         self._updates_seen = 0
@@ -156,12 +156,10 @@ class PlatformAlignmentNode(Node):
 
     def _warn_counters(self, where: str) -> None:
         c = self.core.counters
-        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_joint, c.rejected_stale_joint,
-                c.joint_rejected_nonfinite, c.joint_rejected_out_of_order)
+        seen = (c.rejected_nonfinite, c.rejected_no_joint, c.rejected_stale_joint, c.joint_rejected_nonfinite)
         if seen != self._seen and any(seen):
-            self.edge.warn(f"{where}: samples rejected so far: accelerometer {seen[0]} non-finite, {seen[1]} out of "
-                       f"order, {seen[2] + seen[3]} without a joint angle; joint {seen[4]} non-finite, "
-                       f"{seen[5]} out of order")
+            self.edge.warn(f"{where}: samples rejected so far: accelerometer {seen[0]} non-finite, "
+                           f"{seen[1] + seen[2]} without a joint angle; joint {seen[3]} non-finite")
         self._seen = seen
 
 

@@ -166,13 +166,16 @@ class LockstepGroups(_CoreReport):
     released as one step per input, in the order of ``streams``, at the core time k /
     ``rate_hz``; after a step's last input ``~/progress`` names ``next_due(k)`` when that
     starts a new block of ``progress_every`` steps. No /diagnostics. ``logger`` (rclpy's, or
-    anything with ``warning``/``info``) hears of rejections and restarts."""
+    anything with ``warning``/``info``) hears of rejections and restarts; ``on_restart(reason)``
+    of each restart, before the new run's first step (the node resets its core)."""
 
     timing = "lockstep"
     diagnostics = False
 
     def __init__(self, streams: Sequence[str], needs: Callable[[int], tuple[str, ...]], rate_hz: float,
-                 clock_jump_s: float, next_due: Callable[[int], int], progress_every: int, logger: Any) -> None:
+                 clock_jump_s: float, next_due: Callable[[int], int], progress_every: int, logger: Any,
+                 on_restart: Callable[[str], None] | None = None) -> None:
+        self.on_restart = on_restart
         self.streams = tuple(streams)
         self.needs = needs
         self.rate_hz = rate_hz
@@ -192,7 +195,11 @@ class LockstepGroups(_CoreReport):
             self.silence.heard(0)
             return []
         out: list[Step] = []
-        for step, group in self.sync.add(kind, k, msg, self.logger):
+        restarts = self.sync.restarts
+        done = self.sync.add(kind, k, msg, self.logger)
+        if self.sync.restarts > restarts and self.on_restart is not None:
+            self.on_restart(f"clock jumped back on {kind} to step {k}")
+        for step, group in done:
             stamp, t = step_stamp_ns(step, self.rate_hz), step / self.rate_hz
             kinds = [s for s in self.streams if s in group]
             out.extend(Step(s, stamp, t, group[s], ends_step=s == kinds[-1]) for s in kinds)
@@ -448,16 +455,19 @@ def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample
 
 def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int], tuple[str, ...]], rate_hz: float,
                    next_due: Callable[[int], int], progress_every: int, clock_jump_s: float, max_wait_ns: int,
-                   paced: str, logger: Any) -> LockstepGroups | FreeOrder:
+                   paced: str, logger: Any, on_restart: Callable[[str], None] | None = None
+                   ) -> LockstepGroups | FreeOrder:
     """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step:
-    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, the core judges
-    clock jumps, ``~/progress`` on the ``paced`` stream)."""
+    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, ``~/progress``
+    on the ``paced`` stream). A clock jump back calls ``on_restart(reason)``, the node's core
+    reset (None: the core judges the jump itself)."""
     if timing == "lockstep":
-        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger)
+        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger, on_restart)
     if timing == "free":
         def warn(text: str) -> None:
             logger.warning(text, throttle_duration_sec=1.0)
-        return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, None, paced, warn)
+        return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, on_restart, paced,
+                         warn)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
 
 
