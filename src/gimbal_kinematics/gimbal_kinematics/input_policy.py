@@ -43,8 +43,8 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
   steps of the pacing stream; ``/diagnostics`` adds the input counters, the node's, the NIS's.
 
 A restart calls the node's ``on_restart(reason)``, which resets its core: the core sees only
-checked samples in stamp order (a node without ``on_restart`` still leaves the jump to its
-core: :func:`grouped_policy` in free timing). The ordered policies release the
+checked samples in stamp order (a node that gives no ``on_restart`` still leaves the jump
+to its core). The ordered policies release the
 streams in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any
 speed computes what the run computed; the sampled ones release each sample at once with the
 interval it covers.
