@@ -10,8 +10,8 @@ holds the order). So for a seed the loop computes the same numbers as the graph;
 made by the node's own serialisation function, and the bag holds the graph's data
 (:mod:`.engine_run`, ``gimbal-run --engine core``).
 
-:func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
-runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
+:func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which the
+analysis runners (``experiments.bias_ekf``, ``closed_loop``, ``flexure``) call with their own
 stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
@@ -32,6 +32,7 @@ from typing import Any, Callable
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.stamps import step_stamp_ns
 
+from .compiled import compiled_runner
 from .core_stages import (
     Bus, encoder_fusion_stage, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage,
     sensor_stage, truth_stage,
@@ -119,12 +120,20 @@ def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False,
                   observer: Callable[[Bus], None] | None = None,
-                  record: Callable[[str, list], None] | None = None, keep_latency: bool = False) -> CoreLoopResult:
+                  record: Callable[[str, list], None] | None = None, keep_latency: bool = False,
+                  compiled: bool = True) -> CoreLoopResult:
     """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
 
     ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
     vehicle steps (what the step's messages carry: a run's metrics are computed from it);
-    ``record`` (:class:`.recording.EngineBag`) gets every node's messages."""
+    ``record`` (:class:`.recording.EngineBag`) gets every node's messages. Unobserved runs
+    of a chain with a compiled runner (:mod:`.compiled`) run compiled
+    (``compiled=False``: always this loop)."""
+    values = node_values(scenario)
+    runner = compiled_runner(values) if compiled and observer is None and not keep_latency else None
+    if runner is not None:
+        steps, sim_s, wall, cpu, commands = runner(values, keep_commands, record)
+        return CoreLoopResult(steps, sim_s, wall, cpu, array("d"), commands)
     vehicle, controlled, stages = core_plan(scenario)
     return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer,
                       record=record, keep_latency=keep_latency)
