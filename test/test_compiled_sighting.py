@@ -34,35 +34,6 @@ def test_a_block_of_normals_is_the_draws_one_sample_at_a_time():
     assert a.one() == b.one()
 
 
-@pytest.mark.parametrize("params", [
-    GyroParams(bias_deg_h=(100.0, -50.0), arw_deg_rt_h=0.15, bias_instability_deg_h=30.0, bias_instability_tau_s=100.0),
-    GyroParams(bias_sigma_deg_h=3.0, rrw_deg_h_rt_h=2.0, scale_factor_ppm=(300.0, -200.0), quantisation_rad=2e-6,
-               saturation_deg_s=20.0, arw_deg_rt_h=1.0)])
-def test_the_inertial_kernel_is_the_gyro_model_to_the_bit(params):
-    model, twin = (GyroModel(params, 2, np.random.default_rng(9), 1e-3) for _ in range(2))
-    s, g, need = sk.inertial_arrays(twin)
-    u = RNG.normal(0.0, 0.4, (3000, 2))
-    z = twin._normals.take_block(need, len(u))
-    out = np.empty(2)
-    for k in range(len(u)):
-        sk.inertial_rate(s, g, u[k], z[k], out)
-        assert tuple(out) == tuple(model.step_rate(tuple(u[k])))
-    assert tuple(s[sk.S_FIXED] + s[sk.S_GM] + s[sk.S_RRW]) == model.true_bias_values()
-
-
-@pytest.mark.parametrize("params", [EncoderParams(noise_deg=0.05), EncoderParams(lines_per_rev=1024, quadrature=4,
-                                                                                   velocity_gate_s=0.01)])
-def test_the_encoder_kernel_is_the_encoder_model_to_the_bit(params):
-    model, twin = (EncoderModel(params, 3, np.random.default_rng(3), 1e-3) for _ in range(2))
-    s, g = sk.encoder_arrays(twin)
-    angles = np.cumsum(RNG.normal(0.0, 1e-3, (500, 3)), axis=0)
-    z = twin._normals.take_block(3 if params.noise_deg > 0 else 0, len(angles))
-    pos, rate = np.empty(3), np.empty(3)
-    for k in range(len(angles)):
-        sk.encoder_step(s, g, angles[k], z[k], pos, rate)
-        assert (tuple(pos), tuple(rate)) == tuple(map(tuple, model.step(tuple(angles[k]))))
-
-
 def test_the_ins_attitude_kernel_is_the_ins_model_to_the_bit():
     model, twin = (InsModel(InsParams(attitude_tau_s=0.5), np.random.default_rng(4), 0.01) for _ in range(2))
     att = twin._attitude

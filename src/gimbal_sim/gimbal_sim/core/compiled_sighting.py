@@ -36,7 +36,6 @@ from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
 
 from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
-from ..world.sensors.sensor_kernels import encoder_arrays, inertial_arrays
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
 #: Steps per compiled block (the noise of a block is drawn before it).
@@ -130,13 +129,19 @@ def _sensor_arrays(suite: SensorSuite) -> tuple:
     (normal stream, normals per sample)."""
     att = suite.ins._attitude
     ins_att = (np.array(att._x), np.array(att._phi), np.array(att._drive))
-    *ins_gyro, ins_need = inertial_arrays(suite.ins.gyro)
-    *gyro, gyro_need = inertial_arrays(suite.gimbal_gyro)
-    enc = encoder_arrays(suite.encoders)
+    ins_gyro, ins_need = _inertial_arrays(suite.ins.gyro)
+    gyro, gyro_need = _inertial_arrays(suite.gimbal_gyro)
+    e = suite.encoders
+    enc = (e._state.copy(), np.array([e.quantum_rad, e._noise, e._gate_steps, e.gate_time_s]))
     streams = ((att._normals, att.n_axes), (suite.ins.gyro._normals, ins_need),
                (suite.gimbal_gyro._normals, gyro_need),
                (suite.encoders._normals, suite.encoders.n_axes if suite.encoders._noise > 0.0 else 0))
-    return ins_att, tuple(ins_gyro), tuple(gyro), enc, streams
+    return ins_att, ins_gyro, gyro, enc, streams
+
+
+def _inertial_arrays(model) -> tuple[tuple, int]:
+    """Copies of an inertial model's kernel arrays (rows, K, constants) and its normals per sample."""
+    return (model.rows.copy(), model.K.copy(), model.constants.copy()), model._need
 
 
 def run(values: dict[str, tuple[str, dict[str, Any]]], keep_commands: bool = False,

@@ -34,7 +34,7 @@ from gimbal_kinematics.quat_kernels import (
 )
 
 from ..world.plant.sighting_plant_kernels import gimbal_step, inner_gimbal_truth
-from ..world.sensors.sensor_kernels import encoder_step, inertial_rate, ins_attitude
+from ..world.sensors.sensor_kernels import R_FIXED, R_GM, R_RRW, encoder_step, inertial_step, ins_attitude
 
 # EKF scalar state (``ef``)
 (F_QX, F_QY, F_QZ, F_QW, F_ALIGNED, F_B0, F_B1, F_B2, F_E0, F_E1, F_E2, F_T_GYRO, F_WP, F_WQ, F_WR, F_HAS_W,
@@ -319,13 +319,13 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
         if ins_due:
             em = ins_attitude(e_att, phi_att, drive_att, z_att[ia], euler[0], euler[1], euler[2])
             omega_b[0], omega_b[1], omega_b[2] = w
-            inertial_rate(ins_gyro[0], ins_gyro[1], omega_b, z_ins[ia], ins_rates)
+            inertial_step(omega_b, ins_gyro[0], ins_gyro[1], ins_gyro[2], z_ins[ia], False, ins_rates)
             ins_euler = euler321_from_quat(*quat_canonical(quat_from_euler321(em[0], em[1], em[2])))
             ia += 1
         qr[0], qr[1] = inner[1][1], inner[1][2]
-        inertial_rate(gyro[0], gyro[1], qr, z_gyro[j], qr_m)
+        inertial_step(qr, gyro[0], gyro[1], gyro[2], z_gyro[j], False, qr_m)
         pos[0], pos[1], pos[2] = p
-        encoder_step(enc[0], enc[1], pos, z_enc[j], pos_m, rate_m)
+        encoder_step(enc[0], pos.shape[0], pos, enc[1][0], enc[1][1], int(enc[1][2]), enc[1][3], z_enc[j], pos_m, rate_m)
         updated = has_ekf and ekf_step(ef, eg, P, A_cov, P_keep, Pb0, queue, t, ins_due, ins_rates, ins_euler,
                                        qr_m[0], qr_m[1], pos_m)
         if recording:
@@ -386,9 +386,9 @@ def record_sensors(r: np.ndarray, ins_due: bool, em: tuple, ins_rates: np.ndarra
     """The sensors' samples of the step into the row ``r``, each true bias fixed + GM + random walk."""
     for i in range(2):
         r[R_GYRO + i] = qr_m[i]
-        r[R_GBIAS + i] = gyro_s[0, i] + gyro_s[1, i] + gyro_s[2, i]
+        r[R_GBIAS + i] = gyro_s[R_FIXED, i] + gyro_s[R_GM, i] + gyro_s[R_RRW, i]
     for i in range(3):
         r[R_ENC + i], r[R_ENCR + i] = pos_m[i], rate_m[i]
         if ins_due:
             r[R_INS_E + i], r[R_INS_W + i] = em[i], ins_rates[i]
-            r[R_INS_B + i] = ins_s[0, i] + ins_s[1, i] + ins_s[2, i]
+            r[R_INS_B + i] = ins_s[R_FIXED, i] + ins_s[R_GM, i] + ins_s[R_RRW, i]

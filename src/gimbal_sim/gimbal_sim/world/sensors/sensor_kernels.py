@@ -1,21 +1,19 @@
-"""Compiled per-sample kernels of the sensor error models (numba ``njit``): plain functions
-over float64 arrays, for the engine's compiled loops. Each is the maths of its model class,
-operation for operation, so a kernel and the class give the same bits from the same normals
-(``test_sensor_kernels``); the state lives in arrays made from a constructed model
-(:func:`inertial_arrays`, :func:`encoder_arrays`), whose init draws are therefore the model's own.
+"""Compiled per-sample kernels of the encoder and inertial sensor models (numba ``njit``):
+plain functions over float64 arrays, the normals drawn beforehand from the model's own
+stream in its order (``NormalStream.take_block``). The maths is :mod:`.encoder`'s and
+:mod:`.inertial_core`'s docstrings:
 
-Inertial sensor (:mod:`.inertial_core`), per axis i, z the step's normals (Gauss-Markov
-block, random-walk block, white block, each present only when its term is)::
+    encoder:   c = ⌊θ/δ + ½⌋,  θ̃ = c δ + σ z,  ω̃ = (c − c_ref) δ / T_g every gate (held between)
+    inertial:  y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z   (b_gm, b_rrw advanced first; clamped;
+               the increment y Δt quantised with its residual carried)
 
-    b_gm ← φ b_gm + d_gm z,   b_rrw ← b_rrw + d_rrw z
-    y = k_i u + b_fix + b_gm + b_rrw + σ_w z,   clamped to ±sat
-    quantised: v = y Δt + r,  o = δ ⌊v/δ + ½⌋,  r ← v − o,  y = o/Δt
-
-Encoder (:mod:`.encoder`): c = ⌊θ/δ + ½⌋ (θ itself unquantised), angle c δ + σ z, rate
-(c − c_ref) δ/T_g once per completed gate of ``gate_steps`` samples.
+:class:`.encoder.EncoderModel` and :class:`.inertial_core.InertialErrorCore` hold their state
+in the arrays of :func:`encoder_step` and :func:`inertial_step` and call them per sample; the
+compiled engine (``gimbal_sim.core.compiled_platform``) calls both kernels
+over the models' states (``E_*`` for an encoder set).
 
 INS attitude (:mod:`.ins`): first-order Gauss-Markov error e ← φ e + d z per Euler angle,
-added to the true angles, yaw wrapped to (−π, π].
+added to the true angles, yaw wrapped to (−π, π] (:func:`ins_attitude`).
 """
 from __future__ import annotations
 
@@ -24,106 +22,108 @@ import math
 import numpy as np
 from numba import njit
 
-# inertial state rows (n axes each)
-S_FIXED, S_GM, S_RRW, S_RESIDUAL = range(4)
-# inertial parameters: φ, d_gm, d_rrw, σ_w, saturation, quantum δ, Δt, has_gm, has_rrw, has_white, then k_i per axis
-G_PHI, G_GM_DRIVE, G_RRW_DRIVE, G_WHITE_SD, G_SAT, G_QUANTUM, G_DT, G_HAS_GM, G_HAS_RRW, G_HAS_WHITE, G_K = range(11)
-# encoder state: c_ref per axis, then (have_ref, k, rate per axis) after them; parameters: δ, σ, gate steps, T_g
-E_QUANTUM, E_NOISE, E_GATE_STEPS, E_GATE_S = range(4)
 
-
-def inertial_arrays(model) -> tuple[np.ndarray, np.ndarray, int]:
-    """(state (4, n), parameters, normals per sample) of a constructed
-    :class:`.inertial_core.InertialErrorCore` (no misalignment: ``ValueError``)."""
-    if model._K is not None:
-        raise ValueError("the inertial kernel has no misalignment term")
-    n = model.n_axes
-    s = np.zeros((4, n))
-    s[S_FIXED], s[S_GM], s[S_RRW], s[S_RESIDUAL] = model._fixed, model._gm, model._rrw, model._residual
-    g = np.array([model._phi, model._gm_drive, model._rrw_drive, model._white_sd, model._sat, model._quantum,
-                  model._dt, model._has_gm, model._has_rrw, model._has_white] + list(model._kdiag), dtype=float)
-    return s, g, model._need
+E_HAS_REF, E_K = 0, 1  # then the reference counts (n) and the held rates (n)
 
 
 @njit(cache=True)
-def inertial_rate(s: np.ndarray, g: np.ndarray, u: np.ndarray, z: np.ndarray, out: np.ndarray) -> None:
-    """The step-average measurement of true ``u`` (n,) into ``out`` (n,); ``z`` the sample's
-    normals; advances the bias states (module docstring)."""
+def encoder_step(state: np.ndarray, n: int, angles: np.ndarray, quantum: float, noise: float, gate_steps: int,
+                 gate_time: float, z: np.ndarray, out_angles: np.ndarray, out_rates: np.ndarray) -> None:
+    """One sample of ``n`` encoders (``EncoderModel.step``): measured angles and rates into
+    ``out_angles``, ``out_rates``; ``z`` holds the sample's ``n`` normals when ``noise`` > 0.
+    ``state``: has-reference flag, gate step count, reference counts (n), held rates (n)."""
+    ref, vel = 2, 2 + n
+    for i in range(n):
+        if quantum > 0.0:
+            c = np.floor(angles[i] / quantum + 0.5)
+            out_angles[i] = c * quantum
+        else:
+            c = angles[i]
+            out_angles[i] = c
+        if noise > 0.0:
+            out_angles[i] = out_angles[i] + noise * z[i]
+        out_rates[i] = c  # the counts, until the gate logic below
+    if state[E_HAS_REF] == 0.0:
+        state[E_HAS_REF] = 1.0
+        for i in range(n):
+            state[ref + i] = out_rates[i]
+    else:
+        state[E_K] += 1.0
+        if state[E_K] >= gate_steps:
+            scale = (quantum if quantum > 0.0 else 1.0) / gate_time
+            for i in range(n):
+                c = out_rates[i]
+                state[vel + i] = (c - state[ref + i]) * scale
+                state[ref + i] = c
+            state[E_K] = 0.0
+    for i in range(n):
+        out_rates[i] = state[vel + i]
+
+
+#: an inertial model's constants (``I_*``): Gauss-Markov φ and drive, random-walk drive,
+#: white-noise σ of the step average, saturation, increment quantum, step Δt, which bias
+#: states evolve, whether the full matrix K (misalignment) applies
+(I_PHI, I_GM_DRIVE, I_RRW_DRIVE, I_WHITE_SD, I_SATURATION, I_QUANTUM, I_DT, I_HAS_GM, I_HAS_RRW, I_HAS_K) = range(10)
+N_INERTIAL = 10
+#: rows of an inertial model's state array: scale factors 1 + s, fixed bias, Gauss-Markov
+#: and random-walk bias states, the quantiser's carried residual
+R_KDIAG, R_FIXED, R_GM, R_RRW, R_RESIDUAL = range(5)
+
+
+@njit(cache=True)
+def _quantise(inc: np.ndarray, residual: np.ndarray, q: float) -> None:
+    for i in range(inc.shape[0]):
+        v = inc[i] + residual[i]
+        out = q * np.floor(v / q + 0.5)
+        residual[i] = v - out
+        inc[i] = out
+
+
+@njit(cache=True)
+def inertial_step(u: np.ndarray, rows: np.ndarray, K: np.ndarray, c: np.ndarray, z: np.ndarray, increment: bool,
+                  out: np.ndarray) -> None:
+    """One step of an n-axis inertial sensor (``InertialErrorCore``): the bias states
+    advanced to the step's end by the normals ``z`` (Gauss-Markov n, then random walk n,
+    then white n, each when it applies), then
+
+        y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z,   clamped to ±saturation,
+
+    into ``out`` as the step average (``increment`` False) or the increment y Δt, a quantum
+    set quantising the increment with the residual carried (``rows[R_RESIDUAL]``)."""
     n = u.shape[0]
     j = 0
-    if g[G_HAS_GM] != 0.0:
-        phi, d = g[G_PHI], g[G_GM_DRIVE]
+    gm, rrw = rows[R_GM], rows[R_RRW]
+    if c[I_HAS_GM] != 0.0:
         for i in range(n):
-            s[S_GM, i] = phi * s[S_GM, i] + d * z[j + i]
+            gm[i] = c[I_PHI] * gm[i] + c[I_GM_DRIVE] * z[j + i]
         j += n
-    if g[G_HAS_RRW] != 0.0:
-        d = g[G_RRW_DRIVE]
+    if c[I_HAS_RRW] != 0.0:
         for i in range(n):
-            s[S_RRW, i] += d * z[j + i]
+            rrw[i] += c[I_RRW_DRIVE] * z[j + i]
         j += n
+    sat = c[I_SATURATION]
     for i in range(n):
-        out[i] = g[G_K + i] * u[i] + s[S_FIXED, i] + s[S_GM, i] + s[S_RRW, i]
-    if g[G_HAS_WHITE] != 0.0:
-        sd = g[G_WHITE_SD]
+        if c[I_HAS_K] != 0.0:
+            y = 0.0
+            for k in range(n):
+                y += K[i, k] * u[k]
+            y = y + rows[R_FIXED, i] + gm[i] + rrw[i]
+        else:
+            y = rows[R_KDIAG, i] * u[i] + rows[R_FIXED, i] + gm[i] + rrw[i]
+        if c[I_WHITE_SD] > 0.0:
+            y += c[I_WHITE_SD] * z[j + i]
+        if sat != np.inf:
+            y = sat if y > sat else -sat if y < -sat else y
+        out[i] = y
+    dt, q = c[I_DT], c[I_QUANTUM]
+    if increment or q > 0.0:
         for i in range(n):
-            out[i] += sd * z[j + i]
-    sat = g[G_SAT]
-    if sat != math.inf:
-        for i in range(n):
-            if out[i] > sat:
-                out[i] = sat
-            elif out[i] < -sat:
-                out[i] = -sat
-    q, dt = g[G_QUANTUM], g[G_DT]
-    if q > 0.0:
-        for i in range(n):
-            v = out[i] * dt + s[S_RESIDUAL, i]
-            o = q * math.floor(v / q + 0.5)
-            s[S_RESIDUAL, i] = v - o
-            out[i] = o / dt
-
-
-def encoder_arrays(model) -> tuple[np.ndarray, np.ndarray]:
-    """(state, parameters) of a constructed :class:`.encoder.EncoderModel` that has not
-    sampled yet: state = c_ref (n), have_ref, k, rate (n)."""
-    n = model.n_axes
-    s = np.zeros(2 * n + 2)
-    if model._ref is not None:
-        s[:n] = model._ref
-        s[n] = 1.0
-    s[n + 1] = model._k
-    s[n + 2:] = model._vel
-    g = np.array([model.quantum_rad, model._noise, model._gate_steps, model.gate_time_s])
-    return s, g
-
-
-@njit(cache=True)
-def encoder_step(s: np.ndarray, g: np.ndarray, angles: np.ndarray, z: np.ndarray, pos: np.ndarray,
-                 rate: np.ndarray) -> None:
-    """Angles and pulse-count rates of true ``angles`` (n,) into ``pos``, ``rate``; ``z``
-    the sample's n normals (unused without noise)."""
-    n = angles.shape[0]
-    d = g[E_QUANTUM]
-    counts = np.empty(n)
-    for i in range(n):
-        counts[i] = math.floor(angles[i] / d + 0.5) if d > 0.0 else angles[i]
-        pos[i] = counts[i] * d if d > 0.0 else counts[i]
-    if g[E_NOISE] > 0.0:
-        for i in range(n):
-            pos[i] = pos[i] + g[E_NOISE] * z[i]
-    if s[n] == 0.0:
-        s[:n] = counts
-        s[n] = 1.0
-    else:
-        s[n + 1] += 1.0
-        if s[n + 1] >= g[E_GATE_STEPS]:
-            scale = (d if d > 0.0 else 1.0) / g[E_GATE_S]
+            out[i] = out[i] * dt
+        if q > 0.0:
+            _quantise(out, rows[R_RESIDUAL], q)
+        if not increment:
             for i in range(n):
-                s[n + 2 + i] = (counts[i] - s[i]) * scale
-            s[:n] = counts
-            s[n + 1] = 0.0
-    for i in range(n):
-        rate[i] = s[n + 2 + i]
+                out[i] = out[i] / dt
 
 
 @njit(cache=True)
