@@ -447,3 +447,59 @@ def test_reports_run_nothing():
                                                          and target not in REPORTS_GRAPH_METADATA):
                 bad.append(f"{name} imports {target}")
     assert not bad, "reports importing a runner:\n" + "\n".join(bad)
+
+
+# ------------------------------------------------------------------ one timing edge
+#: gimbal_kinematics' timing modules: stamps, order, duplicates, clock jumps, staleness and
+#: step grouping (the nodes' input policies). Matched by module name, in whichever room.
+TIMING_MODULES = {"input_policy", "control_policy", "sync", "stamps", "stream_stats"}
+#: Cores that still judge stamps through a timing module, each with the piece that stays to
+#: move into its node's input policy. The list only shrinks (the test says when to drop one).
+STAMP_CHECKING_CORES = {
+    "platform_servo": "StampGate: per-stream stamps of resolvers, command rate and gyro",
+    "platform_navigator": "judge: the grouped policy's free timing leaves clock jumps to the core",
+}
+
+
+def core_modules() -> list[Path]:
+    """The estimator and controller cores: every module of gimbal_estimators and gimbal_control
+    but the nodes and their ROS edge (parameter tables, message conversion, serialisation)."""
+    return [p for pkg in ("gimbal_estimators", "gimbal_control") for p in modules(pkg)
+            if not p.stem.endswith(("_node", "_params")) and p.stem not in {"messages", "wire", "__init__"}]
+
+
+def timing_imports(path: Path) -> set[str]:
+    """The timing modules (:data:`TIMING_MODULES`) of gimbal_kinematics that ``path`` imports."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("gimbal_kinematics"):
+            names = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+        elif isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names if alias.name.startswith("gimbal_kinematics")]
+        else:
+            continue
+        found.update(part for name in names for part in name.split(".")[1:] if part in TIMING_MODULES)
+    return found
+
+
+def test_no_core_imports_a_timing_module():
+    """A core gets checked samples in stamp order from its node's input policy: it imports
+    nothing that judges stamps (but the cores still listed in :data:`STAMP_CHECKING_CORES`)."""
+    importing = {p.stem: sorted(timing_imports(p)) for p in core_modules() if timing_imports(p)}
+    bad = {stem: mods for stem, mods in importing.items() if stem not in STAMP_CHECKING_CORES}
+    assert not bad, f"cores importing timing modules (stamp logic belongs to the input policy): {bad}"
+    done = set(STAMP_CHECKING_CORES) - set(importing)
+    assert not done, f"no longer import a timing module; drop them from STAMP_CHECKING_CORES: {sorted(done)}"
+    assert "gyro_bias_ekf" in {p.stem for p in core_modules()}
+
+
+@pytest.mark.parametrize("line", ["from gimbal_kinematics.stamps import judge",
+                                  "from gimbal_kinematics import sync",
+                                  "import gimbal_kinematics.timing.input_policy",
+                                  "from gimbal_kinematics.timing.stream_stats import StreamStats"])
+def test_the_timing_import_check_finds_a_planted_import(tmp_path, line):
+    planted = tmp_path / "core.py"
+    planted.write_text(f"{line}\n")
+    assert timing_imports(planted)
+    planted.write_text("from gimbal_kinematics.rotations import quat_mul\nimport numpy\n")
+    assert not timing_imports(planted)

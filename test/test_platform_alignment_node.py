@@ -80,10 +80,10 @@ def alignment_node(domain_env, params: dict | None = None):
               **(params or {})}
     node = PlatformAlignmentNode(context=context, cli_args=ros_args(params), use_global_arguments=False)
     sent = defaultdict(list)
-    for name, pub in node.pubs.items():
+    for name, pub in ((n, node.edge.pubs[f"~/{n}"]) for n in OUTPUTS):
         # serialized by the node (gimbal_estimators.wire): decoded by rclpy's own deserializer
         pub.publish = lambda data, out=sent[name]: out.append(deserialize_message(data, Vector3Stamped))
-    node.pub_progress.publish = sent["progress"].append
+    node.edge.pubs["~/progress"].publish = lambda data: sent["progress"].append(m.clock_from_cdr(data))
     try:
         yield node, sent
     finally:
@@ -143,7 +143,7 @@ def test_outputs_follow_an_independent_truth_in_ned_with_sigma(ros_domain_env):
         assert north_sigma[0] > 0.0 and north_sigma[1:].tolist() == [-1.0, -1.0]
         # pacing: ready is announced by the timer (not spun here); then every 10 steps the
         # next step needed, which at 10 Hz in a 1 kHz run is the next sample's step
-        steps = [m.step_of_stamp(m.stamp_ns(c.clock), SIM_HZ) for c in sent["progress"]]
+        steps = [m.step_of_stamp(c, SIM_HZ) for c in sent["progress"]]
         assert steps[:3] == [100, 200, 300] and steps[-1] == 600_100
 
 
@@ -163,7 +163,7 @@ def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
         # a joint message without the azimuth joint is counted (the step's accelerometer
         # sample then uses the previous joint sample, 0.1 s old, within max_joint_age_s)
         _feed(node, 1200, 0.0, 0.0, (0.0, 0.0, -g), joint_name="elsewhere")
-        assert node.rejected_joints == 1 and core.counters.accepted == 12
+        assert node.edge.counts["rejected_joints"] == 1 and core.counters.accepted == 12
         # the bag loops: everything restarts at t = 0
         _feed(node, 0, 0.0, 0.0, (0.0, 0.0, -g))
         assert node.policy.sync.restarts == 1 and core.counters.resets == 1

@@ -180,7 +180,6 @@ def _metrics(mode: str, duration_s: float, seed: int, settle_s: float, record_ev
         "rms_torque_nm": tuple(float(v) for v in np.sqrt(np.mean(torque ** 2, axis=0))),
         "kf_updates": ctl.kf_q.updates,
         "rejected_nonfinite": ctl.rejected_nonfinite,
-        "rejected_out_of_order": ctl.rejected_out_of_order,
         "series": {"t": t[sl], "error_rad": err_0[sl], "error_held_rad": err_ref[sl], "feedback_rad_s": fb[sl],
                    "true_rate_rad_s": true_rate[sl], "gyro_bias_rad_s": bias[sl], "torque_nm": torque[sl]},
     }
