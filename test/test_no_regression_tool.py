@@ -47,3 +47,15 @@ def test_bad_arguments_exit_2_naming_them(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--baseline", str(tmp_path), "--out", str(tmp_path / "o")])
     assert exc.value.code == 2 and "no .venv/bin/gimbal-run" in capsys.readouterr().err
+
+
+def test_a_topic_recorded_at_a_lower_rate_is_judged_message_by_message(tmp_path):
+    full = _engine_bag(tmp_path, "full", 3)
+    scenario = dataclasses.replace(load("sim_open_loop"), duration_s=0.05, seed=3,
+                                   record_rates_hz={"/truth/gimbal/imu": 100.0})
+    run_engine(scenario, tmp_path / "slow")
+    ok, words, _ = verdict(full, tmp_path / "slow", 0.0)
+    assert ok and "lower rate" in words and "/truth/gimbal/imu" in words
+    other = dataclasses.replace(scenario, seed=4)
+    run_engine(other, tmp_path / "slow_other")
+    assert not verdict(full, tmp_path / "slow_other", 0.0)[0]

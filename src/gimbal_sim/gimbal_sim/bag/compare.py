@@ -107,6 +107,14 @@ def _raw(bag: Path) -> tuple[Raw, dict[str, str], BagContents]:
     return out, {name: t.type_name for name, t in contents.topics.items()}, contents
 
 
+def decimated(bag_a: Path, bag_b: Path, topic: str) -> bool:
+    """Whether ``bag_b`` holds a subset of ``bag_a``'s messages on ``topic`` (each with its
+    stamps and bytes, in order): the same series recorded at a lower rate."""
+    (a, _, _), (b, _, _) = _raw(bag_a), _raw(bag_b)
+    kept = iter(a.get(topic, []))
+    return bool(b.get(topic)) and all(any(m == x for x in kept) for m in b[topic])
+
+
 def _unreadable(contents: BagContents, side: str) -> dict[str, str]:
     """topic -> why it cannot be compared on this side; "*" for every topic of the bag."""
     out = {topic: f"{side}: {why}" for topic, why in contents.unreadable.items()}

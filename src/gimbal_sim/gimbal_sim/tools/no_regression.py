@@ -10,7 +10,9 @@ simulated seconds on each side in the graph (container mode) and, for the checko
 on the engine too (``--engine core``, where the engine steps the scenario). Each new bag is
 compared with the baseline's graph bag (:func:`..bag.compare.compare_bags`): "same data" (every
 message's stamps and bytes), "within tolerance" (the largest relative deviation of any float
-field, at most ``--rel-tol``) or DIFFERENT (the first topic that differs and where). A run that
+field, at most ``--rel-tol``) or DIFFERENT (the first topic that differs and where), over the
+topics both carry (the graph-only node health and handshake left out; a topic the baseline
+lacks is named as new). A run that
 writes its bag but not its report (a report that refuses so short a run) still counts: its bag
 is compared. The table goes to stdout as Markdown; exit 0 when every pair is the same data or
 within tolerance, 1 otherwise, 2 for bad arguments.
@@ -24,7 +26,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..bag.compare import compare_bags
+from ..bag.compare import compare_bags, decimated
 from ..bag.reader import BagError
 from ..graph.scenario import builtin_scenarios, load
 
@@ -85,9 +87,10 @@ def graph_only(topic: str) -> bool:
     return topic == "/diagnostics" or topic.endswith("/progress")
 
 
-def verdict(a: Path, b: Path, rel_tol: float, engine: bool = False) -> tuple[bool, str, int]:
-    """(acceptable, words, topics compared) for the bags ``a`` (baseline) and ``b``; against the
-    engine's bag ``b``, the graph-only topics are left out."""
+def verdict(a: Path, b: Path, rel_tol: float) -> tuple[bool, str, int]:
+    """(acceptable, words, topics compared) for the bags ``a`` (baseline) and ``b``. The
+    graph-only topics (node health and the lockstep handshake, which gain fields as nodes gain
+    counters) are left out; a topic the baseline does not have is named as new."""
     if not (a / "metadata.yaml").exists():
         return True, "no baseline bag (a scenario or variant added since)", 0
     if not (b / "metadata.yaml").exists():
@@ -96,12 +99,18 @@ def verdict(a: Path, b: Path, rel_tol: float, engine: bool = False) -> tuple[boo
         diff = compare_bags(a, b, rel_tol=rel_tol)
     except BagError as exc:
         return False, f"UNREADABLE: {exc}", 0
-    topics = {n: t for n, t in diff.topics.items() if not (engine and graph_only(n) and t.count_b == 0)}
+    new = sorted(n for n, t in diff.topics.items() if t.count_a == 0 and t.count_b > 0 and not graph_only(n))
+    fewer = sorted(n for n, t in diff.topics.items() if 0 < t.count_b < t.count_a and not graph_only(n)
+                   and decimated(a, b, n))
+    topics = {n: t for n, t in diff.topics.items() if not graph_only(n) and n not in new and n not in fewer}
+    extra = (f" (new since: {', '.join(new)})" if new else "") + \
+        (f" (recorded at a lower rate, each kept message the same: {', '.join(fewer)})" if fewer else "")
     if all(t.comparable and t.values_equal for t in topics.values()):
-        return True, "same data", len(topics)
+        return True, "same data" + extra, len(topics)
     if rel_tol > 0 and all(t.comparable and t.within_tolerance for t in topics.values()):
         worst = max(topics.values(), key=lambda t: t.max_rel)
-        return True, f"within tolerance (largest relative deviation {worst.max_rel:.1e}, {worst.topic})", len(topics)
+        return True, f"within tolerance (largest relative deviation {worst.max_rel:.1e}, {worst.topic})" + extra, \
+            len(topics)
     bad = next(t for t in topics.values() if not (t.comparable and (t.values_equal or (rel_tol > 0 and t.within_tolerance))))
     if bad.count_a != bad.count_b:
         what = f"{bad.count_a} vs {bad.count_b} messages"
@@ -137,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
         graph = record(args.checkout, case, args.out / "graph" / case.dir, args.duration, "graph", 61)
         engine = record(args.checkout, case, args.out / "engine" / case.dir, args.duration, "core", 62)
         g_ok, g_words, n = verdict(ref, graph, args.rel_tol)
-        e_ok, e_words, _ = verdict(ref, engine, args.rel_tol, engine=True) if (engine / "metadata.yaml").exists() else (
+        e_ok, e_words, _ = verdict(ref, engine, args.rel_tol) if (engine / "metadata.yaml").exists() else (
             True, "not on the engine", 0)
         ok &= g_ok and e_ok
         rows.append(f"| {case.label} | {n} | {g_words} | {e_words} |")
