@@ -467,7 +467,7 @@ CAMPAIGN = ExperimentCampaign(
 #: the IMU over each 50 Hz step and takes its azimuth from the servo, which the lockstep node
 #: does not) and the alignment hand-off (a prelude at 1 kHz, then navigation at 50 Hz).
 RUNNER_CAMPAIGN = ExperimentCampaign(
-    name="rotational_ins_navigation_runner", variants=tuple(RUNNER_VARIANTS),
+    name="rotational_ins_navigation_runner", variants=tuple(RUNNER_VARIANTS), default_variants=("align_then_navigate",),
     defaults={"duration_s": 10800.0, "lat_deg": 40.0}, run=campaign_run, table=cep_table)
 
 
