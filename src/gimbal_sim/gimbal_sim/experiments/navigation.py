@@ -29,6 +29,12 @@ chained runs in one command (the plant's rate is fixed per run): the fine alignm
 (:func:`run_alignment_phase`), then navigation at :data:`HAND_OFF_RATE_HZ` from the plant
 state, sensor biases and estimate it leaves (:func:`run_align_then_navigate`).
 
+The CEP campaign (:data:`CAMPAIGN`) is a declaration: its runs are scenario
+``rotational_ins_navigation``'s, this 5 Hz system its variants ``rotation_on_5hz`` and
+``rotation_off_5hz`` (``platform_integrator: quasi_static``), run on the one engine with their
+bags, and its table reads the runs' ``navigation`` reports. The moored ship and the hand-off
+stay on this module's stages (:data:`RUNNER_CAMPAIGN`).
+
 Errors (truth is the site: a static base): north and east position error [m] from the
 navigated latitude and longitude through the WGS-84 radii, radial = their norm; velocity
 error = the navigated NED velocity. CEP rate: radial error at the end / duration, in n mile/h.
@@ -36,6 +42,7 @@ error = the navigated NED velocity. CEP rate: radial error at the end / duration
     python -m gimbal_sim.experiments.navigation run --duration 10800 --seed 1 --no-rotation
     python -m gimbal_sim.experiments.navigation run --seed 1 --align-then-navigate
     gimbal-campaign rotational_ins_navigation --seeds 1-20 --serial --out DIR      # the CEP campaign and its CEP50 table
+    gimbal-campaign rotational_ins_navigation_runner --variant ship_rotation_on --seeds 1-7 --out DIR
     python -m gimbal_sim.experiments.navigation cep DIR [DIR...] --per-seed  # the table again, campaigns merged
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
     python -m gimbal_sim.experiments.navigation servo-rate              # the servo at 1 kHz and at the graph's 50 Hz
@@ -63,6 +70,7 @@ from gimbal_kinematics.rotations import quat_to_dcm
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
 from ..campaign.order_stats import quantile_interval
+from ..campaign.results import read_results
 from ..graph.scenario import load as load_scenario
 from ..core.core_loop import node_values, run_stages
 from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo_stage
@@ -290,28 +298,34 @@ def run_align_then_navigate(duration_s: float = 10800.0, seed: int = 0, *, rate_
 
 
 # ------------------------------------------------------------------------------ campaign
-VARIANTS = {"rotation_on": True, "rotation_off": False, "align_then_navigate": True,
-            "ship_rotation_on": True, "ship_rotation_off": False}
+#: The CEP campaign's variants -> scenario ``rotational_ins_navigation``'s: the 5 Hz stand-in
+#: system (the default campaign) and the scenario's own 50 Hz loop.
+SCENARIO_VARIANTS = {"rotation_on": "rotation_on_5hz", "rotation_off": "rotation_off_5hz",
+                     "rotation_on_50hz": "rotation_on", "rotation_off_50hz": "rotation_off"}
+#: The variants the scenario cannot express yet, run by :func:`campaign_run` (:data:`RUNNER_CAMPAIGN`).
+RUNNER_VARIANTS = {"align_then_navigate": True, "ship_rotation_on": True, "ship_rotation_off": False}
+VARIANTS = {**{v: not v.startswith("rotation_off") for v in SCENARIO_VARIANTS}, **RUNNER_VARIANTS}
 #: The variants on paper 5's moored ship (:data:`SHIP_RATE_HZ`); run only when named (--variant).
 SHIP_VARIANTS = ("ship_rotation_on", "ship_rotation_off")
 
 
 def campaign_run(variant: str, seed: int, options: dict) -> dict:
-    """The campaign engine's core run (:data:`CAMPAIGN`): one run's metrics, no series."""
+    """:data:`RUNNER_CAMPAIGN`'s core run: one run's metrics, no series."""
     if variant == "align_then_navigate":
-        # its own rate (HAND_OFF_RATE_HZ), not an option: the other variants' run ids stay
         m = run_align_then_navigate(options["duration_s"], seed, lat_deg=options["lat_deg"])
-    elif variant in SHIP_VARIANTS:
-        # its own rates (SHIP_*), not options, for the same reason
+    else:
         m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=SHIP_RATE_HZ,
                            lat_deg=options["lat_deg"], ship=True, nav_rate_hz=SHIP_NAV_RATE_HZ, azimuth_source="servo")
         m["variant"] = variant
-    else:
-        m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=options["rate_hz"],
-                           lat_deg=options["lat_deg"])
-        m["variant"] = variant
     m.pop("series")
     return {"navigation": m}
+
+
+def navigation_translate(options: dict[str, Any]) -> tuple[float, tuple[tuple[str, Any], ...]]:
+    """A :attr:`GraphEquivalent.translate`: the duration, and the latitude in the scenario's three nodes."""
+    lat = options["lat_deg"]
+    return options["duration_s"], (("vehicle_dynamics.profile_params", f"{{lat_deg: {lat!r}, lon_deg: 0.0}}"),
+                                   ("platform_servo.lat_deg", lat), ("platform_navigator.lat_deg", lat))
 
 
 def median_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[float, float, float]:
@@ -438,14 +452,23 @@ def _campaign_table(summary: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
-#: ``gimbal-campaign rotational_ins_navigation --seeds 1-20``: the core engine by default
-#: (:func:`campaign_run`); ``--engine graph`` runs the node graph's scenario of that name.
+#: ``gimbal-campaign rotational_ins_navigation --seeds 1-20``, a declaration: scenario
+#: ``rotational_ins_navigation``'s variants (:data:`SCENARIO_VARIANTS`) on the one engine (each
+#: run's bag and ``navigation`` report) or in the node graph (``--engine graph``); the CEP table
+#: reads the runs' reports.
 CAMPAIGN = ExperimentCampaign(
-    name="rotational_ins_navigation", variants=tuple(VARIANTS),
-    default_variants=tuple(v for v in VARIANTS if v not in SHIP_VARIANTS),
-    defaults={"duration_s": 10800.0, "rate_hz": NAV_RATE_HZ, "lat_deg": 40.0}, run=campaign_run,
-    graph=GraphEquivalent("rotational_ins_navigation", {v: v for v in ("rotation_on", "rotation_off")}),
+    name="rotational_ins_navigation", variants=tuple(SCENARIO_VARIANTS), default_variants=("rotation_on", "rotation_off"),
+    defaults={"duration_s": 10800.0, "lat_deg": 40.0}, run=None,
+    graph=GraphEquivalent("rotational_ins_navigation", SCENARIO_VARIANTS, ("duration_s", "lat_deg"),
+                          navigation_translate),
     table=cep_table)
+#: ``gimbal-campaign rotational_ins_navigation_runner --variant ...``: the variants the scenario
+#: does not express yet, on this module's own stages: the moored ship (its navigator averages
+#: the IMU over each 50 Hz step and takes its azimuth from the servo, which the lockstep node
+#: does not) and the alignment hand-off (a prelude at 1 kHz, then navigation at 50 Hz).
+RUNNER_CAMPAIGN = ExperimentCampaign(
+    name="rotational_ins_navigation_runner", variants=tuple(RUNNER_VARIANTS), default_variants=("align_then_navigate",),
+    defaults={"duration_s": 10800.0, "lat_deg": 40.0}, run=campaign_run, table=cep_table)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -503,17 +526,21 @@ def main(argv: list[str] | None = None) -> int:
 def _cep_command(campaign_dirs: Sequence[str], per_seed: bool) -> int:
     runs: dict[str, list[dict]] = {}
     for campaign_dir in campaign_dirs:
-        runs_dir = Path(campaign_dir) / "runs"
-        if not runs_dir.is_dir():
-            print(f"navigation cep: {campaign_dir}: no runs/ directory; not a campaign directory", file=sys.stderr)
+        try:
+            rows = read_results(Path(campaign_dir))
+        except (OSError, ValueError) as exc:
+            print(f"navigation cep: {campaign_dir}: not a finished campaign directory ({exc})", file=sys.stderr)
             return 2
-        for path in sorted(runs_dir.glob("*/report/metrics.json")):
-            m = json.loads(path.read_text())["navigation"]
-            runs.setdefault(m.get("variant", "rotation_on" if m["rotate"] else "rotation_off"), []).append(m)
+        for row in rows:
+            path = Path(campaign_dir) / "runs" / row["run_id"] / "report" / "metrics.json"
+            if row["status"] == "ok" and path.is_file():
+                m = json.loads(path.read_text())["navigation"]
+                runs.setdefault(row["variant"], []).append({**m, "seed": int(row["seed"])})
     print(_campaign_table(cep_summary(runs)))
     if per_seed:
         variants = [v for v in VARIANTS if v in runs]
-        rates = {v: {m["seed"]: m["radial_rate_nmi_h"] for m in runs[v]} for v in variants}
+        rates = {v: {m["seed"]: m.get("radial_rate_nmi_h", m.get("final_radial_rate_nmi_h")) for m in runs[v]}
+                 for v in variants}
         print("radial rate at the end [n mile/h] per seed\nseed " + " ".join(f"{v:>19}" for v in variants))
         for seed in sorted({seed for r in rates.values() for seed in r}):
             print(f"{seed:>4} " + " ".join(f"{rates[v][seed]:>19.3f}" if seed in rates[v] else f"{'-':>19}"

@@ -26,7 +26,7 @@ from . import encoder_fusion_study, flexure, free_gyro, free_gyro_errors, naviga
 EXPERIMENTS: dict[str, ExperimentCampaign] = {
     e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN, platform_servo.CAMPAIGN,
                         encoder_fusion_study.CAMPAIGN, encoder_fusion_study.RQ_CAMPAIGN,
-                        free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN, slew.CAMPAIGN)}
+                        free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN, navigation.RUNNER_CAMPAIGN, slew.CAMPAIGN)}
 
 
 def experiment(name: str) -> ExperimentCampaign:

@@ -18,7 +18,7 @@ the user's own file::
         remap: {}          # topic remappings, from: to
     variants:              # optional: run the scenario once per variant ...
       feedback_off: {los_rate_controller.feedback: false}
-      feedback_on:  {los_rate_controller.feedback: true, seed: 3}
+      feedback_on:  {los_rate_controller.feedback: true, seed: 3}   # also sim_rate_hz
     comparison: bias_feedback   # ... and compare the runs with this report
     prelude:               # optional (also as a variant's override): run another scenario first
       scenario: rotational_ins_alignment   # built-in name or YAML file
@@ -227,7 +227,9 @@ def _prelude(value: Any, where: str) -> dict[str, Any]:
 
 
 def _override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
-    """``scenario`` with one override applied: ``seed``, ``prelude`` or ``node.param``."""
+    """``scenario`` with one override applied: ``seed``, ``sim_rate_hz``, ``prelude`` or ``node.param``."""
+    if key == "sim_rate_hz":
+        return replace(scenario, sim_rate_hz=_number(f"{where}: sim_rate_hz", value))
     if key == "prelude":
         return replace(scenario, prelude=_prelude(value, f"{where}: prelude"))
     if key == "seed":
@@ -236,7 +238,7 @@ def _override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
         return replace(scenario, seed=value)
     node, dot, param = str(key).partition(".")
     if not dot or node not in scenario.nodes:
-        raise ScenarioError(f"{where}: override {key!r} is not 'seed', 'prelude' or 'node.param' of a node in the "
+        raise ScenarioError(f"{where}: override {key!r} is not 'seed', 'sim_rate_hz', 'prelude' or 'node.param' of a node in the "
                             f"scenario (nodes: {', '.join(scenario.nodes)})")
     new = copy.deepcopy(scenario)
     spec = new.nodes[node]

@@ -10,7 +10,7 @@ from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.params import SHARED, declaration, param, same_as
 
 from ..world.plant.motion_profiles import PROFILE_NAMES
-from ..world.vehicle import PLANTS
+from ..world.vehicle import PLANTS, PLATFORM_INTEGRATORS
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,12 @@ class VehicleDynamicsNodeParams:
     exit_at_end: bool = param(False, "exit the process after the last step")
     platform_substeps: int = param(4, "four_gimbal_platform: RK4 substeps per step of the DC-motor loops (electrical "
         "time constant ~1 ms: keep a substep <= 2 ms at low sim_rate_hz)", 1, 10**4)
+    platform_integrator: str = param("rk4", "four_gimbal_platform: rk4 (platform_substeps RK4 substeps per step) or "
+        "quasi_static (one implicit step per step, the armature current at its quasi-static value: for loops at a few "
+        "Hz, where RK4 would need a substep per 2 ms)", choices=PLATFORM_INTEGRATORS)
+    platform_base_motion: bool = param(False, "four_gimbal_platform: the host's motion enters each gimbal loop (the "
+        "outer member's inertial acceleration torques the gimbal; friction and back-EMF see the relative rate); "
+        "false: the joints see no base motion (a base at rest)")
     position_truth_every_steps: int = param(0, "publish the host's true position (/truth/host/fix, NavSatFix) and "
         "NED velocity (/truth/host/velocity, m/s) every N steps; 0: not published", 0, 10**9)
 

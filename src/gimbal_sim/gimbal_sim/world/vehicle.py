@@ -51,6 +51,7 @@ from .plant.platform_loops import PlatformAxis, paper3_axis_params
 from gimbal_kinematics.gimbal.turret_base import site_environment
 
 PLANTS = ("two_axis_gimbal", "four_gimbal_platform", "host_only")
+PLATFORM_INTEGRATORS = ("rk4", "quasi_static")
 _PLATFORM_AXES = ("a", "q", "p", "r")
 ARCSEC = math.radians(1.0 / 3600.0)
 
@@ -102,7 +103,7 @@ class VehicleConfig:
             raise ValueError("initial_joints_deg must be finite")
         if self.platform_substeps < 1:
             raise ValueError(f"platform_substeps must be >= 1, got {self.platform_substeps}")
-        if self.platform_integrator not in ("rk4", "quasi_static"):
+        if self.platform_integrator not in PLATFORM_INTEGRATORS:
             raise ValueError(f"platform_integrator must be rk4 or quasi_static, got {self.platform_integrator!r}")
 
     @classmethod
@@ -122,7 +123,9 @@ class VehicleConfig:
             return cls(profile=values["profile"], profile_params=profile_params, plant=values["plant"],
                        sim_rate_hz=values["sim_rate_hz"], duration_s=values["duration_s"],
                        earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial),
-                       platform_substeps=values["platform_substeps"])
+                       platform_substeps=values["platform_substeps"],
+                       platform_integrator=values["platform_integrator"],
+                       platform_base_motion=values["platform_base_motion"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
