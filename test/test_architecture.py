@@ -201,6 +201,29 @@ def test_the_registry_lists_every_node_executable_with_its_package_table_and_cla
         assert node_type.node_class().__module__ == module, exe
 
 
+def test_every_console_script_names_a_function_of_a_module_in_src():
+    """Each ``console_scripts`` entry of the packages' ``setup.py`` (what colcon and pip turn
+    into executables) names a module file under src/ that defines the function, read with
+    ``ast`` without importing it: a module moved or renamed leaves no entry point behind."""
+    missing, count = [], 0
+    for pkg in LEVEL:
+        for node in ast.walk(ast.parse((SRC / pkg / "setup.py").read_text())):
+            if isinstance(node, ast.keyword) and node.arg == "entry_points":
+                for spec in ast.literal_eval(node.value).get("console_scripts", []):
+                    exe, _, target = (s.strip() for s in spec.partition("="))
+                    module, _, func = target.partition(":")
+                    base = SRC / pkg / Path(*module.split("."))
+                    path = next((p for p in (base.with_suffix(".py"), base / "__init__.py") if p.is_file()), None)
+                    defined = path is not None and any(
+                        isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.name == func
+                        for n in ast.parse(path.read_text()).body)
+                    count += 1
+                    if not (module.split(".")[0] == pkg and defined):
+                        missing.append(f"{pkg}/setup.py: {exe} = {target}")
+    assert not missing, "entry points naming no function of a module in src/:\n" + "\n".join(missing)
+    assert count > 20
+
+
 # ------------------------------------------------------------------ the import graph
 def module_index(src: Path) -> dict[str, Path]:
     """Dotted name -> file of every module of the packages laid out as ``src/<pkg>/<pkg>/``."""
