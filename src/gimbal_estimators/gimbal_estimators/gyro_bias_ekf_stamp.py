@@ -33,6 +33,8 @@ class EkfInput:
         self.sync = grouping(p.max_sync_wait_s, p.max_gyro_gap_s, core.integrate, core.fuse)
 
     def __getattr__(self, name: str):
+        if name == "core":  # not set yet (e.g. while unpickling): no recursion
+            raise AttributeError(name)
         return getattr(self.core, name)
 
     def on_gyro(self, t: float, q_m: float, r_m: float) -> Fed:
