@@ -55,17 +55,16 @@ def test_the_controller_kernel_is_its_source_run_as_python_to_the_bit(anti_windu
     s[lk.S_BIAS_Q], s[lk.S_BIAS_R] = 1e-4, -2e-4
     t = 0.0
     for k in range(2000):
-        t += 1e-3 if k % 97 else -2e-3 if k % 2 else 0.05  # out-of-order samples and gaps
-        t -= 1.0 if k % 700 == 350 else 0.0  # a clock jump back: the integrator resets
+        t += 1e-3 if k % 97 else 0.05  # gaps (stamps come ordered: the input policy's)
         x = tuple(RNG.normal(0.0, 0.002 if k % 400 else 30.0, 13))  # every 400th saturates
         if k % 301 == 0:
             x = (math.nan,) + x[1:]
         args = (t, *x[:11], x[11] * 0.01, x[12] * 0.01)
         expect = core.step(t, x[0:2], x[2:5], x[5:8], x[8:11], (args[12], args[13]))
         assert lk.los_rate_step.py_func(s, g, *args) == expect
-    counts = (core.rejected_inputs, core.rejected_stamps, core.saturated_steps, core.resets)
-    assert (s[lk.S_REJECTED_INPUTS], s[lk.S_REJECTED_STAMPS], s[lk.S_SATURATED], s[lk.S_RESETS]) == counts
-    assert all(c > 0 for c in counts) and core.saturated_steps < 1500, counts
+    counts = (core.rejected_inputs, core.saturated_steps)
+    assert (s[lk.S_REJECTED_INPUTS], s[lk.S_SATURATED]) == counts
+    assert all(c > 0 for c in counts) and core.saturated_steps < 1900, counts
 
 
 def _spd(n):

@@ -26,8 +26,10 @@ from conftest import VENV_BIN
 from foreign_bags import DEFAULT_QOS, EPOCH_NS, TYPESTORE
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_kinematics.rotations import euler321_from_quat
 from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.sync import RateSync
 from ros_harness import harness_node, node_processes, spin_until
 
 pytestmark = pytest.mark.ros
@@ -75,7 +77,7 @@ def core_estimates(bag: Path) -> tuple[dict[int, np.ndarray], list[int]]:
     """({stamp [ns]: bias (3,)} of the EKF core fed the bag's messages in the node's order,
     with times relative to the first stamp as the free-timing node keeps them, and the
     INS stamps), all decoded by rosbags."""
-    ekf = GyroBiasEkf(GyroBiasEkfParams.from_values({p.name: p.default for p in PARAMS}))
+    ekf = EkfInput(GyroBiasEkf(GyroBiasEkfParams.from_values({p.name: p.default for p in PARAMS})), RateSync)
     with AnyReader([bag], default_typestore=TYPESTORE) as reader:
         items = []
         for conn, _, data in reader.messages(connections=[c for c in reader.connections if c.topic in INPUTS]):

@@ -11,6 +11,7 @@ from scipy.stats import chi2
 
 from gimbal_estimators import kalman
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_estimators.gyro_bias_ekf_model import (
     discretize_error_model, encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
     roll_rate_matrix,
@@ -20,6 +21,7 @@ from gimbal_kinematics.rotations import (
     dcm_from_rotation_vector, quat_to_dcm, rotation_vector_from_dcm, skew, small_angles_from_dcm,
 )
 from gimbal_kinematics.sighting_chain import dcm_bm, dcm_nb, reconstruct_roll_rate
+from gimbal_kinematics.sync import RateSync
 from gimbal_sim.core.core_ideal import TruthStabilizer
 from gimbal_sim.experiments.bias_ekf import (
     GENERAL_GIMBAL_GYRO, ekf_params_from_sensors, run_monte_carlo,
@@ -34,6 +36,11 @@ DEG = math.pi / 180.0
 DEG_H = DEG / 3600.0
 PERFECT = SensorSuiteConfig(ins=InsParams(roll_pitch_rms_deg=0.0, heading_rms_deg=0.0, gyro=GyroParams()),
                             gimbal_gyro=GyroParams(), encoder=EncoderParams())
+
+
+def ekf_input(params: GyroBiasEkfParams | None = None) -> EkfInput:
+    """The core behind its input edge (value checks, multi-rate grouping), as the node builds it."""
+    return EkfInput(GyroBiasEkf(params), RateSync)
 
 
 def simulate(sensors: SensorSuiteConfig, duration_s: float, sim_rate_hz: float = 1000.0, ins_rate_hz: float = 100.0):
@@ -109,7 +116,7 @@ def test_measured_attitude_is_the_sighting_chain():
 
 
 def test_roll_rate_is_paper_eq_4():
-    ekf = GyroBiasEkf()
+    ekf = ekf_input()
     rng = np.random.default_rng(4)
     t = 0.0
     for _ in range(20):
@@ -194,7 +201,7 @@ def test_error_model_matches_the_nonlinear_mechanization():
     truth, one with gyro outputs shifted by M δb (the other's bias error), compared."""
     truths, samples = simulate(PERFECT, 2.0, ins_rate_hz=1000.0)
     db = np.array([2e-5, -3e-5, 4e-5])  # (x, q, r) bias errors [rad/s], ~5-8 °/h
-    ref, pert = GyroBiasEkf(), GyroBiasEkf()
+    ref, pert = ekf_input(), ekf_input()
     integral = np.zeros((3, 3))
     first = True
     for truth, step in zip(truths, samples):
@@ -226,7 +233,7 @@ def test_mechanization_with_perfect_sensors_tracks_the_truth():
     attitude: the ripple must not walk ψ̂ and ê apart along their unobservable sum (it did,
     by 70″ in 10 s, before the R floor)."""
     truths, samples = simulate(PERFECT, 10.0, ins_rate_hz=1000.0)
-    fast, slow, fused = GyroBiasEkf(), GyroBiasEkf(), GyroBiasEkf()
+    fast, slow, fused = ekf_input(), ekf_input(), ekf_input()
     err_fast = err_slow = err_fused = 0.0
     for truth, step in zip(truths, samples):
         for s in step:
@@ -249,7 +256,7 @@ def test_lockstep_result_does_not_depend_on_message_order(paper_run):
     outs = []
     for order in ((InsSample, GimbalGyroSample, EncoderSample), (EncoderSample, GimbalGyroSample, InsSample),
                   (GimbalGyroSample, InsSample, EncoderSample)):
-        ekf = GyroBiasEkf()
+        ekf = ekf_input()
         res = []
         for step in samples[:2000]:
             for cls in order:
@@ -266,7 +273,7 @@ def test_lockstep_result_does_not_depend_on_message_order(paper_run):
 
 # ---------------------------------------------------------------------------- robustness
 def _aligned_filter(samples, n_steps=500):
-    ekf = GyroBiasEkf()
+    ekf = ekf_input()
     for step in samples[:n_steps]:
         for s in step:
             feed(ekf, s)
@@ -312,7 +319,7 @@ def _ekf_policy(ekf: GyroBiasEkf):
 
 def test_out_of_order_stamps_are_dropped_by_the_input_policy_before_the_core(paper_run):
     _, samples = paper_run
-    ekf = GyroBiasEkf()
+    ekf = ekf_input()
     policy = _ekf_policy(ekf)
     _through_the_lockstep_policy(ekf, samples[:500], policy)
     t, bias, P = ekf.time, ekf.bias, ekf.P.copy()
@@ -326,7 +333,7 @@ def test_out_of_order_stamps_are_dropped_by_the_input_policy_before_the_core(pap
 
 def test_backward_clock_jump_resets_and_records_why(paper_run):
     _, samples = paper_run
-    ekf = GyroBiasEkf()
+    ekf = ekf_input()
     policy = _ekf_policy(ekf)
     _through_the_lockstep_policy(ekf, samples[:2000], policy)
     assert ekf.aligned and np.any(ekf.bias != 0.0)
@@ -340,7 +347,7 @@ def test_backward_clock_jump_resets_and_records_why(paper_run):
 
 def test_innovation_gate_rejects_outliers_and_realigns_after_a_run_of_them(paper_run):
     _, samples = paper_run
-    ekf = GyroBiasEkf(GyroBiasEkfParams(max_consecutive_gated=3))
+    ekf = ekf_input(GyroBiasEkfParams(max_consecutive_gated=3))
     k0 = 1000
     for step in samples[:k0]:
         for s in step:
@@ -383,7 +390,7 @@ def test_gyro_gap_realigns_but_keeps_the_bias(paper_run):
 def test_covariance_stays_symmetric_positive_definite(paper_run):
     truths, samples = paper_run
     for states in (True, False):
-        ekf = GyroBiasEkf(GyroBiasEkfParams(ins_error_states=states))
+        ekf = ekf_input(GyroBiasEkfParams(ins_error_states=states))
         n_out = 0
         for step in samples:
             for s in step:
@@ -398,7 +405,7 @@ def test_covariance_stays_symmetric_positive_definite(paper_run):
 # ---------------------------------------------------------------------------- estimation
 def test_biases_converge_on_paper_1_sensors(paper_run):
     truths, samples = paper_run
-    ekf = GyroBiasEkf()
+    ekf = ekf_input()
     errs, sig = [], []
     for truth, step in zip(truths, samples):
         for s in step:
@@ -434,7 +441,7 @@ def test_consistency_at_reduced_size(gyro):
 
 
 def test_navigation_rate_follows_the_site_and_velocity():
-    ekf = GyroBiasEkf(GyroBiasEkfParams(lat_deg=45.0))
+    ekf = ekf_input(GyroBiasEkfParams(lat_deg=45.0))
     np.testing.assert_allclose(ekf.omega_in_n, earth_rate_n(math.radians(45.0)), rtol=1e-15)
     v = (10.0, 5.0, 0.0)
     assert ekf.set_navigation(math.radians(30.0), 100.0, v)

@@ -125,8 +125,10 @@ def _reference(params, schedule) -> dict[int, np.ndarray]:
     INS sample without attitude delivers its rates, as the core's API defines)."""
     from gimbal_estimators import messages as m
     from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
+    from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
+    from gimbal_kinematics.sync import RateSync
 
-    core = GyroBiasEkf(params)
+    core = EkfInput(GyroBiasEkf(params), RateSync)
     t = lambda msg: (m.stamp_ns(msg.header.stamp) - EPOCH_NS) * 1e-9  # noqa: E731
     for stream, msg, clean in schedule:
         if stream == "ins" and msg.orientation_covariance[0] == -1.0:

@@ -49,10 +49,11 @@ f = 4). ``"conditional"`` integration (no integration on a saturated axis whose 
 pushes further out; B′⁻¹ = M(0) is diagonally dominant with a positive diagonal) stops at
 once but forgets all of that angle (255 µrad offset at ω_n = 100 Hz, 4 kHz).
 
-Bad input: a non-finite measurement or rate command, or a stamp that is not after the last
-accepted one, is rejected: the last command is returned, the event counted
-(``rejected_inputs`` / ``rejected_stamps``), nothing is integrated. A stamp going back by
-more than ``clock_jump_s`` (a bag loop) resets the integrator and records the reason.
+Bad input: a non-finite measurement or rate command is rejected: the last command is
+returned, the event counted (``rejected_inputs``), nothing is integrated. Samples come
+checked and in stamp order: duplicates, samples out of order and a stamp going back by more
+than ``clock_jump_s`` (a bag loop, which calls :meth:`LosRateController.reset`) are the
+node's input policy's (:mod:`gimbal_kinematics.control_policy`).
 
 Gyro bias: :meth:`LosRateController.set_bias_estimate` stores the EKF's 3-axis bias
 estimate (m frame, rad/s); with ``feedback`` its y, z components are subtracted from q_m,
@@ -109,8 +110,8 @@ class LosRateControllerParams:
             θm = ±90°); below it the gain is limited and ``singular_steps`` counts.
         max_dt_factor: largest integration step as a multiple of 1/rate_hz (a gap in
             the stamps does not make one huge integrator step).
-        clock_jump_s: a stamp more than this [s] before the last one (a bag loop)
-            resets the integrator; a smaller step back is rejected as out of order.
+        clock_jump_s: for the node's input policy: a stamp more than this [s] before the
+            last one (a bag loop) resets the controller; a smaller step back is dropped.
     """
 
     rate_hz: float = DEFAULT_RATE_HZ
@@ -237,7 +238,6 @@ class LosRateController:
     bias_estimate_qr = property(lambda self: self._pair(lk.S_BIAS_Q, lk.S_BIAS_R),
                                 doc="Gyro bias (y, z components) [rad/s] currently subtracted when ``feedback``.")
     rejected_inputs = property(lambda self: self._count(lk.S_REJECTED_INPUTS))
-    rejected_stamps = property(lambda self: self._count(lk.S_REJECTED_STAMPS))
     singular_steps = property(lambda self: self._count(lk.S_SINGULAR))
     saturated_steps = property(lambda self: self._count(lk.S_SATURATED))
     resets = property(lambda self: self._count(lk.S_RESETS))
@@ -302,12 +302,9 @@ class LosRateController:
                 :meth:`set_rate_command`'s (default 0, 0).
         """
         s = self._s
-        last, resets = self.last_t, s[lk.S_RESETS]
         q_md, r_md = (s[lk.S_CMD_Q], s[lk.S_CMD_R]) if rate_command_qr is None else rate_command_qr[:2]
         tau = lk.los_rate_step(s, self._g, float(t), float(gyro_qr[0]), float(gyro_qr[1]), float(joint_angles[0]),
                                float(joint_angles[1]), float(joint_angles[2]), float(joint_rates[0]),
                                float(joint_rates[1]), float(joint_rates[2]), float(omega_b_b[0]), float(omega_b_b[1]),
                                float(omega_b_b[2]), float(q_md), float(r_md))
-        if s[lk.S_RESETS] != resets:
-            self.last_reset_reason = f"time jumped back from {last:.6f} s to {t:.6f} s"
         return tau

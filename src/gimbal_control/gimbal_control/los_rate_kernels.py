@@ -11,8 +11,9 @@ One sample at stamp t (the class's docstring has the derivation), c, s = cos, si
     I ← I + ½Δt (e + e_prev)   (not at the first sample; clamped, or conditional, per anti_windup)
     τ = τ_trim + B′⁻¹ (k_p e + k_i I − A′x),  clipped to the torque limits
 
-A non-finite input or a stamp not after the last is rejected (the last command returned,
-counted); a stamp more than ``clock_jump_s`` back resets the integrator.
+A non-finite input is rejected (the last command returned, counted). Samples come checked
+and in stamp order: duplicates, samples out of order and clock jumps are the node's input
+policy's (:mod:`gimbal_kinematics.control_policy`, which calls the controller's ``reset``).
 """
 from __future__ import annotations
 
@@ -21,17 +22,15 @@ import math
 import numpy as np
 from numba import njit
 
-# state
 # state: integrators, last rate error, last stamp (NaN: none), command, bias (q, r) subtracted,
 # outer-loop rate command, counters, last joint-rate command and unsaturated command
 S_IA, S_IE, S_EA_PREV, S_EE_PREV, S_LAST_T, S_TAU_A, S_TAU_E, S_BIAS_Q, S_BIAS_R, S_CMD_Q, S_CMD_R, \
-    S_REJECTED_INPUTS, S_REJECTED_STAMPS, S_SINGULAR, S_SATURATED, S_RESETS, S_JR_A, S_JR_E, S_UNSAT_A, \
-    S_UNSAT_E = range(20)
-N_STATE = 20
+    S_REJECTED_INPUTS, S_SINGULAR, S_SATURATED, S_RESETS, S_JR_A, S_JR_E, S_UNSAT_A, S_UNSAT_E = range(19)
+N_STATE = 19
 # parameters (A′ rows at G_A0, G_A1, four each)
 G_KP, G_KI, G_B00, G_B01, G_B10, G_B11, G_TRIM_A, G_TRIM_E, G_LIM_A, G_LIM_E, G_IMAX_A, G_IMAX_E, G_AW_MODE, \
-    G_FEEDBACK, G_MIN_COS, G_DT_NOMINAL, G_DT_MAX, G_CLOCK_JUMP, G_A0, G_A1 = (*range(18), 18, 22)
-N_PARAMS = 26
+    G_FEEDBACK, G_MIN_COS, G_DT_NOMINAL, G_DT_MAX, G_A0, G_A1 = (*range(17), 17, 21)
+N_PARAMS = 25
 
 
 def initial_state() -> np.ndarray:
@@ -51,7 +50,7 @@ def controller_params(core) -> np.ndarray:
     g[G_LIM_A], g[G_LIM_E] = core.torque_limits
     g[G_IMAX_A], g[G_IMAX_E] = core._i_max
     g[G_AW_MODE], g[G_FEEDBACK], g[G_MIN_COS] = core._aw_mode, p.feedback, p.min_cos_elevation
-    g[G_DT_NOMINAL], g[G_DT_MAX], g[G_CLOCK_JUMP] = core.dt_nominal, core._dt_max, p.clock_jump_s
+    g[G_DT_NOMINAL], g[G_DT_MAX] = core.dt_nominal, core._dt_max
     g[G_A0:G_A0 + 4], g[G_A1:G_A1 + 4] = core._a
     return g
 
@@ -91,15 +90,6 @@ def los_rate_step(s: np.ndarray, g: np.ndarray, t: float, q_g: float, r_g: float
         return s[S_TAU_A], s[S_TAU_E]
     last = s[S_LAST_T]
     first = math.isnan(last)
-    if not first and t <= last:
-        if last - t > g[G_CLOCK_JUMP]:
-            for i in (S_IA, S_IE, S_EA_PREV, S_EE_PREV, S_TAU_A, S_TAU_E, S_JR_A, S_JR_E, S_UNSAT_A, S_UNSAT_E):
-                s[i] = 0.0
-            s[S_RESETS] += 1.0
-            first = True
-        else:
-            s[S_REJECTED_STAMPS] += 1.0
-            return s[S_TAU_A], s[S_TAU_E]
     dt = g[G_DT_NOMINAL] if first else min(t - last, g[G_DT_MAX])
     s[S_LAST_T] = t
     if g[G_FEEDBACK] != 0.0:

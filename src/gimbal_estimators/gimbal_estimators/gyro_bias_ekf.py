@@ -1,14 +1,18 @@
 """Gyro-bias EKF of paper 1 §3 (docs/spec.md §3.1): attitude C(n,m) of the inner gimbal + gyro biases.
 
-Message-driven, pure Python (no rclpy). Feed it the three sensor streams with their stamps:
+Pure Python (no rclpy). It takes grouped samples, checked and in stamp order:
 
-    ekf.on_gyro(t, q_m, r_m)              two-axis gimbal gyro [rad/s]        (e.g. 1 kHz)
-    ekf.on_encoders(t, angles, rates)     (ψt, ψm, θm) [rad], rates [rad/s]   (e.g. 1 kHz)
-    ekf.on_ins(t, euler, omega_b)         INS (φ, θ, ψ) [rad], (p, q, r) [rad/s] (e.g. 100 Hz)
+    ekf.integrate(t, q_m, r_m, angles, rates)   a gimbal gyro sample [rad/s] (e.g. 1 kHz) with the
+                                                encoder angles (ψt, ψm, θm) [rad] and INS body rates
+                                                (p, q, r) [rad/s] of its stamp
+    ekf.fuse(t, euler, angles)                  an INS attitude (φ, θ, ψ) [rad] (e.g. 100 Hz) the
+                                                integration has reached, with the angles of its stamp
 
-Feed it samples in stamp order: stamps, duplicates and clock jumps are the input policy's
-(:mod:`gimbal_kinematics.input_policy`; a jump back calls :meth:`GyroBiasEkf.reset`). Each
-call returns a :class:`Fed`: the sample used or why not, and the update it completed.
+Stamps, duplicates, clock jumps (a jump back calls :meth:`GyroBiasEkf.reset`) and the
+multi-rate grouping are the input edge's (:mod:`gimbal_kinematics.input_policy`,
+:class:`gimbal_kinematics.sync.RateSync`); :class:`.gyro_bias_ekf_stamp.EkfInput` puts the
+three raw streams through the checks (``check_*``) and the grouping into the core, each
+call returning a :class:`Fed`: the sample used or why not, and the update it completed.
 
 Mechanization (gyro rate)
 -------------------------
@@ -31,8 +35,8 @@ The INS body rates are interpolated to the gyro stamps (see "Synchronisation").
 State, error model and measurement: :mod:`.gyro_bias_ekf_model` (the 9-state error model,
 the lumped bias, the measured attitude and the INS error states).
 
-Synchronisation
----------------
+Synchronisation (the grouping :class:`gimbal_kinematics.sync.RateSync` does)
+---------------------------------------------------------------------------
 All streams are stamped on one clock. Gyro samples are queued and integrated in stamp order
 once an encoder sample and an INS-rate sample stamped at or after them are in (or after
 ``max_sync_wait_s``, with the latest values held): joint angles and INS body rates are then
@@ -45,7 +49,7 @@ gyro samples up to t_ins are integrated, with the encoder angles interpolated to
 the INS is not stamped on gyro stamps (a driver, free timing), the gyro rates are
 interpolated linearly to each INS stamp, the attitude integrated to it and the update made
 there, so there is no skew; several updates may then complete in one call,
-:meth:`GyroBiasEkf.take_outputs` returns them all (each ``on_*`` returns the last). (An INS
+:meth:`GyroBiasEkf.take_outputs` returns them all (each input returns the last). (An INS
 message later than ``max_sync_wait_s`` is fused against the current attitude, a skew of up
 to that wait.)
 
@@ -90,8 +94,8 @@ _DEG_RT_H = _DEG / 60.0  # °/√h -> rad/√s
 
 #: |cos θm| below which eq. 4 is treated as singular (roll and azimuth axes aligned).
 _SINGULAR_COS = 1e-3
-#: INS attitudes held for fusion at most (0.2 s at 500 Hz).
-_MAX_PENDING = 100
+#: Outputs held for :meth:`GyroBiasEkf.take_outputs` at most.
+_MAX_OUTPUTS = 100
 
 
 class Counters(NamedTuple):
@@ -190,16 +194,9 @@ class GyroBiasEkf:
         self._b = [0.0, 0.0, 0.0]
         self._e = np.zeros(3)
         self.P: np.ndarray | None = None
-        self._t_newest = -math.inf  # the newest stamp fed, for the sync wait
         self._t_gyro: float | None = None  # stamp of the last integrated gyro sample
         self._w_prev: tuple[float, float, float] | None = None
-        self._gyro_q: deque[tuple[float, float, float]] = deque()
-        self._enc_hist: deque[tuple[float, float, float, float]] = deque()
-        self._ins_hist: deque[tuple[float, float, float, float]] = deque()
         self._trig = (1.0, 0.0, 1.0, 0.0)  # cos, sin (ψt+ψm); cos, sin θm at t_gyro
-        # INS attitudes not fused yet, oldest first (bounded: a stopped gyro must not grow it)
-        self._pending: deque[tuple[float, tuple[float, float, float]]] = deque(maxlen=_MAX_PENDING)
-        self._raw_prev: tuple[float, float, float] | None = None  # last integrated (t, q_m, r_m)
 
         self._t_cov: float | None = None
         self._A_cov: np.ndarray | None = None
@@ -290,33 +287,32 @@ class GyroBiasEkf:
         """Stamp of the last integrated gyro sample, which the attitude refers to [s]."""
         return self._t_gyro
 
-    # ------------------------------------------------------------------ message handlers
-    def _taken(self, t: float) -> Fed:
-        """After a sample at ``t`` is queued: integrate what is ready, fuse what it reached."""
-        if t > self._t_newest:
-            self._t_newest = t
-        self._drain()
-        out = self._updates()
+    # ------------------------------------------------------------------ input checks
+    def fed(self, output: EkfOutput | None, why: str | None = None) -> Fed:
+        """The :class:`Fed` of a sample used: ``output`` and the re-alignments since the last call."""
         realigned, self._realigned = tuple(self._realigned), []
-        return Fed(True, None, out, realigned)
+        return Fed(True, why, output, realigned)
 
-    def on_gyro(self, t: float, q_m: float, r_m: float) -> Fed:
-        """Gimbal gyro sample at stamp ``t`` [s]: rates q_m, r_m [rad/s] about m-y, m-z."""
+    def rejected(self) -> Fed:
+        """Count a sample refused by a check (:meth:`check_gyro` …) and say why."""
+        self._count(rejected_nonfinite=1)
+        return _NONFINITE
+
+    @staticmethod
+    def check_gyro(t: float, q_m: float, r_m: float) -> tuple[float, float, float] | None:
+        """(t, q_m, r_m) as floats, or None when a value is non-finite or not a number."""
         try:
             t, q_m, r_m = float(t), float(q_m), float(r_m)
         except (TypeError, ValueError):
-            t = math.nan
+            return None
         # A sum is finite iff every term is (NaN and ±inf propagate); one call instead of three.
-        if not math.isfinite(t + q_m + r_m):
-            self._count(rejected_nonfinite=1)
-            return _NONFINITE
-        self._gyro_q.append((t, q_m, r_m))
-        return self._taken(t)
+        return (t, q_m, r_m) if math.isfinite(t + q_m + r_m) else None
 
-    def on_encoders(self, t: float, angles: Sequence[float],
-                    rates: Sequence[float] | None = None) -> Fed:
-        """Encoder sample at ``t`` [s]: angles (ψt, ψm, θm) [rad]; ``rates`` [rad/s] are
-        checked but unused (eq. 4 needs no joint rate once r_m is measured)."""
+    @staticmethod
+    def check_encoders(t: float, angles: Sequence[float], rates: Sequence[float] | None = None
+                       ) -> tuple[float, tuple[float, float, float]] | None:
+        """(t, (ψt, ψm, θm)) as floats, or None; ``rates`` [rad/s] are checked but unused (eq. 4
+        needs no joint rate once r_m is measured)."""
         try:
             t = float(t)
             a = (float(angles[0]), float(angles[1]), float(angles[2]))
@@ -324,19 +320,12 @@ class GyroBiasEkf:
             if rates is not None:
                 ok = ok and len(rates) == 3 and math.isfinite(float(rates[0]) + float(rates[1]) + float(rates[2]))
         except (TypeError, ValueError, IndexError):
-            ok = False
-        if not ok:
-            self._count(rejected_nonfinite=1)
-            return _NONFINITE
-        self._enc_hist.append((t,) + a)
-        return self._taken(t)
+            return None
+        return (t, a) if ok else None
 
-    def on_ins(self, t: float, euler: Sequence[float] | None, omega_b: Sequence[float]) -> Fed:
-        """INS sample at ``t`` [s]: Euler (φ, θ, ψ) [rad] and body rates (p, q, r) [rad/s].
-
-        ``euler=None`` delivers the rates only (an Imu message whose orientation is marked
-        unavailable): the filter propagates but has nothing to fuse (``why`` says so).
-        """
+    @staticmethod
+    def check_ins(t: float, euler: Sequence[float] | None, omega_b: Sequence[float]) -> tuple | None:
+        """(t, euler or None, (p, q, r)) as floats, or None (``euler=None``: the rates only)."""
         try:
             t = float(t)
             e = None if euler is None else (float(euler[0]), float(euler[1]), float(euler[2]))
@@ -344,80 +333,13 @@ class GyroBiasEkf:
             ok = len(omega_b) == 3 and math.isfinite(t + w[0] + w[1] + w[2]) \
                 and (e is None or (len(euler) == 3 and math.isfinite(e[0] + e[1] + e[2])))
         except (TypeError, ValueError, IndexError):
-            ok = False
-        if not ok:
-            self._count(rejected_nonfinite=1)
-            return _NONFINITE
-        self._ins_hist.append((t,) + w)
-        if e is not None:
-            self._pending.append((t, e))
-        fed = self._taken(t)
-        return fed if e is not None else fed._replace(why="no attitude to fuse")
-
-    # ------------------------------------------------------------------ synchronisation
-    def _drain(self) -> None:
-        """Integrate the queued gyro samples whose encoder and INS-rate data are in (or
-        that waited longer than ``max_sync_wait_s``)."""
-        gq = self._gyro_q
-        enc, ins = self._enc_hist, self._ins_hist
-        wait = self.params.max_sync_wait_s
-        while gq:
-            t = gq[0][0]
-            if (not enc or enc[-1][0] < t or not ins or ins[-1][0] < t) and self._t_newest - t <= wait:
-                return
-            sample = gq.popleft()
-            self._split_at_pending(*sample)
-            self._integrate(*sample)
-            self._raw_prev = sample
-
-    def _split_at_pending(self, t: float, q_m: float, r_m: float) -> None:
-        """Fuse the INS attitudes stamped strictly between the last gyro sample and this one
-        at their own stamps: integrate to each with the gyro rates interpolated linearly,
-        update there, then go on. (With a gyro sample at every INS stamp, as in lockstep,
-        there is none: the update follows that sample.)"""
-        pend, raw = self._pending, self._raw_prev
-        if raw is None or t - raw[0] > self.params.max_gyro_gap_s:
-            return  # a gap re-aligns at the next sample (never interpolated across)
-        while pend and raw[0] == self._t_gyro and raw[0] < pend[0][0] < t:
-            tp = pend[0][0]
-            f = (tp - raw[0]) / (t - raw[0])
-            raw = (tp, raw[1] + f * (q_m - raw[1]), raw[2] + f * (r_m - raw[2]))
-            self._integrate(*raw)
-            self._raw_prev = raw
-            self._updates()
-
-    def _updates(self) -> EkfOutput | None:
-        """Fuse the newest pending INS attitude the integration has reached (older ones
-        reached at the same time, e.g. across a gyro gap, are superseded by it)."""
-        pend = self._pending
-        while len(pend) > 1 and self._t_gyro is not None and pend[1][0] <= self._t_gyro:
-            pend.popleft()
-        out = None
-        while pend and self._t_gyro is not None and self._t_gyro >= pend[0][0]:
-            res = self._try_update()
-            if res is not None:
-                out = res
-        return out
+            return None
+        return (t, e, w) if ok else None
 
     def take_outputs(self) -> list[EkfOutput]:
         """Every output produced since the last call, oldest first (an ``on_*`` may complete several)."""
         out, self.outputs = self.outputs, []
         return out
-
-    @staticmethod
-    def _interp(hist: deque, t: float) -> tuple[float, float, float] | None:
-        """Linear interpolation of a (t, a, b, c) history at ``t`` (held beyond its ends);
-        drops the entries no longer needed for later times."""
-        if not hist:
-            return None
-        while len(hist) > 1 and hist[1][0] <= t:
-            hist.popleft()
-        h0 = hist[0]
-        if len(hist) == 1 or t <= h0[0]:
-            return h0[1], h0[2], h0[3]
-        h1 = hist[1]
-        f = (t - h0[0]) / (h1[0] - h0[0])
-        return (h0[1] + f * (h1[1] - h0[1]), h0[2] + f * (h1[2] - h0[2]), h0[3] + f * (h1[3] - h0[3]))
 
     def _omega(self, q_m: float, r_m: float, rates: tuple[float, float, float]) -> tuple[float, float, float]:
         """Bias-corrected ω_im^m, p̂_m by eq. 4, with the trig of the current joint angles."""
@@ -433,10 +355,11 @@ class GyroBiasEkf:
         self._p_m_last = p
         return (p, q, r)
 
-    def _integrate(self, t: float, q_m: float, r_m: float) -> None:
-        """Mechanize from the previous gyro sample to this one (trapezoid in ω)."""
-        angles = self._interp(self._enc_hist, t)
-        rates = self._interp(self._ins_hist, t)
+    def integrate(self, t: float, q_m: float, r_m: float, angles: Sequence[float] | None,
+                  rates: Sequence[float] | None) -> None:
+        """A gyro sample at ``t`` [s] (q_m, r_m [rad/s] about m-y, m-z) with the encoder angles
+        (ψt, ψm, θm) [rad] and INS body rates (p, q, r) [rad/s] of its stamp (None: not in yet):
+        mechanize from the previous gyro sample to this one (trapezoid in ω)."""
         t_prev = self._t_gyro
         self._t_gyro = t
         if angles is None or rates is None:
@@ -481,13 +404,9 @@ class GyroBiasEkf:
         self._A_cov = A1
 
     # ------------------------------------------------------------------ measurement
-    def _try_update(self) -> EkfOutput | None:
-        if not self._pending or self._t_gyro is None or self._t_gyro < self._pending[0][0]:
-            return None
-        t_ins, euler = self._pending.popleft()
-        angles = self._interp(self._enc_hist, t_ins)
-        if angles is None:
-            return None
+    def fuse(self, t_ins: float, euler: Sequence[float], angles: Sequence[float]) -> EkfOutput:
+        """The INS attitude (φ, θ, ψ) [rad] at ``t_ins`` [s], reached by the integration, with
+        the encoder angles [rad] of its stamp: align, or update (gated)."""
         q_meas, Je, Jenc = kernels.measurement(tuple(euler), tuple(angles))
         R = kernels.measurement_cov(Jenc, Je, self._enc_var, self._floor_var, self._pe_var, self.n_states == 6)
         if self._q is None:
@@ -557,6 +476,6 @@ class GyroBiasEkf:
                         P[:3, :3].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters,
                         nis)
         self.outputs.append(out)
-        if len(self.outputs) > _MAX_PENDING:  # a caller that never takes them
+        if len(self.outputs) > _MAX_OUTPUTS:  # a caller that never takes them
             del self.outputs[0]
         return out

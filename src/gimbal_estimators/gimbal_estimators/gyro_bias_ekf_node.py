@@ -89,10 +89,12 @@ from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.sync import RateSync
 
 from . import messages as m
 from .gyro_bias_ekf import EkfOutput, Fed, GyroBiasEkf
 from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
+from .gyro_bias_ekf_stamp import EkfInput
 from .nis import NisWindow
 from .wire import ekf_messages
 
@@ -112,7 +114,7 @@ class GyroBiasEkfNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("gyro_bias_ekf", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        self.core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+        self.core = EkfInput(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), RateSync)  # checks, then grouping
         self.edge = edge = NodeEdge(self, values, m.BAD_INPUT_KEYS)
         # the one choice of timing (module docstring)
         self.policy = order_policy(values["timing"], STREAMS, max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)),

@@ -17,6 +17,9 @@ what the node computes must not depend on that order, or a replay would not repr
 * :class:`FreshInputs`: free timing, no grid: a step on each sample of a driving stream with
   the newest sample of the others, each no older than its maximum age (a controller fed by
   a driver or a bag).
+* :class:`RateSync`: multi-rate grouping for a gyro-propagated filter: each gyro sample goes
+  out with the joint angles and reference rates interpolated to its stamp, each reference
+  attitude with the joint angles of its stamp, once the integration has reached it.
 
 StampOrder: a message is released once every stream has delivered a stamp at or after it
 (nothing earlier can still come), or once the newest stamp seen is more than ``max_wait_ns``
@@ -361,4 +364,123 @@ class FreshInputs:
         out = {f"accepted_{s}": n for s, n in self.accepted.items()}
         out.update(duplicates=self.duplicates, out_of_order=self.out_of_order, restarts=self.restarts,
                    dropped=self.dropped, jittered=self.jittered, stale_steps=self.stale_steps)
+        return out
+
+
+# ----------------------------------------------------------------------------------------
+# RateSync: multi-rate grouping for a gyro-propagated filter.
+# ----------------------------------------------------------------------------------------
+def interpolate(hist: deque, t: float) -> tuple[float, float, float] | None:
+    """Linear interpolation of a (t, a, b, c) history at ``t`` (held beyond its ends);
+    drops the entries no longer needed for later times."""
+    if not hist:
+        return None
+    while len(hist) > 1 and hist[1][0] <= t:
+        hist.popleft()
+    h0 = hist[0]
+    if len(hist) == 1 or t <= h0[0]:
+        return h0[1], h0[2], h0[3]
+    h1 = hist[1]
+    f = (t - h0[0]) / (h1[0] - h0[0])
+    return (h0[1] + f * (h1[1] - h0[1]), h0[2] + f * (h1[2] - h0[2]), h0[3] + f * (h1[3] - h0[3]))
+
+
+class RateSync:
+    """Group a gyro stream (q, r), a joint-angle stream and a reference (INS) stream of
+    rates and optional attitudes, all checked and in stamp order on one clock, for a filter.
+
+    A gyro sample waits until joint angles and reference rates stamped at or after it are in
+    (or ``max_wait_s`` past it, the latest values then held); ``integrate(t, q, r, angles,
+    rates)`` then gets it with both interpolated linearly to its stamp (None before the
+    first). A reference attitude goes to ``fuse(t, attitude, angles)``, with the angles
+    interpolated to its stamp, once the gyro samples up to it are integrated (of several
+    reached at once only the newest). An attitude stamped strictly between two gyro samples
+    no more than ``max_gap_s`` apart is fused at its own stamp: the gyro rates are
+    interpolated to it and integrated there first. Each input returns what the last
+    ``fuse`` it led to returned (None when none)."""
+
+    def __init__(self, max_wait_s: float, max_gap_s: float, integrate: Callable, fuse: Callable,
+                 max_pending: int = 100) -> None:
+        self.max_wait_s, self.max_gap_s = max_wait_s, max_gap_s
+        self._integrate, self._fuse, self._max_pending = integrate, fuse, max_pending
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget every queued sample (a new run)."""
+        self._t_newest = float("-inf")
+        self._t_last: float | None = None  # stamp of the last gyro sample integrated
+        self._gyro: deque[tuple[float, float, float]] = deque()
+        self._angles: deque[tuple[float, float, float, float]] = deque()
+        self._rates: deque[tuple[float, float, float, float]] = deque()
+        # attitudes not fused yet, oldest first (bounded: a stopped gyro must not grow it)
+        self._pending: deque[tuple[float, Any]] = deque(maxlen=self._max_pending)
+        self._raw_prev: tuple[float, float, float] | None = None
+
+    def gyro(self, t: float, q: float, r: float) -> Any:
+        self._gyro.append((t, q, r))
+        return self._taken(t)
+
+    def angles(self, t: float, angles: Sequence[float]) -> Any:
+        self._angles.append((t, angles[0], angles[1], angles[2]))
+        return self._taken(t)
+
+    def reference(self, t: float, attitude: Any, rates: Sequence[float]) -> Any:
+        """Reference rates at ``t``, with an attitude to fuse (None: rates only)."""
+        self._rates.append((t, rates[0], rates[1], rates[2]))
+        if attitude is not None:
+            self._pending.append((t, attitude))
+        return self._taken(t)
+
+    def _taken(self, t: float) -> Any:
+        if t > self._t_newest:
+            self._t_newest = t
+        self._release()
+        return self._fuse_reached()
+
+    def _step(self, t: float, q: float, r: float) -> None:
+        self._t_last = t
+        self._integrate(t, q, r, interpolate(self._angles, t), interpolate(self._rates, t))
+        self._raw_prev = (t, q, r)
+
+    def _release(self) -> None:
+        """Integrate the queued gyro samples whose angles and rates are in (or that waited
+        longer than ``max_wait_s``)."""
+        gq, ang, rat = self._gyro, self._angles, self._rates
+        while gq:
+            t = gq[0][0]
+            if (not ang or ang[-1][0] < t or not rat or rat[-1][0] < t) and self._t_newest - t <= self.max_wait_s:
+                return
+            sample = gq.popleft()
+            self._split_at_pending(*sample)
+            self._step(*sample)
+
+    def _split_at_pending(self, t: float, q: float, r: float) -> None:
+        """Fuse the attitudes stamped strictly between the last gyro sample and this one at
+        their own stamps (a gap longer than ``max_gap_s`` is never interpolated across)."""
+        pend, raw = self._pending, self._raw_prev
+        if raw is None or t - raw[0] > self.max_gap_s:
+            return
+        while pend and raw[0] < pend[0][0] < t:
+            tp = pend[0][0]
+            f = (tp - raw[0]) / (t - raw[0])
+            raw = (tp, raw[1] + f * (q - raw[1]), raw[2] + f * (r - raw[2]))
+            self._step(*raw)
+            self._fuse_reached()
+
+    def _fuse_reached(self) -> Any:
+        """Fuse the newest pending attitude the integration has reached (older ones reached
+        at the same time, e.g. across a gyro gap, are superseded by it)."""
+        pend, t_last = self._pending, self._t_last
+        if t_last is None:
+            return None
+        while len(pend) > 1 and pend[1][0] <= t_last:
+            pend.popleft()
+        out = None
+        while pend and t_last >= pend[0][0]:
+            t, attitude = pend.popleft()
+            angles = interpolate(self._angles, t)
+            if angles is not None:
+                res = self._fuse(t, attitude, angles)
+                if res is not None:
+                    out = res
         return out

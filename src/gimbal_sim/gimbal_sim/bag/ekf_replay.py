@@ -12,9 +12,10 @@ from typing import Any, Iterator
 
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
-from gimbal_estimators.gyro_bias_ekf_stamp import feed_stamp
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput, feed_stamp
 from gimbal_kinematics.rotations import euler321_from_quat
 from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.sync import RateSync
 
 from .reader import read_messages
 
@@ -26,7 +27,7 @@ EKF_INPUTS = ("/gimbal/imu", "/gimbal/joint_states", "/ins/imu")
 _EKF_RANK = {"/gimbal/joint_states": 0, "/ins/imu": 1, "/gimbal/imu": 2}
 
 
-def ekf_outputs(messages: list, ekf: GyroBiasEkf, t0_ns: int | None = None) -> Iterator[tuple[int, Any]]:
+def ekf_outputs(messages: list, ekf: EkfInput, t0_ns: int | None = None) -> Iterator[tuple[int, Any]]:
     """Feed recorded sensor messages (``RawMessage``s of :data:`EKF_INPUTS`, sorted here by
     log time, the node's order within a stamp) into ``ekf`` as the ``gyro_bias_ekf`` node
     does, one stamp at a time through the engine's step
@@ -79,7 +80,7 @@ def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, float, 
     messages, _ = read_messages(bag, set(EKF_INPUTS))
     if {msg.topic for msg in messages} != set(EKF_INPUTS):
         return None
-    ekf = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+    ekf = EkfInput(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), RateSync)
     t0, c0 = time.perf_counter(), time.process_time()
     updates = sum(1 for _ in ekf_outputs(messages, ekf, t0_ns=0))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0

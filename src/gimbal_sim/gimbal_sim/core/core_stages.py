@@ -22,11 +22,12 @@ from gimbal_control.los_rate_controller import LosRateController, LosRateControl
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
-from gimbal_estimators.gyro_bias_ekf_stamp import feed_stamp
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput, feed_stamp
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
 from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_kinematics.sync import RateSync
 from gimbal_control.wire import encoder_fusion_messages, geo_pointer_messages, torque_command_messages
 from gimbal_estimators.wire import ekf_messages
 
@@ -143,10 +144,10 @@ def suite_stage(suite: SensorSuite, name: str = "sensor_models",
 
 def gyro_bias_ekf_stage(values: dict[str, Any], name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
     """``gyro_bias_ekf``: the stage of :func:`ekf_stage` on the node's core."""
-    return ekf_stage(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), name)
+    return ekf_stage(EkfInput(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), RateSync), name)
 
 
-def ekf_stage(ekf: GyroBiasEkf, name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
+def ekf_stage(ekf: EkfInput, name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
     """What ``gyro_bias_ekf`` does with ``ekf``: INS (Euler angles from its quaternion), gyro
     and encoders of step k, encoders and INS before the gyro sample of the same stamp (the
     node's :class:`gimbal_kinematics.sync.StampOrder`, :func:`gimbal_estimators.gyro_bias_ekf_stamp.feed_stamp`,

@@ -7,11 +7,12 @@ Each core's per-sample maths is its kernel: :func:`..world.plant.sighting_plant_
 :mod:`..world.sensors.sensor_kernels`, :mod:`gimbal_estimators.gyro_bias_ekf_kernels`,
 :mod:`gimbal_control.los_rate_kernels`. What this module adds is what the nodes' messages
 and input policies do between them in lockstep: the truth the vehicle publishes, the INS
-attitude as a reader of its quaternion gets it, and the EKF's synchronisation, which in
-lockstep (gyro and encoders every step, the INS every D steps) is: gyro samples wait for the
-next INS sample; when it comes they are integrated in order with the encoder angles of their
-own stamp and the INS rates interpolated linearly between its last two samples; the gyro
-sample of the INS stamp follows, then the update at that stamp.
+attitude as a reader of its quaternion gets it, and the EKF's multi-rate grouping
+(:class:`gimbal_kinematics.sync.RateSync`), which in lockstep (gyro and encoders every step,
+the INS every D steps) is: gyro samples wait for the next INS sample; when it comes they are
+integrated in order with the encoder angles of their own stamp and the INS rates
+interpolated linearly between its last two samples; the gyro sample of the INS stamp
+follows, then the update at that stamp.
 
 The arrays (state vectors with named indices, noise blocks) are made and read by
 :mod:`.compiled_sighting`.
@@ -161,7 +162,7 @@ def _realign(ef: np.ndarray, P: np.ndarray, P_keep: np.ndarray) -> None:
 def ekf_integrate(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P_keep: np.ndarray, t: float,
                   q_m: float, r_m: float, a0: float, a1: float, a2: float) -> None:
     """Mechanize to the gyro sample at ``t`` with the joint angles of its stamp
-    (``GyroBiasEkf._integrate`` and ``_omega``)."""
+    (``GyroBiasEkf.integrate`` and ``_omega``)."""
     rates = _ins_rates_at(ef, t)
     t_prev = ef[F_T_GYRO]
     ef[F_T_GYRO] = t
@@ -229,7 +230,7 @@ def _apply(ef: np.ndarray, dx: np.ndarray) -> None:
 @njit(cache=True)
 def ekf_update(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P_keep: np.ndarray,
                Pb0: np.ndarray, euler: tuple, angles: tuple) -> None:
-    """The update with the INS attitude of the gyro stamp just integrated (``GyroBiasEkf._try_update``)."""
+    """The update with the INS attitude of the gyro stamp just integrated (``GyroBiasEkf.fuse``)."""
     n = P.shape[0]
     q_meas, Je, Jenc = measurement(euler, angles)
     R = measurement_cov(Jenc, Je, eg[G_ENC_VAR], eg[G_FLOOR_VAR], eg[G_PE_VAR:G_PE_VAR + 3], n == 6)

@@ -32,7 +32,9 @@ import numpy as np
 from scipy.stats import chi2
 
 from gimbal_estimators.gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
+from gimbal_kinematics.sync import RateSync
 
 from ..core.core_ideal import TruthStabilizer, truth_stabilizer_stage
 from ..core.core_loop import run_stages
@@ -226,7 +228,7 @@ def run_open_loop_ekf(
                                         initial_joints_deg, lat_deg)
     params = ekf_params if ekf_params is not None else ekf_params_from_sensors(sensors, lat_deg)
     suite = SensorSuite(sensors)
-    ekf = GyroBiasEkf(params)
+    ekf = EkfInput(GyroBiasEkf(params), RateSync)
     estimate, ekf_s = timed(ekf_stage(ekf))
     stabilize = truth_stabilizer_stage(TruthStabilizer(core.config.dt, scan_amplitude_deg=scan_amplitude_deg))
     recorder = EkfRecorder(ekf, suite, core.config.n_steps, record_every_s)

@@ -29,7 +29,9 @@ import yaml
 
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_estimators.nis import NisWindow
+from gimbal_kinematics.sync import RateSync
 from ..bag.reader import BagError, read_messages
 from ..bag.ekf_replay import EKF_INPUTS, ekf_outputs
 from ..figures import save_stacked, stacked, style
@@ -76,7 +78,7 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
         raise BagError(f"{bag_dir}: the consistency report needs {list(EKF_INPUTS)}; the bag lacks {missing} "
                        f"(it has {sorted(contents.topics)})")
     values, source = _ekf_values(bag_dir)
-    ekf = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+    ekf = EkfInput(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), RateSync)
     stamps, bias, sigma, innov, nis, accepted = [], [], [], [], [], []
     t0 = None
     for t_ns, o in ekf_outputs(messages, ekf):

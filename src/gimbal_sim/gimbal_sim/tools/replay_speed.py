@@ -24,7 +24,9 @@ import yaml
 
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams, PARAMS
+from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_kinematics.ros import messages as m
+from gimbal_kinematics.sync import RateSync
 
 from ..bag.ekf_replay import EKF_INPUTS, ekf_outputs
 from ..graph.orchestrator import _ros_env, stop_processes
@@ -138,7 +140,7 @@ def measure(bag: Path, timeout_s: float = 600.0) -> ReplaySpeed:
             log.close()
             if claim is not None:
                 claim.release()
-    core = GyroBiasEkf(GyroBiasEkfParams.from_values(values))
+    core = EkfInput(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), RateSync)
     want = {t: out.bias for t, out in ekf_outputs(messages, core)}
     shared = [t for t in want if t in got]
     diff = max((float(np.max(np.abs(np.array(got[t]) - want[t]))) for t in shared), default=float("inf"))
