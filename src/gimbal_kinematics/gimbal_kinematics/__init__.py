@@ -36,3 +36,7 @@ Stamps:
       (:func:`gimbal_kinematics.ros.messages.step_stamp_ns`)
     - every stamp check uses one verdict vocabulary (:mod:`gimbal_kinematics.stamps`)
 """
+
+from .kernel_cache import configure as _configure_kernel_cache
+
+_configure_kernel_cache()  # before any kernel compiles (kernel_cache's docstring)
