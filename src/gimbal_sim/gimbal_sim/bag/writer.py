@@ -15,8 +15,9 @@ still loses at most ``chunk_duration_ns`` of log time, a power cut that wall sec
 :meth:`close`; a bag without it (or whose MCAP has no footer) was not closed cleanly.
 Chunks are compressed and written by :mod:`.chunk_spool`, the same bytes as the mcap
 library's; with ``background`` (the engine's bag) on a thread of its own while the caller
-goes on: a SIGKILL then loses, besides, at most the chunks of the last :meth:`write_records`
-call (the engine's last block but one).
+goes on: a SIGKILL then loses, besides, the chunks handed to that thread and not yet
+written: at most those of the last :meth:`write_records` call (the engine's block before
+the one it steps), or :data:`.chunk_spool.MAX_IN_FLIGHT` chunks message by message.
 
 A full or failing disk (:mod:`.disk`) stops the bag in order: the file is cut back to the
 last chunk boundary on disk, the reserve kept beside the bag is freed, and the bag is
