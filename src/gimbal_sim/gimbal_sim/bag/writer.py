@@ -218,7 +218,8 @@ class _Appender:
         blocks = self._blocks
         if blocks is None or blocks.chunk != stats.chunk_count:
             blocks = self._blocks = _BlockEntries(stats.chunk_count)
-        blocks.parts.append((channels, log_times, starts - starts[0] + buf.tell()))
+        # copies: the chunk writer's thread reads them after the caller has gone on
+        blocks.parts.append((channels.copy(), log_times.copy(), starts - starts[0] + buf.tell()))
         for channel_id, count in counts.items():
             self._index(channel_id).blocks = blocks
             stats.channel_message_counts[channel_id] += count
