@@ -5,7 +5,9 @@ functions' bytes for random rows (every message of paper 1's chain); a recorded 
 payloads, file order) the run recorded message by message through the same functions; every
 MessageIndex entry, read with the ``mcap`` library's stream reader, points at its message;
 ``rosbags`` reads the bag; :meth:`BagWriter.write_records` finishes chunks where
-:meth:`BagWriter.write` does and closes the bag at its last chunk on disk when the disk fills.
+:meth:`BagWriter.write` does and closes the bag at its last chunk on disk when the disk fills;
+chunks compressed and written on the bag's own thread are the ``mcap`` library's bytes, and a
+disk error on that thread closes the bag at its last chunk on disk as well.
 """
 from __future__ import annotations
 
@@ -13,10 +15,12 @@ import dataclasses
 import errno
 import os
 import struct
+import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 import zstandard
 from mcap.reader import make_reader
 from mcap.records import Chunk, MessageIndex
@@ -24,7 +28,7 @@ from mcap.stream_reader import StreamReader
 from rosbags.highlevel import AnyReader
 
 from gimbal_kinematics.ros.wire import clock_cdr, navsat_fix_cdr
-from gimbal_sim.bag import writer
+from gimbal_sim.bag import chunk_spool, writer
 from gimbal_sim.bag.record_rates import RecordRates
 from gimbal_sim.core import block_bag, compiled_sighting
 from gimbal_sim.core.core_loop import node_values
@@ -213,3 +217,75 @@ def test_the_engine_bag_fsyncs_once_a_wall_second(tmp_path, monkeypatch):
     assert synced == [] and bag._good[0] > 0  # chunks written, their boundary marked, no fsync yet
     bag.close()
     assert synced == [1]
+
+
+def _mcap_bytes(bag: Path) -> bytes:
+    return next(bag.glob("*.mcap")).read_bytes()
+
+
+def _blocks(bag: writer.BagWriter, n: int, parts: int) -> None:
+    data, starts, log = _records(n)
+    for part in np.array_split(np.arange(n), parts):  # blocks cut across chunks
+        lo, hi = part[0], part[-1]
+        bag.write_records(data[starts[lo]:starts[hi] + 43], starts[lo:hi + 1] - starts[lo], log[lo:hi + 1],
+                          ["/clock"], np.zeros(len(part), dtype=np.int64))
+
+
+@pytest.mark.parametrize("compress", [True, False])
+def test_chunks_written_in_the_background_are_the_mcap_librarys_bytes(compress, tmp_path, monkeypatch):
+    """The chunk writer's thread writes, byte for byte, what the mcap library's own chunk
+    finishing writes on the caller's thread; the thread ends with the bag."""
+    bags = {}
+    for name, background in (("thread", True), ("inline", False), ("library", False)):
+        if name == "library":
+            monkeypatch.setattr(chunk_spool.ChunkFinisher, "install", classmethod(lambda cls, w, s: False))
+        bags[name] = writer.BagWriter(tmp_path / name, chunk_duration_ns=100_000_000, wall_flush_s=1e9,
+                                      compress=compress, background=background)
+        bags[name].add_topic("/clock", "rosgraph_msgs/msg/Clock", [])
+        _blocks(bags[name], 1234, 4)
+        bags[name].write("/clock", clock_cdr(2 * 10**9), 2 * 10**9)  # and one by one after the blocks
+        bags[name].close()
+    assert not bags["thread"]._spool._thread.is_alive()
+    assert _mcap_bytes(tmp_path / "thread") == _mcap_bytes(tmp_path / "inline") == _mcap_bytes(tmp_path / "library")
+    if compress:
+        assert _check_index(tmp_path / "thread") == 1235
+
+
+@pytest.mark.parametrize("where", ["write", "sync"])
+def test_a_disk_error_on_the_chunk_writers_thread_closes_the_bag_at_its_last_chunk(where, tmp_path, monkeypatch):
+    bag = writer.BagWriter(tmp_path / "bag", chunk_duration_ns=100_000_000, wall_flush_s=1e9, background=True)
+    bag.add_topic("/clock", "rosgraph_msgs/msg/Clock", [])
+    real_write, real_sync = writer._DiskFile.write, writer._DiskFile.sync
+    synced, failed = [], []
+
+    def fails():  # the fourth chunk fails once; the freed reserve's room closes the bag
+        if len(synced) >= 3 and not failed:
+            failed.append(threading.current_thread().name)
+            raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT))
+
+    def write(self, data):
+        if where == "write":
+            fails()
+        return real_write(self, data)
+
+    def sync(self):
+        if where == "sync":
+            fails()
+        real_sync(self)
+        synced.append(1)
+
+    monkeypatch.setattr(writer._DiskFile, "write", write)
+    monkeypatch.setattr(writer._DiskFile, "sync", sync)
+    with pytest.raises(writer.DiskStopped) as stop:  # raised at the next hand-over, or by close
+        _blocks(bag, 2000, 3)
+        bag.close()
+    assert str(stop.value).startswith("disk quota exceeded") and bag.closed, str(stop.value)
+    assert failed == ["bag-chunk-writer"]
+    monkeypatch.undo()
+    kept = _messages(tmp_path / "bag")
+    assert [m[1] for m in kept] == list(range(301))  # three chunks: to 100, 200, 300 ms
+    meta = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["message_count"] == 301 and meta["custom_data"] == {"stopped": str(stop.value)}
+    assert _check_index(tmp_path / "bag") == 301
+    assert not (tmp_path / "bag" / ".space_reserve").exists()
+    assert not bag._spool._thread.is_alive()

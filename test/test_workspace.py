@@ -27,7 +27,8 @@ ROSDEP_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "pyth
                "matplotlib": "python3-matplotlib", "mcap": "python3-mcap", "mcap_ros2": "python3-mcap-ros2",
                "tqdm": "python3-tqdm", "allantools": "python3-allantools",
                "rosbags": "python3-rosbags", "distributed": "python3-distributed", "pyarrow": "python3-pyarrow",
-               "pymavlink": "python3-pymavlink", "numba": "python3-numba"}
+               "pymavlink": "python3-pymavlink", "numba": "python3-numba",
+               "zstandard": "python3-zstandard"}
 ROS_PACKAGES = {"rclpy", "builtin_interfaces", "std_msgs", "sensor_msgs", "geometry_msgs", "nav_msgs",
                 "rosgraph_msgs", "diagnostic_msgs", "rcl_interfaces", "ament_index_python", "rosidl_runtime_py"}
 

@@ -13,6 +13,11 @@ a SIGKILL or a power cut loses at most that much. A writer far faster than real 
 engine's bag: ``sync_wall_s``) fsyncs its chunks at most once a wall second: a SIGKILL
 still loses at most ``chunk_duration_ns`` of log time, a power cut that wall second. ``metadata.yaml`` is written by
 :meth:`close`; a bag without it (or whose MCAP has no footer) was not closed cleanly.
+Chunks are compressed and written by :mod:`.chunk_spool`, the same bytes as the mcap
+library's; with ``background`` (the engine's bag) on a thread of its own while the caller
+goes on: a SIGKILL then loses, besides, the chunks handed to that thread and not yet
+written: at most those of the last :meth:`write_records` call (the engine's block before
+the one it steps), or :data:`.chunk_spool.MAX_IN_FLIGHT` chunks message by message.
 
 A full or failing disk (:mod:`.disk`) stops the bag in order: the file is cut back to the
 last chunk boundary on disk, the reserve kept beside the bag is freed, and the bag is
@@ -34,6 +39,7 @@ import numpy as np
 from mcap.opcode import Opcode
 from mcap.writer import CompressionType, Writer
 
+from .chunk_spool import ChunkFinisher, ChunkSpool
 from .disk import disk_error_line, free_reserve, is_disk_error, take_reserve
 from .qos_yaml import qos_yaml
 from .schemas import ros2msg_schema
@@ -212,7 +218,8 @@ class _Appender:
         blocks = self._blocks
         if blocks is None or blocks.chunk != stats.chunk_count:
             blocks = self._blocks = _BlockEntries(stats.chunk_count)
-        blocks.parts.append((channels, log_times, starts - starts[0] + buf.tell()))
+        # copies: the chunk writer's thread reads them after the caller has gone on
+        blocks.parts.append((channels.copy(), log_times.copy(), starts - starts[0] + buf.tell()))
         for channel_id, count in counts.items():
             self._index(channel_id).blocks = blocks
             stats.channel_message_counts[channel_id] += count
@@ -235,6 +242,9 @@ class BagWriter:
     #: fsync (None: every chunk). For a writer far faster than real time (the engine), whose
     #: chunks, written at the log-time rule, survive a SIGKILL without it
     sync_wall_s: float | None = None
+    #: compress and write finished chunks on a thread of its own (:mod:`.chunk_spool`), so
+    #: that the caller goes on meanwhile; :meth:`close` ends the thread
+    background: bool = False
     topics: dict[str, TopicRecord] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -247,8 +257,11 @@ class BagWriter:
         self.mcap_path = self.directory / f"{self.name}_0.mcap"
         self._reserve = take_reserve(self.directory)
         self._file = _DiskFile(self.mcap_path)
-        self._writer = Writer(self._file, chunk_size=1 << 24,
+        self._spool = ChunkSpool(self._file, self.background)
+        self._writer = Writer(self._spool, chunk_size=1 << 24,
                               compression=CompressionType.ZSTD if self.compress else CompressionType.NONE)
+        ChunkFinisher.install(self._writer, self._spool)
+        self._good: tuple = (0, {}, None, 0)
         self._schemas: dict[str, int] = {}
         self._qos_text: dict[str, str] = {}
         self._start_ns: int | None = None
@@ -312,9 +325,12 @@ class BagWriter:
         their MCAP Message records back to back (uint8), ``starts`` where each begins, in
         log-time order; message i is on ``topics[topic_of[i]]`` (registered) and its sequence number is
         that topic's :meth:`sequence` plus the number of its messages before it. Chunks are
-        finished, written and fsync'd where :meth:`write` would finish them."""
+        finished, written and fsync'd where :meth:`write` would finish them; with
+        :attr:`background`, compressed and written while the caller goes on, the call
+        waiting first for the chunks of the call before."""
         if self.closed:
             self._on_disk(lambda: None)  # raises DiskStopped
+        self._on_disk(self._spool.wait)  # the chunks of the call before are on the file (background)
         records = [self.topics.get(t) for t in topics]  # a topic without messages here may be unregistered
         channels = np.array([0 if r is None else r.channel_id for r in records], dtype=np.uint64)[topic_of]
         ends = np.append(starts[1:], len(data))
@@ -366,16 +382,18 @@ class BagWriter:
         chunk boundary on disk."""
         now = time.monotonic()
         sync = self.sync_wall_s is None or now - self._last_sync_wall >= self.sync_wall_s
-        self._on_disk(lambda: (self._writer.flush(), self._file.sync() if sync else None))
-        self._mark_on_disk()
+        self._on_disk(lambda: (self._writer.flush(), self._spool.then(self._file.sync) if sync else None,
+                               self._mark_on_disk()))
         self._last_flush_ns = self._end_ns
         self._last_flush_wall = time.monotonic()
         if sync:
             self._last_sync_wall = self._last_flush_wall
 
     def _mark_on_disk(self) -> None:
-        """What the file holds up to here, all on disk: where a full disk cuts it back to."""
-        self._good = (self._file.tell(), {t: r.count for t, r in self.topics.items()}, self._start_ns, self._end_ns)
+        """What the file holds up to here, all on disk (once the spool has written it): where
+        a full disk cuts it back to."""
+        mark = ({t: r.count for t, r in self.topics.items()}, self._start_ns, self._end_ns)
+        self._spool.then(lambda: setattr(self, "_good", (self._file.tell(), *mark)))
 
     def _on_disk(self, write):
         """``write()``; a full or failing disk closes the bag at its last chunk on disk and
@@ -404,6 +422,7 @@ class BagWriter:
         """Cut the file back to its last chunk on disk and close the bag from there, in the
         room the reserve gives back. The mcap writer has no call for dropping the chunk it
         was writing: its chunk, index list and statistics are reset here to the file's."""
+        self._spool.stop()  # what it was writing is cut off below
         offset, counts, start, end = self._good
         free_reserve(self._reserve)
         self._file.cut(offset)
@@ -441,6 +460,10 @@ class BagWriter:
         """Finish the MCAP (summary, footer) and write ``metadata.yaml``."""
         if self.closed:
             return
+        try:  # the chunks in flight first, in the room the disk has
+            self._on_disk(self._spool.wait)
+        finally:
+            self._spool.stop()
         free_reserve(self._reserve)  # its room is the summary's
         self._on_disk(lambda: (self._writer.finish(), self._file.sync()))
         self._file.close()

@@ -194,7 +194,7 @@ class BlockRecorder:
                 index[p], keep = index[p][keep[:len(index[p])]], keep[len(index[p]):]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # the bag's chunk writer compresses the chunks before meanwhile
 def _lay_out(flat, base, sizes, part_of, row_of, log, channel, topic_of_part, seq, out, starts):  # pragma: no cover - numba
     """The MCAP Message records (opcode 0x05, length, channel, sequence, log and publish time,
     payload: message ``row_of[i]`` of part ``part_of[i]`` in ``flat``, the part's from ``base``,

@@ -56,8 +56,9 @@ class EngineBag:
 
     def __init__(self, out_dir: Path, scenario: Scenario, compress: bool = True) -> None:
         # fsync'd once a wall second, not each half second of sim time: the engine runs
-        # hundreds of times faster than real time (BagWriter's crash safety)
-        self.writer = BagWriter(out_dir, compress=compress, sync_wall_s=1.0)
+        # hundreds of times faster than real time (BagWriter's crash safety); its chunks are
+        # compressed and written on a thread of its own while the engine steps on
+        self.writer = BagWriter(out_dir, compress=compress, sync_wall_s=1.0, background=True)
         self.wanted = None if scenario.record == "all" else set(scenario.record)
         self.rates = RecordRates(scenario.record_rates_hz)
         self.remaps = {name: spec.get("remap") or {} for name, spec in scenario.nodes.items()}

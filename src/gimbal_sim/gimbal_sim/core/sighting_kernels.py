@@ -294,7 +294,7 @@ def ekf_step(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # the bag's chunk writer compresses meanwhile
 def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: float, vs: np.ndarray,
               vg: np.ndarray, profile: tuple, gp: np.ndarray, ins_dec: int, ins_att: tuple, z_att: np.ndarray,
               ins_gyro: tuple, z_ins: np.ndarray, gyro: tuple, z_gyro: np.ndarray, enc: tuple, z_enc: np.ndarray,
