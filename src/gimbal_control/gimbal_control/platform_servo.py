@@ -91,12 +91,11 @@ from gimbal_kinematics.four_gimbal import (
     GIMBAL_LOCK_MARGIN, BidirectionalRotation, command_rate_from_n, command_rate_s,
 )
 from gimbal_kinematics.platform_kernels import servo_signals
+from gimbal_kinematics.units import DEG, DEG_H
 
 from . import control_kernels as ck
 from .pid import Pid, PidParams, pole_placement_gains
 
-_DEG = math.pi / 180.0
-_DEG_H = _DEG / 3600.0
 _LOCK_COS = math.sin(GIMBAL_LOCK_MARGIN)
 
 #: Paper 3 Table 1: axis -> (J [kg·m²], k_t [N·m/A], R_a [Ω]); used for the default gains.
@@ -280,8 +279,8 @@ class PlatformServo(StampGate):
             raise ValueError("params must be a PlatformServoParams")
         p = self.params
         self.schedule = p.schedule()
-        self._lat = p.lat_deg * _DEG
-        self._drift = tuple(v * _DEG_H for v in p.drift_deg_h)
+        self._lat = p.lat_deg * DEG
+        self._drift = tuple(v * DEG_H for v in p.drift_deg_h)
         # the four channels' states are the rows of one array: one kernel call steps them
         self._pid_state = np.zeros((4, ck.N_STATE))
         self.pid_a = Pid(p.azimuth_pid, self._pid_state[0])

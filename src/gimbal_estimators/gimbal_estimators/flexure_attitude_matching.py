@@ -55,24 +55,22 @@ from typing import Any
 
 import numpy as np
 from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.units import DEG, DEG_H
 from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
 from . import kalman
 from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams, match_attitudes
 
-N_STATES = 27
 #: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).
 PHI_K, PHI_K1, THETA_K, THETA_K1, PHI_0, THETA_R1, THETA_R2, EPS1, EPS2 = (
     slice(3 * i, 3 * i + 3) for i in range(9))
+N_STATES = EPS2.stop
 #: The flexure states [Φ_k, Φ_{k−1}, θ_k, θ_{k−1}].
-FLEXURE = slice(0, 12)
+FLEXURE = slice(PHI_K.start, THETA_K1.stop)
 # φ0 takes θ_d's place, so that the simplified filter's anchoring applies to it.
 assert PHI_0 == THETA_D
 #: Largest attitude-matching angle |Z| accepted [rad]; beyond it the filter resets.
 _MAX_MATCH_ANGLE = 0.1
-
-_DEG = math.pi / 180.0
-_DEG_H = _DEG / 3600.0
 
 
 @dataclass(frozen=True)
@@ -172,9 +170,9 @@ class AttitudeMatchingKf(FlexureKf):
         self.params: AttitudeMatchingParams = params
         # The simplified filter on the same fields: its flexure model and prior are ours.
         self._simplified = FlexureKf(params.simplified())
-        self._q_arw = (params.lgu_arw_deg_rt_h * _DEG / 60.0) ** 2  # each unit's [rad²/s]
+        self._q_arw = (params.lgu_arw_deg_rt_h * DEG / 60.0) ** 2  # each unit's [rad²/s]
         rw = params.lgu_bias_rw_deg_h_rt_h
-        self._q_eps = np.array([(x * _DEG_H / 60.0) ** 2 for x in rw])  # type: ignore[union-attr]
+        self._q_eps = np.array([(x * DEG_H / 60.0) ** 2 for x in rw])  # type: ignore[union-attr]
         # (Re-)anchoring: φ0 := Φ_k + θ_k, θr = θr' := 0, identity elsewhere; applied by the
         # inherited _anchor, which adds anchor_sigma_arcsec to φ0 (at θ_d's place).
         self._anchor_map = np.eye(N_STATES)
@@ -218,7 +216,7 @@ class AttitudeMatchingKf(FlexureKf):
         P = np.zeros((N_STATES, N_STATES))
         P[FLEXURE, FLEXURE] = self._simplified._initial()[1][FLEXURE, FLEXURE]
         sigma = self.params.lgu_bias_initial_sigma_deg_h
-        P[EPS1, EPS1] = P[EPS2, EPS2] = np.diag([(x * _DEG_H) ** 2 for x in sigma])  # type: ignore[union-attr]
+        P[EPS1, EPS1] = P[EPS2, EPS2] = np.diag([(x * DEG_H) ** 2 for x in sigma])  # type: ignore[union-attr]
         x, P = self._anchor(np.zeros(N_STATES), P)
         return kalman.check_state(x, P, "AttitudeMatchingKf")
 

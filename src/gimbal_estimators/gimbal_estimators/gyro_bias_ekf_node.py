@@ -94,6 +94,7 @@ from gimbal_kinematics.ros.views import decoder
 
 from . import messages as m
 from .gyro_bias_ekf import GyroBiasEkf
+from .gyro_bias_ekf_model import PSI
 from .gyro_bias_ekf_params import DESCRIPTION, PARAMS, GyroBiasEkfParams
 from .nis import NisWindow
 from .wire import ekf_messages
@@ -214,7 +215,7 @@ class GyroBiasEkfNode(Node):
     def _publish_current(self, t_ns: int) -> None:
         core = self.core
         if core.aligned:
-            self._publish(t_ns, core.bias, core.bias_sigma, core.quat_nm, core.P[:3, :3])
+            self._publish(t_ns, core.bias, core.bias_sigma, core.quat_nm, core.P[PSI, PSI])
         else:
             self._publish(t_ns, core.bias, core.bias_sigma, None, None)
 

@@ -43,6 +43,7 @@ from gimbal_control.platform_servo import PlatformServo, PlatformServoParams, Se
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm, platform_misalignment_enu
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, quat_to_dcm
+from gimbal_kinematics.units import ARCSEC
 
 from ..world.plant import paper3_axis_params
 from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
@@ -53,8 +54,6 @@ from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_m
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
-
-ARCSEC = math.pi / (180.0 * 3600.0)
 
 
 RATE_HZ = 1000.0  # paper 3's loop rate, also the simulation and sensor rate here

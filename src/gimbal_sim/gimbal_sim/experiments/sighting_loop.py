@@ -28,6 +28,7 @@ import numpy as np
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_estimators.gyro_bias_ekf import EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_model import GYRO_BIAS, PSI_BIAS
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
 
@@ -111,9 +112,9 @@ class SightingRecorder:
         b_true = np.array([math.cos(az) * b_ins[0] + math.sin(az) * b_ins[1], *gyro.true_bias])
         psi = rotation_vector_from_dcm(quat_to_dcm(truth.quat_nm) @ quat_to_dcm(out.quat_nm).T)
         e6 = np.concatenate((psi, b_true - out.bias))
-        P6 = self.ekf.P[:6, :6]
+        P6 = self.ekf.P[PSI_BIAS, PSI_BIAS]
         self.ekf_rec.append((out.t, out.bias, out.bias_sigma, b_true, float(e6 @ np.linalg.solve(P6, e6)),
-                             float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:]))))
+                             float(e6[GYRO_BIAS] @ np.linalg.solve(P6[GYRO_BIAS, GYRO_BIAS], e6[GYRO_BIAS]))))
 
     def run(self, mode: str, seed: int, duration_s: float, omega_in_n: Sequence[float], wall_s: float) -> SightingRun:
         """The run (:class:`SightingRun`); ``omega_in_n`` the n frame's inertial rate that

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import UG_G0, UG_RT_HZ
 from .inertial_core import ErrorSpecSI, InertialErrorCore
-from .units import UG, UG_RT_HZ
 
 
 @dataclass(frozen=True)
@@ -48,9 +48,9 @@ class AccelerometerParams:
     def to_si(self) -> ErrorSpecSI:
         """The same terms in m/s² and m/s/√s."""
         return ErrorSpecSI(
-            bias=tuple(b * UG for b in self.bias_ug),  # type: ignore[union-attr]
-            bias_sigma=self.bias_sigma_ug * UG,
-            gm_sigma=self.bias_instability_ug * UG,
+            bias=tuple(b * UG_G0 for b in self.bias_ug),  # type: ignore[union-attr]
+            bias_sigma=self.bias_sigma_ug * UG_G0,
+            gm_sigma=self.bias_instability_ug * UG_G0,
             gm_tau=float(self.bias_instability_tau_s),
             white_density=self.noise_ug_rt_hz * UG_RT_HZ,
             scale_factor=tuple(s * 1e-6 for s in self.scale_factor_ppm),  # type: ignore[union-attr]

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import DEG
 from ._normals import NormalStream
-from .units import DEG
 
 
 @dataclass(frozen=True)

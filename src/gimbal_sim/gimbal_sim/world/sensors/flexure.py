@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import ARCSEC, DEG, DEG_H
 from .markov import SecondOrderGaussMarkov
-from .units import ARCSEC, DEG, DEG_H
 
 _AXES = 3
 

@@ -39,9 +39,9 @@ from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import ARCSEC, DEG_H
 from ._normals import NormalStream
 from .gyro import GyroModel, GyroParams
-from .units import ARCSEC, DEG_H
 
 #: Body triad default: a navigation-grade triad (ARW 0.002 °/√h); the paper gives no figure.
 FREE_GYRO_TRIAD = GyroParams(arw_deg_rt_h=0.002)

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
 from .inertial_core import ErrorSpecSI, InertialErrorCore
-from .units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
 
 
 def _misalignment(name: str, value: object) -> tuple[tuple[float, ...], ...] | None:

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import DEG
 from .gyro import PAPER1_INS_GYRO, GyroModel, GyroParams
 from .markov import FirstOrderGaussMarkov
-from .units import DEG
 
 
 @dataclass(frozen=True)
