@@ -54,6 +54,7 @@ from gimbal_kinematics.sighting_chain import dcm_bm
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import quat_to_dcm
 from gimbal_kinematics.units import DEG
+from gimbal_kinematics.validate import positive
 
 from .los_hold import sight_frame_error
 
@@ -79,9 +80,7 @@ class GeoPointerParams:
 
     def __post_init__(self) -> None:
         for name in ("gain_1_s", "max_rate_rad_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+            positive(name, getattr(self, name))
         # a target the sight cannot point at is refused here, naming it
         los_to_target(check_geodetic("vehicle", self.vehicle_llh), check_geodetic("target", self.target_llh),
                       np.eye(3), self.lever_arm_b, self.min_range_m)

@@ -59,7 +59,7 @@ from gimbal_kinematics.units import DEG, DEG_H
 from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
 
 from . import kalman
-from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams, match_attitudes
+from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams
 
 #: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).
 PHI_K, PHI_K1, THETA_K, THETA_K1, PHI_0, THETA_R1, THETA_R2, EPS1, EPS2 = (
@@ -69,8 +69,6 @@ N_STATES = EPS2.stop
 FLEXURE = slice(PHI_K.start, THETA_K1.stop)
 # φ0 takes θ_d's place, so that the simplified filter's anchoring applies to it.
 assert PHI_0 == THETA_D
-#: Largest attitude-matching angle |Z| accepted [rad]; beyond it the filter resets.
-_MAX_MATCH_ANGLE = 0.1
 
 
 @dataclass(frozen=True)
@@ -225,42 +223,17 @@ class AttitudeMatchingKf(FlexureKf):
         super()._clear()
         self._C2_kf = np.eye(3)
 
-    def _reanchor(self) -> None:
-        super()._reanchor()
-        self._C2_kf = self._C2
-
-    def _propagate(self, t: float) -> None:
-        """Time update from the filter time to ``t`` in whole nominal steps."""
-        span = t - self._t_kf
-        if span <= 0.0:
-            return
-        n = max(1, int(round(span / self.params.filter_period_s)))
-        h = span / n
-        F, Q = self._model(h)
-        # Mean attitudes over the interval for θ̇r = −Ĉ_i1b1 ε1, θ̇r' = −Ĉ_i2b2 ε2.
+    def _couple_attitudes(self, F: np.ndarray, h: float) -> None:
+        """Mean attitudes over the interval for θ̇r = −Ĉ_i1b1 ε1, θ̇r' = −Ĉ_i2b2 ε2."""
         F[THETA_R1, EPS1] = (-0.5 * h) * (self._C1_kf + self._C1)
         F[THETA_R2, EPS2] = (-0.5 * h) * (self._C2_kf + self._C2)
-        x, P = self._x, self._P
-        for _ in range(n):
-            x, P = kalman.predict(x, P, F, Q)
-        self._x, self._P = x, P
-        self._t_kf = t
+
+    def _hold_attitudes(self) -> None:
         self._C1_kf, self._C2_kf = self._C1, self._C2
 
-    def _epoch(self, t: float) -> FlexureEstimate | None:
-        self._propagate(t)
-        z = match_attitudes(self._C1, self._C2)
-        if not float(z @ z) < _MAX_MATCH_ANGLE ** 2:
-            self.reset(f"attitude matching angle {math.sqrt(float(z @ z)):.4g} rad exceeds the small-angle limit")
-            return None
+    def _observation(self) -> tuple[np.ndarray, np.ndarray | None]:
         H = observation_matrix(self._C1, self._C2)
-        h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
-        up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
-        if up.accepted:
-            self._x, self._P = up.x, up.P
-        if not self._count_gate(up.accepted, up.d2):
-            return None
-        return self._output(t, up.y, up.d2, up.accepted)
+        return H, predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
         """The simplified filter's output (the flexure states are laid out alike) with ε1 − ε2

@@ -463,7 +463,7 @@ class FlexureKf:
         self._x, self._P = self._anchor(self._x, self._P)
         self._C1 = np.eye(3)
         self._C2 = np.eye(3)
-        self._C1_kf = self._C1
+        self._hold_attitudes()
         self.counters["reanchors"] += 1
 
     def _propagate(self, t: float) -> None:
@@ -475,14 +475,28 @@ class FlexureKf:
         m = max(1, int(round(span / T)))
         h = span / m
         F, Q = self._model(h)
-        # Mean attitude over the interval for θ̇_d = Ĉ_i1b1 (ε1 − ε2).
-        F[THETA_D, EPS] = (0.5 * h) * (self._C1_kf + self._C1)
+        self._couple_attitudes(F, h)
         x, P = self._x, self._P
         for _ in range(m):
             x, P = kalman.predict(x, P, F, Q)
         self._x, self._P = x, P
         self._t_kf = t
+        self._hold_attitudes()
+
+    def _couple_attitudes(self, F: np.ndarray, h: float) -> None:
+        """Fill ``F``'s attitude-dependent block for a step ``h`` [s] (in place): the mean
+        attitude over the interval for θ̇_d = Ĉ_i1b1 (ε1 − ε2)."""
+        F[THETA_D, EPS] = (0.5 * h) * (self._C1_kf + self._C1)
+
+    def _hold_attitudes(self) -> None:
+        """Keep the attitudes at the filter time, the start of the next interval's mean."""
         self._C1_kf = self._C1
+
+    def _observation(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """``H`` at the current attitudes and the predicted observation h(X) (None: the
+        paper's first order, H X)."""
+        H = observation_matrix(self._C1, self._H)
+        return H, predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
 
     def _epoch(self, t: float) -> FlexureEstimate | None:
         self._propagate(t)
@@ -492,8 +506,7 @@ class FlexureKf:
         if not float(z @ z) < _MAX_MATCH_ANGLE ** 2:
             self.reset(f"attitude matching angle {math.sqrt(float(z @ z)):.4g} rad exceeds the small-angle limit")
             return None
-        H = observation_matrix(self._C1, self._H)
-        h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
+        H, h_x = self._observation()
         up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
         if up.accepted:
             self._x, self._P = up.x, up.P
