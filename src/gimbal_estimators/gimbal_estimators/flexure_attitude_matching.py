@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.units import DEG, DEG_H
-from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
+from gimbal_kinematics.validate import nonneg_finite, of_type, per_axis, positive
 
 from . import kalman
 from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams
@@ -162,8 +162,7 @@ class AttitudeMatchingKf(FlexureKf):
 
     def __init__(self, params: AttitudeMatchingParams | None = None) -> None:
         params = AttitudeMatchingParams() if params is None else params
-        if not isinstance(params, AttitudeMatchingParams):
-            raise TypeError(f"params must be AttitudeMatchingParams, got {type(params).__name__}")
+        of_type("params", params, AttitudeMatchingParams)
         super().__init__(params)
         self.params: AttitudeMatchingParams = params
         # The simplified filter on the same fields: its flexure model and prior are ours.

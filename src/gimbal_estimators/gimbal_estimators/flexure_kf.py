@@ -40,7 +40,7 @@ import numpy as np
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize
 from gimbal_kinematics.units import ARCSEC, DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
-from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
+from gimbal_kinematics.validate import nonneg_finite, of_type, per_axis, positive
 
 from . import kalman
 from .flexure_model import (
@@ -206,8 +206,7 @@ class FlexureKf:
 
     def __init__(self, params: FlexureKfParams | None = None) -> None:
         params = FlexureKfParams() if params is None else params
-        if not isinstance(params, FlexureKfParams):
-            raise TypeError(f"params must be FlexureKfParams, got {type(params).__name__}")
+        of_type("params", params, FlexureKfParams)
         self.params = params
         p = params
         self._q_rw = np.array([(x * ARCSEC) ** 2 for x in p.qs_rw_arcsec_rt_s])  # type: ignore[union-attr]

@@ -92,7 +92,7 @@ from gimbal_kinematics.free_gyro import (
     FixGeometry, Vector3, dcm_ni, fix_geometry, gyro_vector_n, heading_error, unit_vector)
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, skew, unskew
 from gimbal_kinematics.units import ARCSEC, DEG_H, DEG_RT_H
-from gimbal_kinematics.validate import finite, nonneg_finite, positive
+from gimbal_kinematics.validate import finite, nonneg_finite, of_type, positive
 
 from .kalman import check_state, predict, symmetrize
 
@@ -453,8 +453,7 @@ class FixErrorModel:
         """Predicted covariance of :data:`OUTPUTS` for ``sources``: H P Hᵀ + the window-averaged
         pickoff noise (σ²/n per axis) + the triad ARW on the earth-rate heading,
         (N/√T)/(Ω cos φ) (eq. 29 for white rate noise averaged over T)."""
-        if not isinstance(sources, ErrorSources):
-            raise TypeError(f"sources must be ErrorSources, got {type(sources).__name__}")
+        of_type("sources", sources, ErrorSources)
         cov = self.H @ self.input_covariance(sources) @ self.H.T
         s_pick = sources.pickoff_noise_arcsec * ARCSEC / math.sqrt(self.samples_per_fix)
         cov += s_pick**2 * self.H_white @ self.H_white.T
@@ -507,8 +506,7 @@ class FixPredictor:
 
     def __init__(self, u_a_i: Vector3, u_b_i: Vector3, sources: ErrorSources, *, t_set: float = 0.0,
                  heading_window_s: float = 60.0, height_m: float = 0.0) -> None:
-        if not isinstance(sources, ErrorSources):
-            raise TypeError(f"sources must be ErrorSources, got {type(sources).__name__}")
+        of_type("sources", sources, ErrorSources)
         self.u = (unit_vector(u_a_i, "u_a_i"), unit_vector(u_b_i, "u_b_i"))
         self.sources = sources
         self.t_set = finite("t_set", t_set)

@@ -72,7 +72,7 @@ from gimbal_kinematics.free_gyro import (
 )
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.units import ARCSEC, DEG_RT_H
-from gimbal_kinematics.validate import finite, positive
+from gimbal_kinematics.validate import finite, of_type, positive
 
 _NAN = float("nan")
 _TRANSPORT_ITERATIONS = 4  # contraction ≤ 0.05 at 20 m/s: the heading to 1e-5 of its first error
@@ -238,8 +238,7 @@ class FreeGyroPositioning:
     """Free-gyro fix and heading core (module docstring). ROS-free, message-driven."""
 
     def __init__(self, params: FreeGyroPositioningParams) -> None:
-        if not isinstance(params, FreeGyroPositioningParams):
-            raise TypeError(f"params must be FreeGyroPositioningParams, got {type(params).__name__}")
+        of_type("params", params, FreeGyroPositioningParams)
         self.params = params
         self._sigma_pick = params.nadir_noise_arcsec * ARCSEC
         self._triad_arw = params.triad_arw_deg_rt_h * DEG_RT_H

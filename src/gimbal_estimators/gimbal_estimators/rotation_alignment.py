@@ -91,7 +91,7 @@ import numpy as np
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
-from gimbal_kinematics.validate import finite, positive
+from gimbal_kinematics.validate import finite, of_type, positive
 
 from .kalman import check_state, joseph_update, symmetrize
 
@@ -273,8 +273,7 @@ class RotationAlignmentRls:
     """
 
     def __init__(self, params: RotationAlignmentParams) -> None:
-        if not isinstance(params, RotationAlignmentParams):
-            raise TypeError(f"params must be RotationAlignmentParams, got {type(params).__name__}")
+        of_type("params", params, RotationAlignmentParams)
         self.params = params
         lat = params.lat_rad
         self._wN = params.omega_ie_rad_s * math.cos(lat)

@@ -71,8 +71,7 @@ class AccelerometerModel(InertialErrorCore):
     """
 
     def __init__(self, params: AccelerometerParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, AccelerometerParams):
-            raise TypeError(f"params must be AccelerometerParams, got {type(params).__name__}")
+        v.of_type("params", params, AccelerometerParams)
         self.params = params
         super().__init__(params.to_si(), n_axes, rng, dt)
 

@@ -80,8 +80,7 @@ class ShipFlexureTruth:
     """
 
     def __init__(self, params: FlexureParams, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, FlexureParams):
-            raise TypeError(f"params must be FlexureParams, got {type(params).__name__}")
+        v.of_type("params", params, FlexureParams)
         self.params = params
         p = params
         self._phi0 = [x * DEG for x in p.initial_deg]  # type: ignore[union-attr]

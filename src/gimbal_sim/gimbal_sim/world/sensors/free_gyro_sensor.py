@@ -153,10 +153,8 @@ class FreeGyroSensor:
     """
 
     def __init__(self, params: FreeGyroSensorParams, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, FreeGyroSensorParams):
-            raise TypeError(f"params must be FreeGyroSensorParams, got {type(params).__name__}")
-        if not isinstance(rng, np.random.Generator):
-            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        v.of_type("params", params, FreeGyroSensorParams)
+        v.of_type("rng", rng, np.random.Generator, "a numpy.random.Generator")
         v.positive("dt", dt)
         self.params = params
         r_pick, r_drift, r_triad, r_level = rng.spawn(4)

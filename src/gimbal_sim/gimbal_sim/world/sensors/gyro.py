@@ -107,8 +107,7 @@ class GyroModel(InertialErrorCore):
     """
 
     def __init__(self, params: GyroParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, GyroParams):
-            raise TypeError(f"params must be GyroParams, got {type(params).__name__}")
+        v.of_type("params", params, GyroParams)
         self.params = params
         super().__init__(params.to_si(), n_axes, rng, dt)
 
