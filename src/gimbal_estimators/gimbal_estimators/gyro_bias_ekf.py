@@ -86,8 +86,8 @@ from gimbal_kinematics.units import DEG, DEG_H, DEG_RT_H
 
 from . import kalman
 from .gyro_bias_ekf_model import (
-    BIAS, INS_ERROR, N_STATES, N_STATES_INS, PSI, discretize_error_model, encoder_error_jacobian, ins_error_jacobian,
-    measured_quat_nm, quat_nb_from_euler,
+    BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI, discretize_error_model, encoder_error_jacobian,
+    ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
 )
 from .gyro_bias_ekf_params import GyroBiasEkfParams
 
@@ -147,7 +147,7 @@ class GyroBiasEkf:
         lat = p.lat_deg * DEG
         self.omega_in_n = earth_rate_n(lat) + transport_rate_n(lat, p.height_m, np.array(p.velocity_n_m_s))
         self._win = tuple(float(v) for v in self.omega_in_n)
-        self.n_states = N_STATES_INS if p.ins_error_states else N_STATES
+        self.n_states = N_STATES_INS if p.ins_error_states else N_STATES_BASE
         self._gate = kalman.chi2_gate(3, p.gate_probability)
         # Continuous noise densities (rad²/s for rates, rad²/s³ for the bias walks).
         arw_g, arw_r = p.gyro_arw_deg_rt_h * DEG_RT_H, p.roll_arw_deg_rt_h * DEG_RT_H
@@ -520,7 +520,7 @@ class GyroBiasEkf:
         Je = ins_error_jacobian(euler)
         Jenc = encoder_error_jacobian(q_nb, q_meas)
         R = self._enc_var * (Jenc @ Jenc.T) + self._R_floor
-        if self.n_states == N_STATES:
+        if self.n_states == N_STATES_BASE:
             R = R + Je @ self._Pe @ Je.T
         if self._q is None:
             return self._align(t_ins, q_meas, Je, R)

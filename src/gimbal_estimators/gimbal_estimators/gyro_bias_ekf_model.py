@@ -80,7 +80,7 @@ PSI_BIAS = slice(PSI.start, BIAS.stop)
 #: (δb_q, δb_r), the gimbal gyro's own biases: δb without the INS-rate channel's δb_x.
 GYRO_BIAS = slice(BIAS.start + 1, BIAS.stop)
 #: Number of states without and with the INS error states.
-N_STATES, N_STATES_INS = PSI_BIAS.stop, INS_ERROR.stop
+N_STATES_BASE, N_STATES_INS = PSI_BIAS.stop, INS_ERROR.stop
 
 
 def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, float]:
@@ -134,7 +134,7 @@ def discretize_error_model(
     [s], or None for the 6-state filter. Shapes (n, n), n = 6 or 9. Terms of relative size
     (|ω_in| T)² and Q's ω_in coupling (|ω_in| T ~ 1e-6 at 100 Hz) are dropped.
     """
-    n = N_STATES if pe_var is None else N_STATES_INS
+    n = N_STATES_BASE if pe_var is None else N_STATES_INS
     F = np.eye(n)
     w = np.asarray(omega_in_n, dtype=float)
     F[PSI, PSI] = dcm_from_rotation_vector(-T * w)
