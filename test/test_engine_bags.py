@@ -27,8 +27,10 @@ from gimbal_sim.graph.scenario import apply_set, builtin_scenarios, load, varian
 #: Steps per scenario: enough for every node to publish (the 100 Hz INS and the EKF's
 #: outputs, the operator's commands, free-gyro fixes, flexure estimates) and cheap in the graph.
 STEPS = 500
-#: Overrides that make a node publish within STEPS (the alignment's averaging block).
-SETS = {"rotational_ins_alignment": ["platform_alignment.block_s=0.05"]}
+#: Overrides that make a node publish within STEPS (the alignment's averaging block, the
+#: scripted stick's step).
+SETS = {"rotational_ins_alignment": ["platform_alignment.block_s=0.05"],
+        "sighting_slew": ["operator.step_start_s=0.2", "operator.step_duration_s=0.2"]}
 
 
 def _deterministic_cases() -> list[tuple[str, str]]:

@@ -14,25 +14,31 @@ from gimbal_sim.campaign.spec import CampaignError, CampaignSpec, Sweep
 from gimbal_sim.experiments.registry import plan
 
 
-def _drift_line(runs: list, mode: str) -> str:
-    d = np.array([r.final_drift_deg for r in runs])
-    return (f"{mode:9s} {len(runs)} runs: drift at {runs[0].duration_s:g} s [deg] az {np.mean(d[:, 0]):+.4f} ± "
-            f"{np.std(d[:, 0]):.4f}, el {np.mean(d[:, 1]):+.4f} ± {np.std(d[:, 1]):.4f}")
+def _drift_line(drift: np.ndarray, mode: str, duration_s: float) -> str:
+    return (f"{mode:9s} {len(drift)} runs: drift at {duration_s:g} s [deg] az {np.mean(drift[:, 0]):+.4f} ± "
+            f"{np.std(drift[:, 0]):.4f}, el {np.mean(drift[:, 1]):+.4f} ± {np.std(drift[:, 1]):.4f}")
 
 
-def test_sighting_loop_prints_its_loops_figures_and_resume_runs_nothing(tmp_path, capsys):
+def _run_dirs(out) -> list:
+    return sorted(p for p in (out / "runs").iterdir() if not p.name.startswith("."))
+
+
+def test_sighting_loop_prints_figures_recomputed_from_its_runs_bags_and_resume_runs_nothing(tmp_path, capsys):
+    from gimbal_sim.reports.sighting import analyse
+
     out = tmp_path / "mc"
     args = ["--monte-carlo", "2", "--duration", "31", "--modes", "feedback", "--out", str(out)]
     assert sighting_loop.main(args) == 0
     printed = capsys.readouterr().out
-    sensors, params = sighting_loop.paper1_sensors()
-    for mode in ("feedback",):
-        runs = [sighting_loop.run_sighting(mode, seed, 31.0, sensors_config=sensors, ekf_params=params)
-                for seed in (1, 2)]
-        assert _drift_line(runs, mode) in printed
-        late = [r.t_ekf >= 30.0 for r in runs]
-        nees = np.mean(np.mean([r.nees_bias for r in runs], axis=0)[late[0]])
-        assert f"nees_bias (2 dof) time- and run-averaged {nees:.3f}" in printed
+    # each run is scenario sighting_land_vehicle:ekf_on on the engine, with its bag; the table's
+    # figures come back from the bags by the report's reader
+    runs = _run_dirs(out)
+    assert len(runs) == 2 and all(any(r.glob("*.mcap")) for r in runs)
+    assert {json.loads((r / "run.json").read_text())["scenario"] for r in runs} == {"sighting_land_vehicle:ekf_on"}
+    a = [analyse(r) for r in runs]
+    assert _drift_line(np.array([x["final_drift_deg"] for x in a]), "feedback", 31.0) in printed
+    nees = np.mean([x["mean_nees_bias"] for x in a])
+    assert f"nees_bias (2 dof) time- and run-averaged {nees:.3f}" in printed
     # a campaign directory like any other: one row per run, each with its metrics
     import pyarrow.parquet as pq
 
@@ -44,6 +50,16 @@ def test_sighting_loop_prints_its_loops_figures_and_resume_runs_nothing(tmp_path
     assert capsys.readouterr().out == printed
     last = json.loads((out / "invocations.jsonl").read_text().splitlines()[-1])
     assert last["ran"] == 0 and last["skipped"] == 2
+
+
+def test_sighting_loop_los_hold_and_correlated_ins_are_scenario_values(tmp_path, capsys):
+    out = tmp_path / "hold"
+    assert sighting_loop.main(["--duration", "1", "--modes", "los_hold", "--correlated-ins", "--out", str(out)]) == 0
+    (run,) = _run_dirs(out / "los_hold")
+    params = (run / "scenario.yaml").read_text()
+    assert "los_hold" in json.loads((run / "run.json").read_text())["scenario"]
+    assert "ins_attitude_tau_s: 300.0" in params and "ins_error_states: true" in params
+    assert "los_hold  1 runs: drift at 1 s" in capsys.readouterr().out
 
 
 def test_free_gyro_on_a_local_cluster_prints_the_in_process_monte_carlo(tmp_path, capsys):
@@ -65,8 +81,6 @@ def test_flexure_single_seed_prints_each_models_figures(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("main, args, named", [
-    (sighting_loop.main, ["--engine", "graph", "--modes", "los_hold"], "los_hold"),
-    (sighting_loop.main, ["--engine", "graph", "--correlated-ins"], "correlated_ins"),
     (sighting_loop.main, ["--monte-carlo", "0"], "--monte-carlo"),
     (flexure.main, ["--engine", "graph", "--sim-rate", "50"], "sim_rate_hz"),
     (flexure.main, ["--engine", "graph", "--turn"], "turn"),
@@ -99,15 +113,14 @@ def test_sighting_loop_on_the_graph_engine_runs_the_real_nodes(tmp_path, capsys)
     out = tmp_path / "graph"
     assert sighting_loop.main(["--duration", "5", "--modes", "feedback", "--engine", "graph", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    (run_dir,) = [p for p in (out / "runs").iterdir() if not p.name.startswith(".")]
+    (run_dir,) = _run_dirs(out)
     assert any(run_dir.glob("*.mcap"))          # a bag of the real graph
     metrics = json.loads((run_dir / "report" / "metrics.json").read_text())["sighting"]["final_drift_deg"]
     assert f"az {metrics['azimuth']:+.4f} ± 0.0000" in printed
-    assert "nees (6 dof): not in a graph run's bag" in printed
-    # the real nodes and the loop: the same LOS drift (the loop's last sample is one step earlier)
-    sensors, params = sighting_loop.paper1_sensors()
-    loop = sighting_loop.run_sighting("feedback", 1, 5.0, sensors_config=sensors, ekf_params=params)
-    assert np.allclose([metrics["azimuth"], metrics["elevation"]], loop.final_drift_deg, atol=1e-3)
+    assert "nees (6 dof): not in the runs' bags" in printed
+    # the real nodes and the engine: the same LOS drift (the same bag data, test_engine_bags)
+    assert sighting_loop.main(["--duration", "5", "--modes", "feedback", "--out", str(tmp_path / "core")]) == 0
+    assert capsys.readouterr().out == printed
 
 
 def test_graph_reports_pool_to_the_statistics_of_all_their_fixes():

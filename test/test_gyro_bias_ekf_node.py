@@ -131,16 +131,18 @@ def headline_run(module_ros_domain_env, tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_graph_computes_what_the_core_loop_computes(headline_run):
-    from gimbal_sim.experiments.sighting_loop import paper1_sensors, run_sighting
+def test_graph_computes_what_the_engine_computes(headline_run, tmp_path):
+    from dataclasses import replace
 
-    sensors, params = paper1_sensors()
-    core = run_sighting("feedback", seed=1, duration_s=2.0, sensors_config=sensors, ekf_params=params)
+    from gimbal_sim.core.engine_run import run_engine
+    from gimbal_sim.graph.scenario import load, variant
+
+    run_engine(replace(variant(load("sighting_land_vehicle"), "ekf_on"), duration_s=2.0), tmp_path / "engine")
+    core = _bag_estimates(tmp_path / "engine")
     bag = _bag_estimates(headline_run)
-    # the graph publishes the truth of the final step too, hence one more INS sample
-    assert len(bag) == len(core.t_ekf) + 1
-    np.testing.assert_array_equal(bag[:-1, 0], np.round(core.t_ekf * 1e9))
-    np.testing.assert_allclose(bag[:-1, 1:], core.bias_est, rtol=0, atol=1e-7)
+    assert len(bag) == len(core) == 201
+    np.testing.assert_array_equal(bag[:, 0], core[:, 0])
+    np.testing.assert_allclose(bag[:, 1:], core[:, 1:], rtol=0, atol=1e-12)
     assert np.all(np.isfinite(bag[:, 1:]))
 
 

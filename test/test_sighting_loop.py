@@ -1,5 +1,6 @@
-"""Paper 1's headline experiment without ROS (gimbal_sim.experiments.sighting_loop) and the LOS-hold
-outer loop: LOS drift against the integral of the true gyro bias, the EKF's effect."""
+"""Paper 1's headline experiment (scenarios sighting_land_vehicle and sighting_los_hold on the
+engine, the figures read back from their bags by the sighting report) and the LOS-hold outer
+loop: LOS drift against the integral of the true gyro bias, the EKF's effect."""
 from __future__ import annotations
 
 import math
@@ -9,8 +10,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from gimbal_control.los_hold import LosHold, LosHoldParams
+from gimbal_sim.core.engine_run import run_engine
 from gimbal_sim.experiments.bias_ekf import GENERAL_GIMBAL_GYRO, ekf_params_from_sensors
-from gimbal_sim.experiments.sighting_loop import paper1_sensors, run_sighting
+from gimbal_sim.graph.scenario import apply_set, load, variant
+from gimbal_sim.reports.sighting import analyse
+from gimbal_sim.world.sensor_suite import SensorSuiteConfig
 
 DEG = math.pi / 180.0
 
@@ -54,33 +58,52 @@ def test_los_hold_target_is_inertial_and_capture_undoes_the_drift_let_through():
     assert np.max(np.abs(hold2.update(t, _quat(C_t), b))) < 1e-9
 
 
+#: The general gyro (30 °/h bias, 10 °/h Gauss-Markov with τ = 300 s) in the sensors, and the EKF's
+#: bias model from its datasheet values (``ekf_params_from_sensors``), as scenario values.
+_GENERAL = ekf_params_from_sensors(SensorSuiteConfig(gimbal_gyro=GENERAL_GIMBAL_GYRO), ins_error_states=False)
+GENERAL = (f"sensor_models.gimbal_gyro_bias_deg_h={list(GENERAL_GIMBAL_GYRO.bias_deg_h)}",
+           f"sensor_models.gimbal_gyro_bi_deg_h={GENERAL_GIMBAL_GYRO.bias_instability_deg_h}",
+           f"sensor_models.gimbal_gyro_bi_tau_s={GENERAL_GIMBAL_GYRO.bias_instability_tau_s}",
+           f"gyro_bias_ekf.gyro_bias_sigma_deg_h={_GENERAL.gyro_bias_sigma_deg_h}",
+           f"gyro_bias_ekf.gyro_bias_instability_deg_h={_GENERAL.gyro_bias_instability_deg_h}",
+           f"gyro_bias_ekf.gyro_bias_tau_s={_GENERAL.gyro_bias_tau_s}")
+
+
+def _engine_run(tmp_path, name: str, case: str | None, seed: int, duration_s: float, sets=()) -> dict:
+    """The scenario's run on the engine, its bag read back by the sighting report."""
+    from dataclasses import replace
+
+    scenario = load(name) if case is None else variant(load(name), case)
+    scenario = replace(scenario, seed=seed, duration_s=duration_s)
+    for assignment in sets:
+        scenario = apply_set(scenario, assignment)
+    run_engine(scenario, tmp_path / f"{name}_{case}", compress=False)
+    return analyse(tmp_path / f"{name}_{case}")
+
+
 @pytest.mark.slow
-def test_without_feedback_the_los_drifts_by_the_integral_of_the_true_bias():
-    sensors, params = paper1_sensors()
-    r = run_sighting("off", seed=2, duration_s=20.0, sensors_config=sensors, ekf_params=params)
+def test_without_feedback_the_los_drifts_by_the_integral_of_the_true_bias(tmp_path):
+    r = _engine_run(tmp_path, "sighting_land_vehicle", "ekf_off", 2, 20.0)
     # paper 1: the rate loop nulls the measured rate, so the LOS turns by −∫b dt (within 5 %)
-    np.testing.assert_allclose(r.drift[-1], r.bias_integral[-1], rtol=0.05)
-    assert np.all(np.abs(np.degrees(r.bias_integral[-1])) > 0.3)
+    np.testing.assert_allclose(r["drift"][-1], r["bias_integral"][-1], rtol=0.05)
+    assert np.all(np.abs(np.degrees(r["bias_integral"][-1])) > 0.3)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("general", [False, True], ids=["paper1_gyro", "general_gyro"])
-def test_ekf_feedback_and_los_hold_remove_the_drift(general):
-    from dataclasses import replace
-
-    sensors, params = paper1_sensors()
-    if general:  # 30 °/h bias, 10 °/h Gauss-Markov with τ = 300 s: bounds scale with the drift
-        sensors = replace(sensors, gimbal_gyro=GENERAL_GIMBAL_GYRO)
-        params = ekf_params_from_sensors(sensors, ins_error_states=False)
-    runs = {mode: run_sighting(mode, seed=3, duration_s=30.0, sensors_config=sensors, ekf_params=params)
-            for mode in ("off", "feedback", "los_hold")}
-    off = np.abs(runs["off"].drift[-1])
-    on = np.abs(runs["feedback"].drift[-1])
+def test_ekf_feedback_and_los_hold_remove_the_drift(general, tmp_path):
+    sets = GENERAL if general else ()
+    runs = {mode: _engine_run(tmp_path, name, case, 3, 30.0, sets)
+            for mode, name, case in (("off", "sighting_land_vehicle", "ekf_off"),
+                                     ("feedback", "sighting_land_vehicle", "ekf_on"),
+                                     ("los_hold", "sighting_los_hold", None))}
+    off = np.abs(runs["off"]["drift"][-1])
+    on = np.abs(runs["feedback"]["drift"][-1])
     # the convergence transient dominates 30 s; still ≥ 5× less than without the EKF
     assert np.all(on < off / 5.0), (on, off)
-    hold = runs["los_hold"].drift[-1]
+    hold = runs["los_hold"]["drift"][-1]
     assert math.hypot(*hold) < 0.05 * DEG * (1.0 if not general else 0.5)
     fb = runs["feedback"]
-    late = fb.t_ekf >= 10.0
-    err = np.abs(fb.bias_est[late, 1:] - fb.bias_true[late, 1:])
-    assert np.mean(err <= 3.0 * fb.bias_sigma[late, 1:]) >= 0.95
+    late = fb["t_ekf"] >= 10.0
+    err = np.abs(fb["bias_est"][late, 1:] - fb["bias_true"][late, 1:])
+    assert np.mean(err <= 3.0 * fb["bias_sigma"][late, 1:]) >= 0.95

@@ -1,5 +1,6 @@
-"""Slew and dead-man acceptance on paper 1's vehicle, no ROS: the operator's step
-command of 5 °/s in azimuth and 2 °/s in elevation through the controller's shaper.
+"""Slew and dead-man acceptance on paper 1's vehicle: the operator's step command of 5 °/s in
+azimuth and 2 °/s in elevation through the controller's shaper (scenario ``sighting_slew`` on
+the engine, its figures read back from the bag by the ``slew`` report).
 
 References: the truth's inertial LOS rate (VehicleCore), against the command and against
 the command minus the true gyro bias (what a rate loop closed on a biased gyro follows,
@@ -17,16 +18,45 @@ from gimbal_control.operator_command import OperatorCommand, OperatorCommandPara
 from gimbal_kinematics.stamps import step_stamp_ns
 from gimbal_sim.core.core_loop import core_plan, node_values, run_stages
 from gimbal_sim.core.core_stages import controller_stage
-from gimbal_sim.experiments.slew import run_slew
+from gimbal_sim.core.engine_run import run_engine
+from gimbal_sim.experiments.slew import scenario_values
 from gimbal_sim.graph.scenario import load, variant
+from gimbal_sim.reports.slew import slew_analysis
+from gimbal_sim.world.operator_model import StepStick
 
 AZ, EL = math.radians(5.0), math.radians(2.0)
 
 
+def run_slew(mode: str, seed: int, options: dict, out) -> dict:
+    """Scenario ``sighting_slew``'s run with the campaign's ``options`` on the engine, and the
+    slew report's figures from its bag."""
+    from dataclasses import replace
+
+    duration, values = scenario_values(options)
+    scenario = replace(variant(load("sighting_slew"), mode), seed=seed, duration_s=duration)
+    for key, value in values:
+        node, param = key.split(".")
+        scenario.nodes[node]["params"][param] = value
+    run_engine(scenario, out / f"{mode}_{seed}", compress=False)
+    return slew_analysis(out / f"{mode}_{seed}")
+
+
 @pytest.fixture(scope="module")
-def slews():
+def slews(tmp_path_factory):
     short = {"hold_s": 1.0, "slew_s": 2.0}
-    return {mode: run_slew(mode, 1, short)["slew"] for mode in ("ekf_off", "ekf_on")}
+    out = tmp_path_factory.mktemp("slew")
+    return {mode: run_slew(mode, 1, short, out)["slew"] for mode in ("ekf_off", "ekf_on")}
+
+
+def test_the_scripted_stick_commands_its_step_from_its_start_for_its_duration():
+    stick = StepStick(1.0, 0.5, (0.1, -0.2))
+    t0 = 5 * 10**9  # stamps from the first step, wherever the clock starts
+    got = {dt: stick.step(t0 + dt) for dt in (0, 999_999_999, 10**9, 1_499_999_999, 15 * 10**8)}
+    assert got == {0: (0.0, 0.0), 999_999_999: (0.0, 0.0), 10**9: (0.1, -0.2), 1_499_999_999: (0.1, -0.2),
+                   15 * 10**8: (0.0, 0.0)}
+    assert all(math.isnan(v) for v in stick.pointing_error())
+    with pytest.raises(ValueError, match="step_rate_deg_s"):
+        StepStick(0.0, 1.0, (0.1,))
 
 
 def test_step_command_is_followed_within_2_percent_and_settles(slews):
@@ -74,7 +104,7 @@ def test_deadman_stops_the_slew_at_the_timeout_plus_the_deceleration_and_counts_
     assert np.all(np.abs(smooth(r + b_r)[held]) < 0.02 * AZ) and np.all(np.abs(smooth(q + b_q)[held]) < 0.02 * EL)
 
 
-def test_per_step_nees_averaged_over_seeds_against_its_band():
+def test_per_step_nees_averaged_over_seeds_against_its_band(tmp_path):
     """nees_per_step on seeded χ²(2) draws (a consistent filter: about 95 % of the steps inside
     χ²(2N)/N's band, binomial bounds) and on draws 1.6 times too large (an optimistic filter:
     above it as often as the closed form says); then on two short slews of the EKF, whose per-step NEES it combines."""
@@ -96,8 +126,8 @@ def test_per_step_nees_averaged_over_seeds_against_its_band():
         nees_per_step([consistent[0], {"t_s": t[1:], "bias_nees": consistent[1]["bias_nees"][1:]}])
 
     short = {"hold_s": 1.0, "slew_s": 0.5}
-    runs = [(seed, run_slew("ekf_on", seed, short)) for seed in (1, 2)]
-    series = [m["series"] for _, m in runs]
+    runs = [(seed, run_slew("ekf_on", seed, short, tmp_path)) for seed in (1, 2)]
+    series = [m["slew_nees"] for _, m in runs]
     assert series[0]["t_s"] == [round(0.01 * i, 9) for i in range(50)]  # each EKF output (100 Hz) of the slew
     assert all(v >= 0.0 and math.isfinite(v) for s in series for v in s["bias_nees"])
     p = nees_per_step(series)

@@ -58,7 +58,8 @@ Gyro bias: :meth:`LosRateController.set_bias_estimate` stores the EKF's 3-axis b
 estimate (m frame, rad/s); with ``feedback`` its y, z components are subtracted from q_m,
 r_m.
 
-Hot path: scalar maths only (no numpy per step).
+Hot path: one call of the compiled :func:`.los_rate_kernels.los_rate_step` per sample, on the
+state vector this class holds (the engine's compiled loop calls the same kernel).
 """
 from __future__ import annotations
 
@@ -71,6 +72,7 @@ from gimbal_kinematics.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.units import G0
 
+from . import los_rate_kernels as lk
 from .linearize import linearize_gimbal
 from .operator_command import OperatorCommand
 
@@ -203,37 +205,49 @@ class LosRateController:
         # Clamp bounds [rad]: k_i I_i B′⁻¹_ii reaches integrator_limit_factor × the limit.
         f = p.integrator_limit_factor
         self._i_max = (f * lim_a / (self.ki * self._b00), f * lim_e / (self.ki * self._b11))
-        # counters
-        self.rejected_inputs = 0
-        self.rejected_stamps = 0
         self.rejected_bias = 0
-        self.singular_steps = 0
-        self.saturated_steps = 0
-        self.resets = 0
         self.last_reset_reason = ""
-        self._bias_qr = (0.0, 0.0)
         self.bias_stamp: float | None = None  # stamp of the bias estimate in use [s]
-        self._rate_cmd = (0.0, 0.0)
-        self.reset()
+        # the state and parameter vectors of the kernel (:mod:`.los_rate_kernels`)
+        self._s = lk.initial_state()
+        self._g = lk.controller_params(self)
 
     # ----------------------------------------------------------------------- state
     def reset(self, reason: str = "") -> None:
         """Zero the integrators and forget the last stamp and command."""
-        self.integrator = [0.0, 0.0]
-        self.last_t: float | None = None
-        self.command: tuple[float, float] = (0.0, 0.0)
-        self.unsaturated_command: tuple[float, float] = (0.0, 0.0)
-        self.rate_error: tuple[float, float] = (0.0, 0.0)
-        self._e_prev = (0.0, 0.0)
-        self.joint_rate_command: tuple[float, float] = (0.0, 0.0)
+        s = self._s
+        for i in (lk.S_IA, lk.S_IE, lk.S_EA_PREV, lk.S_EE_PREV, lk.S_TAU_A, lk.S_TAU_E, lk.S_JR_A, lk.S_JR_E,
+                  lk.S_UNSAT_A, lk.S_UNSAT_E):
+            s[i] = 0.0
+        s[lk.S_LAST_T] = math.nan
         if reason:
-            self.resets += 1
+            s[lk.S_RESETS] += 1
             self.last_reset_reason = reason
 
+    def _pair(self, i: int, j: int) -> tuple[float, float]:
+        return float(self._s[i]), float(self._s[j])
+
+    def _count(self, i: int) -> int:
+        return int(self._s[i])
+
+    integrator = property(lambda self: list(self._pair(lk.S_IA, lk.S_IE)), doc="(I_a, I_e) [rad]")
+    command = property(lambda self: self._pair(lk.S_TAU_A, lk.S_TAU_E), doc="last command (τ_a, τ_e) [N·m]")
+    unsaturated_command = property(lambda self: self._pair(lk.S_UNSAT_A, lk.S_UNSAT_E), doc="before the clip [N·m]")
+    rate_error = property(lambda self: self._pair(lk.S_EA_PREV, lk.S_EE_PREV), doc="last e [rad/s]")
+    joint_rate_command = property(lambda self: self._pair(lk.S_JR_A, lk.S_JR_E), doc="(ψ̇_md, θ̇_md) [rad/s]")
+    bias_estimate_qr = property(lambda self: self._pair(lk.S_BIAS_Q, lk.S_BIAS_R),
+                                doc="Gyro bias (y, z components) [rad/s] currently subtracted when ``feedback``.")
+    rejected_inputs = property(lambda self: self._count(lk.S_REJECTED_INPUTS))
+    rejected_stamps = property(lambda self: self._count(lk.S_REJECTED_STAMPS))
+    singular_steps = property(lambda self: self._count(lk.S_SINGULAR))
+    saturated_steps = property(lambda self: self._count(lk.S_SATURATED))
+    resets = property(lambda self: self._count(lk.S_RESETS))
+
     @property
-    def bias_estimate_qr(self) -> tuple[float, float]:
-        """Gyro bias (y, z components) [rad/s] currently subtracted when ``feedback``."""
-        return self._bias_qr
+    def last_t(self) -> float | None:
+        """Stamp of the last accepted sample [s], None before the first (or after a reset)."""
+        t = float(self._s[lk.S_LAST_T])
+        return None if math.isnan(t) else t
 
     def set_bias_estimate(self, t: float, bias_xyz: Sequence[float]) -> bool:
         """Store the EKF's gyro bias estimate (m frame, (3,) rad/s) stamped ``t`` [s];
@@ -247,7 +261,7 @@ class LosRateController:
         if not all(math.isfinite(v) for v in (t, bx, by, bz)):
             self.rejected_bias += 1
             return False
-        self._bias_qr = (by, bz)
+        self._s[lk.S_BIAS_Q], self._s[lk.S_BIAS_R] = by, bz
         self.bias_stamp = float(t)
         return True
 
@@ -255,9 +269,9 @@ class LosRateController:
         """Inertial LOS rate command (q_md, r_md) [rad/s] for an outer (LOS-hold/slew) loop;
         (0, 0) holds the LOS still. Non-finite is rejected (counted)."""
         if not (math.isfinite(q_md) and math.isfinite(r_md)):
-            self.rejected_inputs += 1
+            self._s[lk.S_REJECTED_INPUTS] += 1
             return False
-        self._rate_cmd = (float(q_md), float(r_md))
+        self._s[lk.S_CMD_Q], self._s[lk.S_CMD_R] = float(q_md), float(r_md)
         return True
 
     def reference(self, stamp_ns: int) -> tuple[float, float] | None:
@@ -271,7 +285,7 @@ class LosRateController:
         q, r = self.operator.step(stamp_ns)
         if q == 0.0 and r == 0.0:
             return None
-        return (self._rate_cmd[0] + q, self._rate_cmd[1] + r)
+        return (float(self._s[lk.S_CMD_Q]) + q, float(self._s[lk.S_CMD_R]) + r)
 
     # ----------------------------------------------------------------------- hot path
     def step(self, t: float, gyro_qr: Sequence[float], joint_angles: Sequence[float],
@@ -288,103 +302,13 @@ class LosRateController:
             rate_command_qr: (q_md, r_md) [rad/s] for this step; None uses
                 :meth:`set_rate_command`'s (default 0, 0).
         """
-        # long: the per-sample hot path (1 kHz, scalar maths): split into calls it would cost
-        # a Python call per stage on every gyro sample, and it reads top to bottom as paper 1's loop
-        q_g, r_g = gyro_qr[0], gyro_qr[1]
-        psi_t, psi_m, th = joint_angles[0], joint_angles[1], joint_angles[2]
-        psi_t_d, psi_m_d, th_d = joint_rates[0], joint_rates[1], joint_rates[2]
-        wp, wq, wr = omega_b_b[0], omega_b_b[1], omega_b_b[2]
-        q_md, r_md = self._rate_cmd if rate_command_qr is None else (rate_command_qr[0], rate_command_qr[1])
-        # A sum is finite only if every term is (inf − inf is nan): one test for eleven.
-        total = q_g + r_g + psi_t + psi_m + th + psi_t_d + psi_m_d + th_d + wp + wq + wr + q_md + r_md + t
-        if total - total != 0.0:
-            self.rejected_inputs += 1
-            return self.command
-        last = self.last_t
-        # gimbal_kinematics.stamps.judge inline (per-sample hot path), same clock_jump_s:
-        # JUMPED_BACK resets, DUPLICATE and OUT_OF_ORDER are rejected (t is finite: checked above)
-        if last is not None and t <= last:
-            if last - t > self.params.clock_jump_s:
-                self.reset(f"time jumped back from {last:.6f} s to {t:.6f} s")
-                last = None
-            else:
-                self.rejected_stamps += 1
-                return self.command
-        dt = self.dt_nominal if last is None else min(t - last, self._dt_max)
-        self.last_t = t
-        if self.params.feedback:
-            q_g -= self._bias_qr[0]
-            r_g -= self._bias_qr[1]
-
-        c, s = math.cos(th), math.sin(th)
-        if -self.params.min_cos_elevation < c < self.params.min_cos_elevation:
-            self.singular_steps += 1
-            c = self.params.min_cos_elevation if c >= 0.0 else -self.params.min_cos_elevation
-        # task → joint rates (sighting_chain.task_to_joint_rates, scalar form)
-        ct, st = math.cos(psi_t), math.sin(psi_t)
-        cm, sm = math.cos(psi_m), math.sin(psi_m)
-        u1 = ct * wp + st * wq
-        u2 = -st * wp + ct * wq
-        w1 = cm * u1 + sm * u2
-        w2 = -sm * u1 + cm * u2
-        w3 = wr + psi_t_d
-        psi_md = (r_md - s * w1) / c - w3
-        th_md = q_md - w2
-        self.joint_rate_command = (psi_md, th_md)
-        e_a = psi_md - ((r_g - s * w1) / c - w3)
-        e_e = th_md - (q_g - w2)
-        self.rate_error = (e_a, e_e)
-
-        i_a_old, i_e_old = self.integrator
-        if last is None:  # first sample: nothing swept yet
-            i_a, i_e = i_a_old, i_e_old
-        else:
-            h = 0.5 * dt
-            i_a = i_a_old + h * (e_a + self._e_prev[0])
-            i_e = i_e_old + h * (e_e + self._e_prev[1])
-        self._e_prev = (e_a, e_e)
-        lim_a, lim_e = self.torque_limits
-        mode = self._aw_mode
-        if mode == 1:
-            # Clamp: the integral term alone may not ask for more than the torque limit.
-            ia_max, ie_max = self._i_max
-            if i_a > ia_max or i_a < -ia_max:
-                i_a = ia_max if i_a > 0.0 else -ia_max
-            if i_e > ie_max or i_e < -ie_max:
-                i_e = ie_max if i_e > 0.0 else -ie_max
-        else:
-            ia_max = ie_max = 0.0
-        kp, ki = self.kp, self.ki
-        a0, a1 = self._a
-        # ÿ_c − A′x (the trim absorbs ẏ₀)
-        ra = kp * e_a + ki * i_a - (a0[0] * psi_m + a0[1] * th + a0[2] * psi_m_d + a0[3] * th_d)
-        re = kp * e_e + ki * i_e - (a1[0] * psi_m + a1[1] * th + a1[2] * psi_m_d + a1[3] * th_d)
-        tau_a = self._trim[0] + self._b00 * ra + self._b01 * re
-        tau_e = self._trim[1] + self._b10 * ra + self._b11 * re
-        sat_a = tau_a > lim_a or tau_a < -lim_a
-        sat_e = tau_e > lim_e or tau_e < -lim_e
-        if mode == 2 and (sat_a or sat_e):
-            # Conditional integration: undo the integrator step of an axis pushing its
-            # torque further out.
-            undo_a = sat_a and e_a * tau_a > 0.0
-            undo_e = sat_e and e_e * tau_e > 0.0
-            if undo_a or undo_e:
-                da = -(i_a - i_a_old) * ki if undo_a else 0.0
-                de = -(i_e - i_e_old) * ki if undo_e else 0.0
-                if undo_a:
-                    i_a = i_a_old
-                if undo_e:
-                    i_e = i_e_old
-                tau_a += self._b00 * da + self._b01 * de
-                tau_e += self._b10 * da + self._b11 * de
-                sat_a = tau_a > lim_a or tau_a < -lim_a
-                sat_e = tau_e > lim_e or tau_e < -lim_e
-        self.integrator[0] = i_a
-        self.integrator[1] = i_e
-        self.unsaturated_command = (tau_a, tau_e)
-        if sat_a or sat_e:
-            self.saturated_steps += 1
-            tau_a = lim_a if tau_a > lim_a else -lim_a if tau_a < -lim_a else tau_a
-            tau_e = lim_e if tau_e > lim_e else -lim_e if tau_e < -lim_e else tau_e
-        self.command = (tau_a, tau_e)
-        return self.command
+        s = self._s
+        last, resets = self.last_t, s[lk.S_RESETS]
+        q_md, r_md = (s[lk.S_CMD_Q], s[lk.S_CMD_R]) if rate_command_qr is None else rate_command_qr[:2]
+        tau = lk.los_rate_step(s, self._g, float(t), float(gyro_qr[0]), float(gyro_qr[1]), float(joint_angles[0]),
+                               float(joint_angles[1]), float(joint_angles[2]), float(joint_rates[0]),
+                               float(joint_rates[1]), float(joint_rates[2]), float(omega_b_b[0]), float(omega_b_b[1]),
+                               float(omega_b_b[2]), float(q_md), float(r_md))
+        if s[lk.S_RESETS] != resets:
+            self.last_reset_reason = f"time jumped back from {last:.6f} s to {t:.6f} s"
+        return tau

@@ -87,13 +87,12 @@ import numpy as np
 
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.sync import StampGate
-from gimbal_kinematics.four_gimbal import (
-    GIMBAL_LOCK_MARGIN, BidirectionalRotation, command_rate_from_n, command_rate_s,
-)
-from gimbal_kinematics.platform_kernels import servo_signals
+from gimbal_kinematics.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
 from gimbal_kinematics.units import DEG, DEG_H
+from gimbal_kinematics.wgs84 import OMEGA_IE
 
 from . import control_kernels as ck
+from . import servo_kernels as sk
 from .pid import Pid, PidParams, pole_placement_gains
 
 _LOCK_COS = math.sin(GIMBAL_LOCK_MARGIN)
@@ -271,7 +270,9 @@ class ServoCommand(NamedTuple):
 
 
 class PlatformServo(StampGate):
-    """The four loops of paper 3 (module docstring)."""
+    """The four loops of paper 3 (module docstring). The state of one servo is a vector
+    (:mod:`.servo_kernels`: pickoff, last tick, held command, voltages, counters) plus the
+    four PID rows; each message calls the kernel that the compiled engine calls too."""
 
     def __init__(self, params: PlatformServoParams | None = None) -> None:
         self.params = params if params is not None else PlatformServoParams()
@@ -288,37 +289,54 @@ class PlatformServo(StampGate):
         self.pid_p = Pid(p.pitch_pid, self._pid_state[2])
         self.pid_r = Pid(p.outer_roll_pid, self._pid_state[3])
         self._pid_gains = np.array([pid.gains for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r)])
+        self.kernel_params = self._kernel_params()
+        self.state = sk.initial_state()
         self.rejected_nonfinite = 0
         self.rejected_out_of_order = 0
-        self.held_commands = 0
-        self.rejected_gimbal_lock = 0
-        self.presets = 0
-        self.ticks_without_command = 0
-        self.stale_command_ticks = 0
         self.reset_reasons: list[str] = []
         self._reset_state()
+
+    def _kernel_params(self) -> np.ndarray:
+        """The constants of :func:`.servo_kernels.servo_tick` (``P_*``)."""
+        p, sched = self.params, self.schedule
+        lim = self.pid_a.params.integrator_limit
+        presets = [max(-lim, min(lim, float(p.friction.voltage(d * sched.rate_rad_s)))) for d in (1, -1)]
+        return np.array([1.0 if p.rotate else 0.0, sched.rate_rad_s, math.radians(p.sweep_deg), sched.leg_duration_s,
+                         0.5 * p.reversal_time_s, 1.0 if p.command_source == "navigator" else 0.0,
+                         p.command_max_age_s, p.max_gap_s, OMEGA_IE * math.cos(self._lat),
+                         OMEGA_IE * -math.sin(self._lat), *self._drift, _LOCK_COS,
+                         1.0 if p.preset_integrator else 0.0, *presets], dtype=float)
 
     def _reset_state(self) -> None:
         for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r):
             pid.reset()
-        self._t0: float | None = None
-        self._t_tick: float | None = None
+        counters = self.state[sk.S_NO_CMD:].copy()  # the counters outlive a reset
+        self.state[:] = sk.initial_state()
+        self.state[sk.S_NO_CMD:] = counters
         self._t_res: float | None = None
-        self._angles: tuple[float, float, float, float] | None = None
-        self._t_cmd: float | None = None
-        self._cmd_n: tuple[float, float, float] | None = None
-        #: emulated gyro pickoff δ (x, y, z in s) [rad]
-        self.pickoff = [0.0, 0.0, 0.0]
-        self._prev: tuple | None = None  # (ω_meas − ω_c without φ̇z, φz) of the last tick
-        self._dir = 0
-        self._volts = (0.0, 0.0, 0.0, 0.0)
-        self._signals = (0.0, 0.0, 0.0, 0.0)
-        self._dt_last = 1e-3
+
+    def _count(self, index: int) -> int:
+        return int(self.state[index])
+
+    held_commands = property(lambda self: self._count(sk.S_HELD), doc="ticks that held the last command")
+    rejected_gimbal_lock = property(lambda self: self._count(sk.S_LOCK), doc="ticks within 1° of gimbal lock")
+    presets = property(lambda self: self._count(sk.S_PRESETS), doc="azimuth integrator presets")
+    ticks_without_command = property(lambda self: self._count(sk.S_NO_CMD), doc="ticks before the first command")
+    stale_command_ticks = property(lambda self: self._count(sk.S_STALE), doc="ticks on a stale command")
+
+    @property
+    def pickoff(self) -> tuple[float, float, float]:
+        """The emulated gyro pickoff δ (x, y, z in s) [rad]."""
+        return tuple(self.state[sk.S_D0:sk.S_D2 + 1].tolist())
 
     @property
     def command_voltages(self) -> tuple[float, float, float, float]:
         """The last commanded motor voltages (a, q, p, r) [V] (zeros before the first tick)."""
-        return self._volts
+        return tuple(self.state[sk.S_V0:sk.S_V3 + 1].tolist())
+
+    def _stamp(self, index: int) -> float | None:
+        v = self.state[index]
+        return None if math.isnan(v) else float(v)
 
     def reset(self, reason: str) -> None:
         """Reset the loops and restart the schedule; ``reason`` goes to ``reset_reasons``."""
@@ -336,12 +354,13 @@ class PlatformServo(StampGate):
             self.rejected_nonfinite += 1
             return
         self._t_res = t
-        self._angles = vals  # type: ignore[assignment]
+        sk.servo_resolvers(self.state, t, *vals)
 
     def on_command_rate(self, t: float, omega_n: Sequence[float]) -> None:
         """The navigator's level command rate ω_c^n (3,) NED [rad/s] at stamp ``t`` [s], held
         until the next one (module docstring; used with ``command_source="navigator"``)."""
-        if not self._stamp_ok(t, self._t_cmd, "command rate"):
+        t_cmd = self._stamp(sk.S_T_CMD) if self.state[sk.S_HAS_CMD] else None
+        if not self._stamp_ok(t, t_cmd, "command rate"):
             return
         vals = tuple(float(v) for v in omega_n)
         if len(vals) != 3:
@@ -349,95 +368,32 @@ class PlatformServo(StampGate):
         if not all(math.isfinite(v) for v in vals):
             self.rejected_nonfinite += 1
             return
-        self._t_cmd = t
-        self._cmd_n = vals  # type: ignore[assignment]
+        sk.servo_command(self.state, float(t), *vals)
 
-    def _command_rate(self, t: float, phi: float, phi_rate: float) -> tuple[float, float, float]:
-        """ω_c in s [rad/s] at tick ``t``: the navigator's while it is fresh, else internal."""
-        if self.params.command_source == "navigator":
-            if self._cmd_n is None:
-                self.ticks_without_command += 1
-            elif t - self._t_cmd > self.params.command_max_age_s:
-                self.stale_command_ticks += 1
-            else:
-                return command_rate_from_n(self._cmd_n, phi, phi_rate)
-        wc = command_rate_s(self._lat, phi, phi_rate, drift_s=self._drift)
-        return float(wc[0]), float(wc[1]), float(wc[2])
-
-    def _held(self, t: float) -> ServoCommand:
-        self.held_commands += 1
-        phi, rate = self._phi(t)
-        return ServoCommand(t, self._volts, self._signals, phi, rate, True)
-
-    def _phi(self, t: float) -> tuple[float, float]:
-        """Commanded (φz [rad], φ̇z [rad/s]) at ``t``: the schedule from the first tick, or
-        rest when the schedule has not started or rotation is off."""
-        if self._t0 is None or not self.params.rotate:
-            return 0.0, 0.0
-        phi, rate, _ = self.schedule.state(t - self._t0)
-        return phi, rate
+    def _output(self, t: float, held: bool) -> ServoCommand:
+        s = self.state
+        return ServoCommand(t, self.command_voltages, tuple(s[sk.S_G0:sk.S_G3 + 1].tolist()), float(s[sk.S_PHI]),
+                            float(s[sk.S_PHI_RATE]), held)
 
     def on_gyro(self, t: float, omega_s: Sequence[float]) -> ServoCommand | None:
-        """Control tick on a platform gyro sample ω_meas (3,) [rad/s] resolved in s.
+        """Control tick on a platform gyro sample ω_meas (3,) [rad/s] resolved in s
+        (:func:`.servo_kernels.servo_tick`).
 
         Returns None until resolver angles have arrived (or for a rejected stamp); a
         non-finite sample holds the last command (``held=True``).
         """
-        if not self._stamp_ok(t, self._t_tick, "gyro"):
+        last = self._stamp(sk.S_T_TICK)
+        if not self._stamp_ok(t, last, "gyro"):
             return None
         wx, wy, wz = (float(v) for v in omega_s)
         if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
             self.rejected_nonfinite += 1
-            return self._held(t)
-        if self._angles is None:
+            sk.servo_held(self.state, self.kernel_params, float(t))
+            return self._output(t, True)
+        gaps = self.state[sk.S_GAPS]
+        result = sk.servo_tick(self.state, self.kernel_params, self._pid_state, self._pid_gains, float(t), wx, wy, wz)
+        if self.state[sk.S_GAPS] != gaps:
+            self.reset_reasons.append(f"gap of {t - last:.3f} s before t={t:.3f}: pickoff integration restarted")
+        if result == sk.TICK_NONE:
             return None
-        if self._t0 is None:
-            self._t0 = t
-        dt = 0.0 if self._t_tick is None else t - self._t_tick
-        self._t_tick = t
-        if dt > self.params.max_gap_s:
-            self.reset_reasons.append(f"gap of {dt:.3f} s before t={t:.3f}: pickoff integration restarted")
-            self._prev = None
-            for pid in (self.pid_a, self.pid_q, self.pid_p, self.pid_r):
-                pid.forget_previous()
-            dt = 0.0
-        phi, phi_rate = self._phi(t)
-        cx, cy, cz = self._command_rate(t, phi, phi_rate)
-        # rate error without the modulation rate (its angle is taken exactly from φz)
-        ex, ey, ez0 = wx - cx, wy - cy, wz - (cz - phi_rate)
-        d = self.pickoff
-        if self._prev is not None and dt > 0.0:
-            pex, pey, pez0, pphi = self._prev
-            h = 0.5 * dt
-            # − ω_c × δ: a misalignment fixed in the turning reference stays fixed in s
-            d0, d1, d2 = d
-            d[0] = d0 + h * (pex + ex) - dt * (cy * d2 - cz * d1)
-            d[1] = d1 + h * (pey + ey) - dt * (cz * d0 - cx * d2)
-            d[2] = d2 + h * (pez0 + ez0) - (phi - pphi) - dt * (cx * d1 - cy * d0)
-        self._prev = (ex, ey, ez0, phi)
-
-        th_a, th_q, th_p, _ = self._angles
-        ok, sig, rate_sig, sig_r = servo_signals(d[0], d[1], d[2], ex, ey, ez0 - phi_rate, th_a, th_q, th_p, _LOCK_COS)
-        if not ok:
-            # resolvers within 1° of gimbal lock (θ_q or θ_p at ±90°): eq. 1 is singular
-            self.rejected_gimbal_lock += 1
-            return self._held(t)
-
-        if dt > 0.0:
-            self._dt_last = dt
-        else:
-            dt = self._dt_last
-        self._maybe_preset(phi_rate)
-        (sq, sp, sa), (rq, rp, ra) = sig, rate_sig
-        self._volts = ck.pid_step4(self._pid_state, self._pid_gains, -sa, -sq, -sp, sig_r, -ra, -rq, -rp, dt)
-        self._signals = (sa, sq, sp, sig_r)
-        return ServoCommand(t, self._volts, self._signals, phi, phi_rate, False)
-
-    def _maybe_preset(self, phi_rate: float) -> None:
-        direction = (phi_rate > 0.0) - (phi_rate < 0.0)
-        if direction != 0 and direction != self._dir:
-            if self.params.preset_integrator:
-                # the cruise rate of the new direction, also when the reversal is ramped
-                self.pid_a.preset_integral(self.params.friction.voltage(direction * self.schedule.rate_rad_s))
-                self.presets += 1
-            self._dir = direction
+        return self._output(t, result == sk.TICK_HELD)

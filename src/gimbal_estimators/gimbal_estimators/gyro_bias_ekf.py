@@ -84,11 +84,9 @@ from gimbal_kinematics.stamps import Stamp, judge
 from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat
 from gimbal_kinematics.units import DEG, DEG_H, DEG_RT_H
 
+from . import gyro_bias_ekf_kernels as kernels
 from . import kalman
-from .gyro_bias_ekf_model import (
-    BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI, discretize_error_model, encoder_error_jacobian,
-    ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
-)
+from .gyro_bias_ekf_model import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI
 from .gyro_bias_ekf_params import GyroBiasEkfParams
 
 
@@ -162,9 +160,8 @@ class GyroBiasEkf:
         self._Pb0 = np.diag([(p.roll_bias_sigma_deg_h * DEG_H) ** 2] + [(p.gyro_bias_sigma_deg_h * DEG_H) ** 2] * 2)
         rp, hd = p.ins_roll_pitch_rms_deg * DEG, p.ins_heading_rms_deg * DEG
         self._pe_var = np.array([rp * rp, rp * rp, hd * hd])
-        self._Pe = np.diag(self._pe_var)
         self._enc_var = (p.encoder_noise_deg * DEG) ** 2
-        self._R_floor = np.eye(3) * (p.attitude_noise_floor_deg * DEG) ** 2
+        self._floor_var = (p.attitude_noise_floor_deg * DEG) ** 2
         self._H = np.zeros((3, self.n_states))
         self._H[:, PSI] = np.eye(3)
         self.counters = Counters(0, 0, 0, 0, 0, 0, 0)
@@ -462,35 +459,13 @@ class GyroBiasEkf:
 
     # ------------------------------------------------------------------ mechanization
     def _mechanize(self, w0: Sequence[float], w1: Sequence[float], dt: float) -> None:
-        """Ĉ ← exp(−[ω_in Δt×]) Ĉ exp([φ×]) on the quaternion (hot path: scalar maths)."""
-        p0, q0, r0 = w0
-        p1, q1, r1 = w1
-        h = 0.5 * dt
-        k = dt * dt / 12.0
-        phx = h * (p0 + p1) + k * (q0 * r1 - r0 * q1)
-        phy = h * (q0 + q1) + k * (r0 * p1 - p0 * r1)
-        phz = h * (r0 + r1) + k * (p0 * q1 - q0 * p1)
-        # right product Ĉ exp([φ×])
-        x, y, z, w = quat_mul(self._q, _rotvec_quat(phx, phy, phz))
-        # left product exp(−[ω_in Δt×]) (|ω_in Δt| ~ 1e-7: first order is exact to 1e-21)
-        win = self._win
-        ex, ey, ez = -h * win[0], -h * win[1], -h * win[2]
-        x, y, z, w = (x + ey * z - ez * y + ex * w, y - ex * z + ez * x + ey * w,
-                      z + ex * y - ey * x + ez * w, w - ex * x - ey * y - ez * z)
-        n = 1.5 - 0.5 * (x * x + y * y + z * z + w * w)  # first-order renormalisation
-        self._q = [x * n, y * n, z * n, w * n]
+        """Ĉ ← exp(−[ω_in Δt×]) Ĉ exp([φ×]) on the quaternion (:func:`.gyro_bias_ekf_kernels.mechanize`)."""
+        self._q = list(kernels.mechanize(tuple(self._q), tuple(w0), tuple(w1), dt, self._win))
 
     def _A_now(self) -> np.ndarray:
-        """C_nm M (3, 3) at the current estimate and elevation."""
+        """C_nm M (3, 3) at the current estimate and elevation (:func:`.gyro_bias_ekf_kernels.a_matrix`)."""
         _, _, ct, st = self._trig
-        ct = ct if abs(ct) >= _SINGULAR_COS else math.copysign(_SINGULAR_COS, ct)
-        x, y, z, w = self._q
-        c00, c10, c20 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)
-        c02, c12, c22 = 2.0 * (x * z + y * w), 2.0 * (y * z - x * w), 1.0 - 2.0 * (x * x + y * y)
-        k = st / ct
-        return np.array([[c00 / ct, 2.0 * (x * y - z * w), c02 - k * c00],
-                         [c10 / ct, 1.0 - 2.0 * (x * x + z * z), c12 - k * c10],
-                         [c20 / ct, 2.0 * (y * z + x * w), c22 - k * c20]])
+        return kernels.a_matrix(tuple(self._q), ct, st)
 
     def _propagate_covariance(self) -> None:
         """P over [t_cov, t_gyro] with the discretised error model (module docstring)."""
@@ -498,12 +473,10 @@ class GyroBiasEkf:
         if T <= 0.0:
             return
         A1 = self._A_now()
-        F, Q = discretize_error_model(0.5 * (self._A_cov + A1), T, self.omega_in_n, self._n_psd, self._qb_psd,
-                                      self._pe_var if self.n_states == N_STATES_INS else None,
-                                      self.params.ins_attitude_tau_s)
+        self.P, f_e = kernels.propagate(self.P, 0.5 * (self._A_cov + A1), T, np.asarray(self.omega_in_n, dtype=float),
+                                        self._n_psd, self._qb_psd, self._pe_var, self.params.ins_attitude_tau_s)
         if self.n_states == N_STATES_INS:
-            self._e = self._e * F[INS_ERROR.start, INS_ERROR.start]
-        self.P = kalman.symmetrize(F @ self.P @ F.T + Q)
+            self._e = self._e * f_e
         self._t_cov = self._t_gyro
         self._A_cov = A1
 
@@ -515,13 +488,9 @@ class GyroBiasEkf:
         angles = self._interp(self._enc_hist, t_ins)
         if angles is None:
             return None
-        q_nb = quat_nb_from_euler(euler)
-        q_meas = measured_quat_nm(q_nb, angles)
-        Je = ins_error_jacobian(euler)
-        Jenc = encoder_error_jacobian(q_nb, q_meas)
-        R = self._enc_var * (Jenc @ Jenc.T) + self._R_floor
-        if self.n_states == N_STATES_BASE:
-            R = R + Je @ self._Pe @ Je.T
+        q_meas, Je, Jenc = kernels.measurement(tuple(euler), tuple(angles))
+        R = kernels.measurement_cov(Jenc, Je, self._enc_var, self._floor_var, self._pe_var,
+                                    self.n_states == N_STATES_BASE)
         if self._q is None:
             return self._align(t_ins, q_meas, Je, R)
         self._propagate_covariance()
@@ -539,7 +508,8 @@ class GyroBiasEkf:
         if n == N_STATES_INS:
             H[:, INS_ERROR] = Je
             x[INS_ERROR] = self._e
-        up = kalman.joseph_update(x, self.P, z, H, R, self._gate)
+        accepted, x_up, P_up, y, d2 = kernels.joseph_update3(x, self.P, z, H, R, self._gate)
+        up = kalman.Update(x_up, P_up, y, None, float(d2), bool(accepted))
         if up.accepted:
             self._consecutive_gated = 0
             self._count(updates=1)
@@ -572,19 +542,11 @@ class GyroBiasEkf:
         P_ψe = −J_e P_e with the INS-error states."""
         n = self.n_states
         self._q = list(q_meas)
-        P = np.zeros((n, n))
         keep = self._P_bb_keep
-        P[BIAS, BIAS] = keep if keep is not None else self._Pb0
         self._P_bb_keep = None
         if n == N_STATES_INS:
             self._e = np.zeros(3)
-            P[PSI, PSI] = Je @ self._Pe @ Je.T + R
-            P[PSI, INS_ERROR] = -Je @ self._Pe
-            P[INS_ERROR, PSI] = P[PSI, INS_ERROR].T
-            P[INS_ERROR, INS_ERROR] = self._Pe
-        else:
-            P[PSI, PSI] = R
-        self.P = kalman.symmetrize(P)
+        self.P = kernels.align_cov(n, R, Je, self._pe_var, keep if keep is not None else self._Pb0)
         self._t_cov = self._t_gyro
         self._A_cov = self._A_now()
         self._consecutive_gated = 0

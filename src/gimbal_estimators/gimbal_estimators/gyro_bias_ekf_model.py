@@ -69,7 +69,9 @@ from typing import Sequence
 
 import numpy as np
 
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_from_euler321, quat_mul
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_from_euler321
+
+from . import gyro_bias_ekf_kernels as kernels
 
 #: The error state x = [ψ, δb, e] (module docstring), as slices of x and of P's rows and columns.
 PSI = slice(0, 3)
@@ -90,30 +92,22 @@ def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, flo
 
 def measured_quat_nm(q_nb: Sequence[float], angles: Sequence[float]) -> tuple[float, float, float, float]:
     """(x, y, z, w) of C_nm = C_nb ``sighting_chain.dcm_bm(ψt, ψm, θm)``; C_bm is a turn of
-    ψt + ψm about z followed by θm about y, so q_bm = q_z(ψt + ψm) ⊗ q_y(θm)."""
-    ha, he = 0.5 * (angles[0] + angles[1]), 0.5 * angles[2]
-    ca, sa, ce, se = math.cos(ha), math.sin(ha), math.cos(he), math.sin(he)
-    return quat_mul(q_nb, (-sa * se, ca * se, sa * ce, ca * ce))
+    ψt + ψm about z followed by θm about y, so q_bm = q_z(ψt + ψm) ⊗ q_y(θm)
+    (:func:`.gyro_bias_ekf_kernels.measured_quat_nm`)."""
+    return kernels.measured_quat_nm(tuple(q_nb), float(angles[0]), float(angles[1]), float(angles[2]))
 
 
 def ins_error_jacobian(euler: Sequence[float]) -> np.ndarray:
     """J_e (3, 3): n-frame rotation δα of C_nb per Euler-angle error (δφ, δθ, δψ) [rad/rad],
-    i.e. C_nb(euler + δ) ≈ (I + [J_e δ ×]) C_nb(euler)."""
-    roll, pitch, yaw = euler
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([[cp * cy, -sy, 0.0], [cp * sy, cy, 0.0], [-sp, 0.0, 1.0]])
+    i.e. C_nb(euler + δ) ≈ (I + [J_e δ ×]) C_nb(euler) (:func:`.gyro_bias_ekf_kernels.ins_error_jacobian`)."""
+    return kernels.ins_error_jacobian(float(euler[1]), float(euler[2]))
 
 
 def encoder_error_jacobian(q_nb: Sequence[float], q_nm: Sequence[float]) -> np.ndarray:
     """(3, 3): n-frame rotation of C_nm per encoder error (ε_t, ε_m, ε_θ) [rad/rad], from the
     (x, y, z, w) quaternions of C_nb and C_nm: turret and gimbal azimuth turn about
-    u = C_nb e3, the elevation about v = C_nm e2."""
-    bx, by, bz, bw = q_nb
-    mx, my, mz, mw = q_nm
-    u0, u1, u2 = 2.0 * (bx * bz + by * bw), 2.0 * (by * bz - bx * bw), 1.0 - 2.0 * (bx * bx + by * by)
-    v0, v1, v2 = 2.0 * (mx * my - mz * mw), 1.0 - 2.0 * (mx * mx + mz * mz), 2.0 * (my * mz + mx * mw)
-    return np.array([[u0, u0, v0], [u1, u1, v1], [u2, u2, v2]])
+    u = C_nb e3, the elevation about v = C_nm e2 (:func:`.gyro_bias_ekf_kernels.encoder_error_jacobian`)."""
+    return kernels.encoder_error_jacobian(tuple(float(v) for v in q_nb), tuple(float(v) for v in q_nm))
 
 
 def roll_rate_matrix(theta_m: float) -> np.ndarray:

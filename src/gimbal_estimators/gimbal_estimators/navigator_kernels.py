@@ -1,6 +1,7 @@
 """Compiled per-sample kernels of the platform navigator (numba ``njit``): plain functions
 of floats. :class:`.platform_navigator.PlatformNavigator` holds the state (L, λ, h, v_NED,
-δa) and calls :func:`integrate` and :func:`command_rate`; the WGS-84 radii and gravity are
+δa, ...) in a vector and calls :func:`navigator_step` per sample, which calls
+:func:`integrate` and :func:`command_rate` (the compiled engine calls it too); the WGS-84 radii and gravity are
 :mod:`gimbal_kinematics.earth_kernels`'. The maths is the navigator's module docstring:
 
     v_N⁺ = v_N + Δt (f_N − (w_E v_D − w_D v_E)),   v_E⁺ = v_E + Δt (f_E − (w_D v_N − w_N v_D)),
@@ -66,3 +67,43 @@ def command_rate(lat: float, hgt: float, vn: float, ve: float, c: float, s: floa
     we = -vn / rm - (s * ex + c * ey)
     wd = -OMEGA_IE * sl - ve * sl / (cl * rn) - ez
     return wn, we, wd
+
+
+# -- one navigator sample over state and parameter vectors --------------------------------------
+(N_LAT, N_LON, N_H, N_VN, N_VE, N_VD, N_DA, N_PSI_LAST, N_ACCEPTED, N_CMD_N, N_CMD_E, N_CMD_D, N_PSI,
+ N_TORQUING) = range(14)
+N_STATE = 14
+(Q_BIAS_X, Q_BIAS_Y, Q_BIAS_Z, Q_HEADING, Q_TORQUE_OUT_S, Q_K1, Q_K2, Q_K3, Q_H_REF, Q_NORTH_DRIFT, Q_EX, Q_EY,
+ Q_EZ, Q_TORQUE_N, Q_TORQUE_E, Q_TORQUE_D) = range(16)
+N_PARAMS = 16
+
+
+@njit(cache=True)
+def navigator_step(s, q, first: bool, dt: float, elapsed: float, fx: float, fy: float, fz: float,
+                   theta: float) -> None:
+    """One accepted sample: the specific force f_s [m/s²] less the hand-off bias, resolved
+    through ψ̂ = θ + heading, integrated over the ``dt`` [s] since the last sample (none on
+    the ``first``; :func:`integrate`), and the command rate ω_c^n (:func:`command_rate`,
+    with ε̂_s resolved at ψ̂ + ½ Δψ̂, plus the torquing pulse while the ``elapsed`` time since
+    the first sample is under T) into ``s[N_CMD_N:N_CMD_D+1]``. The state ``s``
+    (:data:`N_STATE`) and parameters ``q`` (:data:`N_PARAMS`) are what
+    :class:`.platform_navigator.PlatformNavigator` holds; the caller keeps the stamps (integer
+    ns, exact also for epoch stamps) and passes their differences in seconds."""
+    s[N_ACCEPTED] += 1.0
+    fx, fy, fz = fx - q[Q_BIAS_X], fy - q[Q_BIAS_Y], fz - q[Q_BIAS_Z]
+    psi = theta + q[Q_HEADING]
+    c, sn = math.cos(psi), math.sin(psi)
+    psi_c = psi
+    if not first:
+        (s[N_LAT], s[N_LON], s[N_H], s[N_VN], s[N_VE], s[N_VD], s[N_DA]) = integrate(
+            s[N_LAT], s[N_LON], s[N_H], s[N_VN], s[N_VE], s[N_VD], s[N_DA], dt, c * fx - sn * fy, sn * fx + c * fy,
+            fz, q[Q_K1], q[Q_K2], q[Q_K3], q[Q_H_REF])
+        psi_c += 0.5 * _remainder_tau(psi - s[N_PSI_LAST])
+    s[N_PSI_LAST] = psi
+    torquing = elapsed < q[Q_TORQUE_OUT_S]
+    wn, we, wd = command_rate(s[N_LAT], s[N_H], s[N_VN], s[N_VE], math.cos(psi_c), math.sin(psi_c),
+                              q[Q_NORTH_DRIFT], q[Q_EX], q[Q_EY], q[Q_EZ])
+    if torquing:
+        wn, we, wd = wn + q[Q_TORQUE_N], we + q[Q_TORQUE_E], wd + q[Q_TORQUE_D]
+    s[N_CMD_N], s[N_CMD_E], s[N_CMD_D] = wn, we, wd
+    s[N_PSI], s[N_TORQUING] = psi, 1.0 if torquing else 0.0

@@ -112,6 +112,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Sequence
 
+import numpy as np
+
 from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_vertical_radius
 from gimbal_kinematics.stamps import Stamp, judge
 
@@ -175,7 +177,8 @@ class PlatformNavigator:
         self.params = params if params is not None else PlatformNavigatorParams()
         if not isinstance(self.params, PlatformNavigatorParams):
             raise TypeError(f"params must be PlatformNavigatorParams, got {type(self.params).__name__}")
-        self.accepted = 0
+        self.state = np.zeros(nk.N_STATE)  # the kernel's state vector (L, λ, h, v, δa, ...)
+        self.kernel_params = np.zeros(nk.N_PARAMS)
         self.rejected_nonfinite = 0
         self.rejected_out_of_order = 0
         self.rejected_no_resolver = 0
@@ -193,24 +196,43 @@ class PlatformNavigator:
         if abs(h.lat) >= math.radians(89.0):
             raise ValueError(f"hand_off: latitude {math.degrees(h.lat):.3f}° is within 1° of a pole")
         self._handoff = h
-        self.h_ref = float(h.height)
         g0 = normal_gravity(h.lat, h.height)
         r0 = math.sqrt(meridian_radius(h.lat) * prime_vertical_radius(h.lat)) + h.height
         tau = self.params.vertical_tau_s
-        self._k = (3.0 / tau, 3.0 / tau**2 + 2.0 * g0 / r0, 1.0 / tau**3)
+        k = (3.0 / tau, 3.0 / tau**2 + 2.0 * g0 / r0, 1.0 / tau**3)
         e, n, u = (float(v) for v in h.misalignment_enu)
         T = self.params.torque_out_s
-        self._torque_n = (-n / T, -e / T, u / T)  # −φ^n / T with φ^n = (δφN, δφE, −δφU)
+        torque_n = (-n / T, -e / T, u / T)  # −φ^n / T with φ^n = (δφN, δφE, −δφU)
+        self.kernel_params[:] = (*h.accel_bias_s, self.params.base_heading_rad, T, *k, float(h.height),
+                                 h.north_drift, *h.gyro_drift_s, *torque_n)
         self._start()
 
     def _start(self) -> None:
         h = self._handoff
-        self.lat, self.lon, self.height = float(h.lat), float(h.lon), float(h.height)
-        self.vn, self.ve, self.vd = (float(v) for v in h.velocity_n)
-        self._da = 0.0  # vertical loop's integral state [m/s²]
+        s = self.state
+        accepted = s[nk.N_ACCEPTED]
+        s[:] = 0.0
+        s[nk.N_LAT:nk.N_DA + 1] = (float(h.lat), float(h.lon), float(h.height), *(float(v) for v in h.velocity_n),
+                                   0.0)  # δa: the vertical loop's integral state [m/s²]
+        s[nk.N_ACCEPTED] = accepted
         self._t_last_ns: int | None = None
         self._t0_ns: int | None = None
-        self._psi_last = 0.0
+
+    def _value(self, index: int) -> float:
+        return float(self.state[index])
+
+    lat = property(lambda self: self._value(nk.N_LAT), doc="latitude L [rad]")
+    lon = property(lambda self: self._value(nk.N_LON), doc="longitude λ [rad]")
+    height = property(lambda self: self._value(nk.N_H), doc="height h [m]")
+    vn = property(lambda self: self._value(nk.N_VN), doc="north velocity [m/s]")
+    ve = property(lambda self: self._value(nk.N_VE), doc="east velocity [m/s]")
+    vd = property(lambda self: self._value(nk.N_VD), doc="down velocity [m/s]")
+    accepted = property(lambda self: int(self.state[nk.N_ACCEPTED]), doc="samples integrated")
+
+    @property
+    def h_ref(self) -> float:
+        """Reference height of the vertical channel [m]."""
+        return float(self.kernel_params[nk.Q_H_REF])
 
     def reset(self, reason: str) -> None:
         """Restart from the hand-off values; ``reason`` goes to ``reset_reasons``."""
@@ -223,7 +245,7 @@ class PlatformNavigator:
         h_ref = float(h_ref)
         if not math.isfinite(h_ref):
             raise ValueError(f"reference height must be finite, got {h_ref!r}")
-        self.h_ref = h_ref
+        self.kernel_params[nk.Q_H_REF] = h_ref
 
     # -- input checks ----------------------------------------------------------------------
     def _stamp_verdict(self, t_ns: int) -> Stamp:
@@ -269,39 +291,17 @@ class PlatformNavigator:
         if sample is None:
             return None
         t_ns = int(t_ns)
-        self.accepted += 1
-        h = self._handoff
-        fx, fy, fz = (sample[0] - h.accel_bias_s[0], sample[1] - h.accel_bias_s[1],
-                      sample[2] - h.accel_bias_s[2])
-        psi = sample[3] + self.params.base_heading_rad  # θ_a or φz (module docstring)
-        c, s = math.cos(psi), math.sin(psi)
-        # the command is held until the next sample: resolve the platform-fixed drift at the
-        # azimuth half an interval ahead (the last interval's turn), not where it starts
-        psi_c = psi
-        if self._t_last_ns is None:
+        first = self._t_last_ns is None
+        if first:
             self._t0_ns = t_ns
-        else:
-            self._integrate((t_ns - self._t_last_ns) * 1e-9, c * fx - s * fy, s * fx + c * fy, fz)
-            psi_c += 0.5 * math.remainder(psi - self._psi_last, math.tau)
-        self._t_last_ns, self._psi_last = t_ns, psi
-        torquing = (t_ns - self._t0_ns) * 1e-9 < self.params.torque_out_s
+        dt = 0.0 if first else (t_ns - self._t_last_ns) * 1e-9
+        self._t_last_ns = t_ns
+        s = self.state
+        nk.navigator_step(s, self.kernel_params, first, dt, (t_ns - self._t0_ns) * 1e-9, sample[0], sample[1],
+                          sample[2], sample[3])
         return NavigatorOutput(t_ns, (self.vn, self.ve, self.vd), self.lat, self.lon, self.height,
-                               self._command_rate(math.cos(psi_c), math.sin(psi_c), torquing), psi, torquing)
-
-    def _integrate(self, dt: float, f_n: float, f_e: float, f_d: float) -> None:
-        k1, k2, k3 = self._k
-        (self.lat, self.lon, self.height, self.vn, self.ve, self.vd, self._da) = nk.integrate(
-            self.lat, self.lon, self.height, self.vn, self.ve, self.vd, self._da, dt, f_n, f_e, f_d, k1, k2, k3,
-            self.h_ref)
-
-    def _command_rate(self, c: float, s: float, torquing: bool) -> tuple[float, float, float]:
-        h = self._handoff
-        ex, ey, ez = h.gyro_drift_s
-        wn, we, wd = nk.command_rate(self.lat, self.height, self.vn, self.ve, c, s, h.north_drift, ex, ey, ez)
-        if torquing:
-            tn, te, td = self._torque_n
-            return wn + tn, we + te, wd + td
-        return wn, we, wd
+                               tuple(s[nk.N_CMD_N:nk.N_CMD_D + 1].tolist()), float(s[nk.N_PSI]),
+                               bool(s[nk.N_TORQUING]))
 
     # -- outputs -----------------------------------------------------------------------------
     def counters(self) -> dict[str, int]:

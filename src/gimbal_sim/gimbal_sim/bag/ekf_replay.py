@@ -1,6 +1,8 @@
 """A bag's recorded sensor topics fed into the gyro-bias EKF core, as the ``gyro_bias_ekf``
-node feeds them: what ``gimbal-report --report consistency`` judges and what ``gimbal-bench``
-times as the replay limit.
+node feeds them and through the engine's own step of that node (one stamp's samples in the
+node's order, :func:`gimbal_estimators.gyro_bias_ekf_stamp.feed_stamp`, which the engine's
+``gyro_bias_ekf`` stage calls): what ``gimbal-report --report consistency`` judges, what
+``gimbal-bench`` times as the replay limit and what ``tools.replay_speed`` checks the node against.
 """
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ from typing import Any, Iterator
 
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_stamp import feed_stamp
 from gimbal_kinematics.rotations import euler321_from_quat
 from gimbal_kinematics.ros import messages as m
 
@@ -26,28 +29,47 @@ _EKF_RANK = {"/gimbal/joint_states": 0, "/ins/imu": 1, "/gimbal/imu": 2}
 def ekf_outputs(messages: list, ekf: GyroBiasEkf, t0_ns: int | None = None) -> Iterator[tuple[int, Any]]:
     """Feed recorded sensor messages (``RawMessage``s of :data:`EKF_INPUTS`, sorted here by
     log time, the node's order within a stamp) into ``ekf`` as the ``gyro_bias_ekf`` node
-    does; yield ``(stamp [ns], output)`` for every :class:`EkfOutput` the core produces.
+    does, one stamp at a time through the engine's step
+    (:func:`gimbal_estimators.gyro_bias_ekf_stamp.feed_stamp`); yield ``(stamp [ns], output)``
+    for every :class:`EkfOutput` the core produces.
 
     Times go to the core as seconds from ``t0_ns`` (default: the first stamp, as the node
     does in free timing; the lockstep node uses 0), so an epoch start near 1.8e9 s keeps
     nanosecond resolution.
     """
     messages = sorted(messages, key=lambda msg: (msg.log_time_ns, _EKF_RANK[msg.topic]))
+    outputs: list = []
+    for stamp_ns, group in _stamps(messages):
+        t0_ns = stamp_ns if t0_ns is None else t0_ns
+        feed_stamp(ekf, (stamp_ns - t0_ns) * 1e-9, group.get("/gimbal/joint_states"), group.get("/ins/imu"),
+                   group.get("/gimbal/imu"), outputs.append)
+        for out in outputs:
+            yield t0_ns + int(round(out.t * 1e9)), out
+        outputs.clear()
+
+
+def _stamps(messages: list) -> Iterator[tuple[int, dict[str, tuple]]]:
+    """The sorted messages decoded, as runs of consecutive messages of one header stamp in
+    the node's order (a message out of that order, or of another stamp, starts the next run):
+    ``(stamp [ns], {topic: the core's arguments})``, so that the core gets every message in
+    the bag's order at its own stamp."""
+    group: dict[str, tuple] = {}
+    stamp = rank = None
     for msg in messages:
-        if msg.topic == "/gimbal/imu":
-            d = m.imu_from_cdr(msg.data)
-            t0_ns = d.stamp_ns if t0_ns is None else t0_ns
-            ekf.on_gyro((d.stamp_ns - t0_ns) * 1e-9, d.angular_velocity[1], d.angular_velocity[2])
-        elif msg.topic == "/gimbal/joint_states":
+        if msg.topic == "/gimbal/joint_states":
             d = m.joint_state_from_cdr(msg.data)
-            t0_ns = d.stamp_ns if t0_ns is None else t0_ns
-            ekf.on_encoders((d.stamp_ns - t0_ns) * 1e-9, d.position, d.velocity)
+            args: tuple = (d.position, d.velocity)
         else:
             d = m.imu_from_cdr(msg.data)
-            t0_ns = d.stamp_ns if t0_ns is None else t0_ns
-            ekf.on_ins((d.stamp_ns - t0_ns) * 1e-9, euler321_from_quat(d.orientation), d.angular_velocity)
-        for out in ekf.take_outputs():
-            yield t0_ns + int(round(out.t * 1e9)), out
+            args = ((d.angular_velocity[1], d.angular_velocity[2]) if msg.topic == "/gimbal/imu"
+                    else (euler321_from_quat(d.orientation), d.angular_velocity))
+        r = _EKF_RANK[msg.topic]
+        if group and (d.stamp_ns != stamp or r <= rank):
+            yield stamp, group
+            group = {}
+        group[msg.topic], stamp, rank = args, d.stamp_ns, r
+    if group:
+        yield stamp, group
 
 
 def replay_bag(bag: Path, values: dict[str, Any]) -> tuple[float, float, float, int] | None:

@@ -6,7 +6,10 @@ Four runners have their own CLIs and printed tables:
 runner's modes or cases), a run function for ``engine: core`` (the runner's own loop, no
 ROS: one seed of one variant, returning its metrics mapping), and, where a scenario's
 report carries the figures its table needs, the scenario for ``engine: graph`` (real nodes
-through ``gimbal-run``). A :class:`~.spec.CampaignSpec` with ``experiment`` set is
+through ``gimbal-run``). An experiment that is only a declaration (``run`` None: scenario,
+variants, options as scenario parameters, table) runs that scenario on the one engine for
+``engine: core`` too (``gimbal_sim.core.engine_run.run_engine``: the run's bag, then its
+report), so its table comes from reports over the runs' recordings. A :class:`~.spec.CampaignSpec` with ``experiment`` set is
 planned here (:func:`plan_experiment`), so those runs go through the same engine as any
 campaign: one Dask task per run (or serially in-process), a campaign directory with each
 run's ``report/metrics.json``, ``results.parquet``, ``--resume`` and the campaign report.
@@ -60,7 +63,8 @@ class ExperimentCampaign:
     name: str
     variants: tuple[str, ...]
     defaults: dict[str, Any]
-    run: ExperimentRun
+    #: None: a declaration, whose runs are ``graph``'s scenario on either engine
+    run: ExperimentRun | None
     graph: GraphEquivalent | None = None
     #: the variants run when none is named (None: all); the others only with --variant
     default_variants: tuple[str, ...] | None = None
@@ -81,8 +85,8 @@ def _options(exp: ExperimentCampaign, given: tuple[tuple[str, Any], ...]) -> dic
 def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan:
     """The :class:`~.spec.CampaignPlan` of the experiment campaign ``spec`` of ``exp``
     (``spec.experiment`` names it): variant × seed runs of the runner's core loop, or
-    (``engine: graph``) the runs of its scenario relabelled with the experiment's variant
-    names."""
+    (``engine: graph``, or any engine of a declaration) the runs of its scenario relabelled
+    with the experiment's variant names."""
     if spec.experiment != exp.name:
         raise CampaignError(f"experiment: campaign of {spec.experiment!r} given experiment {exp.name!r}")
     if spec.sweeps or spec.overrides:
@@ -95,7 +99,7 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
     options = _options(exp, spec.options)
     fingerprint = {"experiment": exp.name, "engine": spec.engine, "options": options,
                    "mode": spec.mode if spec.engine == "graph" else None, **spec.review_dict()}
-    if spec.engine == "core":
+    if spec.engine == "core" and exp.run is not None:
         runs = tuple(PlannedRun(run_id(exp.name, v, seed, options), v, seed, {}, None)
                      for seed in spec.seeds for v in variants)
         return CampaignPlan(spec, None, runs, fingerprint)
@@ -103,18 +107,25 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
     if graph is None:
         raise CampaignError(f"experiment {exp.name}: no scenario's report carries its table's figures; "
                             "--engine graph is not available (use core)")
+    return _scenario_plan(spec, exp, graph, variants, options, fingerprint)
+
+
+def _scenario_plan(spec: CampaignSpec, exp: ExperimentCampaign, graph: GraphEquivalent, variants: tuple[str, ...],
+                   options: dict[str, Any], fingerprint: dict[str, Any]) -> CampaignPlan:
+    """The runs of ``graph``'s scenario on ``spec``'s engine, relabelled with the
+    experiment's variant names (:func:`plan_experiment`)."""
     missing = [v for v in variants if v not in graph.variants]
     if missing:
         raise CampaignError(f"experiment {exp.name}: variant(s) {missing} have no variant of scenario "
-                            f"{graph.scenario!r}; --engine graph runs {sorted(graph.variants)}")
+                            f"{graph.scenario!r}; --engine {spec.engine} runs {sorted(graph.variants)}")
     fixed = [k for k, v in options.items() if k not in graph.options and v != exp.defaults[k]]
     if fixed:
         raise CampaignError(f"experiment {exp.name}: option(s) {fixed} have no equivalent in scenario "
-                            f"{graph.scenario!r}; --engine graph takes only {sorted(graph.options)}")
+                            f"{graph.scenario!r}; --engine {spec.engine} takes only {sorted(graph.options)}")
     duration, overrides = graph.translate(options)
     scenario_variants = tuple(graph.variants[v] for v in variants if graph.variants[v] is not None)
     inner = plan(CampaignSpec(scenario=graph.scenario, seeds=spec.seeds, variants=scenario_variants,
-                              duration_s=duration, mode=spec.mode, engine="graph", overrides=overrides,
+                              duration_s=duration, mode=spec.mode, engine=spec.engine, overrides=overrides,
                               keep_bags=spec.keep_bags, timeout_s=spec.timeout_s, compress=spec.compress))
     label = {graph.variants[v] or "": v for v in variants}
     runs = tuple(dataclasses.replace(r, variant=label[r.variant]) for r in inner.runs)

@@ -12,7 +12,7 @@ from functools import partial
 from pathlib import Path
 from typing import Iterator
 
-from .engine import Runners, run_campaign
+from .engine import CoreRun, Runners, run_campaign
 from .experiment import ExperimentCampaign, plan_experiment, run_experiment_task
 from .report import write_campaign_report
 from .results import CampaignResult
@@ -36,7 +36,7 @@ def campaign_dir(out: str | None) -> Iterator[Path]:
 def add_engine_arguments(ap: argparse.ArgumentParser, *, graph: bool) -> None:
     """The campaign options every runner CLI takes (argparse parser ``ap``)."""
     ap.add_argument("--engine", choices=("core", "graph") if graph else ("core",), default="core",
-                    help="core: this runner's own loop (no ROS, default); graph: the real nodes through "
+                    help="core: the no-ROS engine (default); graph: the real nodes through "
                          "gimbal-run (the scenario's report gives the figures)" if graph else
                          "core: this runner's own loop (no scenario's report carries this table's figures)")
     ap.add_argument("--mode", choices=("container", "processes"), default="container",
@@ -50,23 +50,31 @@ def add_engine_arguments(ap: argparse.ArgumentParser, *, graph: bool) -> None:
     ap.add_argument("--resume", action="store_true", help="with --out: skip the runs that have results")
 
 
-def experiment_runners(spec: CampaignSpec, exp: ExperimentCampaign) -> Runners:
+def experiment_runners(spec: CampaignSpec, exp: ExperimentCampaign, core_run: CoreRun | None = None) -> Runners:
     """What the engine runs an experiment campaign's tasks with: the runner's own loop for
-    ``engine: core``; ``engine: graph`` runs are the scenario's (``gimbal-run``)."""
-    return Runners(run_fn=partial(run_experiment_task, exp)) if spec.engine == "core" else Runners()
+    ``engine: core``, or for a declaration (``exp.run`` None) ``core_run`` (the engine's run
+    of the scenario with its bag and report); ``engine: graph`` runs are the scenario's
+    (``gimbal-run``)."""
+    if spec.engine != "core":
+        return Runners()
+    if exp.run is None:
+        if core_run is None:
+            raise CampaignError(f"experiment {exp.name}: its runs are scenario runs; the engine's run is needed")
+        return Runners(core_run=core_run)
+    return Runners(run_fn=partial(run_experiment_task, exp))
 
 
 def run_for_cli(ap: argparse.ArgumentParser, args: argparse.Namespace, spec: CampaignSpec, out: Path,
-                exp: ExperimentCampaign) -> CampaignResult:
+                exp: ExperimentCampaign, core_run: CoreRun | None = None) -> CampaignResult:
     """Run the campaign ``spec`` of experiment ``exp`` for a runner's CLI: bad input exits 2
     naming it (through ``ap.error``), a failed run exits 1 naming it; returns the
-    :class:`~.results.CampaignResult`."""
+    :class:`~.results.CampaignResult` (``core_run``: :func:`experiment_runners`)."""
     if args.jobs < 1:
         ap.error(f"--jobs must be >= 1, got {args.jobs}")
     serial = args.jobs == 1 and not args.scheduler
     try:
         result = run_campaign(spec, out, plan=partial(plan_experiment, exp=exp), report=write_campaign_report,
-                              runners=experiment_runners(spec, exp), resume=args.resume,
+                              runners=experiment_runners(spec, exp, core_run), resume=args.resume,
                               scheduler=args.scheduler, workers=args.jobs, serial=serial)
     except CampaignError as exc:
         ap.error(str(exc))

@@ -1,5 +1,7 @@
-"""Idealised stages for :func:`.core_loop.run_stages`: what paper 1's runners put where the
-graph has a node, to measure one part of the loop alone (no ROS, no node behind them).
+"""Idealised stages for :func:`.core_loop.run_stages`: what paper 1's analysis runners
+(``experiments.bias_ekf``, ``experiments.closed_loop``) put where the graph has a node, to
+measure one part of the loop alone (no ROS, no node behind them, no bag: the published
+figures come from scenarios' runs). They read the truth, which no deployed node can.
 
 * :func:`truth_stabilizer_stage`: the gimbal held from the *true* attitude and rates
   (:class:`TruthStabilizer`), so that an estimator run open loop is the only thing measured

@@ -10,9 +10,11 @@ holds the order). So for a seed the loop computes the same numbers as the graph;
 made by the node's own serialisation function, and the bag holds the graph's data
 (:mod:`.engine_run`, ``gimbal-run --engine core``).
 
-:func:`run_core_loop` runs a scenario; :func:`run_stages` is the loop itself, which paper 1's
-runners (``experiments.sighting_loop``, ``bias_ekf``, ``closed_loop``) call with their own
-stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each step's bus.
+:func:`run_core_loop` runs a scenario (a node set that a compiled runner of :mod:`.compiled`
+steps whole goes there: the same numbers, block by block); :func:`run_stages` is the loop
+itself, which the analysis runners (``experiments.bias_ekf``, ``closed_loop``, ``flexure``)
+call with their own stages (:mod:`.core_stages`, :mod:`.core_ideal`) and an observer of each
+step's bus.
 
 ``python -m gimbal_sim.core.core_loop SCENARIO [--duration S] [--seed N] [--json]`` runs one
 unrecorded (``gimbal-bench`` runs it in a subprocess, so that its peak RSS is its own).
@@ -25,8 +27,6 @@ import json
 import sys
 import time
 from array import array
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable
 
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
@@ -38,31 +38,11 @@ from .core_stages import (
 )
 from .estimator_stages import flexure_estimator_stage, free_gyro_positioning_stage, platform_alignment_stage
 from .platform_stages import platform_navigator_node_stage, platform_servo_node_stage
-from ..graph.plan import plan_nodes, process_stats
-from ..graph.registry import NODE_TYPES
+from .compiled import compiled_runner
+from .loop_plan import PASSIVE, CoreLoopResult, NoCoreError, node_values  # noqa: F401 (the loop's public names)
+from ..graph.plan import process_stats
 from ..graph.scenario import Scenario, ScenarioError, load
 from ..world.vehicle import VehicleConfig, VehicleCore
-
-#: Nodes with no core to step (they only observe the run).
-PASSIVE = {"bag_recorder"}
-
-
-class NoCoreError(ScenarioError):
-    """The scenario has a node whose core this loop cannot step."""
-
-
-def node_values(scenario: Scenario) -> dict[str, tuple[str, dict[str, Any]]]:
-    """node name -> (executable, every parameter value the node would read: its declared
-    defaults, then the scenario's values, then what the orchestrator sets)."""
-    out = {}
-    for planned in plan_nodes(scenario, Path("/nonexistent")):
-        if planned.executable in PASSIVE:
-            continue
-        values = {p.name: p.default for p in NODE_TYPES[planned.executable].params}
-        values.update(planned.params)
-        out[planned.name] = (planned.executable, values)
-    return out
-
 
 #: executable -> the function making its stage from the node's parameter values and name, in
 #: lockstep order (vehicle_dynamics is the loop itself).
@@ -79,20 +59,6 @@ STAGES: dict[str, Callable[[dict[str, Any], str], Callable[[Bus], None]]] = {
     "platform_alignment": platform_alignment_stage,
     "free_gyro_positioning": free_gyro_positioning_stage,
 }
-
-
-@dataclass
-class CoreLoopResult:
-    steps: int                 # lockstep steps taken (truth k -> k+1)
-    sim_s: float
-    wall_s: float
-    cpu_s: float
-    step_latency_s: array      # wall time of each step [s], when kept (else empty)
-    commands: list | None      # torque commands per step, when recorded
-
-    @property
-    def steps_per_s(self) -> float:
-        return self.steps / self.wall_s if self.wall_s > 0 else float("inf")
 
 
 def check_stages(values: dict[str, tuple[str, dict[str, Any]]]) -> None:
@@ -119,12 +85,21 @@ def core_plan(scenario: Scenario) -> tuple[VehicleCore, bool, list[Callable[[Bus
 
 def run_core_loop(scenario: Scenario, keep_commands: bool = False,
                   observer: Callable[[Bus], None] | None = None,
-                  record: Callable[[str, list], None] | None = None, keep_latency: bool = False) -> CoreLoopResult:
+                  record: Callable[[str, list], None] | None = None, keep_latency: bool = False,
+                  compiled: bool = True) -> CoreLoopResult:
     """Step the scenario's cores (module docstring); raises :class:`NoCoreError`.
 
     ``observer(bus)``, when given, sees each step's bus after every stage ran and before the
     vehicle steps (what the step's messages carry: a run's metrics are computed from it);
-    ``record`` (:class:`.recording.EngineBag`) gets every node's messages."""
+    ``record`` (:class:`.recording.EngineBag`) gets every node's messages. A node set that a
+    compiled runner steps (:mod:`.compiled`) runs there when no per-step Python is asked for
+    (no ``observer`` or latencies kept; ``compiled=False``: always this loop): the same
+    numbers, block by block."""
+    if compiled and observer is None and not keep_latency:
+        values = node_values(scenario)
+        run = compiled_runner(values, keep_commands)
+        if run is not None:
+            return run(scenario, values, keep_commands, record)
     vehicle, controlled, stages = core_plan(scenario)
     return run_stages(vehicle, stages, controlled=controlled, keep_commands=keep_commands, observer=observer,
                       record=record, keep_latency=keep_latency)

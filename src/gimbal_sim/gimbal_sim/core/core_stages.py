@@ -22,6 +22,7 @@ from gimbal_control.los_rate_controller import LosRateController, LosRateControl
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_stamp import feed_stamp
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
@@ -30,7 +31,7 @@ from gimbal_control.wire import encoder_fusion_messages, geo_pointer_messages, t
 from gimbal_estimators.wire import ekf_messages
 
 from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
-from ..world.operator_model import OperatorModelParams, SightOperator
+from ..world.operator_model import operator_core
 from ..world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
     SensorSuiteConfig,
@@ -138,33 +139,25 @@ def gyro_bias_ekf_stage(values: dict[str, Any], name: str = "gyro_bias_ekf") -> 
     return ekf_stage(GyroBiasEkf(GyroBiasEkfParams.from_values(values)), name)
 
 
-def _publish_ekf(bus: Bus, ekf: GyroBiasEkf, name: str) -> None:
-    """What the node publishes after a core call: each output it completed, with the core's
-    bias-corrected rate at that moment (the node's ``_after``)."""
-    for out in ekf.take_outputs():
-        if bus.record is not None:
-            bus.record(name, ekf_messages(int(round(out.t * 1e9)), out.bias, out.bias_sigma, out.quat_nm,
-                                          out.attitude_cov, ekf.corrected_rate))
-
-
 def ekf_stage(ekf: GyroBiasEkf, name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
     """What ``gyro_bias_ekf`` does with ``ekf``: INS (Euler angles from its quaternion), gyro
     and encoders of step k, encoders and INS before the gyro sample of the same stamp (the
-    node's :class:`gimbal_kinematics.sync.StampOrder`); leaves the bias estimate on the bus
-    when an update completed, and the whole output (bias, σ, attitude) in ``bus.ekf``."""
+    node's :class:`gimbal_kinematics.sync.StampOrder`, :func:`gimbal_estimators.gyro_bias_ekf_stamp.feed_stamp`,
+    which a bag's replay shares); leaves the bias estimate on the bus when an update
+    completed, and the whole output (bias, σ, attitude) in ``bus.ekf``. Recorded: each
+    output the core completed, with its bias-corrected rate at that moment (the node's ``_after``)."""
+    publish = [None]
+
+    def record(out) -> None:
+        publish[0](name, ekf_messages(int(round(out.t * 1e9)), out.bias, out.bias_sigma, out.quat_nm,
+                                      out.attitude_cov, ekf.corrected_rate))
 
     def stage(bus: Bus) -> None:
-        t = bus.t
-        out = None
-        if bus.encoders is not None:
-            out = ekf.on_encoders(t, bus.encoders.angles, bus.encoders.rates) or out
-            _publish_ekf(bus, ekf, name)
-        if bus.ins is not None:
-            out = ekf.on_ins(t, bus.ins_euler, bus.ins.omega_b) or out
-            _publish_ekf(bus, ekf, name)
-        if bus.gyro is not None:
-            out = ekf.on_gyro(t, bus.gyro.q_m, bus.gyro.r_m) or out
-            _publish_ekf(bus, ekf, name)
+        enc, ins, gyro = bus.encoders, bus.ins, bus.gyro
+        publish[0] = bus.record
+        out = feed_stamp(ekf, bus.t, None if enc is None else (enc.angles, enc.rates),
+                         None if ins is None else (bus.ins_euler, ins.omega_b),
+                         None if gyro is None else (gyro.q_m, gyro.r_m), None if bus.record is None else record)
         bus.bias = None if out is None else tuple(out.bias.tolist())
         bus.ekf = out
     return stage
@@ -172,12 +165,11 @@ def ekf_stage(ekf: GyroBiasEkf, name: str = "gyro_bias_ekf") -> Callable[[Bus], 
 
 def operator_stage(values: dict[str, Any], name: str = "operator") -> Callable[[Bus], None]:
     """``operator``: at each of its steps (``rate_hz``) the command and pointing error from the
-    true sight attitude of the step (the node's ``_on_truth``); None on the bus between."""
-    core = SightOperator(OperatorModelParams.from_values(values), values["capture_s"], values["lat_deg"],
-                         values["earth_rate"])
+    true sight attitude of the step, or its scripted step (``script: step``) (the node's
+    ``_on_truth``); None on the bus between."""
+    core = operator_core(values)
     rate = values["sim_rate_hz"]
     every = steps_per_sample(values, "rate_hz")
-    nan3 = (math.nan,) * 3
 
     def stage(bus: Bus) -> None:
         if bus.k % every:
@@ -186,7 +178,7 @@ def operator_stage(values: dict[str, Any], name: str = "operator") -> Callable[[
         stamp = step_stamp_ns(bus.k, rate)
         q, r = core.step(stamp, bus.truth.quat_nm)
         bus.operator = (stamp, q, r)
-        bus.operator_error = (core.model.error, *core.model.error_qr) if core.target_i is not None else nan3
+        bus.operator_error = core.pointing_error()
         if bus.record is not None:
             bus.record(name, operator_messages(stamp, q, r, bus.operator_error))
     return stage

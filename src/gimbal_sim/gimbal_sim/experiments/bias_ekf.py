@@ -1,10 +1,15 @@
-"""Open-loop experiment for the gyro-bias EKF on the no-ROS core engine: truth + sensors -> GyroBiasEkf.
+"""An analysis runner (not a scenario): the gyro-bias EKF open loop on the engine's one loop
+(:func:`..core.core_loop.run_stages`): truth + sensors -> GyroBiasEkf.
 
-The sensor and EKF stages are the graph's (:mod:`..core_stages`); the gimbal is held by an
+The sensor and EKF stages are the graph's (:mod:`..core.core_stages`); the gimbal is held by an
 idealised stabilizer that uses the *true* attitude and rates
-(:class:`..core_ideal.TruthStabilizer`: the EKF's accuracy hardly depends on the
+(:class:`..core.core_ideal.TruthStabilizer`: the EKF's accuracy hardly depends on the
 controller, and keeping it out of the loop makes the estimator the only thing measured).
-The EKF estimates are not fed back ("open loop").
+The EKF estimates are not fed back ("open loop"). It stays a runner rather than a scenario
+because no node holds a gimbal from the truth (a simulator's shortcut, not a capability a
+user deploys) and its NEES needs what no bag carries: the EKF's full covariance and the INS
+model's true attitude errors. It writes no bag; the published paper 1 figures come from the
+scenarios' bags (docs/results/paper1.md).
 
     run_open_loop_ekf(seed, duration_s, sensors_config) -> BiasEkfRun
     run_monte_carlo(seeds, duration_s, sensors_config)  -> MonteCarloSummary

@@ -1,8 +1,12 @@
-"""Paper 1's LOS rate loop alone, without ROS: vehicle, gyro and LosRateController on the core
-engine (:func:`..core_loop.run_stages`) with ideal encoders and INS.
+"""An analysis runner (not a scenario): paper 1's LOS rate loop alone, without ROS: vehicle,
+gyro and LosRateController on the engine's one loop (:func:`..core.core_loop.run_stages`) with
+ideal encoders and INS.
 
-Used by the acceptance figure (LOS pointing error over 120 s, ideal gyro and
-paper 1's gyro noise; docs/results/paper1.md) and by the tests at a shorter span.
+The acceptance figure (LOS pointing error over 120 s, ideal gyro and paper 1's gyro noise;
+docs/results/paper1.md) comes from scenario ``los_stabilization``'s bags, its ideal sensors
+set as ``sensor_models`` values. This runner measures what no node does: the truth's encoders
+and INS rates at every step, a command applied some steps late (a loop-delay study), each
+noise model alone; the tests use it at a shorter span. It writes no bag.
 
 Measurements (:func:`..core_ideal.ideal_sensor_stage`): the gyro reads the truth's inertial
 rate of m about y, z at t_k (``'ideal'``), plus paper 1's ARW (``'noise'``:

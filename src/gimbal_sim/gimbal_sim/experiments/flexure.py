@@ -1,6 +1,7 @@
-"""Paper 5 flexure experiment: the ship simulation (gimbal_sim cores, no ROS) feeding
+"""Paper 5 flexure experiment: the ship simulation on the engine's one loop (the
+``sensor_models`` stage, :func:`..core.core_loop.run_stages`, no ROS) feeding
 :class:`~gimbal_estimators.flexure_kf.FlexureKf`, one filter per quasi-static model on the
-same LGU samples, scored against the simulator's flexure truth.
+same LGU samples, scored against the simulator's flexure truth at every filter epoch.
 
 Command line (prints the metrics of both models; with several seeds, a Monte Carlo table)::
 
@@ -21,7 +22,7 @@ import math
 import time
 from dataclasses import dataclass, field, replace
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -29,8 +30,10 @@ from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, Atti
 from gimbal_estimators.flexure_estimator_params import METHODS
 from gimbal_estimators.flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
 
+from ..core.core_loop import run_stages
+from ..core.core_stages import Bus, suite_stage
 from ..reports.flexure import flexure_metrics
-from ..world.sensor_suite import LguSample, SensorSuite, SensorSuiteConfig
+from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
 from ..world.sensors import FlexureParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from ..campaign.spec import CampaignSpec
@@ -178,48 +181,55 @@ def method_models(params: FlexureKfParams) -> dict[str, FlexureKfParams]:
 
 def _sail(vehicle: VehicleCore, suite: SensorSuite,
           filters: dict[str, FlexureKf]) -> tuple[dict[str, dict[str, list]], dict[str, float], int]:
-    """Step the ship to the end, feeding every LGU pair to every filter: each filter's rows
-    (:data:`SERIES`), its CPU time in the filter [s], and the number of pairs. The filters take
-    the pairs in turn, in alternating order, so that a change of the machine's load weighs
-    on every filter's time alike."""
+    """Step the ship to the end on the engine (:func:`..core.core_loop.run_stages`: the
+    ``sensor_models`` stage, then :func:`_filters_stage`), feeding every LGU pair to every
+    filter: each filter's rows (:data:`SERIES`), its CPU time in the filter [s], and the
+    number of pairs."""
     rows: dict[str, dict[str, list]] = {m: {k: [] for k in SERIES} for m in filters}
     filter_s = dict.fromkeys(filters, 0.0)
-    pairs = 0
+    pairs = [0]
+    run_stages(vehicle, [suite_stage(suite), _filters_stage(suite, filters, rows, filter_s, pairs)], controlled=False)
+    return rows, filter_s, pairs[0]
+
+
+def _filters_stage(suite: SensorSuite, filters: dict[str, FlexureKf], rows: dict[str, dict[str, list]],
+                   filter_s: dict[str, float], pairs: list[int]) -> Callable[[Bus], None]:
+    """The step's LGU pair (``bus.lgu``) into every filter, their estimates into ``rows`` with
+    the truth. The filters take the pairs in turn, in alternating order, so that a change of
+    the machine's load weighs on every filter's time alike."""
     # CPU time of this process, not wall time: on a shared machine other processes' turns
     # would count as filter time otherwise
     clock = time.process_time
     orders = (tuple(filters.items()), tuple(reversed(filters.items())))
-    while True:
-        for sample in suite.update(vehicle.truth()):
-            if not isinstance(sample, LguSample):
+
+    def stage(bus: Bus) -> None:
+        sample = bus.lgu
+        if sample is None:
+            return
+        pairs[0] += 1
+        truth_eps = None
+        for m, kf in orders[pairs[0] % 2]:
+            c0 = clock()
+            kf.on_lgu1(sample.t, sample.dalpha1, sample.dt)
+            est = kf.on_lgu2(sample.t, sample.dalpha2, sample.dt)
+            filter_s[m] += clock() - c0
+            if est is None:
                 continue
-            pairs += 1
-            truth_eps = None
-            for m, kf in orders[pairs % 2]:
-                c0 = clock()
-                kf.on_lgu1(sample.t, sample.dalpha1, sample.dt)
-                est = kf.on_lgu2(sample.t, sample.dalpha2, sample.dt)
-                filter_s[m] += clock() - c0
-                if est is None:
-                    continue
-                if truth_eps is None:
-                    truth_eps = suite.lgu.lgu1.true_bias - suite.lgu.lgu2.true_bias
-                r = rows[m]
-                r["t"].append(est.t)
-                r["truth_flexure"].append(sample.flexure)
-                r["truth_quasi_static"].append(sample.flexure_quasi_static)
-                r["truth_bias_diff"].append(truth_eps)
-                r["flexure"].append(est.flexure)
-                r["flexure_sigma"].append(est.flexure_sigma)
-                r["quasi_static"].append(est.quasi_static)
-                r["quasi_static_sigma"].append(est.quasi_static_sigma)
-                r["bias_diff"].append(est.bias_diff)
-                r["bias_diff_sigma"].append(est.bias_diff_sigma)
-                r["d2"].append(est.d2)
-        if vehicle.finished:
-            break
-        vehicle.step()
-    return rows, filter_s, pairs
+            if truth_eps is None:
+                truth_eps = suite.lgu.lgu1.true_bias - suite.lgu.lgu2.true_bias
+            r = rows[m]
+            r["t"].append(est.t)
+            r["truth_flexure"].append(sample.flexure)
+            r["truth_quasi_static"].append(sample.flexure_quasi_static)
+            r["truth_bias_diff"].append(truth_eps)
+            r["flexure"].append(est.flexure)
+            r["flexure_sigma"].append(est.flexure_sigma)
+            r["quasi_static"].append(est.quasi_static)
+            r["quasi_static_sigma"].append(est.quasi_static_sigma)
+            r["bias_diff"].append(est.bias_diff)
+            r["bias_diff_sigma"].append(est.bias_diff_sigma)
+            r["d2"].append(est.d2)
+    return stage
 
 
 def estimator_figures(result: FlexureExperimentResult) -> dict[str, Any]:

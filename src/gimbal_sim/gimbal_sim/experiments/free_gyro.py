@@ -22,6 +22,7 @@ from gimbal_kinematics.units import ARCSEC
 
 from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams, sailing_position
 from ..world.vehicle import VehicleConfig, VehicleCore
+from ..core.core_loop import run_stages
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
@@ -64,10 +65,8 @@ def simulate_truth(profile: str = "paper5_ship", lat_deg: float = 35.0, lon_deg:
     pp.update(profile_params or {})
     core = VehicleCore(VehicleConfig(profile=profile, profile_params=pp, plant="host_only",
                                      sim_rate_hz=rate_hz, duration_s=duration_s))
-    out = [core.truth()]
-    while not core.finished:
-        core.step(())
-        out.append(core.truth())
+    out: list = []
+    run_stages(core, [], controlled=False, observer=lambda bus: out.append(bus.truth))
     return out
 
 

@@ -67,12 +67,12 @@ from ..campaign.order_stats import quantile_interval
 from ..graph.scenario import load as load_scenario
 from ..core.core_loop import node_values, run_stages
 from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo_stage
-from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
+from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from .alignment import PAPER3_MISALIGNMENT_ARCSEC
 from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, RATE_HZ as SERVO_RATE_HZ, \
-    _platform_sim, alignment_setup, closed_loop, run_platform_servo
+    _platform_sim, alignment_setup, run_platform_servo
 
 #: The alignment phase of ``align_then_navigate`` [s]: 360° and back at 1.2 °/s (Table 2).
 ALIGNMENT_S = 600.0
@@ -217,7 +217,7 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
 def run_alignment_phase(seed: int, duration_s: float = ALIGNMENT_S, lat_deg: float = 40.0
                         ) -> tuple[PlatformStart, dict[str, Any]]:
     """Paper 3's fine alignment on the simulated platform at 1 kHz, as
-    :func:`.platform_servo.run_platform_alignment` runs it (rotation on, Table 2 initial
+    scenario ``rotational_ins_alignment`` runs it (rotation on, Table 2 initial
     misalignment, its sensor grades and noise). Returns the navigation start it leaves (the
     plant's gimbal angles at its end, the estimate as the hand-off at the site, −δφU as the
     heading) and the hand-off
@@ -231,14 +231,19 @@ def run_alignment_phase(seed: int, duration_s: float = ALIGNMENT_S, lat_deg: flo
                                                                    noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ))
     servo = PlatformServo(PlatformServoParams(lat_deg=lat_deg, rotate=True))
     rls = RotationAlignmentRls(RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ))
-    truth, biases = None, None
-    for truth, samples, _ in closed_loop(core, suite, servo):
-        for s in samples:
-            if isinstance(s, ResolverSample):
-                rls.on_joint_state(s.t, s.angles[0], s.rates[0])
-            elif isinstance(s, PlatformImuSample):
-                rls.on_accel(s.t, s.specific_force)
-                biases = (s.true_gyro_bias, s.true_accel_bias)
+    last: dict[str, Any] = {"truth": None, "biases": None}
+
+    def observe(bus) -> None:  # the step's samples, as the alignment node takes them
+        last["truth"] = bus.truth
+        if bus.resolvers is not None:
+            rls.on_joint_state(bus.resolvers.t, bus.resolvers.angles[0], bus.resolvers.rates[0])
+        imu = bus.platform_imu
+        if imu is not None:
+            rls.on_accel(imu.t, imu.specific_force)
+            last["biases"] = (imu.true_gyro_bias, imu.true_accel_bias)
+
+    run_stages(core, [platform_sensor_stage(suite), servo_stage(servo)], observer=observe)
+    truth, biases = last["truth"], last["biases"]
     est = rls.estimate()
     phi_true = platform_misalignment_enu(quat_to_dcm(truth.quat_nm), truth.joint_position[0])
     gyro_bias, accel_bias = biases

@@ -1,10 +1,10 @@
-"""Closed-loop paper 3 experiments in one process:
+"""Closed-loop paper 3 experiments:
 :class:`gimbal_control.platform_servo.PlatformServo` on gimbal_sim's four-gimbal platform on
-a static base (docs/spec.md §3.3), alone (scenario ``rotational_platform_servo``) and carrying the
-rotation-modulated alignment (:class:`gimbal_estimators.rotation_alignment.RotationAlignmentRls`,
-scenario ``rotational_ins_alignment``). The graph runs the same cores through ROS messages and gives
-the same numbers (test_platform_servo_node, test_platform_alignment_node); this module is
-the quick way to campaign over seeds::
+a static base (docs/spec.md §3.3), alone (its figures from the one engine's loop,
+:func:`gimbal_sim.core.core_loop.run_stages`, with an observer) and carrying the
+rotation-modulated alignment: the Table 2 campaign is a declaration (:data:`CAMPAIGN`),
+scenario ``rotational_ins_alignment``'s runs on the engine (each with its bag and
+``alignment`` report) or in the node graph, its table read from the runs' reports::
 
     python -m gimbal_sim.experiments.platform_servo alignment --seeds 1 2 3 4 5 6
     python -m gimbal_sim.experiments.platform_servo servo --duration 320
@@ -35,51 +35,29 @@ from __future__ import annotations
 import math
 import argparse
 import sys
-from typing import Any, Iterator, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
-from gimbal_control.platform_servo import PlatformServo, PlatformServoParams, ServoCommand
-from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
-from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm, platform_misalignment_enu
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, quat_to_dcm
+from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
+from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
+from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 from gimbal_kinematics.units import ARCSEC
 
 from ..world.plant import paper3_axis_params
-from ..world.sensor_suite import PAPER3_RESOLVER, PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
-from ..world.sensors import AccelerometerParams, GyroParams
+from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.vehicle import VehicleConfig, VehicleCore
+from ..core.core_loop import run_stages
+from ..core.platform_stages import platform_sensor_stage, servo_stage
 from ..reports.alignment import column_stats
-from .alignment import PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, alignment_metrics
+from .alignment import PAPER3_MISALIGNMENT_ARCSEC
+from .engine_runs import run_on_engine
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
 
 RATE_HZ = 1000.0  # paper 3's loop rate, also the simulation and sensor rate here
-
-
-def closed_loop(core, suite, servo: PlatformServo) -> Iterator[tuple[Any, list, ServoCommand | None]]:
-    """Step ``core`` (VehicleCore, four_gimbal_platform) under ``servo`` with ``suite``'s
-    platform IMU and resolvers, as the lockstep graph does: per step k, yields (truth_k,
-    the sensor samples of step k, the servo's output or None); the command is applied over
-    k → k+1. The last step's truth is yielded too (the graph publishes it)."""
-    cmd = (0.0, 0.0, 0.0, 0.0)
-    while True:
-        truth = core.truth()
-        samples = suite.update(truth)
-        out = None
-        for s in samples:  # the suite delivers a step's resolvers before its IMU
-            if isinstance(s, ResolverSample):
-                servo.on_resolvers(s.t, s.angles)
-            elif isinstance(s, PlatformImuSample):
-                out = servo.on_gyro(s.t, s.omega)
-                if out is not None:
-                    cmd = out.voltages
-        yield truth, samples, out
-        if core.finished:
-            return
-        core.step(cmd)
 
 
 def _platform_sim(duration_s: float, seed: int, profile_params: dict, initial_joints_deg: tuple = (),
@@ -125,16 +103,21 @@ def run_platform_servo(duration_s: float = 320.0, seed: int = 0, *, params: Plat
     pickoff = np.zeros((n, 3))
     current_a = np.zeros(n)
     volts = np.zeros((n, 4))
-    for truth, _, out in closed_loop(core, suite, servo):
-        k = truth.k
-        if out is not None:
-            phi[k] = out.phi_z
-            volts[k] = out.voltages
+    last = [None]  # the servo's last (t, φz, φ̇z): a new one is a tick's output
+
+    def observe(bus) -> None:
+        k, truth, mod = bus.k, bus.truth, bus.modulation
+        if mod is not None and mod is not last[0]:
+            last[0] = mod
+            phi[k] = mod[1]
+            volts[k] = servo.command_voltages
         th_a, th_q, th_p, _ = truth.joint_position
         e_a[k] = th_a - phi[k]
         level[k] = th_q, th_p
         pickoff[k] = servo.pickoff
         current_a[k] = truth.joint_effort[0] / kt_a
+
+    run_stages(core, [platform_sensor_stage(suite), servo_stage(servo)], observer=observe)
 
     reversals = servo.schedule.reversal_times(duration_s)
     in_window = np.zeros(n, dtype=bool)
@@ -194,95 +177,32 @@ def alignment_setup(misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_
     return -math.degrees(u), tuple(float(math.degrees(v)) for v in joints)  # type: ignore[return-value]
 
 
-def run_platform_alignment(seed: int, rotate: bool = True, duration_s: float = 600.0, *, lat_deg: float = 40.0,
-                           misalignment0_arcsec: Sequence[float] = PAPER3_MISALIGNMENT_ARCSEC,
-                           params: RotationAlignmentParams | None = None,
-                           servo_params: PlatformServoParams | None = None,
-                           gyro_arw_deg_rt_h: float = ALIGNMENT_GYRO_ARW_DEG_RT_H,
-                           accel_noise_ug_rt_hz: float = ALIGNMENT_ACCEL_NOISE_UG_RT_HZ,
-                           progress: bool = False) -> AlignmentMetrics:
-    """Scenario ``rotational_ins_alignment`` in one process: the servo turns the platform
-    (``rotate``: ±1.2°/s through 360° and back; else held) while the RLS aligns it from the
-    accelerometers and the azimuth resolver, as the ``platform_alignment`` node does. Sensors:
-    gyro bias 0.03 °/h and accelerometer bias 100 µg (1σ per run, paper 3) with the given
-    white noise; the filter's noise density follows the accelerometers'.
-
-    Truth: the initial misalignment is the platform attitude at step 0 measured against the
-    believed frame (the resolver azimuth); the accelerometer biases are the sensors' true
-    values; the platform drifts (ε_x, ε_y) are the negative of the gyros' rate biases (the
-    servo holds the measured rate at the command); the simulated platform has no drift fixed
-    in the level frame, so ε_N is 0.
-    """
-    heading_deg, joints_deg = alignment_setup(misalignment0_arcsec)
-    core, suite = _platform_sim(
-        duration_s, seed, {"lat_deg": lat_deg, "yaw_deg": heading_deg}, joints_deg,
-        platform_gyro=GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=gyro_arw_deg_rt_h),
-        platform_accel=AccelerometerParams(bias_sigma_ug=100.0, noise_ug_rt_hz=accel_noise_ug_rt_hz))
-    servo = PlatformServo(servo_params if servo_params is not None else PlatformServoParams(lat_deg=lat_deg,
-                                                                                             rotate=rotate))
-    rls = RotationAlignmentRls(params if params is not None else RotationAlignmentParams(
-        lat_deg=lat_deg, accel_noise_ug_rt_hz=accel_noise_ug_rt_hz))
-    start = None  # (C_ns, ψ, accelerometer bias, gyro bias) at the first step
-    steps = core.config.n_steps + 1
-    bar = _progress_bar(steps, f"seed {seed} rotation {'on' if rotate else 'off'}", progress)
-    for truth, samples, _ in closed_loop(core, suite, servo):
-        for s in samples:
-            if isinstance(s, ResolverSample):
-                rls.on_joint_state(s.t, s.angles[0], s.rates[0])
-                psi = s.angles[0]
-            elif isinstance(s, PlatformImuSample):
-                rls.on_accel(s.t, s.specific_force)
-                if start is None:
-                    start = (quat_to_dcm(truth.quat_nm), psi, s.true_accel_bias, s.true_gyro_bias)
-        bar.update(1)
-    bar.close()
-    C_ns0, psi0, accel_bias, gyro_bias = start
-    phi0 = platform_misalignment_enu(C_ns0, psi0)
-    # the platform drifts at the negative of its gyros' rate bias (the servo nulls the measured rate)
-    truth_x = np.array([phi0[0], phi0[1], phi0[2], 0.0, accel_bias[0], accel_bias[1], -gyro_bias[0], -gyro_bias[1]])
-    return alignment_metrics(rls, truth_x, seed=seed, rotate=rotate, duration_s=duration_s, psi0=psi0)
-
-
-def _progress_bar(total: int, desc: str, enabled: bool):
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, unit="step", unit_scale=True, disable=None if enabled else True,
-                file=sys.stderr, mininterval=1.0)
-
-
-def alignment_figures(r: AlignmentMetrics) -> dict:
-    """One alignment run's figures in the ``alignment`` report's shape
-    (:func:`gimbal_sim.reports.alignment.final_errors`; the Table 2 columns)."""
-    return {"tilt_error_arcsec": {"east": float(r.tilt_error_arcsec[0]), "north": float(r.tilt_error_arcsec[1])},
-            "tilt_sigma_arcsec": {"east": float(r.tilt_sigma_arcsec[0]), "north": float(r.tilt_sigma_arcsec[1])},
-            "azimuth_error_arcmin": r.azimuth_error_arcmin, "azimuth_sigma_arcmin": r.azimuth_sigma_arcmin,
-            "north_drift_error_deg_h": r.north_drift_error_deg_h, "north_drift_sigma_deg_h": r.north_drift_sigma_deg_h,
-            "gyro_drift_error_deg_h": [float(v) for v in r.gyro_drift_error_deg_h],
-            "accel_bias_error_ug": [float(v) for v in r.accel_bias_error_ug], "converged": bool(r.converged),
-            "updates": int(r.n_updates), "rank": int(r.rank), "condition": float(r.condition)}
-
-
 VARIANTS = {"rotate": True, "fixed": False}   # the platform turned (360° and back) or held
 
 
-def campaign_run(variant: str, seed: int, options: dict) -> dict:
-    """The campaign engine's core run (:data:`CAMPAIGN`): one alignment, its figures under
-    the ``alignment`` report's names."""
-    r = run_platform_alignment(seed, VARIANTS[variant], options["duration_s"], lat_deg=options["lat_deg"],
-                               gyro_arw_deg_rt_h=options["gyro_arw_deg_rt_h"],
-                               accel_noise_ug_rt_hz=options["accel_noise_ug_rt_hz"])
-    return {"duration_s": options["duration_s"], "alignment": alignment_figures(r)}
+def alignment_translate(options: dict) -> tuple[float, tuple]:
+    """The options of :data:`CAMPAIGN` as scenario ``rotational_ins_alignment``'s values: the
+    latitude in its three nodes (the base heading kept: :func:`alignment_setup`), the gyro
+    angle random walk in the sensors, the accelerometer noise in the sensors and the filter."""
+    lat, heading = options["lat_deg"], alignment_setup()[0]
+    noise = options["accel_noise_ug_rt_hz"]
+    return options["duration_s"], (
+        ("vehicle_dynamics.profile_params", f"{{lat_deg: {lat!r}, yaw_deg: {heading!r}}}"),
+        ("platform_servo.lat_deg", lat), ("platform_alignment.lat_deg", lat),
+        ("sensor_models.platform_gyro_arw_deg_rt_h", options["gyro_arw_deg_rt_h"]),
+        ("sensor_models.platform_accel_noise_ug_rt_hz", noise), ("platform_alignment.accel_noise_ug_rt_hz", noise))
 
 
-#: Table 2 style seeds as a campaign: ``engine: core`` runs :func:`campaign_run`; ``engine:
-#: graph`` runs scenario ``rotational_ins_alignment`` (40° N and the default noise: the
-#: latitude lives in three of its nodes).
+#: Table 2 style seeds as a campaign, a declaration: scenario ``rotational_ins_alignment``'s
+#: variants on the one engine (``engine: core``, each run's bag and ``alignment`` report) or
+#: in the node graph (``engine: graph``); the table reads the runs' reports.
 CAMPAIGN = ExperimentCampaign(
     name="alignment", variants=tuple(VARIANTS),
     defaults={"duration_s": 600.0, "lat_deg": 40.0, "gyro_arw_deg_rt_h": ALIGNMENT_GYRO_ARW_DEG_RT_H,
               "accel_noise_ug_rt_hz": ALIGNMENT_ACCEL_NOISE_UG_RT_HZ},
-    run=campaign_run,
-    graph=GraphEquivalent("rotational_ins_alignment", {"rotate": "rotation_on", "fixed": "rotation_off"}))
+    run=None,
+    graph=GraphEquivalent("rotational_ins_alignment", {"rotate": "rotation_on", "fixed": "rotation_off"},
+                          ("duration_s", "lat_deg", "gyro_arw_deg_rt_h", "accel_noise_ug_rt_hz"), alignment_translate))
 
 
 def _alignment_table(runs: list[tuple[int, dict]]) -> str:
@@ -347,7 +267,8 @@ def main(argv: list[str] | None = None) -> int:
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(args.seeds), variants=(variant,),
                         engine=args.engine, mode=args.mode, options=tuple(options.items()))
     with campaign_dir(args.out) as out:
-        runs = [(seed, m["alignment"]) for seed, m in run_metrics(run_for_cli(align, args, spec, out, CAMPAIGN))[variant]]
+        result = run_for_cli(align, args, spec, out, CAMPAIGN, run_on_engine)
+        runs = [(seed, m["alignment"]) for seed, m in run_metrics(result)[variant]]
     for run in runs:  # each seed's line, as the runs finished before (now after the campaign)
         print(_alignment_table([run]).splitlines()[-1])
     print(_alignment_table(runs))

@@ -18,10 +18,8 @@ from ..campaign.results import CampaignResult, flatten_metrics
 from ..campaign.experiment import ExperimentCampaign, experiment_table, plan_experiment
 from ..campaign.runner_cli import experiment_runners
 from ..campaign.spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction
-from ..graph.scenario import Scenario
-from ..core.engine_run import run_engine
-from ..reports.dispatch import write_report
 from ..reports.paper import campaign_paper_figure
+from .engine_runs import run_on_engine
 from . import encoder_fusion_study, flexure, free_gyro, free_gyro_errors, navigation, platform_servo, sighting_loop, slew
 
 #: experiment name -> its campaign
@@ -60,7 +58,7 @@ def probe_metrics(campaign: CampaignPlan) -> set[str] | None:
     first = campaign.runs[0]
     with tempfile.TemporaryDirectory(prefix="gimbal-probe-") as tmp:
         try:
-            if campaign.spec.experiment:
+            if campaign.spec.experiment and experiment(campaign.spec.experiment).run is not None:
                 exp = experiment(campaign.spec.experiment)
                 options = dict(campaign.fingerprint.get("options", {}))
                 if "duration_s" not in options:
@@ -92,19 +90,12 @@ def check_requirements(campaign: CampaignPlan) -> None:
                                 + f" ({len(names)} metrics, e.g. {', '.join(sorted(names)[:4])})")
 
 
-def run_on_engine(scenario: Scenario, run_dir: Path, compress: bool = True) -> dict[str, Any]:
-    """A scenario campaign's ``engine: core`` run: the engine's run with its bag
-    (:func:`..core.engine_run.run_engine`), then the scenario's report from that bag, as
-    for a graph run; returns the report's metrics."""
-    run_engine(scenario, run_dir, compress)
-    return write_report(run_dir)[1]
-
-
 def runners(spec: CampaignSpec) -> Runners:
     """What the engine runs ``spec``'s tasks with: an experiment's own loop, or for a
-    scenario campaign's ``engine: core`` the core engine, bag and report."""
+    scenario campaign's (or a declared experiment's) ``engine: core`` the core engine, bag
+    and report."""
     if spec.experiment:
-        return experiment_runners(spec, experiment(spec.experiment))
+        return experiment_runners(spec, experiment(spec.experiment), run_on_engine)
     return Runners(core_run=run_on_engine)
 
 

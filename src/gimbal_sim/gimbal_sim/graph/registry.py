@@ -39,7 +39,7 @@ from ..mavlink.device_core import DeviceParams
 from ..mavlink.link import endpoint_values
 from ..mavlink.manager_core import ManagerParams
 from ..nodes import bag_recorder_params, operator_params, sensor_models_params, vehicle_dynamics_params
-from ..world.operator_model import OperatorModelParams
+from ..world.operator_model import operator_core
 from ..world.sensor_suite import SensorSuiteConfig
 from ..world.vehicle import VehicleConfig
 
@@ -161,7 +161,7 @@ NODE_TYPES: dict[str, NodeType] = {
     "vehicle_dynamics": _node_type("gimbal_sim", vehicle_dynamics_params, _vehicle_dynamics, VehicleConfig.from_values),
     "sensor_models": _node_type("gimbal_sim", sensor_models_params, _sensor_models, SensorSuiteConfig.from_values),
     "bag_recorder": _node_type("gimbal_sim", bag_recorder_params, _bag_recorder),
-    "operator": _node_type("gimbal_sim", operator_params, _operator, OperatorModelParams.from_values),
+    "operator": _node_type("gimbal_sim", operator_params, _operator, operator_core),
     "los_rate_controller": _node_type("gimbal_control", los_rate_controller_params, _los_rate_controller,
                                       LosRateControllerParams.from_values, OperatorCommandParams.from_values,
                                       _los_hold_params),

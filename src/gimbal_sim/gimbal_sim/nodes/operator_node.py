@@ -1,4 +1,4 @@
-"""``operator`` node: the simulated sight operator (:class:`..world.operator_model.SightOperator`)
+"""``operator`` node: the simulated sight operator (:class:`..world.operator_model.SightOperator`, or the scripted step :class:`..world.operator_model.StepStick`)
 on the true LOS.
 
 At every ``rate_hz`` step it takes ``/truth/gimbal/imu`` (C(n,m)) stamped k, decides, and
@@ -25,19 +25,15 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
 
-from ..world.operator_model import OperatorModelParams, SightOperator
+from ..world.operator_model import operator_core
 from .operator_params import DESCRIPTION, PARAMS
 from .wire import operator_messages
-
-NAN3 = (float("nan"),) * 3
-
 
 class OperatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("operator", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        self.core = SightOperator(OperatorModelParams.from_values(values), values["capture_s"], values["lat_deg"],
-                                  values["earth_rate"])
+        self.core = operator_core(values)
         self.rate = values["sim_rate_hz"]
         self.every = steps_per_sample(values, "rate_hz")
         self.progress_every = values["progress_every_steps"]
@@ -60,9 +56,7 @@ class OperatorNode(Node):
         k = m.step_of_stamp(msg.stamp_ns, self.rate)
         if k % self.every == 0:
             q, r = self.core.step(msg.stamp_ns, msg.orientation)
-            model = self.core.model
-            err = (model.error, *model.error_qr) if self.core.target_i is not None else NAN3
-            for topic, _, data in operator_messages(msg.stamp_ns, q, r, err):  # as the engine writes them
+            for topic, _, data in operator_messages(msg.stamp_ns, q, r, self.core.pointing_error()):  # as the engine writes them
                 (self.pub_cmd if topic == "/operator/los_rate" else self.pub_err).publish(data)
         if (k + 1) % self.progress_every == 0:
             self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(k + 1, self.rate)))

@@ -27,6 +27,7 @@ from .navigation import navigation_report
 from .navigation import rotation_comparison as navigation_rotation_comparison
 from .platform_servo import platform_servo_report
 from .sighting import sighting_comparison, sighting_report
+from .slew import slew_comparison, slew_report
 
 #: report name -> function (bag_dir, report_dir) -> metrics
 REPORTS: dict[str, Callable[[Path, Path], dict]] = {
@@ -44,6 +45,7 @@ REPORTS: dict[str, Callable[[Path, Path], dict]] = {
     "gyro_encoder": gyro_encoder_report,
     "geo_pointing": geo_pointing_report,
     "navigation": navigation_report,
+    "slew": slew_report,
 }
 
 #: comparison name -> function (runs, report_dir) -> metrics
@@ -56,6 +58,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "allan": allan_comparison,
     "geo_pointing": geo_pointing_comparison,
     "navigation_rotation": navigation_rotation_comparison,
+    "slew": slew_comparison,
 }
 
 

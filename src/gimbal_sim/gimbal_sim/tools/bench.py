@@ -461,17 +461,18 @@ def bench_engine(args: argparse.Namespace) -> int:
         print(f"gimbal-bench engine: --baseline {args.baseline}: not an executable Python", file=sys.stderr)
         return 2
     factor = args.memory_factor if args.memory else None
+    three_hours = getattr(args, "three_hours", False)
     try:
         if args.profile:
             for python in (sys.executable, args.baseline):
                 if python is not None:
                     print(engine_speed.profile_report(python, args.duration))
             return 0
-        result = engine_speed.measure(args.duration, args.pairs, args.baseline, factor)
+        result = engine_speed.measure(args.duration, args.pairs, args.baseline, factor, three_hours)
     except RuntimeError as exc:
         print(f"gimbal-bench engine: {exc}", file=sys.stderr)
         return 1
-    print(engine_speed.report(result, args.duration, factor))
+    print(engine_speed.report(result, args.duration, factor, three_hours))
     return 0
 
 
@@ -546,6 +547,8 @@ def main(argv: list[str] | None = None) -> int:
     eng.add_argument("--memory", action="store_true", help="also the peak RSS of a --memory-factor longer run")
     eng.add_argument("--memory-factor", type=float, default=10.0, help="(default 10)")
     eng.add_argument("--profile", action="store_true", help="instead: each case once under cProfile, each side")
+    eng.add_argument("--three-hours", action="store_true",
+                     help="also one whole 3-hour navigation run at 1 kHz: its wall time and peak RSS")
     eng.set_defaults(func=bench_engine)
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] not in ("run", "record", "flexure", "compare", "live", "engine", "-h", "--help"):

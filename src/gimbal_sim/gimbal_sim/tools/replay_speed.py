@@ -6,7 +6,7 @@ default: SensorDataQoS inputs, steps on the message stamps) and ``gimbal-bag pla
 (the player in-process, the node as its own executable with the run's EKF parameters and
 ``timing: free``), times the replay from the first published message until the node has
 published an estimate for every INS sample, and compares every estimate with the EKF core
-fed the same bag directly (:func:`..bag.ekf_replay.ekf_outputs`): the figure counts only if the
+fed the same bag directly through the engine's step of that node (:func:`..bag.ekf_replay.ekf_outputs`): the figure counts only if the
 two agree to 1e-9 rad/s. ``python -m gimbal_sim.tools.replay_speed BAG`` prints it for a bag.
 """
 from __future__ import annotations

@@ -288,3 +288,51 @@ class SightOperator:
         if self._w is not None:
             target = dcm_from_rotation_vector(-self._w * ((t - self.target_ns) * 1e-9)) @ target
         return self.model.step(t, C_nm, target)
+
+    def pointing_error(self) -> tuple[float, float, float]:
+        """(ε, e_q, e_r) [rad] of the last step (what ``~/pointing_error`` carries); NaN before
+        the capture."""
+        return (self.model.error, *self.model.error_qr) if self.target_i is not None else NAN3
+
+
+NAN3 = (math.nan,) * 3
+
+
+class StepStick:
+    """A scripted stick, the ``operator`` node's ``script: step``: the LOS rate (q, r) [rad/s]
+    held from ``start_s`` after the first step for ``duration_s``, zero before and after (an
+    operator's step command at the node's rate, a joystick's autorepeat; the acceptance of a
+    slew). It watches no target: its pointing error is NaN."""
+
+    def __init__(self, start_s: float, duration_s: float, rate_qr: Sequence[float]) -> None:
+        nonneg_finite("step_start_s", start_s)
+        nonneg_finite("step_duration_s", duration_s)
+        if len(rate_qr) != 2 or not all(math.isfinite(v) for v in rate_qr):
+            raise ValueError(f"step_rate_deg_s must be 2 finite values (q, r), got {list(rate_qr)!r}")
+        self._start_ns, self._duration_ns = int(round(start_s * 1e9)), int(round(duration_s * 1e9))
+        self.rate_qr = (float(rate_qr[0]), float(rate_qr[1]))
+        self._t0_ns: int | None = None
+
+    def step(self, stamp_ns: int, quat_nm: Sequence[float] | None = None) -> tuple[float, float]:
+        """The command of the step stamped ``stamp_ns`` [ns] (the sight's attitude unused)."""
+        if self._t0_ns is None:
+            self._t0_ns = int(stamp_ns)
+        since = int(stamp_ns) - self._t0_ns - self._start_ns
+        return self.rate_qr if 0 <= since < self._duration_ns else (0.0, 0.0)
+
+    def pointing_error(self) -> tuple[float, float, float]:
+        return NAN3
+
+
+def operator_core(v: dict) -> SightOperator | StepStick:
+    """The ``operator`` node's core from its values: the simulated operator (``script:
+    watch``) or the scripted step (``script: step``); :class:`ParameterError` names the
+    parameter refused."""
+    if v["script"] == "watch":
+        return SightOperator(OperatorModelParams.from_values(v), v["capture_s"], v["lat_deg"], v["earth_rate"])
+    if v["script"] != "step":
+        raise ParameterError(f"parameter script must be 'watch' or 'step', got {v['script']!r}")
+    try:
+        return StepStick(v["step_start_s"], v["step_duration_s"], [math.radians(x) for x in v["step_rate_deg_s"]])
+    except ValueError as exc:
+        raise ParameterError(f"parameter {exc}") from exc

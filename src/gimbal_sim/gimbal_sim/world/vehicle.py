@@ -41,6 +41,7 @@ from gimbal_kinematics.rotations import (
 )
 
 from .plant.gimbal_simulator import GimbalSimulator
+from .plant.sighting_plant_kernels import inner_gimbal_truth
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS, PLATFORM_JOINTS
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.gimbal.host_state import inertial_rates_trig
@@ -290,29 +291,5 @@ class VehicleCore:
 
 
 def _inner_gimbal_truth(q_nb, pos, vel, omega_b, f_b):
-    """(quat_nm, ω_im^m, f_m) of the inner gimbal from the host attitude quaternion, the
-    joint angles/rates (ψt, ψm, θm) and the host's ω_ib^b and f_b, in scalars.
-
-    C_bm = rot3(ψt)ᵀ rot3(ψm)ᵀ rot2(θm)ᵀ is a turn of ψa = ψt + ψm about z and then θm about
-    y, so q_nm = q_nb ⊗ q_z(ψa) ⊗ q_y(θm). The rate follows the chain
-    (``sighting_chain.omega_m_m``): rotations about z commute with adding rates about z, so
-    ω_a = rot3(ψa) ω_b + (ψ̇t + ψ̇m) e3 and ω_m = rot2(θm) ω_a + θ̇m e2; f_m = C_mb f_b.
-    """
-    psi_a = pos[0] + pos[1]
-    theta = pos[2]
-    ha, he = 0.5 * psi_a, 0.5 * theta
-    sa2, se2 = math.sin(ha), math.sin(he)
-    q_bm = (-sa2 * se2, math.cos(ha) * se2, sa2 * math.cos(he), math.cos(ha) * math.cos(he))
-    quat_nm = quat_canonical(quat_mul(q_nb, q_bm))
-    ca, sa = math.cos(psi_a), math.sin(psi_a)
-    ce, se = math.cos(theta), math.sin(theta)
-    w0, w1, w2 = omega_b
-    u0 = ca * w0 + sa * w1
-    u1 = -sa * w0 + ca * w1
-    u2 = w2 + vel[0] + vel[1]
-    omega_m = (ce * u0 - se * u2, u1 + vel[2], se * u0 + ce * u2)
-    f0, f1, f2 = f_b
-    g0 = ca * f0 + sa * f1
-    g1 = -sa * f0 + ca * f1
-    f_m = (ce * g0 - se * f2, g1, se * g0 + ce * f2)
-    return quat_nm, omega_m, f_m
+    """(quat_nm, ω_im^m, f_m) of the inner gimbal (:func:`.plant.sighting_plant_kernels.inner_gimbal_truth`)."""
+    return inner_gimbal_truth(tuple(q_nb), tuple(pos), tuple(vel), tuple(omega_b), tuple(f_b))

@@ -37,3 +37,20 @@ class NormalStream:
     def one(self) -> float:
         buf, j = self.take(1)
         return buf[j]
+
+    def take_block(self, k: int, m: int) -> np.ndarray:
+        """The normals of ``m`` successive :meth:`take` (``k``) calls, (m, k), the stream left
+        where those calls leave it (a compiled loop's noise, drawn in blocks)."""
+        out = np.empty(m * k)
+        filled = 0
+        while filled < m * k:
+            j, buf = self._j, self._buf
+            n = min((len(buf) - j) // k * k, m * k - filled)
+            if n <= 0:
+                self._buf = self._rng.standard_normal(max(_BLOCK, k)).tolist()
+                self._j = 0
+                continue
+            out[filled:filled + n] = buf[j:j + n]
+            self._j = j + n
+            filled += n
+        return out.reshape(m, k)

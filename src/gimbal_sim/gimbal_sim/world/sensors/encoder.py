@@ -29,6 +29,7 @@ import numpy as np
 from gimbal_kinematics import validate as v
 from gimbal_kinematics.units import DEG
 from ._normals import NormalStream
+from .sensor_kernels import encoder_step
 
 
 @dataclass(frozen=True)
@@ -86,9 +87,11 @@ class EncoderModel:
         self._gate_steps = max(1, round(params.velocity_gate_s / dt))
         #: Gate actually used, a whole number of steps [s].
         self.gate_time_s = self._gate_steps * dt
-        self._ref: list[float] | None = None
-        self._k = 0
-        self._vel = [0.0] * n_axes
+        # the kernel's state (has a reference, gate step, reference counts, held rates)
+        self._state = np.zeros(2 + 2 * n_axes)
+        self._angles = np.zeros(n_axes)
+        self._rates = np.zeros(n_axes)
+        self._no_noise = np.zeros(n_axes)
 
     @property
     def velocity_resolution_rad_s(self) -> float:
@@ -105,29 +108,13 @@ class EncoderModel:
         n = self.n_axes
         if len(angles_true) != n:
             raise ValueError(f"angles_true must have {n} elements, got {len(angles_true)}")
-        d = self.quantum_rad
-        if d > 0.0:
-            # Counts kept as exact integers so long runs never lose a count to round-off.
-            counts = [math.floor(a / d + 0.5) for a in angles_true]
-            pos = [c * d for c in counts]
-        else:
-            counts = [float(a) for a in angles_true]
-            pos = list(counts)
+        z = self._no_noise
         if self._noise > 0.0:
             buf, j = self._normals.take(n)
-            s = self._noise
-            pos = [pos[i] + s * buf[j + i] for i in range(n)]
-        if self._ref is None:
-            self._ref = counts
-        else:
-            self._k += 1
-            if self._k >= self._gate_steps:
-                scale = (d if d > 0.0 else 1.0) / self.gate_time_s
-                ref = self._ref
-                self._vel = [(counts[i] - ref[i]) * scale for i in range(n)]
-                self._ref = counts
-                self._k = 0
-        return pos, list(self._vel)
+            z = np.array(buf[j:j + n], dtype=float)
+        encoder_step(self._state, n, np.asarray(angles_true, dtype=float), self.quantum_rad, self._noise,
+                     self._gate_steps, self.gate_time_s, z, self._angles, self._rates)
+        return self._angles.tolist(), self._rates.tolist()
 
 
 #: Paper 1 encoders (turret, azimuth, elevation): 0.05° readout noise, unquantised.

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import sensor_kernels as sk
 from ._normals import NormalStream
 from gimbal_kinematics.validate import broadcast, nonneg_finite, positive
 from .markov import gm1_coefficients
@@ -75,103 +76,65 @@ class InertialErrorCore:
         self.spec = spec
         self._normals = NormalStream(rng)
 
-        self._fixed = broadcast("bias", spec.bias, n)
+        # the kernel's arrays: rows (1 + s, b_fix, b_gm, b_rrw, quantiser residual), K, constants
+        self.rows = np.zeros((5, n))
+        rows = self.rows
+        rows[sk.R_FIXED] = broadcast("bias", spec.bias, n)
         if spec.bias_sigma > 0.0:
             buf, j = self._normals.take(n)
-            self._fixed = [self._fixed[i] + spec.bias_sigma * buf[j + i] for i in range(n)]
-
+            rows[sk.R_FIXED] = rows[sk.R_FIXED] + spec.bias_sigma * np.asarray(buf[j:j + n], dtype=float)
         self._has_gm = spec.gm_sigma > 0.0
-        self._gm = [0.0] * n
         if self._has_gm:
             # Power-on bias instability is already in steady state.
             buf, j = self._normals.take(n)
-            self._gm = [spec.gm_sigma * buf[j + i] for i in range(n)]
+            rows[sk.R_GM] = spec.gm_sigma * np.asarray(buf[j:j + n], dtype=float)
         self._has_rrw = spec.rrw_density > 0.0
-        self._rrw = [0.0] * n
         self._has_white = spec.white_density > 0.0
         self._need = n * (int(self._has_gm) + int(self._has_rrw) + int(self._has_white))
-
-        sf = broadcast("scale_factor", spec.scale_factor, n)
-        self._kdiag = [1.0 + s for s in sf]
-        self._K: list[list[float]] | None = None
+        rows[sk.R_KDIAG] = [1.0 + s for s in broadcast("scale_factor", spec.scale_factor, n)]
+        self.K = np.zeros((n, n))
         if spec.misalignment is not None:
             M = np.asarray(spec.misalignment, dtype=float)
             if M.shape != (n, n):
                 raise ValueError(f"misalignment must have shape ({n}, {n}), got {M.shape}")
-            self._K = [[(self._kdiag[i] if i == k else float(M[i, k])) for k in range(n)] for i in range(n)]
-
-        self._quantum = spec.quantum
-        self._residual = [0.0] * n
-        self._sat = spec.saturation
+            self.K[:] = M
+            self.K[np.diag_indices(n)] = rows[sk.R_KDIAG]
+        self.constants = np.zeros(sk.N_INERTIAL)
+        c = self.constants
+        c[sk.I_SATURATION], c[sk.I_QUANTUM] = spec.saturation, spec.quantum
+        c[sk.I_HAS_GM], c[sk.I_HAS_RRW] = float(self._has_gm), float(self._has_rrw)
+        c[sk.I_HAS_K] = float(spec.misalignment is not None)
+        self._out = np.zeros(n)
         self._dt = -1.0
         self._set_dt(dt)
 
     def _set_dt(self, dt: float) -> None:
         positive("dt", dt)
-        spec = self.spec
-        self._phi, self._gm_drive = gm1_coefficients(spec.gm_sigma, spec.gm_tau, dt)
-        self._rrw_drive = spec.rrw_density * math.sqrt(dt)
-        self._white_sd = spec.white_density / math.sqrt(dt)
+        spec, c = self.spec, self.constants
+        c[sk.I_PHI], c[sk.I_GM_DRIVE] = gm1_coefficients(spec.gm_sigma, spec.gm_tau, dt)
+        c[sk.I_RRW_DRIVE] = spec.rrw_density * math.sqrt(dt)
+        c[sk.I_WHITE_SD] = spec.white_density / math.sqrt(dt)
+        c[sk.I_DT] = dt
         self._dt = dt
 
-    def _measure(self, u: Sequence[float], dt: float | None) -> tuple[list[float], float]:
-        """Saturated step-average measurement (n,) and the step used."""
+    def _step(self, u: Sequence[float], dt: float | None, increment: bool) -> list[float]:
+        """One step through :func:`.sensor_kernels.inertial_step` (module docstring)."""
         if dt is not None and dt != self._dt:
             self._set_dt(dt)
         n = self.n_axes
         if len(u) != n:
             raise ValueError(f"input must have {n} elements, got {len(u)}")
         buf, j = self._normals.take(self._need)
-        fixed, gm, rrw = self._fixed, self._gm, self._rrw
-        if self._has_gm:
-            phi, d = self._phi, self._gm_drive
-            for i in range(n):
-                gm[i] = phi * gm[i] + d * buf[j + i]
-            j += n
-        if self._has_rrw:
-            d = self._rrw_drive
-            for i in range(n):
-                rrw[i] += d * buf[j + i]
-            j += n
-        K = self._K
-        if K is None:
-            kd = self._kdiag
-            y = [kd[i] * u[i] + fixed[i] + gm[i] + rrw[i] for i in range(n)]
-        else:
-            y = [sum(K[i][k] * u[k] for k in range(n)) + fixed[i] + gm[i] + rrw[i] for i in range(n)]
-        if self._has_white:
-            sd = self._white_sd
-            for i in range(n):
-                y[i] += sd * buf[j + i]
-        sat = self._sat
-        if sat != math.inf:
-            for i in range(n):
-                if y[i] > sat:
-                    y[i] = sat
-                elif y[i] < -sat:
-                    y[i] = -sat
-        return y, self._dt
-
-    def _quantise(self, inc: list[float]) -> list[float]:
-        q = self._quantum
-        res = self._residual
-        for i in range(len(inc)):
-            v = inc[i] + res[i]
-            out = q * math.floor(v / q + 0.5)
-            res[i] = v - out
-            inc[i] = out
-        return inc
+        z = np.asarray(buf[j:j + self._need], dtype=float)
+        sk.inertial_step(np.asarray(u, dtype=float), self.rows, self.K, self.constants, z, increment, self._out)
+        return self._out.tolist()
 
     def step_increment(self, u_avg: Sequence[float], dt: float | None = None) -> list[float]:
         """Measured increment over the step (n,): rad for a gyro, m/s for an accelerometer.
 
         ``u_avg`` is the true quantity averaged over the step, i.e. true increment / Δt.
         """
-        y, dt_used = self._measure(u_avg, dt)
-        inc = [v * dt_used for v in y]
-        if self._quantum > 0.0:
-            inc = self._quantise(inc)
-        return inc
+        return self._step(u_avg, dt, True)
 
     def step_rate(self, u_avg: Sequence[float], dt: float | None = None) -> list[float]:
         """Measured step-average (n,): rad/s for a gyro, m/s² for an accelerometer.
@@ -179,10 +142,7 @@ class InertialErrorCore:
         With a quantum set, this is the quantised increment divided by Δt, like a digital
         sensor that reports pulse counts per sample period.
         """
-        y, dt_used = self._measure(u_avg, dt)
-        if self._quantum > 0.0:
-            y = [v / dt_used for v in self._quantise([v * dt_used for v in y])]
-        return y
+        return self._step(u_avg, dt, False)
 
     @property
     def true_bias(self) -> np.ndarray:
@@ -191,19 +151,20 @@ class InertialErrorCore:
 
     def true_bias_values(self) -> tuple[float, ...]:
         """:attr:`true_bias` as a tuple of floats (the per-step form, no array)."""
-        return tuple([a + b + c for a, b, c in zip(self._fixed, self._gm, self._rrw)])
+        rows = self.rows
+        return tuple((rows[sk.R_FIXED] + rows[sk.R_GM] + rows[sk.R_RRW]).tolist())
 
     @property
     def fixed_bias(self) -> np.ndarray:
         """Run-constant bias (given + drawn), shape (n,)."""
-        return np.array(self._fixed)
+        return self.rows[sk.R_FIXED].copy()
 
     @property
     def gm_bias(self) -> np.ndarray:
         """Current Gauss-Markov bias-instability state, shape (n,)."""
-        return np.array(self._gm)
+        return self.rows[sk.R_GM].copy()
 
     @property
     def rrw_bias(self) -> np.ndarray:
         """Current rate-random-walk bias state, shape (n,)."""
-        return np.array(self._rrw)
+        return self.rows[sk.R_RRW].copy()

@@ -1,0 +1,208 @@
+"""Paper 3's platform INS chain as one compiled block loop: ``vehicle_dynamics`` (the
+four-gimbal platform on a static base), ``sensor_models`` (its IMU and resolvers),
+``platform_navigator`` and ``platform_servo``, the node set of ``rotational_ins_*``.
+
+The cores are built from the nodes' parameter values exactly as :mod:`.core_loop` builds
+them; their states are then packed into arrays and :func:`platform_block` steps N lockstep
+steps at a time, in the Python loop's order (truth k → resolvers, IMU → navigator → servo
+→ plant step k → k+1), calling the per-sample kernels: the plant's RK4 substeps
+(``world.plant.platform_kernels``), the stable element's truth
+(``gimbal_kinematics.platform_kernels``), the sensor models (``world.sensors.sensor_kernels``),
+the navigator (``gimbal_estimators.navigator_kernels``) and the servo
+(``gimbal_control.servo_kernels``). Each sensor's normals are drawn per block from its own
+seeded stream in the order its model takes them, so a seed gives the Python loop's numbers.
+
+Recorded, the block hands back each step's outputs (:data:`OUT_COLUMNS`) and
+:mod:`.compiled_platform_record` serialises what each node publishes at the steps the
+scenario's record list and rates keep, with the nodes' own serialisation functions.
+"""
+from __future__ import annotations
+
+import math
+import time
+from array import array
+
+import numpy as np
+from numba import njit
+
+from gimbal_control import servo_kernels as sk
+from gimbal_estimators import navigator_kernels as nk
+from gimbal_kinematics.platform_kernels import platform_truth
+
+from .loop_plan import CoreLoopResult, node_values
+from .compiled_platform_record import ChainRecorder
+from .compiled_platform_setup import (
+    J_CMD, J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_RATE, J_T_NS, J_THETA, N_OUT, PlatformChain, build_chain,
+    chain_values,
+)
+from ..world.plant.platform_kernels import P_KT, P_VMAX, platform_step, saturate
+from ..world.sensors.sensor_kernels import encoder_step, inertial_step
+
+#: configuration vector of the block (``C_*``)
+(C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
+ C_RES_GATE_TIME, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT) = range(15)
+N_CONFIG = 15
+#: steps per block: the normals and (recorded) the output rows of one block in memory
+BLOCK_STEPS = 16384
+
+
+def matches(scenario) -> bool:
+    """Whether this runner steps ``scenario`` (:func:`.compiled_platform_setup.chain_values`)."""
+    return chain_values(node_values(scenario)) is not None
+
+
+@njit(cache=True)
+def _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, f) -> bool:
+    """``platform_navigator``'s step (``core.platform_stages.platform_navigator_node_stage``):
+    the azimuth joint of the step's resolver sample, extrapolated to the IMU sample; True when
+    the navigator took a sample."""
+    j = int(c[C_JOINT])
+    if res_due:
+        joint[J_HAS], joint[J_T_NS], joint[J_THETA], joint[J_RATE] = 1.0, t_ns, ra[j], rr[j]
+    if not imu_due:
+        return False
+    if joint[J_HAS] == 0.0:
+        return False
+    age = t_ns - joint[J_T_NS]
+    if not (0.0 <= age <= c[C_MAX_AGE_NS]):
+        return False
+    theta = joint[J_THETA] + joint[J_RATE] * age * 1e-9 if age != 0.0 else joint[J_THETA]
+    if not (math.isfinite(f[0]) and math.isfinite(f[1]) and math.isfinite(f[2]) and math.isfinite(theta)):
+        return False
+    first = math.isnan(joint[J_NAV_LAST])
+    if first:
+        joint[J_NAV_T0] = t_ns
+    dt = 0.0 if first else (t_ns - joint[J_NAV_LAST]) * 1e-9
+    joint[J_NAV_LAST] = t_ns
+    nk.navigator_step(ns, nq, first, dt, (t_ns - joint[J_NAV_T0]) * 1e-9, f[0], f[1], f[2], theta)
+    joint[J_HAS_CMD] = 1.0
+    joint[J_CMD], joint[J_CMD + 1], joint[J_CMD + 2] = ns[nk.N_CMD_N], ns[nk.N_CMD_E], ns[nk.N_CMD_D]
+    return True
+
+
+@njit(cache=True)
+def _servo_node(c, ss, sp, pid_s, pid_g, joint, t, t_tick, res_due, ra, imu_due, w) -> int:
+    """``platform_servo``'s step (``core.platform_stages.platform_servo_node_stage``): the
+    resolvers, the navigator's command, then the gyro tick (-2: no gyro sample this step)."""
+    if res_due:
+        sk.servo_resolvers(ss, t, ra[0], ra[1], ra[2], ra[3])
+    if c[C_FOLLOWS] != 0.0 and imu_due and joint[J_HAS_CMD] != 0.0:
+        sk.servo_command(ss, t, joint[J_CMD], joint[J_CMD + 1], joint[J_CMD + 2])
+    if not imu_due:
+        return -2
+    return sk.servo_tick(ss, sp, pid_s, pid_g, t_tick, w[0], w[1], w[2])
+
+
+@njit(cache=True)
+def _truth(x, pp, host, angles, rates, wt, ft, out_row) -> None:
+    """The step's stable-element truth (ω_s into ``wt``, f_s into ``ft``) from the plant
+    state; with an output row, the joint states and q_ns into it too."""
+    for a in range(4):
+        angles[a], rates[a] = x[a, 0], x[a, 1]
+    q, w, f = platform_truth(host[0:3], angles, rates, host[3:6], host[6:9])
+    wt[0], wt[1], wt[2] = w
+    ft[0], ft[1], ft[2] = f
+    if out_row.shape[0] > 0:
+        for a in range(4):
+            out_row[a], out_row[4 + a], out_row[8 + a] = x[a, 0], x[a, 1], x[a, 2] * pp[a, P_KT]
+        out_row[12], out_row[13], out_row[14], out_row[15] = q
+        out_row[16], out_row[17], out_row[18] = w
+        out_row[19], out_row[20], out_row[21] = f
+
+
+@njit(cache=True)
+def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks) -> None:
+    for a in range(4):
+        row[22 + a], row[26 + a] = ra[a], rr[a]
+    for a in range(3):
+        row[30 + a], row[33 + a] = fm[a], wm[a]
+    row[36], row[37] = 1.0 if nav_out else 0.0, ns[nk.N_ACCEPTED]
+    for a in range(6):
+        row[38 + a] = ns[nk.N_LAT + a]
+    row[44], row[45], row[46], row[47] = joint[J_CMD], joint[J_CMD + 1], joint[J_CMD + 2], joint[J_HAS_CMD]
+    row[48], row[49] = ns[nk.N_PSI], ns[nk.N_TORQUING]
+    row[50], row[51] = tick, ticks
+    for a in range(4):
+        row[52 + a], row[56 + a] = ss[sk.S_V0 + a], ss[sk.S_G0 + a]
+    row[60], row[61] = ss[sk.S_PHI], ss[sk.S_PHI_RATE]
+
+
+@njit(cache=True)
+def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c, az, gyr, gyr_k, gyr_c, gz, ns,
+                   nq, joint, ss, sp, pid_s, pid_g, counts, out) -> None:
+    """Steps k0 … k1−1 of the chain (module docstring); ``stamps`` their stamps [ns] (as
+    floats), ``rz``/``az``/``gz`` the resolvers', accelerometers' and gyros' normals of the
+    block (row per sample), ``counts`` (servo ticks, rows of normals used: resolver, IMU),
+    ``out`` (k1 − k0, :data:`N_OUT`) the steps' outputs, or (0, N_OUT) when not recorded."""
+    angles, rates, ra, rr = np.empty(4), np.empty(4), np.zeros(4), np.zeros(4)
+    fm, wm, volts, zeros = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
+    wt, ft = np.zeros(3), np.zeros(3)
+    empty = np.empty(0)
+    res_every, imu_every, n = int(c[C_RES_EVERY]), int(c[C_IMU_EVERY]), int(c[C_N])
+    for k in range(k0, k1):
+        t_ns = stamps[k - k0]
+        row = out[k - k0] if out.shape[0] > 0 else empty
+        _truth(x, pp, host, angles, rates, wt, ft, row)
+        res_due, imu_due = k % res_every == 0, k % imu_every == 0
+        if res_due:
+            encoder_step(rstate, 4, angles, c[C_RES_QUANTUM], c[C_RES_NOISE], int(c[C_RES_GATE_STEPS]),
+                         c[C_RES_GATE_TIME], rz[int(counts[1])], ra, rr)
+            counts[1] += 1.0
+        if imu_due:
+            inertial_step(ft, acc, acc_k, acc_c, az[int(counts[2])], False, fm)
+            inertial_step(wt, gyr, gyr_k, gyr_c, gz[int(counts[2])], False, wm)
+            counts[2] += 1.0
+        nav_out = _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, fm)
+        tick = _servo_node(c, ss, sp, pid_s, pid_g, joint, t_ns * 1e-9, k / c[C_RATE], res_due, ra, imu_due, wm)
+        if tick >= 0:
+            counts[0] += 1.0
+        if row.shape[0] > 0:
+            _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, counts[0])
+        if k < n:
+            for a in range(4):
+                v = ss[sk.S_V0 + a] if c[C_CONTROLLED] != 0.0 else 0.0
+                volts[a] = saturate(v, pp[a, P_VMAX])
+            platform_step(x, volts, zeros, c[C_DT], int(c[C_SUBSTEPS]), c[C_QUASI] != 0.0, pp)
+
+
+def _multiples(k0: int, k1: int, every: int) -> int:
+    """How many multiples of ``every`` lie in [k0, k1)."""
+    return (k1 + every - 1) // every - (k0 + every - 1) // every
+
+
+def _block_normals(chain: PlatformChain, k0: int, k1: int) -> tuple:
+    """The block's normals: one take per due sample, from each model's own stream."""
+    res = _multiples(k0, k1, chain.res_every)
+    imu = _multiples(k0, k1, chain.imu_every)
+    rz = chain.res_stream.take_block(4, res) if chain.res_noise > 0.0 \
+        else np.zeros((res, 4))
+    az = chain.acc_stream.take_block(chain.acc_need, imu) if chain.acc_need else np.zeros((imu, 1))
+    gz = chain.gyr_stream.take_block(chain.gyr_need, imu) if chain.gyr_need else np.zeros((imu, 1))
+    return rz, az, gz
+
+
+def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopResult:
+    """Step ``scenario``'s chain (module docstring); ``record`` (an
+    :class:`.recording.EngineBag` or any ``record(node, messages)``) gets the nodes' messages.
+    ``chain``: the scenario's chain already built (:func:`build_chain`), to read its final
+    state after the run."""
+    chain = build_chain(scenario) if chain is None else chain
+    recorder = None if record is None else ChainRecorder(chain, record)
+    n = chain.n_steps
+    counts = np.zeros(3)
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    for k0 in range(0, n + 1, BLOCK_STEPS):
+        k1 = min(n + 1, k0 + BLOCK_STEPS)
+        ks = np.arange(k0, k1)
+        stamps = np.rint(ks * 1e9 / chain.rate_hz)
+        rz, az, gz = _block_normals(chain, k0, k1)
+        counts[1] = counts[2] = 0.0
+        out = np.empty((k1 - k0, N_OUT)) if recorder is not None else np.empty((0, N_OUT))
+        platform_block(k0, k1, stamps, chain.config, chain.host, chain.x, chain.plant_params, chain.res_state, rz,
+                       chain.acc, chain.acc_k, chain.acc_c, az, chain.gyr, chain.gyr_k, chain.gyr_c, gz, chain.nav_state, chain.nav_params, chain.joint, chain.servo_state,
+                       chain.servo_params, chain.pid_state, chain.pid_gains, counts, out)
+        if recorder is not None:
+            recorder.block(k0, stamps.astype(np.int64), out)
+    wall = time.perf_counter() - t0
+    return CoreLoopResult(n, n * chain.dt, wall, time.process_time() - c0, array("d"), None)

@@ -1,0 +1,145 @@
+"""Compiled per-sample kernels of the encoder and inertial sensor models (numba ``njit``):
+plain functions over float64 arrays, the normals drawn beforehand from the model's own
+stream in its order (``NormalStream.take_block``). The maths is :mod:`.encoder`'s and
+:mod:`.inertial_core`'s docstrings:
+
+    encoder:   c = ⌊θ/δ + ½⌋,  θ̃ = c δ + σ z,  ω̃ = (c − c_ref) δ / T_g every gate (held between)
+    inertial:  y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z   (b_gm, b_rrw advanced first; clamped;
+               the increment y Δt quantised with its residual carried)
+
+:class:`.encoder.EncoderModel` and :class:`.inertial_core.InertialErrorCore` hold their state
+in the arrays of :func:`encoder_step` and :func:`inertial_step` and call them per sample; the
+compiled engine (``gimbal_sim.core.compiled_platform``) calls both kernels
+over the models' states (``E_*`` for an encoder set).
+
+INS attitude (:mod:`.ins`): first-order Gauss-Markov error e ← φ e + d z per Euler angle,
+added to the true angles, yaw wrapped to (−π, π] (:func:`ins_attitude`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+E_HAS_REF, E_K = 0, 1  # then the reference counts (n) and the held rates (n)
+
+
+@njit(cache=True)
+def encoder_step(state: np.ndarray, n: int, angles: np.ndarray, quantum: float, noise: float, gate_steps: int,
+                 gate_time: float, z: np.ndarray, out_angles: np.ndarray, out_rates: np.ndarray) -> None:
+    """One sample of ``n`` encoders (``EncoderModel.step``): measured angles and rates into
+    ``out_angles``, ``out_rates``; ``z`` holds the sample's ``n`` normals when ``noise`` > 0.
+    ``state``: has-reference flag, gate step count, reference counts (n), held rates (n)."""
+    ref, vel = 2, 2 + n
+    for i in range(n):
+        if quantum > 0.0:
+            c = np.floor(angles[i] / quantum + 0.5)
+            out_angles[i] = c * quantum
+        else:
+            c = angles[i]
+            out_angles[i] = c
+        if noise > 0.0:
+            out_angles[i] = out_angles[i] + noise * z[i]
+        out_rates[i] = c  # the counts, until the gate logic below
+    if state[E_HAS_REF] == 0.0:
+        state[E_HAS_REF] = 1.0
+        for i in range(n):
+            state[ref + i] = out_rates[i]
+    else:
+        state[E_K] += 1.0
+        if state[E_K] >= gate_steps:
+            scale = (quantum if quantum > 0.0 else 1.0) / gate_time
+            for i in range(n):
+                c = out_rates[i]
+                state[vel + i] = (c - state[ref + i]) * scale
+                state[ref + i] = c
+            state[E_K] = 0.0
+    for i in range(n):
+        out_rates[i] = state[vel + i]
+
+
+#: an inertial model's constants (``I_*``): Gauss-Markov φ and drive, random-walk drive,
+#: white-noise σ of the step average, saturation, increment quantum, step Δt, which bias
+#: states evolve, whether the full matrix K (misalignment) applies
+(I_PHI, I_GM_DRIVE, I_RRW_DRIVE, I_WHITE_SD, I_SATURATION, I_QUANTUM, I_DT, I_HAS_GM, I_HAS_RRW, I_HAS_K) = range(10)
+N_INERTIAL = 10
+#: rows of an inertial model's state array: scale factors 1 + s, fixed bias, Gauss-Markov
+#: and random-walk bias states, the quantiser's carried residual
+R_KDIAG, R_FIXED, R_GM, R_RRW, R_RESIDUAL = range(5)
+
+
+@njit(cache=True)
+def _quantise(inc: np.ndarray, residual: np.ndarray, q: float) -> None:
+    for i in range(inc.shape[0]):
+        v = inc[i] + residual[i]
+        out = q * np.floor(v / q + 0.5)
+        residual[i] = v - out
+        inc[i] = out
+
+
+@njit(cache=True)
+def inertial_step(u: np.ndarray, rows: np.ndarray, K: np.ndarray, c: np.ndarray, z: np.ndarray, increment: bool,
+                  out: np.ndarray) -> None:
+    """One step of an n-axis inertial sensor (``InertialErrorCore``): the bias states
+    advanced to the step's end by the normals ``z`` (Gauss-Markov n, then random walk n,
+    then white n, each when it applies), then
+
+        y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z,   clamped to ±saturation,
+
+    into ``out`` as the step average (``increment`` False) or the increment y Δt, a quantum
+    set quantising the increment with the residual carried (``rows[R_RESIDUAL]``)."""
+    n = u.shape[0]
+    j = 0
+    gm, rrw = rows[R_GM], rows[R_RRW]
+    if c[I_HAS_GM] != 0.0:
+        for i in range(n):
+            gm[i] = c[I_PHI] * gm[i] + c[I_GM_DRIVE] * z[j + i]
+        j += n
+    if c[I_HAS_RRW] != 0.0:
+        for i in range(n):
+            rrw[i] += c[I_RRW_DRIVE] * z[j + i]
+        j += n
+    sat = c[I_SATURATION]
+    for i in range(n):
+        if c[I_HAS_K] != 0.0:
+            y = 0.0
+            for k in range(n):
+                y += K[i, k] * u[k]
+            y = y + rows[R_FIXED, i] + gm[i] + rrw[i]
+        else:
+            y = rows[R_KDIAG, i] * u[i] + rows[R_FIXED, i] + gm[i] + rrw[i]
+        if c[I_WHITE_SD] > 0.0:
+            y += c[I_WHITE_SD] * z[j + i]
+        if sat != np.inf:
+            y = sat if y > sat else -sat if y < -sat else y
+        out[i] = y
+    dt, q = c[I_DT], c[I_QUANTUM]
+    if increment or q > 0.0:
+        for i in range(n):
+            out[i] = out[i] * dt
+        if q > 0.0:
+            _quantise(out, rows[R_RESIDUAL], q)
+        if not increment:
+            for i in range(n):
+                out[i] = out[i] / dt
+
+
+@njit(cache=True)
+def wrap_pi(a: float) -> float:
+    """a in (−π, π] (``ins._wrap_pi``)."""
+    w = np.fmod(a + math.pi, 2.0 * math.pi)  # exact, as C fmod
+    if w <= 0.0:
+        w += 2.0 * math.pi
+    return w - math.pi
+
+
+@njit(cache=True)
+def ins_attitude(e: np.ndarray, phi: np.ndarray, drive: np.ndarray, z: np.ndarray, roll: float, pitch: float,
+                 yaw: float) -> tuple:
+    """The measured Euler angles from the true ones, after one step of the attitude errors ``e``
+    (3,) (first-order Gauss-Markov with ``phi``, ``drive``, normals ``z``)."""
+    for i in range(3):
+        e[i] = phi[i] * e[i] + drive[i] * z[i]
+    return roll + e[0], pitch + e[1], wrap_pi(yaw + e[2])
