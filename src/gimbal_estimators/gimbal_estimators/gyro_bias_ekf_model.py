@@ -72,17 +72,13 @@ import numpy as np
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_from_euler321
 
 from . import gyro_bias_ekf_kernels as kernels
+from .gyro_bias_ekf_kernels import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI
 
-#: The error state x = [ψ, δb, e] (module docstring), as slices of x and of P's rows and columns.
-PSI = slice(0, 3)
-BIAS = slice(3, 6)
-INS_ERROR = slice(6, 9)
-#: ψ and δb together: the whole state of the filter without INS error states.
+#: ψ and δb together: the whole state of the filter without INS error states (the slices
+#: PSI, BIAS, INS_ERROR of x = [ψ, δb, e] and the state counts are the kernels').
 PSI_BIAS = slice(PSI.start, BIAS.stop)
 #: (δb_q, δb_r), the gimbal gyro's own biases: δb without the INS-rate channel's δb_x.
 GYRO_BIAS = slice(BIAS.start + 1, BIAS.stop)
-#: Number of states without and with the INS error states.
-N_STATES_BASE, N_STATES_INS = PSI_BIAS.stop, INS_ERROR.stop
 
 
 def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, float]:
