@@ -378,3 +378,128 @@ def test_no_function_is_over_80_lines_unless_it_says_why():
                     if len(body) > MAX_FUNCTION_LINES and not any(b.strip().startswith(LONG_MARK) for b in body):
                         long.append(f"{path.relative_to(SRC)}:{node.lineno} {node.name} ({len(body)} lines)")
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines without a '{LONG_MARK}' comment:\n" + "\n".join(long)
+
+
+# ------------------------------------------------------------------ one engine
+EXPERIMENTS = SRC / "gimbal_sim" / "gimbal_sim" / "experiments"
+
+
+def _steps_in_loop(loop: ast.AST) -> bool:
+    """A ``for``/``while`` loop that steps something itself: a ``*.step(...)`` call in its body
+    (nested function definitions excluded: an engine stage is a function the engine calls), or
+    a ``while`` on ``*.finished``."""
+    if isinstance(loop, ast.While) and any(isinstance(n, ast.Attribute) and n.attr == "finished"
+                                           for n in ast.walk(loop.test)):
+        return True
+    todo = list(loop.body) + list(loop.orelse)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            continue
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "step":
+            return True
+        todo.extend(ast.iter_child_nodes(node))
+    return False
+
+
+def step_loops(path: Path) -> list[str]:
+    """Where ``path`` steps in a loop of its own (:func:`_steps_in_loop`), or says ``for k in
+    range`` (the step loop's usual form)."""
+    text = path.read_text()
+    found = [f"{path.name}:{i} 'for k in range'" for i, line in enumerate(text.splitlines(), 1)
+             if "for k in range" in line]
+    found += [f"{path.name}:{n.lineno} {type(n).__name__.lower()} loop stepping a core"
+              for n in ast.walk(ast.parse(text, str(path))) if isinstance(n, (ast.For, ast.While)) and _steps_in_loop(n)]
+    return found
+
+
+def test_experiments_have_no_step_loop_of_their_own():
+    """``core/`` is the only stepper outside the graph: an experiment declares (scenario,
+    variants, options, table) or hands stages and an observer to ``core_loop.run_stages``."""
+    bad = [f for path in sorted(EXPERIMENTS.glob("*.py")) for f in step_loops(path)]
+    assert not bad, "experiments stepping in their own loop:\n" + "\n".join(bad)
+
+
+def test_the_step_loop_rule_finds_planted_loops(tmp_path):
+    planted = tmp_path / "planted.py"
+    planted.write_text("def a(core):\n    while not core.finished:\n        core.step(())\n\n"
+                       "def b(truth, n):\n    for k in range(n):\n        pass\n\n"
+                       "def c(items):\n    for x in items:\n        x.step(1.0)\n\n"
+                       "def d(items):\n    for x in items:\n        def stage(bus):\n            bus.core.step(())\n")
+    assert sorted(f.split()[0] for f in step_loops(planted)) == ["planted.py:10", "planted.py:2", "planted.py:6"]
+
+
+#: What ``reports/`` may read from the graph room: the scenario files and the node tables
+#: (metadata: what a run was, a parameter's default). Nothing that runs a node or the engine.
+REPORTS_GRAPH_METADATA = {"gimbal_sim.graph.scenario", "gimbal_sim.graph.registry"}
+
+
+def test_reports_run_nothing():
+    """A report reads recordings: no module of ``reports/`` imports the engine (``core/``) or
+    the graph's running parts (``graph/`` beyond :data:`REPORTS_GRAPH_METADATA`)."""
+    index = module_index(SRC)
+    bad = []
+    for name, path in sorted(index.items()):
+        if not name.startswith("gimbal_sim.reports"):
+            continue
+        for target in sorted({t for t, _ in imports_in(name, path, index)}):
+            if target.startswith("gimbal_sim.core") or (target.startswith("gimbal_sim.graph")
+                                                         and target not in REPORTS_GRAPH_METADATA):
+                bad.append(f"{name} imports {target}")
+    assert not bad, "reports importing a runner:\n" + "\n".join(bad)
+
+
+# ------------------------------------------------------------------ one timing edge
+#: gimbal_kinematics' timing modules: stamps, order, duplicates, clock jumps, staleness and
+#: step grouping (the nodes' input policies). Matched by module name, in whichever room.
+TIMING_MODULES = {"input_policy", "control_policy", "sync", "stamps", "stream_stats"}
+#: Cores that still judge stamps through a timing module, each with the piece that stays to
+#: move into its node's input policy. The list only shrinks (the test says when to drop one).
+STAMP_CHECKING_CORES = {
+    "platform_servo": "StampGate: per-stream stamps of resolvers, command rate and gyro",
+    "platform_navigator": "judge: the grouped policy's free timing leaves clock jumps to the core",
+}
+
+
+def core_modules() -> list[Path]:
+    """The estimator and controller cores: every module of gimbal_estimators and gimbal_control
+    but the nodes and their ROS edge (parameter tables, message conversion, serialisation)."""
+    return [p for pkg in ("gimbal_estimators", "gimbal_control") for p in modules(pkg)
+            if not p.stem.endswith(("_node", "_params")) and p.stem not in {"messages", "wire", "__init__"}]
+
+
+def timing_imports(path: Path) -> set[str]:
+    """The timing modules (:data:`TIMING_MODULES`) of gimbal_kinematics that ``path`` imports."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("gimbal_kinematics"):
+            names = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+        elif isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names if alias.name.startswith("gimbal_kinematics")]
+        else:
+            continue
+        found.update(part for name in names for part in name.split(".")[1:] if part in TIMING_MODULES)
+    return found
+
+
+def test_no_core_imports_a_timing_module():
+    """A core gets checked samples in stamp order from its node's input policy: it imports
+    nothing that judges stamps (but the cores still listed in :data:`STAMP_CHECKING_CORES`)."""
+    importing = {p.stem: sorted(timing_imports(p)) for p in core_modules() if timing_imports(p)}
+    bad = {stem: mods for stem, mods in importing.items() if stem not in STAMP_CHECKING_CORES}
+    assert not bad, f"cores importing timing modules (stamp logic belongs to the input policy): {bad}"
+    done = set(STAMP_CHECKING_CORES) - set(importing)
+    assert not done, f"no longer import a timing module; drop them from STAMP_CHECKING_CORES: {sorted(done)}"
+    assert "gyro_bias_ekf" in {p.stem for p in core_modules()}
+
+
+@pytest.mark.parametrize("line", ["from gimbal_kinematics.stamps import judge",
+                                  "from gimbal_kinematics import sync",
+                                  "import gimbal_kinematics.timing.input_policy",
+                                  "from gimbal_kinematics.timing.stream_stats import StreamStats"])
+def test_the_timing_import_check_finds_a_planted_import(tmp_path, line):
+    planted = tmp_path / "core.py"
+    planted.write_text(f"{line}\n")
+    assert timing_imports(planted)
+    planted.write_text("from gimbal_kinematics.rotations import quat_mul\nimport numpy\n")
+    assert not timing_imports(planted)

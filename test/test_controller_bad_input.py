@@ -38,23 +38,22 @@ def test_bad_inputs_are_counted_and_not_fused(ros_domain_env):
                                  use_global_arguments=False)
     sent: list[bytes] = []
     node.pub.publish = sent.append
-    node.pub_diag.publish = lambda msg: None
-    imu, joints = m.imu_from_cdr, m.joint_state_from_cdr
-    feed = node._on_input
+    node.edge.pubs["/diagnostics"].publish = lambda msg: None
+    feed = node.edge.take
 
     def gyro(k, cov, q=1e-3):
         feed("gyro", m.imu_cdr(EPOCH_NS + k * T_NS, "gimbal_inner_frd", angular_velocity=(0.0, q, 0.0),
-                               angular_velocity_cov=cov), imu)
+                               angular_velocity_cov=cov))
 
     def enc(k, names=JOINTS, angle=0.1):
-        feed("enc", m.joint_state_cdr(EPOCH_NS + k * T_NS, names, (0.0, angle, 0.05), (0.0, 0.0, 0.0)), joints)
+        feed("enc", m.joint_state_cdr(EPOCH_NS + k * T_NS, names, (0.0, angle, 0.05), (0.0, 0.0, 0.0)))
 
     def ins(k, rate=0.0, cov=m.diag_cov((VAR,) * 3)):
         feed("ins", m.imu_cdr(EPOCH_NS + k * T_NS, "base_link_frd", orientation=(0, 0, 0, 1),
-                              angular_velocity=(rate, 0.0, 0.0), angular_velocity_cov=cov), imu)
+                              angular_velocity=(rate, 0.0, 0.0), angular_velocity_cov=cov))
 
     try:
-        c = ChainMap(node.counts, node.policy.counts)
+        c = ChainMap(node.edge.counts, node.policy.counts)
         gate = node.policy.gate
         enc(0)
         ins(0)
@@ -78,7 +77,7 @@ def test_bad_inputs_are_counted_and_not_fused(ros_domain_env):
         gyro(6, m.gimbal_gyro_covariance(VAR, VAR), q=math.nan)   # NaN gyro: the core holds the command
         assert c["rejected_nonfinite"] == 3 and node.core.rejected_inputs == 1
         assert m.joint_state_from_cdr(sent[-1]).effort == m.joint_state_from_cdr(sent[-2]).effort
-        feed("gyro", b"\x00\x01", imu)                            # not a message at all
+        feed("gyro", b"\x00\x01")                            # not a message at all
         assert c["malformed"] == 1
     finally:
         node.destroy_node()

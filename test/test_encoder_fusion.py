@@ -170,15 +170,29 @@ def test_bad_input_is_counted_and_the_command_held():
     assert held.held and (held.torque_azimuth, held.torque_elevation) == (second.torque_azimuth, second.torque_elevation)
     assert first is not None and not second.held
     ctl.on_encoders(0.002, math.inf, -0.3)
-    ctl.on_base_rates(0.0005, (0.0, 0.0, 0.0))  # out of order
-    assert ctl.on_gyro(0.001, 0.0, 0.0) is None  # repeated stamp
-    assert ctl.rejected_nonfinite == 2 and ctl.rejected_out_of_order == 2 and ctl.held_commands == 1
-    ctl.on_gyro(0.003, 0.0, 0.0)
-    ctl.on_gyro(0.0, 0.0, 0.0)  # small step back: rejected, not a reset
-    assert not ctl.reset_reasons
-    ctl.on_encoders(5.0, 0.0, -0.3)
-    ctl.on_encoders(1.0, 0.0, -0.3)  # bag loop
-    assert ctl.reset_reasons and "encoder" in ctl.reset_reasons[0]
+    assert ctl.rejected_nonfinite == 2 and ctl.held_commands == 1
+
+
+def test_late_stamps_are_dropped_and_a_clock_jump_resets_through_the_lockstep_policy():
+    """The node's lockstep policy (eager steps, as the node builds it) is where stamps are
+    judged: a repeated or late step of a stream never reaches the core, a jump back of more
+    than clock_jump_s restarts and the next step carries the reset."""
+    from gimbal_kinematics.control_policy import LockstepControl
+    from gimbal_kinematics.stamps import step_stamp_ns
+
+    rate = 1000.0
+    policy = LockstepControl(lambda k: ("gyro", "enc"), rate, EncoderFusionParams().clock_jump_s,
+                             eager_stale_steps=1000)
+    add = lambda kind, k: policy.add(kind, step_stamp_ns(k, rate), 0.0)  # noqa: E731
+    assert add("enc", 5) == [] and [s.resets for s in add("gyro", 5)] == [()]
+    assert add("gyro", 5) == [] and add("gyro", 3) == [] and add("enc", 4) == []  # repeated, late: dropped
+    assert policy.rejected == 3
+    assert add("enc", 6) == [] and len(add("gyro", 6)) == 1
+    assert add("enc", 1006) == [] and len(add("gyro", 1006)) == 1
+    assert add("enc", 2) == []  # 1.004 s back: more than clock_jump_s, a bag loop
+    (step,) = add("gyro", 2)
+    assert "jumped back" in step.resets[0] and policy.rejected == 3
+    assert [s.resets for s in (add("enc", 3) or add("gyro", 3))] == [()]  # the reset comes once
 
 
 # ---------------------------------------------------------------------------- closed loop

@@ -458,10 +458,10 @@ def test_a_publisher_of_the_wrong_type_on_an_input_is_logged_once_and_on_diagnos
             wrong = talker.create_publisher(String, "/gimbal/imu", 10)  # a plain rclpy publisher, its own context
             wrong.publish(String(data="not an Imu"))
             # the node's own periodic check (a steady timer) finds it
-            assert spin_until(executor, lambda: ekf.io.wrong_type == 1, 60.0), ekf.io.counters()
-            ekf.io.check_types()
-            ekf.io.check_types()
-            assert ekf.io.wrong_type == 1  # one (topic, type): logged and counted once
+            assert spin_until(executor, lambda: ekf.edge.io.wrong_type == 1, 60.0), ekf.edge.io.counters()
+            ekf.edge.io.check_types()
+            ekf.edge.io.check_types()
+            assert ekf.edge.io.wrong_type == 1  # one (topic, type): logged and counted once
             (status,) = ekf.health(0).status
             values = {kv.key: kv.value for kv in status.values}
             assert values["wrong_type"] == "1" and values["gyro_received"] == "0", values

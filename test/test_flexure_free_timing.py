@@ -42,10 +42,11 @@ def free_run(messages, **params) -> tuple[object, dict[str, dict[int, np.ndarray
             out[topic].__setitem__(msg.stamp_ns, np.array(msg.vector))
 
     try:
-        assert node.policy.timing == "free" and node.pub_diag is not None
-        for topic, pub in node.pubs.items():
+        assert node.policy.timing == "free" and "/diagnostics" in node.edge.pubs
+        for topic, pub in ((t[2:], p) for t, p in node.edge.pubs.items() if t.startswith("~/") and t != "~/progress"):
             pub.publish = recorder(topic)
-        node.pub_diag.publish = lambda msg: diags.extend({kv.key: kv.value for kv in s.values} for s in msg.status)
+        node.edge.pubs["/diagnostics"].publish = lambda msg: diags.extend({kv.key: kv.value for kv in s.values}
+                                                                          for s in msg.status)
         for unit, msg in messages:
             node._on_lgu(unit, msg)
         return node.core, out, diags

@@ -35,10 +35,10 @@ def test_epoch_stamped_readouts_fix_like_the_core_and_bad_ones_are_counted():
     try:
         assert node.policy.timing == "free"
         # the node publishes serialized messages (gimbal_estimators.wire): decoded by rclpy's own deserializer
-        node.pub_fix.publish = lambda data: out["fix"].append(deserialize_message(data, NavSatFix))
-        node.pub_heading.publish = lambda data: out["heading"].append(deserialize_message(data, Vector3Stamped))
-        node.pub_progress.publish = out["progress"].append
-        node.pub_diag.publish = out["diag"].append
+        node.edge.pubs["~/fix"].publish = lambda data: out["fix"].append(deserialize_message(data, NavSatFix))
+        node.edge.pubs["~/heading"].publish = lambda data: out["heading"].append(deserialize_message(data, Vector3Stamped))
+        node.edge.pubs["~/progress"].publish = lambda data: out["progress"].append(m.clock_from_cdr(data))
+        node.edge.pubs["/diagnostics"].publish = out["diag"].append
         for k, s in enumerate(samples):
             a, b, imu = messages_of(s, EPOCH_NS + m.step_stamp_ns(k, RATE))
             if k == 57:
@@ -78,5 +78,5 @@ def test_epoch_stamped_readouts_fix_like_the_core_and_bad_ones_are_counted():
     assert int(d["rejected_nonfinite"]) == 1 and int(d["rejected_stamps"]) == 1, d
     assert int(d["fixes"]) == 3 and int(d["incompatible_qos"]) == 0, d
     # progress: the newest read-out's absolute stamp every 5 read-outs, never a grid step
-    stamps = [m.stamp_ns(c.clock) for c in out["progress"]]
+    stamps = out["progress"]
     assert stamps[0] == EPOCH_NS + m.step_stamp_ns(4, RATE) and len(stamps) == len(samples) // 5

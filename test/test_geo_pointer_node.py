@@ -51,7 +51,7 @@ def test_lockstep_commands_match_the_core_and_a_nan_target_is_counted(ros_domain
             got = []
             harness.create_subscription(Vector3Stamped, "/operator/los_rate", lambda m: got.append(
                 (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec, m.vector.y, m.vector.z)), GRAPH_QOS)
-            assert spin_until(executor, lambda: node.pub_cmd.get_subscription_count() > 0
+            assert spin_until(executor, lambda: node.edge.pubs[node.operator_topic].get_subscription_count() > 0
                               and all(p.get_subscription_count() > 0 for p in pubs.values())
                               and pub_target.get_subscription_count() > 0, 30.0)
             pub_target.publish(sm.navsat_fix_msg(0, "earth", math.nan, 0.5, 10.0))
@@ -105,7 +105,8 @@ def _free_pointer(env, extra: dict):
     executor.add_node(node)
     try:
         node.sent, node.diags = [], []
-        node.pub_cmd.publish, node.pub_diag.publish = node.sent.append, node.diags.append
+        node.edge.pubs[node.operator_topic].publish = node.sent.append
+        node.edge.pubs["/diagnostics"].publish = node.diags.append
         yield node, source, executor
     finally:
         executor.shutdown()
@@ -125,10 +126,10 @@ def _reference():
 
 def _measurements(node, sm, t_ns: int) -> None:
     """The step's encoders and INS attitude, serialized as the raw subscriptions deliver them."""
-    node._on_input("enc", sm.joint_state_cdr(t_ns, ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation"),
-                                             (0.0, 1.0, 0.05), (0.0,) * 3), sm.joint_state_from_cdr)
-    node._on_input("ins", sm.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
-                                     angular_velocity=(0.0, 0.0, 0.0)), sm.imu_from_cdr)
+    node.edge.take("enc", sm.joint_state_cdr(t_ns, ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation"),
+                                             (0.0, 1.0, 0.05), (0.0,) * 3))
+    node.edge.take("ins", sm.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
+                                     angular_velocity=(0.0, 0.0, 0.0)))
 
 
 def _commands(node, sm) -> list[tuple[int, float, float]]:
@@ -155,8 +156,8 @@ def test_free_timing_bad_fixes_are_counted_and_never_used(ros_domain_env):
         pub = source.create_publisher(NavSatFix, "/ins/fix", GRAPH_QOS)
         assert spin_until(executor, lambda: pub.get_subscription_count() > 0, 30.0)
         ref, fixed_site = _reference(), _reference()
-        counts = lambda: (node.counts["fixes_no_fix"], node.counts["fixes_out_of_order"],  # noqa: E731
-                          node.counts["stale_fixes"], node.core.counts["rejected_fixes"])
+        counts = lambda: (node.edge.counts["fixes_no_fix"], node.edge.counts["fixes_out_of_order"],  # noqa: E731
+                          node.edge.counts["stale_fixes"], node.core.counts["rejected_fixes"])
 
         def fix(t_ns, llh, status=NavSatStatus.STATUS_FIX):
             msg = sm.navsat_fix_msg(t_ns, "earth", *llh)
@@ -183,7 +184,7 @@ def test_free_timing_bad_fixes_are_counted_and_never_used(ros_domain_env):
             elif k == 26:
                 fix(t_ns, P2)
                 position = P2
-            node._on_input("att", sm.imu_cdr(t_ns, "map_ned", orientation=Q_NM), sm.imu_from_cdr)
+            node.edge.take("att", sm.imu_cdr(t_ns, "map_ned", orientation=Q_NM))
             if k <= 20 or k == 26:  # the fix of k = 0 is 0.21 s old at k = 21: stale, no command
                 assert ref.set_vehicle(position)
                 expected.append((t_ns, *ref.step(Q_NM, np.eye(3), 0.0).command))
@@ -218,20 +219,20 @@ def test_free_timing_the_velocity_is_fed_forward_and_a_bad_one_counted(ros_domai
         for k, vel in enumerate((None, v_good, (math.inf, 0.0, 0.0))):
             t_ns = t0 + k * 10**7
             _measurements(node, sm, t_ns)
-            before = (node._last_ns["fix"], node._last_ns["vel"], node.counts["rejected_velocities"])
+            before = (node._last_ns["fix"], node._last_ns["vel"], node.edge.counts["rejected_velocities"])
             pub_fix.publish(sm.navsat_fix_msg(t_ns, "earth", *P1))
             if vel is not None:
                 pub_vel.publish(sm.vector3_msg(t_ns, "ned", vel))
             assert spin_until(executor, lambda: (node._last_ns["fix"], node._last_ns["vel"],
-                                                 node.counts["rejected_velocities"]) != before
+                                                 node.edge.counts["rejected_velocities"]) != before
                               and node._last_ns["fix"] == t_ns and (vel is None or node._last_ns["vel"] == t_ns
-                                                                    or node.counts["rejected_velocities"]), 30.0)
-            node._on_input("att", sm.imu_cdr(t_ns, "map_ned", orientation=Q_NM), sm.imu_from_cdr)
+                                                                    or node.edge.counts["rejected_velocities"]), 30.0)
+            node.edge.take("att", sm.imu_cdr(t_ns, "map_ned", orientation=Q_NM))
             if k >= 1:  # k = 0: no velocity yet, no command; k = 2: the good one of k = 1 (10 ms old)
                 assert ref.set_vehicle(P1, v_good)
                 expected.append((t_ns, *ref.step(Q_NM, np.eye(3), 0.0).command))
         got = _commands(node, sm)
-        assert node.counts["rejected_velocities"] == 1
+        assert node.edge.counts["rejected_velocities"] == 1
         assert [g[0] for g in got] == [e[0] for e in expected]
         assert np.allclose([g[1:] for g in got], [e[1:] for e in expected], rtol=0.0, atol=1e-12)
         still = _reference()

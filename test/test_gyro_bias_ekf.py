@@ -54,12 +54,13 @@ def simulate(sensors: SensorSuiteConfig, duration_s: float, sim_rate_hz: float =
 
 
 def feed(ekf: GyroBiasEkf, sample, attitude: bool = True):
+    """The output the sample completed (None: none)."""
     if isinstance(sample, GimbalGyroSample):
-        return ekf.on_gyro(sample.t, sample.q_m, sample.r_m)
+        return ekf.on_gyro(sample.t, sample.q_m, sample.r_m).output
     if isinstance(sample, EncoderSample):
-        return ekf.on_encoders(sample.t, sample.angles, sample.rates)
+        return ekf.on_encoders(sample.t, sample.angles, sample.rates).output
     if isinstance(sample, InsSample):
-        return ekf.on_ins(sample.t, sample.euler if attitude else None, sample.omega_b)
+        return ekf.on_ins(sample.t, sample.euler if attitude else None, sample.omega_b).output
     raise TypeError(sample)
 
 
@@ -272,21 +273,52 @@ def _aligned_filter(samples, n_steps=500):
     return ekf
 
 
-def test_nonfinite_and_out_of_order_samples_are_rejected_and_counted(paper_run):
+def test_nonfinite_samples_are_rejected_counted_and_said_why(paper_run):
     _, samples = paper_run
     ekf = _aligned_filter(samples)
     t = ekf.time
     bias, P = ekf.bias, ekf.P.copy()
-    assert ekf.on_gyro(t + 0.002, math.nan, 0.0) is None
-    assert ekf.on_encoders(t + 0.002, (0.0, math.inf, 0.0)) is None
-    assert ekf.on_ins(t + 0.002, (0.0, 0.0, math.nan), (0.0, 0.0, 0.0)) is None
-    assert ekf.on_ins(t + 0.002, (0.0, 0.0, 0.0), (0.0, None, 0.0)) is None
-    assert ekf.on_encoders(t + 0.002, (0.0, 0.0)) is None
+    fed = [ekf.on_gyro(t + 0.002, math.nan, 0.0), ekf.on_encoders(t + 0.002, (0.0, math.inf, 0.0)),
+           ekf.on_ins(t + 0.002, (0.0, 0.0, math.nan), (0.0, 0.0, 0.0)),
+           ekf.on_ins(t + 0.002, (0.0, 0.0, 0.0), (0.0, None, 0.0)), ekf.on_encoders(t + 0.002, (0.0, 0.0))]
+    assert all(not f.used and "non-finite" in f.why and f.output is None for f in fed)
     assert ekf.counters.rejected_nonfinite == 5
-    assert ekf.on_gyro(t, 0.0, 0.0) is None  # repeated stamp
-    assert ekf.on_gyro(t - 0.1, 0.0, 0.0) is None  # late, within clock_jump_s
-    assert ekf.on_encoders(t - 0.01, (0.0, 0.0, 0.0)) is None
-    assert ekf.counters.rejected_out_of_order == 3
+    assert ekf.counters.resets == 0 and ekf.time == t
+    np.testing.assert_array_equal(ekf.bias, bias)
+    np.testing.assert_array_equal(ekf.P, P)
+    assert ekf.on_ins(t + 0.002, None, (0.0, 0.0, 0.0)).why == "no attitude to fuse"  # used, nothing to fuse
+
+
+def _through_the_lockstep_policy(ekf: GyroBiasEkf, steps, policy) -> list:
+    """Feed samples through the node's lockstep input policy (``order_policy``), as the node does."""
+    outs = []
+    for step in steps:
+        for s in step:
+            kind = {GimbalGyroSample: "gyro", EncoderSample: "encoders", InsSample: "ins"}[type(s)]
+            for released in policy.add(kind, int(round(s.t * 1e9)), s):
+                r = feed(ekf, released.msg._replace(t=released.t))
+                if r is not None:
+                    outs.append(r)
+    return outs
+
+
+def _ekf_policy(ekf: GyroBiasEkf):
+    from gimbal_kinematics.input_policy import order_policy
+
+    return order_policy("lockstep", ("encoders", "ins", "gyro"), max_wait_ns=0, rate_hz=500.0, progress_every=1,
+                        clock_jump_ns=int(ekf.params.clock_jump_s * 1e9),
+                        on_restart=lambda reason: ekf.reset(reason, 0.0))
+
+
+def test_out_of_order_stamps_are_dropped_by_the_input_policy_before_the_core(paper_run):
+    _, samples = paper_run
+    ekf = GyroBiasEkf()
+    policy = _ekf_policy(ekf)
+    _through_the_lockstep_policy(ekf, samples[:500], policy)
+    t, bias, P = ekf.time, ekf.bias, ekf.P.copy()
+    late = [samples[499], samples[480]]  # a repeated step, and one 38 ms back (less than clock_jump_s)
+    assert _through_the_lockstep_policy(ekf, late, policy) == []
+    assert policy.rejected == sum(len(step) for step in late)
     assert ekf.counters.resets == 0 and ekf.time == t
     np.testing.assert_array_equal(ekf.bias, bias)
     np.testing.assert_array_equal(ekf.P, P)
@@ -294,14 +326,16 @@ def test_nonfinite_and_out_of_order_samples_are_rejected_and_counted(paper_run):
 
 def test_backward_clock_jump_resets_and_records_why(paper_run):
     _, samples = paper_run
-    ekf = _aligned_filter(samples, 2000)
+    ekf = GyroBiasEkf()
+    policy = _ekf_policy(ekf)
+    _through_the_lockstep_policy(ekf, samples[:2000], policy)
     assert ekf.aligned and np.any(ekf.bias != 0.0)
-    outs = [r for step in samples[:600] for s in step if (r := feed(ekf, s)) is not None]  # the bag loops
+    outs = _through_the_lockstep_policy(ekf, samples[:600], policy)  # the bag loops
     assert ekf.counters.resets == 1
     t_reason = ekf.reset_log[-1]
     assert "clock jumped back" in t_reason[1] and t_reason[0] == 0.0
     assert outs[0].t == 0.0 and np.all(outs[0].bias == 0.0)  # fresh alignment after the jump
-    assert ekf.aligned and ekf.counters.rejected_out_of_order == 0
+    assert ekf.aligned and policy.rejected == 0
 
 
 def test_innovation_gate_rejects_outliers_and_realigns_after_a_run_of_them(paper_run):
@@ -315,9 +349,9 @@ def test_innovation_gate_rejects_outliers_and_realigns_after_a_run_of_them(paper
     for i, step in enumerate(samples[k0:k0 + 15]):  # 3 INS samples, each 2° off in heading
         for s in step:
             if isinstance(s, InsSample):
-                out = ekf.on_ins(s.t, (s.euler[0], s.euler[1], s.euler[2] + 2.0 * DEG), s.omega_b)
+                out = ekf.on_ins(s.t, (s.euler[0], s.euler[1], s.euler[2] + 2.0 * DEG), s.omega_b).output
                 if out is not None:
-                    assert not out.accepted and out.d2 > ekf._gate
+                    assert not out.accepted and out.d2 > ekf._gate and out.nis == out.d2
             else:
                 feed(ekf, s)
     assert ekf.counters.gated == gated + 3

@@ -173,8 +173,8 @@ def test_bad_inputs_are_counted_on_diagnostics_and_never_fused(ros_domain_env):
             harness.create_subscription(DiagnosticArray, "/diagnostics", lambda msg: diags.extend(
                 {kv.key: kv.value for kv in s.values} for s in msg.status if s.hardware_id == ekf.get_name()), 1000)
             assert spin_until(executor, lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
-                              and ekf.pub_bias.get_subscription_count() > 0
-                              and ekf.pub_diag.get_subscription_count() > 0, 30.0)
+                              and ekf.edge.pubs["~/bias"].get_subscription_count() > 0
+                              and ekf.edge.pubs["/diagnostics"].get_subscription_count() > 0, 30.0)
             sent = {s: 0 for s in pubs}
             for stream, msg, _ in schedule:
                 pubs[stream].publish(msg)

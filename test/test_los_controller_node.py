@@ -50,7 +50,7 @@ def test_nan_holds_the_command_malformed_bytes_are_counted_and_each_step_waits(r
 
     rate = 1000.0
     enc_names = ("turret_azimuth", "gimbal_azimuth", "gimbal_elevation")
-    imu, joints = m.imu_from_cdr, m.joint_state_from_cdr
+    joints = m.joint_state_from_cdr
     context = Context()
     rclpy.init(context=context, domain_id=int(ros_domain_env["ROS_DOMAIN_ID"]))
     node = LosRateControllerNode(context=context, cli_args=ros_args({"timing": "lockstep"}), use_global_arguments=False)
@@ -60,18 +60,18 @@ def test_nan_holds_the_command_malformed_bytes_are_counted_and_each_step_waits(r
         for k in range(6):
             t_ns = m.step_stamp_ns(k, rate)
             q = math.nan if k == 3 else 1e-3 * k
-            node._on_input("enc", m.joint_state_cdr(t_ns, enc_names, (0.0, 0.1, 0.2), (0.0, 0.0, 0.0)), joints)
+            node.edge.take("enc", m.joint_state_cdr(t_ns, enc_names, (0.0, 0.1, 0.2), (0.0, 0.0, 0.0)))
             if k == 0:
                 assert sent == []  # step 0 is an INS step: it waits for the INS too
-                node._on_input("ins", m.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
-                                                angular_velocity=(0.0, 0.0, 0.0)), imu)
+                node.edge.take("ins", m.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
+                                                angular_velocity=(0.0, 0.0, 0.0)))
             assert len(sent) == k  # the gyro of step k is still missing
-            node._on_input("gyro", m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, q, -q)), imu)
-        node._on_input("gyro", b"\x00\x01\x00\x00garbage", imu)
+            node.edge.take("gyro", m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, q, -q)))
+        node.edge.take("gyro", b"\x00\x01\x00\x00garbage")
         commands = [joints(data) for data in sent]
         assert [m.step_of_stamp(c.stamp_ns, rate) for c in commands] == list(range(6))
         assert commands[3].effort == commands[2].effort and commands[4].effort != commands[3].effort
-        assert node.core.rejected_inputs == 1 and node.rejected == 2
+        assert node.core.rejected_inputs == 1 and sum(node.edge.counts.values()) == 2
     finally:
         node.destroy_node()
         rclpy.shutdown(context=context)

@@ -23,11 +23,12 @@ from gimbal_estimators.rotation_alignment import RotationAlignmentParams
 from gimbal_kinematics.sync import StepGroups
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.ros import messages as m
-from gimbal_sim.experiments.alignment import KinematicPlatformTruth
+from kinematic_alignment import KinematicPlatformTruth
+from gimbal_sim.core.engine_run import run_engine
 from gimbal_sim.experiments.platform_servo import (
-    ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup, run_platform_alignment,
+    ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, alignment_setup,
 )
-from gimbal_sim.graph.scenario import load
+from gimbal_sim.graph.scenario import load, variant
 from ros_harness import ros_args, start_refused
 
 pytestmark = pytest.mark.ros
@@ -79,10 +80,10 @@ def alignment_node(domain_env, params: dict | None = None):
               **(params or {})}
     node = PlatformAlignmentNode(context=context, cli_args=ros_args(params), use_global_arguments=False)
     sent = defaultdict(list)
-    for name, pub in node.pubs.items():
+    for name, pub in ((n, node.edge.pubs[f"~/{n}"]) for n in OUTPUTS):
         # serialized by the node (gimbal_estimators.wire): decoded by rclpy's own deserializer
         pub.publish = lambda data, out=sent[name]: out.append(deserialize_message(data, Vector3Stamped))
-    node.pub_progress.publish = sent["progress"].append
+    node.edge.pubs["~/progress"].publish = lambda data: sent["progress"].append(m.clock_from_cdr(data))
     try:
         yield node, sent
     finally:
@@ -142,7 +143,7 @@ def test_outputs_follow_an_independent_truth_in_ned_with_sigma(ros_domain_env):
         assert north_sigma[0] > 0.0 and north_sigma[1:].tolist() == [-1.0, -1.0]
         # pacing: ready is announced by the timer (not spun here); then every 10 steps the
         # next step needed, which at 10 Hz in a 1 kHz run is the next sample's step
-        steps = [m.step_of_stamp(m.stamp_ns(c.clock), SIM_HZ) for c in sent["progress"]]
+        steps = [m.step_of_stamp(c, SIM_HZ) for c in sent["progress"]]
         assert steps[:3] == [100, 200, 300] and steps[-1] == 600_100
 
 
@@ -162,16 +163,16 @@ def test_bad_input_is_rejected_counted_and_a_loop_restarts(ros_domain_env):
         # a joint message without the azimuth joint is counted (the step's accelerometer
         # sample then uses the previous joint sample, 0.1 s old, within max_joint_age_s)
         _feed(node, 1200, 0.0, 0.0, (0.0, 0.0, -g), joint_name="elsewhere")
-        assert node.rejected_joints == 1 and core.counters.accepted == 12
+        assert node.edge.counts["rejected_joints"] == 1 and core.counters.accepted == 12
         # the bag loops: everything restarts at t = 0
         _feed(node, 0, 0.0, 0.0, (0.0, 0.0, -g))
         assert node.policy.sync.restarts == 1 and core.counters.resets == 1
         assert core.started and core.n_updates == 0
 
 
-def test_scenario_starts_the_platform_where_the_one_process_run_does():
-    """rotational_ins_alignment's base heading, gimbal angles and sensor noise are the
-    one-process run's, and the three latitudes agree."""
+def test_scenario_starts_the_platform_where_alignment_setup_puts_it():
+    """rotational_ins_alignment's base heading and gimbal angles are alignment_setup()'s, its
+    sensor noise the ALIGNMENT_* budget's, and the three latitudes agree."""
     import yaml
 
     nodes = load("rotational_ins_alignment").nodes
@@ -202,32 +203,37 @@ def graph_run(module_ros_domain_env, tmp_path_factory):
     return out / "rotation_on"
 
 
-@pytest.mark.slow
-def test_graph_run_equals_the_one_process_closed_loop(graph_run):
+def _alignment_messages(run_dir):
     from rosbags.highlevel import AnyReader
 
-    with AnyReader([graph_run]) as reader:
+    with AnyReader([run_dir]) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         msgs = defaultdict(list)
         for connection, _, raw in reader.messages():
             if connection.topic.startswith("/platform_alignment/"):
                 msgs[connection.topic].append(reader.deserialize(raw, connection.msgtype))
+    return counts, msgs
+
+
+@pytest.mark.slow
+def test_graph_run_equals_the_engine_run(graph_run, tmp_path):
+    """The graph's alignment and the one engine's (the campaign's ``engine: core`` runs) give
+    the same estimates, read from each bag by rosbags; the report's errors are the same."""
+    import dataclasses
+    import json
+
+    counts, msgs = _alignment_messages(graph_run)
     steps = int(DURATION_S * SIM_HZ) + 1
     assert counts["/clock"] == counts["/truth/platform/joint_states"] == steps
     assert counts["/platform_alignment/status"] == int(DURATION_S)  # one RLS update per 1 s block
-    # the scenario (seed 1) in one process: same plant, sensors, servo and RLS
-    ref = run_platform_alignment(1, True, DURATION_S, lat_deg=LAT_DEG)
-    v = lambda topic: np.array([[x.vector.x, x.vector.y, x.vector.z] for x in msgs[topic]])[-1]  # noqa: E731
-    init = v("/platform_alignment/initial_misalignment")
-    est_enu = np.array([init[1], init[0], -init[2]])
-    np.testing.assert_allclose(est_enu, ref.estimate[:3], rtol=1e-6, atol=1e-12)
-    np.testing.assert_allclose(v("/platform_alignment/accel_bias")[:2], ref.estimate[4:6], rtol=1e-6, atol=1e-12)
-    # the report measures the same errors against its own truth (loop angles + gimbal geometry)
-    import json
+    scenario = dataclasses.replace(variant(load("rotational_ins_alignment"), "rotation_on"), duration_s=DURATION_S)
+    run_engine(scenario, tmp_path / "engine")
+    _, ref = _alignment_messages(tmp_path / "engine")
+    for topic in ("/platform_alignment/initial_misalignment", "/platform_alignment/accel_bias",
+                  "/platform_alignment/misalignment_sigma"):
+        v = lambda m: np.array([[x.vector.x, x.vector.y, x.vector.z] for x in m[topic]])  # noqa: E731
+        np.testing.assert_allclose(v(msgs), v(ref), rtol=1e-6, atol=1e-12)
     metrics = json.loads((graph_run / "report" / "metrics.json").read_text())["alignment"]
-    assert metrics["tilt_error_arcsec"]["east"] == pytest.approx(ref.tilt_error_arcsec[0], abs=1e-3)
-    assert metrics["tilt_error_arcsec"]["north"] == pytest.approx(ref.tilt_error_arcsec[1], abs=1e-3)
-    assert metrics["azimuth_error_arcmin"] == pytest.approx(ref.azimuth_error_arcmin, abs=1e-4)
     assert metrics["truth_initial_misalignment_arcsec"] == pytest.approx([-25.0, -36.0, 1020.0], abs=0.2)
     assert metrics["updates"] == int(DURATION_S)
 

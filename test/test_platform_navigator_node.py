@@ -157,7 +157,7 @@ def test_at_rest_the_command_is_the_earth_rate_and_bad_input_is_never_integrated
     rig.send(9, 0.0, (5.0, 5.0, -9.8), wait=False)  # step 9 again (repeated stamps): refused
     rig.send(2, 0.0, (5.0, 5.0, -9.8), wait=False)  # back to step 2: refused
     node, core = rig.node, rig.node.core
-    assert core.rejected_nonfinite == 1 and core.rejected_no_resolver == 1 and node.rejected_joints == 1
+    assert core.rejected_nonfinite == 1 and core.rejected_no_resolver == 1 and node.edge.counts["rejected_joints"] == 1
     assert node.policy.sync.rejected >= 2 and core.accepted == 8 and core.resets == 0
     assert len(rig.got["command_rate"]) == 10 and len(rig.got["velocity"]) == 8
     for msg in rig.got["velocity"]:
@@ -230,4 +230,4 @@ def test_azimuth_from_the_servo_angle(rig):
     t = (n - 1) / RATE
     assert core.vn == pytest.approx(nabla * t, rel=1e-4)
     assert abs(core.ve) < 1e-3 * nabla * t  # Coriolis: Ω sin L ∇t² is 1.2e-5 of ∇t here
-    assert core.rejected_no_resolver == 0 and rig.node.rejected_joints == 0
+    assert core.rejected_no_resolver == 0 and rig.node.edge.counts["rejected_joints"] == 0

@@ -1,6 +1,7 @@
 """Paper 3 platform servo: friction preset against the simulated bearing, pickoff emulation,
 loop margins from the linearised Table 1 axes (scipy), and the closed loop on gimbal_sim's platform with a shortened sweep (two starts of rotation and
-one reversal); the full figures come from run_platform_servo."""
+one reversal); the full figures come from run_platform_servo, and the servo command runs the
+scenario on the engine."""
 import math
 
 import numpy as np
@@ -186,3 +187,27 @@ def test_integrator_preset_reduces_the_reversal_transient(runs):
     assert without["presets"] == 0
     assert with_preset["reversal_max_error_arcsec"] < 0.6 * without["reversal_max_error_arcsec"]
     assert with_preset["steady_max_error_arcsec"] == pytest.approx(without["steady_max_error_arcsec"], rel=0.2)
+
+
+def test_servo_command_prints_the_engine_runs_report_from_its_bag(tmp_path, capsys):
+    """``platform_servo servo``: scenario rotational_platform_servo on the one engine; its bag
+    is read here by rosbags, and the sensed azimuth error's steady max (after the 2 s settle)
+    recomputed from the bag's control-error messages is the printed figure."""
+    import json
+
+    from rosbags.highlevel import AnyReader
+    from gimbal_sim.experiments.platform_servo import SERVO_ROWS, main
+
+    assert main(["servo", "--duration", "3", "--out", str(tmp_path / "run")]) == 0
+    printed = dict(line.rsplit(None, 1) for line in capsys.readouterr().out.splitlines())
+    metrics = json.loads((tmp_path / "run" / "report" / "metrics.json").read_text())
+    assert len(printed) == len(SERVO_ROWS)
+    with AnyReader([tmp_path / "run"]) as reader:
+        conns = [c for c in reader.connections if c.topic == "/platform_servo/control_error"]
+        rows = [(stamp * 1e-9, reader.deserialize(raw, c.msgtype).position[0])
+                for c, stamp, raw in reader.messages(connections=conns)]
+    t, e = np.array(rows).T
+    steady_max = float(np.max(np.abs(e[t - t[0] >= 2.0]))) / ARCSEC
+    label = SERVO_ROWS[("control_error_arcsec", "sensed", "steady", "max")]
+    assert float(printed[label.strip()]) == pytest.approx(steady_max, rel=1e-3)
+    assert metrics["control_error_arcsec"]["sensed"]["steady"]["max"] == pytest.approx(steady_max, rel=1e-9)

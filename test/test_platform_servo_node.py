@@ -55,7 +55,8 @@ def servo_node(domain_env, params: dict | None = None):
     rclpy.init(context=context, domain_id=int(domain_env["ROS_DOMAIN_ID"]))
     node = PlatformServoNode(context=context, cli_args=ros_args({"timing": "lockstep", **(params or {})}), use_global_arguments=False)
     sent = defaultdict(list)
-    for name, pub in (("cmd", node.pub), ("error", node.pub_error), ("mod", node.pub_mod)):
+    for name, pub in (("cmd", node.edge.pubs["/platform/voltage_cmd"]), ("error", node.edge.pubs["~/control_error"]),
+                      ("mod", node.edge.pubs["~/modulation"])):
         # serialized by the node (gimbal_control.wire): decoded by rclpy's own deserializer
         pub.publish = lambda data, out=sent[name]: out.append(deserialize_message(data, JointState))
     try:
@@ -117,7 +118,7 @@ def test_bad_resolver_message_is_ignored_and_counted(ros_domain_env):
         imu, _ = _inputs(1, (1e-4, 0.0, 0.0))
         node._on_input("res", m.joint_state_msg(m.step_stamp_ns(1, RATE), ("a", "b"), (0.0, 0.0)))
         node._on_input("imu", imu)
-        assert node.rejected_resolvers == 1 and len(sent["cmd"]) == 2
+        assert node.edge.counts["rejected_joint_names"] == 1 and len(sent["cmd"]) == 2
         _, res = _inputs(2, angles=(0.0, math.inf, 0.0, 0.0))
         imu, _ = _inputs(2)
         node._on_input("res", res)

@@ -12,10 +12,8 @@ from gimbal_estimators.rotation_alignment import (
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
 from gimbal_kinematics.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.rotations import rot3
-from gimbal_sim.experiments.alignment import (
-    PAPER3_MISALIGNMENT_ARCSEC, AlignmentMetrics, KinematicPlatformTruth, alignment_metrics, summarize_alignment,
-)
-from gimbal_sim.world.sensors import PAPER3_ACCELEROMETER, AccelerometerModel, AccelerometerParams
+from gimbal_sim.world.sensors import AccelerometerParams
+from kinematic_alignment import KinematicPlatformTruth, run_alignment_experiment, summarize_alignment
 
 ARCSEC = math.radians(1.0 / 3600.0)
 ARCMIN = math.radians(1.0 / 60.0)
@@ -26,63 +24,6 @@ LAT_DEG = 40.0
 IMU_HZ = 10.0
 
 
-_ARCSEC = _DEG_H = math.pi / (180.0 * 3600.0)  # the unit factors as alignment_metrics' (the same floats)
-
-
-# The kinematic-truth run: the test's own harness (truth, accelerometers and the core stepped
-# here), independent of the simulated platform the product's campaign runs.
-def run_alignment_experiment(
-    seed: int,
-    rotate: bool = True,
-    duration_s: float = 600.0,
-    *,
-    lat_deg: float = 40.0,
-    imu_rate_hz: float = 100.0,
-    misalignment0_arcsec: tuple = PAPER3_MISALIGNMENT_ARCSEC,
-    gyro_drift_sigma_deg_h: float = 0.03,
-    north_drift_sigma_deg_h: float = 0.01,
-    east_nav_drift_deg_h: float = 0.0,
-    fixed_psi_deg: float = 30.0,
-    accel_params=None,
-    params: RotationAlignmentParams | None = None,
-) -> AlignmentMetrics:
-    """Kinematic-truth alignment run (paper 3 §2.2 / Table 2), returns its metrics.
-
-    ``rotate``: bidirectional 1.2°/s through 360° and back (600 s = one cycle, paper 3's
-    "rotates bi-directionally ... in one circle"), else the platform is held at
-    ``fixed_psi_deg``. Platform gyro drift per axis ~ N(0, ``gyro_drift_sigma_deg_h``²); the
-    n-fixed north drift ~ N(0, ``north_drift_sigma_deg_h``²); an n-fixed east drift
-    ``east_nav_drift_deg_h`` (unobservable, biases azimuth by −εE/ω_N). Accelerometers:
-    ``accel_params`` (default ``PAPER3_ACCELEROMETER``: 100 µg bias σ, 50 µg/√Hz) sampled at
-    ``imu_rate_hz``; the filter's noise density follows it unless ``params`` is given.
-    """
-    accel_params = PAPER3_ACCELEROMETER if accel_params is None else accel_params
-    if params is None:
-        params = RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=max(accel_params.noise_ug_rt_hz, 1e-3))
-    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 3])
-    gyro_drift = rng.normal(0.0, gyro_drift_sigma_deg_h, 3) * _DEG_H
-    north_drift = float(rng.normal(0.0, north_drift_sigma_deg_h)) * _DEG_H
-    nav_drift = np.array([north_drift, east_nav_drift_deg_h * _DEG_H, 0.0])
-    rotation = BidirectionalRotation() if rotate else None
-    lat = math.radians(lat_deg)
-    truth = KinematicPlatformTruth(
-        lat, np.asarray(misalignment0_arcsec, dtype=float) * _ARCSEC, gyro_drift, nav_drift,
-        rotation=rotation, psi0=0.0 if rotate else math.radians(fixed_psi_deg), gravity=params.gravity,
-    )
-    dt = 1.0 / imu_rate_hz
-    accel = AccelerometerModel(accel_params, 3, np.random.default_rng([int(seed) & 0xFFFFFFFF, 4]), dt)
-    core = RotationAlignmentRls(params)
-    phi0 = truth.misalignment_enu()
-    n_steps = int(round(duration_s * imu_rate_hz))
-    for k in range(n_steps + 1):
-        if k:
-            truth.step(dt)
-        psi, psi_dot = truth.psi_state(truth.t)
-        core.on_joint_state(truth.t, psi, psi_dot)
-        core.on_accel(truth.t, accel.step(truth.specific_force_s()))
-    bias = accel.fixed_bias
-    truth_x = np.array([phi0[0], phi0[1], phi0[2], north_drift, bias[0], bias[1], gyro_drift[0], gyro_drift[1]])
-    return alignment_metrics(core, truth_x, seed=seed, rotate=rotate, duration_s=duration_s, psi0=truth.psi(0.0))
 
 
 # ---------------------------------------------------------------- parameters
@@ -275,8 +216,6 @@ def test_bad_inputs_are_rejected_and_counted_and_backjump_resets():
     core.on_accel(0.05, (float("nan"), 0.0, -g))
     core.on_accel(0.06, (0.0, None, -g))
     assert core.counters.rejected_nonfinite == 2
-    core.on_accel(0.0, (0.0, 0.0, -g))  # repeated stamp
-    assert core.counters.rejected_out_of_order == 1
     core.on_accel(0.5, (0.0, 0.0, -g))  # joint is 0.5 s old
     assert core.counters.rejected_stale_joint == 1
     for k in range(1, 31):
@@ -284,9 +223,36 @@ def test_bad_inputs_are_rejected_and_counted_and_backjump_resets():
         core.on_accel(0.1 * k, (0.0, 0.0, -g))
     assert core.n_updates == 3
     accepted = core.counters.accepted
-    # a bag loop: both streams restart at t = 0
+    core.reset("a bag loop")  # what the node's input policy calls on a clock jump back
+    assert core.counters.resets == 1 and core.n_updates == 0 and not core.started
     core.on_joint_state(0.0, 0.0, 0.0)
-    assert core.counters.resets == 1 and "jumped back" in core.counters.reset_reasons[0]
-    assert core.n_updates == 0 and not core.started
     core.on_accel(0.0, (0.0, 0.0, -g))
     assert core.started and core.counters.accepted == accepted + 1
+
+
+@pytest.mark.parametrize("timing", ["lockstep", "free"])
+def test_repeated_and_late_stamps_are_dropped_and_a_clock_jump_resets_through_the_grouped_policy(timing):
+    """The alignment node's grouped input policy (as its constructor builds it) judges the
+    stamps: a repeated or late step never reaches the core, a bag loop calls the node's reset
+    before the new run's first step."""
+    from gimbal_kinematics.input_policy import SampleGrid, grouped_policy
+
+    class Log:
+        def warning(self, *args, **kwargs):
+            pass
+
+        info = warning
+
+    grid, resets = SampleGrid({"joint": 1, "imu": 1}), []
+    policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=10.0, next_due=grid.next_due,
+                            progress_every=1, clock_jump_s=1.0, max_wait_ns=0, paced="imu", logger=Log(),
+                            on_restart=resets.append)
+    feed = lambda k: [(s.kind, s.stamp_ns) for kind in ("joint", "imu")  # noqa: E731
+                      for s in policy.add(kind, 10**9 + k * 10**8, k)]
+    released = [step for k in range(30) for step in feed(k)]
+    assert [kind for kind, _ in released[:4]] == ["joint", "imu", "joint", "imu"] and not resets
+    assert feed(29) == [] and feed(25) == []  # repeated, late (0.4 s: less than clock_jump_s)
+    assert not resets
+    after = [step for k in range(3) for step in feed(k)]  # a bag loop: back 2.9 s
+    assert len(resets) == 1 and "jumped back" in resets[0]
+    assert len(after) >= 4 and all(kind in ("joint", "imu") for kind, _ in after)

@@ -51,13 +51,14 @@ Message-driven API (times are message stamps [s]; SI units; no wall clock)::
     out = ctl.step(t, omega_b, psi_m, theta_m, q_m, r_m)  # the three at once (the node)
 
 Feed the encoder and base samples of a stamp before the gyro sample of the same stamp,
-as the lockstep graph orders them; the gyro sample is the control tick. Bad input:
+as the lockstep graph orders them; the gyro sample is the control tick. Stamps come checked
+and in order, each stream's rising: the node's input policy
+(:mod:`gimbal_kinematics.control_policy`) drops repeated and late ones and, on a clock jump
+back (``clock_jump_s``, its parameter), calls :meth:`~EncoderFusionController.reset`. Bad input:
 
-* NaN/inf inputs and non-increasing stamps are rejected and counted. A bad gyro sample
-  returns the last command with ``held`` set; so does :meth:`~EncoderFusionController.step`
-  for a bad value in any of its inputs.
-* A backward stamp jump larger than ``clock_jump_s`` (a bag loop) resets the
-  controller and records the reason.
+* NaN/inf inputs are rejected and counted. A bad gyro sample returns the last command with
+  ``held`` set; so does :meth:`~EncoderFusionController.step` for a bad value in any of its
+  inputs.
 * A gap longer than ``max_gap_s`` restarts the gate without integrating across it.
 
 The closed-loop experiment on the simulated UAV gimbal (plant, base motion, MEMS gyro) sits
@@ -69,7 +70,6 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
-from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 
@@ -119,7 +119,8 @@ class EncoderFusionParams:
         min_cos_elevation: floor of cos θm in τ_a = u_r / cos θm (near θm = ±90° the
             azimuth motor no longer turns the LOS about m-z).
         max_gap_s: a longer gap between control ticks restarts the gate and derivative [s].
-        clock_jump_s: a stamp this far behind the last one resets the controller [s].
+        clock_jump_s: a stamp this far behind the last one resets the controller [s] (the
+            node's input policy judges it).
     """
 
     mode: str = "fused"
@@ -197,7 +198,7 @@ class FusionCommand(NamedTuple):
 
 
 # ============================================================================ the core
-class EncoderFusionController(StampGate):
+class EncoderFusionController:
     """Two-axis PID stabilizer with per-axis encoder/gyro fusion (module docstring)."""
 
     def __init__(self, params: EncoderFusionParams | None = None) -> None:
@@ -211,7 +212,6 @@ class EncoderFusionController(StampGate):
         self.kf_q = ClosedLoopComplementaryKf(p.kf, "fusion_kf_q")
         self.kf_r = ClosedLoopComplementaryKf(p.kf, "fusion_kf_r")
         self.rejected_nonfinite = 0
-        self.rejected_out_of_order = 0
         self.held_commands = 0
         self.reset_reasons: list[str] = []
         self._reset_state()
@@ -222,7 +222,7 @@ class EncoderFusionController(StampGate):
         self.pid_r.reset()
         self.kf_q.reset()
         self.kf_r.reset()
-        self._t_base = self._t_enc = self._t_tick = None
+        self._t_enc = self._t_tick = None
         self._omega_b = (0.0, 0.0, 0.0)
         self._have_base = False
         self._psi = self._theta = 0.0
@@ -270,20 +270,15 @@ class EncoderFusionController(StampGate):
     # ------------------------------------------------------------------ inputs
     def on_base_rates(self, t: float, omega_b: Sequence[float]) -> None:
         """Base (UAV body) inertial rates (3,) [rad/s] resolved in b at stamp ``t`` [s]."""
-        if not self._stamp_ok(t, self._t_base, "base"):
-            return
         wx, wy, wz = (float(v) for v in omega_b)
         if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
             self.rejected_nonfinite += 1
             return
-        self._t_base = t
         self._omega_b = (wx, wy, wz)
         self._have_base = True
 
     def on_encoders(self, t: float, psi_m: float, theta_m: float) -> None:
         """Encoder joint angles [rad] (azimuth ψm, elevation θm) at stamp ``t`` [s]."""
-        if not self._stamp_ok(t, self._t_enc, "encoder"):
-            return
         if not (math.isfinite(psi_m) and math.isfinite(theta_m)):
             self.rejected_nonfinite += 1
             return
@@ -294,11 +289,9 @@ class EncoderFusionController(StampGate):
     def on_gyro(self, t: float, q_m: float, r_m: float) -> FusionCommand | None:
         """Control tick on a gimbal gyro sample (q_m, r_m) [rad/s]; returns the torques.
 
-        Returns None until base rates and encoder angles have arrived (and for a rejected
-        stamp); a non-finite sample returns the last command with ``held=True``.
+        Returns None until base rates and encoder angles have arrived; a non-finite sample
+        returns the last command with ``held=True``.
         """
-        if not self._stamp_ok(t, self._t_tick, "gyro"):
-            return None
         if not (math.isfinite(q_m) and math.isfinite(r_m)):
             self.rejected_nonfinite += 1
             self.held_commands += 1

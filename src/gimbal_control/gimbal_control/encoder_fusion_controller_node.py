@@ -42,8 +42,8 @@ from sensor_msgs.msg import Imu, JointState
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
 from gimbal_kinematics.ros.input_kinds import InputKind
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.diagnostics import health_msg
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 
@@ -73,13 +73,9 @@ class EncoderFusionControllerNode(Node):
         clock_jump_s = self.core.params.clock_jump_s
         self._kf_updates = 0
         self.held = 0  # steps whose command was held (bad or missing input)
-        self.counts = dict.fromkeys(COUNTERS, 0)
-        self.io = NodeIo(self)
-        self.pub_cmd = self.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
-        self.pub_feedback = self.io.advertise(Vector3Stamped, "~/feedback_velocity", timing)
-        self.pub_correction = self.io.advertise(Vector3Stamped, "~/drift_correction", timing)
-        self.pubs = {"/gimbal/torque_cmd": self.pub_cmd, "~/feedback_velocity": self.pub_feedback,
-                     "~/drift_correction": self.pub_correction}
+        self.edge = edge = NodeEdge(self, values, COUNTERS)
+        edge.pubs["/gimbal/torque_cmd"] = edge.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
+        edge.advertise_all(((Vector3Stamped, "~/feedback_velocity"), (Vector3Stamped, "~/drift_correction")))
         # the one choice of timing (module docstring). Lockstep: a complete step runs at once,
         # so an older step still waiting for a lost input cannot stall the loop behind it.
         max_age_s = values["max_input_age_s"]
@@ -89,27 +85,16 @@ class EncoderFusionControllerNode(Node):
                                              sample_hold=_SAMPLED, stamp_time=True, logger=self.get_logger()),
             free=lambda: FreeControl(InputKind.GYRO, {InputKind.ENCODERS: max_age_s, InputKind.HOST: max_age_s},
                                      1.0 / rate, clock_jump_s, once=_SAMPLED, finite=_SAMPLED,
-                                     on_nonfinite=lambda kind: self._count("rejected_nonfinite",
+                                     on_nonfinite=lambda kind: edge.reject("rejected_nonfinite",
                                                                            f"non-finite {kind} sample; not fused"),
-                                     warn=self._log))
-        self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
-        self.io.subscribe(Imu, "/gimbal/imu", lambda msg: self._on_input(InputKind.GYRO, msg), timing)
-        self.io.subscribe(JointState, "/gimbal/joint_states", lambda msg: self._on_input(InputKind.ENCODERS, msg),
-                          timing)
-        self.io.subscribe(Imu, "/truth/host/imu", lambda msg: self._on_input(InputKind.HOST, msg), timing)
-
-    def _log(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
-
-    def _count(self, counter: str, text: str) -> None:
-        self.counts[counter] += 1
-        self._log(f"{text} ({self.counts[counter]} {counter})")
+                                     warn=edge.warn))
+        edge.advertise_diagnostics(self.policy)
+        edge.subscribe_all(((InputKind.GYRO, Imu, "/gimbal/imu"), (InputKind.HOST, Imu, "/truth/host/imu"),
+                            (InputKind.ENCODERS, JointState, "/gimbal/joint_states")), self._on_input)
 
     def _hold(self, step: ControlStep, why: str) -> tuple[float, float]:
         self.held += 1
-        self._log(f"step at {step.t:.6f} s: {why}; holding the last command ({self.held} held)")
+        self.edge.warn(f"step at {step.t:.6f} s: {why}; holding the last command ({self.held} held)")
         return self.core.command
 
     def _needs(self, step: int) -> tuple[str, ...]:
@@ -128,12 +113,10 @@ class EncoderFusionControllerNode(Node):
         if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             if readings is None:
-                self._count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
-                return None
+                return self.edge.reject("rejected_joint_names", f"encoders without {m.GIMBAL_ENCODER_JOINTS}")
             return readings[0][1], readings[0][2]
         if not (m.gyro_qr_provided if kind == InputKind.GYRO else m.field_provided)(msg.angular_velocity_covariance):
-            self._count("rejected_no_rates", f"{kind} angular velocity marked not provided; not fused")
-            return None
+            return self.edge.reject("rejected_no_rates", f"{kind} angular velocity marked not provided; not fused")
         w = msg.angular_velocity
         return (w.y, w.z) if kind == InputKind.GYRO else (w.x, w.y, w.z)  # gyro: (q, r)
 
@@ -150,10 +133,10 @@ class EncoderFusionControllerNode(Node):
         else:
             base, enc, gyro = inputs.get(InputKind.HOST), inputs.get(InputKind.ENCODERS), inputs[InputKind.GYRO].value
             out = core.tick(step.t, gyro[0], gyro[1], base, None if enc is None else (enc.t, *enc.value))
-            if out is None:  # a stamp the core refused (counted there)
-                tau = self._hold(step, "input rejected (stamp out of order)")
+            if out is None:  # before the core has base rates and encoder angles
+                tau = self._hold(step, "base rates or encoder angles not in yet")
             elif out.held:
-                self._count("rejected_nonfinite", "non-finite measurement")
+                self.edge.reject("rejected_nonfinite", "non-finite measurement")
                 tau = self._hold(step, "non-finite measurement")
             else:
                 tau = (out.torque_azimuth, out.torque_elevation)
@@ -163,18 +146,15 @@ class EncoderFusionControllerNode(Node):
             self._kf_updates = self.core.kf_q.updates
             correction = self.core.corrections
         # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in encoder_fusion_messages(t_ns, tau, feedback, correction):
-            self.pubs[topic].publish(data)
-        if t_ns >= self._next_diag_ns:
-            self._next_diag_ns = t_ns + self.diag_period_ns
-            self.pub_diag.publish(self.health(step))
+        self.edge.publish(encoder_fusion_messages(t_ns, tau, feedback, correction))
+        self.edge.diagnostics(t_ns, lambda: self.health(step))
 
     def health(self, step: ControlStep):
         """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
         core = self.core
-        fields = {**self.policy.counters(), **self.counts, **self.io.counters(),
+        fields = {**self.policy.counters(), **self.edge.counters(),
                   "held_commands": core.held_commands, "core_rejected_nonfinite": core.rejected_nonfinite,
-                  "core_rejected_out_of_order": core.rejected_out_of_order, "resets": len(core.reset_reasons)}
+                  "resets": len(core.reset_reasons)}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 
 

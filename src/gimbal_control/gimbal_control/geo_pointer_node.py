@@ -45,17 +45,16 @@ import math
 import sys
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.input_policy import SampleGrid
 from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.input_kinds import InputKind
-from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.rotations import quat_to_dcm
@@ -75,51 +74,37 @@ class GeoPointerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("geo_pointer", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        timing = values["timing"]
-        rate = values["sim_rate_hz"]
         try:
             self.core = GeoPointer(GeoPointerParams.from_values(values))
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
-        self.counts = dict.fromkeys(COUNTERS, 0)
         self.command = (0.0, 0.0)
         vehicle_inputs = self._vehicle_inputs(values)
-        self.io = NodeIo(self)
+        self.edge = edge = NodeEdge(self, values, COUNTERS)
         self.operator_topic = values["operator_topic"]
-        self.pub_cmd = self.io.advertise(Vector3Stamped, self.operator_topic, timing)
-        self.pub_budget = self.io.advertise(Vector3Stamped, "~/budget", timing)
-        self.pub_aim = self.io.advertise(Vector3Stamped, "~/aim", timing)
-        self.pubs = {"~/budget": self.pub_budget, "~/aim": self.pub_aim}
-        self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", timing)
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
-        ins_every = steps_per_sample(values, "ins_rate_hz")
-        step_needs = (InputKind.ATTITUDE, InputKind.INS, InputKind.ENCODERS)
-
-        def needs(k: int) -> tuple[str, ...]:
-            return step_needs if k % ins_every == 0 else ()
-
+        edge.advertise_all(((Vector3Stamped, self.operator_topic), (Vector3Stamped, "~/budget"),
+                            (Vector3Stamped, "~/aim")))
+        edge.advertise_diagnostics()
+        # lockstep: the three inputs of each INS step
+        grid = SampleGrid(dict.fromkeys((InputKind.ATTITUDE, InputKind.INS, InputKind.ENCODERS),
+                                        steps_per_sample(values, "ins_rate_hz")))
         self.policy = control_policy(
-            timing,
-            lockstep=lambda: LockstepControl(needs, rate, CLOCK_JUMP_S, logger=self.get_logger()),
+            values["timing"],
+            lockstep=lambda: LockstepControl(grid.needs, values["sim_rate_hz"], CLOCK_JUMP_S, logger=self.get_logger()),
             free=lambda: FreeControl(InputKind.ATTITUDE, {**dict.fromkeys((InputKind.INS, InputKind.ENCODERS),
                                                                           MAX_INPUT_AGE_S),
                                              **dict.fromkeys(vehicle_inputs, values["vehicle_fix_max_age_s"])},
-                                     1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, warn=self._log))
-        inputs = ((InputKind.ATTITUDE, Imu, values["attitude_topic"], m.imu_from_cdr),
-                  (InputKind.INS, Imu, "/ins/imu", m.imu_from_cdr),
-                  (InputKind.ENCODERS, JointState, "/gimbal/joint_states", m.joint_state_from_cdr))
-        for kind, msg_type, topic, decode in inputs:
-            self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), timing,
-                              raw=True)
+                                     1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, warn=edge.warn))
+        edge.subscribe_all(((InputKind.ATTITUDE, Imu, values["attitude_topic"]), (InputKind.INS, Imu, "/ins/imu"),
+                            (InputKind.ENCODERS, JointState, "/gimbal/joint_states")), self._on_input)
         if values["target_topic"]:
-            self.io.subscribe(NavSatFix, values["target_topic"], self._on_target, timing)
+            edge.subscribe(NavSatFix, values["target_topic"], self._on_target)
         self._last_ns = {InputKind.FIX: None, InputKind.VELOCITY: None, InputKind.ATTITUDE: None}
         self.max_fix_age_ns = int(round(values["vehicle_fix_max_age_s"] * 1e9))
         if InputKind.FIX in vehicle_inputs:
-            self.io.subscribe(NavSatFix, values["vehicle_fix_topic"], self._on_fix, timing)
+            edge.subscribe(NavSatFix, values["vehicle_fix_topic"], self._on_fix)
         if InputKind.VELOCITY in vehicle_inputs:
-            self.io.subscribe(Vector3Stamped, values["vehicle_velocity_topic"], self._on_velocity, timing)
+            edge.subscribe(Vector3Stamped, values["vehicle_velocity_topic"], self._on_velocity)
 
     @staticmethod
     def _vehicle_inputs(values: dict) -> tuple[str, ...]:
@@ -143,17 +128,16 @@ class GeoPointerNode(Node):
         elif value is not None and newest_att is not None and newest_att - stamp_ns > self.max_fix_age_ns:
             counter, value = ("stale_fixes" if kind == InputKind.FIX else counter), None
         if value is None:
-            if counter in self.counts:
-                self.counts[counter] += 1
-            self._log(f"vehicle {kind} stamped {stamp_ns} ns refused ({counter})")
-            return
+            if counter in COUNTERS:
+                return self.edge.reject(counter, f"vehicle {kind} stamped {stamp_ns} ns refused")
+            return self.edge.warn(f"vehicle {kind} stamped {stamp_ns} ns refused ({counter})")
         self._last_ns[kind] = stamp_ns
         for step in self.policy.add(kind, stamp_ns, value):
             self._step(step)
 
     def _on_fix(self, msg: NavSatFix) -> None:
         llh = (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        stamp = m.stamp_ns(msg.header.stamp)
         if msg.status.status == NavSatStatus.STATUS_NO_FIX:
             self._vehicle_sample(InputKind.FIX, stamp, None, "fixes_no_fix")
         elif self.core.fix_error(llh) is not None:
@@ -163,32 +147,23 @@ class GeoPointerNode(Node):
             self._vehicle_sample(InputKind.FIX, stamp, llh, "rejected_fixes")
 
     def _on_velocity(self, msg: Vector3Stamped) -> None:
-        vel = (msg.vector.x, msg.vector.y, msg.vector.z)
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self._vehicle_sample(InputKind.VELOCITY, stamp, vel if all(map(math.isfinite, vel)) else None,
-                             "rejected_velocities")
-
-    def _log(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
+        vel = tuple(msg.vector)
+        self._vehicle_sample(InputKind.VELOCITY, m.stamp_ns(msg.header.stamp),
+                             vel if all(map(math.isfinite, vel)) else None, "rejected_velocities")
 
     def _on_target(self, msg: NavSatFix) -> None:
         llh = (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)
         if msg.status.status == NavSatStatus.STATUS_NO_FIX or not self.core.set_target(llh):
             if msg.status.status == NavSatStatus.STATUS_NO_FIX:
                 self.core.counts["rejected_targets"] += 1
-            self._log(f"target {msg.latitude}, {msg.longitude}, {msg.altitude} refused "
-                      f"({self.core.counts['rejected_targets']} rejected_targets)")
+            self.edge.warn(f"target {msg.latitude}, {msg.longitude}, {msg.altitude} refused "
+                           f"({self.core.counts['rejected_targets']} rejected_targets)")
 
-    def _on_input(self, kind: str, data: bytes, decode) -> None:
-        try:
-            msg = decode(data)
-        except CdrError as exc:
-            self.counts["malformed"] += 1
-            self._log(f"malformed {kind} message ignored: {exc}")
-            return
+    def _on_input(self, kind: str, msg) -> None:
+        stamp_ns = m.stamp_ns(msg.header.stamp)
         if kind == InputKind.ATTITUDE:
-            self._last_ns[InputKind.ATTITUDE] = max(msg.stamp_ns, self._last_ns[InputKind.ATTITUDE] or msg.stamp_ns)
-        for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
+            self._last_ns[InputKind.ATTITUDE] = max(stamp_ns, self._last_ns[InputKind.ATTITUDE] or stamp_ns)
+        for step in self.policy.add(kind, stamp_ns, self._validate(kind, msg)):
             self._step(step)
 
     def _validate(self, kind: str, msg):
@@ -197,14 +172,11 @@ class GeoPointerNode(Node):
         if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             value = None if readings is None else (readings[0][0],)
-        elif m.field_provided(msg.orientation_covariance):
-            value = msg.orientation
         else:
-            value = None
+            value = tuple(msg.orientation) if m.field_provided(msg.orientation_covariance) else None
         if value is None or not all(map(math.isfinite, value)):
-            self.counts["rejected_inputs"] += 1
-            self._log(f"{kind} sample without a usable attitude or turret angle; not used")
-            return None
+            return self.edge.reject("rejected_inputs", f"{kind} sample without a usable attitude or turret angle; "
+                                    "not used")
         return value
 
     def _step(self, step: ControlStep) -> None:
@@ -217,19 +189,15 @@ class GeoPointerNode(Node):
         fix, vel = inputs.get(InputKind.FIX), inputs.get(InputKind.VELOCITY)
         if att is None or ins is None or enc is None or (fix is not None and not self.core.set_vehicle(
                 fix.value, None if vel is None else vel.value)):
-            self.counts["held_commands"] += 1
+            self.edge.counts["held_commands"] += 1
         else:
             out = self.core.step(att.value, quat_to_dcm(np.asarray(ins.value)), enc.value[0])
             self.command, budget, aim = out.command, out.budget, tuple(out.aim_n)
         figures = None if budget is None else (budget.total_rad, *budget.principal_sigmas_rad)
         # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in geo_pointer_messages(step.stamp_ns, self.operator_topic, self.command, figures, aim):
-            self.pubs.get(topic, self.pub_cmd).publish(data)
-        if step.stamp_ns >= self._next_diag_ns:
-            self._next_diag_ns = step.stamp_ns + self.diag_period_ns
-            fields = {**self.policy.counters(), **self.counts, **self.core.counts,
-                      **self.io.counters()}
-            self.pub_diag.publish(health_msg(step.stamp_ns, self.get_name(), fields))
+        self.edge.publish(geo_pointer_messages(step.stamp_ns, self.operator_topic, self.command, figures, aim))
+        self.edge.diagnostics(step.stamp_ns, lambda: health_msg(step.stamp_ns, self.get_name(), {
+            **self.policy.counters(), **self.edge.counts, **self.core.counts, **self.edge.io.counters()}))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -40,8 +40,10 @@ counter once per ``diagnostics_period_s`` of stamp time.
 
 The node chooses its input policy once, in its constructor
 (:mod:`gimbal_kinematics.control_policy`: :class:`~gimbal_kinematics.control_policy.LockstepControl`
-or :class:`~gimbal_kinematics.control_policy.FreeControl`); each input is validated once, as
-it arrives, and every step the policy releases runs the same ``_step``, whatever the timing.
+on the lockstep schedule of its inputs, a :class:`~gimbal_kinematics.input_policy.SampleGrid`,
+or :class:`~gimbal_kinematics.control_policy.FreeControl`); each input is decoded and
+validated once, as it arrives (:mod:`gimbal_kinematics.ros.node_edge`), and every step the
+policy releases runs the same ``_step``, whatever the timing.
 
 Inputs that cannot be used are counted and never fused: a gyro message whose covariance
 marks its angular velocity not provided (REP 145 ``[0] = -1`` without y, z variances; the
@@ -58,11 +60,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu, Joy, JointState
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.input_policy import SampleGrid
 from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.input_kinds import InputKind
-from gimbal_kinematics.ros.cdr import CdrError
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 
@@ -73,135 +75,82 @@ from .los_rate_controller_params import DESCRIPTION, PARAMS
 from .operator_command import OperatorCommand, OperatorCommandParams
 from .wire import torque_command_messages
 
-#: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
 ESTIMATES = (InputKind.BIAS, InputKind.ATTITUDE)
-ZERO = (0.0, 0.0)
 
 
 class LosRateControllerNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("los_rate_controller", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        timing = values["timing"]
-        self.rate = rate = values["sim_rate_hz"]
-        hold_mode = values["mode"] == "los_hold"
+        timing, rate = values["timing"], values["sim_rate_hz"]
         params = LosRateControllerParams.from_values(values)
         self.operator = OperatorCommand(OperatorCommandParams.from_values(values))
         self.core = LosRateController(params, operator=self.operator)
-        self.hold = LosHold(LosHoldParams.from_values(values)) if hold_mode else None
-        self.counts = dict.fromkeys(COUNTERS, 0)
-        self.io = NodeIo(self)
-        self.pub = self.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
-        # taken serialized and decoded here (messages.*_from_cdr): no message objects per step
-        imu, joints, vec = m.imu_from_cdr, m.joint_state_from_cdr, m.vector3_stamped_from_cdr
-        inputs = [(InputKind.GYRO, Imu, "/gimbal/imu", imu),
-                  (InputKind.ENCODERS, JointState, "/gimbal/joint_states", joints),
-                  (InputKind.INS, Imu, "/ins/imu", imu)]
+        self.hold = LosHold(LosHoldParams.from_values(values)) if values["mode"] == "los_hold" else None
+        self.edge = edge = NodeEdge(self, values, COUNTERS)
+        self.pub = edge.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
+        inputs = [(InputKind.GYRO, Imu, "/gimbal/imu"), (InputKind.ENCODERS, JointState, "/gimbal/joint_states"),
+                  (InputKind.INS, Imu, "/ins/imu")]
         if params.feedback:
-            inputs.append((InputKind.BIAS, Vector3Stamped, values["bias_topic"], vec))
-        if hold_mode:
-            inputs.append((InputKind.ATTITUDE, Imu, values["attitude_topic"], imu))
+            inputs.append((InputKind.BIAS, Vector3Stamped, values["bias_topic"]))
+        if self.hold is not None:
+            inputs.append((InputKind.ATTITUDE, Imu, values["attitude_topic"]))
         estimates = tuple(kind for kind, *_ in inputs if kind in ESTIMATES)
-        ins_every = steps_per_sample(values, "ins_rate_hz")
-        # an INS step also waits for the estimates in use
-        ins_step_needs = (InputKind.GYRO, InputKind.ENCODERS, InputKind.INS) + estimates
         op_topic = values["operator_topic"]
-        op_waited = bool(op_topic) and values["operator_rate_hz"] > 0.0
         # in lockstep a sampled operator command is one of the step's inputs; free, it is used as it arrives
-        op_every = control_policy(timing, free=lambda: 0,
-                                  lockstep=lambda: steps_per_sample(values, "operator_rate_hz") if op_waited else 0)
+        op_every = control_policy(timing, free=lambda: 0, lockstep=lambda: steps_per_sample(values, "operator_rate_hz")
+                                  if op_topic and values["operator_rate_hz"] > 0.0 else 0)
+        # lockstep: gyro and encoders every step, INS and estimates at its steps, the operator at its own
+        ins_every = steps_per_sample(values, "ins_rate_hz")
+        every = {InputKind.GYRO: 1, InputKind.ENCODERS: 1, **dict.fromkeys((InputKind.INS, *estimates), ins_every)}
         if op_every:
-            inputs.append((InputKind.OPERATOR, Vector3Stamped, op_topic, vec))
-
-        def needs(k: int) -> tuple[str, ...]:
-            base = ins_step_needs if k % ins_every == 0 else (InputKind.GYRO, InputKind.ENCODERS)
-            return base + (InputKind.OPERATOR,) if op_every and k % op_every == 0 else base
-
+            inputs.append((InputKind.OPERATOR, Vector3Stamped, op_topic))
+            every[InputKind.OPERATOR] = op_every
+        grid = SampleGrid(every)
         ages = {kind: values["max_estimate_age_s"] if kind in ESTIMATES else values["max_input_age_s"]
                 for kind, *_ in inputs[1:] if kind != InputKind.OPERATOR}
-        # the one choice of timing (module docstring); a step back of more than clock_jump_s is a bag loop
+        # the one choice of timing (module docstring)
         self.policy = control_policy(
             timing,
-            lockstep=lambda: LockstepControl(needs, rate, params.clock_jump_s, estimates=estimates,
+            lockstep=lambda: LockstepControl(grid.needs, rate, params.clock_jump_s, estimates=estimates,
                                              logger=self.get_logger()),
             free=lambda: FreeControl(InputKind.GYRO, ages, 1.0 / rate, params.clock_jump_s, held=estimates,
-                                     on_arrival=(InputKind.ATTITUDE,) if hold_mode else (), warn=self._log))
-        self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
+                                     on_arrival=(InputKind.ATTITUDE,) if self.hold is not None else (), warn=edge.warn))
+        edge.advertise_diagnostics(self.policy)
         self._ins_rates: tuple[float, float, float] | None = None
-        for kind, msg_type, topic, decode in inputs:
-            self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), timing,
-                              raw=True)
-        if op_topic and not op_every:
-            self.io.subscribe(Vector3Stamped, op_topic, self._on_operator, timing, raw=True)
+        edge.subscribe_all(inputs, self._on_input)
+        stamp, op = m.stamp_ns, self.operator
+        if op_topic and not op_every:  # used as it arrives (the shaper judges and counts it)
+            edge.subscribe(Vector3Stamped, op_topic, lambda v: op.set_rate(stamp(v.header.stamp), *v.vector[1:]))
         if values["joy_topic"]:
-            self.io.subscribe(Joy, values["joy_topic"], self._on_joy, timing)
+            edge.subscribe(Joy, values["joy_topic"], lambda joy: op.set_joy(stamp(joy.header.stamp), joy.axes))
 
-    @property
-    def rejected(self) -> int:
-        """Inputs the node could not use, over every counter."""
-        return sum(self.counts.values())
-
-    def _log(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
-
-    def _count(self, counter: str, text: str) -> None:
-        self.counts[counter] += 1
-        self._log(f"{text} ({self.counts[counter]} {counter})")
-
-    def _on_input(self, kind: str, data: bytes, decode) -> None:
-        try:
-            msg = decode(data)
-        except CdrError as exc:
-            self._count("malformed", f"malformed {kind} message ignored: {exc}")
-            return
-        for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
+    def _on_input(self, kind: str, msg) -> None:
+        for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), self._validate(kind, msg)):
             self._step(step)
-
-    def _on_operator(self, data: bytes) -> None:
-        """An operator rate command used as it arrives (the shaper judges and counts it)."""
-        try:
-            msg = m.vector3_stamped_from_cdr(data)
-        except CdrError as exc:
-            self._count("malformed", f"malformed operator command ignored: {exc}")
-            return
-        self.operator.set_rate(msg.stamp_ns, msg.vector[1], msg.vector[2])
-
-    def _on_joy(self, msg: Joy) -> None:
-        self.operator.set_joy(m.stamp_ns(msg.header.stamp), msg.axes)
 
     def _validate(self, kind: str, msg):
         """What the loop takes from an input message, or None (counted) when it cannot be used."""
         if kind == InputKind.OPERATOR:  # the operator's waited-for command: the shaper judges it
-            return (msg.stamp_ns, msg.vector[1], msg.vector[2])
-        if kind == InputKind.GYRO:
-            if not m.gyro_qr_provided(msg.angular_velocity_covariance):
-                self._count("rejected_no_rates", "gyro angular velocity marked not provided; not fused")
-                return None
-            return msg.angular_velocity[1:]  # (q, r); x, the roll axis, is not measured; NaN: the core holds
+            return (m.stamp_ns(msg.header.stamp), msg.vector[1], msg.vector[2])
         if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
             if readings is None:
-                self._count("rejected_joint_names", f"encoder message without the joints {m.GIMBAL_ENCODER_JOINTS}")
-                return None
+                return self.edge.reject("rejected_joint_names", f"encoders without {m.GIMBAL_ENCODER_JOINTS}")
             values = (*readings[0], *readings[1])
-        elif kind == InputKind.INS:
-            if not m.field_provided(msg.angular_velocity_covariance):
-                self._count("rejected_no_rates", "INS angular velocity marked not provided; not fused")
-                return None
-            values = readings = msg.angular_velocity
-        elif kind == InputKind.BIAS:
-            values = readings = msg.vector
-        else:  # InputKind.ATTITUDE
-            if not m.field_provided(msg.orientation_covariance):
-                self._count("rejected_no_rates", "attitude estimate marked not provided; not fused")
-                return None
-            values = readings = msg.orientation
+        else:
+            cov, readings = ((msg.orientation_covariance, msg.orientation) if kind == InputKind.ATTITUDE else
+                             (None, msg.vector) if kind == InputKind.BIAS else
+                             (msg.angular_velocity_covariance, msg.angular_velocity))
+            provided = m.gyro_qr_provided if kind == InputKind.GYRO else m.field_provided
+            if cov is not None and not provided(cov):
+                return self.edge.reject("rejected_no_rates", f"{kind} marked not provided; not fused")
+            if kind == InputKind.GYRO:
+                return tuple(readings[1:])  # (q, r); x, the roll axis, is not measured; NaN: the core holds
+            values = readings = tuple(readings)
         if not all(map(math.isfinite, values)):
-            self._count("rejected_nonfinite", f"non-finite {kind} sample; not fused")
-            return None
+            return self.edge.reject("rejected_nonfinite", f"non-finite {kind} sample; not fused")
         return readings
 
     def _step(self, step: ControlStep) -> None:
@@ -218,32 +167,28 @@ class LosRateControllerNode(Node):
         if not step.command:
             return
         if step.zero_command:
-            tau = ZERO
+            tau = (0.0, 0.0)
         else:
             ins, gyro, enc = inputs.get(InputKind.INS), inputs.get(InputKind.GYRO), inputs.get(InputKind.ENCODERS)
             if ins is not None:
                 self._ins_rates = ins.value
             if gyro is None or enc is None or self._ins_rates is None:
-                self._log(f"step at {step.t:.6f} s: gyro, encoders or INS rates missing; holding the last command")
+                self.edge.warn(f"step at {step.t:.6f} s: gyro, encoders or INS rates missing; holding the last command")
                 tau = core.command
             else:
                 before = core.rejected_inputs
                 tau = core.step(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates,
                                 core.reference(step.stamp_ns))
                 if core.rejected_inputs > before:
-                    self._count("rejected_nonfinite", "non-finite gyro sample; holding the last command")
+                    self.edge.reject("rejected_nonfinite", "non-finite gyro sample; holding the last command")
         for _, _, data in torque_command_messages(step.stamp_ns, tau):  # as the engine writes it
             self.pub.publish(data)
-        if step.stamp_ns >= self._next_diag_ns:
-            self._next_diag_ns = step.stamp_ns + self.diag_period_ns
-            self.pub_diag.publish(self.health(step))
+        self.edge.diagnostics(step.stamp_ns, lambda: self.health(step))
 
     def health(self, step: ControlStep):
-        """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
-        core = self.core
-        fields = {**self.policy.counters(), **self.counts, **self.io.counters(),
-                  "saturated_steps": core.saturated_steps, "singular_steps": core.singular_steps,
-                  "rejected_bias": core.rejected_bias, "resets": core.resets,
+        core = self.core  # /diagnostics: the policy's counters, the inputs', the loop's
+        fields = {**self.policy.counters(), **self.edge.counters(), "saturated_steps": core.saturated_steps,
+                  "singular_steps": core.singular_steps, "rejected_bias": core.rejected_bias, "resets": core.resets,
                   **{f"operator_{k}": n for k, n in self.operator.counters().items()}}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 

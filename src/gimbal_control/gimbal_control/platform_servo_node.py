@@ -49,8 +49,8 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.params import steps_per_sample
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.diagnostics import health_msg
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 
@@ -78,13 +78,10 @@ class PlatformServoNode(Node):
         self.follows_navigator = values["command_source"] == "navigator"
         self.diag_every = values["diagnostics_every_steps"]
         self._ticks = 0
-        self.counts = dict.fromkeys(COUNTERS, 0)
         self._seen = (0, 0, 0)  # core counters already warned about
-        self.io = NodeIo(self)
-        self.pub = self.io.advertise_command(JointState, "/platform/voltage_cmd", values)
-        self.pub_error = self.io.advertise(JointState, "~/control_error", timing)
-        self.pub_mod = self.io.advertise(JointState, "~/modulation", timing)
-        self.pubs = {"/platform/voltage_cmd": self.pub, "~/control_error": self.pub_error, "~/modulation": self.pub_mod}
+        self.edge = edge = NodeEdge(self, values, COUNTERS)
+        edge.pubs["/platform/voltage_cmd"] = edge.io.advertise_command(JointState, "/platform/voltage_cmd", values)
+        edge.advertise_all(((JointState, "~/control_error"), (JointState, "~/modulation")))
         # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
         nav_age = {"nav": values["command_max_age_s"]} if self.follows_navigator else {}
         self.policy = control_policy(
@@ -94,28 +91,12 @@ class PlatformServoNode(Node):
                                              logger=self.get_logger()),
             free=lambda: FreeControl("imu", {"res": values["max_input_age_s"], **nav_age},
                                      1.0 / values["imu_rate_hz"], values["clock_jump_s"], held=tuple(nav_age),
-                                     once=("res", *nav_age), warn=self._log))
-        self.pub_diag = advertise_diagnostics(self.io, timing, self.policy)
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
-        self.io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing)
-        self.io.subscribe(JointState, "/platform/resolvers", lambda msg: self._on_input("res", msg), timing)
-        if self.follows_navigator:
-            self.io.subscribe(Vector3Stamped, NAVIGATOR_TOPIC, lambda msg: self._on_input("nav", msg), timing)
-        for tick in self.policy.ticks:  # steps without a gyro sample still need their command
-            self.io.subscribe(Clock, "/clock", lambda msg, k=tick: self._on_input(k, msg), timing)
-
-    @property
-    def rejected_resolvers(self) -> int:
-        """Resolver messages without the four platform joints."""
-        return self.counts["rejected_joint_names"]
-
-    def _log(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
-
-    def _count(self, counter: str, text: str) -> None:
-        self.counts[counter] += 1
-        self._log(f"{text} ({self.counts[counter]} {counter})")
+                                     once=("res", *nav_age), warn=edge.warn))
+        edge.advertise_diagnostics(self.policy)
+        # steps without a gyro sample tick on /clock, they still need their command
+        edge.subscribe_all((("imu", Imu, "/platform/imu"), ("res", JointState, "/platform/resolvers"))
+                           + ((("nav", Vector3Stamped, NAVIGATOR_TOPIC),) if self.follows_navigator else ())
+                           + tuple((tick, Clock, "/clock") for tick in self.policy.ticks), self._on_input)
 
     def _needs(self, k: int) -> tuple[str, ...]:
         if k % self.imu_every == 0:
@@ -135,12 +116,12 @@ class PlatformServoNode(Node):
         if kind == "res":
             angles = m.platform_joint_positions(msg)
             if angles is None:
-                self._count("rejected_joint_names", "resolver message without the four platform joints ignored")
+                self.edge.reject("rejected_joint_names", "resolver message without the four platform joints ignored")
             return angles
         if kind == "imu":
             if not m.field_provided(msg.angular_velocity_covariance):
-                self._count("rejected_no_rates", "platform gyro angular velocity marked not provided; not fused")
-                return None
+                return self.edge.reject("rejected_no_rates", "platform gyro angular velocity marked not provided; "
+                                        "not fused")
             return m.vec_of(msg.angular_velocity)
         if kind == "nav":
             return m.vec_of(msg.vector)  # a non-finite rate is the core's to count
@@ -165,23 +146,20 @@ class PlatformServoNode(Node):
         seen = (core.rejected_nonfinite, core.held_commands, core.rejected_gimbal_lock)
         if seen != self._seen:
             self._seen = seen
-            self._log(f"step at {step.t:.6f} s: bad measurement; {core.rejected_nonfinite} non-finite samples "
+            self.edge.warn(f"step at {step.t:.6f} s: bad measurement; {core.rejected_nonfinite} non-finite samples "
                       f"rejected, {core.held_commands} commands held, {core.rejected_gimbal_lock} at gimbal lock")
         t_ns = step.stamp_ns
         if out is not None:
             self._ticks += 1
         due = out is not None and (self._ticks - 1) % self.diag_every == 0
         # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in platform_servo_messages(t_ns, volts, out if due else None):
-            self.pubs[topic].publish(data)
-        if t_ns >= self._next_diag_ns:
-            self._next_diag_ns = t_ns + self.diag_period_ns
-            self.pub_diag.publish(self.health(step))
+        self.edge.publish(platform_servo_messages(t_ns, volts, out if due else None))
+        self.edge.diagnostics(t_ns, lambda: self.health(step))
 
     def health(self, step: ControlStep):
         """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""
         core = self.core
-        fields = {**self.policy.counters(), **self.counts, **self.io.counters(),
+        fields = {**self.policy.counters(), **self.edge.counters(),
                   "core_rejected_nonfinite": core.rejected_nonfinite, "held_commands": core.held_commands,
                   "rejected_gimbal_lock": core.rejected_gimbal_lock}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)

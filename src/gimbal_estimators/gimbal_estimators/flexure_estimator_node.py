@@ -63,8 +63,7 @@ from sensor_msgs.msg import Imu
 
 from gimbal_kinematics.input_policy import Step, sample_policy
 from gimbal_kinematics.params import ParameterError, steps_per_sample
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -99,31 +98,22 @@ class FlexureEstimatorNode(Node):
         # the attitude-matching method: paper 5's simplified filter or the original (eq. 1)
         self.core = (AttitudeMatchingKf(AttitudeMatchingParams.from_values(values)) if values["model"] == "original"
                      else FlexureKf(FlexureKfParams.from_values(values)))
-        timing = values["timing"]
+        self.edge = edge = NodeEdge(self, values)
         # the one choice of timing (module docstring)
-        self.policy = sample_policy(timing, UNITS, rate_hz=values["sim_rate_hz"], sample_rate_hz=values["lgu_rate_hz"],
-                                    progress_every=values["progress_every_steps"],
-                                    clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)), warn=self._warn)
+        self.policy = sample_policy(values["timing"], UNITS, rate_hz=values["sim_rate_hz"],
+                                    sample_rate_hz=values["lgu_rate_hz"], progress_every=values["progress_every_steps"],
+                                    clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)), warn=edge.warn)
         self.publish_period_ns = int(round(values["publish_period_s"] * 1e9))
         self._last_bin: int | None = None
-        self.wait_for_subscribers = values["wait_for_subscribers"]
         self.nis = NisWindow(3, window=values["nis_window"])
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
-        self.io = io = NodeIo(self)
-        self.pubs = {}
-        for name in OUTPUTS:
-            for topic in (name, f"{name}_sigma"):
-                self.pubs[topic] = io.advertise(Vector3Stamped, f"~/{topic}", timing)
-        self.pub_progress = io.advertise(Clock, "~/progress", timing)
-        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
-        self.subs = [io.subscribe(Imu, f"/ship/lgu{u + 1}/imu", lambda msg, u=u: self._on_lgu(u, msg), timing)
+        outputs = [f"~/{topic}" for name in OUTPUTS for topic in (name, f"{name}_sigma")]
+        edge.advertise_all([(Vector3Stamped, topic) for topic in outputs] + [(Clock, "~/progress")])
+        edge.advertise_diagnostics(self.policy)
+        self.subs = [edge.subscribe(Imu, f"/ship/lgu{u + 1}/imu", lambda msg, u=u: self._on_lgu(u, msg))
                      for u in (0, 1)]
         # ready once both LGU streams have a publisher and every output its readers
-        announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
-
-    def _warn(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
+        announce_when_connected(self, edge.pubs["~/progress"], self.subs, [edge.pubs[t] for t in outputs],
+                                values["wait_for_subscribers"])
 
     # ------------------------------------------------------------------ input
     def _on_lgu(self, unit: int, msg: Imu) -> None:
@@ -141,28 +131,22 @@ class FlexureEstimatorNode(Node):
             if not (est.d2 != est.d2):  # an update (accepted or gated); NaN: no innovation
                 self.nis.add(est.d2)
             self._publish(step.stamp_ns, est)
-        progress = self.policy.progress(step)
-        if progress is not None:
-            self.pub_progress.publish(m.clock_msg(progress))
+        self.edge.progress(self.policy.progress(step))
 
     def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
-        c = self.core.counters
-        log = self.get_logger()
-        t = t_ns * 1e-9
+        c, warn, t = self.core.counters, self.edge.warn, t_ns * 1e-9
         for key, text in _REJECTIONS.items():
             if c[key] > before[key]:
-                log.warning(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)",
-                            throttle_duration_sec=1.0)
+                warn(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)")
         if c["resets"] > before["resets"]:
-            log.warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} ({c['resets']} resets)")
+            self.get_logger().warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} "
+                                      f"({c['resets']} resets)")  # every one: not throttled
         elif c["reanchors"] > before["reanchors"]:
             cause = "gated measurements in a row" if c["gaps"] == before["gaps"] else "lost LGU sample(s)"
-            log.warning(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, "
-                        f"covariance kept; {c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, "
-                        f"{c['reanchors']} re-anchors)", throttle_duration_sec=1.0)
+            warn(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, covariance kept; "
+                 f"{c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, {c['reanchors']} re-anchors)")
         if c["gated"] > before["gated"]:
-            log.warning(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)",
-                        throttle_duration_sec=1.0)
+            warn(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)")
 
     # ------------------------------------------------------------------ output
     def _publish(self, t_ns: int, est: FlexureEstimate) -> None:
@@ -172,14 +156,10 @@ class FlexureEstimatorNode(Node):
                 return
             self._last_bin = b
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in flexure_messages(t_ns, est):
-            self.pubs[topic[2:]].publish(data)
-        if t_ns >= self._next_diag_ns:
-            self._next_diag_ns = t_ns + self.diag_period_ns
-            fields, nis_verdict = self.policy.report(self.core.counters, self.io.counters(),
-                                                     self.nis.as_dict(), self.nis.verdict().verdict)
-            self.pub_diag.publish(health_msg(t_ns, self.get_name(), fields, ready=self.core.initialized,
-                                             not_ready="no estimate yet", warn=WARN_COUNTERS, nis_verdict=nis_verdict))
+        self.edge.publish(flexure_messages(t_ns, est))
+        self.edge.diagnostics(t_ns, lambda: self.edge.health(t_ns, self.policy, self.core.counters, self.nis,
+                                                            ready=self.core.initialized, not_ready="no estimate yet",
+                                                            warn=WARN_COUNTERS))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -48,9 +48,10 @@ Heading, two ways:
   (``heading_from_earth_rate``), σ_ψ = (N_triad/√T)/(Ω cos φ) — paper eq. 29 for white
   triad noise. Yaw oscillation within the window averages to the mean heading.
 
-All angles rad, rates rad/s, times s, distances m. Non-finite inputs, non-unit spin axes and
-non-increasing stamps are rejected and counted; a stamp more than ``clock_jump_s``
-behind the stream's last one resets the core (reason recorded).
+All angles rad, rates rad/s, times s, distances m. Non-finite inputs and non-unit spin axes
+are rejected and counted. Stamps come checked and in order: the node's input policy
+(:func:`gimbal_kinematics.input_policy.synced_policy`) refuses late and repeated read-outs
+and, on a clock jump back of more than ``clock_jump_s``, calls :meth:`FreeGyroPositioning.reset`.
 """
 from __future__ import annotations
 
@@ -94,7 +95,8 @@ class FreeGyroPositioningParams:
         min_sin_gyro_separation, min_sin_crossing_angle: ``FixTolerances`` of the fix.
         height_m: height used for the metric covariance [m].
         max_level_age_s: oldest vertical-reference sample [s] used to level a read-out.
-        clock_jump_s: a stamp this far [s] behind its stream's last resets the core.
+        clock_jump_s: a read-out stamp this far [s] behind the last resets the core (the
+            node's input policy judges it).
     """
 
     u_a_i: tuple[float, float, float]
@@ -225,7 +227,6 @@ class _Counters:
     rates_accepted: int = 0
     rejected_nonfinite: int = 0
     rejected_not_unit: int = 0
-    rejected_out_of_order: int = 0
     rejected_no_level: int = 0
     rejected_stale_level: int = 0
     fixes: int = 0
@@ -248,7 +249,6 @@ class FreeGyroPositioning:
 
     # -- state ---------------------------------------------------------------------------
     def _restart(self) -> None:
-        self._t_last: dict[str, float] = {}
         self._level_sample: tuple[float, float, float] | None = None  # (t, roll, pitch)
         self._v_n: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._lat: float | None = None
@@ -272,8 +272,8 @@ class FreeGyroPositioning:
         self.counters.reset_reasons.append(str(reason))
         self._restart()
 
-    def _stamp(self, stream: str, t: object) -> float | None:
-        """Checked, increasing time stamp for ``stream``; None (counted) if rejected."""
+    def _stamp(self, t: object) -> float | None:
+        """A finite time stamp [s]; None (counted) if it is not."""
         try:
             t = float(t)  # type: ignore[arg-type]
         except (TypeError, ValueError):
@@ -282,13 +282,6 @@ class FreeGyroPositioning:
         if not math.isfinite(t):
             self.counters.rejected_nonfinite += 1
             return None
-        last = self._t_last.get(stream)
-        if last is not None and t <= last:
-            if last - t > self.params.clock_jump_s:
-                self.reset(f"{stream} time jumped back by {last - t:.3f} s")
-            else:
-                self.counters.rejected_out_of_order += 1
-                return None
         return t
 
     def _level_at(self, t: float) -> tuple[float, float] | None:
@@ -312,10 +305,9 @@ class FreeGyroPositioning:
         if not (math.isfinite(roll) and math.isfinite(pitch)):
             self.counters.rejected_nonfinite += 1
             return
-        ts = self._stamp("level", t)
+        ts = self._stamp(t)
         if ts is None:
             return
-        self._t_last["level"] = ts
         self._level_sample = (ts, roll, pitch)
 
     def on_velocity(self, t: float, v_n: Sequence[float]) -> None:
@@ -328,10 +320,9 @@ class FreeGyroPositioning:
         if not all(math.isfinite(c) for c in v):
             self.counters.rejected_nonfinite += 1
             return
-        ts = self._stamp("velocity", t)
+        ts = self._stamp(t)
         if ts is None:
             return
-        self._t_last["velocity"] = ts
         self._v_n = v
 
     def on_body_rates(self, t: float, omega_ib_b: Sequence[float]) -> None:
@@ -344,13 +335,12 @@ class FreeGyroPositioning:
         if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
             self.counters.rejected_nonfinite += 1
             return
-        ts = self._stamp("rates", t)
+        ts = self._stamp(t)
         if ts is None:
             return
         lv = self._level_at(ts)
         if lv is None:
             return
-        self._t_last["rates"] = ts
         self.counters.rates_accepted += 1
         roll, pitch = lv
         prev = self._h_prev
@@ -409,13 +399,12 @@ class FreeGyroPositioning:
         if abs(na - 1.0) > 1e-3 or abs(nb - 1.0) > 1e-3:
             self.counters.rejected_not_unit += 1
             return None
-        ts = self._stamp("spin", t)
+        ts = self._stamp(t)
         if ts is None:
             return None
         lv = self._level_at(ts)
         if lv is None:
             return None
-        self._t_last["spin"] = ts
         self.counters.spin_accepted += 1
         cr, sr, cp, sp = math.cos(lv[0]), math.sin(lv[0]), math.cos(lv[1]), math.sin(lv[1])
         lax, lay, laz = _level(ax / na, ay / na, az / na, cr, sr, cp, sp)

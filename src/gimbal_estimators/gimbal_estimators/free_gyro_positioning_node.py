@@ -64,21 +64,16 @@ from __future__ import annotations
 import math
 import sys
 
-
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, NavSatFix
 
-from diagnostic_msgs.msg import DiagnosticArray
-
 from gimbal_kinematics.input_policy import Step, synced_policy
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.stamps import Stamp, judge
 
 from . import messages as m
 from .free_gyro_error_model import fix_predictor
@@ -88,6 +83,14 @@ from .wire import free_gyro_fix_messages
 
 SPIN_A, SPIN_B, IMU = "/free_gyro/spin_axis_a", "/free_gyro/spin_axis_b", "/free_gyro/imu"
 VELOCITY = "/free_gyro/velocity"
+OUTPUTS = ((NavSatFix, "~/fix"), *((Vector3Stamped, f"~/{k}") for k in ("heading", "geometry", "nadir",
+                                                                        "heading_earth_rate")))
+PREDICTIONS = tuple((Vector3Stamped, f"~/predicted_{k}") for k in ("nadir", "position", "heading"))
+CORE_COUNTERS = ("spin_accepted", "rates_accepted", "rejected_nonfinite", "rejected_not_unit", "rejected_no_level",
+                 "rejected_stale_level", "fixes", "degenerate", "resets")
+WARN_COUNTERS = ("rejected_nonfinite", "rejected_not_unit", "rejected_no_level",
+                 "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos",
+                 "wrong_type")
 
 
 class FreeGyroPositioningNode(Node):
@@ -97,43 +100,25 @@ class FreeGyroPositioningNode(Node):
         self.core = FreeGyroPositioning(FreeGyroPositioningParams.from_values(values))
         self.height_m = values["height_m"]
         self.height_sigma_m = values["height_sigma_m"]
-        self.backjump_ns = int(round(values["clock_jump_s"] * 1e9))
-        self.wait_for_subscribers = values["wait_for_subscribers"]
-        timing = values["timing"]
         self.velocity_input = values["velocity_input"]
-        inputs = (SPIN_A, SPIN_B, IMU) + ((VELOCITY,) if self.velocity_input else ())
-        # the one choice of timing (module docstring)
-        self.policy = synced_policy(timing, inputs, rate_hz=values["sim_rate_hz"],
-                                    progress_every=values["progress_every_steps"])
+        inputs = ((SPIN_A, Vector3Stamped, SPIN_A), (SPIN_B, Vector3Stamped, SPIN_B), (IMU, Imu, IMU)) + (
+            ((VELOCITY, Vector3Stamped, VELOCITY),) if self.velocity_input else ())
+        # the one choice of timing (module docstring); a read-out stamp jumping back restarts
+        self.policy = synced_policy(values["timing"], tuple(topic for topic, *_ in inputs),
+                                    rate_hz=values["sim_rate_hz"], progress_every=values["progress_every_steps"],
+                                    clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)), on_restart=self._reset)
         self.predictor = fix_predictor(values, self.core.params)
         self.degenerate = 0
         self.resets = 0
         self._rejected_seen = 0
-        self._last_ns: int | None = None      # stamp of the last completed read-out
         self._er_t: float | None = None        # stamp of the last earth-rate heading published
-        self.io = io = NodeIo(self)
-        pub = lambda typ, name: io.advertise(typ, f"~/{name}", timing)  # noqa: E731
-        self.pub_fix = pub(NavSatFix, "fix")
-        self.pub_heading = pub(Vector3Stamped, "heading")
-        self.pub_geometry = pub(Vector3Stamped, "geometry")
-        self.pub_nadir = pub(Vector3Stamped, "nadir")
-        self.pub_heading_er = pub(Vector3Stamped, "heading_earth_rate")
-        self.outputs = (self.pub_fix, self.pub_heading, self.pub_geometry, self.pub_nadir, self.pub_heading_er)
-        if self.predictor is not None:
-            self.outputs += tuple(pub(Vector3Stamped, f"predicted_{k}") for k in ("nadir", "position", "heading"))
-        self.pubs = {f"~/{name}": p for name, p in zip(("fix", "heading", "geometry", "nadir", "heading_earth_rate",
-                                                         "predicted_nadir", "predicted_position", "predicted_heading"),
-                                                        self.outputs)}
-        self.pub_progress = pub(Clock, "progress")
-        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
-        self.subs = [
-            io.subscribe(Vector3Stamped, SPIN_A, lambda msg: self._on_input(SPIN_A, msg), timing),
-            io.subscribe(Vector3Stamped, SPIN_B, lambda msg: self._on_input(SPIN_B, msg), timing),
-            io.subscribe(Imu, IMU, lambda msg: self._on_input(IMU, msg), timing),
-        ]
-        if self.velocity_input:
-            self.subs.append(io.subscribe(Vector3Stamped, VELOCITY, lambda msg: self._on_input(VELOCITY, msg), timing))
-        announce_when_connected(self, self.pub_progress, outputs=self.outputs, readers=self.wait_for_subscribers)
+        self.edge = edge = NodeEdge(self, values)
+        outputs = OUTPUTS + (PREDICTIONS if self.predictor is not None else ())
+        edge.advertise_all(outputs + ((Clock, "~/progress"),))
+        edge.advertise_diagnostics(self.policy)
+        self.subs = edge.subscribe_all(inputs, self._on_input)
+        announce_when_connected(self, edge.pubs["~/progress"], outputs=[edge.pubs[t] for _, t in outputs],
+                                readers=values["wait_for_subscribers"])
 
     # -- readiness and bookkeeping ---------------------------------------------------------
     @property
@@ -141,30 +126,25 @@ class FreeGyroPositioningNode(Node):
         """Inputs rejected so far: stamps out of order and non-finite/non-unit/unlevelled data."""
         c = self.core.counters
         return (self.policy.rejected + c.rejected_nonfinite + c.rejected_not_unit
-                + c.rejected_out_of_order + c.rejected_no_level + c.rejected_stale_level)
+                + c.rejected_no_level + c.rejected_stale_level)
 
     def _warn_rejected(self) -> None:
         n = self.rejected
         if n > self._rejected_seen:
             self._rejected_seen = n
-            self.get_logger().warning(f"input rejected (non-finite, non-unit or out of order): {n} so far",
-                                      throttle_duration_sec=1.0)
+            self.edge.warn(f"input rejected (non-finite, non-unit or out of order): {n} so far")
 
-    def _reset(self, reason: str) -> None:
+    def _reset(self, reason: str) -> None:  # the input policy saw the read-out stamps jump back
         self.resets += 1
-        self.policy.restart()
         self.core.reset(reason)
         if self.predictor is not None:
             self.predictor.clear()
-        self._last_ns = self._er_t = None
+        self._er_t = None
         self.get_logger().info(f"reset: {reason}")
 
     # -- inputs ----------------------------------------------------------------------------
     def _on_input(self, topic: str, msg) -> None:
-        t_ns = m.stamp_ns(msg.header.stamp)
-        if judge(t_ns, self._last_ns, self.backjump_ns) is Stamp.JUMPED_BACK:
-            self._reset(f"read-out stamp jumped back {(self._last_ns - t_ns) * 1e-9:.3f} s (clock reset or bag loop)")
-        for step in self.policy.add(topic, t_ns, msg):
+        for step in self.policy.add(topic, m.stamp_ns(msg.header.stamp), msg):
             self._step(step)
         self._warn_rejected()
 
@@ -179,25 +159,17 @@ class FreeGyroPositioningNode(Node):
             self.predictor.add_level(roll, pitch)
         self.core.on_body_rates(t, m.vec_of(imu.angular_velocity))
         fix = self.core.on_spin_axes(t, m.vec_of(group[SPIN_A].vector), m.vec_of(group[SPIN_B].vector))
-        self._last_ns = t_ns
         if fix is not None:
             self._publish_fix(fix, t)
-            self.pub_diag.publish(self.health(t_ns))
-        progress = self.policy.progress(step)
-        if progress is not None:
-            self.pub_progress.publish(m.clock_msg(progress))
+            self.edge.pubs["/diagnostics"].publish(self.health(t_ns))  # each fix: no throttle
+        self.edge.progress(self.policy.progress(step))
 
-    def health(self, t_ns: int) -> DiagnosticArray:
+    def health(self, t_ns: int):
         """/diagnostics: what the input policy reports (module docstring)."""
         c = self.core.counters
-        core = {k: getattr(c, k) for k in ("spin_accepted", "rates_accepted", "rejected_nonfinite",
-                                           "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
-                                           "rejected_stale_level", "fixes", "degenerate", "resets")}
-        fields, _ = self.policy.report(core, {"rejected_stamps": self.policy.rejected, "node_resets": self.resets,
-                                              **self.io.counters()}, {}, None)
-        warn = ("rejected_nonfinite", "rejected_not_unit", "rejected_out_of_order", "rejected_no_level",
-                "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos", "wrong_type")
-        return health_msg(t_ns, self.get_name(), fields, ready=c.fixes > 0, not_ready="no estimate yet", warn=warn)
+        return self.edge.health(t_ns, self.policy, {k: getattr(c, k) for k in CORE_COUNTERS}, ready=c.fixes > 0,
+                                node={"rejected_stamps": self.policy.rejected, "node_resets": self.resets},
+                                not_ready="no estimate yet", warn=WARN_COUNTERS)
 
     # -- outputs ---------------------------------------------------------------------------
     def _publish_fix(self, fix: FreeGyroFix, t_close: float) -> None:
@@ -206,16 +178,15 @@ class FreeGyroPositioningNode(Node):
             prediction = self.predictor.predict(fix.lat, fix.lon, fix.t, fix.heading, fix.n_samples)
         if not fix.valid:
             self.degenerate += 1
-            self.get_logger().warning(f"degenerate fix geometry, no fix published: {fix.reason} "
-                                      f"({self.degenerate} windows so far)", throttle_duration_sec=1.0)
+            self.edge.warn(f"degenerate fix geometry, no fix published: {fix.reason} "
+                           f"({self.degenerate} windows so far)")
         t_er = fix.heading_earth_rate_t
         earth_rate = math.isfinite(fix.heading_earth_rate) and (self._er_t is None or t_er > self._er_t)
         if earth_rate:
             self._er_t = t_er
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in free_gyro_fix_messages(fix, t_close, self.height_m, self.height_sigma_m, prediction,
-                                                     self.core.params.heading_window_s if earth_rate else None):
-            self.pubs[topic].publish(data)
+        self.edge.publish(free_gyro_fix_messages(fix, t_close, self.height_m, self.height_sigma_m, prediction,
+                                                 self.core.params.heading_window_s if earth_rate else None))
 
 
 def main(argv: list[str] | None = None) -> int:

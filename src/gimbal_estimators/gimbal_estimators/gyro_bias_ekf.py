@@ -6,7 +6,9 @@ Message-driven, pure Python (no rclpy). Feed it the three sensor streams with th
     ekf.on_encoders(t, angles, rates)     (ψt, ψm, θm) [rad], rates [rad/s]   (e.g. 1 kHz)
     ekf.on_ins(t, euler, omega_b)         INS (φ, θ, ψ) [rad], (p, q, r) [rad/s] (e.g. 100 Hz)
 
-Each call returns an :class:`EkfOutput` when it completed a measurement update (or the alignment), else ``None``.
+Feed it samples in stamp order: stamps, duplicates and clock jumps are the input policy's
+(:mod:`gimbal_kinematics.input_policy`; a jump back calls :meth:`GyroBiasEkf.reset`). Each
+call returns a :class:`Fed`: the sample used or why not, and the update it completed.
 
 Mechanization (gyro rate)
 -------------------------
@@ -31,26 +33,24 @@ the lumped bias, the measured attitude and the INS error states).
 
 Synchronisation
 ---------------
-All streams are stamped on one clock. Gyro samples are queued and integrated in stamp
-order once an encoder sample and an INS-rate sample stamped at or after them are in
-(or after ``max_sync_wait_s``, with the latest values held): joint angles and INS body
-rates are then linearly interpolated to each gyro stamp. So in lockstep (all streams at
-the same stamps) eq. 4 uses the angles and rates of the same instant, whatever order the
-messages of one stamp arrive in, and 100 Hz INS rates feed a 1 kHz gyro without the 5 ms
-mean lag of a hold (a hold leaves a ~2e-4 rad wander of the roll about the LOS on paper
-1's motion; interpolation a bounded ~2e-5 rad 16 Hz ripple from the 101 rad/s structural
-mode). The attitude estimate therefore lags the newest gyro sample by at most one INS
-period; measurement updates are not delayed: an INS attitude stamped t_ins is fused as
-soon as the gyro samples up to t_ins are integrated, with the encoder angles interpolated
-to t_ins. When the INS is not stamped on gyro stamps (a driver, free timing), the gyro
-rates are interpolated linearly to each INS stamp, the attitude integrated to it and the
-update made there, so there is no skew; several updates may then complete in one call,
+All streams are stamped on one clock. Gyro samples are queued and integrated in stamp order
+once an encoder sample and an INS-rate sample stamped at or after them are in (or after
+``max_sync_wait_s``, with the latest values held): joint angles and INS body rates are then
+linearly interpolated to each gyro stamp. So in lockstep (all streams at the same stamps)
+eq. 4 uses the angles and rates of the same instant, whatever order the messages of one
+stamp arrive in, and 100 Hz INS rates feed a 1 kHz gyro without the 5 ms mean lag of a hold.
+The attitude estimate therefore lags the newest gyro sample by at most one INS period;
+measurement updates are not delayed: an INS attitude stamped t_ins is fused as soon as the
+gyro samples up to t_ins are integrated, with the encoder angles interpolated to t_ins. When
+the INS is not stamped on gyro stamps (a driver, free timing), the gyro rates are
+interpolated linearly to each INS stamp, the attitude integrated to it and the update made
+there, so there is no skew; several updates may then complete in one call,
 :meth:`GyroBiasEkf.take_outputs` returns them all (each ``on_*`` returns the last). (An INS
 message later than ``max_sync_wait_s`` is fused against the current attitude, a skew of up
 to that wait.)
 
 ``attitude_noise_floor_deg`` (default 0.02°, white, isotropic, added to R) stands for the
-unmodelled residuals: that interpolation ripple, sync skew, encoder quantisation. It
+unmodelled residuals: the interpolation ripple, sync skew, encoder quantisation. It
 matters beyond its size. No encoder measures roll about the LOS, so without a floor that
 component of z is nearly noise-free; the filter then reads every LOS-roll residual as a
 change of the INS roll/pitch error states (whose process noise exceeds the roll channel's)
@@ -62,14 +62,12 @@ components of R grow by only 8 %.
 
 Robustness
 ----------
-NaN/inf inputs and per-stream non-increasing stamps are rejected and counted. A stamp more
-than ``clock_jump_s`` before the stream's last one (a bag loop) resets the filter; the
-reason is logged in ``reset_log``. A gyro gap longer than ``max_gyro_gap_s`` or
-``max_consecutive_gated`` gated measurements in a row re-align the attitude from the next
-measurement but keep the bias estimate (also logged). Innovations beyond the chi-square
-gate are rejected and counted. The covariance goes through the Joseph form and is
-re-symmetrised each step. Near θm = ±90° (eq. 4 singular) the last roll rate is held and
-the sample counted.
+NaN/inf inputs are rejected and counted (the :class:`Fed` says why); resets are logged in
+``reset_log``. A gyro gap longer than ``max_gyro_gap_s`` or ``max_consecutive_gated`` gated
+measurements in a row re-align the attitude from the next measurement but keep the bias
+estimate (also logged). Innovations beyond the chi-square gate are rejected and counted. The
+covariance goes through the Joseph form and is re-symmetrised each step. Near θm = ±90° (eq.
+4 singular) the last roll rate is held and the sample counted.
 """
 from __future__ import annotations
 
@@ -80,7 +78,6 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
-from gimbal_kinematics.stamps import Stamp, judge
 from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat
 from gimbal_kinematics.units import DEG, DEG_H, DEG_RT_H
 
@@ -102,7 +99,6 @@ class Counters(NamedTuple):
     updates: int
     gated: int
     rejected_nonfinite: int
-    rejected_out_of_order: int
     resets: int
     realignments: int
     singular_elevation: int
@@ -116,7 +112,8 @@ class EkfOutput(NamedTuple):
     ``bias_sigma`` (3,) its 1σ. ``quat_nm`` (4,) (x, y, z, w): estimated C(n,m) after the
     update. ``attitude_cov`` (3, 3) [rad²]: covariance of ψ, the small rotation about the
     n axes. ``innovation`` (3,) [rad], ``d2`` its squared Mahalanobis distance,
-    ``accepted`` whether the gate passed it.
+    ``accepted`` whether the gate passed it; ``nis`` the update's NIS contribution (``d2`` of
+    an update, accepted or gated; None for an alignment).
     """
 
     t: float
@@ -128,6 +125,20 @@ class EkfOutput(NamedTuple):
     d2: float
     accepted: bool
     counters: Counters
+    nis: float | None = None
+
+
+class Fed(NamedTuple):
+    """One ``on_*`` call: the sample ``used`` or ``why`` not, the last :class:`EkfOutput` it
+    completed (all: :meth:`GyroBiasEkf.take_outputs`), the (t, reason) of each re-alignment."""
+
+    used: bool
+    why: str | None = None
+    output: EkfOutput | None = None
+    realigned: tuple[tuple[float, str], ...] = ()
+
+
+_NONFINITE = Fed(False, "non-finite or malformed values")
 
 
 _rotvec_quat = quat_from_rotation_vector
@@ -164,11 +175,12 @@ class GyroBiasEkf:
         self._floor_var = (p.attitude_noise_floor_deg * DEG) ** 2
         self._H = np.zeros((3, self.n_states))
         self._H[:, PSI] = np.eye(3)
-        self.counters = Counters(0, 0, 0, 0, 0, 0, 0)
+        self.counters = Counters(0, 0, 0, 0, 0, 0)
         #: (t, reason) of the latest resets and re-alignments, newest last.
         self.reset_log: deque[tuple[float, str]] = deque(maxlen=100)
         #: every EkfOutput since the last :meth:`take_outputs` (a call may complete several)
         self.outputs: list[EkfOutput] = []
+        self._realigned: list[tuple[float, str]] = []  # by the call under way (its Fed)
         self._clear()
 
     # ------------------------------------------------------------------ state handling
@@ -177,8 +189,7 @@ class GyroBiasEkf:
         self._b = [0.0, 0.0, 0.0]
         self._e = np.zeros(3)
         self.P: np.ndarray | None = None
-        self._last_t: dict[str, float | None] = {"gyro": None, "encoders": None, "ins": None}
-        self._t_newest = -math.inf
+        self._t_newest = -math.inf  # the newest stamp fed, for the sync wait
         self._t_gyro: float | None = None  # stamp of the last integrated gyro sample
         self._w_prev: tuple[float, float, float] | None = None
         self._gyro_q: deque[tuple[float, float, float]] = deque()
@@ -199,7 +210,7 @@ class GyroBiasEkf:
         self.counters = self.counters._replace(**{k: getattr(self.counters, k) + v for k, v in inc.items()})
 
     def reset(self, reason: str, t: float = math.nan) -> None:
-        """Forget everything (attitude, biases, covariance, buffers, stream stamps); log ``reason``."""
+        """Forget everything (e.g. on a clock jump back); log ``reason``."""
         self._count(resets=1)
         self.reset_log.append((t, reason))
         self._clear()
@@ -208,6 +219,7 @@ class GyroBiasEkf:
         """Re-align the attitude from the next measurement, keeping the bias estimate."""
         self._count(realignments=1)
         self.reset_log.append((t, "realign: " + reason))
+        self._realigned.append(self.reset_log[-1])
         self._P_bb_keep = None if self.P is None else self.P[BIAS, BIAS].copy()
         self._q = None
         self._t_cov = None
@@ -247,6 +259,11 @@ class GyroBiasEkf:
         return np.sqrt(np.diag(self.P[BIAS, BIAS] if self.P is not None else self._Pb0))
 
     @property
+    def attitude_cov(self) -> np.ndarray | None:
+        """Covariance [rad²] (3, 3) of ψ, the attitude error about the n axes; None before alignment."""
+        return None if self._q is None else self.P[PSI, PSI].copy()
+
+    @property
     def ins_error(self) -> np.ndarray:
         """Estimated INS Euler-angle errors (φ, θ, ψ) [rad], (3,) (zeros without those states)."""
         return self._e.copy()
@@ -273,25 +290,16 @@ class GyroBiasEkf:
         return self._t_gyro
 
     # ------------------------------------------------------------------ message handlers
-    def _accept_stamp(self, stream: str, t: float) -> bool:
-        last = self._last_t[stream]
-        if last is None or t > last:  # the usual case (t is finite: checked with the payload)
-            self._last_t[stream] = t
-            if t > self._t_newest:
-                self._t_newest = t
-            return True
-        verdict = judge(t, last, self.params.clock_jump_s)
-        if verdict is Stamp.JUMPED_BACK:
-            self.reset(f"clock jumped back on {stream}: {last:.6f} s -> {t:.6f} s", t)
-        elif verdict is not Stamp.OK:  # finiteness was checked with the payload
-            self._count(rejected_out_of_order=1)
-            return False
-        self._last_t[stream] = t
+    def _taken(self, t: float) -> Fed:
+        """After a sample at ``t`` is queued: integrate what is ready, fuse what it reached."""
         if t > self._t_newest:
             self._t_newest = t
-        return True
+        self._drain()
+        out = self._updates()
+        realigned, self._realigned = tuple(self._realigned), []
+        return Fed(True, None, out, realigned)
 
-    def on_gyro(self, t: float, q_m: float, r_m: float) -> EkfOutput | None:
+    def on_gyro(self, t: float, q_m: float, r_m: float) -> Fed:
         """Gimbal gyro sample at stamp ``t`` [s]: rates q_m, r_m [rad/s] about m-y, m-z."""
         try:
             t, q_m, r_m = float(t), float(q_m), float(r_m)
@@ -300,15 +308,12 @@ class GyroBiasEkf:
         # A sum is finite iff every term is (NaN and ±inf propagate); one call instead of three.
         if not math.isfinite(t + q_m + r_m):
             self._count(rejected_nonfinite=1)
-            return None
-        if not self._accept_stamp("gyro", t):
-            return None
+            return _NONFINITE
         self._gyro_q.append((t, q_m, r_m))
-        self._drain()
-        return self._updates()
+        return self._taken(t)
 
     def on_encoders(self, t: float, angles: Sequence[float],
-                    rates: Sequence[float] | None = None) -> EkfOutput | None:
+                    rates: Sequence[float] | None = None) -> Fed:
         """Encoder sample at ``t`` [s]: angles (ψt, ψm, θm) [rad]; ``rates`` [rad/s] are
         checked but unused (eq. 4 needs no joint rate once r_m is measured)."""
         try:
@@ -321,18 +326,15 @@ class GyroBiasEkf:
             ok = False
         if not ok:
             self._count(rejected_nonfinite=1)
-            return None
-        if not self._accept_stamp("encoders", t):
-            return None
+            return _NONFINITE
         self._enc_hist.append((t,) + a)
-        self._drain()
-        return self._updates()
+        return self._taken(t)
 
-    def on_ins(self, t: float, euler: Sequence[float] | None, omega_b: Sequence[float]) -> EkfOutput | None:
+    def on_ins(self, t: float, euler: Sequence[float] | None, omega_b: Sequence[float]) -> Fed:
         """INS sample at ``t`` [s]: Euler (φ, θ, ψ) [rad] and body rates (p, q, r) [rad/s].
 
         ``euler=None`` delivers the rates only (an Imu message whose orientation is marked
-        unavailable): the filter propagates but has nothing to fuse.
+        unavailable): the filter propagates but has nothing to fuse (``why`` says so).
         """
         try:
             t = float(t)
@@ -344,14 +346,12 @@ class GyroBiasEkf:
             ok = False
         if not ok:
             self._count(rejected_nonfinite=1)
-            return None
-        if not self._accept_stamp("ins", t):
-            return None
+            return _NONFINITE
         self._ins_hist.append((t,) + w)
         if e is not None:
             self._pending.append((t, e))
-        self._drain()
-        return self._updates()
+        fed = self._taken(t)
+        return fed if e is not None else fed._replace(why="no attitude to fuse")
 
     # ------------------------------------------------------------------ synchronisation
     def _drain(self) -> None:
@@ -399,8 +399,7 @@ class GyroBiasEkf:
         return out
 
     def take_outputs(self) -> list[EkfOutput]:
-        """Every output produced since the last call, oldest first (one call of ``on_*`` may
-        complete several updates when the INS is not on the gyro's stamps)."""
+        """Every output produced since the last call, oldest first (an ``on_*`` may complete several)."""
         out, self.outputs = self.outputs, []
         return out
 
@@ -531,10 +530,10 @@ class GyroBiasEkf:
             self._count(gated=1)
             self._consecutive_gated += 1
             if self._consecutive_gated >= self.params.max_consecutive_gated:
-                out = self._output(t_ins, up.y, up.d2, False)
+                out = self._output(t_ins, up.y, up.d2, False, up.d2)
                 self._realign(f"{self._consecutive_gated} consecutive innovations beyond the gate", t_ins)
                 return out
-        return self._output(t_ins, up.y, up.d2, up.accepted)
+        return self._output(t_ins, up.y, up.d2, up.accepted, up.d2)
 
     def _align(self, t: float, q_meas: tuple[float, float, float, float], Je: np.ndarray,
                R: np.ndarray) -> EkfOutput:
@@ -550,12 +549,13 @@ class GyroBiasEkf:
         self._t_cov = self._t_gyro
         self._A_cov = self._A_now()
         self._consecutive_gated = 0
-        return self._output(t, np.zeros(3), 0.0, True)
+        return self._output(t, np.zeros(3), 0.0, True, None)
 
-    def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> EkfOutput:
+    def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool, nis: float | None) -> EkfOutput:
         P = self.P
         out = EkfOutput(t, np.array(self._b), np.sqrt(np.diag(P)[BIAS]), np.array(self._q),
-                        P[PSI, PSI].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters)
+                        P[PSI, PSI].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters,
+                        nis)
         self.outputs.append(out)
         if len(self.outputs) > _MAX_PENDING:  # a caller that never takes them
             del self.outputs[0]

@@ -26,16 +26,16 @@ def feed_stamp(ekf: GyroBiasEkf, t: float, encoders: Encoders | None = None, ins
     encoders, then the INS, then the gyro's (q_m, r_m) [rad/s]; after each call, every output
     it completed goes to ``emit`` (taken from the core in order, so that ``emit`` sees the
     core's state right after the call, e.g. its bias-corrected rate). Returns the last
-    output a call returned (None when none did)."""
+    output a call completed (None when none did)."""
     out = None
     if encoders is not None:
-        out = ekf.on_encoders(t, *encoders) or out
+        out = ekf.on_encoders(t, *encoders).output or out
         _emit(ekf, emit)
     if ins is not None:
-        out = ekf.on_ins(t, *ins) or out
+        out = ekf.on_ins(t, *ins).output or out
         _emit(ekf, emit)
     if gyro is not None:
-        out = ekf.on_gyro(t, *gyro) or out
+        out = ekf.on_gyro(t, *gyro).output or out
         _emit(ekf, emit)
     return out
 

@@ -65,8 +65,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params import steps_per_sample
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -74,7 +73,7 @@ from gimbal_kinematics.ros.readiness import announce_when_connected
 from . import messages as m
 from .nis import NisWindow
 from .platform_alignment_params import DESCRIPTION, PARAMS
-from .rotation_alignment import AlignmentEstimate, RotationAlignmentParams, RotationAlignmentRls
+from .rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from .wire import alignment_messages
 
 #: Output topics, under the node's namespace (module docstring).
@@ -82,11 +81,11 @@ OUTPUTS = ("misalignment", "misalignment_sigma", "initial_misalignment", "initia
            "north_drift", "north_drift_sigma", "gyro_drift", "gyro_drift_sigma", "accel_bias", "accel_bias_sigma",
            "status")
 #: The core's counters on /diagnostics.
-CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
-                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets")
+CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_no_joint", "rejected_stale_joint",
+                 "joint_rejected_nonfinite", "resets")
 #: Counters whose non-zero value is a WARN on /diagnostics.
-WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_joint", "rejected_stale_joint",
-                 "joint_rejected_nonfinite", "joint_rejected_out_of_order", "resets", "rejected_joints",
+WARN_COUNTERS = ("rejected_nonfinite", "rejected_no_joint", "rejected_stale_joint", "joint_rejected_nonfinite",
+                 "resets", "rejected_joints",
                  "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos",
                  "wrong_type")
 
@@ -100,33 +99,23 @@ class PlatformAlignmentNode(Node):
         self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(values))
         self.azimuth_joint = values["azimuth_joint"]
         self.heading = math.radians(values["base_heading_deg"])
-        timing = values["timing"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=values["sim_rate_hz"],
-                                     next_due=grid.next_due, progress_every=values["progress_every_steps"],
+        self.policy = grouped_policy(values["timing"], ("joint", "imu"), needs=grid.needs,
+                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
+                                     progress_every=values["progress_every_steps"],
                                      clock_jump_s=values["clock_jump_s"],
                                      max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger())
-        self.wait_for_subscribers = values["wait_for_subscribers"]
-        self.rejected_joints = 0
+                                     logger=self.get_logger(), on_restart=self.core.reset)
         self._seen: tuple[int, ...] = ()
         self.nis = NisWindow(2, window=values["nis_window"])
         self._updates_seen = 0
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
-        self.io = io = NodeIo(self)
-        self.pubs = {name: io.advertise(Vector3Stamped, f"~/{name}", timing) for name in OUTPUTS}
-        self.pub_progress = io.advertise(Clock, "~/progress", timing)
-        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
-        self.subs = [
-            io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing),
-            io.subscribe(JointState, values["joint_topic"], lambda msg: self._on_input("joint", msg), timing),
-        ]
-        announce_when_connected(self, self.pub_progress, self.subs, self.pubs.values(), self.wait_for_subscribers)
-
-    # --- inputs ----------------------------------------------------------------------------
-    def _warn(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
+        self.edge = edge = NodeEdge(self, values, ("rejected_joints",))
+        edge.advertise_all([(Vector3Stamped, f"~/{name}") for name in OUTPUTS] + [(Clock, "~/progress")])
+        edge.advertise_diagnostics(self.policy)
+        self.subs = edge.subscribe_all((("imu", Imu, "/platform/imu"), ("joint", JointState, values["joint_topic"])),
+                                       self._on_input)
+        announce_when_connected(self, edge.pubs["~/progress"], self.subs,
+                                [edge.pubs[f"~/{name}"] for name in OUTPUTS], values["wait_for_subscribers"])
 
     def _on_input(self, kind: str, msg) -> None:
         for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), msg):
@@ -145,48 +134,33 @@ class PlatformAlignmentNode(Node):
                 self.nis.add(self.core.last_nis)
             self._updates_seen = self.core.n_updates
         if est is not None:
-            self._publish(step.stamp_ns, est)
-            if step.stamp_ns >= self._next_diag_ns:
-                self._next_diag_ns = step.stamp_ns + self.diag_period_ns
-                self.pub_diag.publish(self.health(step.stamp_ns))
-        progress = self.policy.progress(step)
-        if progress is not None:
-            self.pub_progress.publish(m.clock_msg(progress))
+            # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
+            self.edge.publish(alignment_messages(step.stamp_ns, est))
+            self.edge.diagnostics(step.stamp_ns, lambda: self.health(step.stamp_ns))
+        self.edge.progress(self.policy.progress(step))
 
     def health(self, t_ns: int):
         """/diagnostics: what the input policy reports (module docstring)."""
         c = self.core.counters
         core = {k: getattr(c, k) for k in CORE_COUNTERS}
-        core.update(updates=self.core.n_updates, rejected_joints=self.rejected_joints)
-        fields, nis_verdict = self.policy.report(core, self.io.counters(),
-                                                 self.nis.as_dict(), self.nis.verdict().verdict)
-        return health_msg(t_ns, self.get_name(), fields, ready=self.core.n_updates > 0, not_ready="no estimate yet",
-                          warn=WARN_COUNTERS, nis_verdict=nis_verdict)
+        core.update(updates=self.core.n_updates)
+        return self.edge.health(t_ns, self.policy, core, self.nis, ready=self.core.n_updates > 0,
+                                not_ready="no estimate yet", warn=WARN_COUNTERS)
 
     def _validate_joint(self, t: float, msg, where: str) -> None:
         joint = m.joint_position_velocity(msg, self.azimuth_joint)
         if joint is None:
-            self.rejected_joints += 1
-            self._warn(f"{where}: no joint {self.azimuth_joint!r} with a position: ignored "
-                       f"({self.rejected_joints} rejected)")
+            self.edge.reject("rejected_joints", f"{where}: no joint {self.azimuth_joint!r} with a position: ignored")
         else:
             self.core.on_joint_state(t, joint[0] + self.heading, joint[1])
 
     def _warn_counters(self, where: str) -> None:
         c = self.core.counters
-        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_joint, c.rejected_stale_joint,
-                c.joint_rejected_nonfinite, c.joint_rejected_out_of_order)
+        seen = (c.rejected_nonfinite, c.rejected_no_joint, c.rejected_stale_joint, c.joint_rejected_nonfinite)
         if seen != self._seen and any(seen):
-            self._warn(f"{where}: samples rejected so far: accelerometer {seen[0]} non-finite, {seen[1]} out of "
-                       f"order, {seen[2] + seen[3]} without a joint angle; joint {seen[4]} non-finite, "
-                       f"{seen[5]} out of order")
+            self.edge.warn(f"{where}: samples rejected so far: accelerometer {seen[0]} non-finite, "
+                           f"{seen[1] + seen[2]} without a joint angle; joint {seen[3]} non-finite")
         self._seen = seen
-
-    # --- outputs ---------------------------------------------------------------------------
-    def _publish(self, t_ns: int, e: AlignmentEstimate) -> None:
-        # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in alignment_messages(t_ns, e):
-            self.pubs[topic[2:]].publish(data)
 
 
 def main(argv: list[str] | None = None) -> int:

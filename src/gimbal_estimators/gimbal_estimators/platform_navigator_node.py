@@ -54,9 +54,8 @@ from sensor_msgs.msg import Imu, JointState, NavSatFix
 from gimbal_kinematics.frames import MODULATION_JOINT
 from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params import ParameterError, steps_per_sample
-from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE, clock_cdr
-from gimbal_kinematics.ros.diagnostics import advertise_diagnostics, health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -99,39 +98,24 @@ class PlatformNavigatorNode(Node):
         self.azimuth_joint = MODULATION_JOINT if from_servo else values["azimuth_joint"]
         self.max_joint_age_ns = int(round(values["max_joint_age_s"] * 1e9))
         self.fix_every = values["fix_every_samples"]
-        timing = values["timing"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=values["sim_rate_hz"],
-                                     next_due=grid.next_due, progress_every=values["progress_every_steps"],
-                                     clock_jump_s=values["clock_jump_s"],
+        self.policy = grouped_policy(values["timing"], ("joint", "imu"), needs=grid.needs,
+                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
+                                     progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
                                      max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
                                      logger=self.get_logger())
-        self.rejected_joints = 0
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
         self._seen: tuple[int, ...] = ()
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
-        self.io = io = NodeIo(self)
-        self.pub_fix = io.advertise(NavSatFix, "~/fix", timing)
-        self.pub_velocity = io.advertise(Vector3Stamped, "~/velocity", timing)
-        self.pub_odom = io.advertise(Odometry, "~/odom", timing)
-        self.pub_command = io.advertise(Vector3Stamped, "~/command_rate", timing)
-        self.pubs = {"~/fix": self.pub_fix, "~/velocity": self.pub_velocity, "~/odom": self.pub_odom,
-                     "~/command_rate": self.pub_command}
-        self.pub_progress = io.advertise(Clock, "~/progress", timing)
-        self.pub_diag = advertise_diagnostics(io, timing, self.policy)
-        self.subs = [
-            io.subscribe(Imu, "/platform/imu", lambda msg: self._on_input("imu", msg), timing),
-            io.subscribe(JointState, joint_topic, lambda msg: self._on_input("joint", msg), timing),
-        ]
-        announce_when_connected(self, self.pub_progress, self.subs,
-                                (self.pub_fix, self.pub_velocity, self.pub_odom, self.pub_command),
-                                values["wait_for_subscribers"])
-
-    # --- inputs ----------------------------------------------------------------------------
-    def _warn(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
+        self.edge = edge = NodeEdge(self, values, ("rejected_joints",))
+        outputs = ((NavSatFix, "~/fix"), (Vector3Stamped, "~/velocity"), (Odometry, "~/odom"),
+                   (Vector3Stamped, "~/command_rate"))
+        edge.advertise_all(outputs + ((Clock, "~/progress"),))
+        edge.advertise_diagnostics(self.policy)
+        self.subs = edge.subscribe_all((("imu", Imu, "/platform/imu"), ("joint", JointState, joint_topic)),
+                                       self._on_input)
+        announce_when_connected(self, edge.pubs["~/progress"], self.subs,
+                                tuple(edge.pubs[topic] for _, topic in outputs), values["wait_for_subscribers"])
 
     def _on_input(self, kind: str, msg) -> None:
         for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), msg):
@@ -144,17 +128,13 @@ class PlatformNavigatorNode(Node):
             out = self.core.step(step.stamp_ns, m.vec_of(step.msg.linear_acceleration), self._theta_at(step.stamp_ns))
             self._warn_counters(step.stamp_ns)
             self._publish(step.stamp_ns, out)
-        progress = self.policy.progress(step)
-        if progress is not None:
-            self.pub_progress.publish(clock_cdr(progress))
+        self.edge.progress(self.policy.progress(step))
 
     def _validate_joint(self, step: Step) -> None:
         joint = m.joint_position_velocity(step.msg, self.azimuth_joint)
         if joint is None:
-            self.rejected_joints += 1
-            self._warn(f"{step.stamp_ns * 1e-9:.6f} s: no joint {self.azimuth_joint!r} with a position: ignored "
-                       f"({self.rejected_joints} rejected)")
-            return
+            return self.edge.reject("rejected_joints", f"{step.stamp_ns * 1e-9:.6f} s: no joint "
+                                    f"{self.azimuth_joint!r} with a position: ignored")
         self._joint = (step.stamp_ns, joint[0], joint[1] or 0.0)
 
     def _theta_at(self, t_ns: int) -> float | None:
@@ -172,29 +152,23 @@ class PlatformNavigatorNode(Node):
         c = self.core
         seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_resolver, c.resets)
         if seen != self._seen and any(seen):
-            self._warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of order, "
-                       f"{seen[2]} without a resolver angle; {seen[3]} restarts")
+            self.edge.warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of "
+                           f"order, {seen[2]} without a resolver angle; {seen[3]} restarts")
         self._seen = seen
 
-    # --- outputs ---------------------------------------------------------------------------
     def _publish(self, t_ns: int, out: NavigatorOutput | None) -> None:
         if out is not None:
             self._last_command = out.command_rate_n
         fix = out if out is not None and (self.core.accepted - 1) % self.fix_every == 0 else None
         odom = None if fix is None else (*self.odom_frames, *self.odometry(fix))
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
-        for topic, _, data in navigator_messages(t_ns, fix, self._last_command, odom):
-            self.pubs[topic].publish(data)
-        if t_ns >= self._next_diag_ns:
-            self._next_diag_ns = t_ns + self.diag_period_ns
-            self.pub_diag.publish(self.health(t_ns))
+        self.edge.publish(navigator_messages(t_ns, fix, self._last_command, odom))
+        self.edge.diagnostics(t_ns, lambda: self.health(t_ns))
 
     def health(self, t_ns: int):
         """/diagnostics: what the input policy reports (module docstring)."""
-        core = {**self.core.counters(), "rejected_joints": self.rejected_joints}
-        fields, _ = self.policy.report(core, self.io.counters(), {}, None)
-        return health_msg(t_ns, self.get_name(), fields, ready=self.core.accepted > 0, not_ready="not navigating yet",
-                          warn=WARN_COUNTERS)
+        return self.edge.health(t_ns, self.policy, self.core.counters(), ready=self.core.accepted > 0,
+                                not_ready="not navigating yet", warn=WARN_COUNTERS)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -251,11 +251,9 @@ class ObservabilityReport(NamedTuple):
 class _Counters:
     accepted: int = 0
     rejected_nonfinite: int = 0
-    rejected_out_of_order: int = 0
     rejected_no_joint: int = 0
     rejected_stale_joint: int = 0
     joint_rejected_nonfinite: int = 0
-    joint_rejected_out_of_order: int = 0
     resets: int = 0
     reset_reasons: list[str] = field(default_factory=list)
 
@@ -267,9 +265,10 @@ class RotationAlignmentRls:
     [rad/s]) and :meth:`on_accel` with the platform specific force f_s (3,) [m/s²] in the
     stable-element frame (``PlatformImuSample.specific_force`` / Imu linear_acceleration).
     Each accelerometer sample that completes an averaging block returns the new
-    :class:`AlignmentEstimate`; others return None. Non-finite input and non-increasing
-    timestamps are rejected and counted in :attr:`counters`; a jump back by more than
-    ``clock_jump_s`` restarts the alignment (reason in ``counters.reset_reasons``).
+    :class:`AlignmentEstimate`; others return None. Non-finite input is rejected and counted
+    in :attr:`counters`. Stamps come checked and in order, each stream's rising: the node's
+    input policy drops repeated and late ones and, on a jump back by more than
+    ``clock_jump_s``, calls :meth:`reset` (reason in ``counters.reset_reasons``).
     """
 
     def __init__(self, params: RotationAlignmentParams) -> None:
@@ -328,12 +327,6 @@ class RotationAlignmentRls:
         if not (math.isfinite(t) and math.isfinite(theta_a) and (rate is None or math.isfinite(rate))):
             self.counters.joint_rejected_nonfinite += 1
             return
-        if self._joint is not None and t <= self._joint[0]:
-            if self._joint[0] - t > self.params.clock_jump_s:
-                self.reset(f"joint state time jumped back by {self._joint[0] - t:.3f} s")
-            else:
-                self.counters.joint_rejected_out_of_order += 1
-                return
         if rate is None and self._joint is not None:
             t_p, a_p = self._joint[0], self._joint[1]
             rate = math.remainder(theta_a - a_p, math.tau) / (t - t_p)
@@ -362,16 +355,6 @@ class RotationAlignmentRls:
         if not (math.isfinite(t) and math.isfinite(fx) and math.isfinite(fy)):
             self.counters.rejected_nonfinite += 1
             return None
-        t_last = self._t_last
-        if t_last is not None and t <= t_last:
-            if t_last - t > self.params.clock_jump_s:
-                joint = self._joint
-                self.reset(f"accelerometer time jumped back by {t_last - t:.3f} s")
-                if joint is not None and joint[0] <= t:
-                    self._joint = joint  # the joint stream already restarted
-            else:
-                self.counters.rejected_out_of_order += 1
-                return None
         psi = self._azimuth_at(t)
         if psi is None:
             return None

@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 from typing import Any, Callable, Mapping, NamedTuple, Sequence, TypeVar
 
-from .input_policy import SilenceWatch
+from .stream_stats import SilenceWatch
 from .stamps import step_of_stamp, step_stamp_ns
 from .sync import EagerStepGroups, FreshInputs, StepGroups
 
@@ -80,12 +80,13 @@ class LockstepControl:
     ``ticks``: kinds that only pace steps (``/clock``, the node subscribes to them), ignored
     at steps that do not need them; ``eager_stale_steps``: release each step the moment it is complete
     (:class:`~gimbal_kinematics.sync.EagerStepGroups`, incomplete steps that many steps older
-    forgotten) instead of in order with late inputs rejected; ``sample_hold``: kinds whose
+    forgotten) instead of in order, each stream's stamps judged (a repeated or late step of a
+    stream dropped, counted in ``rejected``; one more than ``clock_jump_s`` back restarts, the
+    next step carrying the reset) so the core sees them in order; ``sample_hold``: kinds whose
     newest sample (or None, for one that could not be used or none yet) is in every step,
     at the step's time (a core fed each input every step); ``stamp_time``: a step's core time
-    is its stamp in seconds (default: k / ``rate_hz``). A clock jump back of more than
-    ``clock_jump_s`` starts the steps over (the core judges the stamps itself). ``logger``
-    hears of rejections and restarts."""
+    is its stamp in seconds (default: k / ``rate_hz``). In order, a clock jump back of more
+    than ``clock_jump_s`` starts the steps over. ``logger`` hears of rejections and restarts."""
 
     timing = "lockstep"
     diagnostics = False
@@ -103,6 +104,10 @@ class LockstepControl:
         self.eager = eager_stale_steps is not None
         self.sync: StepGroups | EagerStepGroups = (EagerStepGroups(needs, eager_stale_steps) if self.eager
                                                    else StepGroups(needs, clock_jump_s * rate_hz))
+        self.backjump_steps = clock_jump_s * rate_hz
+        self._last_k: dict[str, int] = {}  # eager: each stream's newest step
+        self._resets: tuple[str, ...] = ()  # for the next step released
+        self.rejected = 0
         self.silence = SilenceWatch()
 
     def add(self, kind: str, stamp_ns: int, value: Any) -> list[ControlStep]:
@@ -119,11 +124,29 @@ class LockstepControl:
                 return []
             return [ControlStep(stamp_ns, sample.t, {kind: sample}, command=False)]
         if self.eager:
+            if not self._in_order(kind, k):
+                return []
             group = self.sync.add(kind, k, sample, self.logger)
             done = [] if group is None else [(k, group)]
         else:
             done = self.sync.add(kind, k, sample, self.logger)
         return [self._step(step, group) for step, group in done]
+
+    def _in_order(self, kind: str, k: int) -> bool:
+        """Whether ``kind``'s step ``k`` comes after its last (eager steps; class docstring)."""
+        last = self._last_k.get(kind)
+        if last is not None and k <= last:
+            if last - k <= self.backjump_steps:
+                self.rejected += 1
+                if self.logger is not None:
+                    self.logger.warning(f"{kind} stamped for step {k}, not after its step {last}: ignored "
+                                        f"({self.rejected} rejected)", throttle_duration_sec=1.0)
+                return False
+            self._last_k.clear()
+            self.sync = EagerStepGroups(self.needs, self.sync.stale_steps)  # type: ignore[union-attr]
+            self._resets = (RESTART_JUMP,)
+        self._last_k[kind] = k
+        return True
 
     def _step(self, k: int, group: dict[str, Sample | None]) -> ControlStep:
         stamp = step_stamp_ns(k, self.rate_hz)
@@ -134,7 +157,8 @@ class LockstepControl:
                 if kind in group:
                     held[kind] = group[kind]
             group.update((kind, None if s is None else Sample(t, s.value)) for kind, s in held.items())
-        return ControlStep(stamp, t, group)
+        resets, self._resets = self._resets, ()
+        return ControlStep(stamp, t, group, resets=resets)
 
     def counters(self) -> dict[str, int]:
         return {}

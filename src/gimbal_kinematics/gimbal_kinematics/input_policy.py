@@ -31,76 +31,34 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
 * lockstep: the orchestrator's graph. Stamps are simulation time from 0 (the core's time is
   the stamp in seconds, or k / ``sim_rate_hz`` for a step), ``~/progress`` names the next
   step on the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only
-  (or is not advertised, for a node that never had it), so the scenario bags stay as they
-  were;
+  (or is not advertised), so the scenario bags stay as they were; a duplicate or late stamp
+  is dropped and counted here, a jump back restarts (:func:`gimbal_kinematics.stamps.judge`);
 * free: a driver or a bag. Each stream's stamps are judged
-  (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples are
-  dropped and counted; a single stamp off the stream's timeline is an outlier, dropped and
-  counted; a clock jump, believed when several samples in a row agree on it
-  (:data:`gimbal_kinematics.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts when it
-  goes back, or is left to the core); the core runs
-  on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
-  resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every
-  ``progress_every`` steps of the pacing stream; ``/diagnostics`` adds the input
-  counters, the node's and the NIS window.
+  (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples dropped
+  and counted; a single stamp off the stream's timeline an outlier, dropped and counted; a
+  clock jump, believed when several samples in a row agree on it
+  (:data:`gimbal_kinematics.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts); the core
+  runs on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
+  resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every ``progress_every``
+  steps of the pacing stream; ``/diagnostics`` adds the input counters, the node's, the NIS's.
 
-The ordered policies release the streams to the core in stamp order
-(:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any speed computes what the
-run computed; the sampled ones release each sample at once with the interval it covers
-(a core that pairs the streams itself, by stamp).
+A restart calls the node's ``on_restart(reason)``, which resets its core: the core sees only
+checked samples in stamp order (a node that gives no ``on_restart`` still leaves the jump
+to its core). The ordered policies release the
+streams in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any
+speed computes what the run computed; the sampled ones release each sample at once with the
+interval it covers.
 
 The controllers' policies (fresh inputs, the stale-input policy) are in
 :mod:`gimbal_kinematics.control_policy`.
 """
 from __future__ import annotations
 
-import time
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
-from .stamps import Stamp, is_gap, step_of_stamp, step_stamp_ns
-from .stream_stats import StreamStats
+from .stamps import Stamp, is_gap, judge, step_of_stamp, step_stamp_ns
+from .stream_stats import SilenceWatch, StreamStats
 from .sync import StampOrder, StampSync, StepGroups
-
-
-#: Seconds a lockstep node hears inputs without releasing a step before it says so.
-SILENCE_S = 5.0
-
-
-class SilenceWatch:
-    """Notices a lockstep node that hears inputs but releases no step (started alone, with
-    no step grid: a saved ``timing: lockstep`` replayed by a player). ``heard(released)``
-    after each input (``released``: the steps it made ready) returns, once per silence, the
-    text to log; ``now_ns`` is the clock (steady time in a node, injected by tests)."""
-
-    def __init__(self, after_s: float = SILENCE_S, now_ns: Callable[[], int] = time.monotonic_ns) -> None:
-        self.after_ns = int(round(after_s * 1e9))
-        self.now_ns = now_ns
-        self._since: int | None = None
-        self._inputs = 0
-        self._warned = False
-        self.alarm: str | None = None
-
-    def heard(self, released: int) -> str | None:
-        if released:
-            self._since, self._inputs, self._warned = None, 0, False
-            return None
-        now = self.now_ns()
-        self._inputs += 1
-        if self._since is None:
-            self._since = now
-        if self._warned or now - self._since < self.after_ns:
-            return None
-        self._warned = True
-        self.alarm = (f"{self._inputs} inputs in {(now - self._since) * 1e-9:.1f} s and no step released: parameter "
-                      "'timing' is 'lockstep', which steps only on the orchestrator's step grid (/clock and every "
-                      "input of a step). Started alone (a driver, gimbal-bag play), run with timing free: "
-                      "--ros-args -p timing:=free")
-        return self.alarm
-
-    def take(self) -> str | None:
-        """The alarm not yet logged, once."""
-        text, self.alarm = self.alarm, None
-        return text
 
 
 class Step(NamedTuple):
@@ -136,33 +94,12 @@ class SampleGrid:
         return min(k - k % n + n for n in self.every.values())
 
 
-class LockstepOrder:
-    """Lockstep input policy (module docstring): ``streams`` in stamp order (within a
-    stamp in the order given), released when every stream has reached the stamp or after
-    ``max_wait_ns``; ``~/progress`` every ``progress_every`` steps of ``rate_hz``;
-    /diagnostics with the core's counters."""
-
-    timing = "lockstep"
-    diagnostics = True
-
-    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int) -> None:
-        self.order = StampOrder(streams, max_wait_ns)
-        self.rate_hz = rate_hz
-        self.progress_every = int(progress_every)
-        self.silence = SilenceWatch()
-
-    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
-        out = [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
-        self.silence.heard(len(out))
-        return out
+class _CoreReport:
+    """A lockstep policy's core time (the stamp in seconds) and /diagnostics (the core's
+    counters only; module docstring)."""
 
     def stamp_of(self, t: float) -> int:
         return int(round(t * 1e9))
-
-    def progress(self, step: Step) -> int | None:
-        """The next step's stamp when it starts a new block of ``progress_every`` steps."""
-        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
-        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
 
     def counters(self) -> dict[str, int]:
         return {}
@@ -172,20 +109,73 @@ class LockstepOrder:
         return dict(core), None
 
 
-class LockstepGroups:
+class LockstepOrder(_CoreReport):
+    """Lockstep input policy (module docstring): each stream's stamp judged against its last
+    (:func:`gimbal_kinematics.stamps.judge`: a duplicate or late stamp dropped and counted in
+    ``rejected``; one more than ``clock_jump_ns`` back restarts, ``on_restart(reason)``
+    resetting the node's core), then ``streams`` in stamp order (within a stamp in the order
+    given), released when every stream has reached the stamp or after ``max_wait_ns``;
+    ``~/progress`` every ``progress_every`` steps of ``rate_hz``; /diagnostics with the
+    core's counters."""
+
+    timing = "lockstep"
+    diagnostics = True
+
+    def __init__(self, streams: Sequence[str], max_wait_ns: int, rate_hz: float, progress_every: int,
+                 clock_jump_ns: int = 0, on_restart: Callable[[str], None] | None = None) -> None:
+        self.order = StampOrder(streams, max_wait_ns)
+        self.rate_hz = rate_hz
+        self.progress_every = int(progress_every)
+        self.clock_jump_ns = int(clock_jump_ns)
+        self.on_restart = on_restart
+        self._last: dict[str, int | None] = dict.fromkeys(streams)
+        #: stamps dropped as duplicate or late, over every stream
+        self.rejected = 0
+        self.silence = SilenceWatch()
+
+    def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        last = self._last[kind]
+        if last is not None and stamp_ns <= last:
+            if judge(stamp_ns, last, self.clock_jump_ns) is not Stamp.JUMPED_BACK:
+                self.rejected += 1
+                self.silence.heard(0)
+                return []
+            self._restart(kind, last, stamp_ns)
+        self._last[kind] = stamp_ns
+        out = [Step(k, s, s * 1e-9, m) for k, (s, m) in self.order.add(kind, stamp_ns, (stamp_ns, msg))]
+        self.silence.heard(len(out))
+        return out
+
+    def _restart(self, stream: str, last_ns: int, stamp_ns: int) -> None:
+        """A clock jump back (a bag looping): forget the old run's buffered inputs and stamps."""
+        if self.on_restart is not None:
+            self.on_restart(f"clock jumped back on {stream}: {last_ns * 1e-9:.6f} s -> {stamp_ns * 1e-9:.6f} s")
+        self.order = StampOrder(self.order.streams, self.order.max_wait_ns)
+        self._last = dict.fromkeys(self._last)
+
+    def progress(self, step: Step) -> int | None:
+        """The next step's stamp when it starts a new block of ``progress_every`` steps."""
+        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
+        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
+
+
+class LockstepGroups(_CoreReport):
     """Lockstep policy of a node whose inputs are grouped by step
     (:class:`gimbal_kinematics.sync.StepGroups`): an input stamped off the steps its stream
     samples at (``needs(k)``) is rejected and counted (``off_grid``); a complete step is
     released as one step per input, in the order of ``streams``, at the core time k /
     ``rate_hz``; after a step's last input ``~/progress`` names ``next_due(k)`` when that
     starts a new block of ``progress_every`` steps. No /diagnostics. ``logger`` (rclpy's, or
-    anything with ``warning``/``info``) hears of rejections and restarts."""
+    anything with ``warning``/``info``) hears of rejections and restarts; ``on_restart(reason)``
+    of each restart, before the new run's first step (the node resets its core)."""
 
     timing = "lockstep"
     diagnostics = False
 
     def __init__(self, streams: Sequence[str], needs: Callable[[int], tuple[str, ...]], rate_hz: float,
-                 clock_jump_s: float, next_due: Callable[[int], int], progress_every: int, logger: Any) -> None:
+                 clock_jump_s: float, next_due: Callable[[int], int], progress_every: int, logger: Any,
+                 on_restart: Callable[[str], None] | None = None) -> None:
+        self.on_restart = on_restart
         self.streams = tuple(streams)
         self.needs = needs
         self.rate_hz = rate_hz
@@ -205,15 +195,16 @@ class LockstepGroups:
             self.silence.heard(0)
             return []
         out: list[Step] = []
-        for step, group in self.sync.add(kind, k, msg, self.logger):
+        restarts = self.sync.restarts
+        done = self.sync.add(kind, k, msg, self.logger)
+        if self.sync.restarts > restarts and self.on_restart is not None:
+            self.on_restart(f"clock jumped back on {kind} to step {k}")
+        for step, group in done:
             stamp, t = step_stamp_ns(step, self.rate_hz), step / self.rate_hz
             kinds = [s for s in self.streams if s in group]
             out.extend(Step(s, stamp, t, group[s], ends_step=s == kinds[-1]) for s in kinds)
         self.silence.heard(len(out))
         return out
-
-    def stamp_of(self, t: float) -> int:
-        return int(round(t * 1e9))
 
     def progress(self, step: Step) -> int | None:
         if not step.ends_step:
@@ -221,13 +212,6 @@ class LockstepGroups:
         k = step_of_stamp(step.stamp_ns, self.rate_hz)
         nxt = self.next_due(k)
         return step_stamp_ns(nxt, self.rate_hz) if nxt // self.progress_every > k // self.progress_every else None
-
-    def counters(self) -> dict[str, int]:
-        return {}
-
-    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
-               ) -> tuple[dict[str, Any], str | None]:
-        return dict(core), None
 
 
 class HeldSamples:
@@ -319,6 +303,11 @@ class FreeOrder:
                 st.last_ns = None  # the other streams' next stamps belong to the new run
         self.t0_ns = None
 
+    @property
+    def rejected(self) -> int:
+        """Stamps dropped as duplicate or late, over every stream."""
+        return sum(st.duplicates + st.out_of_order for st in self.stats.values())
+
     def stamp_of(self, t: float) -> int:
         return self.t0_ns + int(round(t * 1e9))
 
@@ -340,7 +329,7 @@ class FreeOrder:
         return {**core, **self.counters(), **node, **nis}, nis_verdict
 
 
-class LockstepSamples:
+class LockstepSamples(_CoreReport):
     """Lockstep policy of a sampled node (module docstring): each sample is a step at once,
     covering the nominal ``period_s``; ``~/progress`` names the step one sample after the
     older of the streams' newest, every ``progress_every`` steps of ``rate_hz``. No
@@ -360,9 +349,6 @@ class LockstepSamples:
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
         return [Step(kind, stamp_ns, stamp_ns * 1e-9, msg, self.period_s)]
 
-    def stamp_of(self, t: float) -> int:
-        return int(round(t * 1e9))
-
     def progress(self, step: Step) -> int | None:
         newest = self._newest[step.kind]
         if newest is None or step.stamp_ns > newest:
@@ -374,13 +360,6 @@ class LockstepSamples:
             return None
         self._reported = k
         return step_stamp_ns(k, self.rate_hz)
-
-    def counters(self) -> dict[str, int]:
-        return {}
-
-    def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
-               ) -> tuple[dict[str, Any], str | None]:
-        return dict(core), None
 
 
 class FreeSamples:
@@ -457,7 +436,7 @@ def order_policy(timing: str, streams: Sequence[str], *, max_wait_ns: int, rate_
                  clock_jump_ns: int, on_restart: Callable[[str], None]) -> LockstepOrder | FreeOrder:
     """The stamp-ordered input policy of ``timing`` (a node's one choice, in its constructor)."""
     if timing == "lockstep":
-        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every)
+        return LockstepOrder(streams, max_wait_ns, rate_hz, progress_every, clock_jump_ns, on_restart)
     if timing == "free":
         return FreeOrder(streams, max_wait_ns, clock_jump_ns, progress_every, on_restart)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
@@ -476,28 +455,34 @@ def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample
 
 def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int], tuple[str, ...]], rate_hz: float,
                    next_due: Callable[[int], int], progress_every: int, clock_jump_s: float, max_wait_ns: int,
-                   paced: str, logger: Any) -> LockstepGroups | FreeOrder:
+                   paced: str, logger: Any, on_restart: Callable[[str], None] | None = None
+                   ) -> LockstepGroups | FreeOrder:
     """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step:
-    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, the core judges
-    clock jumps, ``~/progress`` on the ``paced`` stream)."""
+    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, ``~/progress``
+    on the ``paced`` stream). A clock jump back calls ``on_restart(reason)``, the node's core
+    reset (None: the core judges the jump itself)."""
     if timing == "lockstep":
-        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger)
+        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger, on_restart)
     if timing == "free":
         def warn(text: str) -> None:
             logger.warning(text, throttle_duration_sec=1.0)
-        return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, None, paced, warn)
+        return FreeOrder(streams, max_wait_ns, int(round(clock_jump_s * 1e9)), progress_every, on_restart, paced,
+                         warn)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
 
 
 class _Synced:
     """One step per complete exact-stamp group of ``streams``
-    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]; the
-    node calls :meth:`restart` when its stamps jump back. ``rejected``: stamps refused
-    (late or repeated) over every run."""
+    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]. A stamp
+    more than ``clock_jump_ns`` before the last group's restarts (``on_restart(reason)``:
+    the node resets its core). ``rejected``: stamps refused (late or repeated), every run."""
 
-    def __init__(self, streams: Sequence[str]) -> None:
+    def __init__(self, streams: Sequence[str], clock_jump_ns: int | None = None,
+                 on_restart: Callable[[str], None] | None = None) -> None:
         self.streams = tuple(streams)
         self.sync = StampSync(self.streams)
+        self.clock_jump_ns, self.on_restart = clock_jump_ns, on_restart
+        self._last_ns: int | None = None  # the last group's stamp
         self._rejected_before = 0
 
     @property
@@ -505,12 +490,22 @@ class _Synced:
         return self._rejected_before + self.sync.rejected
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        jump = self.clock_jump_ns
+        if jump is not None and judge(stamp_ns, self._last_ns, jump) is Stamp.JUMPED_BACK:
+            if self.on_restart is not None:
+                self.on_restart(f"read-out stamp jumped back {(self._last_ns - stamp_ns) * 1e-9:.3f} s "
+                                "(clock reset or bag loop)")
+            self.restart()
         group = self.sync.add(kind, stamp_ns, msg)
-        return [] if group is None else [Step("group", stamp_ns, stamp_ns * 1e-9, group)]
+        if group is None:
+            return []
+        self._last_ns = stamp_ns
+        return [Step("group", stamp_ns, stamp_ns * 1e-9, group)]
 
     def restart(self) -> None:
         self._rejected_before += self.sync.rejected
         self.sync = StampSync(self.streams)
+        self._last_ns = None
 
     def stamp_of(self, t: float) -> int:
         return int(round(t * 1e9))
@@ -531,8 +526,9 @@ class LockstepSynced(_Synced):
     timing = "lockstep"
     diagnostics = False
 
-    def __init__(self, streams: Sequence[str], rate_hz: float, progress_every: int) -> None:
-        super().__init__(streams)
+    def __init__(self, streams: Sequence[str], rate_hz: float, progress_every: int, clock_jump_ns: int | None = None,
+                 on_restart: Callable[[str], None] | None = None) -> None:
+        super().__init__(streams, clock_jump_ns, on_restart)
         self.rate_hz = rate_hz
         self.progress_every = int(progress_every)
         self._clear()
@@ -564,8 +560,9 @@ class FreeSynced(_Synced):
     timing = "free"
     diagnostics = True
 
-    def __init__(self, streams: Sequence[str], progress_every: int) -> None:
-        super().__init__(streams)
+    def __init__(self, streams: Sequence[str], progress_every: int, clock_jump_ns: int | None = None,
+                 on_restart: Callable[[str], None] | None = None) -> None:
+        super().__init__(streams, clock_jump_ns, on_restart)
         self.progress_every = int(progress_every)
         self._groups = 0
 
@@ -574,11 +571,12 @@ class FreeSynced(_Synced):
         return step.stamp_ns if self._groups % self.progress_every == 0 else None
 
 
-def synced_policy(timing: str, streams: Sequence[str], *, rate_hz: float,
-                  progress_every: int) -> LockstepSynced | FreeSynced:
+def synced_policy(timing: str, streams: Sequence[str], *, rate_hz: float, progress_every: int,
+                  clock_jump_ns: int | None = None, on_restart: Callable[[str], None] | None = None
+                  ) -> LockstepSynced | FreeSynced:
     """The exact-stamp-group input policy of ``timing`` (a node's one choice, in its constructor)."""
     if timing == "lockstep":
-        return LockstepSynced(streams, rate_hz, progress_every)
+        return LockstepSynced(streams, rate_hz, progress_every, clock_jump_ns, on_restart)
     if timing == "free":
-        return FreeSynced(streams, progress_every)
+        return FreeSynced(streams, progress_every, clock_jump_ns, on_restart)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")

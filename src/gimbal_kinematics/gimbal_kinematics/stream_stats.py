@@ -24,12 +24,17 @@ stamp against the stream's last accepted one (the verdicts and the drop rule of
 
 Stamps are integer nanoseconds: near 1.8e9 s a float64 second has a resolution of 2.4e-7 s,
 too coarse for a 1 kHz stream's intervals; integers lose nothing.
+
+:class:`SilenceWatch` notices the other way a stream goes wrong for a lockstep node: inputs
+heard, and no step released.
 """
 from __future__ import annotations
 
 import math
 import statistics
+import time
 from collections import deque
+from typing import Callable
 
 from .stamps import JUMP_SAMPLES, Stamp, dropped_samples, is_gap, judge
 
@@ -133,3 +138,44 @@ class StreamStats:
                 f"{prefix}_out_of_order": self.out_of_order, f"{prefix}_clock_jumps": self.jumps,
                 f"{prefix}_outliers": self.outliers, f"{prefix}_dropped": self.dropped,
                 f"{prefix}_jitter_rms": round(self.jitter_rms, 4)}
+
+
+#: Seconds a lockstep node hears inputs without releasing a step before it says so.
+SILENCE_S = 5.0
+
+
+class SilenceWatch:
+    """Notices a lockstep node that hears inputs but releases no step (started alone, with
+    no step grid: a saved ``timing: lockstep`` replayed by a player). ``heard(released)``
+    after each input (``released``: the steps it made ready) returns, once per silence, the
+    text to log; ``now_ns`` is the clock (steady time in a node, injected by tests)."""
+
+    def __init__(self, after_s: float = SILENCE_S, now_ns: Callable[[], int] = time.monotonic_ns) -> None:
+        self.after_ns = int(round(after_s * 1e9))
+        self.now_ns = now_ns
+        self._since: int | None = None
+        self._inputs = 0
+        self._warned = False
+        self.alarm: str | None = None
+
+    def heard(self, released: int) -> str | None:
+        if released:
+            self._since, self._inputs, self._warned = None, 0, False
+            return None
+        now = self.now_ns()
+        self._inputs += 1
+        if self._since is None:
+            self._since = now
+        if self._warned or now - self._since < self.after_ns:
+            return None
+        self._warned = True
+        self.alarm = (f"{self._inputs} inputs in {(now - self._since) * 1e-9:.1f} s and no step released: parameter "
+                      "'timing' is 'lockstep', which steps only on the orchestrator's step grid (/clock and every "
+                      "input of a step). Started alone (a driver, gimbal-bag play), run with timing free: "
+                      "--ros-args -p timing:=free")
+        return self.alarm
+
+    def take(self) -> str | None:
+        """The alarm not yet logged, once."""
+        text, self.alarm = self.alarm, None
+        return text

@@ -191,7 +191,7 @@ class NodeIo:
 
     def _watched(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
         """``callback``, then the warning of the node's lockstep policy when inputs come but no
-        step (:class:`gimbal_kinematics.input_policy.SilenceWatch`)."""
+        step (:class:`gimbal_kinematics.stream_stats.SilenceWatch`)."""
         def watched(msg: Any) -> None:
             callback(msg)
             watch = getattr(getattr(self.node, "policy", None), "silence", None)

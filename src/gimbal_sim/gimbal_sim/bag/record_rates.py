@@ -8,6 +8,8 @@ without a rate, or with rate 0, keeps every message.
 """
 from __future__ import annotations
 
+import numpy as np
+
 
 class RecordRates:
     """``keep(topic, stamp_ns)``: whether this message of ``topic`` is recorded (module docstring)."""
@@ -33,6 +35,27 @@ class RecordRates:
             return False
         self._next_ns[topic] = stamp_ns + period
         return True
+
+    def keep_sorted(self, topic: str, stamps_ns: np.ndarray) -> np.ndarray:
+        """:meth:`keep` of each of ``topic``'s messages at ``stamps_ns`` (nondecreasing), in
+        order: a bool mask."""
+        keep = np.zeros(len(stamps_ns), dtype=bool)
+        period = self.period_ns.get(topic)
+        if period is None:
+            keep[:] = True
+            return keep
+        due, i = self._next_ns.get(topic), 0
+        while i < len(stamps_ns):
+            if due is not None:
+                i += int(np.searchsorted(stamps_ns[i:], due, side="left"))
+                if i >= len(stamps_ns):
+                    break
+            keep[i] = True
+            due, i = int(stamps_ns[i]) + period, i + 1
+        self.dropped += len(stamps_ns) - int(np.count_nonzero(keep))
+        if due is not None:
+            self._next_ns[topic] = due
+        return keep
 
 
 def rate_entries(rates_hz: dict[str, float]) -> list[str]:

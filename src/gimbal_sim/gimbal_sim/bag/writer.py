@@ -9,7 +9,9 @@ library, ``rosbags``, ``ros2 bag``, Foxglove) decompresses it itself.
 
 Crash safety: the current chunk is finished, written and fsync'd whenever the log time
 has advanced ``chunk_duration_ns`` past the last flush, or one wall second has passed, so
-a SIGKILL or a power cut loses at most that much. ``metadata.yaml`` is written by
+a SIGKILL or a power cut loses at most that much. A writer far faster than real time (the
+engine's bag: ``sync_wall_s``) fsyncs its chunks at most once a wall second: a SIGKILL
+still loses at most ``chunk_duration_ns`` of log time, a power cut that wall second. ``metadata.yaml`` is written by
 :meth:`close`; a bag without it (or whose MCAP has no footer) was not closed cleanly.
 
 A full or failing disk (:mod:`.disk`) stops the bag in order: the file is cut back to the
@@ -28,13 +30,16 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from mcap.records import MessageIndex
+import numpy as np
+from mcap.opcode import Opcode
 from mcap.writer import CompressionType, Writer
 
 from .disk import disk_error_line, free_reserve, is_disk_error, take_reserve
 from .qos_yaml import qos_yaml
 from .schemas import ros2msg_schema
 
+#: libyaml's emitter when PyYAML has it (the same text, ten times faster)
+_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
 METADATA_VERSION = 9
 ROS_DISTRO = "jazzy"
 LIBRARY = "gimbal_sim bag writer (mcap python)"
@@ -92,6 +97,47 @@ class TopicRecord:
 #: publish time (the MCAP specification's layout).
 _MESSAGE = struct.Struct("<BQHIQQ")
 _MESSAGE_OPCODE = 0x05
+_INDEX_HEAD = struct.Struct("<BQHI")
+
+
+class _BlockEntries:
+    """The MessageIndex entries of the blocks a chunk holds (:meth:`_Appender.add_block`),
+    split by channel once, when the chunk's indexes are written."""
+
+    def __init__(self, chunk: int) -> None:
+        self.chunk = chunk  # the chunks finished before this one
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._split: dict[int, np.ndarray] | None = None
+
+    def of(self, channel_id: int) -> np.ndarray:
+        if self._split is None:
+            channels, logs, offsets = (np.concatenate(a) for a in zip(*self.parts))
+            order = np.argsort(channels, kind="stable")
+            ids, first = np.unique(channels[order], return_index=True)
+            entries = np.stack([logs[order], offsets[order]], axis=1).astype("<u8")
+            self._split = dict(zip(ids.tolist(), np.split(entries, first[1:])))
+        return self._split.get(channel_id, np.empty((0, 2), dtype="<u8"))
+
+
+class _ChannelIndex:
+    """A channel's MessageIndex in a chunk (the mcap library's ``MessageIndex``, whose
+    ``write`` packs each entry in two calls), its entries those :meth:`_Appender.add` made
+    and those of the chunk's blocks (:class:`_BlockEntries`), written in one call."""
+
+    def __init__(self, channel_id: int) -> None:
+        self.channel_id = channel_id
+        self.records: list[tuple[int, int]] = []
+        self.blocks: _BlockEntries | None = None
+
+    def write(self, stream) -> None:
+        entries = np.asarray(self.records, dtype="<u8").reshape(-1, 2)
+        if self.blocks is not None:
+            entries = np.concatenate([entries, self.blocks.of(self.channel_id)])
+            if self.records:  # both kinds: in the order they are in the chunk
+                entries = entries[np.argsort(entries[:, 1], kind="stable")]
+        data = entries.tobytes()
+        stream.write(_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + len(data), self.channel_id, len(data)))
+        stream.write(data)
 
 
 class _Appender:
@@ -108,6 +154,7 @@ class _Appender:
         self.chunk = writer._Writer__chunk_builder  # noqa: SLF001
         self.chunk_size = writer._Writer__chunk_size  # noqa: SLF001
         self.finish_chunk = writer._Writer__maybe_finalize_chunk  # noqa: SLF001
+        self._blocks: _BlockEntries | None = None
 
     @staticmethod
     def available(writer: Writer) -> bool:
@@ -130,15 +177,48 @@ class _Appender:
         if log_time > chunk.message_end_time:
             chunk.message_end_time = log_time
         buf = chunk.record_writer._buffer  # noqa: SLF001
-        index = chunk.message_indices.get(channel_id)
-        if index is None:
-            index = chunk.message_indices[channel_id] = MessageIndex(channel_id=channel_id, records=[])
-        index.records.append((log_time, buf.tell()))
+        self._index(channel_id).records.append((log_time, buf.tell()))
         chunk.num_messages += 1
         buf.write(_MESSAGE.pack(_MESSAGE_OPCODE, 22 + len(data), channel_id, sequence, log_time, publish_time))
         buf.write(data)
         if buf.tell() > self.chunk_size:
             self.finish_chunk()
+
+    def _index(self, channel_id: int) -> _ChannelIndex:
+        index = self.chunk.message_indices.get(channel_id)
+        if index is None:
+            index = self.chunk.message_indices[channel_id] = _ChannelIndex(channel_id)
+        return index
+
+    @property
+    def position(self) -> int:
+        """Bytes in the chunk in progress."""
+        return self.chunk.record_writer._buffer.tell()  # noqa: SLF001
+
+    def add_block(self, data: np.ndarray, starts: np.ndarray, log_times: np.ndarray, channels: np.ndarray,
+                  counts: dict[int, int]) -> None:
+        """:meth:`add` for Message records already laid out back to back in ``data`` (each
+        starting at ``starts[i] - starts[0]``), in log-time order, ``counts`` of them on each
+        channel; the caller finishes the chunk."""
+        stats, chunk = self.stats, self.chunk
+        lo, hi = int(log_times[0]), int(log_times[-1])
+        if stats.message_count == 0 or lo < stats.message_start_time:
+            stats.message_start_time = lo
+        stats.message_end_time = max(stats.message_end_time, hi)
+        if chunk.num_messages == 0 or lo < chunk.message_start_time:
+            chunk.message_start_time = lo
+        chunk.message_end_time = max(chunk.message_end_time, hi)
+        buf = chunk.record_writer._buffer  # noqa: SLF001
+        blocks = self._blocks
+        if blocks is None or blocks.chunk != stats.chunk_count:
+            blocks = self._blocks = _BlockEntries(stats.chunk_count)
+        blocks.parts.append((channels, log_times, starts - starts[0] + buf.tell()))
+        for channel_id, count in counts.items():
+            self._index(channel_id).blocks = blocks
+            stats.channel_message_counts[channel_id] += count
+        stats.message_count += len(starts)
+        chunk.num_messages += len(starts)
+        buf.write(data)
 
 
 @dataclass
@@ -151,6 +231,10 @@ class BagWriter:
     #: zstd-compress each chunk (level 3, the mcap library's): about 5x smaller for our topics
     compress: bool = True
     wall_flush_s: float = 1.0
+    #: fsync a finished chunk only when this many wall seconds have passed since the last
+    #: fsync (None: every chunk). For a writer far faster than real time (the engine), whose
+    #: chunks, written at the log-time rule, survive a SIGKILL without it
+    sync_wall_s: float | None = None
     topics: dict[str, TopicRecord] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -166,15 +250,17 @@ class BagWriter:
         self._writer = Writer(self._file, chunk_size=1 << 24,
                               compression=CompressionType.ZSTD if self.compress else CompressionType.NONE)
         self._schemas: dict[str, int] = {}
+        self._qos_text: dict[str, str] = {}
         self._start_ns: int | None = None
         self._end_ns = 0
         self._last_flush_ns = 0
-        self._last_flush_wall = time.monotonic()
+        self._last_flush_wall = self._last_sync_wall = time.monotonic()
         self.closed = False
         #: why the bag stopped before it was closed (a full disk), else None
         self.stopped: str | None = None
         self._on_disk(lambda: self._writer.start(profile="ros2", library=LIBRARY))
-        self._add = _Appender(self._writer).add if _Appender.available(self._writer) else self._add_message
+        self._appender = _Appender(self._writer) if _Appender.available(self._writer) else None
+        self._add = self._appender.add if self._appender is not None else self._add_message
         self._mark_on_disk()
 
     def add_topic(self, topic: str, type_name: str, qos_profiles: list[dict[str, Any]]) -> None:
@@ -187,9 +273,12 @@ class BagWriter:
             schema_id = self._on_disk(lambda: self._writer.register_schema(
                 name=f"{pkg}/msg/{name}", encoding="ros2msg", data=ros2msg_schema(type_name).encode()))
             self._schemas[type_name] = schema_id
+        key = repr(qos_profiles)  # most topics offer the same profiles
+        if key not in self._qos_text:
+            self._qos_text[key] = qos_yaml(qos_profiles)
         channel_id = self._on_disk(lambda: self._writer.register_channel(
             topic=topic, message_encoding="cdr", schema_id=schema_id,
-            metadata={"offered_qos_profiles": qos_yaml(qos_profiles)}))
+            metadata={"offered_qos_profiles": self._qos_text[key]}))
         self.topics[topic] = TopicRecord(topic, type_name, qos_profiles, channel_id)
 
     def _add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> None:
@@ -213,12 +302,76 @@ class BagWriter:
                 time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
             self.flush()
 
+    def sequence(self, topic: str) -> int:
+        """The sequence number the next message of ``topic`` gets (its count so far)."""
+        return self.topics[topic].count
+
+    def write_records(self, data: np.ndarray, starts: np.ndarray, log_times: np.ndarray, topics: list[str],
+                      topic_of: np.ndarray) -> None:
+        """Write many messages at once, as :meth:`write` writes them one by one: ``data`` holds
+        their MCAP Message records back to back (uint8), ``starts`` where each begins, in
+        log-time order; message i is on ``topics[topic_of[i]]`` (registered) and its sequence number is
+        that topic's :meth:`sequence` plus the number of its messages before it. Chunks are
+        finished, written and fsync'd where :meth:`write` would finish them."""
+        if self.closed:
+            self._on_disk(lambda: None)  # raises DiskStopped
+        records = [self.topics.get(t) for t in topics]  # a topic without messages here may be unregistered
+        channels = np.array([0 if r is None else r.channel_id for r in records], dtype=np.uint64)[topic_of]
+        ends = np.append(starts[1:], len(data))
+        i, n = 0, len(starts)
+        while i < n:
+            k = self._segment_end(starts, ends, log_times, i)
+            counts = np.bincount(topic_of[i:k + 1], minlength=len(records)).tolist()
+            try:
+                if self._appender is None:
+                    self._add_each(data, starts, ends, log_times, channels, i, k)
+                else:
+                    self._appender.add_block(data[starts[i]:ends[k]], starts[i:k + 1], log_times[i:k + 1],
+                                             channels[i:k + 1], {records[j].channel_id: c for j, c in
+                                                                 enumerate(counts) if c})
+                    if self._appender.position > self._appender.chunk_size:
+                        self._appender.finish_chunk()
+            except OSError as exc:
+                self._stop_on(exc)
+            for j, count in enumerate(counts):
+                if count:
+                    records[j].count += count
+            lo, hi = int(log_times[i]), int(log_times[k])
+            if self._start_ns is None or lo < self._start_ns:
+                self._start_ns = lo
+            self._end_ns = max(self._end_ns, hi)
+            if hi - self._last_flush_ns >= self.chunk_duration_ns or \
+                    time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
+                self.flush()
+            i = k + 1
+
+    def _segment_end(self, starts: np.ndarray, ends: np.ndarray, log_times: np.ndarray, i: int) -> int:
+        """The last message from ``i`` on after which :meth:`write` would finish a chunk: the
+        log time ``chunk_duration_ns`` past the last flush, or the chunk over its size."""
+        k = int(np.searchsorted(log_times, self._last_flush_ns + self.chunk_duration_ns, side="left"))
+        if self._appender is not None:
+            room = self._appender.chunk_size - self._appender.position
+            k = min(k, int(np.searchsorted(ends, starts[i] + room, side="right")))
+        return min(max(k, i), len(starts) - 1)
+
+    def _add_each(self, data, starts, ends, log_times, channels, i: int, k: int) -> None:
+        """The mcap library's ``add_message`` for each record i … k (another mcap layout)."""
+        for j in range(i, k + 1):
+            head = _MESSAGE.unpack_from(data, int(starts[j]))
+            self._add(int(channels[j]), int(log_times[j]), bytes(data[starts[j] + _MESSAGE.size:ends[j]]), head[5],
+                      head[3])
+
     def flush(self) -> None:
-        """Finish the chunk in progress, write it and fsync it: a chunk boundary on disk."""
-        self._on_disk(lambda: (self._writer.flush(), self._file.sync()))
+        """Finish the chunk in progress, write it and fsync it (see :attr:`sync_wall_s`): a
+        chunk boundary on disk."""
+        now = time.monotonic()
+        sync = self.sync_wall_s is None or now - self._last_sync_wall >= self.sync_wall_s
+        self._on_disk(lambda: (self._writer.flush(), self._file.sync() if sync else None))
         self._mark_on_disk()
         self._last_flush_ns = self._end_ns
         self._last_flush_wall = time.monotonic()
+        if sync:
+            self._last_sync_wall = self._last_flush_wall
 
     def _mark_on_disk(self) -> None:
         """What the file holds up to here, all on disk: where a full disk cuts it back to."""
@@ -322,7 +475,8 @@ def write_metadata(directory: Path, files: list[str], topics: list[TopicRecord],
         "custom_data": {"stopped": stopped} if stopped else {},
         "ros_distro": ROS_DISTRO,
     }
-    text = yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False, default_flow_style=False)
+    text = yaml.dump({"rosbag2_bagfile_information": info}, Dumper=_DUMPER, sort_keys=False,
+                     default_flow_style=False)
     tmp = directory / "metadata.yaml.tmp"
     tmp.write_text(text)
     tmp.replace(directory / "metadata.yaml")

@@ -30,9 +30,11 @@ from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 
 from . import sighting_kernels as sk
+from .block_bag import BlockRecorder, BlockSource
 from gimbal_control.wire import torque_command_messages
 from gimbal_estimators.wire import ekf_messages
 from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
+from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
 
 from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig
@@ -181,43 +183,68 @@ def run(values: dict[str, tuple[str, dict[str, Any]]], keep_commands: bool = Fal
 class _Publisher:
     """What each node of the chain publishes at each step of a block, from the block's record
     rows (:data:`.sighting_kernels.N_REC`), made by the nodes' own serialisation functions in
-    the stages' order (:mod:`.core_stages`): truth, sensors, EKF output, torque command."""
+    the stages' order (:mod:`.core_stages`): truth, sensors, EKF output, torque command; each
+    function call a :class:`.block_bag.BlockSource`, the block written at once
+    (:class:`.block_bag.BlockRecorder`)."""
 
     def __init__(self, values, vehicle: VehicleCore, suite: SensorSuite, record) -> None:
         names = {exe: name for name, (exe, _) in values.items()}
-        self.record, self.names = record, names
         v = values[names["vehicle_dynamics"]][1]
-        self.position_every, self.site = v["position_truth_every_steps"], vehicle.profile.site
-        self.cov = noise_covariances(suite.config)
-        self.rate = vehicle.config.sim_rate_hz
-
-    def __call__(self, k0: int, stamps: np.ndarray, rec: np.ndarray, ins_dec: int) -> None:
-        record, names, cov = self.record, self.names, self.cov
+        self.position_every, site = v["position_truth_every_steps"], vehicle.profile.site
+        cov = noise_covariances(suite.config)
         veh, sen = names["vehicle_dynamics"], names["sensor_models"]
         ekf, ctrl = names.get("gyro_bias_ekf"), names.get("los_rate_controller")
-        for j, (t_ns, r) in enumerate(zip(stamps.tolist(), rec[:len(stamps)].tolist())):
-            k = k0 + j
-            t = t_ns * 1e-9
-            pos, vel = tuple(r[sk.R_POS:sk.R_POS + 3]), tuple(r[sk.R_VEL:sk.R_VEL + 3])
-            truth = VehicleTruth(k, t, None, r[sk.R_QNB:sk.R_QNB + 4], tuple(r[sk.R_W:sk.R_W + 3]),
-                                 tuple(r[sk.R_FB:sk.R_FB + 3]), r[sk.R_DELTA:sk.R_DELTA + 3], GIMBAL_ENCODER_JOINTS,
-                                 pos, vel, (0.0, *r[sk.R_EFF:sk.R_EFF + 2]), r[sk.R_QNM:sk.R_QNM + 4],
-                                 tuple(r[sk.R_WM:sk.R_WM + 3]), tuple(r[sk.R_FM:sk.R_FM + 3]))
-            due = self.position_every and k % self.position_every == 0
-            record(veh, truth_messages(t_ns, truth, "two_axis_gimbal", self.site if due else None))
-            if k % ins_dec == 0:
-                record(sen, sensor_messages(t_ns, InsSample(t, tuple(r[sk.R_INS_E:sk.R_INS_E + 3]),
-                                                            tuple(r[sk.R_INS_W:sk.R_INS_W + 3]),
-                                                            tuple(r[sk.R_INS_B:sk.R_INS_B + 3])), cov))
-            record(sen, sensor_messages(t_ns, GimbalGyroSample(t, r[sk.R_GYRO], r[sk.R_GYRO + 1],
-                                                               tuple(r[sk.R_GBIAS:sk.R_GBIAS + 2])), cov))
-            record(sen, sensor_messages(t_ns, EncoderSample(t, GIMBAL_ENCODER_JOINTS, tuple(r[sk.R_ENC:sk.R_ENC + 3]),
-                                                            tuple(r[sk.R_ENCR:sk.R_ENCR + 3])), cov))
-            if ekf is not None and r[sk.R_EKF]:
-                c = r[sk.R_EKF_COV:sk.R_EKF_COV + 9]
-                record(ekf, ekf_messages(int(round(t * 1e9)), r[sk.R_EKF_B:sk.R_EKF_B + 3],
-                                         r[sk.R_EKF_SIG:sk.R_EKF_SIG + 3], r[sk.R_EKF_Q:sk.R_EKF_Q + 4],
-                                         (c[0:3], c[3:6], c[6:9]),
-                                         r[sk.R_EKF_W:sk.R_EKF_W + 3] if r[sk.R_EKF_HAS_W] else None))
-            if ctrl is not None:
-                record(ctrl, torque_command_messages(t_ns, (r[sk.R_CMD], r[sk.R_CMD + 1])))
+        sources = [(veh, lambda t, r: truth_messages(t, _truth(t, r), "two_axis_gimbal")),
+                   (veh, lambda t, r: truth_messages(t, _truth(t, r), "two_axis_gimbal", site)),
+                   (sen, lambda t, r: sensor_messages(t, _ins(t, r), cov)),
+                   (sen, lambda t, r: sensor_messages(t, GimbalGyroSample(t * 1e-9, r[sk.R_GYRO], r[sk.R_GYRO + 1],
+                                                                          tuple(r[sk.R_GBIAS:sk.R_GBIAS + 2])), cov)),
+                   (sen, lambda t, r: sensor_messages(t, EncoderSample(t * 1e-9, GIMBAL_ENCODER_JOINTS,
+                                                                       tuple(r[sk.R_ENC:sk.R_ENC + 3]),
+                                                                       tuple(r[sk.R_ENCR:sk.R_ENCR + 3])), cov))]
+        self.has_ekf = ekf is not None
+        if ekf is not None:
+            sources += [(ekf, lambda t, r: _ekf(t, r, True)), (ekf, lambda t, r: _ekf(t, r, False))]
+        if ctrl is not None:
+            sources.append((ctrl, lambda t, r: torque_command_messages(t, (r[sk.R_CMD], r[sk.R_CMD + 1]))))
+        self.sources = [BlockSource(node, fn, sk.N_REC, _ins_quat if i == 2 else None)
+                        for i, (node, fn) in enumerate(sources)]
+        self.record = BlockRecorder(record, self.sources)
+
+    def __call__(self, k0: int, stamps: np.ndarray, rec: np.ndarray, ins_dec: int) -> None:
+        """Record the steps k0 … k0 + len(stamps) - 1 (rows of ``rec``)."""
+        k = np.arange(k0, k0 + len(stamps))
+        rows = rec[:len(stamps)]
+        due = k % self.position_every == 0 if self.position_every else np.zeros(len(k), dtype=bool)
+        masks = [~due, due, k % ins_dec == 0, None, None]
+        if self.has_ekf:
+            out, has_w = rows[:, sk.R_EKF] != 0.0, rows[:, sk.R_EKF_HAS_W] != 0.0
+            masks += [out & has_w, out & ~has_w]
+        self.record(stamps, rows, masks + [None] * (len(self.sources) - len(masks)))
+
+
+def _truth(t_ns: int, r) -> VehicleTruth:
+    """The vehicle's truth of a record row."""
+    return VehicleTruth(0, t_ns * 1e-9, None, r[sk.R_QNB:sk.R_QNB + 4], tuple(r[sk.R_W:sk.R_W + 3]),
+                        tuple(r[sk.R_FB:sk.R_FB + 3]), r[sk.R_DELTA:sk.R_DELTA + 3], GIMBAL_ENCODER_JOINTS,
+                        tuple(r[sk.R_POS:sk.R_POS + 3]), tuple(r[sk.R_VEL:sk.R_VEL + 3]),
+                        (0.0, *r[sk.R_EFF:sk.R_EFF + 2]), r[sk.R_QNM:sk.R_QNM + 4], tuple(r[sk.R_WM:sk.R_WM + 3]),
+                        tuple(r[sk.R_FM:sk.R_FM + 3]))
+
+
+def _ins(t_ns: int, r) -> InsSample:
+    return InsSample(t_ns * 1e-9, tuple(r[sk.R_INS_E:sk.R_INS_E + 3]), tuple(r[sk.R_INS_W:sk.R_INS_W + 3]),
+                     tuple(r[sk.R_INS_B:sk.R_INS_B + 3]))
+
+
+def _ins_quat(r) -> tuple:
+    """The INS message's orientation, as ``sensor_messages`` computes it."""
+    return quat_canonical(quat_from_euler321(*r[sk.R_INS_E:sk.R_INS_E + 3]))
+
+
+def _ekf(t_ns: int, r, has_w: bool):
+    """The EKF's output messages of a record row (with or without its corrected rate)."""
+    c = r[sk.R_EKF_COV:sk.R_EKF_COV + 9]
+    return ekf_messages(int(round(t_ns * 1e-9 * 1e9)), r[sk.R_EKF_B:sk.R_EKF_B + 3], r[sk.R_EKF_SIG:sk.R_EKF_SIG + 3],
+                        r[sk.R_EKF_Q:sk.R_EKF_Q + 4], (c[0:3], c[3:6], c[6:9]),
+                        r[sk.R_EKF_W:sk.R_EKF_W + 3] if has_w else None)

@@ -31,9 +31,6 @@ GRAPH_OFFERED_QOS = [{"history": "unknown", "depth": 0, "reliability": "reliable
                       "deadline": dict(_INFINITE), "lifespan": dict(_INFINITE), "liveliness": "automatic",
                       "liveliness_lease_duration": dict(_INFINITE), "avoid_ros_namespace_conventions": False}]
 
-#: simulated time between the engine bag's forced chunk flushes: none (wall time flushes it)
-ENGINE_CHUNK_NS = 1 << 62
-
 _STAMP = struct.Struct("<iI")
 _SKIP = object()
 
@@ -58,23 +55,31 @@ class EngineBag:
     finishes the bag and writes its ``metadata.yaml``."""
 
     def __init__(self, out_dir: Path, scenario: Scenario, compress: bool = True) -> None:
-        # the engine runs many times faster than real time: its chunks go to disk every wall
-        # second (what a crash can lose), not every 0.5 s of simulated time (an fsync per
-        # few hundred steps)
-        self.writer = BagWriter(out_dir, compress=compress, chunk_duration_ns=ENGINE_CHUNK_NS)
+        # fsync'd once a wall second, not each half second of sim time: the engine runs
+        # hundreds of times faster than real time (BagWriter's crash safety)
+        self.writer = BagWriter(out_dir, compress=compress, sync_wall_s=1.0)
         self.wanted = None if scenario.record == "all" else set(scenario.record)
         self.rates = RecordRates(scenario.record_rates_hz)
         self.remaps = {name: spec.get("remap") or {} for name, spec in scenario.nodes.items()}
         self._names: dict[tuple[str, str], object] = {}
 
     def _register(self, node: str, topic: str, type_name: str) -> object:
-        name = resolve(node, topic, self.remaps.get(node, {}))
-        if self.wanted is not None and name not in self.wanted:
+        name = self.topic_name(node, topic)
+        if name is None:
             name = _SKIP
         else:
-            self.writer.add_topic(name, type_name, GRAPH_OFFERED_QOS)
+            self.add_topic(name, type_name)
         self._names[(node, topic)] = name
         return name
+
+    def topic_name(self, node: str, topic: str) -> str | None:
+        """The bag's name of ``node``'s ``topic``, or None when the scenario does not record
+        it; :meth:`add_topic` registers it before its first message."""
+        name = resolve(node, topic, self.remaps.get(node, {}))
+        return None if self.wanted is not None and name not in self.wanted else name
+
+    def add_topic(self, name: str, type_name: str) -> None:
+        self.writer.add_topic(name, type_name, GRAPH_OFFERED_QOS)
 
     def __call__(self, node: str, messages: list[tuple[str, str, bytes]]) -> None:
         names, rates, write = self._names, self.rates, self.writer.write

@@ -18,6 +18,7 @@ from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import PAPER2_ENCODER, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
+from ..core.core_loop import run_stages
 
 #: The simulated plant is gimbal_sim's ``uav_small`` preset (the ``gimbal_model`` of the
 #: vehicle node); this name stays for the experiment and the tests.
@@ -118,15 +119,18 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
 
 
 def _fly(core: VehicleCore, suite: SensorSuite, ctl: EncoderFusionController, rate: float) -> dict[str, np.ndarray]:
-    """Close the loop to the end of the run; every step's LOS direction (n, 3), feedback and
-    true rates, true gyro bias and torques (n, 2)."""
+    """Close the loop to the end of the run on the one engine's loop
+    (:func:`..core.core_loop.run_stages`, this controller's stage); every step's LOS direction
+    (n, 3), feedback and true rates, true gyro bias and torques (n, 2)."""
     n = core.config.n_steps
     rec = {"los": np.zeros((n, 3)), "fb": np.zeros((n, 2)), "true_rate": np.zeros((n, 2)),
            "bias": np.zeros((n, 2)), "torque": np.zeros((n, 2))}
-    cmd = (0.0, 0.0)
-    k = 0
-    while not core.finished:
-        truth = core.truth()
+    cmd = [(0.0, 0.0)]
+
+    def stage(bus) -> None:
+        k, truth = bus.k, bus.truth
+        if k == n:  # the final truth: no step follows it
+            return
         rec["los"][k] = _los_n(truth.quat_nm)
         ctl.on_base_rates(truth.t, truth.omega_ib_b)
         samples = suite.update(truth)
@@ -138,13 +142,14 @@ def _fly(core: VehicleCore, suite: SensorSuite, ctl: EncoderFusionController, ra
             if isinstance(s, GimbalGyroSample):
                 out = ctl.on_gyro(s.t, s.q_m, s.r_m)
                 if out is not None:
-                    cmd = (out.torque_azimuth, out.torque_elevation)
+                    cmd[0] = (out.torque_azimuth, out.torque_elevation)
                 rec["bias"][k] = s.true_bias
         rec["fb"][k] = ctl.feedback
         rec["true_rate"][k] = truth.omega_im_m[1], truth.omega_im_m[2]
-        rec["torque"][k] = cmd
-        core.step(cmd)
-        k += 1
+        rec["torque"][k] = cmd[0]
+        bus.command = cmd[0]
+
+    run_stages(core, [stage])
     return rec
 
 
@@ -175,7 +180,6 @@ def _metrics(mode: str, duration_s: float, seed: int, settle_s: float, record_ev
         "rms_torque_nm": tuple(float(v) for v in np.sqrt(np.mean(torque ** 2, axis=0))),
         "kf_updates": ctl.kf_q.updates,
         "rejected_nonfinite": ctl.rejected_nonfinite,
-        "rejected_out_of_order": ctl.rejected_out_of_order,
         "series": {"t": t[sl], "error_rad": err_0[sl], "error_held_rad": err_ref[sl], "feedback_rad_s": fb[sl],
                    "true_rate_rad_s": true_rate[sl], "gyro_bias_rad_s": bias[sl], "torque_nm": torque[sl]},
     }

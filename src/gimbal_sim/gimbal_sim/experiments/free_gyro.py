@@ -1,7 +1,8 @@
 """Free-gyro positioning experiment (paper 4, docs/spec.md §3.4): the simulated ship and free-gyro
 sensor feed :class:`gimbal_estimators.free_gyro_positioning.FreeGyroPositioning`, and the fixes
 are scored against the true site; a seeded Monte Carlo checks the fix errors against the
-claimed FDOP²σ² covariance::
+claimed FDOP²σ² covariance (the command: scenario ``free_gyro_positioning``'s runs on the one
+engine, :data:`CAMPAIGN`)::
 
     python -m gimbal_sim.experiments.free_gyro --runs 200
 
@@ -26,6 +27,7 @@ from ..core.core_loop import run_stages
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
+from .engine_runs import run_on_engine
 
 _NAN = float("nan")
 
@@ -182,11 +184,17 @@ def campaign_run(variant: str, seed: int, options: dict) -> dict:
 
 def graph_translate(options: dict) -> tuple[float, tuple]:
     """The scenario ``free_gyro_positioning`` set up as :func:`_setup` sets the cores: a run of
-    ``fixes_per_run`` fix windows, the spin-axis geometry and pickoff noise in the sensors and
-    in the estimator alike."""
+    ``fixes_per_run`` fix windows, the site in the ship, the sensors and the estimator's spin
+    reference, the spin-axis geometry and pickoff noise in the sensors and in the estimator
+    alike (the ship keeps the scenario's mean heading)."""
     duration = options["fixes_per_run"] * options["fix_interval_s"] + 1.0 / options["rate_hz"]
     nadir, azimuth, noise = list(options["nadir_deg"]), list(options["azimuth_deg"]), options["pickoff_noise_arcsec"]
-    return duration, (("sensor_models.free_gyro_nadir_deg", nadir), ("free_gyro_positioning.spin_nadir_deg", nadir),
+    lat, lon = options["lat_deg"], options["lon_deg"]
+    return duration, (("vehicle_dynamics.profile_params", f"{{lat_deg: {lat!r}, lon_deg: {lon!r}, mean_heading_deg: 40.0}}"),
+                      ("sensor_models.free_gyro_site_lat_deg", lat), ("sensor_models.free_gyro_site_lon_deg", lon),
+                      ("free_gyro_positioning.spin_reference_lat_deg", lat),
+                      ("free_gyro_positioning.spin_reference_lon_deg", lon),
+                      ("sensor_models.free_gyro_nadir_deg", nadir), ("free_gyro_positioning.spin_nadir_deg", nadir),
                       ("sensor_models.free_gyro_azimuth_deg", azimuth),
                       ("free_gyro_positioning.spin_azimuth_deg", azimuth),
                       ("sensor_models.free_gyro_pickoff_noise_arcsec", noise),
@@ -195,14 +203,16 @@ def graph_translate(options: dict) -> tuple[float, tuple]:
                       ("free_gyro_positioning.heading_window_s", max(60.0, duration)))
 
 
-#: FDOP over seeded runs as a campaign: ``engine: core`` runs :func:`campaign_run`; ``engine:
-#: graph`` runs scenario ``free_gyro_positioning`` (the same ship and site; the table pools
-#: each run's report, :func:`pooled_reports`).
+#: FDOP over seeded runs as a campaign, a declaration: scenario ``free_gyro_positioning``
+#: (paper 4's ship and site; its sensor noise drawn from the sensor node's streams) on the
+#: one engine (each run's bag and ``free_gyro`` report) or in the node graph; the table pools
+#: the runs' reports (:func:`pooled_reports`). :func:`run_fdop_monte_carlo` is the cores'
+#: own Monte Carlo in one process (the tests' reference).
 CAMPAIGN = ExperimentCampaign(
-    name="free_gyro", variants=("",), defaults=FDOP_DEFAULTS, run=campaign_run,
+    name="free_gyro", variants=("",), defaults=FDOP_DEFAULTS, run=None,
     graph=GraphEquivalent("free_gyro_positioning", {"": None},
-                          ("fixes_per_run", "nadir_deg", "azimuth_deg", "pickoff_noise_arcsec", "fix_interval_s"),
-                          graph_translate))
+                          ("fixes_per_run", "lat_deg", "lon_deg", "nadir_deg", "azimuth_deg", "pickoff_noise_arcsec",
+                           "fix_interval_s"), graph_translate))
 
 
 def pooled(runs: Sequence[dict]) -> FdopMonteCarlo:
@@ -249,7 +259,7 @@ def run_fdop_monte_carlo(n_runs: int = 200, *, first_seed: int = 1, **options) -
     if unknown:
         raise TypeError(f"unknown options {sorted(unknown)}")
     opts = {**FDOP_DEFAULTS, **options}
-    return pooled([campaign_run("", first_seed + k, opts) for k in range(n_runs)])
+    return pooled([campaign_run("", first_seed + i, opts) for i in range(n_runs)])
 
 
 def format_table(mc: FdopMonteCarlo) -> str:
@@ -289,8 +299,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.runs + 1)), engine=a.engine,
                         mode=a.mode, options=tuple(options.items()))
     with campaign_dir(a.out) as out:
-        runs = [m for _, m in run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN))[""]]
-    print(format_table(pooled(runs) if a.engine == "core" else pooled_reports(runs)))
+        runs = [m for _, m in run_metrics(run_for_cli(ap, a, spec, out, CAMPAIGN, run_on_engine))[""]]
+    print(format_table(pooled_reports(runs)))
 
 
 if __name__ == "__main__":

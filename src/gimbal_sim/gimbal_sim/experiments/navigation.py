@@ -70,9 +70,8 @@ from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo
 from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
-from .alignment import PAPER3_MISALIGNMENT_ARCSEC
-from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, RATE_HZ as SERVO_RATE_HZ, \
-    _platform_sim, alignment_setup, run_platform_servo
+from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, PAPER3_MISALIGNMENT_ARCSEC, \
+    RATE_HZ as SERVO_RATE_HZ, _platform_sim, alignment_setup, run_platform_servo
 
 #: The alignment phase of ``align_then_navigate`` [s]: 360° and back at 1.2 °/s (Table 2).
 ALIGNMENT_S = 600.0

@@ -32,9 +32,11 @@ Torque current: the azimuth motor armature current, effort/k_t.
 """
 from __future__ import annotations
 
-import math
 import argparse
+import dataclasses
+import math
 import sys
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -48,14 +50,16 @@ from ..world.plant import paper3_axis_params
 from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.vehicle import VehicleConfig, VehicleCore
 from ..core.core_loop import run_stages
+from ..graph.scenario import load as load_scenario
 from ..core.platform_stages import platform_sensor_stage, servo_stage
 from ..reports.alignment import column_stats
-from .alignment import PAPER3_MISALIGNMENT_ARCSEC
 from .engine_runs import run_on_engine
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
+#: Paper 3 Table 2 mean initial misalignment (δφE0, δφN0, δφU0) [arcsec].
+PAPER3_MISALIGNMENT_ARCSEC = (-25.0, -36.0, 17.0 * 60.0)
 
 RATE_HZ = 1000.0  # paper 3's loop rate, also the simulation and sensor rate here
 
@@ -205,6 +209,24 @@ CAMPAIGN = ExperimentCampaign(
                           ("duration_s", "lat_deg", "gyro_arw_deg_rt_h", "accel_noise_ug_rt_hz"), alignment_translate))
 
 
+#: ``servo``: the report's figure (its path in metrics.json) -> its printed label.
+SERVO_ROWS = {("control_error_arcsec", "sensed", "steady", "rms"): "control error sensed, steady rms [″]",
+              ("control_error_arcsec", "sensed", "steady", "max"): "control error sensed, steady max [″]",
+              ("control_error_arcsec", "truth_drift_removed", "steady", "rms"): "control error truth, steady rms [″]",
+              ("control_error_arcsec", "truth_drift_removed", "steady", "max"): "control error truth, steady max [″]",
+              ("control_error_arcsec", "sensed", "reversal", "max"): "reversal transient sensed, max [″]",
+              ("control_error_arcsec", "truth_drift_removed", "reversal", "max"): "reversal transient truth, max [″]",
+              ("torque_current", "steady_mean_abs_ma"): "azimuth torque current, steady mean |i| [mA]",
+              ("torque_current", "reversal_peak_ma"): "azimuth torque current, reversal peak [mA]"}
+
+
+def servo_figures(duration_s: float, seed: int, run_dir: Path) -> dict[str, Any]:
+    """Scenario ``rotational_platform_servo`` for ``duration_s`` [s] and ``seed`` on the one
+    engine into ``run_dir`` (its bag), and its ``platform_servo`` report's metrics."""
+    scenario = dataclasses.replace(load_scenario("rotational_platform_servo"), duration_s=duration_s, seed=seed)
+    return run_on_engine(scenario, run_dir)
+
+
 def _alignment_table(runs: list[tuple[int, dict]]) -> str:
     """Per seed ([(seed, figures)] as :func:`alignment_figures`) the Table 2 columns."""
     rows = [f"{'seed':>4} {'dphiE0 err':>11} {'dphiN0 err':>11} {'dphiU0 err':>11} {'epsN err':>10} "
@@ -219,7 +241,8 @@ def _alignment_table(runs: list[tuple[int, dict]]) -> str:
 
 
 def summarize_figures(runs: list[dict]) -> dict[str, dict[str, float]]:
-    """:func:`.alignment.summarize_alignment` of runs' figures (:func:`alignment_figures`)."""
+    """Mean, std (ddof=1, as Table 2), RMS and max |·| over runs of the headline errors (each
+    run's ``alignment`` report figures)."""
     cols = {
         "east_tilt_error_arcsec": [r["tilt_error_arcsec"]["east"] for r in runs],
         "north_tilt_error_arcsec": [r["tilt_error_arcsec"]["north"] for r in runs],
@@ -239,9 +262,12 @@ def main(argv: list[str] | None = None) -> int:
         description="Paper 3 closed-loop experiments in one process (the graph's cores without ROS): the "
                     "platform servo figures, or a Table 2 style alignment campaign over seeds.")
     sub = parser.add_subparsers(dest="what", required=True)
-    servo = sub.add_parser("servo", help="servo figures: control error, reversal transient, torque current")
+    servo = sub.add_parser("servo", help="servo figures (scenario rotational_platform_servo on the engine, its "
+                                         "bag and report): control error, reversal transient, torque current")
     servo.add_argument("--duration", type=float, default=320.0, help="simulated seconds (default 320: one reversal)")
     servo.add_argument("--seed", type=int, default=0)
+    servo.add_argument("--out", metavar="DIR", help="keep the run (bag, report) here; default: a temporary "
+                                                    "directory, removed after the figures are printed")
     align = sub.add_parser("alignment", help="alignment errors over seeds, mean and std as paper 3 Table 2")
     align.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
     align.add_argument("--duration", type=float, default=600.0, help="simulated seconds (default 600: 360° and back)")
@@ -254,10 +280,13 @@ def main(argv: list[str] | None = None) -> int:
     add_engine_arguments(align, graph=True)
     args = parser.parse_args(argv)
     if args.what == "servo":
-        m = run_platform_servo(args.duration, args.seed)
-        for key in ("steady_rms_error_arcsec", "steady_max_error_arcsec", "reversal_max_error_arcsec",
-                    "steady_max_level_error_arcsec", "steady_mean_abs_current_a", "peak_current_a"):
-            print(f"{key:32s} {m[key]:.4g}")
+        with campaign_dir(args.out) as out:
+            m = servo_figures(args.duration, args.seed, out)
+        for path, label in SERVO_ROWS.items():
+            value = m
+            for key in path:
+                value = value[key]
+            print(f"{label:52s} {'-' if value is None else format(value, '.4g')}")  # None: no such span
         return 0
     variant = "fixed" if args.no_rotation else "rotate"
     options = {"duration_s": args.duration, "lat_deg": args.lat, "gyro_arw_deg_rt_h": args.gyro_arw,

@@ -22,7 +22,6 @@ import math
 import sys
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -33,9 +32,8 @@ from gimbal_kinematics.frames import GIMBAL_FRAME
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros import messages as m
-from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.diagnostics import health_msg
-from gimbal_kinematics.ros.node_io import NodeIo
+from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 
@@ -60,29 +58,19 @@ class MavlinkGimbalDeviceNode(Node):
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
         self.link = open_link(values, self.get_logger())
-        self.counts = dict.fromkeys(NODE_COUNTERS, 0)
-        self.io = NodeIo(self)
-        self.pub_cmd = self.io.advertise(Vector3Stamped, values["operator_topic"], "free")
-        self.pub_diag = self.io.advertise(DiagnosticArray, "/diagnostics", "free")
-        self.diag_period_ns = int(round(values["diagnostics_period_s"] * 1e9))
-        self._next_diag_ns = 0
+        self.edge = edge = NodeEdge(self, values, NODE_COUNTERS, malformed="malformed_ros")
+        self.pub_cmd = edge.advertise(Vector3Stamped, values["operator_topic"])
+        edge.advertise_diagnostics()
         age = values["max_input_age_s"]
         # the gyro only feeds the reported rates: stale, they are reported unknown (NaN)
         self.policy = FreeControl(InputKind.ATTITUDE, {InputKind.ENCODERS: age, InputKind.GYRO: age},
-                                  1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, held=(InputKind.GYRO,), warn=self._log)
-        inputs = ((InputKind.ATTITUDE, Imu, values["attitude_topic"], m.imu_from_cdr),
-                  (InputKind.ENCODERS, JointState, "/gimbal/joint_states", m.joint_state_from_cdr),
-                  (InputKind.GYRO, Imu, "/gimbal/imu", m.imu_from_cdr))
-        for kind, msg_type, topic, decode in inputs:
-            self.io.subscribe(msg_type, topic, lambda data, k=kind, d=decode: self._on_input(k, data, d), "free",
-                              raw=True)
+                                  1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, held=(InputKind.GYRO,), warn=edge.warn)
+        edge.subscribe_all(((InputKind.ATTITUDE, Imu, values["attitude_topic"]), (InputKind.GYRO, Imu, "/gimbal/imu"),
+                            (InputKind.ENCODERS, JointState, "/gimbal/joint_states")), self._on_input)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(POLL_PERIOD_S, self._poll, clock=steady)
         self.create_timer(HEARTBEAT_PERIOD_S, lambda: self.link.send(self.core.heartbeat()), clock=steady)
         self.create_timer(1.0 / values["status_rate_hz"], self._send_status, clock=steady)
-
-    def _log(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=1.0)
 
     def _poll(self) -> None:
         for datagram in self.link.receive():
@@ -94,14 +82,8 @@ class MavlinkGimbalDeviceNode(Node):
         if status is not None:
             self.link.send(status)
 
-    def _on_input(self, kind: str, data: bytes, decode) -> None:
-        try:
-            msg = decode(data)
-        except CdrError as exc:
-            self.counts["malformed_ros"] += 1
-            self._log(f"malformed {kind} message ignored: {exc}")
-            return
-        for step in self.policy.add(kind, msg.stamp_ns, self._validate(kind, msg)):
+    def _on_input(self, kind: str, msg) -> None:
+        for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), self._validate(kind, msg)):
             self._step(step)
 
     def _validate(self, kind: str, msg):
@@ -111,30 +93,25 @@ class MavlinkGimbalDeviceNode(Node):
             readings = m.encoder_readings(msg)
             value = None if readings is None else (readings[0][0] + readings[0][1],)
         elif kind == InputKind.ATTITUDE:
-            value = msg.orientation if m.field_provided(msg.orientation_covariance) else None
+            value = tuple(msg.orientation) if m.field_provided(msg.orientation_covariance) else None
         else:
-            value = msg.angular_velocity if m.field_provided(msg.angular_velocity_covariance) else None
+            value = tuple(msg.angular_velocity) if m.field_provided(msg.angular_velocity_covariance) else None
         if value is None or not all(map(math.isfinite, value)):
-            self.counts["rejected_inputs"] += 1
-            self._log(f"{kind} sample without a usable value; not used")
-            return None
+            return self.edge.reject("rejected_inputs", f"{kind} sample without a usable value; not used")
         return value
 
     def _step(self, step: ControlStep) -> None:
         att, enc, gyro = (step.inputs.get(k) for k in (InputKind.ATTITUDE, InputKind.ENCODERS, InputKind.GYRO))
         if InputKind.ATTITUDE not in step.inputs or step.zero_command or att is None or enc is None:
-            self.counts["no_command_steps"] += 1
+            self.edge.counts["no_command_steps"] += 1
             return
         q, r = self.core.step(step.stamp_ns * 1e-9, att.value, enc.value[0], time.monotonic(),
                               None if gyro is None else gyro.value)
         self.pub_cmd.publish(m.vector3_cdr(step.stamp_ns, GIMBAL_FRAME, (0.0, q, r)))
-        if step.stamp_ns >= self._next_diag_ns:
-            self._next_diag_ns = step.stamp_ns + self.diag_period_ns
-            fields = {**self.policy.counters(), **self.counts, **self.core.counts,
-                      "status_flags": self.core.status_flags(), "send_errors": self.link.send_errors,
-                      "incompatible_qos": self.io.incompatible_qos}
-            self.pub_diag.publish(health_msg(step.stamp_ns, self.get_name(), fields,
-                                             warn=("malformed", "rejected_setpoints", "earth_lock_drops")))
+        self.edge.diagnostics(step.stamp_ns, lambda: health_msg(step.stamp_ns, self.get_name(), {
+            **self.policy.counters(), **self.edge.counts, **self.core.counts, "status_flags": self.core.status_flags(),
+            "send_errors": self.link.send_errors, "incompatible_qos": self.edge.io.incompatible_qos},
+            warn=("malformed", "rejected_setpoints", "earth_lock_drops")))
 
     def destroy_node(self) -> None:
         self.link.close()

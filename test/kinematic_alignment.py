@@ -1,16 +1,12 @@
-"""Paper 3 alignment on a kinematic platform truth (docs/spec.md §3.3, Table 2 style), and the
-metrics of a finished alignment against its truth. The truth is the estimator's independent
-reference in its tests (which step it); the Table 2 campaign runs the simulated platform
-(:mod:`.platform_servo`: scenario ``rotational_ins_alignment`` on the one engine).
-
-The truth is built from rotation matrices, not from the measurement model H of
-:mod:`gimbal_estimators.rotation_alignment`: the platform attitude in inertial space is
-integrated from its commanded rate (``four_gimbal.command_rate_s``: level, earth-rate
-compensated, turning by ψ(t)) plus the gyro drift, the NED frame is turned with the earth
-(``free_gyro.dcm_ni``), and the accelerometers sense C_sn,true (0, 0, −g) through the
-simulator's :class:`~gimbal_sim.world.sensors.AccelerometerModel`. The closed-loop campaign on the
-simulated platform (:mod:`.platform_servo`) scores its runs with :func:`alignment_metrics`
-and :func:`summarize_alignment` too.
+"""Paper 3 alignment on a kinematic platform truth (Table 2 style), the rotation-alignment
+tests' independent reference: the truth is built from rotation matrices, not from the
+measurement model H of :mod:`gimbal_estimators.rotation_alignment`: the platform attitude in
+inertial space is integrated from its commanded rate (``four_gimbal.command_rate_s``: level,
+earth-rate compensated, turning by ψ(t)) plus the gyro drift, the NED frame is turned with the
+earth (``free_gyro.dcm_ni``), and the accelerometers sense C_sn,true (0, 0, −g) through the
+simulator's :class:`~gimbal_sim.world.sensors.AccelerometerModel`. The harness steps the truth,
+the accelerometers and the core itself (a test's own loop: the product's Table 2 campaign
+runs scenario ``rotational_ins_alignment`` on the engine).
 
 Conventions (state order, ENU misalignment, units) are those of
 :mod:`gimbal_estimators.rotation_alignment`.
@@ -23,17 +19,17 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_estimators.rotation_alignment import (
-    ACCEL_BIAS, DPHI_E0, DPHI_N0, DPHI_U0, GYRO_DRIFT, N_STATES, NORTH_DRIFT, TILT0, RotationAlignmentRls,
+    ACCEL_BIAS, DPHI_E0, DPHI_N0, DPHI_U0, GYRO_DRIFT, N_STATES, NORTH_DRIFT, TILT0, RotationAlignmentParams,
+    RotationAlignmentRls,
 )
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
-from gimbal_kinematics.four_gimbal import platform_misalignment_enu
+from gimbal_kinematics.four_gimbal import BidirectionalRotation, platform_misalignment_enu
 from gimbal_kinematics.free_gyro import dcm_ni
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, rot3
 from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
-
-from ..reports.alignment import column_stats
-
-# Unit factors, the same expressions as the core's (so the same floats).
+from gimbal_sim.experiments.platform_servo import PAPER3_MISALIGNMENT_ARCSEC
+from gimbal_sim.reports.alignment import column_stats
+from gimbal_sim.world.sensors import PAPER3_ACCELEROMETER, AccelerometerModel
 
 
 class KinematicPlatformTruth:
@@ -138,10 +134,6 @@ class AlignmentMetrics(NamedTuple):
     n_updates: int
 
 
-#: Paper 3 Table 2 mean initial misalignment (δφE0, δφN0, δφU0) [arcsec].
-PAPER3_MISALIGNMENT_ARCSEC = (-25.0, -36.0, 17.0 * 60.0)
-
-
 def alignment_metrics(core: RotationAlignmentRls, truth_x: np.ndarray, *, seed: int, rotate: bool,
                       duration_s: float, psi0: float) -> AlignmentMetrics:
     """The metrics of a finished alignment run against its truth ``truth_x`` (8,) (state
@@ -184,3 +176,57 @@ def summarize_alignment(runs: Sequence[AlignmentMetrics]) -> dict[str, dict[str,
         "accel_bias_y_error_ug": [r.accel_bias_error_ug[1] for r in runs],
     }
     return column_stats(cols)
+
+
+def run_alignment_experiment(
+    seed: int,
+    rotate: bool = True,
+    duration_s: float = 600.0,
+    *,
+    lat_deg: float = 40.0,
+    imu_rate_hz: float = 100.0,
+    misalignment0_arcsec: tuple = PAPER3_MISALIGNMENT_ARCSEC,
+    gyro_drift_sigma_deg_h: float = 0.03,
+    north_drift_sigma_deg_h: float = 0.01,
+    east_nav_drift_deg_h: float = 0.0,
+    fixed_psi_deg: float = 30.0,
+    accel_params=None,
+    params: RotationAlignmentParams | None = None,
+) -> AlignmentMetrics:
+    """Kinematic-truth alignment run (paper 3 §2.2 / Table 2), returns its metrics.
+
+    ``rotate``: bidirectional 1.2°/s through 360° and back (600 s = one cycle, paper 3's
+    "rotates bi-directionally ... in one circle"), else the platform is held at
+    ``fixed_psi_deg``. Platform gyro drift per axis ~ N(0, ``gyro_drift_sigma_deg_h``²); the
+    n-fixed north drift ~ N(0, ``north_drift_sigma_deg_h``²); an n-fixed east drift
+    ``east_nav_drift_deg_h`` (unobservable, biases azimuth by −εE/ω_N). Accelerometers:
+    ``accel_params`` (default ``PAPER3_ACCELEROMETER``: 100 µg bias σ, 50 µg/√Hz) sampled at
+    ``imu_rate_hz``; the filter's noise density follows it unless ``params`` is given.
+    """
+    accel_params = PAPER3_ACCELEROMETER if accel_params is None else accel_params
+    if params is None:
+        params = RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=max(accel_params.noise_ug_rt_hz, 1e-3))
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 3])
+    gyro_drift = rng.normal(0.0, gyro_drift_sigma_deg_h, 3) * DEG_H
+    north_drift = float(rng.normal(0.0, north_drift_sigma_deg_h)) * DEG_H
+    nav_drift = np.array([north_drift, east_nav_drift_deg_h * DEG_H, 0.0])
+    rotation = BidirectionalRotation() if rotate else None
+    lat = math.radians(lat_deg)
+    truth = KinematicPlatformTruth(
+        lat, np.asarray(misalignment0_arcsec, dtype=float) * ARCSEC, gyro_drift, nav_drift,
+        rotation=rotation, psi0=0.0 if rotate else math.radians(fixed_psi_deg), gravity=params.gravity,
+    )
+    dt = 1.0 / imu_rate_hz
+    accel = AccelerometerModel(accel_params, 3, np.random.default_rng([int(seed) & 0xFFFFFFFF, 4]), dt)
+    core = RotationAlignmentRls(params)
+    phi0 = truth.misalignment_enu()
+    n_steps = int(round(duration_s * imu_rate_hz))
+    for k in range(n_steps + 1):
+        if k:
+            truth.step(dt)
+        psi, psi_dot = truth.psi_state(truth.t)
+        core.on_joint_state(truth.t, psi, psi_dot)
+        core.on_accel(truth.t, accel.step(truth.specific_force_s()))
+    bias = accel.fixed_bias
+    truth_x = np.array([phi0[0], phi0[1], phi0[2], north_drift, bias[0], bias[1], gyro_drift[0], gyro_drift[1]])
+    return alignment_metrics(core, truth_x, seed=seed, rotate=rotate, duration_s=duration_s, psi0=truth.psi(0.0))
