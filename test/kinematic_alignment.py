@@ -18,20 +18,18 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_estimators.rotation_alignment import N_STATES, RotationAlignmentParams, RotationAlignmentRls
+from gimbal_estimators.rotation_alignment import (
+    ACCEL_BIAS, DPHI_E0, DPHI_N0, DPHI_U0, GYRO_DRIFT, N_STATES, NORTH_DRIFT, TILT0, RotationAlignmentParams,
+    RotationAlignmentRls,
+)
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
 from gimbal_kinematics.four_gimbal import BidirectionalRotation, platform_misalignment_enu
 from gimbal_kinematics.free_gyro import dcm_ni
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, rot3
+from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
 from gimbal_sim.experiments.platform_servo import PAPER3_MISALIGNMENT_ARCSEC
 from gimbal_sim.reports.alignment import column_stats
 from gimbal_sim.world.sensors import PAPER3_ACCELEROMETER, AccelerometerModel
-
-# Unit factors, the same expressions as the core's (so the same floats).
-_ARCSEC = math.pi / (180.0 * 3600.0)
-_ARCMIN = math.pi / (180.0 * 60.0)
-_DEG_H = math.pi / (180.0 * 3600.0)
-_UG = 9.80665e-6
 
 
 class KinematicPlatformTruth:
@@ -146,8 +144,8 @@ def alignment_metrics(core: RotationAlignmentRls, truth_x: np.ndarray, *, seed: 
     obs = core.observability()
     # ∇ along north / east at the start azimuth ψ0: ∇N = c ∇x − s ∇y, ∇E = s ∇x + c ∇y
     c0, s0 = math.cos(psi0), math.sin(psi0)
-    a_n = np.zeros(N_STATES); a_n[4], a_n[5] = c0, -s0
-    a_e = np.zeros(N_STATES); a_e[4], a_e[5] = s0, c0
+    a_n = np.zeros(N_STATES); a_n[ACCEL_BIAS] = c0, -s0
+    a_e = np.zeros(N_STATES); a_e[ACCEL_BIAS] = s0, c0
     P = core._P
 
     def _corr(i: int, a: np.ndarray) -> float:
@@ -155,12 +153,13 @@ def alignment_metrics(core: RotationAlignmentRls, truth_x: np.ndarray, *, seed: 
 
     return AlignmentMetrics(
         seed=int(seed), rotate=bool(rotate), duration_s=float(duration_s), truth=truth_x, estimate=est.x,
-        sigma=est.sigma, tilt_error_arcsec=err[:2] / _ARCSEC, tilt_sigma_arcsec=est.sigma[:2] / _ARCSEC,
-        azimuth_error_arcmin=float(err[2] / _ARCMIN), azimuth_sigma_arcmin=float(est.sigma[2] / _ARCMIN),
-        north_drift_error_deg_h=float(err[3] / _DEG_H), north_drift_sigma_deg_h=float(est.sigma[3] / _DEG_H),
-        gyro_drift_error_deg_h=err[6:8] / _DEG_H, accel_bias_error_ug=err[4:6] / _UG,
+        sigma=est.sigma, tilt_error_arcsec=err[TILT0] / ARCSEC, tilt_sigma_arcsec=est.sigma[TILT0] / ARCSEC,
+        azimuth_error_arcmin=float(err[DPHI_U0] / ARCMIN), azimuth_sigma_arcmin=float(est.sigma[DPHI_U0] / ARCMIN),
+        north_drift_error_deg_h=float(err[NORTH_DRIFT] / DEG_H),
+        north_drift_sigma_deg_h=float(est.sigma[NORTH_DRIFT] / DEG_H),
+        gyro_drift_error_deg_h=err[GYRO_DRIFT] / DEG_H, accel_bias_error_ug=err[ACCEL_BIAS] / UG,
         converged=est.converged, rank=obs.rank, informative_rank=obs.informative_rank, condition=obs.condition,
-        corr_tilt_bias=np.array([_corr(0, a_n), _corr(1, a_e)]), n_updates=est.n_updates,
+        corr_tilt_bias=np.array([_corr(DPHI_E0, a_n), _corr(DPHI_N0, a_e)]), n_updates=est.n_updates,
     )
 
 
@@ -208,13 +207,13 @@ def run_alignment_experiment(
     if params is None:
         params = RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=max(accel_params.noise_ug_rt_hz, 1e-3))
     rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 3])
-    gyro_drift = rng.normal(0.0, gyro_drift_sigma_deg_h, 3) * _DEG_H
-    north_drift = float(rng.normal(0.0, north_drift_sigma_deg_h)) * _DEG_H
-    nav_drift = np.array([north_drift, east_nav_drift_deg_h * _DEG_H, 0.0])
+    gyro_drift = rng.normal(0.0, gyro_drift_sigma_deg_h, 3) * DEG_H
+    north_drift = float(rng.normal(0.0, north_drift_sigma_deg_h)) * DEG_H
+    nav_drift = np.array([north_drift, east_nav_drift_deg_h * DEG_H, 0.0])
     rotation = BidirectionalRotation() if rotate else None
     lat = math.radians(lat_deg)
     truth = KinematicPlatformTruth(
-        lat, np.asarray(misalignment0_arcsec, dtype=float) * _ARCSEC, gyro_drift, nav_drift,
+        lat, np.asarray(misalignment0_arcsec, dtype=float) * ARCSEC, gyro_drift, nav_drift,
         rotation=rotation, psi0=0.0 if rotate else math.radians(fixed_psi_deg), gravity=params.gravity,
     )
     dt = 1.0 / imu_rate_hz

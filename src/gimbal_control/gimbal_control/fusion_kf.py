@@ -55,10 +55,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_estimators.kalman import check_state, joseph_update
+from gimbal_kinematics.units import DEG
 from gimbal_kinematics.validate import nonneg_finite, positive
 
-_DEG = math.pi / 180.0
-_H = np.array([[1.0, 0.0, 0.0]])
+#: State indices (module docstring): x1 the angle error, x2 the residual scale-factor
+#: correction, x3 the residual drift correction.
+ANGLE, SCALE, DRIFT = 0, 1, 2
+N_STATES = 3
+#: H = [1 0 0]: the encoder measures the angle error.
+_H = np.zeros((1, N_STATES))
+_H[0, ANGLE] = 1.0
 _H.flags.writeable = False
 
 
@@ -104,31 +110,40 @@ class FusionKfParams:
     @property
     def q_density(self) -> tuple[float, float, float]:
         """(q1, q2, q3) power spectral densities in SI: rad²/s, 1/s, rad²/s³."""
-        return ((self.q_angle_deg_rt_s * _DEG) ** 2, self.q_scale_rt_s ** 2,
-                (self.q_drift_deg_s_rt_s * _DEG) ** 2)
+        return ((self.q_angle_deg_rt_s * DEG) ** 2, self.q_scale_rt_s ** 2,
+                (self.q_drift_deg_s_rt_s * DEG) ** 2)
 
     @property
     def r_rad2(self) -> float:
         """R [rad²]."""
-        return (self.r_deg * _DEG) ** 2
+        return (self.r_deg * DEG) ** 2
 
     def initial_covariance(self) -> np.ndarray:
         """P0, shape (3, 3), diagonal [rad², -, rad²/s²]."""
-        return np.diag([(self.p0_angle_deg * _DEG) ** 2, self.p0_scale ** 2,
-                        (self.p0_drift_deg_s * _DEG) ** 2])
+        P0 = np.zeros((N_STATES, N_STATES))
+        P0[ANGLE, ANGLE] = (self.p0_angle_deg * DEG) ** 2
+        P0[SCALE, SCALE] = self.p0_scale ** 2
+        P0[DRIFT, DRIFT] = (self.p0_drift_deg_s * DEG) ** 2
+        return P0
 
 
 def transition(T: float, dpsi_g: float) -> np.ndarray:
     """Φ of paper 2 eq. 4, shape (3, 3): step ``T`` [s], gyro angle increment ``dpsi_g`` [rad]."""
-    return np.array([[1.0, dpsi_g, T], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    F = np.eye(N_STATES)
+    F[ANGLE, SCALE] = dpsi_g
+    F[ANGLE, DRIFT] = T
+    return F
 
 
 def process_noise(T: float, q: tuple[float, float, float]) -> np.ndarray:
     """Q over a step ``T`` [s] for densities ``q`` = (q1, q2, q3) (module docstring)."""
     q1, q2, q3 = q
-    return np.array([[q1 * T + q3 * T ** 3 / 3.0, 0.0, q3 * T * T / 2.0],
-                     [0.0, q2 * T, 0.0],
-                     [q3 * T * T / 2.0, 0.0, q3 * T]])
+    Q = np.zeros((N_STATES, N_STATES))
+    Q[ANGLE, ANGLE] = q1 * T + q3 * T ** 3 / 3.0
+    Q[ANGLE, DRIFT] = Q[DRIFT, ANGLE] = q3 * T * T / 2.0
+    Q[SCALE, SCALE] = q2 * T
+    Q[DRIFT, DRIFT] = q3 * T
+    return Q
 
 
 class ClosedLoopComplementaryKf:
@@ -153,8 +168,8 @@ class ClosedLoopComplementaryKf:
 
     def reset(self) -> None:
         """Back to the prior: x = 0, P = P0, no corrections."""
-        self.x, self.P = check_state(np.zeros(3), self.params.initial_covariance(), self.name)
-        self._fed = np.zeros(3)  # δx̂ handed to the error updater at the last update
+        self.x, self.P = check_state(np.zeros(N_STATES), self.params.initial_covariance(), self.name)
+        self._fed = np.zeros(N_STATES)  # δx̂ handed to the error updater at the last update
         self.scale_correction = 0.0
         self.drift_correction = 0.0
         self.pending_angle = 0.0
@@ -174,7 +189,7 @@ class ClosedLoopComplementaryKf:
         self.x = F @ (self.x - self._fed)
         self.P = F @ self.P @ F.T + process_noise(T, self._q)
         self.P = 0.5 * (self.P + self.P.T)
-        self._fed = np.zeros(3)
+        self._fed = np.zeros(N_STATES)
         self.pending_angle = 0.0
 
     def update(self, z: float) -> bool:
@@ -187,10 +202,9 @@ class ClosedLoopComplementaryKf:
             return False
         self.x, self.P = up.x, up.P
         self.updates += 1
-        x1, x2, x3 = (float(v) for v in self.x)
-        self.scale_correction += x2
-        self.drift_correction += x3
-        self.pending_angle = x1
+        self.scale_correction += float(self.x[SCALE])
+        self.drift_correction += float(self.x[DRIFT])
+        self.pending_angle = float(self.x[ANGLE])
         self._fed = self.x.copy()
         return True
 
@@ -198,4 +212,4 @@ class ClosedLoopComplementaryKf:
         """Gain (3,) the next update would use after a predict over ``T`` (no side effects)."""
         F = transition(T, dpsi_g)
         P = F @ self.P @ F.T + process_noise(T, self._q)
-        return P[:, 0] / (P[0, 0] + self._R[0, 0])
+        return P[:, ANGLE] / (P[ANGLE, ANGLE] + self._R[0, 0])

@@ -53,10 +53,11 @@ from gimbal_kinematics.geo_pointing import (
 from gimbal_kinematics.sighting_chain import dcm_bm
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import quat_to_dcm
+from gimbal_kinematics.units import DEG
+from gimbal_kinematics.validate import positive
 
 from .los_hold import sight_frame_error
 
-_DEG = math.pi / 180.0
 COUNTERS = ("rejected_targets", "rejected_fixes", "azimuth_limited_steps", "elevation_limited_steps",
             "singular_steps")
 
@@ -70,7 +71,7 @@ class GeoPointerParams:
     target_llh: tuple[float, float, float]
     vehicle_llh: tuple[float, float, float]
     gain_1_s: float = 1.0
-    max_rate_rad_s: float = 5.0 * _DEG
+    max_rate_rad_s: float = 5.0 * DEG
     limits: GimbalLimits = GimbalLimits()
     sigmas: PointingSigmas = PointingSigmas()
     lever_arm_b: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -79,9 +80,7 @@ class GeoPointerParams:
 
     def __post_init__(self) -> None:
         for name in ("gain_1_s", "max_rate_rad_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+            positive(name, getattr(self, name))
         # a target the sight cannot point at is refused here, naming it
         los_to_target(check_geodetic("vehicle", self.vehicle_llh), check_geodetic("target", self.target_llh),
                       np.eye(3), self.lever_arm_b, self.min_range_m)
@@ -94,7 +93,7 @@ class GeoPointerParams:
             x = v[name]
             if len(x) != 3 or not all(math.isfinite(float(c)) for c in x):
                 raise ParameterError(f"parameter {name} must be 3 finite numbers (lat, lon [deg], h [m]), got {x!r}")
-            return (float(x[0]) * _DEG, float(x[1]) * _DEG, float(x[2]))
+            return (float(x[0]) * DEG, float(x[1]) * DEG, float(x[2]))
 
         target, vehicle = llh("target_llh_deg"), llh("vehicle_llh_deg")
         def sigmas_of(name: str, n: int) -> list[float]:
@@ -104,15 +103,15 @@ class GeoPointerParams:
             return x
 
         try:
-            limits = GimbalLimits(v["azimuth_min_deg"] * _DEG, v["azimuth_max_deg"] * _DEG,
-                                  v["elevation_min_deg"] * _DEG, v["elevation_max_deg"] * _DEG)
-            att = [s * _DEG for s in sigmas_of("ins_attitude_sigma_deg", 3)]
+            limits = GimbalLimits(v["azimuth_min_deg"] * DEG, v["azimuth_max_deg"] * DEG,
+                                  v["elevation_min_deg"] * DEG, v["elevation_max_deg"] * DEG)
+            att = [s * DEG for s in sigmas_of("ins_attitude_sigma_deg", 3)]
             sigmas = PointingSigmas(*att, *sigmas_of("vehicle_position_sigma_m", 2),
                                     *sigmas_of("target_position_sigma_m", 2))
         except ValueError as exc:
             raise ParameterError(f"parameter {exc}") from exc
         try:
-            return cls(target, vehicle, v["gain_1_s"], v["max_rate_deg_s"] * _DEG, limits, sigmas,
+            return cls(target, vehicle, v["gain_1_s"], v["max_rate_deg_s"] * DEG, limits, sigmas,
                        tuple(v["lever_arm_b_m"]), v["earth_rate"], v["min_range_m"])
         except ValueError as exc:
             raise ParameterError(f"parameter target_llh_deg: {exc}") from exc

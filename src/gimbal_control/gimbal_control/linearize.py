@@ -32,10 +32,10 @@ import numpy as np
 from gimbal_kinematics.gimbal.gimbal_dynamics import TwoAxisGimbal
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.gimbal.turret_base import rest_base
+from gimbal_kinematics.units import G0
 
 #: Standard gravity [m/s²] (the default linearisation gravity; a site's normal gravity
 #: differs by < 0.3 %, which only changes the small gravity-stiffness entries of A_l).
-STANDARD_GRAVITY = 9.80665
 
 #: C_l: the rates are the last two states.
 C_L = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
@@ -82,7 +82,7 @@ class LinearGimbalModel:
 
 def linearize_gimbal(
     params: GimbalParams | None = None,
-    gravity_m_s2: float = STANDARD_GRAVITY,
+    gravity_m_s2: float = G0,
     state_step: float = 1e-6,
     torque_step: float = 1e-3,
 ) -> LinearGimbalModel:

@@ -43,8 +43,9 @@ from scipy.optimize import brentq
 from scipy.signal import cont2discrete
 
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
+from gimbal_kinematics.units import G0
 
-from .linearize import STANDARD_GRAVITY, LinearGimbalModel, linearize_gimbal
+from .linearize import LinearGimbalModel, linearize_gimbal
 
 #: Rates of the design table [Hz].
 TABLE_RATES_HZ = (1000.0, 2000.0, 5000.0, 10000.0, 20000.0)
@@ -224,7 +225,7 @@ def loop_margins(loop: StateSpaceLoop, n_grid: int = 4000) -> Margins:
 _MODEL_CACHE: dict[tuple, LinearGimbalModel] = {}
 
 
-def _default_model(params: GimbalParams | None = None, gravity_m_s2: float = STANDARD_GRAVITY) -> LinearGimbalModel:
+def _default_model(params: GimbalParams | None = None, gravity_m_s2: float = G0) -> LinearGimbalModel:
     key = (params, gravity_m_s2)
     if key not in _MODEL_CACHE:
         _MODEL_CACHE[key] = linearize_gimbal(params, gravity_m_s2)

@@ -32,6 +32,7 @@ from typing import Sequence
 from gimbal_kinematics.earth import earth_rate_n
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import quat_to_dcm
+from gimbal_kinematics.validate import nonneg_finite, positive
 
 
 def sight_frame_error(C_nm, u_n: Sequence[float]) -> tuple[float, float]:
@@ -57,12 +58,8 @@ class LosHoldParams:
 
     def __post_init__(self) -> None:
         for name in ("gain_1_s", "max_rate_deg_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
-        c = self.capture_s
-        if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) or c < 0.0:
-            raise ValueError(f"capture_s must be a finite number >= 0, got {c!r}")
+            positive(name, getattr(self, name))
+        nonneg_finite("capture_s", self.capture_s)
         if not (isinstance(self.lat_deg, (int, float)) and math.isfinite(self.lat_deg) and abs(self.lat_deg) < 90.0):
             raise ValueError(f"lat_deg must be within (-90, 90), got {self.lat_deg!r}")
 

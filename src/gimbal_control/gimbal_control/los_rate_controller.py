@@ -71,9 +71,10 @@ from dataclasses import dataclass
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
+from gimbal_kinematics.units import G0
 
 from . import los_rate_kernels as lk
-from .linearize import STANDARD_GRAVITY, linearize_gimbal
+from .linearize import linearize_gimbal
 from .operator_command import OperatorCommand
 
 #: Default loop rate [Hz]: the lockstep simulation rate of the paper 1 scenario (and the
@@ -123,7 +124,7 @@ class LosRateControllerParams:
     anti_windup: str = "clamp"
     integrator_limit_factor: float = 4.0
     trim: bool = True
-    gravity_m_s2: float = STANDARD_GRAVITY
+    gravity_m_s2: float = G0
     min_cos_elevation: float = 0.05
     max_dt_factor: float = 2.0
     clock_jump_s: float = 0.5

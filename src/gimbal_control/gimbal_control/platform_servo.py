@@ -88,14 +88,13 @@ import numpy as np
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
+from gimbal_kinematics.units import DEG, DEG_H
 from gimbal_kinematics.wgs84 import OMEGA_IE
 
 from . import control_kernels as ck
 from . import servo_kernels as sk
 from .pid import Pid, PidParams, pole_placement_gains
 
-_DEG = math.pi / 180.0
-_DEG_H = _DEG / 3600.0
 _LOCK_COS = math.sin(GIMBAL_LOCK_MARGIN)
 
 #: Paper 3 Table 1: axis -> (J [kg·m²], k_t [N·m/A], R_a [Ω]); used for the default gains.
@@ -281,8 +280,8 @@ class PlatformServo(StampGate):
             raise ValueError("params must be a PlatformServoParams")
         p = self.params
         self.schedule = p.schedule()
-        self._lat = p.lat_deg * _DEG
-        self._drift = tuple(v * _DEG_H for v in p.drift_deg_h)
+        self._lat = p.lat_deg * DEG
+        self._drift = tuple(v * DEG_H for v in p.drift_deg_h)
         # the four channels' states are the rows of one array: one kernel call steps them
         self._pid_state = np.zeros((4, ck.N_STATE))
         self.pid_a = Pid(p.azimuth_pid, self._pid_state[0])

@@ -55,24 +55,20 @@ from typing import Any
 
 import numpy as np
 from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
+from gimbal_kinematics.units import DEG, DEG_H
+from gimbal_kinematics.validate import nonneg_finite, of_type, per_axis, positive
 
 from . import kalman
-from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams, match_attitudes
+from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams
 
-N_STATES = 27
 #: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).
 PHI_K, PHI_K1, THETA_K, THETA_K1, PHI_0, THETA_R1, THETA_R2, EPS1, EPS2 = (
     slice(3 * i, 3 * i + 3) for i in range(9))
+N_STATES = EPS2.stop
 #: The flexure states [Φ_k, Φ_{k−1}, θ_k, θ_{k−1}].
-FLEXURE = slice(0, 12)
+FLEXURE = slice(PHI_K.start, THETA_K1.stop)
 # φ0 takes θ_d's place, so that the simplified filter's anchoring applies to it.
 assert PHI_0 == THETA_D
-#: Largest attitude-matching angle |Z| accepted [rad]; beyond it the filter resets.
-_MAX_MATCH_ANGLE = 0.1
-
-_DEG = math.pi / 180.0
-_DEG_H = _DEG / 3600.0
 
 
 @dataclass(frozen=True)
@@ -166,15 +162,14 @@ class AttitudeMatchingKf(FlexureKf):
 
     def __init__(self, params: AttitudeMatchingParams | None = None) -> None:
         params = AttitudeMatchingParams() if params is None else params
-        if not isinstance(params, AttitudeMatchingParams):
-            raise TypeError(f"params must be AttitudeMatchingParams, got {type(params).__name__}")
+        of_type("params", params, AttitudeMatchingParams)
         super().__init__(params)
         self.params: AttitudeMatchingParams = params
         # The simplified filter on the same fields: its flexure model and prior are ours.
         self._simplified = FlexureKf(params.simplified())
-        self._q_arw = (params.lgu_arw_deg_rt_h * _DEG / 60.0) ** 2  # each unit's [rad²/s]
+        self._q_arw = (params.lgu_arw_deg_rt_h * DEG / 60.0) ** 2  # each unit's [rad²/s]
         rw = params.lgu_bias_rw_deg_h_rt_h
-        self._q_eps = np.array([(x * _DEG_H / 60.0) ** 2 for x in rw])  # type: ignore[union-attr]
+        self._q_eps = np.array([(x * DEG_H / 60.0) ** 2 for x in rw])  # type: ignore[union-attr]
         # (Re-)anchoring: φ0 := Φ_k + θ_k, θr = θr' := 0, identity elsewhere; applied by the
         # inherited _anchor, which adds anchor_sigma_arcsec to φ0 (at θ_d's place).
         self._anchor_map = np.eye(N_STATES)
@@ -218,7 +213,7 @@ class AttitudeMatchingKf(FlexureKf):
         P = np.zeros((N_STATES, N_STATES))
         P[FLEXURE, FLEXURE] = self._simplified._initial()[1][FLEXURE, FLEXURE]
         sigma = self.params.lgu_bias_initial_sigma_deg_h
-        P[EPS1, EPS1] = P[EPS2, EPS2] = np.diag([(x * _DEG_H) ** 2 for x in sigma])  # type: ignore[union-attr]
+        P[EPS1, EPS1] = P[EPS2, EPS2] = np.diag([(x * DEG_H) ** 2 for x in sigma])  # type: ignore[union-attr]
         x, P = self._anchor(np.zeros(N_STATES), P)
         return kalman.check_state(x, P, "AttitudeMatchingKf")
 
@@ -227,42 +222,17 @@ class AttitudeMatchingKf(FlexureKf):
         super()._clear()
         self._C2_kf = np.eye(3)
 
-    def _reanchor(self) -> None:
-        super()._reanchor()
-        self._C2_kf = self._C2
-
-    def _propagate(self, t: float) -> None:
-        """Time update from the filter time to ``t`` in whole nominal steps."""
-        span = t - self._t_kf
-        if span <= 0.0:
-            return
-        n = max(1, int(round(span / self.params.filter_period_s)))
-        h = span / n
-        F, Q = self._model(h)
-        # Mean attitudes over the interval for θ̇r = −Ĉ_i1b1 ε1, θ̇r' = −Ĉ_i2b2 ε2.
+    def _couple_attitudes(self, F: np.ndarray, h: float) -> None:
+        """Mean attitudes over the interval for θ̇r = −Ĉ_i1b1 ε1, θ̇r' = −Ĉ_i2b2 ε2."""
         F[THETA_R1, EPS1] = (-0.5 * h) * (self._C1_kf + self._C1)
         F[THETA_R2, EPS2] = (-0.5 * h) * (self._C2_kf + self._C2)
-        x, P = self._x, self._P
-        for _ in range(n):
-            x, P = kalman.predict(x, P, F, Q)
-        self._x, self._P = x, P
-        self._t_kf = t
+
+    def _hold_attitudes(self) -> None:
         self._C1_kf, self._C2_kf = self._C1, self._C2
 
-    def _epoch(self, t: float) -> FlexureEstimate | None:
-        self._propagate(t)
-        z = match_attitudes(self._C1, self._C2)
-        if not float(z @ z) < _MAX_MATCH_ANGLE ** 2:
-            self.reset(f"attitude matching angle {math.sqrt(float(z @ z)):.4g} rad exceeds the small-angle limit")
-            return None
+    def _observation(self) -> tuple[np.ndarray, np.ndarray | None]:
         H = observation_matrix(self._C1, self._C2)
-        h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
-        up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
-        if up.accepted:
-            self._x, self._P = up.x, up.P
-        if not self._count_gate(up.accepted, up.d2):
-            return None
-        return self._output(t, up.y, up.d2, up.accepted)
+        return H, predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool) -> FlexureEstimate:
         """The simplified filter's output (the flexure states are laid out alike) with ε1 − ε2

@@ -39,7 +39,8 @@ from typing import NamedTuple
 import numpy as np
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize
-from gimbal_kinematics.validate import nonneg_finite, per_axis, positive
+from gimbal_kinematics.units import ARCSEC, DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
+from gimbal_kinematics.validate import nonneg_finite, of_type, per_axis, positive
 
 from . import kalman
 from .flexure_model import (
@@ -53,12 +54,6 @@ QS_MODELS = ("random_constant", "random_walk_rate")
 #: Largest attitude-matching angle |Z| accepted [rad] (small_angles_from_dcm's default limit);
 #: beyond it the first-order extraction misleads and the filter resets.
 _MAX_MATCH_ANGLE = 0.1
-
-_DEG = math.pi / 180.0
-_ARCSEC = _DEG / 3600.0
-_DEG_H = _DEG / 3600.0
-_DEG_RT_H = _DEG / 60.0
-_DEG_H_RT_H = _DEG_H / 60.0
 
 
 @dataclass(frozen=True)
@@ -211,17 +206,16 @@ class FlexureKf:
 
     def __init__(self, params: FlexureKfParams | None = None) -> None:
         params = FlexureKfParams() if params is None else params
-        if not isinstance(params, FlexureKfParams):
-            raise TypeError(f"params must be FlexureKfParams, got {type(params).__name__}")
+        of_type("params", params, FlexureKfParams)
         self.params = params
         p = params
-        self._q_rw = np.array([(x * _ARCSEC) ** 2 for x in p.qs_rw_arcsec_rt_s])  # type: ignore[union-attr]
-        self._q_rate = np.array([(x * _ARCSEC) ** 2 for x in p.qs_rate_rw_arcsec_s_rt_s])  # type: ignore[union-attr]
-        self._q_arw = 2.0 * (p.lgu_arw_deg_rt_h * _DEG_RT_H) ** 2
-        self._q_eps = np.array([(x * _DEG_H_RT_H) ** 2 for x in p.bias_diff_rw_deg_h_rt_h])  # type: ignore[union-attr]
+        self._q_rw = np.array([(x * ARCSEC) ** 2 for x in p.qs_rw_arcsec_rt_s])  # type: ignore[union-attr]
+        self._q_rate = np.array([(x * ARCSEC) ** 2 for x in p.qs_rate_rw_arcsec_s_rt_s])  # type: ignore[union-attr]
+        self._q_arw = 2.0 * (p.lgu_arw_deg_rt_h * DEG_RT_H) ** 2
+        self._q_eps = np.array([(x * DEG_H_RT_H) ** 2 for x in p.bias_diff_rw_deg_h_rt_h])  # type: ignore[union-attr]
         self._dyn = list(zip(p.dynamic_beta_per_s, p.dynamic_freq_rad_s,  # type: ignore[arg-type]
-                             [x * _ARCSEC for x in p.dynamic_rms_arcsec]))  # type: ignore[union-attr]
-        self._R = np.eye(3) * (p.meas_noise_arcsec * _ARCSEC) ** 2
+                             [x * ARCSEC for x in p.dynamic_rms_arcsec]))  # type: ignore[union-attr]
+        self._R = np.eye(3) * (p.meas_noise_arcsec * ARCSEC) ** 2
         self._gate = math.inf if p.gate_probability is None else kalman.chi2_gate(3, p.gate_probability)
         self._H = observation_matrix(np.eye(3))
         # θ_d := Φ_k + θ_k, identity elsewhere: the (re-)anchoring map.
@@ -311,9 +305,10 @@ class FlexureKf:
         F[PHI_K1, PHI_K] = I3
         for i, (beta, freq, sigma) in enumerate(self._dyn):
             a1, a2, var_e = ar2_coefficients(beta, freq, sigma, dt)
-            F[6 + i, 6 + i] = a1
-            F[6 + i, 9 + i] = a2
-            Q[6 + i, 6 + i] = var_e
+            th, th1 = THETA_K.start + i, THETA_K1.start + i
+            F[th, th] = a1
+            F[th, th1] = a2
+            Q[th, th] = var_e
         F[THETA_K1, THETA_K] = I3
         F[THETA_D, THETA_D] = I3
         Q[THETA_D, THETA_D] = self._q_arw * dt * I3
@@ -329,20 +324,22 @@ class FlexureKf:
         T = p.filter_period_s
         P = np.zeros((N_STATES, N_STATES))
         for i in range(3):
-            s0 = (p.qs_initial_sigma_deg[i] * _DEG) ** 2  # type: ignore[index]
+            f, f1, eps = PHI_K.start + i, PHI_K1.start + i, EPS.start + i
+            th, th1 = THETA_K.start + i, THETA_K1.start + i
+            s0 = (p.qs_initial_sigma_deg[i] * DEG) ** 2  # type: ignore[index]
             if p.quasi_static_model == "random_walk_rate":
-                extra = (p.qs_rate_initial_sigma_deg_h[i] * _DEG_H * T) ** 2  # type: ignore[index]
+                extra = (p.qs_rate_initial_sigma_deg_h[i] * DEG_H * T) ** 2  # type: ignore[index]
             else:
                 extra = self._q_rw[i] * T
-            P[i, i] = s0
-            P[i, 3 + i] = P[3 + i, i] = s0
-            P[3 + i, 3 + i] = s0 + extra
+            P[f, f] = s0
+            P[f, f1] = P[f1, f] = s0
+            P[f1, f1] = s0 + extra
             beta, freq, sigma = self._dyn[i]
             a1, a2, _ = ar2_coefficients(beta, freq, sigma, T)
             rho1 = a1 / (1.0 - a2)
-            P[6 + i, 6 + i] = P[9 + i, 9 + i] = sigma * sigma
-            P[6 + i, 9 + i] = P[9 + i, 6 + i] = rho1 * sigma * sigma
-            P[15 + i, 15 + i] = (p.bias_diff_initial_sigma_deg_h[i] * _DEG_H) ** 2  # type: ignore[index]
+            P[th, th] = P[th1, th1] = sigma * sigma
+            P[th, th1] = P[th1, th] = rho1 * sigma * sigma
+            P[eps, eps] = (p.bias_diff_initial_sigma_deg_h[i] * DEG_H) ** 2  # type: ignore[index]
         x = np.zeros(N_STATES)
         x, P = self._anchor(x, P)
         return kalman.check_state(x, P, "FlexureKf")
@@ -351,7 +348,7 @@ class FlexureKf:
         """θ_d := Φ_k + θ_k (new initial frames at the current body frames)."""
         T = self._anchor_map
         P = T @ P @ T.T
-        P[THETA_D, THETA_D] += np.eye(3) * (self.params.anchor_sigma_arcsec * _ARCSEC) ** 2
+        P[THETA_D, THETA_D] += np.eye(3) * (self.params.anchor_sigma_arcsec * ARCSEC) ** 2
         return T @ x, kalman.symmetrize(P)
 
     # ------------------------------------------------------------------ message handling
@@ -465,7 +462,7 @@ class FlexureKf:
         self._x, self._P = self._anchor(self._x, self._P)
         self._C1 = np.eye(3)
         self._C2 = np.eye(3)
-        self._C1_kf = self._C1
+        self._hold_attitudes()
         self.counters["reanchors"] += 1
 
     def _propagate(self, t: float) -> None:
@@ -477,14 +474,28 @@ class FlexureKf:
         m = max(1, int(round(span / T)))
         h = span / m
         F, Q = self._model(h)
-        # Mean attitude over the interval for θ̇_d = Ĉ_i1b1 (ε1 − ε2).
-        F[THETA_D, EPS] = (0.5 * h) * (self._C1_kf + self._C1)
+        self._couple_attitudes(F, h)
         x, P = self._x, self._P
         for _ in range(m):
             x, P = kalman.predict(x, P, F, Q)
         self._x, self._P = x, P
         self._t_kf = t
+        self._hold_attitudes()
+
+    def _couple_attitudes(self, F: np.ndarray, h: float) -> None:
+        """Fill ``F``'s attitude-dependent block for a step ``h`` [s] (in place): the mean
+        attitude over the interval for θ̇_d = Ĉ_i1b1 (ε1 − ε2)."""
+        F[THETA_D, EPS] = (0.5 * h) * (self._C1_kf + self._C1)
+
+    def _hold_attitudes(self) -> None:
+        """Keep the attitudes at the filter time, the start of the next interval's mean."""
         self._C1_kf = self._C1
+
+    def _observation(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """``H`` at the current attitudes and the predicted observation h(X) (None: the
+        paper's first order, H X)."""
+        H = observation_matrix(self._C1, self._H)
+        return H, predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
 
     def _epoch(self, t: float) -> FlexureEstimate | None:
         self._propagate(t)
@@ -494,8 +505,7 @@ class FlexureKf:
         if not float(z @ z) < _MAX_MATCH_ANGLE ** 2:
             self.reset(f"attitude matching angle {math.sqrt(float(z @ z)):.4g} rad exceeds the small-angle limit")
             return None
-        H = observation_matrix(self._C1, self._H)
-        h_x = predicted_observation(self._C1, self._x) if self.params.second_order_observation else None
+        H, h_x = self._observation()
         up = kalman.joseph_update(self._x, self._P, z, H, self._R, self._gate, h_x)
         if up.accepted:
             self._x, self._P = up.x, up.P

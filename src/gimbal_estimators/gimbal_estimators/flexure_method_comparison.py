@@ -15,11 +15,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from gimbal_kinematics.units import ARCSEC
+
 from . import kalman
 from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from .flexure_kf import PHI_K, THETA_K, FlexureKf
-
-_ARCSEC = np.pi / 180.0 / 3600.0
 
 
 class LguRun(NamedTuple):
@@ -66,7 +66,7 @@ class _Score:
 
     def figures(self, pairs: int) -> MethodFigures:
         n = len(self.nees)
-        return MethodFigures(np.sqrt(self.sq / max(n, 1)) / _ARCSEC, float(np.mean(self.nees)) if n else float("nan"),
+        return MethodFigures(np.sqrt(self.sq / max(n, 1)) / ARCSEC, float(np.mean(self.nees)) if n else float("nan"),
                              np.asarray(self.final), 1e6 * self.cpu / max(pairs, 1), pairs, n)
 
 

@@ -49,9 +49,9 @@ import math
 
 import numpy as np
 
-N_STATES = 18
 #: Slices of the state vector.
 PHI_K, PHI_K1, THETA_K, THETA_K1, THETA_D, EPS = (slice(3 * i, 3 * i + 3) for i in range(6))
+N_STATES = EPS.stop
 
 
 def ar2_coefficients(beta: float, freq: float, sigma: float, dt: float) -> tuple[float, float, float]:
@@ -103,7 +103,8 @@ def predicted_observation(C_i1b1: np.ndarray, x: np.ndarray) -> np.ndarray:
     ``exp(−[u×]) exp([φ×])``); the paper's first-order form drops ``½ u×φ``, which reaches
     several arcseconds once the flexure is a few tenths of a degree."""
     u = C_i1b1.T @ x[THETA_D]
-    p0, p1, p2 = float(x[0] + x[6]), float(x[1] + x[7]), float(x[2] + x[8])
+    phi = x[PHI_K] + x[THETA_K]
+    p0, p1, p2 = float(phi[0]), float(phi[1]), float(phi[2])
     u0, u1, u2 = float(u[0]), float(u[1]), float(u[2])
     return np.array([
         p0 - u0 - 0.5 * (u1 * p2 - u2 * p1),

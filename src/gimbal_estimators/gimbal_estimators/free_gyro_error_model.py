@@ -91,19 +91,24 @@ from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, pri
 from gimbal_kinematics.free_gyro import (
     FixGeometry, Vector3, dcm_ni, fix_geometry, gyro_vector_n, heading_error, unit_vector)
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, skew, unskew
-from gimbal_kinematics.validate import finite, nonneg_finite, positive
+from gimbal_kinematics.units import ARCSEC, DEG_H, DEG_RT_H
+from gimbal_kinematics.validate import finite, nonneg_finite, of_type, positive
 
 from .kalman import check_state, predict, symmetrize
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-DEG_H = math.pi / (180.0 * 3600.0)
-DEG_RT_H = math.pi / 180.0 / 60.0
 
 #: Names of the outputs of :class:`FixErrorModel`, in order.
 OUTPUTS = ("nadir_a", "nadir_b", "north_m", "east_m", "heading", "heading_earth_rate")
 #: Names of the random-constant error inputs of :class:`FixErrorModel`, in order.
 INPUTS = ("level_roll", "level_pitch", "spin_a_x", "spin_a_y", "spin_a_z", "spin_b_x", "spin_b_y", "spin_b_z",
           "triad_bias_x", "triad_bias_y", "triad_bias_z")
+#: Slices and indices of :data:`OUTPUTS`: the two nadir errors, the north/east position
+#: error, the free-gyro heading and the earth-rate heading.
+OUT_NADIR, OUT_POSITION_NE, OUT_HEADING, OUT_HEADING_EARTH_RATE = slice(0, 2), slice(2, 4), 4, 5
+#: Slices of :data:`INPUTS`: the level error (roll, pitch), each spin axis's drift error
+#: (a, then b), the body triad's bias.
+IN_LEVEL, IN_SPIN_A, IN_SPIN_B, IN_TRIAD_BIAS = slice(0, 2), slice(2, 5), slice(5, 8), slice(8, 11)
+N_INPUTS = IN_TRIAD_BIAS.stop
 
 
 def _matrix(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
@@ -124,8 +129,13 @@ def _covariance(name: str, value: object, n: int) -> np.ndarray:
 
 
 # --- 1. attitude-error dynamics (eq. 8–21) ------------------------------------------------------
-#: Augmented state z = [ξ_a, ξ_b, γ (states), δω_ig,a^i, δω_ig,b^i, δω_ib^b, δω_in^n (constant inputs)].
-N_ATTITUDE = 21
+#: Augmented state z = [ξ_a, ξ_b, γ (states), δω_ig,a^i, δω_ig,b^i, δω_ib^b, δω_in^n (constant inputs)],
+#: as slices: the two spin axes' error angles and the level frame's, then the inputs (all of
+#: them: :data:`CONSTANT_INPUTS`).
+XI_A, XI_B, GAMMA = slice(0, 3), slice(3, 6), slice(6, 9)
+D_OMEGA_A, D_OMEGA_B, D_OMEGA_IB, D_OMEGA_IN = slice(9, 12), slice(12, 15), slice(15, 18), slice(18, 21)
+CONSTANT_INPUTS = slice(D_OMEGA_A.start, D_OMEGA_IN.stop)
+N_ATTITUDE = D_OMEGA_IN.stop
 
 
 class AttitudeSample(NamedTuple):
@@ -156,16 +166,16 @@ class AttitudeError:
         """Error angles η_k = γ + C_b^n ξ_k (3,) [rad] of the two spin axes in NED (``C_nb``
         (3, 3) maps b to n)."""
         C = _matrix("C_nb", C_nb, (3, 3))
-        return self.z[6:9] + C @ self.z[0:3], self.z[6:9] + C @ self.z[3:6]
+        return self.z[GAMMA] + C @ self.z[XI_A], self.z[GAMMA] + C @ self.z[XI_B]
 
     def spin_axis_error_covs_n(self, C_nb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Covariances (3, 3) [rad²] of η_a, η_b."""
         C = _matrix("C_nb", C_nb, (3, 3))
         out = []
-        for k in (0, 3):
+        for xi in (XI_A, XI_B):
             T = np.zeros((3, N_ATTITUDE))
-            T[:, k:k + 3] = C
-            T[:, 6:9] = np.eye(3)
+            T[:, xi] = C
+            T[:, GAMMA] = np.eye(3)
             out.append(T @ self.P @ T.T)
         return out[0], out[1]
 
@@ -177,13 +187,14 @@ def attitude_error_matrix(s: AttitudeSample) -> np.ndarray:
     C_bi = _matrix("C_bi", s.C_bi, (3, 3))
     C_nb = _matrix("C_nb", s.C_nb, (3, 3))
     A = np.zeros((N_ATTITUDE, N_ATTITUDE))
-    for k in (0, 3):  # eq. 19: ξ̇ = −ω_ib^b × ξ − C_g^b δω_ig^g + δω_ib^b
-        A[k:k + 3, k:k + 3] = -skew(w_b)
-        A[k:k + 3, 9 + k:12 + k] = -C_bi
-        A[k:k + 3, 15:18] = np.eye(3)
-    A[6:9, 6:9] = -skew(w_n)      # eq. 20: γ̇ = −ω_in^n × γ − C_b^n δω_ib^b + δω_in^n
-    A[6:9, 15:18] = -C_nb
-    A[6:9, 18:21] = np.eye(3)
+    # eq. 19: ξ̇ = −ω_ib^b × ξ − C_g^b δω_ig^g + δω_ib^b
+    for xi, d_omega in ((XI_A, D_OMEGA_A), (XI_B, D_OMEGA_B)):
+        A[xi, xi] = -skew(w_b)
+        A[xi, d_omega] = -C_bi
+        A[xi, D_OMEGA_IB] = np.eye(3)
+    A[GAMMA, GAMMA] = -skew(w_n)      # eq. 20: γ̇ = −ω_in^n × γ − C_b^n δω_ib^b + δω_in^n
+    A[GAMMA, D_OMEGA_IB] = -C_nb
+    A[GAMMA, D_OMEGA_IN] = np.eye(3)
     return A
 
 
@@ -192,8 +203,8 @@ def expm_augmented(Om: np.ndarray) -> np.ndarray:
     form of A and of its Magnus commutator): [[e^S, φ(S) B], [0, I]], each block's e^S by
     Rodrigues and φ(S) = ∫₀¹ e^{S s} ds = I + (1 − cos θ)/θ² S + (θ − sin θ)/θ³ S²."""
     Phi = np.eye(N_ATTITUDE)
-    for k in (0, 3, 6):
-        S = Om[k:k + 3, k:k + 3]
+    for k in (XI_A, XI_B, GAMMA):
+        S = Om[k, k]
         a = unskew(S)
         t2 = float(a @ a)
         if t2 < 1e-8:
@@ -201,8 +212,8 @@ def expm_augmented(Om: np.ndarray) -> np.ndarray:
         else:
             t = math.sqrt(t2)
             c1, c2 = (1.0 - math.cos(t)) / t2, (t - math.sin(t)) / (t2 * t)
-        Phi[k:k + 3, k:k + 3] = dcm_from_rotation_vector(a)
-        Phi[k:k + 3, 9:] = (np.eye(3) + c1 * S + c2 * (S @ S)) @ Om[k:k + 3, 9:]
+        Phi[k, k] = dcm_from_rotation_vector(a)
+        Phi[k, CONSTANT_INPUTS] = (np.eye(3) + c1 * S + c2 * (S @ S)) @ Om[k, CONSTANT_INPUTS]
     return Phi
 
 
@@ -314,18 +325,19 @@ class ErrorPrediction(NamedTuple):
     @property
     def sigma_nadir(self) -> np.ndarray:
         """σ (2,) [rad] of θ_a, θ_b."""
-        return np.sqrt(np.diag(self.cov)[:2])
+        return np.sqrt(np.diag(self.cov)[OUT_NADIR])
 
     @property
     def nadir_correlation(self) -> float:
         """Correlation coefficient of the two nadir errors (eq. 34 assumes 0)."""
         s = self.sigma_nadir
-        return float(self.cov[0, 1] / (s[0] * s[1])) if s[0] > 0.0 and s[1] > 0.0 else 0.0
+        c = self.cov[OUT_NADIR, OUT_NADIR]
+        return float(c[0, 1] / (s[0] * s[1])) if s[0] > 0.0 and s[1] > 0.0 else 0.0
 
     @property
     def cov_ne_m(self) -> np.ndarray:
         """Covariance (2, 2) [m²] of the north/east fix error."""
-        return self.cov[2:4, 2:4]
+        return self.cov[OUT_POSITION_NE, OUT_POSITION_NE]
 
     @property
     def position_drms_m(self) -> float:
@@ -336,17 +348,17 @@ class ErrorPrediction(NamedTuple):
     def position_fdop_m(self) -> float:
         """Eq. 38, fd = FDOP σ_θ [m] (``FixGeometry.position_error_m``), with σ_θ the RMS of
         the two nadir σ: equal to :attr:`position_drms_m` only for i.i.d. nadir errors."""
-        return self.geometry.position_error_m(math.sqrt(float(np.mean(np.diag(self.cov)[:2]))), self.height_m)
+        return self.geometry.position_error_m(math.sqrt(float(np.mean(np.diag(self.cov)[OUT_NADIR]))), self.height_m)
 
     @property
     def sigma_heading(self) -> float:
         """σ [rad] of the free-gyro heading ψ = α − ζ."""
-        return math.sqrt(float(self.cov[4, 4]))
+        return math.sqrt(float(self.cov[OUT_HEADING, OUT_HEADING]))
 
     @property
     def sigma_heading_earth_rate(self) -> float:
         """σ [rad] of the earth-rate heading (eq. 3–4)."""
-        return math.sqrt(float(self.cov[5, 5]))
+        return math.sqrt(float(self.cov[OUT_HEADING_EARTH_RATE, OUT_HEADING_EARTH_RATE]))
 
 
 # --- 3. the fix: sources to nadir, heading and position ---------------------------------------
@@ -398,13 +410,13 @@ class FixErrorModel:
         S_model = [nadir_azimuth_sensitivity(th[k], al[k]) for k in (0, 1)]   # in n, at α
         S_meas = [nadir_azimuth_sensitivity(th[k], zeta[k]) for k in (0, 1)]  # in l, at ζ
         # Random constants: e_θ = S_θ(ζ) γ_l − S_θ(α) C_ni ε (module doc §2).
-        E = np.zeros((2, 11))   # nadir errors
-        Z = np.zeros((2, 11))   # δα_model(ε) − δζ_measured(γ), per gyro, before the position term
-        for k in (0, 1):
-            E[k, 0:2] = S_meas[k][0] @ L
-            E[k, 2 + 3 * k:5 + 3 * k] = -S_model[k][0] @ C_ni
-            Z[k, 0:2] = -S_meas[k][1] @ L
-            Z[k, 2 + 3 * k:5 + 3 * k] = S_model[k][1] @ C_ni
+        E = np.zeros((2, N_INPUTS))   # nadir errors
+        Z = np.zeros((2, N_INPUTS))   # δα_model(ε) − δζ_measured(γ), per gyro, before the position term
+        for k, spin in enumerate((IN_SPIN_A, IN_SPIN_B)):
+            E[k, IN_LEVEL] = S_meas[k][0] @ L
+            E[k, spin] = -S_model[k][0] @ C_ni
+            Z[k, IN_LEVEL] = -S_meas[k][1] @ L
+            Z[k, spin] = S_model[k][1] @ C_ni
         # White pickoff: nadir parts enter e_θ, horizontal parts enter ζ as n_h / sin θ.
         Ew = np.hstack([np.eye(2), np.zeros((2, 2))])
         Zw = np.hstack([np.zeros((2, 2)), -np.diag(1.0 / np.sin(th))])
@@ -421,33 +433,33 @@ class FixErrorModel:
         rows += [w @ (Z + A @ x)]
         rows_w += [w @ (Zw + A @ xw)]
         J = earth_rate_heading_jacobian(self.lat, self.roll, self.pitch, self.heading, self.yaw_rate_rad_s)
-        er = np.zeros(11)
-        er[0:2], er[8:11] = J[0:2], J[2:5]
+        er = np.zeros(N_INPUTS)
+        er[IN_LEVEL], er[IN_TRIAD_BIAS] = J[0:2], J[2:5]
         rows += [er]
         rows_w += [np.zeros(4)]
         return np.vstack(rows), np.vstack(rows_w)
 
     def input_covariance(self, sources: ErrorSources) -> np.ndarray:
         """(11, 11) [rad², rad²/s²] covariance of :data:`INPUTS` for ``sources``."""
-        P = np.zeros((11, 11))
-        P[0:2, 0:2] = (sources.level_error_arcsec * ARCSEC) ** 2 * np.eye(2)
+        P = np.zeros((N_INPUTS, N_INPUTS))
+        P[IN_LEVEL, IN_LEVEL] = (sources.level_error_arcsec * ARCSEC) ** 2 * np.eye(2)
         sd = sources.spin_drift_deg_h * DEG_H
-        P[2:5, 2:5] = spin_drift_error_cov_i(self.u[0], sd, self.drift_elapsed_s)
-        P[5:8, 5:8] = spin_drift_error_cov_i(self.u[1], sd, self.drift_elapsed_s)
-        P[8:11, 8:11] = (sources.triad_bias_deg_h * DEG_H) ** 2 * np.eye(3)
+        P[IN_SPIN_A, IN_SPIN_A] = spin_drift_error_cov_i(self.u[0], sd, self.drift_elapsed_s)
+        P[IN_SPIN_B, IN_SPIN_B] = spin_drift_error_cov_i(self.u[1], sd, self.drift_elapsed_s)
+        P[IN_TRIAD_BIAS, IN_TRIAD_BIAS] = (sources.triad_bias_deg_h * DEG_H) ** 2 * np.eye(3)
         return P
 
     def predict(self, sources: ErrorSources) -> ErrorPrediction:
         """Predicted covariance of :data:`OUTPUTS` for ``sources``: H P Hᵀ + the window-averaged
         pickoff noise (σ²/n per axis) + the triad ARW on the earth-rate heading,
         (N/√T)/(Ω cos φ) (eq. 29 for white rate noise averaged over T)."""
-        if not isinstance(sources, ErrorSources):
-            raise TypeError(f"sources must be ErrorSources, got {type(sources).__name__}")
+        of_type("sources", sources, ErrorSources)
         cov = self.H @ self.input_covariance(sources) @ self.H.T
         s_pick = sources.pickoff_noise_arcsec * ARCSEC / math.sqrt(self.samples_per_fix)
         cov += s_pick**2 * self.H_white @ self.H_white.T
         arw = sources.triad_arw_deg_rt_h * DEG_RT_H
-        cov[5, 5] += (arw / math.sqrt(self.heading_window_s) / (OMEGA_IE * math.cos(self.lat))) ** 2
+        h = OUT_HEADING_EARTH_RATE
+        cov[h, h] += (arw / math.sqrt(self.heading_window_s) / (OMEGA_IE * math.cos(self.lat))) ** 2
         return ErrorPrediction(symmetrize(cov), self.geometry, self.height_m)
 
 
@@ -494,8 +506,7 @@ class FixPredictor:
 
     def __init__(self, u_a_i: Vector3, u_b_i: Vector3, sources: ErrorSources, *, t_set: float = 0.0,
                  heading_window_s: float = 60.0, height_m: float = 0.0) -> None:
-        if not isinstance(sources, ErrorSources):
-            raise TypeError(f"sources must be ErrorSources, got {type(sources).__name__}")
+        of_type("sources", sources, ErrorSources)
         self.u = (unit_vector(u_a_i, "u_a_i"), unit_vector(u_b_i, "u_b_i"))
         self.sources = sources
         self.t_set = finite("t_set", t_set)

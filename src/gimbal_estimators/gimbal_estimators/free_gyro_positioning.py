@@ -72,10 +72,9 @@ from gimbal_kinematics.free_gyro import (
     unit_vector,
 )
 from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.validate import finite, positive
+from gimbal_kinematics.units import ARCSEC, DEG_RT_H
+from gimbal_kinematics.validate import finite, of_type, positive
 
-_ARCSEC = math.pi / (180.0 * 3600.0)
-_DEG_RT_H = math.pi / 180.0 / 60.0
 _NAN = float("nan")
 _TRANSPORT_ITERATIONS = 4  # contraction ≤ 0.05 at 20 m/s: the heading to 1e-5 of its first error
 
@@ -240,11 +239,10 @@ class FreeGyroPositioning:
     """Free-gyro fix and heading core (module docstring). ROS-free, message-driven."""
 
     def __init__(self, params: FreeGyroPositioningParams) -> None:
-        if not isinstance(params, FreeGyroPositioningParams):
-            raise TypeError(f"params must be FreeGyroPositioningParams, got {type(params).__name__}")
+        of_type("params", params, FreeGyroPositioningParams)
         self.params = params
-        self._sigma_pick = params.nadir_noise_arcsec * _ARCSEC
-        self._triad_arw = params.triad_arw_deg_rt_h * _DEG_RT_H
+        self._sigma_pick = params.nadir_noise_arcsec * ARCSEC
+        self._triad_arw = params.triad_arw_deg_rt_h * DEG_RT_H
         self.counters = _Counters()
         self.last_fix: FreeGyroFix | None = None
         self._restart()

@@ -83,14 +83,13 @@ import numpy as np
 
 from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
 from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat
+from gimbal_kinematics.units import DEG, DEG_H, DEG_RT_H
 
 from . import gyro_bias_ekf_kernels as kernels
 from . import kalman
+from .gyro_bias_ekf_model import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI
 from .gyro_bias_ekf_params import GyroBiasEkfParams
 
-_DEG = math.pi / 180.0
-_DEG_H = _DEG / 3600.0
-_DEG_RT_H = _DEG / 60.0  # °/√h -> rad/√s
 
 #: |cos θm| below which eq. 4 is treated as singular (roll and azimuth axes aligned).
 _SINGULAR_COS = 1e-3
@@ -158,28 +157,28 @@ class GyroBiasEkf:
         if not isinstance(p, GyroBiasEkfParams):
             raise TypeError(f"params must be GyroBiasEkfParams, got {type(p).__name__}")
         self.params = p
-        lat = p.lat_deg * _DEG
+        lat = p.lat_deg * DEG
         self.omega_in_n = earth_rate_n(lat) + transport_rate_n(lat, p.height_m, np.array(p.velocity_n_m_s))
         self._win = tuple(float(v) for v in self.omega_in_n)
-        self.n_states = 9 if p.ins_error_states else 6
+        self.n_states = N_STATES_INS if p.ins_error_states else N_STATES_BASE
         self._gate = kalman.chi2_gate(3, p.gate_probability)
         # Continuous noise densities (rad²/s for rates, rad²/s³ for the bias walks).
-        arw_g, arw_r = p.gyro_arw_deg_rt_h * _DEG_RT_H, p.roll_arw_deg_rt_h * _DEG_RT_H
+        arw_g, arw_r = p.gyro_arw_deg_rt_h * DEG_RT_H, p.roll_arw_deg_rt_h * DEG_RT_H
         self._n_psd = np.array([arw_r**2, arw_g**2, arw_g**2])
 
         def walk(sigma_deg_h: float, tau_s: float) -> float:
-            return 0.0 if math.isinf(tau_s) else 2.0 * (sigma_deg_h * _DEG_H) ** 2 / tau_s
+            return 0.0 if math.isinf(tau_s) else 2.0 * (sigma_deg_h * DEG_H) ** 2 / tau_s
 
         self._qb_psd = np.array([walk(p.roll_bias_instability_deg_h, p.roll_bias_tau_s),
                                  walk(p.gyro_bias_instability_deg_h, p.gyro_bias_tau_s),
                                  walk(p.gyro_bias_instability_deg_h, p.gyro_bias_tau_s)])
-        self._Pb0 = np.diag([(p.roll_bias_sigma_deg_h * _DEG_H) ** 2] + [(p.gyro_bias_sigma_deg_h * _DEG_H) ** 2] * 2)
-        rp, hd = p.ins_roll_pitch_rms_deg * _DEG, p.ins_heading_rms_deg * _DEG
+        self._Pb0 = np.diag([(p.roll_bias_sigma_deg_h * DEG_H) ** 2] + [(p.gyro_bias_sigma_deg_h * DEG_H) ** 2] * 2)
+        rp, hd = p.ins_roll_pitch_rms_deg * DEG, p.ins_heading_rms_deg * DEG
         self._pe_var = np.array([rp * rp, rp * rp, hd * hd])
-        self._enc_var = (p.encoder_noise_deg * _DEG) ** 2
-        self._floor_var = (p.attitude_noise_floor_deg * _DEG) ** 2
+        self._enc_var = (p.encoder_noise_deg * DEG) ** 2
+        self._floor_var = (p.attitude_noise_floor_deg * DEG) ** 2
         self._H = np.zeros((3, self.n_states))
-        self._H[:, :3] = np.eye(3)
+        self._H[:, PSI] = np.eye(3)
         self.counters = Counters(0, 0, 0, 0, 0, 0)
         #: (t, reason) of the latest resets and re-alignments, newest last.
         self.reset_log: deque[tuple[float, str]] = deque(maxlen=100)
@@ -218,7 +217,7 @@ class GyroBiasEkf:
         self._count(realignments=1)
         self.reset_log.append((t, "realign: " + reason))
         self._realigned.append(self.reset_log[-1])
-        self._P_bb_keep = None if self.P is None else self.P[3:6, 3:6].copy()
+        self._P_bb_keep = None if self.P is None else self.P[BIAS, BIAS].copy()
         self._q = None
         self._t_cov = None
         self._consecutive_gated = 0
@@ -254,12 +253,12 @@ class GyroBiasEkf:
     @property
     def bias_sigma(self) -> np.ndarray:
         """1σ of the bias estimate [rad/s], (3,) (prior σ before alignment)."""
-        return np.sqrt(np.diag(self.P[3:6, 3:6] if self.P is not None else self._Pb0))
+        return np.sqrt(np.diag(self.P[BIAS, BIAS] if self.P is not None else self._Pb0))
 
     @property
     def attitude_cov(self) -> np.ndarray | None:
         """Covariance [rad²] (3, 3) of ψ, the attitude error about the n axes; None before alignment."""
-        return None if self._q is None else self.P[:3, :3].copy()
+        return None if self._q is None else self.P[PSI, PSI].copy()
 
     @property
     def ins_error(self) -> np.ndarray:
@@ -398,7 +397,7 @@ class GyroBiasEkf:
         A1 = self._A_now()
         self.P, f_e = kernels.propagate(self.P, 0.5 * (self._A_cov + A1), T, np.asarray(self.omega_in_n, dtype=float),
                                         self._n_psd, self._qb_psd, self._pe_var, self.params.ins_attitude_tau_s)
-        if self.n_states == 9:
+        if self.n_states == N_STATES_INS:
             self._e = self._e * f_e
         self._t_cov = self._t_gyro
         self._A_cov = A1
@@ -408,7 +407,8 @@ class GyroBiasEkf:
         """The INS attitude (φ, θ, ψ) [rad] at ``t_ins`` [s], reached by the integration, with
         the encoder angles [rad] of its stamp: align, or update (gated)."""
         q_meas, Je, Jenc = kernels.measurement(tuple(euler), tuple(angles))
-        R = kernels.measurement_cov(Jenc, Je, self._enc_var, self._floor_var, self._pe_var, self.n_states == 6)
+        R = kernels.measurement_cov(Jenc, Je, self._enc_var, self._floor_var, self._pe_var,
+                                    self.n_states == N_STATES_BASE)
         if self._q is None:
             return self._align(t_ins, q_meas, Je, R)
         self._propagate_covariance()
@@ -423,9 +423,9 @@ class GyroBiasEkf:
         z = np.array(_rotvec_from_quat(ex, ey, ez, ew))
         H = self._H
         x = np.zeros(n)
-        if n == 9:
-            H[:, 6:] = Je
-            x[6:] = self._e
+        if n == N_STATES_INS:
+            H[:, INS_ERROR] = Je
+            x[INS_ERROR] = self._e
         accepted, x_up, P_up, y, d2 = kernels.joseph_update3(x, self.P, z, H, R, self._gate)
         up = kalman.Update(x_up, P_up, y, None, float(d2), bool(accepted))
         if up.accepted:
@@ -434,11 +434,11 @@ class GyroBiasEkf:
             self.P = up.P
             dx = up.x.tolist()
             # Ĉ ← exp([ψ̂×]) Ĉ, then b̂ ← b̂ + δb̂ (the error state is reset to zero).
-            self._q = list(quat_mul(_rotvec_quat(dx[0], dx[1], dx[2]), self._q))
-            db = dx[3:6]
+            self._q = list(quat_mul(_rotvec_quat(*dx[PSI]), self._q))
+            db = dx[BIAS]
             self._b = [self._b[i] + db[i] for i in range(3)]
-            if n == 9:
-                self._e = up.x[6:].copy()
+            if n == N_STATES_INS:
+                self._e = up.x[INS_ERROR].copy()
             if self._w_prev is not None:
                 # The next trapezoid starts from this sample: correct it with the new biases.
                 _, _, ct, st = self._trig
@@ -462,7 +462,7 @@ class GyroBiasEkf:
         self._q = list(q_meas)
         keep = self._P_bb_keep
         self._P_bb_keep = None
-        if n == 9:
+        if n == N_STATES_INS:
             self._e = np.zeros(3)
         self.P = kernels.align_cov(n, R, Je, self._pe_var, keep if keep is not None else self._Pb0)
         self._t_cov = self._t_gyro
@@ -472,8 +472,8 @@ class GyroBiasEkf:
 
     def _output(self, t: float, y: np.ndarray, d2: float, accepted: bool, nis: float | None) -> EkfOutput:
         P = self.P
-        out = EkfOutput(t, np.array(self._b), np.sqrt(np.diag(P)[3:6]), np.array(self._q),
-                        P[:3, :3].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters,
+        out = EkfOutput(t, np.array(self._b), np.sqrt(np.diag(P)[BIAS]), np.array(self._q),
+                        P[PSI, PSI].copy(), np.asarray(y, dtype=float), float(d2), accepted, self.counters,
                         nis)
         self.outputs.append(out)
         if len(self.outputs) > _MAX_OUTPUTS:  # a caller that never takes them

@@ -34,6 +34,12 @@ from gimbal_kinematics.quat_kernels import quat_from_euler321, quat_from_rotatio
 #: |cos θm| below which eq. 4 is singular (the core's ``_SINGULAR_COS``).
 SINGULAR_COS = 1e-3
 
+#: The error state x = [ψ, δb, e] of :mod:`.gyro_bias_ekf_model`: slices of x and of P's rows
+#: and columns, their first indices, and the state counts without and with the INS errors.
+PSI, BIAS, INS_ERROR = slice(0, 3), slice(3, 6), slice(6, 9)
+PSI_0, BIAS_0, INS_ERROR_0 = 0, 3, 6
+N_STATES_BASE, N_STATES_INS = 6, 9
+
 
 @njit(cache=True)
 def mat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -164,9 +170,9 @@ def propagate(P: np.ndarray, A: np.ndarray, T: float, w: np.ndarray, n_psd: np.n
     (``pe_var`` (3,) is used with n = 9 only); ``tau_e`` inf: constant INS errors."""
     n = P.shape[0]
     F = np.eye(n)
-    F[:3, :3] = _rotation_dcm(-T * w[0], -T * w[1], -T * w[2])
+    F[PSI, PSI] = _rotation_dcm(-T * w[0], -T * w[1], -T * w[2])
     Wx = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    F[:3, 3:6] = (0.5 * T * T) * mat_mul(Wx, A) - T * A
+    F[PSI, BIAS] = (0.5 * T * T) * mat_mul(Wx, A) - T * A
     Q = np.zeros((n, n))
     AN = np.empty((3, 3))
     AQb = np.empty((3, 3))
@@ -174,19 +180,19 @@ def propagate(P: np.ndarray, A: np.ndarray, T: float, w: np.ndarray, n_psd: np.n
         for j in range(3):
             AN[i, j] = A[i, j] * (n_psd[j] * T) + A[i, j] * qb_psd[j] * (T ** 3 / 3.0)
             AQb[i, j] = A[i, j] * qb_psd[j]
-    Q[:3, :3] = mat_mul_t(AN, A)
+    Q[PSI, PSI] = mat_mul_t(AN, A)
     for i in range(3):
         for j in range(3):
-            Q[i, 3 + j] = AQb[i, j] * (-0.5 * T * T)
-            Q[3 + j, i] = Q[i, 3 + j]
-        Q[3 + i, 3 + i] = qb_psd[i] * T
+            Q[PSI_0 + i, BIAS_0 + j] = AQb[i, j] * (-0.5 * T * T)
+            Q[BIAS_0 + j, PSI_0 + i] = Q[PSI_0 + i, BIAS_0 + j]
+        Q[BIAS_0 + i, BIAS_0 + i] = qb_psd[i] * T
     f_e = 1.0
-    if n == 9:
+    if n == N_STATES_INS:
         decaying = not math.isinf(tau_e)
         f_e = math.exp(-T / tau_e) if decaying else 1.0
         for i in range(3):
-            F[6 + i, 6 + i] = f_e
-            Q[6 + i, 6 + i] = pe_var[i] * (-math.expm1(-2.0 * T / tau_e) if decaying else 0.0)
+            F[INS_ERROR_0 + i, INS_ERROR_0 + i] = f_e
+            Q[INS_ERROR_0 + i, INS_ERROR_0 + i] = pe_var[i] * (-math.expm1(-2.0 * T / tau_e) if decaying else 0.0)
     return symmetrize(mat_mul_t(mat_mul(F, P), F) + Q), f_e
 
 
@@ -209,17 +215,17 @@ def align_cov(n: int, R: np.ndarray, Je: np.ndarray, pe_var: np.ndarray, P_bb: n
     """P (n, n) at an alignment Ĉ = C_meas: P_ψψ = R (+ J_e P_e J_eᵀ, P_ψe = −J_e P_e, P_ee =
     P_e with the INS-error states), P_bb given."""
     P = np.zeros((n, n))
-    P[3:6, 3:6] = P_bb
-    if n == 9:
+    P[BIAS, BIAS] = P_bb
+    if n == N_STATES_INS:
         JeP = Je * pe_var.reshape(1, 3)
-        P[:3, :3] = mat_mul_t(JeP, Je) + R
+        P[PSI, PSI] = mat_mul_t(JeP, Je) + R
         for i in range(3):
             for j in range(3):
-                P[i, 6 + j] = -JeP[i, j]
-                P[6 + j, i] = -JeP[i, j]
-            P[6 + i, 6 + i] = pe_var[i]
+                P[PSI_0 + i, INS_ERROR_0 + j] = -JeP[i, j]
+                P[INS_ERROR_0 + j, PSI_0 + i] = -JeP[i, j]
+            P[INS_ERROR_0 + i, INS_ERROR_0 + i] = pe_var[i]
     else:
-        P[:3, :3] = R
+        P[PSI, PSI] = R
     return symmetrize(P)
 
 

@@ -72,6 +72,13 @@ import numpy as np
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_from_euler321
 
 from . import gyro_bias_ekf_kernels as kernels
+from .gyro_bias_ekf_kernels import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI
+
+#: ψ and δb together: the whole state of the filter without INS error states (the slices
+#: PSI, BIAS, INS_ERROR of x = [ψ, δb, e] and the state counts are the kernels').
+PSI_BIAS = slice(PSI.start, BIAS.stop)
+#: (δb_q, δb_r), the gimbal gyro's own biases: δb without the INS-rate channel's δb_x.
+GYRO_BIAS = slice(BIAS.start + 1, BIAS.stop)
 
 
 def quat_nb_from_euler(euler: Sequence[float]) -> tuple[float, float, float, float]:
@@ -117,22 +124,22 @@ def discretize_error_model(
     [s], or None for the 6-state filter. Shapes (n, n), n = 6 or 9. Terms of relative size
     (|ω_in| T)² and Q's ω_in coupling (|ω_in| T ~ 1e-6 at 100 Hz) are dropped.
     """
-    n = 6 if pe_var is None else 9
+    n = N_STATES_BASE if pe_var is None else N_STATES_INS
     F = np.eye(n)
     w = np.asarray(omega_in_n, dtype=float)
-    F[:3, :3] = dcm_from_rotation_vector(-T * w)
+    F[PSI, PSI] = dcm_from_rotation_vector(-T * w)
     # −∫ exp(−[ω_in×](T−s)) A ds, to second order in |ω_in| T (~1e-6).
     wx, wy, wz = w
     Wx = np.array([[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]])
-    F[:3, 3:6] = (0.5 * T * T) * (Wx @ A) - T * A
+    F[PSI, BIAS] = (0.5 * T * T) * (Wx @ A) - T * A
     Q = np.zeros((n, n))
     AQb = A * qb_psd  # A diag(q): the densities are diagonal
-    Q[:3, :3] = (A * (np.asarray(n_psd) * T) + AQb * (T**3 / 3.0)) @ A.T
-    Q[:3, 3:6] = AQb * (-0.5 * T * T)
-    Q[3:6, :3] = Q[:3, 3:6].T
-    Q[3:6, 3:6] = np.diag(np.asarray(qb_psd) * T)
+    Q[PSI, PSI] = (A * (np.asarray(n_psd) * T) + AQb * (T**3 / 3.0)) @ A.T
+    Q[PSI, BIAS] = AQb * (-0.5 * T * T)
+    Q[BIAS, PSI] = Q[PSI, BIAS].T
+    Q[BIAS, BIAS] = np.diag(np.asarray(qb_psd) * T)
     if pe_var is not None:
         decaying = not math.isinf(tau_e)
-        F[6:, 6:] *= math.exp(-T / tau_e) if decaying else 1.0
-        Q[6:, 6:] = np.diag(np.asarray(pe_var) * (-math.expm1(-2.0 * T / tau_e) if decaying else 0.0))
+        F[INS_ERROR, INS_ERROR] *= math.exp(-T / tau_e) if decaying else 1.0
+        Q[INS_ERROR, INS_ERROR] = np.diag(np.asarray(pe_var) * (-math.expm1(-2.0 * T / tau_e) if decaying else 0.0))
     return F, Q

@@ -25,10 +25,10 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from gimbal_kinematics.earth import enu_from_geodetic
+from gimbal_kinematics.units import NMI_M
 
 from .platform_navigator import NavigatorOutput
 
-NMI_M = 1852.0
 #: CEP50 of a circular normal error of σ per axis: σ sqrt(2 ln 2).
 CEP_PER_SIGMA = math.sqrt(2.0 * math.log(2.0))
 

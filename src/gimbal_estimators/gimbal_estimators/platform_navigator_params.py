@@ -12,19 +12,14 @@ params file; one run with phases hands over with
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from gimbal_kinematics.params import (
     CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, from_values, param, same_as,
 )
+from gimbal_kinematics.units import ARCSEC, DEG, DEG_H, UG
 from gimbal_kinematics.validate import finite, per_axis, positive
 
-_DEG = math.pi / 180.0
-_DEG_H = _DEG / 3600.0
-_ARCSEC = _DEG / 3600.0
-#: 1 µg [m/s²] (standard gravity, as the sensor models' µg).
-_UG = 9.80665e-6
 #: Where the platform azimuth comes from: the azimuth resolver (+ a fixed base heading) or the
 #: servo's rotation angle φz (+ the platform's azimuth at φz = 0).
 AZIMUTH_SOURCES = ("resolver", "servo")
@@ -94,31 +89,31 @@ class PlatformNavigatorParams:
     # -- SI views ------------------------------------------------------------------------
     @property
     def lat_rad(self) -> float:
-        return self.lat_deg * _DEG
+        return self.lat_deg * DEG
 
     @property
     def lon_rad(self) -> float:
-        return self.lon_deg * _DEG
+        return self.lon_deg * DEG
 
     @property
     def base_heading_rad(self) -> float:
-        return self.base_heading_deg * _DEG
+        return self.base_heading_deg * DEG
 
     @property
     def gyro_drift_rad_s(self) -> tuple[float, float, float]:
-        return tuple(v * _DEG_H for v in self.gyro_drift_deg_h)  # type: ignore[return-value]
+        return tuple(v * DEG_H for v in self.gyro_drift_deg_h)  # type: ignore[return-value]
 
     @property
     def north_drift_rad_s(self) -> float:
-        return self.north_drift_deg_h * _DEG_H
+        return self.north_drift_deg_h * DEG_H
 
     @property
     def accel_bias_m_s2(self) -> tuple[float, float, float]:
-        return tuple(v * _UG for v in self.accel_bias_ug)  # type: ignore[return-value]
+        return tuple(v * UG for v in self.accel_bias_ug)  # type: ignore[return-value]
 
     @property
     def misalignment_enu_rad(self) -> tuple[float, float, float]:
-        return tuple(v * _ARCSEC for v in self.misalignment_arcsec)  # type: ignore[return-value]
+        return tuple(v * ARCSEC for v in self.misalignment_arcsec)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)

@@ -90,18 +90,20 @@ import numpy as np
 
 from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
 from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.validate import finite, positive
+from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
+from gimbal_kinematics.validate import finite, of_type, positive
 
 from .kalman import check_state, joseph_update, symmetrize
 
 #: State order (paper eq. 15).
 STATE_NAMES = ("dphi_E0", "dphi_N0", "dphi_U0", "eps_N", "bias_x", "bias_y", "eps_x", "eps_y")
-N_STATES = 8
-
-_ARCSEC = math.pi / (180.0 * 3600.0)
-_ARCMIN = math.pi / (180.0 * 60.0)
-_DEG_H = math.pi / (180.0 * 3600.0)
-_UG = 9.80665e-6
+N_STATES = len(STATE_NAMES)
+#: Indices and slices of X: the initial misalignment (δφE0, δφN0, δφU0), its tilt part
+#: (δφE0, δφN0) and azimuth δφU0; the north drift ε_N; the accelerometer biases (∇x, ∇y);
+#: the gyro drifts (ε_x, ε_y).
+DPHI_E0, DPHI_N0, DPHI_U0, NORTH_DRIFT = 0, 1, 2, 3
+MISALIGNMENT0, TILT0 = slice(DPHI_E0, DPHI_U0 + 1), slice(DPHI_E0, DPHI_N0 + 1)
+ACCEL_BIAS, GYRO_DRIFT = slice(4, 6), slice(6, 8)
 
 
 @dataclass(frozen=True)
@@ -184,11 +186,11 @@ class RotationAlignmentParams:
 
     def state_scales(self) -> np.ndarray:
         """Normalisation scales s (8,) in SI units (rad, rad/s, m/s²)."""
-        tilt = self.tilt_scale_arcsec * _ARCSEC
+        tilt = self.tilt_scale_arcsec * ARCSEC
         return np.array([
-            tilt, tilt, math.radians(self.azimuth_scale_deg), self.north_drift_scale_deg_h * _DEG_H,
-            self.accel_bias_scale_ug * _UG, self.accel_bias_scale_ug * _UG,
-            self.gyro_drift_scale_deg_h * _DEG_H, self.gyro_drift_scale_deg_h * _DEG_H,
+            tilt, tilt, math.radians(self.azimuth_scale_deg), self.north_drift_scale_deg_h * DEG_H,
+            self.accel_bias_scale_ug * UG, self.accel_bias_scale_ug * UG,
+            self.gyro_drift_scale_deg_h * DEG_H, self.gyro_drift_scale_deg_h * DEG_H,
         ])
 
 
@@ -270,8 +272,7 @@ class RotationAlignmentRls:
     """
 
     def __init__(self, params: RotationAlignmentParams) -> None:
-        if not isinstance(params, RotationAlignmentParams):
-            raise TypeError(f"params must be RotationAlignmentParams, got {type(params).__name__}")
+        of_type("params", params, RotationAlignmentParams)
         self.params = params
         lat = params.lat_rad
         self._wN = params.omega_ie_rad_s * math.cos(lat)
@@ -280,7 +281,7 @@ class RotationAlignmentRls:
         self._inv_g = 1.0 / self._g
         self._scales = params.state_scales()
         # white noise of one tilt sample: (N_a / g)² per unit of 1/Δt
-        self._tilt_var_density = (params.accel_noise_ug_rt_hz * _UG / self._g) ** 2
+        self._tilt_var_density = (params.accel_noise_ug_rt_hz * UG / self._g) ** 2
         self.counters = _Counters()
         self._joint: tuple[float, float, float | None] | None = None  # (t, θ_a, rate)
         self._joint_prev: tuple[float, float] | None = None
@@ -437,24 +438,23 @@ class RotationAlignmentRls:
         tau = t - (self._t0 if self._t0 is not None else t)
         # φ(t) = G X: the rows of H without the accelerometer terms, plus
         # δφU(t) = δφU0 + ω_N δφE0 t (ε_U is not a state)
-        G = np.vstack((
-            self._rows(tau, tau * tau, 1.0, 0.0, self._is, self._ic, with_bias=False),
-            [self._wN * tau, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        ))
+        up = np.zeros(N_STATES)
+        up[DPHI_E0], up[DPHI_U0] = self._wN * tau, 1.0
+        G = np.vstack((self._rows(tau, tau * tau, 1.0, 0.0, self._is, self._ic, with_bias=False), up))
         Pg = G @ P @ G.T
         p = self.params
         converged = bool(
             self._n_updates > 0
-            and max(sigma[0], sigma[1]) < p.converged_tilt_arcsec * _ARCSEC
-            and sigma[2] < p.converged_azimuth_arcmin * _ARCMIN
+            and max(sigma[DPHI_E0], sigma[DPHI_N0]) < p.converged_tilt_arcsec * ARCSEC
+            and sigma[DPHI_U0] < p.converged_azimuth_arcmin * ARCMIN
         )
         return AlignmentEstimate(
             t=t, age_s=tau, n_updates=self._n_updates, x=x, P=P, sigma=sigma,
-            misalignment0_enu=x[:3].copy(), misalignment0_sigma_enu=sigma[:3].copy(),
+            misalignment0_enu=x[MISALIGNMENT0].copy(), misalignment0_sigma_enu=sigma[MISALIGNMENT0].copy(),
             misalignment_enu=G @ x, misalignment_sigma_enu=np.sqrt(np.clip(np.diag(Pg), 0.0, None)),
-            north_drift=float(x[3]), north_drift_sigma=float(sigma[3]),
-            gyro_drift_xy=x[6:8].copy(), gyro_drift_sigma_xy=sigma[6:8].copy(),
-            accel_bias_xy=x[4:6].copy(), accel_bias_sigma_xy=sigma[4:6].copy(),
+            north_drift=float(x[NORTH_DRIFT]), north_drift_sigma=float(sigma[NORTH_DRIFT]),
+            gyro_drift_xy=x[GYRO_DRIFT].copy(), gyro_drift_sigma_xy=sigma[GYRO_DRIFT].copy(),
+            accel_bias_xy=x[ACCEL_BIAS].copy(), accel_bias_sigma_xy=sigma[ACCEL_BIAS].copy(),
             converged=converged,
         )
 

@@ -14,8 +14,7 @@ from .cli_boundary import UsageError, cli_boundary
 from .free_gyro import fix_geometry, gyro_azimuth, nadir_angle
 from .geo_pointing import GimbalLimits, PointingSigmas, geo_point, pointing_budget
 from .sighting_chain import dcm_nb, dcm_nm, los_azimuth_elevation
-
-ARCSEC = math.radians(1.0 / 3600.0)
+from .units import ARCSEC
 
 
 def _los(args: argparse.Namespace) -> int:

@@ -333,8 +333,7 @@ def pointing_budget(
     lever_arm_b=(0.0, 0.0, 0.0), min_range_m: float = MIN_RANGE_M,
 ) -> PointingBudget:
     """1σ pointing-error budget of the geo-pointing geometry (module docstring)."""
-    if not isinstance(sigmas, PointingSigmas):
-        raise TypeError(f"sigmas must be PointingSigmas, got {type(sigmas).__name__}")
+    validate.of_type("sigmas", sigmas, PointingSigmas)
     los = los_to_target(vehicle_llh, target_llh, C_nb, lever_arm_b, min_range_m)
     C_nb = check_dcm(C_nb, "C_nb")
     u, R = los.los_n, los.range_m

@@ -9,8 +9,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TypeVar
 
 Number = float | int
+T = TypeVar("T")
+
+
+def of_type(name: str, value: T, cls: type, what: str | None = None) -> T:
+    """``value`` if it is a ``cls``, else ``TypeError`` naming the argument (``what``: how
+    the message names the type, default its class name)."""
+    if not isinstance(value, cls):
+        raise TypeError(f"{name} must be {what or cls.__name__}, got {type(value).__name__}")
+    return value
 
 
 def finite(name: str, value: object) -> float:

@@ -74,12 +74,19 @@ def bias(psi: float, c: float, s: float, psid: float, thd: float, base: tuple, p
 
 
 @njit(cache=True)
-def accelerations(psi: float, th: float, psid: float, thd: float, ta: float, te: float, base: tuple,
-                  p: np.ndarray) -> tuple:
-    """(ψ̈m, θ̈m) = M⁻¹ (τ − h) for applied (saturated) torques (τ_a, τ_e)."""
+def mass_and_bias(psi: float, th: float, psid: float, thd: float, base: tuple, p: np.ndarray) -> tuple:
+    """(M_aa, M_ae, M_ee, h_a, h_e): the mass matrix and the bias torques at the state."""
     c, s = math.cos(th), math.sin(th)
     maa, mae, mee = mass(c, s, p)
     ha, he = bias(psi, c, s, psid, thd, base, p)
+    return maa, mae, mee, ha, he
+
+
+@njit(cache=True)
+def accelerations(psi: float, th: float, psid: float, thd: float, ta: float, te: float, base: tuple,
+                  p: np.ndarray) -> tuple:
+    """(ψ̈m, θ̈m) = M⁻¹ (τ − h) for applied (saturated) torques (τ_a, τ_e)."""
+    maa, mae, mee, ha, he = mass_and_bias(psi, th, psid, thd, base, p)
     ra, re = ta - ha, te - he
     inv_det = 1.0 / (maa * mee - mae * mae)
     return (mee * ra - mae * re) * inv_det, (maa * re - mae * ra) * inv_det
@@ -89,9 +96,7 @@ def accelerations(psi: float, th: float, psid: float, thd: float, ta: float, te:
 def inverse_dynamics(psi: float, th: float, psid: float, thd: float, qdda: float, qdde: float, base: tuple,
                      p: np.ndarray) -> tuple:
     """τ = M q̈ + h (no saturation) [N·m]."""
-    c, s = math.cos(th), math.sin(th)
-    maa, mae, mee = mass(c, s, p)
-    ha, he = bias(psi, c, s, psid, thd, base, p)
+    maa, mae, mee, ha, he = mass_and_bias(psi, th, psid, thd, base, p)
     return maa * qdda + mae * qdde + ha, mae * qdda + mee * qdde + he
 
 

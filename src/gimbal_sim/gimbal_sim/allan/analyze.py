@@ -13,10 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gimbal_kinematics.units import DEG
+
 from .fit import FLICKER_FACTOR, AllanCurve, NoiseFit, allan_curve, dead_fit, fit_noise_terms
 from .stream import AXES, ImuField, Sampling, sampling
 
-DEG = math.pi / 180.0
 #: Non-finite samples above this fraction refuse the record.
 MAX_NONFINITE_FRACTION = 0.01
 #: The record must last at least this many times the longest τ.

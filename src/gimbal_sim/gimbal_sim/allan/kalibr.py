@@ -45,9 +45,10 @@ import yaml
 
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS as EKF_PARAMS
 from gimbal_kinematics.cli_boundary import UsageError
+from gimbal_kinematics.units import DEG, UG
 
-from .analyze import DEG, Characterisation
-from .params import GYRO_TARGETS, UG, filter_noise, gyro_filter_params, ros_params_yaml, set_arguments
+from .analyze import Characterisation
+from .params import GYRO_TARGETS, filter_noise, gyro_filter_params, ros_params_yaml, set_arguments
 
 #: Kalibr's keys, in the order its documentation's example lists them, with their units.
 KEYS = {"accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)",

@@ -21,12 +21,13 @@ import math
 
 import yaml
 
-from .analyze import DEG, Characterisation, axis_json, implausible
+from gimbal_kinematics.units import DEG, UG
+
+from .analyze import Characterisation, axis_json, implausible
 
 #: Sensors of ``sensor_models`` a gyro characterisation can be written for: parameter prefix.
 GYRO_TARGETS = {"gimbal_gyro": "gimbal_gyro", "ins_gyro": "ins_gyro"}
 ACCEL_TARGETS = {"platform_accel": "platform_accel"}
-UG = 9.80665e-6  # m/s² per µg
 
 
 def _usable(res, name: str) -> bool:

@@ -109,6 +109,11 @@ def sensor_stage(values: dict[str, Any], name: str = "sensor_models") -> Callabl
                        values.get("free_gyro_publish_velocity", False))
 
 
+#: The bus field of each sensor sample type.
+_BUS_FIELD = {LguSample: "lgu", FreeGyroSample: "free_gyro", ResolverSample: "resolvers",
+              PlatformImuSample: "platform_imu", GimbalGyroSample: "gyro", EncoderSample: "encoders", InsSample: "ins"}
+
+
 def suite_stage(suite: SensorSuite, name: str = "sensor_models",
                 free_gyro_velocity: bool = False) -> Callable[[Bus], None]:
     """What ``sensor_models`` does with ``suite`` (the stage of :func:`sensor_stage`)."""
@@ -123,20 +128,8 @@ def suite_stage(suite: SensorSuite, name: str = "sensor_models",
         for s in suite.update(truth):
             if record is not None:
                 record(name, sensor_messages(bus.t_ns, s, cov, free_gyro_velocity))
-            if type(s) is LguSample:
-                bus.lgu = s
-            elif type(s) is FreeGyroSample:
-                bus.free_gyro = s
-            elif type(s) is ResolverSample:
-                bus.resolvers = s
-            elif type(s) is PlatformImuSample:
-                bus.platform_imu = s
-            elif type(s) is GimbalGyroSample:
-                bus.gyro = s
-            elif type(s) is EncoderSample:
-                bus.encoders = s
-            elif type(s) is InsSample:
-                bus.ins = s
+            setattr(bus, _BUS_FIELD[type(s)], s)
+            if type(s) is InsSample:
                 # published as a quaternion; readers turn it back into Euler angles
                 bus.ins_euler = euler321_from_quat(quat_canonical(quat_from_euler321(*s.euler)))
     return stage

@@ -26,7 +26,8 @@ from numba import njit
 
 from gimbal_control.los_rate_kernels import S_BIAS_Q, S_BIAS_R, S_CMD_Q, S_CMD_R, los_rate_step
 from gimbal_estimators.gyro_bias_ekf_kernels import (
-    SINGULAR_COS, a_matrix, align_cov, joseph_update3, measurement, measurement_cov, mechanize, propagate,
+    BIAS, BIAS_0, INS_ERROR_0, N_STATES_INS, PSI_0, SINGULAR_COS, a_matrix, align_cov, joseph_update3, measurement,
+    measurement_cov, mechanize, propagate,
 )
 from gimbal_kinematics.gimbal.host_kernels import inertial_rates
 from gimbal_kinematics.quat_kernels import (
@@ -140,7 +141,7 @@ def _propagate_cov(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndar
     P_new, f_e = propagate(P, 0.5 * (A_cov + A1), T, w, eg[G_N_PSD:G_N_PSD + 3], eg[G_QB_PSD:G_QB_PSD + 3],
                            eg[G_PE_VAR:G_PE_VAR + 3], eg[G_TAU_E])
     P[:, :] = P_new
-    if P.shape[0] == 9:
+    if P.shape[0] == N_STATES_INS:
         for i in range(3):
             ef[F_E0 + i] = ef[F_E0 + i] * f_e
     ef[F_T_COV] = ef[F_T_GYRO]
@@ -151,7 +152,7 @@ def _propagate_cov(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndar
 def _realign(ef: np.ndarray, P: np.ndarray, P_keep: np.ndarray) -> None:
     """Re-align from the next measurement, keeping the bias covariance."""
     ef[F_REALIGN] += 1.0
-    P_keep[:, :] = P[3:6, 3:6]
+    P_keep[:, :] = P[BIAS, BIAS]
     ef[F_KEEP] = 1.0
     ef[F_ALIGNED] = 0.0
     ef[F_T_COV] = math.nan
@@ -202,7 +203,7 @@ def _align(ef: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P_keep: np.ndarray,
     ef[F_ALIGNED] = 1.0
     P[:, :] = align_cov(n, R, Je, eg[G_PE_VAR:G_PE_VAR + 3], P_keep if ef[F_KEEP] != 0.0 else Pb0)
     ef[F_KEEP] = 0.0
-    if n == 9:
+    if n == N_STATES_INS:
         ef[F_E0] = ef[F_E1] = ef[F_E2] = 0.0
     ef[F_T_COV] = ef[F_T_GYRO]
     A_cov[:, :] = a_matrix(q_meas, ef[F_CT], ef[F_ST])
@@ -212,19 +213,21 @@ def _align(ef: np.ndarray, P: np.ndarray, A_cov: np.ndarray, P_keep: np.ndarray,
 @njit(cache=True)
 def _apply(ef: np.ndarray, dx: np.ndarray) -> None:
     """Ĉ ← exp([ψ̂×]) Ĉ, b̂ ← b̂ + δb̂, ê ← ê⁺, and the next trapezoid's start corrected."""
-    q = quat_mul(quat_from_rotation_vector(dx[0], dx[1], dx[2]), (ef[F_QX], ef[F_QY], ef[F_QZ], ef[F_QW]))
+    q = quat_mul(quat_from_rotation_vector(dx[PSI_0], dx[PSI_0 + 1], dx[PSI_0 + 2]),
+                 (ef[F_QX], ef[F_QY], ef[F_QZ], ef[F_QW]))
     ef[F_QX], ef[F_QY], ef[F_QZ], ef[F_QW] = q
     for i in range(3):
-        ef[F_B0 + i] = ef[F_B0 + i] + dx[3 + i]
-    if dx.shape[0] == 9:
+        ef[F_B0 + i] = ef[F_B0 + i] + dx[BIAS_0 + i]
+    if dx.shape[0] == N_STATES_INS:
         for i in range(3):
-            ef[F_E0 + i] = dx[6 + i]
+            ef[F_E0 + i] = dx[INS_ERROR_0 + i]
     if ef[F_HAS_W] != 0.0:
         ct, st = ef[F_CT], ef[F_ST]
         ct = ct if abs(ct) >= SINGULAR_COS else math.copysign(SINGULAR_COS, ct)
-        ef[F_WP] = ef[F_WP] - (dx[3] - st * dx[5]) / ct
-        ef[F_WQ] = ef[F_WQ] - dx[4]
-        ef[F_WR] = ef[F_WR] - dx[5]
+        db_x, db_q, db_r = dx[BIAS_0], dx[BIAS_0 + 1], dx[BIAS_0 + 2]
+        ef[F_WP] = ef[F_WP] - (db_x - st * db_r) / ct
+        ef[F_WQ] = ef[F_WQ] - db_q
+        ef[F_WR] = ef[F_WR] - db_r
 
 
 @njit(cache=True)
@@ -247,11 +250,11 @@ def ekf_update(ef: np.ndarray, eg: np.ndarray, P: np.ndarray, A_cov: np.ndarray,
     H = np.zeros((3, n))
     x = np.zeros(n)
     for i in range(3):
-        H[i, i] = 1.0
-        if n == 9:
-            x[6 + i] = ef[F_E0 + i]
+        H[i, PSI_0 + i] = 1.0
+        if n == N_STATES_INS:
+            x[INS_ERROR_0 + i] = ef[F_E0 + i]
             for j in range(3):
-                H[i, 6 + j] = Je[i, j]
+                H[i, INS_ERROR_0 + j] = Je[i, j]
     accepted, x_up, P_up, _, _ = joseph_update3(x, P, z, H, R, eg[G_GATE])
     if accepted:
         ef[F_CONSEC] = 0.0
@@ -372,10 +375,10 @@ def record_ekf(r: np.ndarray, ef: np.ndarray, P: np.ndarray) -> None:
     r[R_EKF] = 1.0
     for i in range(3):
         r[R_EKF_B + i] = ef[F_B0 + i]
-        r[R_EKF_SIG + i] = math.sqrt(P[3 + i, 3 + i])
+        r[R_EKF_SIG + i] = math.sqrt(P[BIAS_0 + i, BIAS_0 + i])
         r[R_EKF_W + i] = ef[F_WP + i]
         for j in range(3):
-            r[R_EKF_COV + 3 * i + j] = P[i, j]
+            r[R_EKF_COV + 3 * i + j] = P[PSI_0 + i, PSI_0 + j]
     for i in range(4):
         r[R_EKF_Q + i] = ef[F_QX + i]
     r[R_EKF_HAS_W] = ef[F_HAS_W]

@@ -32,9 +32,11 @@ import numpy as np
 from scipy.stats import chi2
 
 from gimbal_estimators.gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
+from gimbal_estimators.gyro_bias_ekf_model import GYRO_BIAS, N_STATES_INS, PSI_BIAS
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
 from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.units import DEG_H
 
 from ..core.core_ideal import TruthStabilizer, truth_stabilizer_stage
 from ..core.core_loop import run_stages
@@ -43,7 +45,6 @@ from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
 from ..world.sensors import GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
-_DEG_H = math.pi / 180.0 / 3600.0
 
 #: "Beyond the paper" gyro for the generality check: 30 °/h bias, 10 °/h Gauss-Markov
 #: with τ = 300 s, the paper's ARW.
@@ -172,15 +173,15 @@ class EkfRecorder:
         b_true = np.array([math.cos(az) * ins_bias[0] + math.sin(az) * ins_bias[1], *self.gyro_bias])
         psi = rotation_vector_from_dcm(quat_to_dcm(truth.quat_nm) @ quat_to_dcm(out.quat_nm).T)
         e6 = np.concatenate((psi, b_true - out.bias))
-        P6 = ekf.P[:6, :6]
-        if ekf.n_states == 9:
+        P6 = ekf.P[PSI_BIAS, PSI_BIAS]
+        if ekf.n_states == N_STATES_INS:
             e_all = np.concatenate((e6, self.suite.ins.attitude_error - ekf.ins_error))
             nees_all = float(e_all @ np.linalg.solve(ekf.P, e_all))
         else:
             nees_all = math.nan
         self.rec.append((out.t, out.bias, out.bias_sigma, b_true, psi, np.sqrt(np.diag(out.attitude_cov)),
-                         float(e6 @ np.linalg.solve(P6, e6)), float(e6[4:] @ np.linalg.solve(P6[4:, 4:], e6[4:])),
-                         nees_all))
+                         float(e6 @ np.linalg.solve(P6, e6)),
+                         float(e6[GYRO_BIAS] @ np.linalg.solve(P6[GYRO_BIAS, GYRO_BIAS], e6[GYRO_BIAS])), nees_all))
 
     def run(self, seed: int, duration_s: float, settle_s: float, ekf_s: float) -> BiasEkfRun:
         """The run's metrics (:class:`BiasEkfRun`); ``ekf_s`` the EKF's wall time [s]."""
@@ -196,7 +197,7 @@ class EkfRecorder:
             seed=seed, duration_s=duration_s, settle_s=settle_s, t=t, bias_est=est, bias_sigma=sig, bias_true=tru,
             att_err=att, att_sigma=att_sig, nees_state=nees_s, nees_bias=nees_b, nees_full=nees_f,
             within_3sigma=within,
-            final_bias_error_deg_h=(est[-1] - tru[-1]) / _DEG_H,
+            final_bias_error_deg_h=(est[-1] - tru[-1]) / DEG_H,
             mean_nees_state=float(np.mean(nees_s[late])) if late.any() else math.nan,
             mean_nees_bias=float(np.mean(nees_b[late])) if late.any() else math.nan,
             counters=self.counters, ekf_us_per_gyro=1e6 * ekf_s / max(self.n_gyro, 1),

@@ -37,6 +37,8 @@ import yaml
 from gimbal_control.encoder_fusion import EncoderFusionParams
 from gimbal_control.fusion_kf import FusionKfParams
 
+from gimbal_kinematics.units import DEG
+
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.report import stats
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
@@ -53,7 +55,6 @@ RQ_R = (0.01, 0.1, 1.0, 10.0)
 RQ_Q = (1e-4, 1e-3, 0.01, 0.1, 0.5)
 #: The disturbance scale whose encoder-only peaks are paper 2's ≈ 1.2° (docs/results/paper2.md).
 PAPER_BASELINE_SCALE = 0.2
-_DEG = math.pi / 180.0
 
 
 def rq_variant(r: float, q: float) -> str:
@@ -160,8 +161,8 @@ def rq_run(variant: str, seed: int, options: dict[str, Any]) -> dict[str, Any]:
     slow, fast = velocity_split(s["t"], s["feedback_rad_s"] - s["true_rate_rad_s"], params.encoder_gate_s,
                                 after_s=metrics["settle_s"])
     metrics["rq"] = {"r_counts2": r, "q_counts2": q, "r_over_q": r / q,
-                     "velocity_error_slow_deg_s": float(np.sqrt(np.mean(slow ** 2)) / _DEG),
-                     "velocity_error_fast_deg_s": float(np.sqrt(np.mean(fast ** 2)) / _DEG)}
+                     "velocity_error_slow_deg_s": float(np.sqrt(np.mean(slow ** 2)) / DEG),
+                     "velocity_error_fast_deg_s": float(np.sqrt(np.mean(fast ** 2)) / DEG)}
     return metrics
 
 
@@ -187,7 +188,7 @@ def headline_table(by_variant: dict[str, list[tuple[int, dict]]]) -> tuple[str, 
         peak = stats([1e-3 * f["peak_after_settle"] for f in per_seed.values()])
         out[v] = {"rms_mrad": rms, "peak_mrad": peak}
         lines.append(f"| {v} | {rms['n']} | {rms['mean']:.3f} ± {_sd(rms):.3f} | {peak['mean']:.2f} ± {_sd(peak):.2f} "
-                     f"| {peak['mean'] * 1e-3 / _DEG:.2f} |")
+                     f"| {peak['mean'] * 1e-3 / DEG:.2f} |")
     text = "\n".join(lines) + "\n"
     if "encoder" in fig and "fused" in fig:
         seeds = sorted(set(fig["encoder"]) & set(fig["fused"]))

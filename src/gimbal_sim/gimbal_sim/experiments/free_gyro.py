@@ -19,6 +19,7 @@ import numpy as np
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
 from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
+from gimbal_kinematics.units import ARCSEC
 
 from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams, sailing_position
 from ..world.vehicle import VehicleConfig, VehicleCore
@@ -242,13 +243,12 @@ def pooled_reports(reports: Sequence[dict]) -> FdopMonteCarlo:
     hw = lambda values: float(np.dot(hn, values) / hn.sum())  # noqa: E731
     mean = hw([h["mean_error_arcsec"] for h in head])
     std = math.sqrt(max(hw([h["rms_error_arcsec"] ** 2 for h in head]) - mean * mean, 0.0))
-    arcsec = math.pi / (180.0 * 3600.0)
     return FdopMonteCarlo(
         empirical_cov_ne_m=emp, predicted_cov_ne_m=pred, trace_ratio=float(np.trace(emp) / np.trace(pred)),
         variance_ratios=np.diag(emp) / np.diag(pred), mean_nees=float(w([p["mean_nees"] for p in pos])),
         fdop=float(np.mean([r["free_gyro"]["fdop_mean"] for r in reports])), n_runs=len(reports),
-        n_fixes=int(n.sum()), heading_error_std=std * arcsec,
-        heading_sigma_mean=hw([h["mean_sigma_arcsec"] for h in head]) * arcsec)
+        n_fixes=int(n.sum()), heading_error_std=std * ARCSEC,
+        heading_sigma_mean=hw([h["mean_sigma_arcsec"] for h in head]) * ARCSEC)
 
 
 def run_fdop_monte_carlo(n_runs: int = 200, *, first_seed: int = 1, **options) -> FdopMonteCarlo:

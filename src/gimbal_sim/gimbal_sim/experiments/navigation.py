@@ -67,6 +67,7 @@ from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
 from gimbal_kinematics.four_gimbal import platform_misalignment_enu
 from gimbal_kinematics.rotations import quat_to_dcm
+from gimbal_kinematics.units import ARCSEC, DEG_H, NMI_M, UG
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
 from ..campaign.order_stats import quantile_interval
@@ -80,10 +81,6 @@ from ..world.vehicle import VehicleConfig, VehicleCore
 from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, PAPER3_MISALIGNMENT_ARCSEC, \
     RATE_HZ as SERVO_RATE_HZ, _platform_sim, alignment_setup, run_platform_servo
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-DEG_H = ARCSEC  # 1 °/h = 1″/s in rad/s
-UG = 9.80665e-6
-NMI_M = 1852.0
 #: The alignment phase of ``align_then_navigate`` [s]: 360° and back at 1.2 °/s (Table 2).
 ALIGNMENT_S = 600.0
 #: The navigation phase rate of ``align_then_navigate`` [Hz] (the graph scenario's): at 5 Hz
@@ -216,7 +213,7 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
         "stale_command_ticks": servo.stale_command_ticks, "ticks_without_command": servo.ticks_without_command,
         "navigator_rejected": nav.rejected_nonfinite + nav.rejected_out_of_order + nav.rejected_no_resolver,
         "true_gyro_bias_deg_h": [math.degrees(v) * 3600.0 for v in gyro_bias],
-        "true_accel_bias_ug": [v / 9.80665e-6 for v in accel_bias],
+        "true_accel_bias_ug": [v / UG for v in accel_bias],
         "series": {"t": s[:, 0], "north_m": s[:, 1], "east_m": s[:, 2], "radial_m": s[:, 3],
                    "velocity_ned_m_s": s[:, 4:7], "tilt_en_rad": s[:, 7:9], "pickoff_level_rad": s[:, 9],
                    "azimuth_true_rad": s[:, 10], "azimuth_estimate_rad": s[:, 11]},

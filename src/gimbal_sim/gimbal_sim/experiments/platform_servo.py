@@ -44,6 +44,7 @@ import numpy as np
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
+from gimbal_kinematics.units import ARCSEC
 
 from ..world.plant import paper3_axis_params
 from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
@@ -57,10 +58,8 @@ from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 
-ARCSEC = math.pi / (180.0 * 3600.0)
 #: Paper 3 Table 2 mean initial misalignment (δφE0, δφN0, δφU0) [arcsec].
 PAPER3_MISALIGNMENT_ARCSEC = (-25.0, -36.0, 17.0 * 60.0)
-
 
 RATE_HZ = 1000.0  # paper 3's loop rate, also the simulation and sensor rate here
 

@@ -57,12 +57,12 @@ from dataclasses import dataclass
 import numpy as np
 from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.rotations import body_rates_to_euler_rates, dcm_to_euler321, quat_from_euler321, quat_to_dcm
+from gimbal_kinematics.units import DEG
 from pymavlink.dialects.v20 import common as mavlink
 
 from .link import Codec, quat_wxyz, quat_xyzw, unit_quaternion
 from .pointing import EARTH, VEHICLE, Pointing, Setpoint, los_pitch_yaw, wrap_pi
 
-_DEG = math.pi / 180.0
 F = mavlink  # flag and enum constants
 CAP_FLAGS = (F.GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_AXIS | F.GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_LOCK
              | F.GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_AXIS | F.GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_FOLLOW
@@ -86,9 +86,9 @@ class DeviceParams:
     system_id: int = 1
     component_id: int = mavlink.MAV_COMP_ID_GIMBAL
     gain_1_s: float = 2.0
-    max_rate_rad_s: float = 8.0 * _DEG
-    pitch_min_rad: float = -85.0 * _DEG
-    pitch_max_rad: float = 85.0 * _DEG
+    max_rate_rad_s: float = 8.0 * DEG
+    pitch_min_rad: float = -85.0 * DEG
+    pitch_max_rad: float = 85.0 * DEG
     autopilot_timeout_s: float = 1.0
 
     def __post_init__(self) -> None:
@@ -109,8 +109,8 @@ class DeviceParams:
         """From a ``mavlink_gimbal_device`` node's values (degrees at the edge);
         :class:`ParameterError` names the parameter refused."""
         try:
-            return cls(v["system_id"], v["component_id"], v["gain_1_s"], v["max_rate_deg_s"] * _DEG,
-                       v["pitch_min_deg"] * _DEG, v["pitch_max_deg"] * _DEG, v["autopilot_timeout_s"])
+            return cls(v["system_id"], v["component_id"], v["gain_1_s"], v["max_rate_deg_s"] * DEG,
+                       v["pitch_min_deg"] * DEG, v["pitch_max_deg"] * DEG, v["autopilot_timeout_s"])
         except ValueError as exc:
             text = str(exc).replace("max_rate_rad_s", "max_rate_deg_s").replace("_rad ", "_deg ")
             raise ParameterError(f"parameter {text}") from exc

@@ -17,6 +17,7 @@ from gimbal_kinematics.ros.wire import (
     CLOCK, IMU, JOINT_STATE, NAVSAT_FIX, VECTOR3_STAMPED, ZERO_COV, clock_cdr, diag_cov, gimbal_gyro_covariance,
     imu_cdr, joint_state_cdr, navsat_fix_cdr, vector3_cdr,
 )
+from gimbal_kinematics.units import DEG, UG
 
 from ..world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuiteConfig,
@@ -56,20 +57,19 @@ def truth_messages(t_ns: int, truth: VehicleTruth, plant: str, site=None) -> Mes
 def noise_covariances(c: SensorSuiteConfig) -> dict[str, tuple[float, ...]]:
     """Per-sample variances of the white noise each measurement carries (for the covariance
     fields; biases are not white and are not in them)."""
-    deg = math.pi / 180.0
-    arw = lambda deg_rt_h, rate_hz: (deg_rt_h * deg / 60.0) ** 2 * rate_hz  # noqa: E731
+    arw = lambda deg_rt_h, rate_hz: (deg_rt_h * DEG / 60.0) ** 2 * rate_hz  # noqa: E731
     return {
-        "ins_att": diag_cov([(c.ins.roll_pitch_rms_deg * deg) ** 2] * 2 + [(c.ins.heading_rms_deg * deg) ** 2]),
+        "ins_att": diag_cov([(c.ins.roll_pitch_rms_deg * DEG) ** 2] * 2 + [(c.ins.heading_rms_deg * DEG) ** 2]),
         "ins_rate": diag_cov([arw(c.ins.gyro.arw_deg_rt_h, c.ins_rate_hz)] * 3),
         # the roll axis x has no gyro: REP 145's large-variance marking of one axis
         "gyro": gimbal_gyro_covariance(*[arw(c.gimbal_gyro.arw_deg_rt_h, c.gimbal_gyro_rate_hz)] * 2),
         "lgu": diag_cov([arw(c.lgu1.arw_deg_rt_h, c.lgu_rate_hz)] * 3),
         "p_gyro": diag_cov([arw(c.platform_gyro.arw_deg_rt_h, c.platform_imu_rate_hz)] * 3),
-        "p_accel": diag_cov([(c.platform_accel.noise_ug_rt_hz * 9.80665e-6) ** 2 * c.platform_imu_rate_hz] * 3),
+        "p_accel": diag_cov([(c.platform_accel.noise_ug_rt_hz * UG) ** 2 * c.platform_imu_rate_hz] * 3),
         "fg_rate": diag_cov([arw(c.free_gyro.triad.arw_deg_rt_h, c.free_gyro_rate_hz)] * 3),
         # roll, pitch from the vertical reference; the heading is not measured: its variance
         # is that of a heading uniform on (−π, π], π²/3
-        "fg_level": diag_cov([(c.free_gyro.level_noise_arcsec * deg / 3600.0) ** 2] * 2 + [math.pi**2 / 3.0]),
+        "fg_level": diag_cov([(c.free_gyro.level_noise_arcsec * DEG / 3600.0) ** 2] * 2 + [math.pi**2 / 3.0]),
     }
 
 

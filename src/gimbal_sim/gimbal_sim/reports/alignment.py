@@ -32,15 +32,12 @@ import yaml
 from gimbal_kinematics.earth import normal_gravity
 from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
 from gimbal_kinematics.rotations import euler321_to_dcm
+from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
 
 from ..bag.reader import BagError
 from ..figures import limit_lines, save_stacked, stacked, style
 from .platform_servo import bag_summary, stream_columns
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-ARCMIN = 60.0 * ARCSEC
-DEG_H = ARCSEC  # 1 °/h = 1″/s
-UG = 9.80665e-6
 #: paper 3 Table 2 accuracy: horizontal misalignment, azimuth, north drift
 LIMITS = {"tilt_arcsec": 3.0, "azimuth_arcmin": 1.5, "north_drift_deg_h": 0.006}
 

@@ -32,14 +32,14 @@ from gimbal_estimators.gyro_bias_ekf_params import PARAMS, GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_estimators.nis import NisWindow
 from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.units import ARCSEC_PER_RAD, DEG_H_PER_RAD_S
+
 from ..bag.reader import BagError, read_messages
 from ..bag.ekf_replay import EKF_INPUTS, ekf_outputs
 from ..figures import save_stacked, stacked, style
 
 #: Updates per NIS window (the node's default diagnostics window).
 WINDOW = 100
-_DEG_H = np.degrees(1.0) * 3600.0
-_ARCSEC = np.degrees(1.0) * 3600.0
 
 
 def _ekf_values(bag_dir: Path) -> tuple[dict, str]:
@@ -105,8 +105,8 @@ def consistency_report(bag_dir: Path, out: Path) -> dict:
         "bag": str(bag_dir), "closed_cleanly": contents.closed_cleanly, "read_error": contents.error,
         "parameters": source, "updates": int(accepted_arr.sum()), "outputs": len(stamps),
         "span_s": float(t[-1]),
-        "bias_final_deg_h": (bias[-1] * _DEG_H).tolist(), "bias_sigma_final_deg_h": (sigma[-1] * _DEG_H).tolist(),
-        "innovation_rms_arcsec": (np.sqrt(np.mean(innov[updates] ** 2, axis=0)) * _ARCSEC).tolist()
+        "bias_final_deg_h": (bias[-1] * DEG_H_PER_RAD_S).tolist(), "bias_sigma_final_deg_h": (sigma[-1] * DEG_H_PER_RAD_S).tolist(),
+        "innovation_rms_arcsec": (np.sqrt(np.mean(innov[updates] ** 2, axis=0)) * ARCSEC_PER_RAD).tolist()
         if len(updates) else None,
         "nis": {"dof": 3, "mean": overall.mean, "lower_95": overall.lower, "upper_95": overall.upper,
                 "samples": overall.samples, "verdict": overall.verdict, "window": WINDOW, "windows": len(windows),
@@ -141,8 +141,8 @@ def _plots(out: Path, t: np.ndarray, bias: np.ndarray, sigma: np.ndarray, innov:
     fig, axes = stacked(3, 8.0)
     for i, axis in enumerate(("x (roll channel)", "q", "r")):
         ax = axes[i, 0]
-        ax.plot(t, bias[:, i] * _DEG_H, label=f"b_{axis}", linewidth=1.0)
-        ax.fill_between(t, (bias[:, i] - 3 * sigma[:, i]) * _DEG_H, (bias[:, i] + 3 * sigma[:, i]) * _DEG_H,
+        ax.plot(t, bias[:, i] * DEG_H_PER_RAD_S, label=f"b_{axis}", linewidth=1.0)
+        ax.fill_between(t, (bias[:, i] - 3 * sigma[:, i]) * DEG_H_PER_RAD_S, (bias[:, i] + 3 * sigma[:, i]) * DEG_H_PER_RAD_S,
                         alpha=0.25, label="±3σ")
         style(ax, "[deg/h]")
     save_stacked(fig, axes, out / "bias_3sigma.png", "Gyro bias estimates ±3σ",
@@ -150,7 +150,7 @@ def _plots(out: Path, t: np.ndarray, bias: np.ndarray, sigma: np.ndarray, innov:
     plots.append("bias_3sigma.png")
     fig, axes = stacked(1, 4.5)
     for i, axis in enumerate(("x", "y", "z")):
-        axes[0, 0].plot(t, innov[:, i] * _ARCSEC, label=f"innovation {axis}", linewidth=0.6)
+        axes[0, 0].plot(t, innov[:, i] * ARCSEC_PER_RAD, label=f"innovation {axis}", linewidth=0.6)
     style(axes[0, 0], "[arcsec]")
     save_stacked(fig, axes, out / "innovations.png", "EKF innovations (measured vs predicted C(n,m))",
                  xlabel="time from the first estimate [s]")

@@ -23,15 +23,34 @@ from .operator import operator_figures, operator_tolerance
 from .sighting import SightingSeries, sighting_figures
 
 
-class SightingCollector:
-    """What the ``sighting`` report reads, as the graph records it: ``/truth/gimbal/imu``
-    (quat_nm at every step), ``/truth/gimbal/gyro_bias`` ((0, q, r) at each gyro sample) and
-    the EKF's ``~/bias`` / ``~/bias_sigma`` at each of its outputs (stamp: the output's t)."""
+def _seconds(ns: list[int]) -> np.ndarray:
+    """Log times as a bag reader computes them: ns * 1e-9, one float multiply each."""
+    return np.array([v * 1e-9 for v in ns])
+
+
+class _AttitudeCollector:
+    """``/truth/gimbal/imu``'s quat_nm at every step, with the step stamps."""
 
     def __init__(self, scenario: Scenario) -> None:
         self.rate = scenario.sim_rate_hz
         self.t_ns: list[int] = []
         self.quat: list[tuple[float, ...]] = []
+
+    def _record_attitude(self, bus: Any) -> int:
+        """Record the step's attitude; returns its stamp [ns]."""
+        t_ns = step_stamp_ns(bus.k, self.rate)
+        self.t_ns.append(t_ns)
+        self.quat.append(tuple(bus.truth.quat_nm))
+        return t_ns
+
+
+class SightingCollector(_AttitudeCollector):
+    """What the ``sighting`` report reads, as the graph records it: ``/truth/gimbal/imu``
+    (quat_nm at every step), ``/truth/gimbal/gyro_bias`` ((0, q, r) at each gyro sample) and
+    the EKF's ``~/bias`` / ``~/bias_sigma`` at each of its outputs (stamp: the output's t)."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        super().__init__(scenario)
         self.tb_ns: list[int] = []
         self.bias: list[tuple[float, ...]] = []
         self.te_ns: list[int] = []
@@ -39,9 +58,7 @@ class SightingCollector:
         self.sig: list[tuple[float, ...]] = []
 
     def __call__(self, bus: Any) -> None:
-        t_ns = step_stamp_ns(bus.k, self.rate)
-        self.t_ns.append(t_ns)
-        self.quat.append(tuple(bus.truth.quat_nm))
+        t_ns = self._record_attitude(bus)
         if bus.gyro is not None:
             self.tb_ns.append(t_ns)
             self.bias.append((0.0, *bus.gyro.true_bias))
@@ -53,12 +70,10 @@ class SightingCollector:
 
     def series(self) -> SightingSeries:
         """The series as a bag gives them (:class:`~.sighting.SightingSeries`)."""
-        # log times as a bag reader computes them: ns * 1e-9, one float multiply each
-        seconds = lambda ns: np.array([v * 1e-9 for v in ns])  # noqa: E731
         ekf = {}
         if self.te_ns:
-            ekf = dict(t_ekf=seconds(self.te_ns), bias_est=np.array(self.est), bias_sigma=np.array(self.sig))
-        return SightingSeries(seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
+            ekf = dict(t_ekf=_seconds(self.te_ns), bias_est=np.array(self.est), bias_sigma=np.array(self.sig))
+        return SightingSeries(_seconds(self.t_ns), np.array(self.quat), _seconds(self.tb_ns),
                               np.array(self.bias).reshape(-1, 3), **ekf)
 
     def metrics(self, run_dir: Path) -> dict[str, Any]:
@@ -86,31 +101,27 @@ class SightingOperatorCollector(SightingCollector):
 
     def metrics(self, run_dir: Path) -> dict[str, Any]:
         out = super().metrics(run_dir)
-        out["operator"] = operator_figures(np.array([v * 1e-9 for v in self.to_ns]), np.array(self.err),
+        out["operator"] = operator_figures(_seconds(self.to_ns), np.array(self.err),
                                            np.array(self.cmd), operator_tolerance(run_dir))
         return out
 
 
-class GeoPointingCollector:
+class GeoPointingCollector(_AttitudeCollector):
     """The ``geo_pointing`` report's series: ``/truth/gimbal/imu`` (quat_nm at every step) and
     ``/geo_pointer/budget`` at each step the pointer made one, with the nodes' stamps."""
 
     def __init__(self, scenario: Scenario) -> None:
-        self.rate = scenario.sim_rate_hz
-        self.t_ns: list[int] = []
-        self.quat: list[tuple[float, ...]] = []
+        super().__init__(scenario)
         self.tb_ns: list[int] = []
         self.budget: list[tuple[float, ...]] = []
 
     def __call__(self, bus: Any) -> None:
-        self.t_ns.append(step_stamp_ns(bus.k, self.rate))
-        self.quat.append(tuple(bus.truth.quat_nm))
+        self._record_attitude(bus)
         if bus.geo_budget is not None:
             self.tb_ns.append(bus.geo_budget[0])
             self.budget.append(tuple(bus.geo_budget[1:]))
 
     def metrics(self, run_dir: Path) -> dict[str, Any]:
-        seconds = lambda ns: np.array([v * 1e-9 for v in ns])  # noqa: E731  (as a bag reader: ns * 1e-9)
-        a = geo_pointing_series(run_dir, seconds(self.t_ns), np.array(self.quat), seconds(self.tb_ns),
+        a = geo_pointing_series(run_dir, _seconds(self.t_ns), np.array(self.quat), _seconds(self.tb_ns),
                                 np.array(self.budget).reshape(-1, 3))
         return {"geo_pointing": geo_pointing_figures(a)}

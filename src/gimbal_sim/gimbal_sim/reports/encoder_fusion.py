@@ -19,13 +19,13 @@ bars, and the velocity error against the gyro bias. Paper 2's figure is
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 from gimbal_kinematics.los import inertial_los, los_from_quat
+from gimbal_kinematics.units import DEG
 
 from ..bag.reader import BagError
 from .common import load_series, plot, site_rate_n, vehicle_site
@@ -35,7 +35,6 @@ from .generic import generic_report
 SETTLE_S = 5.0
 CONTROLLER = "encoder_fusion_controller"
 PAPER_IMPROVEMENT = 10.0
-_DEG = math.pi / 180.0
 
 
 def _stamp_ns(msg) -> int:
@@ -137,9 +136,9 @@ def run_metrics(run: FusionRun) -> dict:
             "rms": float(1e6 * np.sqrt(np.mean(run.error ** 2))),
             "final": float(1e6 * run.error[-1]),
         },
-        "velocity_error_mean_deg_s": (vel_mean / _DEG).tolist(),
-        "velocity_error_rms_deg_s": (vel_rms / _DEG).tolist(),
-        "gyro_bias_mean_deg_s": (bias_mean / _DEG).tolist(),
+        "velocity_error_mean_deg_s": (vel_mean / DEG).tolist(),
+        "velocity_error_rms_deg_s": (vel_rms / DEG).tolist(),
+        "gyro_bias_mean_deg_s": (bias_mean / DEG).tolist(),
         # the encoder-mode velocity involves no gyro: the fraction means nothing there
         "bias_in_velocity_fraction": None if run.mode == "encoder" else (vel_mean / bias_mean).tolist(),
         "kf_updates": int(len(run.corr_t)),
@@ -147,8 +146,8 @@ def run_metrics(run: FusionRun) -> dict:
     if len(run.corr_t) and len(run.bias_t):
         k = int(np.searchsorted(run.bias_t, run.corr_t[-1]))
         b = run.bias[min(k, len(run.bias_t) - 1)]
-        metrics["final_drift_correction_deg_s"] = (run.corr[-1] / _DEG).tolist()
-        metrics["final_drift_residual_deg_s"] = ((run.corr[-1] + b) / _DEG).tolist()
+        metrics["final_drift_correction_deg_s"] = (run.corr[-1] / DEG).tolist()
+        metrics["final_drift_residual_deg_s"] = ((run.corr[-1] + b) / DEG).tolist()
     return metrics
 
 
@@ -168,12 +167,12 @@ def _velocity_vs_bias_plot(path: Path, runs: dict[str, FusionRun]) -> None:
     fig, axes = stacked(2, 6.5)
     for i, (ax, axis) in enumerate(zip(axes[:, 0], ("q_m (elevation)", "r_m (azimuth)"))):
         first = next(iter(runs.values()))
-        ax.plot(first.bias_t, first.bias[:, i] / _DEG, "k--", linewidth=1.2, label="true gyro bias")
+        ax.plot(first.bias_t, first.bias[:, i] / DEG, "k--", linewidth=1.2, label="true gyro bias")
         for name, run in runs.items():
             tc, mean = _window_means(run.fb_t, run.fb_error, 0.5)
-            ax.plot(tc, mean[:, i] / _DEG, label=f"{name}: feedback − true velocity (0.5 s means)", linewidth=1.0)
+            ax.plot(tc, mean[:, i] / DEG, label=f"{name}: feedback − true velocity (0.5 s means)", linewidth=1.0)
             if len(run.corr_t):
-                ax.plot(run.corr_t, -run.corr[:, i] / _DEG, ":", label=f"{name}: −drift correction", linewidth=1.2)
+                ax.plot(run.corr_t, -run.corr[:, i] / DEG, ":", label=f"{name}: −drift correction", linewidth=1.2)
         style(ax, f"{axis} [deg/s]", fontsize=7)
     save_stacked(fig, axes, path, "Estimated velocity error against the gyro bias")
 

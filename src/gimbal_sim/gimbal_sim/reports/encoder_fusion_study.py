@@ -3,15 +3,14 @@ estimated velocity traces of the paper's pairs (like its Figs. 5–7) and the gr
 figures against R and Q."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..figures import pyplot, save
+from gimbal_kinematics.units import DEG
 
-_DEG = math.pi / 180.0
+from ..figures import pyplot, save
 
 
 def velocity_traces_plot(path: Path, traces: dict[str, dict[str, np.ndarray]], span_s: tuple[float, float]) -> None:
@@ -23,13 +22,13 @@ def velocity_traces_plot(path: Path, traces: dict[str, dict[str, np.ndarray]], s
     for ax, (label, s) in zip(np.atleast_1d(axes), traces.items()):
         t = s["t"]
         keep = (t >= span_s[0]) & (t <= span_s[1])
-        err = (s["feedback_rad_s"][keep, 1] - s["true_rate_rad_s"][keep, 1]) / _DEG
+        err = (s["feedback_rad_s"][keep, 1] - s["true_rate_rad_s"][keep, 1]) / DEG
         # 20 ms means: the gyro's 1 kHz white noise would hide the filter's corrections
         n = 20
         m = len(err) // n * n
         tm = t[keep][:m].reshape(-1, n).mean(axis=1)
         ax.plot(tm, err[:m].reshape(-1, n).mean(axis=1), linewidth=0.9, label="estimated − true velocity (20 ms means)")
-        ax.plot(t[keep], s["gyro_bias_rad_s"][keep, 1] / _DEG, "k--", linewidth=1.0, label="raw gyro error (bias)")
+        ax.plot(t[keep], s["gyro_bias_rad_s"][keep, 1] / DEG, "k--", linewidth=1.0, label="raw gyro error (bias)")
         ax.axhline(0.0, color="grey", linewidth=0.6)
         ax.set_ylabel("r_m [deg/s]")
         ax.set_title(label, fontsize=9)

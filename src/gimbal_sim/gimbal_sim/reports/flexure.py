@@ -23,14 +23,14 @@ from typing import Any
 import numpy as np
 import yaml
 
+from gimbal_kinematics.units import ARCSEC, DEG_H
+
 from ..bag.reader import BagError, scan
 from ..figures import save, stacked
 from ..graph.registry import NODE_TYPES
 from .common import load_series
 from .generic import generic_report
 
-_ARCSEC = math.pi / 180.0 / 3600.0
-_DEG_H = math.pi / 180.0 / 3600.0
 AXES = ("roll", "pitch", "yaw")
 ESTIMATOR = "flexure_estimator"
 #: Estimator output stems (each with a ``_sigma`` companion).
@@ -71,7 +71,7 @@ def flexure_metrics(s: dict[str, np.ndarray], convergence_s: float, settle_deg_h
     qs_true = s["truth_quasi_static"]
     rms = lambda e: np.sqrt(np.mean(e * e, axis=0))  # noqa: E731
     sig = s["flexure_sigma"][sel]
-    outside = np.any(np.abs(e_eps_all) > settle_deg_h * _DEG_H, axis=1)
+    outside = np.any(np.abs(e_eps_all) > settle_deg_h * DEG_H, axis=1)
     if outside[-1]:
         settle = math.nan
     else:
@@ -79,20 +79,20 @@ def flexure_metrics(s: dict[str, np.ndarray], convergence_s: float, settle_deg_h
         settle = float(t[idx[-1] + 1]) if idx.size else float(t[0])
     last = t >= t[-1] - 600.0
     return {
-        "total_rms_arcsec": rms(e_tot) / _ARCSEC,
-        "total_max_arcsec": np.max(np.abs(e_tot), axis=0) / _ARCSEC,
-        "total_sigma_rms_arcsec": rms(sig) / _ARCSEC,
-        "qs_rms_arcsec": rms(e_qs) / _ARCSEC,
-        "qs_max_arcsec": np.max(np.abs(e_qs), axis=0) / _ARCSEC,
-        "qs_variation_pp_arcsec": np.ptp(qs_true, axis=0) / _ARCSEC,
-        "qs_variation_rms_arcsec": np.std(qs_true[sel], axis=0) / _ARCSEC,
+        "total_rms_arcsec": rms(e_tot) / ARCSEC,
+        "total_max_arcsec": np.max(np.abs(e_tot), axis=0) / ARCSEC,
+        "total_sigma_rms_arcsec": rms(sig) / ARCSEC,
+        "qs_rms_arcsec": rms(e_qs) / ARCSEC,
+        "qs_max_arcsec": np.max(np.abs(e_qs), axis=0) / ARCSEC,
+        "qs_variation_pp_arcsec": np.ptp(qs_true, axis=0) / ARCSEC,
+        "qs_variation_rms_arcsec": np.std(qs_true[sel], axis=0) / ARCSEC,
         "qs_max_over_variation_pp": np.max(np.abs(e_qs), axis=0) / np.ptp(qs_true, axis=0),
         "helm_error_fraction": (_tone_amplitude(t[sel], e_qs, helm_period_s)
                                 / _tone_amplitude(t[sel], qs_true[sel], helm_period_s)),
-        "bias_diff_err_final_deg_h": e_eps[-1] / _DEG_H,
-        "bias_diff_err_max_deg_h": np.max(np.abs(e_eps), axis=0) / _DEG_H,
-        "bias_diff_err_rms_deg_h": rms(e_eps) / _DEG_H,
-        "bias_diff_err_last600_max_deg_h": np.max(np.abs(e_eps_all[last]), axis=0) / _DEG_H,
+        "bias_diff_err_final_deg_h": e_eps[-1] / DEG_H,
+        "bias_diff_err_max_deg_h": np.max(np.abs(e_eps), axis=0) / DEG_H,
+        "bias_diff_err_rms_deg_h": rms(e_eps) / DEG_H,
+        "bias_diff_err_last600_max_deg_h": np.max(np.abs(e_eps_all[last]), axis=0) / DEG_H,
         "total_within_3sigma": float(np.mean(np.all(np.abs(e_tot) <= 3.0 * sig, axis=1))),
         "total_nees_mean": float(np.mean(np.sum((e_tot / np.maximum(sig, 1e-300)) ** 2, axis=1))),
         "bias_diff_settle_s": settle,
@@ -167,8 +167,8 @@ def load_flexure_runs(bag_dir: Path) -> tuple[dict[str, dict[str, np.ndarray]], 
         raise BagError(f"{bag_dir}: the two flexure truth topics do not share their stamps")
     nodes = _run_config(bag_dir)
     eps_true = (float(_param(nodes, "sensor_models", "lgu1_bias_deg_h"))
-                - float(_param(nodes, "sensor_models", "lgu2_bias_deg_h"))) * _DEG_H
-    settings = {"true_bias_diff_deg_h": eps_true / _DEG_H,
+                - float(_param(nodes, "sensor_models", "lgu2_bias_deg_h"))) * DEG_H
+    settings = {"true_bias_diff_deg_h": eps_true / DEG_H,
                 "helm_period_s": float(_param(nodes, "sensor_models", "flexure_helm_period_s"))}
     runs: dict[str, dict[str, np.ndarray]] = {}
     for node in models:
@@ -232,7 +232,7 @@ def _axes_figure(path: Path, title: str, t: np.ndarray, rows: list[tuple[str, di
 
 
 def _as(x: np.ndarray) -> np.ndarray:
-    return x / _ARCSEC
+    return x / ARCSEC
 
 
 def flexure_report(bag_dir: Path, out: Path, convergence_s: float = 600.0) -> dict:
@@ -276,9 +276,9 @@ def flexure_report(bag_dir: Path, out: Path, convergence_s: float = 600.0) -> di
         ], zoom_from_s=zoom)
         _axes_figure(out / f"{node}_bias_diff.png", f"{node} ({model}): bias difference ε1 − ε2 (paper 5 Figs. 5, 8)",
                      t, [
-            ("ε1 − ε2 [°/h]", {"truth": s["truth_bias_diff"] / _DEG_H, "estimate": s["bias_diff"] / _DEG_H}, None),
-            ("error [°/h]", {"error": (s["bias_diff"] - s["truth_bias_diff"]) / _DEG_H},
-             3.0 * s["bias_diff_sigma"] / _DEG_H),
+            ("ε1 − ε2 [°/h]", {"truth": s["truth_bias_diff"] / DEG_H, "estimate": s["bias_diff"] / DEG_H}, None),
+            ("error [°/h]", {"error": (s["bias_diff"] - s["truth_bias_diff"]) / DEG_H},
+             3.0 * s["bias_diff_sigma"] / DEG_H),
         ], zoom_from_s=zoom)
         plots += [f"{node}_estimates.png", f"{node}_errors.png", f"{node}_bias_diff.png"]
     t = first["t"]
@@ -295,4 +295,4 @@ def flexure_report(bag_dir: Path, out: Path, convergence_s: float = 600.0) -> di
 
 def _interp(t: np.ndarray, ts: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``y`` (M, 3) sampled at ``ts`` resampled to ``t`` (N,) [rad → arcsec]."""
-    return np.column_stack([np.interp(t, ts, y[:, a]) for a in range(3)]) / _ARCSEC
+    return np.column_stack([np.interp(t, ts, y[:, a]) for a in range(3)]) / ARCSEC

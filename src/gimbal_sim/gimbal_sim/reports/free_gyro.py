@@ -19,6 +19,7 @@ import numpy as np
 from gimbal_kinematics.earth import earth_rate_n, meridian_radius, prime_vertical_radius
 from gimbal_kinematics.free_gyro import heading_error
 from gimbal_kinematics.rotations import quat_to_dcm, quat_to_euler321
+from gimbal_kinematics.units import ARCSEC
 
 from ..bag.reader import BagError
 from .common import load_series, plot
@@ -29,7 +30,6 @@ NODE = "/free_gyro_positioning"
 TOPICS = {f"{NODE}/fix", f"{NODE}/heading", f"{NODE}/heading_earth_rate", f"{NODE}/geometry",
           f"{NODE}/predicted_position", f"{NODE}/predicted_heading",
           "/truth/free_gyro/position", "/truth/free_gyro/triad_bias", "/truth/host/imu"}
-ARCSEC = math.pi / (180.0 * 3600.0)
 
 
 def _stamp(msg) -> float:

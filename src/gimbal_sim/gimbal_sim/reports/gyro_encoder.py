@@ -12,18 +12,17 @@ error against the gyro's.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from gimbal_kinematics.units import DEG
+
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style
 from .common import load_series
 from .generic import generic_report
-
-_DEG = math.pi / 180.0
 
 
 @dataclass
@@ -53,16 +52,16 @@ def figures(s: GyroEncoderSeries) -> dict:
     gyro_at_enc = np.interp(s.t_enc, s.t_gyro, rate)
     return {
         "duration_s": float(span),
-        "gyro_angle_final_deg": float(gyro_angle[-1] / _DEG),
-        "encoder_angle_change_deg": float((enc_angle[-1] - enc_angle[0]) / _DEG),
-        "drift_deg": float((gyro_angle[-1] - (enc_angle[-1] - enc_angle[0])) / _DEG),
-        "bias_integral_deg": float(bias_angle[-1] / _DEG),
-        "gyro_rate_mean_deg_s": float(np.mean(rate) / _DEG),
-        "gyro_rate_std_deg_s": float(np.std(rate) / _DEG),
-        "encoder_speed_mean_deg_s": float(np.mean(enc_speed[first_gate:]) / _DEG) if first_gate < len(enc_speed)
+        "gyro_angle_final_deg": float(gyro_angle[-1] / DEG),
+        "encoder_angle_change_deg": float((enc_angle[-1] - enc_angle[0]) / DEG),
+        "drift_deg": float((gyro_angle[-1] - (enc_angle[-1] - enc_angle[0])) / DEG),
+        "bias_integral_deg": float(bias_angle[-1] / DEG),
+        "gyro_rate_mean_deg_s": float(np.mean(rate) / DEG),
+        "gyro_rate_std_deg_s": float(np.std(rate) / DEG),
+        "encoder_speed_mean_deg_s": float(np.mean(enc_speed[first_gate:]) / DEG) if first_gate < len(enc_speed)
         else 0.0,
-        "encoder_speed_levels_deg_s": sorted({round(float(v) / _DEG, 6) for v in enc_speed}),
-        "encoder_speed_error_rms_deg_s": float(np.sqrt(np.mean((enc_speed - gyro_at_enc)[first_gate:] ** 2)) / _DEG)
+        "encoder_speed_levels_deg_s": sorted({round(float(v) / DEG, 6) for v in enc_speed}),
+        "encoder_speed_error_rms_deg_s": float(np.sqrt(np.mean((enc_speed - gyro_at_enc)[first_gate:] ** 2)) / DEG)
         if first_gate < len(enc_speed) else 0.0,
         "series": {"gyro_angle": gyro_angle, "rate": rate, "enc_angle": enc_angle - enc_angle[0],
                    "enc_speed": enc_speed, "bias_angle": bias_angle},
@@ -89,13 +88,13 @@ def plot(path: Path, s: GyroEncoderSeries, fig: dict) -> None:
     f, axes = stacked(2, 6.5)
     ser = fig["series"]
     ax = axes[0, 0]
-    ax.plot(s.t_gyro, ser["rate"] / _DEG, linewidth=0.6, label="gyro r_m / cos θm")
-    ax.step(s.t_enc, ser["enc_speed"] / _DEG, where="post", linewidth=1.0, label="encoder pulse-count speed (eq. 1)")
+    ax.plot(s.t_gyro, ser["rate"] / DEG, linewidth=0.6, label="gyro r_m / cos θm")
+    ax.step(s.t_enc, ser["enc_speed"] / DEG, where="post", linewidth=1.0, label="encoder pulse-count speed (eq. 1)")
     style(ax, "speed about the axis [deg/s]", fontsize=7)
     ax = axes[1, 0]
-    ax.plot(s.t_gyro, ser["gyro_angle"] / _DEG, label="gyro-integrated angle")
-    ax.step(s.t_enc, ser["enc_angle"] / _DEG, where="post", label="encoder angle (counts)")
-    ax.plot(s.t_gyro, ser["bias_angle"] / _DEG, "k--", linewidth=0.8, label="∫ true bias dt")
+    ax.plot(s.t_gyro, ser["gyro_angle"] / DEG, label="gyro-integrated angle")
+    ax.step(s.t_enc, ser["enc_angle"] / DEG, where="post", label="encoder angle (counts)")
+    ax.plot(s.t_gyro, ser["bias_angle"] / DEG, "k--", linewidth=0.8, label="∫ true bias dt")
     style(ax, "angle about the axis [deg]", fontsize=7)
     save_stacked(f, axes, path, "Gyro against encoder about one axis (paper 2 Figs. 2, 3)")
 

@@ -34,8 +34,10 @@ from typing import Callable
 
 import yaml
 
+from gimbal_kinematics.units import ARCSEC, DEG_H, UG
+
 from ..bag.reader import BagError
-from .alignment import ARCSEC, DEG_H, UG, alignment_series
+from .alignment import alignment_series
 
 #: The hand-off's parameter file and figures, written into the prelude's run directory.
 PARAMS_FILE, FIGURES_FILE = "hand_off.yaml", "hand_off.json"

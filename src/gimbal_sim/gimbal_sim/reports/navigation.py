@@ -30,14 +30,13 @@ from pathlib import Path
 import numpy as np
 
 from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.units import ARCSEC, NMI_M, UG
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style
 from .hand_off import FIGURES_FILE
 from .platform_servo import bag_summary, stream_columns
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-NMI_M = 1852.0
 FIX, VELOCITY = "/platform_navigator/fix", "/platform_navigator/velocity"
 TRUTH_FIX, TRUTH_VELOCITY = "/truth/host/fix", "/truth/host/velocity"
 CONTROL_ERROR = "/platform_servo/control_error"
@@ -121,7 +120,7 @@ def navigation_figures(e: dict) -> dict:
     if len(e["gyro_bias"]):
         out["true_gyro_bias_deg_h"] = (np.degrees(e["gyro_bias"][0]) * 3600.0).tolist()
     if len(e["accel_bias"]):
-        out["true_accel_bias_ug"] = (e["accel_bias"][0] / 9.80665e-6).tolist()
+        out["true_accel_bias_ug"] = (e["accel_bias"][0] / UG).tolist()
     return out
 
 

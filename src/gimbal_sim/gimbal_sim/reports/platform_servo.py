@@ -25,19 +25,19 @@ Acceptance: steady control error < 40″ (goal 20″), reversal transient < 240�
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from gimbal_kinematics.units import ARCSEC
+
 from ..bag.reader import BagContents, BagError, stream
 from ..bag.schemas import message_class
 from ..world.plant.platform_loops import PAPER3_TABLE1
 from ..figures import limit_lines, save_stacked, stacked, style
 
-ARCSEC = math.pi / (180.0 * 3600.0)
 SETTLE_S = 2.0
 TRANSIENT_WINDOW_S = 2.0
 LIMITS_ARCSEC = {"steady": (40.0, 20.0), "reversal": (240.0, 120.0)}  # (paper, goal)

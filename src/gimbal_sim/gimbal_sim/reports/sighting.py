@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
+from gimbal_kinematics.units import DEG_H_PER_RAD_S
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style
@@ -37,7 +38,6 @@ TRUTH_LOS = "/truth/gimbal/imu"
 TRUTH_BIAS = "/truth/gimbal/gyro_bias"
 EKF_BIAS = "/gyro_bias_ekf/bias"
 EKF_SIGMA = "/gyro_bias_ekf/bias_sigma"
-_DEG_H = math.degrees(1.0) * 3600.0  # rad/s -> deg/h
 
 
 def _interp_columns(t: np.ndarray, tp: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -113,7 +113,7 @@ def analyse_series(s: SightingSeries, lat: float, earth_rate: bool) -> dict:
         late = te >= SETTLE_S
         nees = np.sum((err / sig[:, 1:]) ** 2, axis=1)
         out.update(t_ekf=te, bias_est=est, bias_sigma=sig, bias_true=tru, nees_bias=nees,
-                   final_bias_error_deg_h=err[-1] * _DEG_H,
+                   final_bias_error_deg_h=err[-1] * DEG_H_PER_RAD_S,
                    within_3sigma=np.mean(np.abs(err[late]) <= 3.0 * sig[late, 1:], axis=0) if late.any()
                    else np.full(2, np.nan),
                    mean_nees_bias=float(np.mean(nees[late])) if late.any() else math.nan)
@@ -161,7 +161,7 @@ def _plot_bias(path: Path, a: dict, title: str) -> None:
     fig, axes = stacked(2, 6.5)
     te = a["t_ekf"]
     for j, (axis_name, ax) in enumerate(zip(("q (elevation gyro)", "r (azimuth gyro)"), axes[:, 0])):
-        est, sig, tru = a["bias_est"][:, j + 1] * _DEG_H, a["bias_sigma"][:, j + 1] * _DEG_H, a["bias_true"][:, j + 1] * _DEG_H
+        est, sig, tru = a["bias_est"][:, j + 1] * DEG_H_PER_RAD_S, a["bias_sigma"][:, j + 1] * DEG_H_PER_RAD_S, a["bias_true"][:, j + 1] * DEG_H_PER_RAD_S
         ax.fill_between(te, est - 3 * sig, est + 3 * sig, color="C0", alpha=0.2, label="estimate ±3σ")
         ax.plot(te, est, color="C0", linewidth=1.0, label="EKF estimate")
         ax.plot(te, tru, "k", linewidth=1.0, label="truth")

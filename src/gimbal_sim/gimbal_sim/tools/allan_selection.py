@@ -22,7 +22,9 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import lfilter
 
-from ..allan.analyze import DEG, analyze
+from gimbal_kinematics.units import DEG
+
+from ..allan.analyze import analyze
 from ..allan.stream import ImuField
 
 RATE_HZ = 10.0

@@ -53,7 +53,6 @@ from gimbal_kinematics.gimbal.turret_base import site_environment
 PLANTS = ("two_axis_gimbal", "four_gimbal_platform", "host_only")
 PLATFORM_INTEGRATORS = ("rk4", "quasi_static")
 _PLATFORM_AXES = ("a", "q", "p", "r")
-ARCSEC = math.radians(1.0 / 3600.0)
 
 
 @dataclass(frozen=True)

@@ -51,10 +51,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from gimbal_kinematics.gimbal.host_state import HostState
+from gimbal_kinematics.units import DEG
 
 from . import profile_kernels
-
-_DEG = math.pi / 180.0
 
 
 @dataclass(frozen=True)
@@ -75,11 +74,11 @@ class Site:
 
     @property
     def lat_rad(self) -> float:
-        return self.lat_deg * _DEG
+        return self.lat_deg * DEG
 
     @property
     def lon_rad(self) -> float:
-        return self.lon_deg * _DEG
+        return self.lon_deg * DEG
 
 
 @dataclass(frozen=True)
@@ -189,9 +188,9 @@ def _deg_channel(name: str, terms: Sequence[tuple[float, float, float]], offset_
                  rate_deg_s: float = 0.0) -> SinusoidChannel:
     """Channel from (amplitude_deg, frequency_rad_s, phase_rad) terms."""
     return SinusoidChannel(
-        offset=offset_deg * _DEG,
-        rate=rate_deg_s * _DEG,
-        amplitudes=tuple(a * _DEG for a, _, _ in terms),
+        offset=offset_deg * DEG,
+        rate=rate_deg_s * DEG,
+        amplitudes=tuple(a * DEG for a, _, _ in terms),
         frequencies_rad_s=tuple(float(w) for _, w, _ in terms),
         phases_rad=tuple(float(ph) for _, _, ph in terms),
         name=name,
@@ -349,7 +348,7 @@ def _make_sinusoids(params: Mapping[str, Any]) -> SinusoidProfile:
     kwargs: dict[str, SinusoidChannel] = {}
     for key in _ANGLE_CHANNELS:
         if key in params:
-            kwargs[key] = _channel(profile, key, params[key], "deg", "deg_s", _DEG, key)
+            kwargs[key] = _channel(profile, key, params[key], "deg", "deg_s", DEG, key)
     for key, attr in _ACCEL_CHANNELS.items():
         if key in params:
             kwargs[attr] = _channel(profile, key, params[key], "m_s2", "m_s3", 1.0, key)

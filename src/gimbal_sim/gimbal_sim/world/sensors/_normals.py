@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from gimbal_kinematics.validate import of_type
+
 _BLOCK = 4096
 
 
@@ -18,8 +20,7 @@ class NormalStream:
     __slots__ = ("_rng", "_buf", "_j")
 
     def __init__(self, rng: np.random.Generator) -> None:
-        if not isinstance(rng, np.random.Generator):
-            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        of_type("rng", rng, np.random.Generator, "a numpy.random.Generator")
         self._rng = rng
         self._buf: list[float] = []
         self._j = 0

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import UG_G0, UG_RT_HZ
 from .inertial_core import ErrorSpecSI, InertialErrorCore
-from .units import UG, UG_RT_HZ
 
 
 @dataclass(frozen=True)
@@ -48,9 +48,9 @@ class AccelerometerParams:
     def to_si(self) -> ErrorSpecSI:
         """The same terms in m/s² and m/s/√s."""
         return ErrorSpecSI(
-            bias=tuple(b * UG for b in self.bias_ug),  # type: ignore[union-attr]
-            bias_sigma=self.bias_sigma_ug * UG,
-            gm_sigma=self.bias_instability_ug * UG,
+            bias=tuple(b * UG_G0 for b in self.bias_ug),  # type: ignore[union-attr]
+            bias_sigma=self.bias_sigma_ug * UG_G0,
+            gm_sigma=self.bias_instability_ug * UG_G0,
             gm_tau=float(self.bias_instability_tau_s),
             white_density=self.noise_ug_rt_hz * UG_RT_HZ,
             scale_factor=tuple(s * 1e-6 for s in self.scale_factor_ppm),  # type: ignore[union-attr]
@@ -71,8 +71,7 @@ class AccelerometerModel(InertialErrorCore):
     """
 
     def __init__(self, params: AccelerometerParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, AccelerometerParams):
-            raise TypeError(f"params must be AccelerometerParams, got {type(params).__name__}")
+        v.of_type("params", params, AccelerometerParams)
         self.params = params
         super().__init__(params.to_si(), n_axes, rng, dt)
 

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import DEG
 from ._normals import NormalStream
 from .sensor_kernels import encoder_step
-from .units import DEG
 
 
 @dataclass(frozen=True)
@@ -72,8 +72,7 @@ class EncoderModel:
     """
 
     def __init__(self, params: EncoderParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, EncoderParams):
-            raise TypeError(f"params must be EncoderParams, got {type(params).__name__}")
+        v.of_type("params", params, EncoderParams)
         if not isinstance(n_axes, int) or n_axes < 1:
             raise ValueError(f"n_axes must be an int >= 1, got {n_axes!r}")
         v.positive("dt", dt)

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import ARCSEC, DEG, DEG_H
 from .markov import SecondOrderGaussMarkov
-from .units import ARCSEC, DEG, DEG_H
 
 _AXES = 3
 
@@ -80,8 +80,7 @@ class ShipFlexureTruth:
     """
 
     def __init__(self, params: FlexureParams, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, FlexureParams):
-            raise TypeError(f"params must be FlexureParams, got {type(params).__name__}")
+        v.of_type("params", params, FlexureParams)
         self.params = params
         p = params
         self._phi0 = [x * DEG for x in p.initial_deg]  # type: ignore[union-attr]

@@ -39,9 +39,9 @@ from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import ARCSEC, DEG_H
 from ._normals import NormalStream
 from .gyro import GyroModel, GyroParams
-from .units import ARCSEC, DEG_H
 
 #: Body triad default: a navigation-grade triad (ARW 0.002 °/√h); the paper gives no figure.
 FREE_GYRO_TRIAD = GyroParams(arw_deg_rt_h=0.002)
@@ -153,10 +153,8 @@ class FreeGyroSensor:
     """
 
     def __init__(self, params: FreeGyroSensorParams, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, FreeGyroSensorParams):
-            raise TypeError(f"params must be FreeGyroSensorParams, got {type(params).__name__}")
-        if not isinstance(rng, np.random.Generator):
-            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        v.of_type("params", params, FreeGyroSensorParams)
+        v.of_type("rng", rng, np.random.Generator, "a numpy.random.Generator")
         v.positive("dt", dt)
         self.params = params
         r_pick, r_drift, r_triad, r_level = rng.spawn(4)

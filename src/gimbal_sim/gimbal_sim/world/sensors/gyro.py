@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
 from .inertial_core import ErrorSpecSI, InertialErrorCore
-from .units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
 
 
 def _misalignment(name: str, value: object) -> tuple[tuple[float, ...], ...] | None:
@@ -107,8 +107,7 @@ class GyroModel(InertialErrorCore):
     """
 
     def __init__(self, params: GyroParams, n_axes: int, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, GyroParams):
-            raise TypeError(f"params must be GyroParams, got {type(params).__name__}")
+        v.of_type("params", params, GyroParams)
         self.params = params
         super().__init__(params.to_si(), n_axes, rng, dt)
 

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gimbal_kinematics import validate as v
+from gimbal_kinematics.units import DEG
 from .gyro import PAPER1_INS_GYRO, GyroModel, GyroParams
 from .markov import FirstOrderGaussMarkov
-from .units import DEG
 
 
 @dataclass(frozen=True)
@@ -69,10 +69,8 @@ class InsModel:
     """
 
     def __init__(self, params: InsParams, rng: np.random.Generator, dt: float) -> None:
-        if not isinstance(params, InsParams):
-            raise TypeError(f"params must be InsParams, got {type(params).__name__}")
-        if not isinstance(rng, np.random.Generator):
-            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        v.of_type("params", params, InsParams)
+        v.of_type("rng", rng, np.random.Generator, "a numpy.random.Generator")
         self.params = params
         rng_att, rng_gyro = rng.spawn(2)
         rp = params.roll_pitch_rms_deg * DEG

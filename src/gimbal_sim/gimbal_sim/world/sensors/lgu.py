@@ -25,6 +25,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from gimbal_kinematics.validate import of_type
+
 from .flexure import ShipFlexureTruth
 from .gyro import LGU1_GYRO, LGU2_GYRO, GyroModel, GyroParams
 
@@ -69,10 +71,8 @@ class LguPair:
         lgu1: GyroParams = LGU1_GYRO,
         lgu2: GyroParams = LGU2_GYRO,
     ) -> None:
-        if not isinstance(flexure, ShipFlexureTruth):
-            raise TypeError(f"flexure must be ShipFlexureTruth, got {type(flexure).__name__}")
-        if not isinstance(rng, np.random.Generator):
-            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        of_type("flexure", flexure, ShipFlexureTruth)
+        of_type("rng", rng, np.random.Generator, "a numpy.random.Generator")
         self.flexure = flexure
         rng1, rng2 = rng.spawn(2)
         self.lgu1 = GyroModel(lgu1, 3, rng1, dt)

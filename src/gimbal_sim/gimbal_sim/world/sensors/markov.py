@@ -41,6 +41,20 @@ def gm1_coefficients(sigma: float, tau_s: float, dt: float) -> tuple[float, floa
     return phi, sigma * math.sqrt(-math.expm1(-2.0 * dt / tau_s))
 
 
+def _broadcast(n_axes: int | None, **fields: tuple[float, ...]) -> tuple[int, list[list[float]]]:
+    """The scalar-or-(n,) ``fields`` as lists of n: n is ``n_axes`` or the longest field's
+    length, and a one-element field serves every axis."""
+    n = n_axes if n_axes is not None else max(len(v) for v in fields.values())
+    if n < 1:
+        raise ValueError(f"n_axes must be >= 1, got {n}")
+    out = []
+    for name, vals in fields.items():
+        if len(vals) not in (1, n):
+            raise ValueError(f"{name} must be a scalar or have {n} elements, got {len(vals)}")
+        out.append([vals[0]] * n if len(vals) == 1 else list(vals))
+    return n, out
+
+
 class FirstOrderGaussMarkov:
     """n independent first-order Gauss-Markov processes, exact in any step.
 
@@ -62,15 +76,8 @@ class FirstOrderGaussMarkov:
         n_axes: int | None = None,
         stationary_start: bool = True,
     ) -> None:
-        sig = per_axis("sigma", sigma)
         tau = tuple(float(t) for t in ([tau_s] if isinstance(tau_s, (int, float)) else tau_s))
-        n = n_axes if n_axes is not None else max(len(sig), len(tau))
-        if n < 1:
-            raise ValueError(f"n_axes must be >= 1, got {n}")
-        self._sigma = [sig[0]] * n if len(sig) == 1 else list(sig)
-        self._tau = [tau[0]] * n if len(tau) == 1 else list(tau)
-        if len(self._sigma) != n or len(self._tau) != n:
-            raise ValueError(f"sigma and tau_s must be scalars or have n_axes={n} elements")
+        n, (self._sigma, self._tau) = _broadcast(n_axes, sigma=per_axis("sigma", sigma), tau_s=tau)
         for s in self._sigma:
             nonneg("sigma", s)
         for t in self._tau:
@@ -153,23 +160,9 @@ class SecondOrderGaussMarkov:
         n_axes: int | None = None,
         stationary_start: bool = True,
     ) -> None:
-        sig = per_axis("sigma", sigma)
-        beta = per_axis("beta_per_s", beta_per_s)
-        freq = per_axis("freq_rad_s", freq_rad_s)
-        n = n_axes if n_axes is not None else max(len(sig), len(beta), len(freq))
-        if n < 1:
-            raise ValueError(f"n_axes must be >= 1, got {n}")
-
-        def expand(name: str, vals: tuple[float, ...]) -> list[float]:
-            if len(vals) == 1:
-                return [vals[0]] * n
-            if len(vals) != n:
-                raise ValueError(f"{name} must be a scalar or have {n} elements, got {len(vals)}")
-            return list(vals)
-
-        self._sigma = expand("sigma", sig)
-        self._beta = expand("beta_per_s", beta)
-        self._freq = expand("freq_rad_s", freq)
+        n, (self._sigma, self._beta, self._freq) = _broadcast(
+            n_axes, sigma=per_axis("sigma", sigma), beta_per_s=per_axis("beta_per_s", beta_per_s),
+            freq_rad_s=per_axis("freq_rad_s", freq_rad_s))
         for s in self._sigma:
             nonneg("sigma", s)
         for b in self._beta:
