@@ -34,8 +34,6 @@ STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "cl
 CORES_WITH_STAMP_LOGIC = {
     "gyro_bias_ekf": "the multi-rate sync queue (a gyro sample waits for encoders and INS to bracket it)",
     "encoder_fusion": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
-    "platform_servo": "per-stream stamp checks and the clock-jump reset",
-    "platform_navigator": "the stamp check and the clock-jump reset of its accelerometer",
     "los_rate_controller": "the per-sample stamp check and the clock-jump reset",
     "los_rate_kernels": "the same check, compiled into the controller's per-sample kernel",
     "operator_command": "the command stamps' order and the clock-jump reset",

@@ -103,7 +103,7 @@ class PlatformNavigatorNode(Node):
                                      rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
                                      progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
                                      max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger())
+                                     logger=self.get_logger(), on_restart=self.core.reset)
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
         self._seen: tuple[int, ...] = ()
@@ -150,7 +150,7 @@ class PlatformNavigatorNode(Node):
 
     def _warn_counters(self, t_ns: int) -> None:
         c = self.core
-        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_resolver, c.resets)
+        seen = (c.rejected_nonfinite, self.policy.rejected, c.rejected_no_resolver, c.resets)
         if seen != self._seen and any(seen):
             self.edge.warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of "
                            f"order, {seen[2]} without a resolver angle; {seen[3]} restarts")
@@ -167,7 +167,7 @@ class PlatformNavigatorNode(Node):
 
     def health(self, t_ns: int):
         """/diagnostics: what the input policy reports (module docstring)."""
-        return self.edge.health(t_ns, self.policy, self.core.counters(), ready=self.core.accepted > 0,
+        return self.edge.health(t_ns, self.policy, self.core.counters(self.policy.rejected), ready=self.core.accepted > 0,
                                 not_ready="not navigating yet", warn=WARN_COUNTERS)
 
 

@@ -206,6 +206,11 @@ class LockstepGroups(_CoreReport):
         self.silence.heard(len(out))
         return out
 
+    @property
+    def rejected(self) -> int:
+        """Stamps dropped as repeated or late (for a step already released)."""
+        return self.sync.rejected
+
     def progress(self, step: Step) -> int | None:
         if not step.ends_step:
             return None
