@@ -37,7 +37,6 @@ CORES_WITH_STAMP_LOGIC = {
     "los_rate_controller": "the per-sample stamp check and the clock-jump reset",
     "los_rate_kernels": "the same check, compiled into the controller's per-sample kernel",
     "operator_command": "the command stamps' order and the clock-jump reset",
-    "flexure_kf": "the pair stamps' order and the clock-jump reset",
     "free_gyro_positioning": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
     "rotation_alignment": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
 }

@@ -293,9 +293,9 @@ class PlatformNavigator:
                                bool(s[nk.N_TORQUING]))
 
     # -- outputs -----------------------------------------------------------------------------
-    def counters(self, rejected_out_of_order: int = 0) -> dict[str, int]:
-        """The counters by name (for /diagnostics; ``rejected_out_of_order``: the stamps the
-        input policy dropped as repeated or late)."""
+    def counters(self, dropped_stamps: int = 0) -> dict[str, int]:
+        """The counters by name (for /diagnostics); ``dropped_stamps``: the stamps the input
+        policy dropped as repeated or late."""
         return {"accepted": self.accepted, "rejected_nonfinite": self.rejected_nonfinite,
-                "rejected_out_of_order": rejected_out_of_order,
+                "rejected_out_of_order": dropped_stamps,
                 "rejected_no_resolver": self.rejected_no_resolver, "resets": self.resets}
