@@ -22,9 +22,7 @@ MAX_NODE_LINES = 150
 MODEL_NODE, MODEL_NODE_LINES = SRC / "gimbal_estimators" / "gimbal_estimators" / "gyro_bias_ekf_node.py", 120
 #: Nodes not yet on the shared edge's shape, with what keeps them long. The list only shrinks.
 OVERSIZED = {
-    "vehicle_dynamics_node": "the lockstep clock source: step pacing, command contracts and the world's outputs",
     "bag_recorder_node": "QoS discovery and a writer per topic (no core of its own)",
-    "geo_pointer_node": "the vehicle fix and velocity checks (order, staleness) still in the node",
 }
 #: Stamp, clock-jump and queue logic, by the names it goes by in code.
 STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "JUMPED_BACK",
