@@ -21,9 +21,7 @@ MAX_NODE_LINES = 150
 #: The node docs/architecture.md names as the one to copy.
 MODEL_NODE, MODEL_NODE_LINES = SRC / "gimbal_estimators" / "gimbal_estimators" / "gyro_bias_ekf_node.py", 120
 #: Nodes not yet on the shared edge's shape, with what keeps them long. The list only shrinks.
-OVERSIZED = {
-    "bag_recorder_node": "QoS discovery and a writer per topic (no core of its own)",
-}
+OVERSIZED: dict[str, str] = {}
 #: Stamp, clock-jump and queue logic, by the names it goes by in code.
 STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "JUMPED_BACK",
                          "rejected_out_of_order", "_drain", "_interp", "StampOrder", "StepGroups"})
