@@ -26,12 +26,13 @@ Outputs, per accepted accelerometer sample, stamped like it:
   (``odom_frame_id``) whose origin is the first fix, the twist in ``odom_child_frame_id``,
   with covariance (:mod:`.navigator_odometry` says how each part is defined);
 * ``/diagnostics`` (free timing): the core's counters (accepted, rejected_nonfinite,
-  rejected_out_of_order, rejected_no_resolver, resets), the node's ``rejected_joints`` (a
-  JointState without ``azimuth_joint``) and the input policy's stream statistics.
+  rejected_out_of_order: the stamps the input policy dropped, rejected_no_resolver, resets),
+  the node's ``rejected_joints`` (a JointState without ``azimuth_joint``) and the input
+  policy's stream statistics.
 
-Bad input is counted and never integrated (the core checks it): NaN/inf values or stamps,
-stamps at or before the last one, a missing resolver angle; a stamp more than
-``clock_jump_s`` back (a bag looping) restarts navigation from the hand-off.
+Bad input is counted and never integrated: stamps at or before the last one (the input
+policy drops them), NaN/inf values, a missing resolver angle (the core); a stamp more than
+``clock_jump_s`` back (a bag looping) makes the policy restart navigation from the hand-off.
 
 Timing (parameter ``timing``), chosen once in the constructor as the input policy
 (:func:`gimbal_kinematics.input_policy.grouped_policy`), as ``platform_alignment`` does:

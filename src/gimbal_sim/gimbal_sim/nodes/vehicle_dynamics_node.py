@@ -69,8 +69,7 @@ class VehicleDynamicsNode(Node):
         values = declare_and_read(self, PARAMS)
         self.config = VehicleConfig.from_values(values)
         self.core = VehicleCore(self.config, GIMBAL_MODELS[values["gimbal_model"]])
-        self.controlled = values["controlled"]
-        self.realtime = values["timing"] == "realtime"
+        self.controlled, self.realtime = values["controlled"], values["timing"] == "realtime"
         self.real_time_factor = float(values["real_time_factor"])
         self.exit_at_end = values["exit_at_end"]
         self.done = Future()
@@ -93,9 +92,10 @@ class VehicleDynamicsNode(Node):
                                                     GRAPH_QOS, raw=True) for topic in self.pace.next_needed]
         self.sub_cmd = None
         self.ros2_control = values["command_interface"] == "ros2_control"
+        command_topic = ros2_control_topic(values) if self.ros2_control else ""  # refused at start-up
         if plant != "host_only" and (self.controlled or self.realtime):
             if self.ros2_control:
-                topic, qos, take = ros2_control_topic(values), ROS2_CONTROL_QOS, self.inbox.on_ros2_control
+                topic, qos, take = command_topic, ROS2_CONTROL_QOS, self.inbox.on_ros2_control
             else:
                 topic = "/gimbal/torque_cmd" if plant == "two_axis_gimbal" else "/platform/voltage_cmd"
                 # realtime: the command comes from a free-timing controller (node_io's outputs are volatile)
