@@ -229,7 +229,8 @@ def test_gap_reanchors_and_clock_jump_resets(short_run):
     np.testing.assert_allclose(x[am.PHI_0] - x[am.THETA_R1] + x[am.THETA_R2], est.relative_attitude)
     assert np.all(est.flexure_sigma < sigma_before)
     assert np.all(np.abs(est.flexure - run.truth[-1]) < 5.0 * est.flexure_sigma)
-    kf.on_lgu1(run.t[10], run.dalpha1[10], run.dt[10])  # 19 s back: a clock jump
+    kf.reset("backward clock jump")  # 19 s back: the input policy's verdict
+    kf.on_lgu1(run.t[10], run.dalpha1[10], run.dt[10])
     assert kf.counters["resets"] == 1 and "backward clock jump" in kf.last_reset_reason
     assert not kf.initialized
 

@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 from gimbal_estimators import flexure_kf as fk
 from gimbal_estimators import flexure_model as fm
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
+from gimbal_kinematics.input_policy import sample_policy
 from gimbal_kinematics.rotations import dcm_from_rotation_vector, small_angles_from_dcm
 from gimbal_sim.experiments.flexure import run_flexure_comparison
 from gimbal_sim.world.sensors import FlexureParams
@@ -350,12 +351,24 @@ def test_out_of_order_and_duplicate_stamps_are_rejected(synthetic):
     assert kf.counters["resets"] == 0
 
 
-def test_backward_clock_jump_resets_with_reason(synthetic):
+def test_backward_clock_jump_is_the_policys_reset(synthetic):
+    """The core judges no clock: a sample stamped before the fused pairs is out of order;
+    the sampled input policy sees the jump back and resets the core before the new run."""
     kf = FlexureKf()
     feed(kf, synthetic[:600])
+    x = kf.state.copy()
     assert kf.on_lgu1(5.0, synthetic[0][1], 0.1) is None
-    assert kf.counters["resets"] == 1 and not kf.initialized
+    assert kf.counters["out_of_order"] == 1 and kf.counters["resets"] == 0
+    np.testing.assert_array_equal(kf.state, x)
+    policy = sample_policy("lockstep", ("lgu1", "lgu2"), rate_hz=1000.0, sample_rate_hz=10.0, progress_every=10,
+                           clock_jump_ns=10**9, warn=print, on_restart=kf.reset)
+    policy.add("lgu1", 60 * 10**9, None)
+    policy.add("lgu2", int(59.5e9), None)  # half a second back: not a jump
+    assert kf.counters["resets"] == 0
+    steps = policy.add("lgu1", 5 * 10**9, None)
+    assert kf.counters["resets"] == 1 and not kf.initialized and [s.t for s in steps] == [5.0]
     assert "backward clock jump" in kf.last_reset_reason and "60.0" in kf.last_reset_reason
+    kf.on_lgu1(5.0, synthetic[0][1], 0.1)
     est = kf.on_lgu2(5.0, synthetic[0][2], 0.1)
     assert kf.initialized and est is not None and est.t == 5.0
 
@@ -417,7 +430,6 @@ def test_persistent_gating_after_reanchor_resets():
     ("gate_probability", 1.0),
     ("max_gate_rejections", 0),
     ("max_gap_s", 0.05),
-    ("clock_jump_s", float("inf")),
     ("dt_tolerance", 0.6),
     ("max_pending", 2.5),
 ])

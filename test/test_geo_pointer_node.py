@@ -162,9 +162,9 @@ def test_free_timing_bad_fixes_are_counted_and_never_used(ros_domain_env):
         def fix(t_ns, llh, status=NavSatStatus.STATUS_FIX):
             msg = sm.navsat_fix_msg(t_ns, "earth", *llh)
             msg.status.status = status
-            before = (node._last_ns["fix"], counts())
+            before = (node.arrivals.last("fix"), counts())
             pub.publish(msg)
-            assert spin_until(executor, lambda: (node._last_ns["fix"], counts()) != before, 30.0)
+            assert spin_until(executor, lambda: (node.arrivals.last("fix"), counts()) != before, 30.0)
 
         t0, expected = 10 * 10**9, []
         for k in range(27):
@@ -219,13 +219,13 @@ def test_free_timing_the_velocity_is_fed_forward_and_a_bad_one_counted(ros_domai
         for k, vel in enumerate((None, v_good, (math.inf, 0.0, 0.0))):
             t_ns = t0 + k * 10**7
             _measurements(node, sm, t_ns)
-            before = (node._last_ns["fix"], node._last_ns["vel"], node.edge.counts["rejected_velocities"])
+            before = (node.arrivals.last("fix"), node.arrivals.last("vel"), node.edge.counts["rejected_velocities"])
             pub_fix.publish(sm.navsat_fix_msg(t_ns, "earth", *P1))
             if vel is not None:
                 pub_vel.publish(sm.vector3_msg(t_ns, "ned", vel))
-            assert spin_until(executor, lambda: (node._last_ns["fix"], node._last_ns["vel"],
+            assert spin_until(executor, lambda: (node.arrivals.last("fix"), node.arrivals.last("vel"),
                                                  node.edge.counts["rejected_velocities"]) != before
-                              and node._last_ns["fix"] == t_ns and (vel is None or node._last_ns["vel"] == t_ns
+                              and node.arrivals.last("fix") == t_ns and (vel is None or node.arrivals.last("vel") == t_ns
                                                                     or node.edge.counts["rejected_velocities"]), 30.0)
             node.edge.take("att", sm.imu_cdr(t_ns, "map_ned", orientation=Q_NM))
             if k >= 1:  # k = 0: no velocity yet, no command; k = 2: the good one of k = 1 (10 ms old)

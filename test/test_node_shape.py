@@ -21,11 +21,7 @@ MAX_NODE_LINES = 150
 #: The node docs/architecture.md names as the one to copy.
 MODEL_NODE, MODEL_NODE_LINES = SRC / "gimbal_estimators" / "gimbal_estimators" / "gyro_bias_ekf_node.py", 120
 #: Nodes not yet on the shared edge's shape, with what keeps them long. The list only shrinks.
-OVERSIZED = {
-    "vehicle_dynamics_node": "the lockstep clock source: step pacing, command contracts and the world's outputs",
-    "bag_recorder_node": "QoS discovery and a writer per topic (no core of its own)",
-    "geo_pointer_node": "the vehicle fix and velocity checks (order, staleness) still in the node",
-}
+OVERSIZED: dict[str, str] = {}
 #: Stamp, clock-jump and queue logic, by the names it goes by in code.
 STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "JUMPED_BACK",
                          "rejected_out_of_order", "_drain", "_interp", "StampOrder", "StepGroups"})
@@ -33,11 +29,8 @@ STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "cl
 #: yet, each with what stays. The list only shrinks.
 CORES_WITH_STAMP_LOGIC = {
     "encoder_fusion": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
-    "platform_servo": "per-stream stamp checks and the clock-jump reset",
-    "platform_navigator": "the stamp check and the clock-jump reset of its accelerometer",
     "los_rate_controller": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
     "operator_command": "the command stamps' order and the clock-jump reset",
-    "flexure_kf": "the pair stamps' order and the clock-jump reset",
     "free_gyro_positioning": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
     "rotation_alignment": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
 }

@@ -188,8 +188,14 @@ def test_free_timing_reports_the_counters_on_diagnostics(ros_domain_env):
             status = node.health(t0 + 60_000_000).status[0]
             values = {kv.key: kv.value for kv in status.values}
             assert values["accepted"] == "5" and values["rejected_nonfinite"] == "1"
-            assert values["imu_duplicates"] == "1"
+            assert values["imu_duplicates"] == "1" and values["rejected_out_of_order"] == "1"
             assert status.level == DiagnosticStatus.WARN
+            # a bag looping (a minute back): the input policy resets the core to the hand-off
+            for i in range(4):
+                t_ns = t0 - 60 * 10**9 + i * 10_000_000
+                node._on_input("joint", m.joint_state_msg(t_ns, ("platform_azimuth",), (0.0,), (0.0,)))
+                node._on_input("imu", m.imu_msg(t_ns, "platform_frd", linear_acceleration=(0.0, 0.0, -g)))
+            assert node.core.resets == 1 and "clock jumped back" in node.core.reset_reasons[0]
         finally:
             node.destroy_node()
 

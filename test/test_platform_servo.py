@@ -146,14 +146,12 @@ def test_bad_input_holds_the_command_and_is_counted():
     held = servo.on_gyro(0.002, (math.nan, 0.0, 0.0))
     assert held.held and held.voltages == b.voltages and not a.held
     servo.on_resolvers(0.002, (0.0, math.inf, 0.0, 0.0))
-    assert servo.on_gyro(0.001, (0.0, 0.0, 0.0)) is None  # stamp repeated
-    assert servo.rejected_nonfinite == 2 and servo.held_commands == 1 and servo.rejected_out_of_order == 1
+    assert servo.rejected_nonfinite == 2 and servo.held_commands == 1
     locked = _servo_tick(servo, 0.003, (0.0, 0.0, 0.0), (0.0, 0.0, math.pi / 2, 0.0))
     assert locked.held and servo.rejected_gimbal_lock == 1
     _servo_tick(servo, 9.0, (0.0, 0.0, 0.0))
-    _servo_tick(servo, 2.0, (0.0, 0.0, 0.0))  # bag loop
-    assert any("jumped back" in r for r in servo.reset_reasons)
     assert any("gap" in r for r in servo.reset_reasons)
+    assert not hasattr(servo, "rejected_out_of_order")  # stamps are the input policy's to judge
 
 
 # ---------------------------------------------------------------------------- closed loop

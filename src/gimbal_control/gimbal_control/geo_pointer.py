@@ -166,6 +166,22 @@ class GeoPointer:
             return str(exc)
         return None
 
+    def take_target(self, target_llh, has_fix: bool = True) -> bool:
+        """A target as a receiver reports it: :meth:`set_target`, or refused and counted
+        (``rejected_targets``) when the receiver has no fix."""
+        if not has_fix:
+            self.counts["rejected_targets"] += 1
+            return False
+        return self.set_target(target_llh)
+
+    def check_fix(self, vehicle_llh) -> bool:
+        """Whether an INS position can be used (:meth:`fix_error`); one that cannot is counted
+        (``rejected_fixes``)."""
+        if self.fix_error(vehicle_llh) is None:
+            return True
+        self.counts["rejected_fixes"] += 1
+        return False
+
     def set_vehicle(self, vehicle_llh, velocity_n=None) -> bool:
         """The vehicle's INS position (lat, lon [rad], h [m]) and, if given, its velocity
         over the ground (NED [m/s], (3,)) for the following steps; False (counted in

@@ -49,7 +49,7 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
-from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.control_policy import ArrivalCheck, ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.input_policy import SampleGrid
 from gimbal_kinematics.params import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.input_kinds import InputKind
@@ -61,13 +61,15 @@ from gimbal_kinematics.rotations import quat_to_dcm
 
 from . import messages as m
 from .geo_pointer import GeoPointer, GeoPointerParams
-from .geo_pointer_params import DESCRIPTION, PARAMS
+from .geo_pointer_params import DESCRIPTION, PARAMS, vehicle_inputs as requested_vehicle_inputs
 from .wire import geo_pointer_messages
 
 COUNTERS = ("malformed", "rejected_inputs", "held_commands", "fixes_no_fix", "fixes_out_of_order", "stale_fixes",
             "rejected_velocities")
 MAX_INPUT_AGE_S = 0.1
 CLOCK_JUMP_S = 0.5
+#: a refused fix's counter, by the arrival check's verdict
+FIX_VERDICTS = {"out_of_order": "fixes_out_of_order", "stale": "stale_fixes"}
 
 
 class GeoPointerNode(Node):
@@ -79,7 +81,7 @@ class GeoPointerNode(Node):
         except ParameterError as exc:
             raise ValueError(str(exc)) from exc
         self.command = (0.0, 0.0)
-        vehicle_inputs = self._vehicle_inputs(values)
+        vehicle_inputs = requested_vehicle_inputs(values)
         self.edge = edge = NodeEdge(self, values, COUNTERS)
         self.operator_topic = values["operator_topic"]
         edge.advertise_all(((Vector3Stamped, self.operator_topic), (Vector3Stamped, "~/budget"),
@@ -99,39 +101,24 @@ class GeoPointerNode(Node):
                             (InputKind.ENCODERS, JointState, "/gimbal/joint_states")), self._on_input)
         if values["target_topic"]:
             edge.subscribe(NavSatFix, values["target_topic"], self._on_target)
-        self._last_ns = {InputKind.FIX: None, InputKind.VELOCITY: None, InputKind.ATTITUDE: None}
-        self.max_fix_age_ns = int(round(values["vehicle_fix_max_age_s"] * 1e9))
+        # a fix or velocity is judged as it arrives: in stamp order, fresh against the attitude
+        self.arrivals = ArrivalCheck(InputKind.ATTITUDE, vehicle_inputs,
+                                     int(round(values["vehicle_fix_max_age_s"] * 1e9)))
         if InputKind.FIX in vehicle_inputs:
             edge.subscribe(NavSatFix, values["vehicle_fix_topic"], self._on_fix)
         if InputKind.VELOCITY in vehicle_inputs:
             edge.subscribe(Vector3Stamped, values["vehicle_velocity_topic"], self._on_velocity)
 
-    @staticmethod
-    def _vehicle_inputs(values: dict) -> tuple[str, ...]:
-        """The vehicle's inputs the parameters ask for; ValueError naming the parameter when
-        they cannot be had (a velocity without a position, or either in lockstep)."""
-        inputs = tuple(kind for kind, name in ((InputKind.FIX, "vehicle_fix_topic"),
-                                               (InputKind.VELOCITY, "vehicle_velocity_topic")) if values[name])
-        if InputKind.VELOCITY in inputs and InputKind.FIX not in inputs:
-            raise ValueError("parameter vehicle_velocity_topic needs vehicle_fix_topic (a moving vehicle's position)")
-        if inputs and values["timing"] == "lockstep":
-            raise ValueError("parameter vehicle_fix_topic: free timing only (a lockstep step cannot wait for a "
-                             "position no simulated INS publishes)")
-        return inputs
-
     def _vehicle_sample(self, kind: str, stamp_ns: int, value, counter: str) -> None:
         """A validated fix or velocity (None: refused, counted in ``counter``) to the policy,
-        unless its stamp is not after the last one's or it is stale on arrival (counted)."""
-        last, newest_att = self._last_ns[kind], self._last_ns[InputKind.ATTITUDE]
-        if value is not None and last is not None and stamp_ns <= last:
-            counter, value = ("fixes_out_of_order" if kind == InputKind.FIX else counter), None
-        elif value is not None and newest_att is not None and newest_att - stamp_ns > self.max_fix_age_ns:
-            counter, value = ("stale_fixes" if kind == InputKind.FIX else counter), None
+        unless its arrival check refuses it (out of order or stale; counted)."""
+        verdict = None if value is None else self.arrivals.verdict(kind, stamp_ns)
+        if verdict is not None:
+            counter, value = (FIX_VERDICTS[verdict] if kind == InputKind.FIX else counter), None
         if value is None:
             if counter in COUNTERS:
                 return self.edge.reject(counter, f"vehicle {kind} stamped {stamp_ns} ns refused")
             return self.edge.warn(f"vehicle {kind} stamped {stamp_ns} ns refused ({counter})")
-        self._last_ns[kind] = stamp_ns
         for step in self.policy.add(kind, stamp_ns, value):
             self._step(step)
 
@@ -140,11 +127,8 @@ class GeoPointerNode(Node):
         stamp = m.stamp_ns(msg.header.stamp)
         if msg.status.status == NavSatStatus.STATUS_NO_FIX:
             self._vehicle_sample(InputKind.FIX, stamp, None, "fixes_no_fix")
-        elif self.core.fix_error(llh) is not None:
-            self.core.counts["rejected_fixes"] += 1
-            self._vehicle_sample(InputKind.FIX, stamp, None, "rejected_fixes")
         else:
-            self._vehicle_sample(InputKind.FIX, stamp, llh, "rejected_fixes")
+            self._vehicle_sample(InputKind.FIX, stamp, llh if self.core.check_fix(llh) else None, "rejected_fixes")
 
     def _on_velocity(self, msg: Vector3Stamped) -> None:
         vel = tuple(msg.vector)
@@ -153,16 +137,13 @@ class GeoPointerNode(Node):
 
     def _on_target(self, msg: NavSatFix) -> None:
         llh = (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)
-        if msg.status.status == NavSatStatus.STATUS_NO_FIX or not self.core.set_target(llh):
-            if msg.status.status == NavSatStatus.STATUS_NO_FIX:
-                self.core.counts["rejected_targets"] += 1
+        if not self.core.take_target(llh, msg.status.status != NavSatStatus.STATUS_NO_FIX):
             self.edge.warn(f"target {msg.latitude}, {msg.longitude}, {msg.altitude} refused "
                            f"({self.core.counts['rejected_targets']} rejected_targets)")
 
     def _on_input(self, kind: str, msg) -> None:
         stamp_ns = m.stamp_ns(msg.header.stamp)
-        if kind == InputKind.ATTITUDE:
-            self._last_ns[InputKind.ATTITUDE] = max(stamp_ns, self._last_ns[InputKind.ATTITUDE] or stamp_ns)
+        self.arrivals.heard(kind, stamp_ns)
         for step in self.policy.add(kind, stamp_ns, self._validate(kind, msg)):
             self._step(step)
 

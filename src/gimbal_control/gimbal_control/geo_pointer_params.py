@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gimbal_kinematics.params import TimedParams, declaration, param
+from gimbal_kinematics.ros.input_kinds import InputKind
 
 
 @dataclass(frozen=True)
@@ -60,3 +61,16 @@ class GeoPointerNodeParams(TimedParams):
 
 
 PARAMS, DESCRIPTION = declaration(GeoPointerNodeParams)
+
+
+def vehicle_inputs(values: dict) -> tuple[str, ...]:
+    """The vehicle's inputs the parameters ask for; ValueError naming the parameter when they
+    cannot be had (a velocity without a position, or either in lockstep)."""
+    inputs = tuple(kind for kind, name in ((InputKind.FIX, "vehicle_fix_topic"),
+                                           (InputKind.VELOCITY, "vehicle_velocity_topic")) if values[name])
+    if InputKind.VELOCITY in inputs and InputKind.FIX not in inputs:
+        raise ValueError("parameter vehicle_velocity_topic needs vehicle_fix_topic (a moving vehicle's position)")
+    if inputs and values["timing"] == "lockstep":
+        raise ValueError("parameter vehicle_fix_topic: free timing only (a lockstep step cannot wait for a "
+                         "position no simulated INS publishes)")
+    return inputs

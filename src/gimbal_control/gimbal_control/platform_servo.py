@@ -37,9 +37,8 @@ tick (the navigator's output for a sample is the rate to hold until its next one
   falls back to the internal command, so a dead navigator leaves the platform on the earth
   rate rather than on a held transport rate or torquing pulse; ``stale_command_ticks``
   counts them. A younger command is held: the rate changes on the Schuler time scale.
-* A command with a non-finite value or stamp, or stamped at or before the previous one, is
-  rejected and counted (``rejected_nonfinite``, ``rejected_out_of_order``) and the previous
-  command is kept; one stamped ``clock_jump_s`` back resets the servo, as for the gyro.
+* A command with a non-finite value is rejected and counted (``rejected_nonfinite``) and
+  the previous command is kept.
 
 Control signals, paper 3 eq. 1. :func:`~gimbal_kinematics.four_gimbal.inner_gimbal_control_signals`
 resolves δ through the azimuth angle θ_a (and θ_q) onto the inner-roll, pitch and azimuth
@@ -69,12 +68,13 @@ Message-driven API (stamps [s], SI units)::
     out = servo.on_gyro(t, omega_s)  # platform gyro triad (3,) [rad/s] -> ServoCommand
 
 The gyro sample is the control tick; feed the resolver sample of a stamp first. The
-schedule starts (φz = 0) at the first tick. Bad input:
+schedule starts (φz = 0) at the first tick. Stamps come checked and in order from the
+node's input policy (:mod:`gimbal_kinematics.control_policy`: duplicates and late stamps
+dropped, a clock jump back a :meth:`PlatformServo.reset`). Bad input:
 
 * NaN/inf gyro sample, or resolvers within 1° of gimbal lock (eq. 1 singular): the last
   command is held and the event counted.
-* NaN/inf resolver sample, non-finite or non-increasing stamps: rejected and counted.
-* Backward stamp jump beyond ``clock_jump_s``: the servo resets (reason recorded).
+* NaN/inf resolver sample: rejected and counted.
 * Gap longer than ``max_gap_s``: the pickoff integration restarts from the held state.
 """
 from __future__ import annotations
@@ -86,7 +86,6 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.sync import StampGate
 from gimbal_kinematics.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
 from gimbal_kinematics.units import DEG, DEG_H
 from gimbal_kinematics.wgs84 import OMEGA_IE
@@ -172,7 +171,6 @@ class PlatformServoParams:
         command_max_age_s: with the navigator, an older command gives way to the internal
             one [s].
         max_gap_s: a longer gap between ticks restarts the pickoff integration [s].
-        clock_jump_s: a stamp this far behind the last one resets the servo [s].
     """
 
     lat_deg: float = 45.0
@@ -188,7 +186,6 @@ class PlatformServoParams:
     friction: FrictionModel = field(default_factory=FrictionModel)
     drift_deg_h: tuple[float, float, float] = (0.0, 0.0, 0.0)
     max_gap_s: float = 0.05
-    clock_jump_s: float = 1.0
     command_source: str = "internal"
     command_max_age_s: float = 0.5
 
@@ -214,7 +211,7 @@ class PlatformServoParams:
             raise ValueError(f"drift_deg_h must be 3 finite numbers, got {d!r}")
         if self.command_source not in COMMAND_SOURCES:
             raise ValueError(f"command_source must be one of {COMMAND_SOURCES}, got {self.command_source!r}")
-        for name in ("max_gap_s", "clock_jump_s", "command_max_age_s"):
+        for name in ("max_gap_s", "command_max_age_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"{name} must be > 0, got {v!r}")
@@ -245,7 +242,7 @@ class PlatformServoParams:
                 friction=FrictionModel(coulomb_nm=v["friction_coulomb_nm"],
                                        viscous_nm_s_rad=v["friction_viscous_nm_s_rad"],
                                        smoothing_rad_s=v["friction_smoothing_rad_s"]),
-                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"],
+                drift_deg_h=tuple(v["drift_deg_h"]), max_gap_s=v["max_gap_s"],
                 command_source=v["command_source"], command_max_age_s=v["command_max_age_s"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
@@ -269,7 +266,7 @@ class ServoCommand(NamedTuple):
     held: bool
 
 
-class PlatformServo(StampGate):
+class PlatformServo:
     """The four loops of paper 3 (module docstring). The state of one servo is a vector
     (:mod:`.servo_kernels`: pickoff, last tick, held command, voltages, counters) plus the
     four PID rows; each message calls the kernel that the compiled engine calls too."""
@@ -292,7 +289,6 @@ class PlatformServo(StampGate):
         self.kernel_params = self._kernel_params()
         self.state = sk.initial_state()
         self.rejected_nonfinite = 0
-        self.rejected_out_of_order = 0
         self.reset_reasons: list[str] = []
         self._reset_state()
 
@@ -313,7 +309,6 @@ class PlatformServo(StampGate):
         counters = self.state[sk.S_NO_CMD:].copy()  # the counters outlive a reset
         self.state[:] = sk.initial_state()
         self.state[sk.S_NO_CMD:] = counters
-        self._t_res: float | None = None
 
     def _count(self, index: int) -> int:
         return int(self.state[index])
@@ -345,23 +340,17 @@ class PlatformServo(StampGate):
 
     def on_resolvers(self, t: float, angles: Sequence[float]) -> None:
         """Gimbal resolver angles (θ_a, θ_q, θ_p, θ_r) [rad] at stamp ``t`` [s]."""
-        if not self._stamp_ok(t, self._t_res, "resolver"):
-            return
         vals = tuple(float(v) for v in angles)
         if len(vals) != 4:
             raise ValueError(f"angles must have 4 elements (a, q, p, r), got {len(vals)}")
         if not all(math.isfinite(v) for v in vals):
             self.rejected_nonfinite += 1
             return
-        self._t_res = t
         sk.servo_resolvers(self.state, t, *vals)
 
     def on_command_rate(self, t: float, omega_n: Sequence[float]) -> None:
         """The navigator's level command rate ω_c^n (3,) NED [rad/s] at stamp ``t`` [s], held
         until the next one (module docstring; used with ``command_source="navigator"``)."""
-        t_cmd = self._stamp(sk.S_T_CMD) if self.state[sk.S_HAS_CMD] else None
-        if not self._stamp_ok(t, t_cmd, "command rate"):
-            return
         vals = tuple(float(v) for v in omega_n)
         if len(vals) != 3:
             raise ValueError(f"omega_n must have 3 elements (N, E, D), got {len(vals)}")
@@ -379,12 +368,10 @@ class PlatformServo(StampGate):
         """Control tick on a platform gyro sample ω_meas (3,) [rad/s] resolved in s
         (:func:`.servo_kernels.servo_tick`).
 
-        Returns None until resolver angles have arrived (or for a rejected stamp); a
-        non-finite sample holds the last command (``held=True``).
+        Returns None until resolver angles have arrived; a non-finite sample holds the last
+        command (``held=True``).
         """
         last = self._stamp(sk.S_T_TICK)
-        if not self._stamp_ok(t, last, "gyro"):
-            return None
         wx, wy, wz = (float(v) for v in omega_s)
         if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
             self.rejected_nonfinite += 1

@@ -13,8 +13,8 @@ messages. Per tick (gyro ω, resolver angles θ, the newest command ω_c^n, stam
     V = PID(−Δθ_a, −Δθ_q, −Δθ_p, Δθ_r; rates −ė_a, −ė_q, −ė_p)
 
 with the azimuth integrator preset to the friction voltage of the new direction at each
-change of sign of φ̇z. Stamps are the lockstep engine's (rising): the stamp checks of the
-core (:class:`gimbal_kinematics.sync.StampGate`) are the node's, not repeated here.
+change of sign of φ̇z. Stamps are the lockstep engine's (rising), or checked and ordered by
+the node's input policy (:mod:`gimbal_kinematics.control_policy`): none is judged here.
 :class:`.platform_servo.PlatformServo` holds the same vectors and calls the same kernels.
 """
 from __future__ import annotations

@@ -102,7 +102,8 @@ class FlexureEstimatorNode(Node):
         # the one choice of timing (module docstring)
         self.policy = sample_policy(values["timing"], UNITS, rate_hz=values["sim_rate_hz"],
                                     sample_rate_hz=values["lgu_rate_hz"], progress_every=values["progress_every_steps"],
-                                    clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)), warn=edge.warn)
+                                    clock_jump_ns=int(round(values["clock_jump_s"] * 1e9)), warn=edge.warn,
+                                    on_restart=self._restart)
         self.publish_period_ns = int(round(values["publish_period_s"] * 1e9))
         self._last_bin: int | None = None
         self.nis = NisWindow(3, window=values["nis_window"])
@@ -116,6 +117,11 @@ class FlexureEstimatorNode(Node):
                                 values["wait_for_subscribers"])
 
     # ------------------------------------------------------------------ input
+    def _restart(self, reason: str) -> None:
+        """A clock jump back (the input policy's verdict): the filter starts over."""
+        self.core.reset(reason)
+        self.get_logger().warning(f"filter reset: {reason} ({self.core.counters['resets']} resets)")
+
     def _on_lgu(self, unit: int, msg: Imu) -> None:
         for step in self.policy.add(UNITS[unit], m.stamp_ns(msg.header.stamp), msg):
             self._step(unit, step)

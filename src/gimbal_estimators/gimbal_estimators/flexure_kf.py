@@ -21,8 +21,9 @@ the flexure change over the interval would stay in θ_d as a step (tens of arcse
 second of dynamic flexure). The filter therefore *re-anchors*: it propagates to the start of
 the next complete pair, restarts both attitudes at I there and sets θ_d := Φ + θ (exact,
 since the new initial frames differ by the flexure at that instant), transforming the
-covariance linearly, so what was learnt is kept. A gap longer than ``max_gap_s`` or a
-backward clock jump longer than ``clock_jump_s`` resets the filter, with the reason recorded.
+covariance linearly, so what was learnt is kept. A gap longer than ``max_gap_s`` resets the
+filter, with the reason recorded; so does the node's input policy on a backward clock jump
+(:meth:`FlexureKf.reset`: the filter sees each run's samples in stamp order).
 Measurements beyond the chi-square gate are not fused and counted. Because a corrupted
 increment (a spike) stays in the integrated attitude for good, it shows as a persistent jump
 of Z rather than one outlier: after ``max_gate_rejections`` gated measurements in a row the
@@ -83,8 +84,6 @@ class FlexureKfParams:
         max_gate_rejections: consecutive gated measurements that trigger a re-anchor (and,
             when they go on after one, a reset).
         max_gap_s: a data gap longer than this resets instead of re-anchoring [s].
-        clock_jump_s: a stamp this far behind the newest one is a clock jump (reset) rather
-            than an out-of-order message [s].
         dt_tolerance: relative tolerance on stamp spacing vs the samples' dt.
         max_pending: unpaired samples held per unit while waiting for the partner.
     """
@@ -107,7 +106,6 @@ class FlexureKfParams:
     gate_probability: float | None = 0.99999
     max_gate_rejections: int = 200
     max_gap_s: float = 5.0
-    clock_jump_s: float = 1.0
     dt_tolerance: float = 0.25
     max_pending: int = 64
 
@@ -131,7 +129,7 @@ class FlexureKfParams:
         for x in getattr(self, active):
             positive(active, x)
         for name in ("filter_period_s", "meas_noise_arcsec", "anchor_sigma_arcsec", "max_gap_s",
-                     "clock_jump_s", "dt_tolerance"):
+                     "dt_tolerance"):
             positive(name, getattr(self, name))
         nonneg_finite("lgu_arw_deg_rt_h", self.lgu_arw_deg_rt_h)
         if self.dt_tolerance >= 0.5:
@@ -164,7 +162,7 @@ class FlexureKfParams:
                 bias_diff_rw_deg_h_rt_h=v["bias_diff_rw_deg_h_rt_h"], lgu_arw_deg_rt_h=v["lgu_arw_deg_rt_h"],
                 meas_noise_arcsec=v["meas_noise_arcsec"], second_order_observation=v["second_order_observation"],
                 gate_probability=v["gate_probability"] or None, max_gate_rejections=v["max_gate_rejections"],
-                max_gap_s=v["max_gap_s"], clock_jump_s=v["clock_jump_s"],
+                max_gap_s=v["max_gap_s"],
             )
         except ValueError as exc:
             raise ParameterError(f"parameter {exc}") from exc
@@ -228,7 +226,6 @@ class FlexureKf:
         #: Reasons of the resets so far (newest last, at most 20 kept).
         self.reset_reasons: list[str] = []
         self._pending: tuple[dict[int, tuple], dict[int, tuple]] = ({}, {})
-        self._t_newest: float | None = None
         self._clear()
 
     # ------------------------------------------------------------------ public API
@@ -365,7 +362,6 @@ class FlexureKf:
         self._gate_reanchored = False
         self._pending[0].clear()
         self._pending[1].clear()
-        self._t_newest = None
 
     def _on_sample(self, unit: int, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
         c = self.counters
@@ -386,9 +382,7 @@ class FlexureKf:
             # A rotation over 1 rad in one sample is not a ship's.
             c["bad_dt" if not 0.0 < dt <= self.params.max_gap_s else "malformed"] += 1
             return None
-        if self._t_newest is not None and t < self._t_newest - self.params.clock_jump_s:
-            self.reset(f"backward clock jump from {self._t_newest:.6f} s to {t:.6f} s")
-        elif not math.isnan(self._t_att) and t <= self._t_att:
+        if not math.isnan(self._t_att) and t <= self._t_att:
             c["out_of_order"] += 1
             return None
         key = round(t * 1e9)
@@ -396,8 +390,6 @@ class FlexureKf:
         if key in mine:
             c["duplicates"] += 1
             return None
-        if self._t_newest is None or t > self._t_newest:
-            self._t_newest = t
         partner = other.pop(key, None)
         if partner is None:
             mine[key] = (t, d, dt)
@@ -437,7 +429,6 @@ class FlexureKf:
                 c["gaps"] += 1
                 if t_start - self._t_kf > p.max_gap_s:
                     self.reset(f"data gap of {gap:.3f} s exceeds max_gap_s")
-                    self._t_newest = t
                     self._x, self._P = self._initial()
                     self._t_kf = self._t_att = t_start
                 else:

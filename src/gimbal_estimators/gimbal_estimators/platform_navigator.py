@@ -98,10 +98,11 @@ would step the pickoffs. The servo holds each command until the next, so the ang
 is φ × (time held)/T: exact when the sample period divides T. The level residual during T
 costs ~g φ T/2 of velocity (1 mm/s for 5″).
 
-Bad input is counted and never integrated: a non-finite stamp or value, a stamp at or
-before the previous one (repeat or out of order; :func:`gimbal_kinematics.stamps.judge`),
-a missing resolver angle or φz sample (None). A stamp more than ``clock_jump_s`` back (a bag looping)
-restarts navigation from the hand-off, the sample being the first of the new run.
+Stamps come checked and in order from the node's input policy
+(:mod:`gimbal_kinematics.input_policy`: repeats and late stamps dropped and counted there; a
+clock jump back, a bag looping, is a :meth:`PlatformNavigator.reset` to the hand-off, the
+next sample the first of the new run). Bad input is counted and never integrated: a
+non-finite stamp or value, a missing resolver angle or φz sample (None).
 
 Accuracy figure: none. The core is a mechanisation without a filter; its error comes from
 sensor errors it does not observe (that is the experiment's measurement), so any covariance it
@@ -115,7 +116,6 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_vertical_radius
-from gimbal_kinematics.stamps import Stamp, judge
 
 from . import navigator_kernels as nk
 from .platform_navigator_params import PlatformNavigatorParams
@@ -180,7 +180,6 @@ class PlatformNavigator:
         self.state = np.zeros(nk.N_STATE)  # the kernel's state vector (L, λ, h, v, δa, ...)
         self.kernel_params = np.zeros(nk.N_PARAMS)
         self.rejected_nonfinite = 0
-        self.rejected_out_of_order = 0
         self.rejected_no_resolver = 0
         self.resets = 0
         self.reset_reasons: list[str] = []
@@ -248,10 +247,6 @@ class PlatformNavigator:
         self.kernel_params[nk.Q_H_REF] = h_ref
 
     # -- input checks ----------------------------------------------------------------------
-    def _stamp_verdict(self, t_ns: int) -> Stamp:
-        # the project's one stamp check, on integer ns (epoch stamps keep every ns)
-        return judge(t_ns, self._t_last_ns, int(round(self.params.clock_jump_s * 1e9)))
-
     def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | None:
         """(f_x, f_y, f_z, θ_a) as floats, or None after counting why the sample is refused."""
         try:
@@ -263,10 +258,6 @@ class PlatformNavigator:
         if len(f) != 3 or not t_ok or not all(math.isfinite(v) for v in f):
             self.rejected_nonfinite += 1
             return None
-        verdict = self._stamp_verdict(int(t_ns))
-        if verdict is Stamp.OUT_OF_ORDER or verdict is Stamp.DUPLICATE:
-            self.rejected_out_of_order += 1
-            return None
         if theta_a is None:
             self.rejected_no_resolver += 1
             return None
@@ -277,8 +268,6 @@ class PlatformNavigator:
         if not math.isfinite(a):
             self.rejected_nonfinite += 1
             return None
-        if verdict is Stamp.JUMPED_BACK:
-            self.reset(f"stamp jumped back {(self._t_last_ns - int(t_ns)) * 1e-9:.3f} s to t={int(t_ns)} ns")
         return f[0], f[1], f[2], a
 
     # -- the step ----------------------------------------------------------------------------
@@ -304,8 +293,9 @@ class PlatformNavigator:
                                bool(s[nk.N_TORQUING]))
 
     # -- outputs -----------------------------------------------------------------------------
-    def counters(self) -> dict[str, int]:
-        """The counters by name (for /diagnostics)."""
+    def counters(self, dropped_stamps: int = 0) -> dict[str, int]:
+        """The counters by name (for /diagnostics); ``dropped_stamps``: the stamps the input
+        policy dropped as repeated or late."""
         return {"accepted": self.accepted, "rejected_nonfinite": self.rejected_nonfinite,
-                "rejected_out_of_order": self.rejected_out_of_order,
+                "rejected_out_of_order": dropped_stamps,
                 "rejected_no_resolver": self.rejected_no_resolver, "resets": self.resets}

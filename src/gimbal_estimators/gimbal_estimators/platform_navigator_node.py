@@ -26,12 +26,13 @@ Outputs, per accepted accelerometer sample, stamped like it:
   (``odom_frame_id``) whose origin is the first fix, the twist in ``odom_child_frame_id``,
   with covariance (:mod:`.navigator_odometry` says how each part is defined);
 * ``/diagnostics`` (free timing): the core's counters (accepted, rejected_nonfinite,
-  rejected_out_of_order, rejected_no_resolver, resets), the node's ``rejected_joints`` (a
-  JointState without ``azimuth_joint``) and the input policy's stream statistics.
+  rejected_out_of_order: the stamps the input policy dropped, rejected_no_resolver, resets),
+  the node's ``rejected_joints`` (a JointState without ``azimuth_joint``) and the input
+  policy's stream statistics.
 
-Bad input is counted and never integrated (the core checks it): NaN/inf values or stamps,
-stamps at or before the last one, a missing resolver angle; a stamp more than
-``clock_jump_s`` back (a bag looping) restarts navigation from the hand-off.
+Bad input is counted and never integrated: stamps at or before the last one (the input
+policy drops them), NaN/inf values, a missing resolver angle (the core); a stamp more than
+``clock_jump_s`` back (a bag looping) makes the policy restart navigation from the hand-off.
 
 Timing (parameter ``timing``), chosen once in the constructor as the input policy
 (:func:`gimbal_kinematics.input_policy.grouped_policy`), as ``platform_alignment`` does:
@@ -103,7 +104,7 @@ class PlatformNavigatorNode(Node):
                                      rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
                                      progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
                                      max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger())
+                                     logger=self.get_logger(), on_restart=self.core.reset)
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
         self._seen: tuple[int, ...] = ()
@@ -150,7 +151,7 @@ class PlatformNavigatorNode(Node):
 
     def _warn_counters(self, t_ns: int) -> None:
         c = self.core
-        seen = (c.rejected_nonfinite, c.rejected_out_of_order, c.rejected_no_resolver, c.resets)
+        seen = (c.rejected_nonfinite, self.policy.rejected, c.rejected_no_resolver, c.resets)
         if seen != self._seen and any(seen):
             self.edge.warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of "
                            f"order, {seen[2]} without a resolver angle; {seen[3]} restarts")
@@ -167,7 +168,7 @@ class PlatformNavigatorNode(Node):
 
     def health(self, t_ns: int):
         """/diagnostics: what the input policy reports (module docstring)."""
-        return self.edge.health(t_ns, self.policy, self.core.counters(), ready=self.core.accepted > 0,
+        return self.edge.health(t_ns, self.policy, self.core.counters(self.policy.rejected), ready=self.core.accepted > 0,
                                 not_ready="not navigating yet", warn=WARN_COUNTERS)
 
 

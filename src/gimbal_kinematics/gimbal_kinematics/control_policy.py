@@ -86,7 +86,8 @@ class LockstepControl:
     newest sample (or None, for one that could not be used or none yet) is in every step,
     at the step's time (a core fed each input every step); ``stamp_time``: a step's core time
     is its stamp in seconds (default: k / ``rate_hz``). In order, a clock jump back of more
-    than ``clock_jump_s`` starts the steps over. ``logger`` hears of rejections and restarts."""
+    than ``clock_jump_s`` starts the steps over, the first step of the new run carrying the
+    reset. ``logger`` hears of rejections and restarts."""
 
     timing = "lockstep"
     diagnostics = False
@@ -129,7 +130,10 @@ class LockstepControl:
             group = self.sync.add(kind, k, sample, self.logger)
             done = [] if group is None else [(k, group)]
         else:
+            restarts = self.sync.restarts  # type: ignore[union-attr]
             done = self.sync.add(kind, k, sample, self.logger)
+            if self.sync.restarts > restarts:  # type: ignore[union-attr]
+                self._resets = (RESTART_JUMP,)
         return [self._step(step, group) for step, group in done]
 
     def _in_order(self, kind: str, k: int) -> bool:
@@ -279,6 +283,35 @@ class FreeControl:
 
     def counters(self) -> dict[str, int]:
         return {**self.gate.counters(), **self.counts}
+
+
+class ArrivalCheck:
+    """Slow inputs judged as they arrive, before a free policy holds them (a vehicle's INS fix
+    and velocity): a stamp at or before its stream's last accepted one is ``"out_of_order"``,
+    one more than ``max_age_ns`` behind the newest ``driver`` stamp is ``"stale"``; None
+    accepts it (and it becomes its stream's last)."""
+
+    def __init__(self, driver: str, streams: Sequence[str], max_age_ns: int) -> None:
+        self.driver, self.max_age_ns = driver, int(max_age_ns)
+        self._last: dict[str, int | None] = dict.fromkeys((driver, *streams))
+
+    def heard(self, kind: str, stamp_ns: int) -> None:
+        """Any input as it arrives: the newest ``driver`` stamp is the age reference."""
+        if kind == self.driver:
+            self._last[kind] = max(stamp_ns, self._last[kind] or stamp_ns)
+
+    def last(self, kind: str) -> int | None:
+        """The stamp of ``kind``'s last accepted sample [ns] (None: none yet)."""
+        return self._last[kind]
+
+    def verdict(self, kind: str, stamp_ns: int) -> str | None:
+        last, newest = self._last[kind], self._last[self.driver]
+        if last is not None and stamp_ns <= last:
+            return "out_of_order"
+        if newest is not None and newest - stamp_ns > self.max_age_ns:
+            return "stale"
+        self._last[kind] = stamp_ns
+        return None
 
 
 _Built = TypeVar("_Built")

@@ -206,6 +206,11 @@ class LockstepGroups(_CoreReport):
         self.silence.heard(len(out))
         return out
 
+    @property
+    def rejected(self) -> int:
+        """Stamps dropped as repeated or late (for a step already released)."""
+        return self.sync.rejected
+
     def progress(self, step: Step) -> int | None:
         if not step.ends_step:
             return None
@@ -332,13 +337,16 @@ class FreeOrder:
 class LockstepSamples(_CoreReport):
     """Lockstep policy of a sampled node (module docstring): each sample is a step at once,
     covering the nominal ``period_s``; ``~/progress`` names the step one sample after the
-    older of the streams' newest, every ``progress_every`` steps of ``rate_hz``. No
-    /diagnostics."""
+    older of the streams' newest, every ``progress_every`` steps of ``rate_hz``. A stamp more
+    than ``clock_jump_ns`` before the newest of any stream restarts (``on_restart(reason)``:
+    the node resets its core before the sample). No /diagnostics."""
 
     timing = "lockstep"
     diagnostics = False
 
-    def __init__(self, streams: Sequence[str], rate_hz: float, sample_rate_hz: float, progress_every: int) -> None:
+    def __init__(self, streams: Sequence[str], rate_hz: float, sample_rate_hz: float, progress_every: int,
+                 clock_jump_ns: int = 0, on_restart: Callable[[str], None] | None = None) -> None:
+        self.clock_jump_ns, self.on_restart, self._run_newest = int(clock_jump_ns), on_restart, None
         self.rate_hz = rate_hz
         self.period_s = 1.0 / sample_rate_hz
         self.steps_per_sample = int(round(rate_hz / sample_rate_hz))
@@ -347,6 +355,11 @@ class LockstepSamples(_CoreReport):
         self._reported = 0
 
     def add(self, kind: str, stamp_ns: int, msg: Any) -> list[Step]:
+        newest = self._run_newest
+        if self.on_restart is not None and judge(stamp_ns, newest, self.clock_jump_ns) is Stamp.JUMPED_BACK:
+            self.on_restart(f"backward clock jump on {kind} from {newest * 1e-9:.6f} s to {stamp_ns * 1e-9:.6f} s")
+            newest = None
+        self._run_newest = stamp_ns if newest is None else max(newest, stamp_ns)
         return [Step(kind, stamp_ns, stamp_ns * 1e-9, msg, self.period_s)]
 
     def progress(self, step: Step) -> int | None:
@@ -367,8 +380,8 @@ class FreeSamples:
     (duplicates and late samples dropped, counted); a sample's interval is its stamp minus
     its stream's previous accepted one when that is no gap (the drop rule of
     :mod:`gimbal_kinematics.stamps` at ``period_ns``, so jitter is followed), the nominal
-    period for a stream's first sample or the first after a clock jump (the core resets on
-    the jump itself); after a gap the interval is unknown, so the sample is not released
+    period for a stream's first sample or the first after a clock jump (which calls
+    ``on_restart(reason)`` first: the node resets its core); after a gap the interval is unknown, so the sample is not released
     (counted, ``<stream>_interval_unknown``). The core's time runs from the first stamp.
     ``~/progress``: the older stream's newest stamp every ``progress_every`` samples.
     ``warn(text)`` hears of each sample dropped."""
@@ -377,7 +390,8 @@ class FreeSamples:
     diagnostics = True
 
     def __init__(self, streams: Sequence[str], sample_rate_hz: float, clock_jump_ns: int, progress_every: int,
-                 warn: Callable[[str], None]) -> None:
+                 warn: Callable[[str], None], on_restart: Callable[[str], None] | None = None) -> None:
+        self.on_restart = on_restart
         self.stats = {s: StreamStats(clock_jump_ns) for s in streams}
         self.period_s = 1.0 / sample_rate_hz
         self.period_ns = 1e9 / sample_rate_hz
@@ -400,8 +414,10 @@ class FreeSamples:
         if self.t0_ns is None:
             self.t0_ns = stamp_ns
         last, self._last[kind] = self._last[kind], stamp_ns
+        if new_run and self.on_restart is not None:
+            self.on_restart(f"backward clock jump on {kind} to {stamp_ns * 1e-9:.6f} s")
         if new_run or last is None:
-            dt = self.period_s  # first sample, or a new run (the core resets)
+            dt = self.period_s  # first sample, or a new run (the core reset)
         elif is_gap(stamp_ns - last, self.period_ns):
             self.interval_unknown[kind] += 1
             self.warn(f"{kind} sample at {stamp_ns * 1e-9:.6f} s after a gap of {(stamp_ns - last) * 1e-9:.3f} s: "
@@ -443,13 +459,15 @@ def order_policy(timing: str, streams: Sequence[str], *, max_wait_ns: int, rate_
 
 
 def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample_rate_hz: float,
-                  progress_every: int, clock_jump_ns: int, warn: Callable[[str], None]) -> LockstepSamples | FreeSamples:
+                  progress_every: int, clock_jump_ns: int, warn: Callable[[str], None],
+                  on_restart: Callable[[str], None] | None = None) -> LockstepSamples | FreeSamples:
     """The sampled input policy of ``timing`` (a node's one choice, in its constructor):
-    streams sampled at ``sample_rate_hz``, lockstep steps at ``rate_hz``."""
+    streams sampled at ``sample_rate_hz``, lockstep steps at ``rate_hz``; a clock jump back
+    calls ``on_restart(reason)``, the node's core reset."""
     if timing == "lockstep":
-        return LockstepSamples(streams, rate_hz, sample_rate_hz, progress_every)
+        return LockstepSamples(streams, rate_hz, sample_rate_hz, progress_every, clock_jump_ns, on_restart)
     if timing == "free":
-        return FreeSamples(streams, sample_rate_hz, clock_jump_ns, progress_every, warn)
+        return FreeSamples(streams, sample_rate_hz, clock_jump_ns, progress_every, warn, on_restart)
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
 
 

@@ -1,6 +1,6 @@
 """The one stamp vocabulary: a verdict on each stamp and the rule that counts dropped
-samples (pure Python, no rclpy). Every stamp check of the project uses it: the cores'
-(:class:`gimbal_kinematics.sync.StampGate`), the free-timing input policies
+samples (pure Python, no rclpy). Every stamp check of the project uses it: the input
+policies' (:mod:`gimbal_kinematics.input_policy`), the free-timing ones
 (:class:`gimbal_kinematics.sync.FreshInputs`, :class:`gimbal_kinematics.stream_stats.StreamStats`),
 and, inline for speed, the LOS rate controller's per-sample path (same rule, same
 ``clock_jump_s``).

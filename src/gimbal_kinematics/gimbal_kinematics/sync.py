@@ -3,8 +3,6 @@
 A node's inputs arrive on separate topics in whatever order the middleware delivers them;
 what the node computes must not depend on that order, or a replay would not reproduce a run.
 
-* :class:`StampGate`: a core's stamp check, on the verdicts of :mod:`gimbal_kinematics.stamps`
-  (non-finite, duplicate, out of order, or a backward clock jump that calls for a reset).
 * :class:`StampOrder`: release several streams in stamp order (a filter fed at any replay
   speed sees the same sequence), with a bounded wait for a stream that stopped.
 * :class:`StepGroups`: group inputs by lockstep step and release the steps in order, each
@@ -32,27 +30,6 @@ from collections import deque
 from typing import Any, Callable, Iterable, NamedTuple, Sequence
 
 from .stamps import Stamp, dropped_samples, jittered, judge
-
-
-# ----------------------------------------------------------------------------------------
-# StampGate: a core's stamp check (the verdicts of gimbal_kinematics.stamps).
-# ----------------------------------------------------------------------------------------
-class StampGate:
-    """Mixin for a core with ``rejected_nonfinite`` and ``rejected_out_of_order`` counters,
-    ``reset(reason)`` and ``params.clock_jump_s``: counts a rejected stamp (a duplicate as
-    out of order) and resets on a clock jump (the stamp is then accepted as the first of a
-    new run)."""
-
-    def _stamp_ok(self, t: float, last: float | None, stream: str) -> bool:
-        verdict = judge(t, last, self.params.clock_jump_s)
-        if verdict is Stamp.NONFINITE:
-            self.rejected_nonfinite += 1
-        elif verdict is Stamp.OUT_OF_ORDER or verdict is Stamp.DUPLICATE:
-            self.rejected_out_of_order += 1
-        elif verdict is Stamp.JUMPED_BACK:
-            self.reset(f"{stream} stamp jumped back {last - t:.3f} s (t={t:.3f})")
-            return True
-        return verdict is Stamp.OK
 
 
 # ----------------------------------------------------------------------------------------

@@ -211,7 +211,7 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
         "inner_roll_null_max_arcsec": level["inner_roll_max"] / ARCSEC,
         "gimbal_lock_events": servo.rejected_gimbal_lock, "held_commands": servo.held_commands,
         "stale_command_ticks": servo.stale_command_ticks, "ticks_without_command": servo.ticks_without_command,
-        "navigator_rejected": nav.rejected_nonfinite + nav.rejected_out_of_order + nav.rejected_no_resolver,
+        "navigator_rejected": nav.rejected_nonfinite + nav.rejected_no_resolver,
         "true_gyro_bias_deg_h": [math.degrees(v) * 3600.0 for v in gyro_bias],
         "true_accel_bias_ug": [v / UG for v in accel_bias],
         "series": {"t": s[:, 0], "north_m": s[:, 1], "east_m": s[:, 2], "radial_m": s[:, 3],

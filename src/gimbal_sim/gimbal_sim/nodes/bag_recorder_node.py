@@ -17,13 +17,10 @@ node logs one line naming the device and its free space and ends (exit 1 alone;
 """
 from __future__ import annotations
 
-import struct
 import sys
-from pathlib import Path
 
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
 
@@ -34,33 +31,9 @@ from gimbal_kinematics.params import ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
 from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS
-from ..bag.schemas import message_class, msg_text, split_type
-from ..bag.record_rates import RecordRates
+from ..bag.schemas import message_class
 from ..bag.writer import BagWriter, DiskStopped
-from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LiveGuard, LivePortError, LiveRelay, parse_topic_rates
-from ..bag.scene_config import SceneConfig
-
-_STAMP = struct.Struct("<iI")
-
-
-def stamp_first(type_name: str) -> bool:
-    """True when the type's first field is a std_msgs/Header or builtin_interfaces/Time, so
-    its CDR payload starts (after the 4-byte encapsulation) with sec:int32, nanosec:uint32."""
-    for line in msg_text(*split_type(type_name)).splitlines():
-        line = line.split("#", 1)[0].strip()
-        if line:
-            return line.split()[0] in ("std_msgs/Header", "Header", "builtin_interfaces/Time")
-    return False
-
-
-def subscription_qos(offered: list[QoSProfile]) -> QoSProfile:
-    """The strongest QoS every offering publisher is compatible with."""
-    reliable = offered and all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
-    transient = offered and all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
-    depth = max([GRAPH_QOS.depth] + [q.depth for q in offered if q.history == HistoryPolicy.KEEP_LAST])
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                      reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-                      durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
+from .recorder_topics import TopicChoice, TopicStamps, record_rates, start_live, subscription_qos
 
 
 class BagRecorderNode(Node):
@@ -69,11 +42,9 @@ class BagRecorderNode(Node):
         values = declare_and_read(self, PARAMS)
         if not values["output_dir"]:
             raise ParameterError("parameter 'output_dir' is required")
-        try:
-            self.rates = RecordRates(parse_topic_rates(values["record_topic_rates"]))
-        except ValueError as exc:
-            raise ParameterError(f"parameter 'record_topic_rates': {exc}") from exc
-        self.live = self._start_live(values)  # before the bag: a port in use leaves nothing behind
+        self.rates = record_rates(values)
+        # before the bag: a port in use leaves nothing behind
+        self.live = start_live(values, self.get_logger().info, self.get_logger().error)
         try:
             self.writer = BagWriter(values["output_dir"], chunk_duration_ns=int(values["chunk_duration_s"] * 1e9),
                                     compress=values["compress"])
@@ -81,19 +52,15 @@ class BagRecorderNode(Node):
             if self.live is not None:
                 self.live.close()
             raise ParameterError(f"parameter 'output_dir': {exc}") from exc
-        self.wanted = list(values["topics"])
-        self.exclude = set(values["exclude_topics"]) | {self.resolve_topic_name("~/progress")}
-        self.wait_for_nodes = list(values["wait_for_nodes"])
+        self.choice = TopicChoice(self, list(values["topics"]), set(values["exclude_topics"])
+                                  | {self.resolve_topic_name("~/progress")}, list(values["wait_for_nodes"]))
         self.rate = values["sim_rate_hz"]
         self.progress_every = values["progress_every_steps"]
         self.end_ns = int(round(values["end_time_s"] * 1e9))
         self.subs: dict[str, object] = {}
         self.live_subs: dict[str, object] = {}  # live view sources not recorded (no readiness, no pacing)
-        self._stamped: dict[str, bool] = {}
-        self._last_stamp: dict[str, int] = {}
-        self.clock_ns = 0
+        self.stamps = TopicStamps()
         self.lost = 0           # middleware message-lost events
-        self.out_of_order = 0   # stamps going backwards within a topic
         self.ready = False
         #: why the recording stopped before its end (a full disk), for node_main's exit code
         self.failure: str | None = None
@@ -101,63 +68,20 @@ class BagRecorderNode(Node):
         self.pub_progress = self.create_publisher(Clock, "~/progress", GRAPH_QOS)
         self._discovery = self.create_timer(0.05, self._discover)
 
-    def _start_live(self, values: dict) -> LiveGuard | None:
-        if not values["live_port"]:
-            return None
-        try:
-            rates = parse_topic_rates(values["live_topic_rates"])
-        except ValueError as exc:
-            raise ParameterError(f"parameter 'live_topic_rates': {exc}") from exc
-        # the run's scene description, written beside the bag before any node starts: its target, ...
-        scene, missing = SceneConfig.beside(Path(values["output_dir"]))
-        try:
-            live = LiveRelay(values["live_host"], values["live_port"], values["live_rate_hz"], rates, scene)
-        except LivePortError as exc:
-            raise ParameterError(f"parameter 'live_port': {exc}") from exc
-        self.get_logger().info(f"live view on ws://{values['live_host']}:{live.port}")
-        if missing:
-            self.get_logger().info(missing)
-        # an error in the live view logs once and turns it off; the recording goes on
-        return LiveGuard(live, self.get_logger().error)
-
     # --- discovery (wall timer: graph polling, not stepping) -----------------------------
-    def _candidate_topics(self) -> dict[str, str]:
-        types = {name: types[0] for name, types in self.get_topic_names_and_types() if types}
-        if self.wanted:
-            # and the live view's sources this run publishes: relayed, not recorded (_subscribe)
-            extra = [t for t in LIVE_SOURCES if self.live is not None and self.live.on and t not in self.wanted
-                     and self.count_publishers(t) > 0]
-            return {t: types[t] for t in [*self.wanted, *extra] if t in types}
-        # a topic only subscribed to (e.g. an estimate nobody publishes in this run) has nothing to record
-        return {t: ty for t, ty in types.items() if t not in self.exclude and self.count_publishers(t) > 0}
-
     def _discover(self) -> None:
-        for topic, type_name in self._candidate_topics().items():
+        for topic, type_name in self.choice.candidates(self.live is not None and self.live.on).items():
             if topic not in self.subs and topic not in self.live_subs:
                 self._subscribe(topic, type_name)
-        if not self.ready and self._all_matched():
+        if not self.ready and self.choice.matched(self.subs):
             self.ready = True
             self.get_logger().info(f"recording {len(self.subs)} topics to {self.writer.directory}")
             self.pub_progress.publish(m.clock_msg(0))
 
-    def _all_matched(self) -> bool:
-        if self.wanted and set(self.wanted) - set(self.subs):
-            return False
-        if not self.wanted:
-            names = {n for n, _ in self.get_node_names_and_namespaces()}
-            if set(self.wait_for_nodes) - names:
-                return False
-            for node in self.wait_for_nodes:
-                ns = dict(self.get_node_names_and_namespaces())[node]
-                published = {t for t, _ in self.get_publisher_names_and_types_by_node(node, ns)}
-                if (published - self.exclude) - set(self.subs):
-                    return False
-        return all(sub.get_publisher_count() > 0 for sub in self.subs.values())
-
     def _subscribe(self, topic: str, type_name: str) -> None:
         offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
-        self._stamped[topic] = stamp_first(type_name)
-        if self.wanted and topic not in self.wanted:
+        self.stamps.add(topic, type_name)
+        if self.choice.wanted and topic not in self.choice.wanted:
             if self.live is None:
                 return
             self.live.add_topic(topic, type_name)
@@ -185,11 +109,7 @@ class BagRecorderNode(Node):
         self.get_logger().error(f"{topic}: {status.total_count_change} messages lost by the middleware")
 
     def _on_message(self, topic: str, data: bytes) -> None:
-        stamp = self._stamp_of(topic, data)
-        last = self._last_stamp.get(topic)
-        if last is not None and stamp < last:
-            self.out_of_order += 1
-        self._last_stamp[topic] = stamp
+        stamp = self.stamps.heard(topic, data)
         if self.failure is not None:
             return
         if not self.rates or self.rates.keep(topic, stamp):
@@ -201,7 +121,6 @@ class BagRecorderNode(Node):
         if self.live is not None:
             self.live.publish(topic, data, stamp)
         if topic == "/clock":
-            self.clock_ns = stamp
             step = m.step_of_stamp(stamp, self.rate)
             if self.ready and ((step + 1) % self.progress_every == 0 or (self.end_ns and stamp >= self.end_ns)):
                 self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(step + 1, self.rate)))
@@ -216,13 +135,7 @@ class BagRecorderNode(Node):
 
     def _relay_only(self, topic: str, data: bytes) -> None:
         if self.live is not None:
-            self.live.publish(topic, data, self._stamp_of(topic, data))
-
-    def _stamp_of(self, topic: str, data: bytes) -> int:
-        if self._stamped[topic] and len(data) >= 12 and data[1] == 1:  # CDR little-endian
-            sec, nanosec = _STAMP.unpack_from(data, 4)
-            return sec * 1_000_000_000 + nanosec
-        return self.clock_ns
+            self.live.publish(topic, data, self.stamps.stamp_of(topic, data))
 
     def close(self) -> None:
         """Finish the bag (idempotent); records the loss counters in the log."""
@@ -232,7 +145,7 @@ class BagRecorderNode(Node):
         if not self.writer.closed:
             self.writer.close()
             text = (f"bag closed: {self.writer.message_count} messages on {len(self.writer.topics)} topics, "
-                    f"{self.lost} lost, {self.out_of_order} out of order")
+                    f"{self.lost} lost, {self.stamps.out_of_order} out of order")
             if self.context.ok():
                 self.get_logger().info(text)
             else:  # after Ctrl-C the context is gone and /rosout with it
