@@ -22,11 +22,11 @@ from gimbal_estimators.rotation_alignment import (
     ACCEL_BIAS, DPHI_E0, DPHI_N0, DPHI_U0, GYRO_DRIFT, N_STATES, NORTH_DRIFT, TILT0, RotationAlignmentParams,
     RotationAlignmentRls,
 )
-from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
-from gimbal_kinematics.four_gimbal import BidirectionalRotation, platform_misalignment_enu
-from gimbal_kinematics.free_gyro import dcm_ni
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, rot3
-from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
+from gimbal_kinematics.maths.earth import OMEGA_IE, normal_gravity
+from gimbal_kinematics.maths.four_gimbal import BidirectionalRotation, platform_misalignment_enu
+from gimbal_kinematics.maths.free_gyro import dcm_ni
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, rot3
+from gimbal_kinematics.maths.units import ARCMIN, ARCSEC, DEG_H, UG
 from gimbal_sim.experiments.platform_servo import PAPER3_MISALIGNMENT_ARCSEC
 from gimbal_sim.reports.alignment import column_stats
 from gimbal_sim.world.sensors import PAPER3_ACCELEROMETER, AccelerometerModel

@@ -28,8 +28,8 @@ import pytest
 import yaml
 
 from conftest import VENV_BIN
-from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
-from gimbal_kinematics.rotations import euler321_to_dcm
+from gimbal_kinematics.maths.four_gimbal import dcm_bs, platform_misalignment_enu
+from gimbal_kinematics.maths.rotations import euler321_to_dcm
 from gimbal_sim.graph.scenario import ScenarioError, builtin_scenarios, load, validate, variant
 from gimbal_sim.reports.platform_servo import stream_columns
 

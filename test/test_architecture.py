@@ -1,9 +1,11 @@
 """The package stack reads bottom-up, and the tests here keep it that way.
 
 gimbal_kinematics (pure maths and rigid-body models; its ROS edge isolated in
-``gimbal_kinematics.ros``) <- gimbal_estimators <- gimbal_control <- gimbal_sim (the
+``gimbal_kinematics.ros``) <- gimbal_estimators, gimbal_control
+(siblings: neither imports the other) <- gimbal_sim (the
 composition root). A module may import its own package and the packages below it, never one
-above; inside gimbal_sim the same holds for its rooms (subpackages, :data:`ROOM`); cores
+above; inside gimbal_sim and gimbal_kinematics the same holds for their rooms (subpackages,
+:data:`ROOM`, :data:`KINEMATICS_ROOM`); cores
 never import rclpy or message packages; nothing reaches another package through importlib;
 no two modules import each other, directly or round a loop; a function-local import is
 kept only for a third-party library or a target named in :data:`LAZY_TARGETS`; modules and
@@ -23,8 +25,9 @@ import pytest
 from conftest import REPO_ROOT
 
 SRC = REPO_ROOT / "src"
-#: Each package's level: a module may import packages of its level or below, never above.
-LEVEL = {"gimbal_kinematics": 0, "gimbal_estimators": 1, "gimbal_control": 2, "gimbal_sim": 3}
+#: Each package's level: a module may import packages of its level or below, never above; the two
+#: packages of level 1 are siblings and import neither each other (SIBLINGS).
+LEVEL = {"gimbal_kinematics": 0, "gimbal_estimators": 1, "gimbal_control": 1, "gimbal_sim": 2}
 #: Top-level modules of ROS 2 itself (rclpy and the message/interface packages).
 ROS_MODULES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs", "geometry_msgs",
                "rosgraph_msgs", "diagnostic_msgs", "ament_index_python", "rosidl_runtime_py", "rpyutils"}
@@ -67,9 +70,9 @@ LAZY_TARGETS = {
     "gimbal_sim.bag.player": "loads rclpy: gimbal-bag's other commands run without ROS",
     "gimbal_sim.bag.live": "loads rclpy and the Foxglove SDK: only gimbal-bag play --live needs the live view",
     "gimbal_sim.bag.any_reader": "loads rosbags (slow to import): only a bag that is not ours needs it",
-    "gimbal_kinematics.rotation_kernels": "loads numba (about 70 MB and 0.2 s a process): rotations are used "
-                                          "everywhere, by processes (recorder, bag tools) that run no kernel",
-    "gimbal_kinematics.earth_kernels": "loads numba, as rotation_kernels: the earth's functions are used everywhere",
+    "gimbal_kinematics.maths.rotation_kernels": "loads numba (about 70 MB and 0.2 s a process): rotations are used "
+                                                "everywhere, by processes (recorder, bag tools) that run no kernel",
+    "gimbal_kinematics.maths.earth_kernels": "loads numba, as rotation_kernels: the earth's functions are used everywhere",
 }
 
 
@@ -513,7 +516,7 @@ def test_no_core_imports_a_timing_module():
     assert "gyro_bias_ekf" in {p.stem for p in core_modules()}
 
 
-@pytest.mark.parametrize("line", ["from gimbal_kinematics.stamps import judge",
+@pytest.mark.parametrize("line", ["from gimbal_kinematics.timing.stamps import judge",
                                   "from gimbal_kinematics import sync",
                                   "import gimbal_kinematics.timing.input_policy",
                                   "from gimbal_kinematics.timing.stream_stats import StreamStats"])
@@ -521,5 +524,85 @@ def test_the_timing_import_check_finds_a_planted_import(tmp_path, line):
     planted = tmp_path / "core.py"
     planted.write_text(f"{line}\n")
     assert timing_imports(planted)
-    planted.write_text("from gimbal_kinematics.rotations import quat_mul\nimport numpy\n")
+    planted.write_text("from gimbal_kinematics.maths.rotations import quat_mul\nimport numpy\n")
     assert not timing_imports(planted)
+
+
+# ------------------------------------------------------------------ gimbal_kinematics's rooms
+#: gimbal_kinematics's rooms, bottom-up: a module imports its own room and the rooms of a lower
+#: level; rooms of one level are siblings and import neither each other. maths is the floor.
+KINEMATICS_ROOM = {
+    "__init__": 0,  # the package's docstring: frames, vectors, units and stamps conventions
+    "maths": 0,     # rotations, earth, sighting chain, LOS, four-gimbal, free gyro, geo-pointing, Kalman, kernels
+    "gimbal": 1,    # rigid-body models: the two-axis gimbal, the host state, the turret base
+    "timing": 1,    # the one timing edge: stamps, orderings, stream statistics, input and control policies
+    "params": 1,    # a node's parameters without ROS: the Param table, ROS 2 parameter files
+    "cli": 2,       # the command-line edge: the error boundary of every command, gimbal-geometry
+    "ros": 3,       # the import-isolated ROS edge
+}
+#: Packages of one level that import neither each other (nor list each other in package.xml).
+SIBLINGS = ("gimbal_control", "gimbal_estimators")
+
+
+def kinematics_room_violations(src: Path) -> list[str]:
+    """Imports (function-local ones too) from one room of gimbal_kinematics into a room of the
+    same or a higher level, and modules that sit in no room."""
+    mods = module_index(src)
+    kin = {m: p for m, p in mods.items() if m.split(".")[0] == "gimbal_kinematics"}
+    bad = [f"{m}: not in a room of KINEMATICS_ROOM" for m in kin if room_of(m) not in KINEMATICS_ROOM]
+    for m, p in kin.items():
+        for t, _ in imports_in(m, p, mods):
+            if t.split(".")[0] != "gimbal_kinematics" or room_of(t) == room_of(m) or room_of(m) not in KINEMATICS_ROOM:
+                continue
+            if room_of(t) not in KINEMATICS_ROOM or KINEMATICS_ROOM[room_of(t)] >= KINEMATICS_ROOM[room_of(m)]:
+                bad.append(f"{m} ({room_of(m)}) imports {t} ({room_of(t)})")
+    return bad
+
+
+def test_gimbal_kinematics_keeps_every_module_in_a_room():
+    root = SRC / "gimbal_kinematics" / "gimbal_kinematics"
+    top = sorted(p.name for p in root.glob("*.py") if p.name != "__init__.py")
+    rooms = sorted(p.name for p in root.iterdir() if (p / "__init__.py").is_file())
+    assert not top, f"top-level modules of gimbal_kinematics (put each in a room): {top}"
+    assert rooms == sorted(set(KINEMATICS_ROOM) - {"__init__"}), f"rooms on disk {rooms}, in KINEMATICS_ROOM " \
+                                                                 f"{sorted(KINEMATICS_ROOM)}"
+
+
+def test_gimbal_kinematics_rooms_import_only_their_own_room_or_rooms_below():
+    bad = kinematics_room_violations(SRC)
+    assert not bad, "imports of a room above or beside:\n" + "\n".join(bad)
+    assert sum(m.startswith("gimbal_kinematics.maths.") for m in module_index(SRC)) > 10
+
+
+@pytest.mark.parametrize("files, found", [
+    ({"maths/a.py": "from ..timing.b import B\n", "timing/b.py": "B = 1\n"},
+     ["gimbal_kinematics.maths.a (maths) imports gimbal_kinematics.timing.b (timing)"]),
+    ({"timing/a.py": "def f():\n    from gimbal_kinematics.params import b\n    return b\n", "params/b.py": ""},
+     ["gimbal_kinematics.timing.a (timing) imports gimbal_kinematics.params.b (params)"]),
+    ({"ros/a.py": "from ..maths import b\n", "maths/b.py": "", "loose.py": ""},
+     ["gimbal_kinematics.loose: not in a room of KINEMATICS_ROOM"]),
+])
+def test_the_room_check_finds_a_planted_import_of_a_room_above(tmp_path, files, found):
+    """The checker above on a planted package: an import up (at the top or function-local),
+    one sideways between siblings, and a module outside any room are each found; the
+    allowed import down is not."""
+    root = tmp_path / "gimbal_kinematics" / "gimbal_kinematics"
+    for rel in ["__init__.py", *{f"{r.split('/')[0]}/__init__.py" for r in files if "/" in r}, *files]:
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(files.get(rel, ""))
+    assert kinematics_room_violations(tmp_path) == found
+
+
+def test_gimbal_control_and_gimbal_estimators_are_siblings():
+    """Neither imports the other (function-local imports count) nor lists the other in its
+    package.xml: what both need (the Kalman steps) is gimbal_kinematics.maths."""
+    import xml.etree.ElementTree as ET
+
+    assert LEVEL[SIBLINGS[0]] == LEVEL[SIBLINGS[1]]
+    bad = []
+    for pkg, other in (SIBLINGS, SIBLINGS[::-1]):
+        bad += [f"{p.relative_to(SRC)} imports {other}" for p in modules(pkg) if other in imports_of(p)]
+        root = ET.parse(SRC / pkg / "package.xml").getroot()
+        if other in {e.text for e in root.iter() if e.tag.endswith("depend")}:
+            bad.append(f"{pkg}/package.xml depends on {other}")
+    assert not bad, "\n".join(bad)

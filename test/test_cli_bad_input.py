@@ -30,7 +30,7 @@ import pytest
 from conftest import VENV_BIN
 from foreign_bags import synthetic_messages, write_rosbags
 from test_workspace import PACKAGES, declared_console_scripts
-from gimbal_kinematics import cli as geometry_cli
+from gimbal_kinematics.cli import geometry as geometry_cli
 from gimbal_sim import campaign_cli, run_cli
 from gimbal_sim.allan import cli as allan_cli
 from gimbal_sim.bag import cli as bag_cli

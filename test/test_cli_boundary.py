@@ -9,7 +9,7 @@ import math
 import pytest
 import yaml
 
-from gimbal_kinematics.cli_boundary import EXIT_CODES, RunFailed, UsageError, cli_boundary, finite, read_text
+from gimbal_kinematics.cli.boundary import EXIT_CODES, RunFailed, UsageError, cli_boundary, finite, read_text
 
 
 def _raising(exc: BaseException):

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from gimbal_control import servo_kernels as sk
-from gimbal_kinematics.four_gimbal import BidirectionalRotation
+from gimbal_kinematics.maths.four_gimbal import BidirectionalRotation
 from gimbal_sim.core import compiled, compiled_platform
 from gimbal_sim.core.core_loop import core_plan, node_values, run_core_loop, run_stages
 from gimbal_sim.graph.scenario import apply_set, load, variant

@@ -11,9 +11,10 @@ import pytest
 
 from gimbal_control import los_rate_kernels as lk
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
-from gimbal_estimators import gyro_bias_ekf_kernels as ek, kalman
+from gimbal_estimators import gyro_bias_ekf_kernels as ek
+from gimbal_kinematics.maths import kalman
 from gimbal_estimators.gyro_bias_ekf_model import discretize_error_model, roll_rate_matrix
-from gimbal_kinematics.rotations import quat_to_dcm
+from gimbal_kinematics.maths.rotations import quat_to_dcm
 from gimbal_sim.core.compiled import compiled_runner
 from gimbal_sim.core.core_loop import node_values, run_core_loop
 from gimbal_sim.graph.scenario import load, variant

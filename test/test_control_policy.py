@@ -1,4 +1,4 @@
-"""The controllers' input policies (:mod:`gimbal_kinematics.control_policy`) against
+"""The controllers' input policies (:mod:`gimbal_kinematics.timing.control_policy`) against
 hand-worked cases: which steps come out of a sequence of stamped inputs, with which inputs,
 and when a command is held (lockstep: an input that could not be used is in the step as
 None) or zeroed (free: a stale measurement), with the counts."""
@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from gimbal_kinematics.control_policy import (
+from gimbal_kinematics.timing.control_policy import (
     RESTART_FRESH, RESTART_JUMP, FreeControl, LockstepControl, Sample, control_policy,
 )
 

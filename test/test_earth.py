@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from gimbal_kinematics import earth
-from gimbal_kinematics.rotations import unskew
+from gimbal_kinematics.maths import earth
+from gimbal_kinematics.maths.rotations import unskew
 
 
 def test_published_wgs84_values():

@@ -177,8 +177,8 @@ def test_late_stamps_are_dropped_and_a_clock_jump_resets_through_the_lockstep_po
     """The node's lockstep policy (eager steps, as the node builds it) is where stamps are
     judged: a repeated or late step of a stream never reaches the core, a jump back of more
     than clock_jump_s restarts and the next step carries the reset."""
-    from gimbal_kinematics.control_policy import LockstepControl
-    from gimbal_kinematics.stamps import step_stamp_ns
+    from gimbal_kinematics.timing.control_policy import LockstepControl
+    from gimbal_kinematics.timing.stamps import step_stamp_ns
 
     rate = 1000.0
     policy = LockstepControl(lambda k: ("gyro", "enc"), rate, EncoderFusionParams().clock_jump_s,

@@ -427,7 +427,7 @@ def test_the_ekf_timing_edge_rejects_outlier_stamps_and_resets_on_sustained_jump
     (``order_policy``, its default ``clock_jump_s``), fed its gyro stream alone (the others
     would only hold the stamp order); ``on_restart`` is where the node resets its filter."""
     from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
-    from gimbal_kinematics.input_policy import order_policy
+    from gimbal_kinematics.timing.input_policy import order_policy
 
     resets, warnings = [], []
     policy = order_policy("free", ("gyro",), max_wait_ns=0, rate_hz=1000.0, progress_every=1,

@@ -12,7 +12,7 @@ from gimbal_estimators import flexure_attitude_matching as am
 from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_kf import FlexureKfParams
 from gimbal_estimators.flexure_method_comparison import LguRun, compare_methods, flexure_covariance
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_sim.world.sensors import FlexureParams
 from gimbal_sim.world.sensors.flexure import ShipFlexureTruth
 from gimbal_sim.world.sensors.lgu import LguPair

@@ -10,8 +10,8 @@ from scipy.spatial.transform import Rotation
 from gimbal_estimators import flexure_kf as fk
 from gimbal_estimators import flexure_model as fm
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
-from gimbal_kinematics.input_policy import sample_policy
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, small_angles_from_dcm
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, small_angles_from_dcm
+from gimbal_kinematics.timing.input_policy import sample_policy
 from gimbal_sim.experiments.flexure import run_flexure_comparison
 from gimbal_sim.world.sensors import FlexureParams
 

@@ -27,9 +27,9 @@ from foreign_bags import DEFAULT_QOS, EPOCH_NS, TYPESTORE
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS, GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
-from gimbal_kinematics.rotations import euler321_from_quat
+from gimbal_kinematics.maths.rotations import euler321_from_quat
 from gimbal_kinematics.ros import messages as m
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.timing.sync import RateSync
 from ros_harness import harness_node, node_processes, spin_until
 
 pytestmark = pytest.mark.ros

@@ -8,9 +8,9 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics import earth
-from gimbal_kinematics import four_gimbal as fg
-from gimbal_kinematics.rotations import small_angles_from_dcm, unskew
+from gimbal_kinematics.maths import earth
+from gimbal_kinematics.maths import four_gimbal as fg
+from gimbal_kinematics.maths.rotations import small_angles_from_dcm, unskew
 
 RNG_SEED = 3303
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics import earth
-from gimbal_kinematics import free_gyro as fg
+from gimbal_kinematics.maths import earth
+from gimbal_kinematics.maths import free_gyro as fg
 
 RNG_SEED = 20260404
 OMEGA = earth.OMEGA_IE

@@ -16,9 +16,9 @@ from gimbal_estimators.free_gyro_error_model import (
     ErrorSources, FixErrorModel, circle_probability, expm_augmented, fdop_circle_probability, propagate_attitude_error,
     spin_drift_error_cov_i)
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
-from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
-from gimbal_kinematics.free_gyro import dcm_ni, nadir_angle, spin_axes_for_site_deg
-from gimbal_kinematics.rotations import (
+from gimbal_kinematics.maths.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.free_gyro import dcm_ni, nadir_angle, spin_axes_for_site_deg
+from gimbal_kinematics.maths.rotations import (
     dcm_from_rotation_vector, euler321_to_dcm, euler_rates_to_body_rates, rotation_vector_from_dcm, skew)
 from gimbal_sim.experiments.free_gyro import run_free_gyro_experiment, simulate_truth
 from gimbal_sim.experiments.free_gyro_errors import fix_model

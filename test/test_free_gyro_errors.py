@@ -16,9 +16,9 @@ from scipy.special import j0
 
 from gimbal_estimators.free_gyro_error_model import ARCSEC, DEG_RT_H, ErrorSources, FixPredictor
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
-from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
-from gimbal_kinematics.free_gyro import fix_geometry, spin_axes_for_site_deg
-from gimbal_kinematics.rotations import euler321_to_dcm
+from gimbal_kinematics.maths.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.free_gyro import fix_geometry, spin_axes_for_site_deg
+from gimbal_kinematics.maths.rotations import euler321_to_dcm
 from gimbal_sim.experiments import free_gyro_errors as fe
 from gimbal_sim.experiments.free_gyro import run_free_gyro_experiment, simulate_truth
 from gimbal_sim.experiments.registry import EXPERIMENTS

@@ -17,7 +17,7 @@ from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyr
 from gimbal_estimators.free_gyro_positioning_params import PARAMS
 from gimbal_estimators.free_gyro_positioning_node import IMU, SPIN_A, SPIN_B, FreeGyroPositioningNode
 from gimbal_kinematics.ros import messages as m
-from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
+from gimbal_kinematics.maths.rotations import euler321_from_quat, euler321_to_quat
 from test_free_gyro_node import RATE, messages_of, node_params, readouts
 
 pytestmark = pytest.mark.ros

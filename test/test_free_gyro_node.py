@@ -27,8 +27,8 @@ from sensor_msgs.msg import Imu, NavSatFix
 from conftest import VENV_BIN
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_estimators.free_gyro_positioning_node import VELOCITY, FreeGyroPositioningNode
-from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, prime_vertical_radius
-from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
+from gimbal_kinematics.maths.earth import OMEGA_IE, meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.rotations import euler321_from_quat, euler321_to_quat
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.experiments.free_gyro import make_spin_axes, simulate_truth

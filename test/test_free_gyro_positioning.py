@@ -12,10 +12,10 @@ from gimbal_estimators.free_gyro_positioning import (
     FreeGyroPositioningParams,
     navsat_covariance_enu,
 )
-from gimbal_kinematics import earth
-from gimbal_kinematics import free_gyro as fg
-from gimbal_kinematics.free_gyro import spin_axis_for_site
-from gimbal_kinematics.rotations import rot3
+from gimbal_kinematics.maths import earth
+from gimbal_kinematics.maths import free_gyro as fg
+from gimbal_kinematics.maths.free_gyro import spin_axis_for_site
+from gimbal_kinematics.maths.rotations import rot3
 from gimbal_sim.experiments.free_gyro import (
     make_spin_axes,
     run_fdop_monte_carlo,
@@ -246,7 +246,7 @@ def test_late_read_outs_are_refused_and_a_clock_jump_resets_through_the_input_po
     """Stamps are the node's synced input policy's to judge (as the node builds it): a late or
     repeated read-out never makes a group; one more than clock_jump_s back calls the node's
     reset, and the new run's groups follow."""
-    from gimbal_kinematics.input_policy import synced_policy
+    from gimbal_kinematics.timing.input_policy import synced_policy
 
     resets = []
     policy = synced_policy("free", ("a", "b"), rate_hz=100.0, progress_every=1,

@@ -1,5 +1,5 @@
 """The controllers' free-timing stale-input policy
-(:class:`gimbal_kinematics.control_policy.FreeControl` with its :class:`StaleRule`): a stale
+(:class:`gimbal_kinematics.timing.control_policy.FreeControl` with its :class:`StaleRule`): a stale
 or missing measurement zeroes the command and restarts the loop when it is fresh again; a
 stale or missing estimate (held stream) keeps the loop running on the last estimate. Fed by
 hand-made stamps; what the policy returns says what the node does with each gyro sample."""
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from gimbal_kinematics.control_policy import RESTART_FRESH, FreeControl
+from gimbal_kinematics.timing.control_policy import RESTART_FRESH, FreeControl
 
 MS = 1_000_000
 

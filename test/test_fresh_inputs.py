@@ -1,11 +1,11 @@
-"""Free timing's input gate (gimbal_kinematics.sync.FreshInputs), without ROS: stamps from a
+"""Free timing's input gate (gimbal_kinematics.timing.sync.FreshInputs), without ROS: stamps from a
 seeded generator whose drops, duplicates and reorderings are known by construction."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from gimbal_kinematics.sync import FreshInputs
+from gimbal_kinematics.timing.sync import FreshInputs
 
 EPOCH_NS = 1_800_000_000_123_456_789  # stamps near 1.8e9 s, as a driver's wall clock gives them
 T_NS = 5_000_000  # 200 Hz gyro

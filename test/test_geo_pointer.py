@@ -9,9 +9,9 @@ from scipy.spatial.transform import Rotation
 
 from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
 from gimbal_control.geo_pointer_params import PARAMS
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.geo_pointing import GimbalLimits
-from gimbal_kinematics.params import ParameterError, defaults
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.geo_pointing import GimbalLimits
+from gimbal_kinematics.params.table import ParameterError, defaults
 
 D = math.radians
 VEHICLE = (D(39.9), D(32.8), 900.0)
@@ -169,7 +169,7 @@ def test_scenario_cores_with_ideal_sensors_point_within_50_urad_while_driving(tm
     against pymap3d's, the budgets against the core's own."""
     import dataclasses
 
-    from gimbal_kinematics.geo_pointing import radial_quantile
+    from gimbal_kinematics.maths.geo_pointing import radial_quantile
     from gimbal_sim.core.core_loop import run_core_loop
     from gimbal_sim.graph.scenario import load, variant
     from gimbal_sim.reports.core_metrics import GeoPointingCollector

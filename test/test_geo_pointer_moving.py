@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
-from gimbal_kinematics.earth import transport_rate_n
+from gimbal_kinematics.maths.earth import transport_rate_n
 
 ORIGIN = (39.9, 32.8, 900.0)  # deg, deg, m: the local east-north-up origin of the pass
 TARGET_ENU = (0.0, 400.0, 30.0)  # the target 400 m north of the road
@@ -85,8 +85,8 @@ def test_the_aim_is_pymap3d_direction_and_the_feed_forward_its_rate_at_each_step
 
 
 def test_the_earth_rate_is_taken_at_the_vehicles_latitude():
-    from gimbal_kinematics.earth import earth_rate_n
-    from gimbal_kinematics.geo_pointing import los_to_target
+    from gimbal_kinematics.maths.earth import earth_rate_n
+    from gimbal_kinematics.maths.geo_pointing import los_to_target
 
     pointer = _pointer()
     south = pm.enu2geodetic(0.0, -3000.0, 0.0, *ORIGIN)  # 3 km south of the road

@@ -31,7 +31,7 @@ def test_lockstep_commands_match_the_core_and_a_nan_target_is_counted(ros_domain
     from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
     from gimbal_control.geo_pointer_node import GeoPointerNode
     from gimbal_control.geo_pointer_params import PARAMS
-    from gimbal_kinematics.params import defaults
+    from gimbal_kinematics.params.table import defaults
     from gimbal_kinematics.ros import messages as sm
     from gimbal_kinematics.ros.qos import GRAPH_QOS
 
@@ -118,7 +118,7 @@ def _free_pointer(env, extra: dict):
 def _reference():
     from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
     from gimbal_control.geo_pointer_params import PARAMS
-    from gimbal_kinematics.params import defaults
+    from gimbal_kinematics.params.table import defaults
 
     return GeoPointer(GeoPointerParams.from_values(defaults(PARAMS) | {"target_llh_deg": TARGET,
                                                                       "vehicle_llh_deg": VEHICLE}))

@@ -7,12 +7,12 @@ import pymap3d as pm
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics.geo_pointing import (
+from gimbal_kinematics.maths.geo_pointing import (
     BUDGET_TERMS, GimbalLimits, PointingSigmas, geo_point, joint_angles_for_los, los_to_target,
     pointing_budget,
 )
-from gimbal_kinematics.rotations import euler321_to_dcm
-from gimbal_kinematics.sighting_chain import dcm_bm
+from gimbal_kinematics.maths.rotations import euler321_to_dcm
+from gimbal_kinematics.maths.sighting_chain import dcm_bm
 
 D = math.radians
 
@@ -292,7 +292,7 @@ def test_the_95_percent_radius_against_closed_forms_scipy_and_monte_carlo():
     scipy's quadrature of P(|d| ≤ r) in Cartesian form with brentq, and a seeded Monte Carlo."""
     from scipy import integrate, optimize, stats
 
-    from gimbal_kinematics.geo_pointing import radial_quantile
+    from gimbal_kinematics.maths.geo_pointing import radial_quantile
 
     assert radial_quantile(2.0, 2.0) == pytest.approx(2.0 * math.sqrt(-2.0 * math.log(0.05)), rel=1e-12)
     assert radial_quantile(3.0, 0.0) == pytest.approx(3.0 * stats.norm.ppf(0.975), rel=1e-12)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gimbal_kinematics import sighting_chain as sc
+from gimbal_kinematics.maths import sighting_chain as sc
 from gimbal_sim.world.plant import (
     GimbalParams, GimbalSimulator, TwoAxisGimbal, body_inertial_rates, make_profile,
     rest_base, site_environment, turret_base_from_host,

@@ -9,19 +9,19 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from gimbal_estimators import kalman
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
+from gimbal_kinematics.maths import kalman
 from gimbal_estimators.gyro_bias_ekf_model import (
     discretize_error_model, encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
     roll_rate_matrix,
 )
-from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
-from gimbal_kinematics.rotations import (
+from gimbal_kinematics.maths.earth import earth_rate_n, transport_rate_n
+from gimbal_kinematics.maths.rotations import (
     dcm_from_rotation_vector, quat_to_dcm, rotation_vector_from_dcm, skew, small_angles_from_dcm,
 )
-from gimbal_kinematics.sighting_chain import dcm_bm, dcm_nb, reconstruct_roll_rate
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.maths.sighting_chain import dcm_bm, dcm_nb, reconstruct_roll_rate
+from gimbal_kinematics.timing.sync import RateSync
 from gimbal_sim.core.core_ideal import TruthStabilizer
 from gimbal_sim.experiments.bias_ekf import (
     GENERAL_GIMBAL_GYRO, ekf_params_from_sensors, run_monte_carlo,
@@ -310,7 +310,7 @@ def _through_the_lockstep_policy(ekf: GyroBiasEkf, steps, policy) -> list:
 
 
 def _ekf_policy(ekf: GyroBiasEkf):
-    from gimbal_kinematics.input_policy import order_policy
+    from gimbal_kinematics.timing.input_policy import order_policy
 
     return order_policy("lockstep", ("encoders", "ins", "gyro"), max_wait_ns=0, rate_hz=500.0, progress_every=1,
                         clock_jump_ns=int(ekf.params.clock_jump_s * 1e9),

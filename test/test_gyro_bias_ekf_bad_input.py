@@ -126,7 +126,7 @@ def _reference(params, schedule) -> dict[int, np.ndarray]:
     from gimbal_estimators import messages as m
     from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
     from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
-    from gimbal_kinematics.sync import RateSync
+    from gimbal_kinematics.timing.sync import RateSync
 
     core = EkfInput(GyroBiasEkf(params), RateSync)
     t = lambda msg: (m.stamp_ns(msg.header.stamp) - EPOCH_NS) * 1e-9  # noqa: E731

@@ -1,12 +1,12 @@
-"""The input policies (gimbal_kinematics.input_policy) against hand-worked cases."""
+"""The input policies (gimbal_kinematics.timing.input_policy) against hand-worked cases."""
 from __future__ import annotations
 
 import pytest
 
-from gimbal_kinematics.input_policy import (
+from gimbal_kinematics.timing.input_policy import (
     FreeOrder, FreeSamples, LockstepGroups, LockstepOrder, LockstepSamples, order_policy, sample_policy,
 )
-from gimbal_kinematics.stamps import JUMP_SAMPLES
+from gimbal_kinematics.timing.stamps import JUMP_SAMPLES
 
 EPOCH = 1_800_000_000_000_000_000
 MS = 1_000_000
@@ -87,7 +87,7 @@ def test_the_factories_refuse_an_unknown_timing():
 
 
 def test_sample_grid_matches_a_brute_force_walk_of_the_steps():
-    from gimbal_kinematics.input_policy import SampleGrid
+    from gimbal_kinematics.timing.input_policy import SampleGrid
 
     grid = SampleGrid({"joint": 4, "imu": 10})
     for k in range(0, 200):

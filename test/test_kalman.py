@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from gimbal_estimators import kalman as kf
+from gimbal_kinematics.maths import kalman as kf
 
 
 def test_joseph_update_equals_the_information_form():

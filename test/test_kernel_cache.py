@@ -5,7 +5,7 @@ import os
 import subprocess
 import sys
 
-from gimbal_kinematics.kernel_cache import cache_dir, kernel_sources
+from gimbal_kinematics.maths.kernel_cache import cache_dir, kernel_sources
 
 
 def _tree(root, layout_source: bool):
@@ -36,7 +36,7 @@ def test_any_kernel_change_moves_the_cache_and_nothing_else_does(tmp_path, monke
 def test_importing_a_package_points_numba_at_the_keyed_directory(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env["XDG_CACHE_HOME"] = str(tmp_path)
-    code = ("import gimbal_control, numba\nfrom gimbal_kinematics.kernel_cache import cache_dir\n"
+    code = ("import gimbal_control, numba\nfrom gimbal_kinematics.maths.kernel_cache import cache_dir\n"
             "print(numba.config.CACHE_DIR == str(cache_dir()), str(cache_dir()).startswith(%r))" % str(tmp_path))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.stdout.split() == ["True", "True"], out.stderr

@@ -13,9 +13,9 @@ from scipy.spatial.transform import Rotation
 from gimbal_control import control_kernels as ck
 from gimbal_control.pid import Pid, PidParams
 from gimbal_estimators import navigator_kernels as nk
-from gimbal_kinematics import four_gimbal, platform_kernels as fk
 from gimbal_kinematics.gimbal import gimbal_kernels as gk, host_kernels as hk
 from gimbal_kinematics.gimbal.gimbal_dynamics import TwoAxisGimbal
+from gimbal_kinematics.maths import four_gimbal, platform_kernels as fk
 from gimbal_sim.world.plant import make_profile, platform_kernels as pk, profile_kernels as prk
 from gimbal_sim.world.plant.platform_loops import PlatformAxis, paper3_axis_params
 from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore

@@ -19,8 +19,8 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from foreign_bags import EPOCH_NS, TYPESTORE, T, header, imu_cdr, joint_state_cdr
-from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
-from gimbal_kinematics.frames import PLATFORM_JOINTS
+from gimbal_kinematics.maths.four_gimbal import dcm_bs, platform_misalignment_enu
+from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
 from gimbal_sim.bag.live_frames import LiveFrames
 from gimbal_sim.bag.live_plots import SCHEMAS as PLOT_SCHEMAS, LivePlots
 from gimbal_sim.bag.live_scene import LOS_LENGTH_M, LiveScene, SceneConfig, operator_target_direction

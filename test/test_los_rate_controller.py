@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from gimbal_kinematics.los import inertial_los, pointing_error
+from gimbal_kinematics.maths.los import inertial_los, pointing_error
 from gimbal_control.linearize import linearize_gimbal
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
-from gimbal_kinematics.rotations import dcm_from_rotation_vector
-from gimbal_kinematics.sighting_chain import task_to_joint_rates
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector
+from gimbal_kinematics.maths.sighting_chain import task_to_joint_rates
 from gimbal_sim.experiments.closed_loop import main as closed_loop_main, run_closed_loop
 from gimbal_sim.world.plant import GimbalParams, TwoAxisGimbal, rest_base
 

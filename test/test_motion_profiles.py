@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics.earth import earth_rate_n
 from gimbal_kinematics.gimbal import host_state
+from gimbal_kinematics.maths.earth import earth_rate_n
 from gimbal_sim.world.plant import motion_profiles as mp
 
 D = math.pi / 180.0

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.maths.earth import OMEGA_IE, meridian_radius, normal_gravity, prime_vertical_radius
 from gimbal_sim.experiments.navigation import run_navigation
 from gimbal_sim.world.plant.platform_loops import PlatformAxis, paper3_axis_params
 from gimbal_sim.world.sensors import AccelerometerParams, EncoderParams, GyroParams

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from gimbal_estimators.platform_navigator import HandOff
-from gimbal_kinematics.earth import OMEGA_IE, meridian_radius, normal_gravity
+from gimbal_kinematics.maths.earth import OMEGA_IE, meridian_radius, normal_gravity
 from gimbal_sim.experiments.navigation import HAND_OFF_RATE_HZ, PlatformStart, run_navigation
 from gimbal_sim.experiments.platform_servo import alignment_setup
 from gimbal_sim.world.sensors import AccelerometerParams, EncoderParams, GyroParams

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from gimbal_estimators.nis import NisWindow
-from gimbal_kinematics.stamps import JUMP_SAMPLES, Stamp as Verdict
-from gimbal_kinematics.stream_stats import StreamStats
+from gimbal_kinematics.timing.stamps import JUMP_SAMPLES, Stamp as Verdict
+from gimbal_kinematics.timing.stream_stats import StreamStats
 
 
 def _window_verdicts(scale: float, windows: int, n: int, rng) -> list[str]:

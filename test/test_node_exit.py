@@ -7,7 +7,7 @@ import subprocess
 import sys
 
 from conftest import VENV_BIN
-from gimbal_kinematics.cli_boundary import BUG_LINE
+from gimbal_kinematics.cli.boundary import BUG_LINE
 from ros_harness import interrupt_when_on_graph
 
 

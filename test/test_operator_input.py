@@ -15,8 +15,8 @@ import pytest
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_control.los_rate_controller_params import PARAMS
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
-from gimbal_kinematics.params import ParameterError, defaults
-from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_kinematics.params.table import ParameterError, defaults
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 RATE = 1000.0
 AZ, EL = math.radians(5.0), math.radians(2.0)

@@ -10,7 +10,7 @@ from rclpy.parameter import Parameter
 
 from gimbal_estimators.platform_alignment_node import PlatformAlignmentNode
 from gimbal_estimators.platform_alignment_params import PARAMS as ALIGNMENT_PARAMS
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, ParameterError
+from gimbal_kinematics.params.table import CLOCK_JUMP_ALIASES, ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_sim.graph.scenario import check_param
 from gimbal_sim.nodes.vehicle_dynamics_params import PARAMS as VEHICLE_PARAMS

@@ -15,7 +15,7 @@ from rclpy.context import Context
 from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 
-from gimbal_kinematics.params import Param, declaration, param, param_table
+from gimbal_kinematics.params.table import Param, declaration, param, param_table
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_sim.graph.config_files import DOCS_PATH, parameters_doc
 from gimbal_sim.graph.registry import NODE_TYPES

@@ -9,7 +9,7 @@ import yaml
 from rclpy.context import Context
 from rclpy.node import Node
 
-from gimbal_kinematics.params_file import blocks
+from gimbal_kinematics.params.file import blocks
 from gimbal_sim.graph.scenario import ScenarioError, apply_params_file, apply_set, load
 
 PATTERNS = ["/**", "/gyro_bias_ekf", "gyro_bias_ekf", "/ns/gyro_bias_ekf", "/**/gyro_bias_ekf", "/*", "/ns/*",

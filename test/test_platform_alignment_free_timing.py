@@ -16,7 +16,7 @@ import pytest
 
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams
-from gimbal_kinematics.four_gimbal import BidirectionalRotation
+from gimbal_kinematics.maths.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.ros import messages as m
 from kinematic_alignment import KinematicPlatformTruth
 from ros_harness import ros_args

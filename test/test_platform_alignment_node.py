@@ -20,8 +20,8 @@ from rclpy.serialization import deserialize_message
 from conftest import VENV_BIN
 from gimbal_estimators.platform_alignment_node import OUTPUTS, PlatformAlignmentNode
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams
-from gimbal_kinematics.sync import StepGroups
-from gimbal_kinematics.four_gimbal import BidirectionalRotation
+from gimbal_kinematics.timing.sync import StepGroups
+from gimbal_kinematics.maths.four_gimbal import BidirectionalRotation
 from gimbal_kinematics.ros import messages as m
 from kinematic_alignment import KinematicPlatformTruth
 from gimbal_sim.core.engine_run import run_engine

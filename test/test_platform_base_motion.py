@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from gimbal_kinematics.four_gimbal import dcm_br, dcm_pq, dcm_rp, outer_member_rates
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
+from gimbal_kinematics.maths.four_gimbal import dcm_br, dcm_pq, dcm_rp, outer_member_rates
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
 from gimbal_sim.experiments.navigation import run_navigation
 from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 

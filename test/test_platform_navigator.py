@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from gimbal_estimators.platform_navigator import HandOff, PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PARAMS, PlatformNavigatorParams
 from gimbal_estimators.rotation_alignment import AlignmentEstimate
-from gimbal_kinematics.params import ParameterError, defaults
+from gimbal_kinematics.params.table import ParameterError, defaults
 
 # WGS-84 defining constants and Somigliana normal gravity, written out here (not the code under test)
 A_WGS, F_WGS, OMEGA = 6378137.0, 1.0 / 298.257223563, 7.292115e-5

@@ -3,7 +3,7 @@
 The node runs in this process on the harness's Context; plain rclpy publishers send it the
 platform accelerometers and the azimuth resolver as sensor_models publishes them. Its
 outputs are checked against closed forms written here from the WGS-84 constants (not from
-gimbal_kinematics.earth): at rest the command rate is the earth rate; a constant north
+gimbal_kinematics.maths.earth): at rest the command rate is the earth rate; a constant north
 specific force ∇ on a platform turning at 1.2 °/s gives v_N = ∇t, ΔL = ∇t²/2R_M and a
 transport rate −v_N/R_M about east, which only holds if the node resolves the
 accelerometers through the resolver angle. Bad input (NaN, repeated and backward stamps,

@@ -12,8 +12,8 @@ from gimbal_control.pid import PidParams
 from gimbal_control.platform_servo import (
     TABLE1, FrictionModel, PlatformServo, PlatformServoParams, platform_pid_gains,
 )
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.rotations import rot3
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.rotations import rot3
 from gimbal_sim.experiments.platform_servo import ARCSEC, run_platform_servo
 from gimbal_sim.world.plant import PlatformAxis, paper3_axis_params
 

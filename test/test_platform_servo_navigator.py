@@ -1,5 +1,5 @@
 """Paper 3 platform servo following a navigator's command rate (command_source=navigator):
-the pickoff against closed forms built with gimbal_kinematics.rotations.rot3, the fallback to
+the pickoff against closed forms built with gimbal_kinematics.maths.rotations.rot3, the fallback to
 the internal command before the first command and when commands go stale, and the bad-input
 counters. No ROS."""
 import math
@@ -9,9 +9,9 @@ import pytest
 
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_control.platform_servo_params import PARAMS
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.params import ParameterError, defaults
-from gimbal_kinematics.rotations import rot3
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.rotations import rot3
+from gimbal_kinematics.params.table import ParameterError, defaults
 
 DEG = math.pi / 180.0
 ARCSEC = DEG / 3600.0

@@ -24,7 +24,7 @@ from gimbal_control.platform_servo_params import PARAMS as SERVO_PARAMS
 from gimbal_kinematics.ros import messages as m
 from gimbal_sim.experiments.platform_servo import run_platform_servo
 from gimbal_sim.world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
-from gimbal_kinematics.frames import PLATFORM_JOINTS
+from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
 from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 from ros_harness import ros_args, start_refused
 
@@ -173,8 +173,8 @@ def test_drift_compensation_takes_the_platform_drift_which_is_minus_the_gyro_bia
     """Gyros with rate bias b on a platform that moves exactly as commanded: with
     drift_deg_h = −b (the drift platform_alignment estimates) the pickoffs stay null, so the
     servo leaves the platform on its command; uncompensated they integrate b."""
-    from gimbal_kinematics.earth import earth_rate_n
-    from gimbal_kinematics.rotations import rot3
+    from gimbal_kinematics.maths.earth import earth_rate_n
+    from gimbal_kinematics.maths.rotations import rot3
 
     b = np.array([0.02, -0.03, 0.01])  # [deg/h]
     w_ie = earth_rate_n(math.radians(40.0))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.timing.sync import RateSync
 
 
 def _recording(max_wait_s: float = 0.05, max_gap_s: float = 0.1):

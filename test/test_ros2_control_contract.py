@@ -26,7 +26,7 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
 from conftest import VENV_BIN
-from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS
+from gimbal_kinematics.maths.frames import GIMBAL_COMMAND_JOINTS
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_sim.bag.compare import compare_bags
 from gimbal_sim.graph.scenario import builtin_scenarios

@@ -9,9 +9,9 @@ from scipy.integrate import solve_ivp
 from gimbal_estimators.rotation_alignment import (
     ACCEL_BIAS, DPHI_U0, NORTH_DRIFT, STATE_NAMES, RotationAlignmentParams, RotationAlignmentRls,
 )
-from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
-from gimbal_kinematics.four_gimbal import BidirectionalRotation
-from gimbal_kinematics.rotations import rot3
+from gimbal_kinematics.maths.earth import OMEGA_IE, normal_gravity
+from gimbal_kinematics.maths.four_gimbal import BidirectionalRotation
+from gimbal_kinematics.maths.rotations import rot3
 from gimbal_sim.world.sensors import AccelerometerParams
 from kinematic_alignment import KinematicPlatformTruth, run_alignment_experiment, summarize_alignment
 
@@ -235,7 +235,7 @@ def test_repeated_and_late_stamps_are_dropped_and_a_clock_jump_resets_through_th
     """The alignment node's grouped input policy (as its constructor builds it) judges the
     stamps: a repeated or late step never reaches the core, a bag loop calls the node's reset
     before the new run's first step."""
-    from gimbal_kinematics.input_policy import SampleGrid, grouped_policy
+    from gimbal_kinematics.timing.input_policy import SampleGrid, grouped_policy
 
     class Log:
         def warning(self, *args, **kwargs):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics.rotations import (
+from gimbal_kinematics.maths.rotations import (
     euler321_from_quat, euler321_to_dcm, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
     quat_mul, quat_rotate, quat_to_euler321, rotation_vector_from_quat,
 )

@@ -6,7 +6,7 @@ import pytest
 from scipy.linalg import polar
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics import rotations as rt
+from gimbal_kinematics.maths import rotations as rt
 
 RNG_SEED = 20261121
 

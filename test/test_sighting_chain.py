@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics import sighting_chain as sc
-from gimbal_kinematics.rotations import euler321_to_dcm, euler_rates_to_body_rates, unskew
+from gimbal_kinematics.maths import sighting_chain as sc
+from gimbal_kinematics.maths.rotations import euler321_to_dcm, euler_rates_to_body_rates, unskew
 
 RNG_SEED = 411
 

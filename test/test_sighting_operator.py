@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics.earth import OMEGA_IE
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.maths.earth import OMEGA_IE
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_sim.core.core_loop import run_core_loop
 from gimbal_sim.graph.scenario import load, variant
 from gimbal_sim.nodes.operator_params import PARAMS

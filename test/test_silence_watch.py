@@ -6,9 +6,9 @@ from pathlib import Path
 
 import yaml
 
-from gimbal_kinematics.control_policy import LockstepControl
-from gimbal_kinematics.input_policy import LockstepOrder
-from gimbal_kinematics.stream_stats import SILENCE_S, SilenceWatch
+from gimbal_kinematics.timing.control_policy import LockstepControl
+from gimbal_kinematics.timing.input_policy import LockstepOrder
+from gimbal_kinematics.timing.stream_stats import SILENCE_S, SilenceWatch
 from gimbal_sim.graph.plan import plan_nodes, write_run_files
 from gimbal_sim.graph.scenario import load
 

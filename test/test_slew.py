@@ -15,7 +15,7 @@ import pytest
 
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
-from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 from gimbal_sim.core.core_loop import core_plan, node_values, run_stages
 from gimbal_sim.core.core_stages import controller_stage
 from gimbal_sim.core.engine_run import run_engine

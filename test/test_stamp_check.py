@@ -1,9 +1,9 @@
-"""The one stamp vocabulary (gimbal_kinematics.stamps) against hand-computed cases."""
+"""The one stamp vocabulary (gimbal_kinematics.timing.stamps) against hand-computed cases."""
 import math
 
 import pytest
 
-from gimbal_kinematics.stamps import Stamp, dropped_samples, jittered, judge
+from gimbal_kinematics.timing.stamps import Stamp, dropped_samples, jittered, judge
 
 
 def test_stamp_verdicts():

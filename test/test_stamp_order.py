@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import random
 
-from gimbal_kinematics.sync import StampOrder
+from gimbal_kinematics.timing.sync import StampOrder
 
 STREAMS = ("encoders", "ins", "gyro")
 

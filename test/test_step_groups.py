@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gimbal_kinematics.sync import EagerStepGroups, StepGroups
+from gimbal_kinematics.timing.sync import EagerStepGroups, StepGroups
 
 RATE_HZ, RESET_BACKJUMP_S = 1000.0, 0.5
 INS_EVERY = 10

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics import four_gimbal, sighting_chain
-from gimbal_kinematics.frames import (
+from gimbal_kinematics.maths import four_gimbal, sighting_chain
+from gimbal_kinematics.maths.frames import (
     BASE_FRAME, GIMBAL_COMMAND_JOINTS, GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME, PLATFORM_JOINTS,
 )
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gimbal_kinematics.earth import earth_rate_n, normal_gravity
-from gimbal_kinematics.rotations import unskew
+from gimbal_kinematics.maths.earth import earth_rate_n, normal_gravity
+from gimbal_kinematics.maths.rotations import unskew
 from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 
 

@@ -180,3 +180,13 @@ def test_packages_up_to_gimbal_estimators_build_alone_and_the_ekf_node_starts(tm
                                          "gyro_bias_ekf", tmp_path)
     assert code == 130, text  # Ctrl-C: interrupted, as every command (docs/usage.md)
     assert "Traceback" not in text, text
+
+
+def test_colcon_resolves_gimbal_control_without_gimbal_estimators():
+    """colcon's own dependency resolution from the manifests: a hardware user who builds only
+    the controllers gets gimbal_kinematics with them and no estimator (the two are siblings)."""
+    result = subprocess.run(
+        [str(VENV_BIN / "colcon"), "--log-base", os.devnull, "list", "--base-paths", str(SRC),
+         "--packages-up-to", "gimbal_control", "--names-only"], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert sorted(result.stdout.split()) == ["gimbal_control", "gimbal_kinematics"], result.stdout

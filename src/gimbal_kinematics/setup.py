@@ -23,7 +23,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "gimbal-geometry = gimbal_kinematics.cli:main",
+            "gimbal-geometry = gimbal_kinematics.cli.geometry:main",
         ],
     },
 )

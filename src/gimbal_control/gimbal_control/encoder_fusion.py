@@ -53,7 +53,7 @@ Message-driven API (times are message stamps [s]; SI units; no wall clock)::
 Feed the encoder and base samples of a stamp before the gyro sample of the same stamp,
 as the lockstep graph orders them; the gyro sample is the control tick. Stamps come checked
 and in order, each stream's rising: the node's input policy
-(:mod:`gimbal_kinematics.control_policy`) drops repeated and late ones and, on a clock jump
+(:mod:`gimbal_kinematics.timing.control_policy`) drops repeated and late ones and, on a clock jump
 back (``clock_jump_s``, its parameter), calls :meth:`~EncoderFusionController.reset`. Bad input:
 
 * NaN/inf inputs are rejected and counted. A bad gyro sample returns the last command with
@@ -70,7 +70,7 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 
 from .fusion_kf import ClosedLoopComplementaryKf, FusionKfParams

@@ -21,12 +21,12 @@ second); invalid modes, gains and rates are refused at startup naming the parame
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each gyro sample makes one command, stamped like it, with the
 newest encoder and base-rate samples no older than ``max_input_age_s``; a stale or missing
-one zeroes the command, counted (:mod:`gimbal_kinematics.control_policy` says why and what else is counted, on
+one zeroes the command, counted (:mod:`gimbal_kinematics.timing.control_policy` says why and what else is counted, on
 ``/diagnostics``). The encoder angle is the newest sample's, not interpolated to the gyro
 stamp: the filter's gate integrates the gyro between encoder stamps itself.
 
 The node chooses its input policy once, in its constructor
-(:mod:`gimbal_kinematics.control_policy`); each input is validated once, as it arrives, and
+(:mod:`gimbal_kinematics.timing.control_policy`); each input is validated once, as it arrives, and
 every step the policy releases runs the same ``_step``, whatever the timing. In lockstep
 each step feeds the core the newest encoder and base-rate samples at the step's stamp; in
 free timing each is fed once, at its own stamp.
@@ -39,8 +39,8 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_edge import NodeEdge

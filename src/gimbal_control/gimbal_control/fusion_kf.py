@@ -37,7 +37,7 @@ the error, so δx̂ = Φ x̂ and the predicted state is zero. That is the usual 
 filter: each measurement is the residual error accumulated since the last correction.
 Feeding back known quantities does not change the estimation-error covariance, so P is
 propagated and updated as in the open-loop filter, with the Joseph update
-:func:`gimbal_estimators.kalman.joseph_update`. The accumulated drift correction E is
+:func:`gimbal_kinematics.maths.kalman.joseph_update`. The accumulated drift correction E is
 "the accumulated error estimate" that corrects the feedback velocity. With a constant
 bias b, E → −b: the bias no longer shows in ω̂.
 
@@ -54,9 +54,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_estimators.kalman import check_state, joseph_update
-from gimbal_kinematics.units import DEG
-from gimbal_kinematics.validate import nonneg_finite, positive
+from gimbal_kinematics.maths.kalman import check_state, joseph_update
+from gimbal_kinematics.maths.units import DEG
+from gimbal_kinematics.maths.validate import nonneg_finite, positive
 
 #: State indices (module docstring): x1 the angle error, x2 the residual scale-factor
 #: correction, x3 the residual drift correction.

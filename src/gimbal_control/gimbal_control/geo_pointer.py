@@ -7,9 +7,9 @@ sight frame, the operator input of ``los_rate_controller`` (added to its stabili
 reference, so the controller itself is unchanged):
 
 * the direction u_n to the target from the sight pivot (INS position + lever arm), exact on
-  the WGS-84 ellipsoid (:func:`gimbal_kinematics.geo_pointing.los_to_target`);
+  the WGS-84 ellipsoid (:func:`gimbal_kinematics.maths.geo_pointing.los_to_target`);
 * the aim: u_n itself, or, when the joints cannot reach it
-  (:func:`~gimbal_kinematics.geo_pointing.joint_angles_for_los` with the gimbal limits), the
+  (:func:`~gimbal_kinematics.maths.geo_pointing.joint_angles_for_los` with the gimbal limits), the
   LOS of the joints stopped at the limit. The turret here is the vehicle's (paper 1's
   revolving turret follows its own profile), so the pointer cannot hand azimuth over to it:
   it stops at the limit and counts the steps (``azimuth_limited_steps``,
@@ -31,7 +31,7 @@ each following step uses: the direction, the earth rate at its latitude, the bud
 position that is not finite, or within ``min_range_m`` of the target, is counted
 (``rejected_fixes``) and not used.
 
-The 1σ pointing-error budget (:func:`~gimbal_kinematics.geo_pointing.pointing_budget`) from
+The 1σ pointing-error budget (:func:`~gimbal_kinematics.maths.geo_pointing.pointing_budget`) from
 the INS attitude and position accuracy, the target's position accuracy and the range comes
 with every step.
 
@@ -45,16 +45,16 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.geo_pointing import (
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.geo_pointing import (
     MIN_RANGE_M, GimbalLimits, JointSolution, PointingBudget, PointingSigmas, check_geodetic, joint_angles_for_los,
     los_to_target, pointing_budget,
 )
-from gimbal_kinematics.sighting_chain import dcm_bm
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import quat_to_dcm
-from gimbal_kinematics.units import DEG
-from gimbal_kinematics.validate import positive
+from gimbal_kinematics.maths.sighting_chain import dcm_bm
+from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.maths.rotations import quat_to_dcm
+from gimbal_kinematics.maths.units import DEG
+from gimbal_kinematics.maths.validate import positive
 
 from .los_hold import sight_frame_error
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import TimedParams, declaration, param
+from gimbal_kinematics.params.table import TimedParams, declaration, param
 from gimbal_kinematics.ros.input_kinds import InputKind
 
 

@@ -32,7 +32,7 @@ import numpy as np
 from gimbal_kinematics.gimbal.gimbal_dynamics import TwoAxisGimbal
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.gimbal.turret_base import rest_base
-from gimbal_kinematics.units import G0
+from gimbal_kinematics.maths.units import G0
 
 #: Standard gravity [m/s²] (the default linearisation gravity; a site's normal gravity
 #: differs by < 0.3 %, which only changes the small gravity-stiffness entries of A_l).

@@ -43,7 +43,7 @@ from scipy.optimize import brentq
 from scipy.signal import cont2discrete
 
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
-from gimbal_kinematics.units import G0
+from gimbal_kinematics.maths.units import G0
 
 from .linearize import LinearGimbalModel, linearize_gimbal
 

@@ -29,10 +29,10 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import quat_to_dcm
-from gimbal_kinematics.validate import nonneg_finite, positive
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.rotations import quat_to_dcm
+from gimbal_kinematics.maths.validate import nonneg_finite, positive
+from gimbal_kinematics.params.table import ParameterError
 
 
 def sight_frame_error(C_nm, u_n: Sequence[float]) -> tuple[float, float]:

@@ -53,7 +53,7 @@ Bad input: a non-finite measurement or rate command is rejected: the last comman
 returned, the event counted (``rejected_inputs``), nothing is integrated. Samples come
 checked and in stamp order: duplicates, samples out of order and a stamp going back by more
 than ``clock_jump_s`` (a bag loop, which calls :meth:`LosRateController.reset`) are the
-node's input policy's (:mod:`gimbal_kinematics.control_policy`).
+node's input policy's (:mod:`gimbal_kinematics.timing.control_policy`).
 
 Gyro bias: :meth:`LosRateController.set_bias_estimate` stores the EKF's 3-axis bias
 estimate (m frame, rad/s); with ``feedback`` its y, z components are subtracted from q_m,
@@ -68,10 +68,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.validate import positive
+from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
-from gimbal_kinematics.units import G0
+from gimbal_kinematics.maths.units import G0
 
 from . import los_rate_kernels as lk
 from .linearize import linearize_gimbal

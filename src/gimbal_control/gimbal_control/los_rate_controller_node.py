@@ -25,7 +25,7 @@ data unchanged. Its counters are ``operator_*`` in /diagnostics.
 That is ``timing: lockstep``, which the orchestrator sets. ``timing: free`` (the default,
 for a driver or a bag) never waits: each gyro sample makes one command, stamped like it,
 from the newest encoder and INS samples no older than ``max_input_age_s`` and the newest
-estimates no older than ``max_estimate_age_s`` (:class:`gimbal_kinematics.sync.FreshInputs`;
+estimates no older than ``max_estimate_age_s`` (:class:`gimbal_kinematics.timing.sync.FreshInputs`;
 dt from the stamps, time in int ns from the first stamp). A stale or missing measurement
 (gyro, encoders, INS) *zeroes* the command: for a rate loop zero torque lets the gimbal
 coast on its bearings, while holding a torque computed from angles that no longer hold can
@@ -39,9 +39,9 @@ drops, duplicates and out-of-order stamps are counted; ``/diagnostics`` carries 
 counter once per ``diagnostics_period_s`` of stamp time.
 
 The node chooses its input policy once, in its constructor
-(:mod:`gimbal_kinematics.control_policy`: :class:`~gimbal_kinematics.control_policy.LockstepControl`
-on the lockstep schedule of its inputs, a :class:`~gimbal_kinematics.input_policy.SampleGrid`,
-or :class:`~gimbal_kinematics.control_policy.FreeControl`); each input is decoded and
+(:mod:`gimbal_kinematics.timing.control_policy`: :class:`~gimbal_kinematics.timing.control_policy.LockstepControl`
+on the lockstep schedule of its inputs, a :class:`~gimbal_kinematics.timing.input_policy.SampleGrid`,
+or :class:`~gimbal_kinematics.timing.control_policy.FreeControl`); each input is decoded and
 validated once, as it arrives (:mod:`gimbal_kinematics.ros.node_edge`), and every step the
 policy releases runs the same ``_step``, whatever the timing.
 
@@ -59,14 +59,14 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, Joy, JointState
 
-from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
-from gimbal_kinematics.input_policy import SampleGrid
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.timing.input_policy import SampleGrid
 
 from . import messages as m
 from .los_hold import LosHold, LosHoldParams

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, CommandingParams, declaration, param, same_as
+from gimbal_kinematics.params.table import SHARED, CommandingParams, declaration, param, same_as
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ One sample at stamp t (the class's docstring has the derivation), c, s = cos, si
 
 A non-finite input is rejected (the last command returned, counted). Samples come checked
 and in stamp order: duplicates, samples out of order and clock jumps are the node's input
-policy's (:mod:`gimbal_kinematics.control_policy`, which calls the controller's ``reset``).
+policy's (:mod:`gimbal_kinematics.timing.control_policy`, which calls the controller's ``reset``).
 """
 from __future__ import annotations
 

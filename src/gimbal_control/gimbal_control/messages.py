@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sensor_msgs.msg import JointState
 
-from gimbal_kinematics.frames import (  # noqa: F401  (MODULATION_JOINT: used by the servo node)
+from gimbal_kinematics.maths.frames import (  # noqa: F401  (MODULATION_JOINT: used by the servo node)
     GIMBAL_COMMAND_JOINTS, GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, PLATFORM_JOINTS,
 )
 from gimbal_kinematics.ros.messages import (  # noqa: F401

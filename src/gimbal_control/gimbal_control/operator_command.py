@@ -64,8 +64,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from numbers import Integral
 
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.validate import positive
+from gimbal_kinematics.maths.validate import positive
+from gimbal_kinematics.params.table import ParameterError
 
 #: Relative slack on the rate limit, for a sender converting the same limit from degrees.
 RATE_LIMIT_SLACK = 1e-9

@@ -13,9 +13,9 @@ This core emulates that rate-integrating behaviour from a rate-gyro triad on the
 
 (a misalignment that is fixed in the turning reference stays constant).
 
-The command is paper 3 eq. 2 (:func:`gimbal_kinematics.four_gimbal.command_rate_s`):
+The command is paper 3 eq. 2 (:func:`gimbal_kinematics.maths.four_gimbal.command_rate_s`):
 ω_c = rot3(φz) ω_ie^n + φ̇z e3 − ε̂. φz(t) is the modulation schedule
-(:class:`~gimbal_kinematics.four_gimbal.BidirectionalRotation`, ±1.2 °/s through one turn
+(:class:`~gimbal_kinematics.maths.four_gimbal.BidirectionalRotation`, ±1.2 °/s through one turn
 and back), ω_ie^n the earth rate at ``lat_deg``, and ε̂ an optional gyro-drift estimate.
 The per-tick increment of δ takes φz's change exactly, so a reversal inside a tick is not
 smeared; the rest of ω_c is integrated by trapezoids.
@@ -25,7 +25,7 @@ its gyros at the rate its navigator computes: earth rate at the navigated latitu
 rate from the navigated velocity, drift compensation and the hand-off torquing pulse, all in
 ω_c^n (NED, :mod:`gimbal_estimators.platform_navigator`). :meth:`PlatformServo.on_command_rate`
 takes it, and each tick commands ω_c = rot3(φz) ω_c^n + φ̇z e3
-(:func:`~gimbal_kinematics.four_gimbal.command_rate_from_n`): the servo's own earth rate at
+(:func:`~gimbal_kinematics.maths.four_gimbal.command_rate_from_n`): the servo's own earth rate at
 ``lat_deg`` and its ``drift_deg_h`` give way, the modulation schedule stays the servo's. Each
 tick uses the newest command received, a zero-order hold, whatever its stamp relative to the
 tick (the navigator's output for a sample is the rate to hold until its next one).
@@ -40,10 +40,10 @@ tick (the navigator's output for a sample is the rate to hold until its next one
 * A command with a non-finite value is rejected and counted (``rejected_nonfinite``) and
   the previous command is kept.
 
-Control signals, paper 3 eq. 1. :func:`~gimbal_kinematics.four_gimbal.inner_gimbal_control_signals`
+Control signals, paper 3 eq. 1. :func:`~gimbal_kinematics.maths.four_gimbal.inner_gimbal_control_signals`
 resolves δ through the azimuth angle θ_a (and θ_q) onto the inner-roll, pitch and azimuth
 gimbal axes, giving (Δθ_qm, Δθ_pm, Δθ_am). The outer roll keeps the inner roll at null with
-Δθ_rm = θ_q sec θ_p (:func:`~gimbal_kinematics.four_gimbal.outer_roll_control_signal`).
+Δθ_rm = θ_q sec θ_p (:func:`~gimbal_kinematics.maths.four_gimbal.outer_roll_control_signal`).
 The angles θ are the gimbal resolver readings.
 
 Loops. Each inner loop drives its gimbal by −Δθ through a PID: u = PID(−Δθ), with the D
@@ -69,7 +69,7 @@ Message-driven API (stamps [s], SI units)::
 
 The gyro sample is the control tick; feed the resolver sample of a stamp first. The
 schedule starts (φz = 0) at the first tick. Stamps come checked and in order from the
-node's input policy (:mod:`gimbal_kinematics.control_policy`: duplicates and late stamps
+node's input policy (:mod:`gimbal_kinematics.timing.control_policy`: duplicates and late stamps
 dropped, a clock jump back a :meth:`PlatformServo.reset`). Bad input:
 
 * NaN/inf gyro sample, or resolvers within 1° of gimbal lock (eq. 1 singular): the last
@@ -85,10 +85,10 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
-from gimbal_kinematics.units import DEG, DEG_H
-from gimbal_kinematics.wgs84 import OMEGA_IE
+from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.maths.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
+from gimbal_kinematics.maths.units import DEG, DEG_H
+from gimbal_kinematics.maths.wgs84 import OMEGA_IE
 
 from . import control_kernels as ck
 from . import servo_kernels as sk
@@ -159,7 +159,7 @@ class PlatformServoParams:
     Attributes:
         lat_deg: site latitude for the earth-rate part of the command [deg].
         rate_deg_s, sweep_deg, reversal_time_s: the modulation schedule
-            (:class:`~gimbal_kinematics.four_gimbal.BidirectionalRotation`).
+            (:class:`~gimbal_kinematics.maths.four_gimbal.BidirectionalRotation`).
         rotate: run the modulation schedule; False holds the platform at φz = 0 (the
             non-rotating case of paper 3 eq. 9).
         azimuth_pid, inner_roll_pid, pitch_pid, outer_roll_pid: loop gains (volts out).

@@ -31,11 +31,11 @@ internal command when it is older than ``command_max_age_s`` (counted).
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each platform gyro sample makes one command, stamped like it,
 with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
-zeroes the voltages, counted (:mod:`gimbal_kinematics.control_policy` says why and what else is counted, on
+zeroes the voltages, counted (:mod:`gimbal_kinematics.timing.control_policy` says why and what else is counted, on
 ``/diagnostics``).
 
 The node chooses its input policy once, in its constructor
-(:mod:`gimbal_kinematics.control_policy`); each input is validated once, as it arrives, and
+(:mod:`gimbal_kinematics.timing.control_policy`); each input is validated once, as it arrives, and
 every step the policy releases runs the same ``_step``, whatever the timing.
 """
 from __future__ import annotations
@@ -47,12 +47,12 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
+from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 
 from . import messages as m
 from .platform_servo import PlatformServo, PlatformServoParams

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, CommandingParams, declaration, param, same_as
+from gimbal_kinematics.params.table import CLOCK_JUMP_ALIASES, SHARED, CommandingParams, declaration, param, same_as
 
 INF = float("inf")
 

@@ -14,7 +14,7 @@ messages. Per tick (gyro ω, resolver angles θ, the newest command ω_c^n, stam
 
 with the azimuth integrator preset to the friction voltage of the new direction at each
 change of sign of φ̇z. Stamps are the lockstep engine's (rising), or checked and ordered by
-the node's input policy (:mod:`gimbal_kinematics.control_policy`): none is judged here.
+the node's input policy (:mod:`gimbal_kinematics.timing.control_policy`): none is judged here.
 :class:`.platform_servo.PlatformServo` holds the same vectors and calls the same kernels.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from gimbal_kinematics.platform_kernels import servo_signals
+from gimbal_kinematics.maths.platform_kernels import servo_signals
 
 from .control_kernels import S_D, S_FIRST, S_INTEGRAL, pid_step4
 
@@ -51,7 +51,7 @@ def initial_state() -> np.ndarray:
 @njit(cache=True)
 def schedule_state(t: float, rate: float, sweep: float, leg: float, half: float) -> tuple:
     """(φz, φ̇z) of the bidirectional schedule at ``t`` from its start
-    (``gimbal_kinematics.four_gimbal.BidirectionalRotation.state``)."""
+    (``gimbal_kinematics.maths.four_gimbal.BidirectionalRotation.state``)."""
     if t < 0.0:
         return 0.0, 0.0
     k = math.floor(t / leg)

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME, PLATFORM_JOINTS
+from gimbal_kinematics.maths.frames import (
+    GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME, PLATFORM_JOINTS,
+)
 from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
 
 Messages = list[tuple[str, str, bytes]]

@@ -54,11 +54,11 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.units import DEG, DEG_H
-from gimbal_kinematics.validate import nonneg_finite, of_type, per_axis, positive
+from gimbal_kinematics.maths.units import DEG, DEG_H
+from gimbal_kinematics.maths.validate import nonneg_finite, of_type, per_axis, positive
+from gimbal_kinematics.params.table import ParameterError
 
-from . import kalman
+from gimbal_kinematics.maths import kalman
 from .flexure_kf import THETA_D, FlexureEstimate, FlexureKf, FlexureKfParams
 
 #: Slices of the state vector (the flexure states as in :mod:`.flexure_kf`).

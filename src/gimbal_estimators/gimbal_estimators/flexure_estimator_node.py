@@ -27,7 +27,7 @@ complete pair (θ_d := Φ + θ, covariance carried over) and the node logs it; a
 than ``max_gap_s`` resets. Every reset is logged with its reason.
 
 Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`), chosen once in the
-constructor as the input policy (:func:`gimbal_kinematics.input_policy.sample_policy`); the
+constructor as the input policy (:func:`gimbal_kinematics.timing.input_policy.sample_policy`); the
 node's body is the same in both:
 
 * ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS`` everywhere, each sample's interval
@@ -44,7 +44,7 @@ node's body is the same in both:
   unknown (its rate is Δα over an interval that ended at the lost sample's stamp or later),
   so it is not integrated: it is counted (``lgu1_interval_unknown``, ``lgu2_interval_unknown``)
   and the core, seeing the hole, drops its partner and re-anchors at the next complete pair.
-  Each unit's stamps go through :class:`gimbal_kinematics.stream_stats.StreamStats`
+  Each unit's stamps go through :class:`gimbal_kinematics.timing.stream_stats.StreamStats`
   (received, duplicates, out_of_order, clock_jumps, dropped, jitter_rms, counted on
   /diagnostics as ``lgu1_*``, ``lgu2_*``); duplicates and late samples are dropped
   before the core. /diagnostics (every ``diagnostics_period_s`` of stamp time) carries
@@ -61,12 +61,12 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from gimbal_kinematics.input_policy import Step, sample_policy
-from gimbal_kinematics.params import ParameterError, steps_per_sample
+from gimbal_kinematics.params.table import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.timing.input_policy import Step, sample_policy
 
 from . import messages as m
 from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams

@@ -38,12 +38,12 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, orthonormalize
-from gimbal_kinematics.units import ARCSEC, DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
-from gimbal_kinematics.validate import nonneg_finite, of_type, per_axis, positive
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, orthonormalize
+from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
+from gimbal_kinematics.maths.validate import nonneg_finite, of_type, per_axis, positive
+from gimbal_kinematics.params.table import ParameterError
 
-from . import kalman
+from gimbal_kinematics.maths import kalman
 from .flexure_model import (
     EPS, N_STATES, PHI_K, PHI_K1, THETA_D, THETA_K, THETA_K1, ar2_coefficients, match_attitudes,
     observation_matrix, predicted_observation,

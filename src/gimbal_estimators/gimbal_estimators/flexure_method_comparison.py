@@ -15,9 +15,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from gimbal_kinematics.units import ARCSEC
+from gimbal_kinematics.maths.units import ARCSEC
 
-from . import kalman
+from gimbal_kinematics.maths import kalman
 from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from .flexure_kf import PHI_K, THETA_K, FlexureKf
 

@@ -81,7 +81,7 @@ def ar2_autocorrelation(a1: float, a2: float, lags: int) -> np.ndarray:
 
 def match_attitudes(C_i1b1: np.ndarray, C_i2b2: np.ndarray) -> np.ndarray:
     """Attitude-matching observation ``Z = small_angles(Ĉ_i1b1ᵀ Ĉ_i2b2)`` [rad], (3,)
-    (``vee`` of the antisymmetric part, as :func:`gimbal_kinematics.rotations.small_angles_from_dcm`
+    (``vee`` of the antisymmetric part, as :func:`gimbal_kinematics.maths.rotations.small_angles_from_dcm`
     without its orthonormality check). Inputs (3, 3)."""
     M = C_i1b1.T @ C_i2b2
     return 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])

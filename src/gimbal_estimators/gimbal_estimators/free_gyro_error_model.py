@@ -49,7 +49,7 @@ A computed vector is then v̂ = v − (error angle) × v.
    In the project the spin axes are read by angle pickoffs in the body and levelled by an
    external vertical reference (roll, pitch), not by an attitude integrated from the triad:
    the levelling error γ is the reference's, constant, and the triad reaches only the
-   earth-rate heading (eq. 3–4, 29, :func:`gimbal_kinematics.free_gyro.heading_error`).
+   earth-rate heading (eq. 3–4, 29, :func:`gimbal_kinematics.maths.free_gyro.heading_error`).
    The fix solves θ(û_i, x̂) = θ_measured with the nominal spin axes û_i: a drift enters as
    eq. 30's gyro-vector error δu (nominal − true = −η × u), a levelling error as an error
    of the measured θ. The free-gyro heading is ψ = α − ζ (Fig. 4), combined over the two
@@ -63,7 +63,7 @@ A computed vector is then v̂ = v − (error angle) × v.
    (:func:`earth_rate_heading_jacobian`). White triad noise averages to (N/√T)/(Ω cos φ).
 
 3. Position (eq. 30–38): W δx = e_θ with W from
-   :func:`gimbal_kinematics.free_gyro.fix_geometry`. The paper assumes i.i.d. nadir errors
+   :func:`gimbal_kinematics.maths.free_gyro.fix_geometry`. The paper assumes i.i.d. nadir errors
    (eq. 34) to get cov = σ² (WᵀW)⁻¹ and fd = FDOP σ (eq. 38). A levelling error is common
    to both gyros and correlates their nadir errors; the model carries the full
    cov = W⁻¹ Σ_θ W⁻ᵀ and reports eq. 38's FDOP σ_θ beside it. The paper's "about 0.63" for
@@ -87,14 +87,14 @@ import numpy as np
 from scipy.integrate import quad
 from scipy.special import erf
 
-from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
-from gimbal_kinematics.free_gyro import (
+from gimbal_kinematics.maths.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.free_gyro import (
     FixGeometry, Vector3, dcm_ni, fix_geometry, gyro_vector_n, heading_error, unit_vector)
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm, skew, unskew
-from gimbal_kinematics.units import ARCSEC, DEG_H, DEG_RT_H
-from gimbal_kinematics.validate import finite, nonneg_finite, of_type, positive
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, euler321_to_dcm, skew, unskew
+from gimbal_kinematics.maths.units import ARCSEC, DEG_H, DEG_RT_H
+from gimbal_kinematics.maths.validate import finite, nonneg_finite, of_type, positive
 
-from .kalman import check_state, predict, symmetrize
+from gimbal_kinematics.maths.kalman import check_state, predict, symmetrize
 
 
 #: Names of the outputs of :class:`FixErrorModel`, in order.
@@ -269,7 +269,7 @@ def earth_rate_heading_jacobian(lat: float, roll: float, pitch: float, heading: 
                                 yaw_rate: float = 0.0) -> np.ndarray:
     """(5,) derivatives of the earth-rate heading (eq. 3–4) with respect to (δroll, δpitch)
     [rad/rad] and the triad error δω_ib^b (3,) [rad/(rad/s)] (eq. 29, through
-    :func:`gimbal_kinematics.free_gyro.heading_error`).
+    :func:`gimbal_kinematics.maths.free_gyro.heading_error`).
 
     ``yaw_rate`` [rad/s] is the ship's mean yaw rate over the heading window: the core
     removes the level rates but not the yaw rate, which stays on the levelled vertical, and a

@@ -25,7 +25,7 @@ With angle pickoffs the integral of the measured motion telescopes to the read-o
 so integrating is the same as fitting the read-outs; the line absorbs the ≤ 15″/min drift of
 θ within the window without any knowledge of the position.
 
-Fix (eq. 1): ``gimbal_kinematics.free_gyro.position_fix`` at t̄ with the two integrated
+Fix (eq. 1): ``gimbal_kinematics.maths.free_gyro.position_fix`` at t̄ with the two integrated
 nadir angles; the mirror-image branch is chosen by the sense of Δα = α_b − α_a, which the
 ship measures as ζ_b − ζ_a (heading cancels). Geometry (eq. 31–38):
 ``fix_geometry`` gives FDOP = √2/|sin Δα| and the covariance FDOP-scaled by σ_θ in north/
@@ -50,7 +50,7 @@ Heading, two ways:
 
 All angles rad, rates rad/s, times s, distances m. Non-finite inputs and non-unit spin axes
 are rejected and counted. Stamps come checked and in order: the node's input policy
-(:func:`gimbal_kinematics.input_policy.synced_policy`) refuses late and repeated read-outs
+(:func:`gimbal_kinematics.timing.input_policy.synced_policy`) refuses late and repeated read-outs
 and, on a clock jump back of more than ``clock_jump_s``, calls :meth:`FreeGyroPositioning.reset`.
 """
 from __future__ import annotations
@@ -61,8 +61,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.earth import OMEGA_IE, transport_rate_n
-from gimbal_kinematics.free_gyro import (
+from gimbal_kinematics.maths.earth import OMEGA_IE, transport_rate_n
+from gimbal_kinematics.maths.free_gyro import (
     FixTolerances,
     fix_geometry,
     gyro_azimuth,
@@ -71,9 +71,9 @@ from gimbal_kinematics.free_gyro import (
     spin_axes_for_site_deg,
     unit_vector,
 )
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.units import ARCSEC, DEG_RT_H
-from gimbal_kinematics.validate import finite, of_type, positive
+from gimbal_kinematics.maths.units import ARCSEC, DEG_RT_H
+from gimbal_kinematics.maths.validate import finite, of_type, positive
+from gimbal_kinematics.params.table import ParameterError
 
 _NAN = float("nan")
 _TRANSPORT_ITERATIONS = 4  # contraction ≤ 0.05 at 20 m/s: the heading to 1e-5 of its first error
@@ -85,7 +85,7 @@ class FreeGyroPositioningParams:
 
     Attributes:
         u_a_i, u_b_i: the gyros' inertial spin axes (unit, not parallel), inertial frame of
-            ``gimbal_kinematics.free_gyro`` (x to Greenwich at t = 0, z the earth's axis).
+            ``gimbal_kinematics.maths.free_gyro`` (x to Greenwich at t = 0, z the earth's axis).
         nadir_noise_arcsec: σ of one read-out nadir angle [″] (pickoff noise), for the fix σ.
         fix_interval_s: nadir integration window per fix [s].
         min_samples: fewest read-outs in a window for a fix (≥ 3: a line and its residual).

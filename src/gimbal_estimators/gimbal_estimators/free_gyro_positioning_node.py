@@ -42,7 +42,7 @@ last read-out (a bag looping) resets the node. The node must see every read-out,
 reports the next step it needs on ``~/progress`` (the lockstep pacing protocol).
 
 Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`), chosen once in the
-constructor as the input policy (:func:`gimbal_kinematics.input_policy.synced_policy`):
+constructor as the input policy (:func:`gimbal_kinematics.timing.input_policy.synced_policy`):
 
 * ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS`` everywhere, ``~/progress`` on the
   step grid, no /diagnostics (byte-identical bags).
@@ -69,7 +69,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, NavSatFix
 
-from gimbal_kinematics.input_policy import Step, synced_policy
+from gimbal_kinematics.timing.input_policy import Step, synced_policy
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected

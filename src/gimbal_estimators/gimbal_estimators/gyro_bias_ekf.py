@@ -9,8 +9,8 @@ Pure Python (no rclpy). It takes grouped samples, checked and in stamp order:
                                                 integration has reached, with the angles of its stamp
 
 Stamps, duplicates, clock jumps (a jump back calls :meth:`GyroBiasEkf.reset`) and the
-multi-rate grouping are the input edge's (:mod:`gimbal_kinematics.input_policy`,
-:class:`gimbal_kinematics.sync.RateSync`); :class:`.gyro_bias_ekf_stamp.EkfInput` puts the
+multi-rate grouping are the input edge's (:mod:`gimbal_kinematics.timing.input_policy`,
+:class:`gimbal_kinematics.timing.sync.RateSync`); :class:`.gyro_bias_ekf_stamp.EkfInput` puts the
 three raw streams through the checks (``check_*``) and the grouping into the core, each
 call returning a :class:`Fed`: the sample used or why not, and the update it completed.
 
@@ -24,7 +24,7 @@ i.e. ``Ĉ ← exp(−[ω_in Δt ×]) Ĉ exp([φ ×])`` with the second-order (tr
 rotation vector ``φ = ½(ω_{k−1} + ω_k) Δt + (Δt²/12) ω_{k−1} × ω_k``, exact for linearly
 varying rates; its error is far below the biases (< 3e-7 rad in 10 s on paper 1's motion).
 ω_im^m = (p̂_m, q_m − b̂_q, r_m − b̂_r). The roll rate is paper 1 eq. 4
-(:func:`gimbal_kinematics.sighting_chain.reconstruct_roll_rate`) in closed scalar form:
+(:func:`gimbal_kinematics.maths.sighting_chain.reconstruct_roll_rate`) in closed scalar form:
 since rot3(ψm) rot3(ψt) turns the INS rate into the outer-gimbal frame and ψ̇t only enters
 its third component,
 
@@ -35,7 +35,7 @@ The INS body rates are interpolated to the gyro stamps (see "Synchronisation").
 State, error model and measurement: :mod:`.gyro_bias_ekf_model` (the 9-state error model,
 the lumped bias, the measured attitude and the INS error states).
 
-Synchronisation (the grouping :class:`gimbal_kinematics.sync.RateSync` does)
+Synchronisation (the grouping :class:`gimbal_kinematics.timing.sync.RateSync` does)
 ---------------------------------------------------------------------------
 All streams are stamped on one clock. Gyro samples are queued and integrated in stamp order
 once an encoder sample and an INS-rate sample stamped at or after them are in (or after
@@ -81,12 +81,14 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.earth import earth_rate_n, transport_rate_n
-from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat
-from gimbal_kinematics.units import DEG, DEG_H, DEG_RT_H
+from gimbal_kinematics.maths.earth import earth_rate_n, transport_rate_n
+from gimbal_kinematics.maths.rotations import (
+    quat_from_rotation_vector, quat_mul, quat_to_dcm, rotation_vector_from_quat,
+)
+from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_RT_H
 
+from gimbal_kinematics.maths import kalman
 from . import gyro_bias_ekf_kernels as kernels
-from . import kalman
 from .gyro_bias_ekf_model import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI
 from .gyro_bias_ekf_params import GyroBiasEkfParams
 

@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from gimbal_kinematics.quat_kernels import quat_from_euler321, quat_from_rotation_vector, quat_mul
+from gimbal_kinematics.maths.quat_kernels import quat_from_euler321, quat_from_rotation_vector, quat_mul
 
 #: |cos θm| below which eq. 4 is singular (the core's ``_SINGULAR_COS``).
 SINGULAR_COS = 1e-3

@@ -7,7 +7,7 @@ State and error model
 Error state ``x = [ψ (3), δb (3), e (3)]`` (the last block only with ``ins_error_states``):
 
 * ψ: attitude error resolved in n, ``Ĉ = (I − [ψ×]) C`` (so
-  ``ψ = small_angles_from_dcm(C Ĉᵀ)``, as in :mod:`gimbal_kinematics.rotations`);
+  ``ψ = small_angles_from_dcm(C Ĉᵀ)``, as in :mod:`gimbal_kinematics.maths.rotations`);
   reset to zero after each update by ``Ĉ ← exp([ψ̂×]) Ĉ``.
 * δb = b − b̂, b = (b_x, b_q, b_r) [rad/s]. b_q, b_r are the gyro biases. There is no roll
   gyro: b_x is the error of w1 (the INS-rate part of eq. 4), i.e. the INS gyro bias
@@ -69,7 +69,7 @@ from typing import Sequence
 
 import numpy as np
 
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_from_euler321
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, quat_from_euler321
 
 from . import gyro_bias_ekf_kernels as kernels
 from .gyro_bias_ekf_kernels import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI

@@ -32,18 +32,18 @@ Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`):
   near 1.8e9 s resolves only 2.4e-7 s), converted back to absolute stamps on output.
   Duplicate stamps and samples older than their stream's last one (by less than
   ``clock_jump_s``) are dropped and counted; gaps (dropped samples) and the interval
-  jitter are counted (:class:`gimbal_kinematics.stream_stats.StreamStats`); ±30 % jitter
+  jitter are counted (:class:`gimbal_kinematics.timing.stream_stats.StreamStats`); ±30 % jitter
   needs nothing else, since every step uses its own dt. A stream whose stamps jump back by
   more than ``clock_jump_s`` (a bag loop, a restarted driver) resets the filter and
   re-bases the relative time, once 3 stamps in a row agree on the jump; a single stamp that
   far off (3 years ahead, zero) is an outlier, dropped and counted (``<stream>_outliers``),
-  and the filter goes on (:mod:`gimbal_kinematics.stamps`). ``~/progress`` still reports the newest gyro stamp
+  and the filter goes on (:mod:`gimbal_kinematics.timing.stamps`). ``~/progress`` still reports the newest gyro stamp
   processed (absolute), every ``progress_every_steps`` gyro samples, for a pacing player.
 
 The node is the shape every node copies (:mod:`gimbal_kinematics.ros.node_edge`: inputs,
 checks, warnings and the diagnostics throttle). It chooses its input policy once, in its constructor
-(:mod:`gimbal_kinematics.input_policy`: :class:`~gimbal_kinematics.input_policy.LockstepOrder`
-or :class:`~gimbal_kinematics.input_policy.FreeOrder`); the rest of the node is the same in
+(:mod:`gimbal_kinematics.timing.input_policy`: :class:`~gimbal_kinematics.timing.input_policy.LockstepOrder`
+or :class:`~gimbal_kinematics.timing.input_policy.FreeOrder`); the rest of the node is the same in
 both timings. In both the three streams are fed to the filter in stamp order, the encoders
 and INS of a stamp before its gyro sample, whatever order the middleware delivers them in;
 so a replay at any speed computes exactly what the run computed, and a bag replayed into
@@ -84,12 +84,12 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.input_policy import Step, order_policy
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.timing.input_policy import Step, order_policy
+from gimbal_kinematics.timing.sync import RateSync
 
 from . import messages as m
 from .gyro_bias_ekf import EkfOutput, Fed, GyroBiasEkf

@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, TimedParams, declaration, from_values, param
-from gimbal_kinematics.validate import finite, nonneg_finite, positive
+from gimbal_kinematics.maths.validate import finite, nonneg_finite, positive
+from gimbal_kinematics.params.table import CLOCK_JUMP_ALIASES, TimedParams, declaration, from_values, param
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """One stamp's samples into the gyro-bias EKF core, in the ``gyro_bias_ekf`` node's order.
 
 Within one stamp the node takes the encoders and the INS before the gyro sample
-(:class:`gimbal_kinematics.sync.StampOrder`), so that the gyro's integration finds the
+(:class:`gimbal_kinematics.timing.sync.StampOrder`), so that the gyro's integration finds the
 encoder angles and INS rates of its own stamp. :func:`feed_stamp` is that step, shared by
 the engine's ``gyro_bias_ekf`` stage (``gimbal_sim.core.core_stages.ekf_stage``) and by the
 replay of a recorded bag into the core (``gimbal_sim.bag.ekf_replay``): the engine and a
@@ -22,7 +22,7 @@ Ins = tuple[Sequence[float], Sequence[float]]
 
 class EkfInput:
     """The three raw streams of :class:`.gyro_bias_ekf.GyroBiasEkf` (``core``), checked, then
-    grouped by a ``grouping`` (:class:`gimbal_kinematics.sync.RateSync`) built on the core's
+    grouped by a ``grouping`` (:class:`gimbal_kinematics.timing.sync.RateSync`) built on the core's
     sync wait, gyro gap, ``integrate`` and ``fuse``; each call returns the core's
     :class:`.gyro_bias_ekf.Fed`. Reading any other attribute reads the core's (its estimate,
     counters, outputs)."""

@@ -8,8 +8,8 @@ from typing import Sequence
 from geometry_msgs.msg import Vector3Stamped  # noqa: F401
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401
-from gimbal_kinematics.rotations import euler321_from_quat
+from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, PLATFORM_FRAME  # noqa: F401
+from gimbal_kinematics.maths.rotations import euler321_from_quat
 from gimbal_kinematics.ros.messages import (  # noqa: F401
     NAV_FRAME, NOT_PROVIDED, clock_msg, encoder_readings, field_provided, gyro_qr_provided, imu_msg, navsat_fix_msg, quat_of,
     stamp_ns, step_of_stamp, step_stamp_ns, time_msg, vec_of, vector3_msg,

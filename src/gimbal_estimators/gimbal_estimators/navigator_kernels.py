@@ -2,7 +2,7 @@
 of floats. :class:`.platform_navigator.PlatformNavigator` holds the state (L, λ, h, v_NED,
 δa, ...) in a vector and calls :func:`navigator_step` per sample, which calls
 :func:`integrate` and :func:`command_rate` (the compiled engine calls it too); the WGS-84 radii and gravity are
-:mod:`gimbal_kinematics.earth_kernels`'. The maths is the navigator's module docstring:
+:mod:`gimbal_kinematics.maths.earth_kernels`'. The maths is the navigator's module docstring:
 
     v_N⁺ = v_N + Δt (f_N − (w_E v_D − w_D v_E)),   v_E⁺ = v_E + Δt (f_E − (w_D v_N − w_N v_D)),
     w = 2 ω_ie^n + ω_en^n,   v_U⁺ = v_U + Δt (a_U − k2 e − δa),   δa⁺ = δa + Δt k3 e,
@@ -15,8 +15,8 @@ import math
 
 from numba import njit
 
-from gimbal_kinematics.earth_kernels import meridian_radius, normal_gravity, prime_vertical_radius
-from gimbal_kinematics.wgs84 import OMEGA_IE
+from gimbal_kinematics.maths.earth_kernels import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.maths.wgs84 import OMEGA_IE
 
 
 @njit(cache=True)

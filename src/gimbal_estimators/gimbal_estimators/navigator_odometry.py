@@ -2,7 +2,7 @@
 
 * **Pose** in a local ENU frame (``odom_frame_id``, default ``odom``: continuous, it drifts
   as the INS does and never jumps) whose origin is the navigator's first fix, the hand-off
-  point: east, north, up of each fix relative to it (:func:`gimbal_kinematics.earth.enu_from_geodetic`).
+  point: east, north, up of each fix relative to it (:func:`gimbal_kinematics.maths.earth.enu_from_geodetic`).
 * **Child frame** ``odom_child_frame_id`` (default ``base_link``, REP 103 forward-left-up):
   level, at the base's heading. The navigator knows that heading only on a static base with
   the resolver as its azimuth source (``base_heading_deg``); with ``azimuth_source: servo``
@@ -24,8 +24,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from gimbal_kinematics.earth import enu_from_geodetic
-from gimbal_kinematics.units import NMI_M
+from gimbal_kinematics.maths.earth import enu_from_geodetic
+from gimbal_kinematics.maths.units import NMI_M
 
 from .platform_navigator import NavigatorOutput
 

@@ -32,7 +32,7 @@ step are rejected and counted (warned at most once a second); a stamp more than
 ``clock_jump_s`` back (a bag looping) restarts the alignment.
 
 Timing (parameter ``timing``, :mod:`gimbal_kinematics.ros.node_io`), chosen once in the
-constructor as the input policy (:func:`gimbal_kinematics.input_policy.grouped_policy`); the
+constructor as the input policy (:func:`gimbal_kinematics.timing.input_policy.grouped_policy`); the
 node's body is the same in both:
 
 * ``lockstep`` (what ``gimbal-run`` sets): ``GRAPH_QOS``, inputs grouped by step on the
@@ -40,7 +40,7 @@ node's body is the same in both:
   /diagnostics (byte-identical bags).
 * ``free`` (the default when started alone): SensorDataQoS inputs, default-QoS outputs, no
   step grid, no wait on ``/clock`` or a progress topic. The two streams are fed to the core
-  in stamp order (:class:`gimbal_kinematics.sync.StampOrder`, the joint before the
+  in stamp order (:class:`gimbal_kinematics.timing.sync.StampOrder`, the joint before the
   accelerometer of the same stamp, a sample waiting at most ``max_sync_wait_s`` for the
   other stream); the core holds the newest joint angle and extrapolates it with its rate
   to each accelerometer stamp (its ``max_joint_age_s`` bounds how old). Stamps are integer
@@ -63,12 +63,12 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.timing.input_policy import SampleGrid, Step, grouped_policy
 
 from . import messages as m
 from .nis import NisWindow

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, param, same_as
+from gimbal_kinematics.params.table import CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, param, same_as
 
 INF = math.inf
 

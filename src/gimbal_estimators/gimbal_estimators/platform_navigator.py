@@ -6,7 +6,7 @@ specific force f_s (platform axes s), the azimuth angle (resolver θ_a or servo 
 source" below) and the stamp, and it returns the NED velocity, the position (latitude, longitude, height) and the platform
 command rate. Pure Python, no rclpy; a node wraps it.
 
-Frames and conventions (those of :mod:`gimbal_kinematics.four_gimbal` and the alignment)
+Frames and conventions (those of :mod:`gimbal_kinematics.maths.four_gimbal` and the alignment)
 ---------------------------------------------------------------------------------------
 n = local-level NED. The platform azimuth ψ̂ (from the azimuth source, below) is about NED down, and a
 level platform has C_sn = rot3(ψ̂). The specific force is resolved through it (paper 3:
@@ -33,7 +33,7 @@ known, but on a ship the heading is exactly what the INS is there to give. The a
 the third argument of :meth:`PlatformNavigator.step` in both cases; a missing one (None) is
 refused and counted alike (``rejected_no_resolver``).
 
-Mechanisation (:mod:`gimbal_kinematics.earth` for the WGS-84 radii, rates and gravity)
+Mechanisation (:mod:`gimbal_kinematics.maths.earth` for the WGS-84 radii, rates and gravity)
 ------------------------------------------------------------------------------------
     v̇ = f_n + g_n(L, h) − (2 ω_ie^n + ω_en^n) × v
     L̇ = v_N / (R_M + h),   λ̇ = v_E / ((R_N + h) cos L)
@@ -70,7 +70,7 @@ It is the rate at which the platform's gyro reference must turn so that it stays
 local level frame, without the modulation rate. **The servo follows it in NED**: it resolves
 it through its own commanded rotation angle φz and adds the modulation rate,
 ω_c^s = rot3(φz) ω_c^n + φ̇z e3 (the form of
-:func:`gimbal_kinematics.four_gimbal.command_rate_s`; with the navigator in the loop the
+:func:`gimbal_kinematics.maths.four_gimbal.command_rate_s`; with the navigator in the loop the
 servo's own earth rate and drift compensation give way to ω_c^n). The modulation schedule (φz, φ̇z, the
 integrator presets at reversals) stays the servo's, and the gyro reference stays the azimuth
 reference, as in any platform INS: a vertical gyro drift turns the reference and the earth
@@ -99,7 +99,7 @@ is φ × (time held)/T: exact when the sample period divides T. The level residu
 costs ~g φ T/2 of velocity (1 mm/s for 5″).
 
 Stamps come checked and in order from the node's input policy
-(:mod:`gimbal_kinematics.input_policy`: repeats and late stamps dropped and counted there; a
+(:mod:`gimbal_kinematics.timing.input_policy`: repeats and late stamps dropped and counted there; a
 clock jump back, a bag looping, is a :meth:`PlatformNavigator.reset` to the hand-off, the
 next sample the first of the new run). Bad input is counted and never integrated: a
 non-finite stamp or value, a missing resolver angle or φz sample (None).
@@ -115,7 +115,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
 
 from . import navigator_kernels as nk
 from .platform_navigator_params import PlatformNavigatorParams

@@ -35,7 +35,7 @@ policy drops them), NaN/inf values, a missing resolver angle (the core); a stamp
 ``clock_jump_s`` back (a bag looping) makes the policy restart navigation from the hand-off.
 
 Timing (parameter ``timing``), chosen once in the constructor as the input policy
-(:func:`gimbal_kinematics.input_policy.grouped_policy`), as ``platform_alignment`` does:
+(:func:`gimbal_kinematics.timing.input_policy.grouped_policy`), as ``platform_alignment`` does:
 ``lockstep`` groups the inputs by step on the ``sim_rate_hz`` grid and reports on
 ``~/progress`` the next step it needs (no /diagnostics: bags stay byte-identical);
 ``free`` feeds the two streams in stamp order, never waits on a grid, ``/clock`` or a
@@ -52,9 +52,9 @@ from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
-from gimbal_kinematics.frames import MODULATION_JOINT
-from gimbal_kinematics.input_policy import SampleGrid, Step, grouped_policy
-from gimbal_kinematics.params import ParameterError, steps_per_sample
+from gimbal_kinematics.maths.frames import MODULATION_JOINT
+from gimbal_kinematics.timing.input_policy import SampleGrid, Step, grouped_policy
+from gimbal_kinematics.params.table import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node

@@ -14,11 +14,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import (
+from gimbal_kinematics.params.table import (
     CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, from_values, param, same_as,
 )
-from gimbal_kinematics.units import ARCSEC, DEG, DEG_H, UG
-from gimbal_kinematics.validate import finite, per_axis, positive
+from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H, UG
+from gimbal_kinematics.maths.validate import finite, per_axis, positive
 
 #: Where the platform azimuth comes from: the azimuth resolver (+ a fixed base heading) or the
 #: servo's rotation angle φz (+ the platform's azimuth at φz = 0).

@@ -8,7 +8,7 @@ from the level accelerometers and the azimuth gimbal angle.
 Conventions (re-derived; the paper's OCR'd equations are not copied)
 -------------------------------------------------------------------
 * Navigation frame n = NED. The platform azimuth ψ is the azimuth joint angle θ_a of
-  ``gimbal_kinematics.four_gimbal``: ``C_sn,ideal = rot3(ψ)``, ψ about NED *down*. Paper 3's
+  ``gimbal_kinematics.maths.four_gimbal``: ``C_sn,ideal = rot3(ψ)``, ψ about NED *down*. Paper 3's
   φz is about ENU *up*, so **φz(paper) = −ψ**. The platform axes x, y, z are the sim's
   (x = north, y = east, z = down at ψ = 0; paper 3's x is east): ∇x, ∇y, ε_x, ε_y below are
   resolved in these axes.
@@ -88,12 +88,12 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.earth import OMEGA_IE, normal_gravity
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
-from gimbal_kinematics.validate import finite, of_type, positive
+from gimbal_kinematics.maths.earth import OMEGA_IE, normal_gravity
+from gimbal_kinematics.maths.units import ARCMIN, ARCSEC, DEG_H, UG
+from gimbal_kinematics.maths.validate import finite, of_type, positive
+from gimbal_kinematics.params.table import ParameterError
 
-from .kalman import check_state, joseph_update, symmetrize
+from gimbal_kinematics.maths.kalman import check_state, joseph_update, symmetrize
 
 #: State order (paper eq. 15).
 STATE_NAMES = ("dphi_E0", "dphi_N0", "dphi_U0", "eps_N", "bias_x", "bias_y", "eps_x", "eps_y")

@@ -9,7 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
-from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME, PLATFORM_FRAME
+from gimbal_kinematics.maths.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, NAV_FRAME, PLATFORM_FRAME
 from gimbal_kinematics.ros.wire import (
     IMU, NAVSAT_FIX, NOT_PROVIDED, ODOMETRY, VECTOR3_STAMPED, imu_cdr, navsat_fix_cdr, odometry_cdr, vector3_cdr,
 )

@@ -33,7 +33,7 @@ from typing import Any
 
 import yaml
 
-from gimbal_kinematics.cli_boundary import cli_boundary, finite, read_text, writable_dir
+from gimbal_kinematics.cli.boundary import cli_boundary, finite, read_text, writable_dir
 
 from .campaign.report import diff_results
 from .campaign.dispersion import SAMPLINGS as DISPERSION_SAMPLINGS

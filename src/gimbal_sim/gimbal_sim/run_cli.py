@@ -31,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-from gimbal_kinematics.cli_boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
+from gimbal_kinematics.cli.boundary import Interrupted, UsageError, cli_boundary, finite, read_text, writable_dir
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent, localhost_env
 
 from .bag.live import parse_topic_rates

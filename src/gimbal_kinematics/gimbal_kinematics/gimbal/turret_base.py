@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from gimbal_kinematics.earth import earth_rate_n, normal_gravity
+from gimbal_kinematics.maths.earth import earth_rate_n, normal_gravity
 
 from .host_kernels import turret_base
 from .host_state import HostState

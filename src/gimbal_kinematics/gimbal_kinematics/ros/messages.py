@@ -23,8 +23,8 @@ from geometry_msgs.msg import Vector3Stamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
-from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS, NAV_FRAME  # noqa: F401  (re-exported)
-from gimbal_kinematics.stamps import step_of_stamp, step_stamp_ns  # noqa: F401  (re-exported)
+from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS, NAV_FRAME  # noqa: F401  (re-exported)
+from gimbal_kinematics.timing.stamps import step_of_stamp, step_stamp_ns  # noqa: F401  (re-exported)
 
 from . import cdr
 # the serialized forms and the REP 145 constants (rclpy-free: the engine writes bags with them)

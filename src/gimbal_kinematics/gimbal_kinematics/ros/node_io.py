@@ -1,6 +1,6 @@
 """The QoS, timing and QoS-event plumbing every node's inputs and outputs go through.
 
-Two timings (the ``timing`` parameter, :data:`gimbal_kinematics.params.TIMING_PARAM`):
+Two timings (the ``timing`` parameter, :data:`gimbal_kinematics.params.table.TIMING_PARAM`):
 
 * ``lockstep``: the orchestrator's deterministic graph. Every input and output uses
   :data:`~gimbal_kinematics.ros.qos.GRAPH_QOS` (reliable, transient-local, keep-last 100),
@@ -47,8 +47,8 @@ from rclpy.qos import (
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.subscription import Subscription
 
-from gimbal_kinematics.params import TIMING_CHOICES, TIMING_PARAM  # noqa: F401  (re-exported)
-from gimbal_kinematics.params import ros2_control_topic
+from gimbal_kinematics.params.table import TIMING_CHOICES, TIMING_PARAM  # noqa: F401  (re-exported)
+from gimbal_kinematics.params.table import ros2_control_topic
 
 from .qos import GRAPH_QOS, ROS2_CONTROL_QOS
 
@@ -191,7 +191,7 @@ class NodeIo:
 
     def _watched(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
         """``callback``, then the warning of the node's lockstep policy when inputs come but no
-        step (:class:`gimbal_kinematics.stream_stats.SilenceWatch`)."""
+        step (:class:`gimbal_kinematics.timing.stream_stats.SilenceWatch`)."""
         def watched(msg: Any) -> None:
             callback(msg)
             watch = getattr(getattr(self.node, "policy", None), "silence", None)
@@ -219,7 +219,7 @@ class NodeIo:
 
     def advertise_command(self, msg_type: Any, graph_topic: str, values: dict) -> Publisher:
         """A controller's effort-command publisher in the form its ``command_interface`` chooses
-        (:data:`gimbal_kinematics.params.COMMAND_INTERFACE_PARAM`): ``graph_topic`` with the
+        (:data:`gimbal_kinematics.params.table.COMMAND_INTERFACE_PARAM`): ``graph_topic`` with the
         timing's QoS, or ``ros2_control_topic`` with :data:`.qos.ROS2_CONTROL_QOS`."""
         if values["command_interface"] == "ros2_control":
             return self.advertise(msg_type, ros2_control_topic(values), values["timing"], ROS2_CONTROL_QOS)

@@ -1,7 +1,7 @@
 """``main()`` shared by every node executable (the ros2/demos pattern on Jazzy).
 
 ``--help`` is answered before rclpy starts. The node runs inside the commands' one error
-boundary (:func:`gimbal_kinematics.cli_boundary.cli_boundary`): a parameter the node refuses,
+boundary (:func:`gimbal_kinematics.cli.boundary.cli_boundary`): a parameter the node refuses,
 a ``--params-file`` that is missing or not text, or one that has no block for the node or
 names parameters it does not have (:func:`check_params_addressed`), ends the process with
 exit code 2 and a message naming the parameter, the block or the file; Ctrl-C (SIGINT) ends
@@ -23,8 +23,8 @@ from rclpy.task import Future
 from rclpy.utilities import remove_ros_args
 import yaml
 
-from ..cli_boundary import Interrupted, RunFailed, UsageError, cli_boundary, on_stop_signals, read_text
-from ..params_file import ParamsFileError, blocks, load_ros_yaml
+from ..cli.boundary import Interrupted, RunFailed, UsageError, cli_boundary, on_stop_signals, read_text
+from ..params.file import ParamsFileError, blocks, load_ros_yaml
 from .ros_domain import localhost_env
 
 #: How long one spin slice lasts [s]: a SIGINT is acted on within it.

@@ -1,4 +1,4 @@
-"""Declare a node's :class:`~gimbal_kinematics.params.Param` table with rclpy and read it.
+"""Declare a node's :class:`~gimbal_kinematics.params.table.Param` table with rclpy and read it.
 
 Every parameter is declared in a single ``declare_parameters`` call with a
 ``ParameterDescriptor`` that carries its description (with units) and its range, so rclpy
@@ -19,7 +19,7 @@ from rclpy.exceptions import (
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from gimbal_kinematics.params import Param, ParameterError
+from gimbal_kinematics.params.table import Param, ParameterError
 
 _ARRAY_TYPES = {"string_array": Parameter.Type.STRING_ARRAY, "double_array": Parameter.Type.DOUBLE_ARRAY,
                 "integer_array": Parameter.Type.INTEGER_ARRAY, "bool_array": Parameter.Type.BOOL_ARRAY}

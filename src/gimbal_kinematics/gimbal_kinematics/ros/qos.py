@@ -15,7 +15,7 @@ GRAPH_QOS = QoSProfile(
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
 
-#: The ros2_control command contract (:data:`gimbal_kinematics.params.COMMAND_INTERFACE_PARAM`):
+#: The ros2_control command contract (:data:`gimbal_kinematics.params.table.COMMAND_INTERFACE_PARAM`):
 #: topic_based_ros2_control publishes its joint commands reliable and volatile
 #: (``rclcpp::QoS(1)``), so a subscription to them must be volatile (a transient-local reader
 #: refuses a volatile writer). Ours keep 100 samples on either side: the depth does not

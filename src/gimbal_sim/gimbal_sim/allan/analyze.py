@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.units import DEG
 
 from .fit import FLICKER_FACTOR, AllanCurve, NoiseFit, allan_curve, dead_fit, fit_noise_terms
 from .stream import AXES, ImuField, Sampling, sampling

@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from gimbal_kinematics.cli_boundary import UsageError, cli_boundary, creatable
+from gimbal_kinematics.cli.boundary import UsageError, cli_boundary, creatable
 
 from ..bag.any_reader import AnyBagError
 from .analyze import ACCEL_SIGMA_PREFIX, AXES, AnalysisError, SIGMA_PREFIX, UNITS, analyze, to_json

@@ -44,8 +44,8 @@ from pathlib import Path
 import yaml
 
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS as EKF_PARAMS
-from gimbal_kinematics.cli_boundary import UsageError
-from gimbal_kinematics.units import DEG, UG
+from gimbal_kinematics.cli.boundary import UsageError
+from gimbal_kinematics.maths.units import DEG, UG
 
 from .analyze import Characterisation
 from .params import GYRO_TARGETS, filter_noise, gyro_filter_params, ros_params_yaml, set_arguments

@@ -21,7 +21,7 @@ import math
 
 import yaml
 
-from gimbal_kinematics.units import DEG, UG
+from gimbal_kinematics.maths.units import DEG, UG
 
 from .analyze import Characterisation, axis_json, implausible
 

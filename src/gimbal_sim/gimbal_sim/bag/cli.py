@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from gimbal_kinematics.cli_boundary import Interrupted, cli_boundary
+from gimbal_kinematics.cli.boundary import Interrupted, cli_boundary
 from gimbal_kinematics.ros.ros_domain import localhost_env
 
 from .checks import damage_warnings, metadata_mismatches, topic_lines

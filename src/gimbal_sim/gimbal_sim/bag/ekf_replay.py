@@ -13,9 +13,9 @@ from typing import Any, Iterator
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput, feed_stamp
-from gimbal_kinematics.rotations import euler321_from_quat
+from gimbal_kinematics.maths.rotations import euler321_from_quat
 from gimbal_kinematics.ros import messages as m
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.timing.sync import RateSync
 
 from .reader import read_messages
 

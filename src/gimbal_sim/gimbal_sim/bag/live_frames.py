@@ -8,7 +8,7 @@ an ``ekf/`` or ``alignment/`` prefix:
 * ``/truth/gimbal/joint_states`` (paper 1's sighting chain, spec §2): body → turret (ψt about
   z) → gimbal azimuth (ψm about z) → inner gimbal ``gimbal_inner_frd`` (θm about y);
 * ``/truth/platform/joint_states`` (paper 3's four-gimbal platform,
-  :mod:`gimbal_kinematics.four_gimbal`): body → outer roll (θ_r about x) → pitch (θ_p about
+  :mod:`gimbal_kinematics.maths.four_gimbal`): body → outer roll (θ_r about x) → pitch (θ_p about
   y) → inner roll (θ_q about x) → azimuth, the stable element ``platform_frd`` (θ_a about z);
 * ``/ins/imu``: ``map_ned`` → ``ins/base_link_frd``, the INS's attitude;
 * ``/gyro_bias_ekf/attitude``: ``map_ned`` → ``ekf/gimbal_inner_frd``, the EKF's C_nm;
@@ -21,7 +21,7 @@ an ``ekf/`` or ``alignment/`` prefix:
 
 A transform's rotation is the child frame's orientation in its parent: the quaternion of
 C_parent,child, (x, y, z, w) as on our messages. The intermediate gimbal frames have no ids
-in :mod:`gimbal_kinematics.frames` (no node writes them); they are named here, FRD like the
+in :mod:`gimbal_kinematics.maths.frames` (no node writes them); they are named here, FRD like the
 rest (REP 103/105 style: one ``*_frd`` id per body).
 """
 from __future__ import annotations
@@ -33,9 +33,9 @@ from rclpy.serialization import deserialize_message
 from geometry_msgs.msg import Vector3Stamped
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.frames import (BASE_FRAME, GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, NAV_FRAME, PLATFORM_FRAME,
+from gimbal_kinematics.maths.frames import (BASE_FRAME, GIMBAL_ENCODER_JOINTS, GIMBAL_FRAME, NAV_FRAME, PLATFORM_FRAME,
                                       PLATFORM_JOINTS)
-from gimbal_kinematics.rotations import quat_from_rotation_vector, quat_mul
+from gimbal_kinematics.maths.rotations import quat_from_rotation_vector, quat_mul
 
 TOPIC = "/live/frames"
 SCHEMA_NAME = "foxglove.FrameTransforms"

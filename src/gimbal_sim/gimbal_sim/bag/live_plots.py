@@ -4,7 +4,7 @@
 
 * ``/live/los_drift``: paper 1's LOS drift, the true inertial LOS's azimuth (cross-elevation)
   and elevation change from its first relayed direction [deg], as the sighting report
-  computes it (:func:`gimbal_kinematics.los.los_drift` of ``/truth/gimbal/imu``, taken to the
+  computes it (:func:`gimbal_kinematics.maths.los.los_drift` of ``/truth/gimbal/imu``, taken to the
   inertial frame with the site's earth rate);
 * ``/live/bias_bounds``: the EKF's bias estimate ± 3σ [rad/s] (``/gyro_bias_ekf/bias`` and
   ``bias_sigma`` of the same stamp).
@@ -18,8 +18,8 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Imu
 
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.los import inertial_los, los_drift, los_from_quat
 
 from .live_frames import stamp_dict
 

@@ -25,7 +25,7 @@ import math
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.serialization import deserialize_message
 
-from gimbal_kinematics.frames import GIMBAL_FRAME, NAV_FRAME
+from gimbal_kinematics.maths.frames import GIMBAL_FRAME, NAV_FRAME
 
 from .scene_config import SceneConfig
 from .live_frames import EKF_ATTITUDE, EKF_GIMBAL_FRAME, TRUTH_GIMBAL_JOINTS, stamp_dict

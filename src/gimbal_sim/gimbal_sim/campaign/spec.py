@@ -55,7 +55,7 @@ from typing import Any, Callable
 
 import yaml
 
-from gimbal_kinematics.cli_boundary import read_text
+from gimbal_kinematics.cli.boundary import read_text
 
 from ..core.core_loop import NoCoreError
 from ..core.engine_run import check_engine

@@ -7,7 +7,7 @@ them; their states are then packed into arrays and :func:`platform_block` steps 
 steps at a time, in the Python loop's order (truth k → resolvers, IMU → navigator → servo
 → plant step k → k+1), calling the per-sample kernels: the plant's RK4 substeps
 (``world.plant.platform_kernels``), the stable element's truth
-(``gimbal_kinematics.platform_kernels``), the sensor models (``world.sensors.sensor_kernels``),
+(``gimbal_kinematics.maths.platform_kernels``), the sensor models (``world.sensors.sensor_kernels``),
 the navigator (``gimbal_estimators.navigator_kernels``) and the servo
 (``gimbal_control.servo_kernels``). Each sensor's normals are drawn per block from its own
 seeded stream in the order its model takes them, so a seed gives the Python loop's numbers.
@@ -27,7 +27,7 @@ from numba import njit
 
 from gimbal_control import servo_kernels as sk
 from gimbal_estimators import navigator_kernels as nk
-from gimbal_kinematics.platform_kernels import platform_truth
+from gimbal_kinematics.maths.platform_kernels import platform_truth
 
 from .loop_plan import CoreLoopResult, node_values
 from .compiled_platform_record import ChainRecorder

@@ -16,7 +16,7 @@ from gimbal_control.platform_servo import ServoCommand
 from gimbal_control.wire import platform_servo_messages
 from gimbal_estimators.platform_navigator import NavigatorOutput
 from gimbal_estimators.wire import navigator_messages
-from gimbal_kinematics.frames import PLATFORM_JOINTS
+from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
 
 from .compiled_platform_setup import O
 from .recording import EngineBag, resolve

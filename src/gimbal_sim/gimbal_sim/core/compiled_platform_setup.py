@@ -18,8 +18,8 @@ from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
 from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
-from gimbal_kinematics.frames import PLATFORM_JOINTS
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
+from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 
 from .loop_plan import node_values

@@ -33,8 +33,8 @@ from . import sighting_kernels as sk
 from .block_bag import BlockRecorder, BlockSource
 from gimbal_control.wire import torque_command_messages
 from gimbal_estimators.wire import ekf_messages
-from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
-from gimbal_kinematics.rotations import quat_canonical, quat_from_euler321
+from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS
+from gimbal_kinematics.maths.rotations import quat_canonical, quat_from_euler321
 
 from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample, SensorSuite, SensorSuiteConfig

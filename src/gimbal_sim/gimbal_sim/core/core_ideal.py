@@ -18,8 +18,8 @@ from typing import Callable
 
 import numpy as np
 
-from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
-from gimbal_kinematics.sighting_chain import task_to_joint_rates
+from gimbal_kinematics.maths.rotations import quat_to_dcm, rotation_vector_from_dcm
+from gimbal_kinematics.maths.sighting_chain import task_to_joint_rates
 
 from .core_stages import Bus
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, InsSample

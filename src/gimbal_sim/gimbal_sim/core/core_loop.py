@@ -30,7 +30,7 @@ from array import array
 from typing import Any, Callable
 
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 from .core_stages import (
     Bus, encoder_fusion_stage, geo_pointer_stage, gyro_bias_ekf_stage, los_rate_controller_stage, operator_stage,

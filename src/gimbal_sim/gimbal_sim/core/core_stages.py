@@ -23,11 +23,11 @@ from gimbal_control.operator_command import OperatorCommand, OperatorCommandPara
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput, feed_stamp
-from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS
-from gimbal_kinematics.params import steps_per_sample
-from gimbal_kinematics.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
-from gimbal_kinematics.stamps import step_stamp_ns
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS
+from gimbal_kinematics.params.table import steps_per_sample
+from gimbal_kinematics.maths.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
+from gimbal_kinematics.timing.stamps import step_stamp_ns
+from gimbal_kinematics.timing.sync import RateSync
 from gimbal_control.wire import encoder_fusion_messages, geo_pointer_messages, torque_command_messages
 from gimbal_estimators.wire import ekf_messages
 
@@ -143,7 +143,7 @@ def gyro_bias_ekf_stage(values: dict[str, Any], name: str = "gyro_bias_ekf") -> 
 def ekf_stage(ekf: EkfInput, name: str = "gyro_bias_ekf") -> Callable[[Bus], None]:
     """What ``gyro_bias_ekf`` does with ``ekf``: INS (Euler angles from its quaternion), gyro
     and encoders of step k, encoders and INS before the gyro sample of the same stamp (the
-    node's :class:`gimbal_kinematics.sync.StampOrder`, :func:`gimbal_estimators.gyro_bias_ekf_stamp.feed_stamp`,
+    node's :class:`gimbal_kinematics.timing.sync.StampOrder`, :func:`gimbal_estimators.gyro_bias_ekf_stamp.feed_stamp`,
     which a bag's replay shares); leaves the bias estimate on the bus when an update
     completed, and the whole output (bias, σ, attitude) in ``bus.ekf``. Recorded: each
     output the core completed, with its bias-corrected rate at that moment (the node's ``_after``)."""

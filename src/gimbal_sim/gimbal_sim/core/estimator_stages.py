@@ -14,8 +14,8 @@ from gimbal_estimators.free_gyro_error_model import fix_predictor
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from gimbal_estimators.wire import alignment_messages, flexure_messages, free_gyro_fix_messages
-from gimbal_kinematics.params import steps_per_sample
-from gimbal_kinematics.rotations import euler321_from_quat, euler321_to_quat
+from gimbal_kinematics.maths.rotations import euler321_from_quat, euler321_to_quat
+from gimbal_kinematics.params.table import steps_per_sample
 
 from .core_stages import Bus, joint_sample
 

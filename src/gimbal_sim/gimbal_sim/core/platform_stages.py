@@ -36,9 +36,9 @@ from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryMode
 from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_estimators.wire import navigator_messages
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
-from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 from .core_stages import Bus, joint_sample
 from ..world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite

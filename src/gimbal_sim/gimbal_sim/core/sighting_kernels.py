@@ -8,7 +8,7 @@ Each core's per-sample maths is its kernel: :func:`..world.plant.sighting_plant_
 :mod:`gimbal_control.los_rate_kernels`. What this module adds is what the nodes' messages
 and input policies do between them in lockstep: the truth the vehicle publishes, the INS
 attitude as a reader of its quaternion gets it, and the EKF's multi-rate grouping
-(:class:`gimbal_kinematics.sync.RateSync`), which in lockstep (gyro and encoders every step,
+(:class:`gimbal_kinematics.timing.sync.RateSync`), which in lockstep (gyro and encoders every step,
 the INS every D steps) is: gyro samples wait for the next INS sample; when it comes they are
 integrated in order with the encoder angles of their own stamp and the INS rates
 interpolated linearly between its last two samples; the gyro sample of the INS stamp
@@ -30,7 +30,7 @@ from gimbal_estimators.gyro_bias_ekf_kernels import (
     measurement_cov, mechanize, propagate,
 )
 from gimbal_kinematics.gimbal.host_kernels import inertial_rates
-from gimbal_kinematics.quat_kernels import (
+from gimbal_kinematics.maths.quat_kernels import (
     euler321_from_quat, quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector, quat_mul,
     rotation_vector_from_quat,
 )

@@ -34,9 +34,9 @@ from scipy.stats import chi2
 from gimbal_estimators.gyro_bias_ekf import Counters, EkfOutput, GyroBiasEkf, GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_model import GYRO_BIAS, N_STATES_INS, PSI_BIAS
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
-from gimbal_kinematics.rotations import quat_to_dcm, rotation_vector_from_dcm
-from gimbal_kinematics.sync import RateSync
-from gimbal_kinematics.units import DEG_H
+from gimbal_kinematics.maths.rotations import quat_to_dcm, rotation_vector_from_dcm
+from gimbal_kinematics.maths.units import DEG_H
+from gimbal_kinematics.timing.sync import RateSync
 
 from ..core.core_ideal import TruthStabilizer, truth_stabilizer_stage
 from ..core.core_loop import run_stages

@@ -34,7 +34,7 @@ import numpy as np
 from gimbal_control.los_rate_controller import (
     DEFAULT_OMEGA_N_HZ, DEFAULT_RATE_HZ, PAPER_ZETA, LosRateController, LosRateControllerParams,
 )
-from gimbal_kinematics.los import inertial_los, pointing_error
+from gimbal_kinematics.maths.los import inertial_los, pointing_error
 
 from ..core.core_ideal import command_delay_stage, ideal_sensor_stage
 from ..core.core_loop import run_stages

@@ -37,7 +37,7 @@ import yaml
 from gimbal_control.encoder_fusion import EncoderFusionParams
 from gimbal_control.fusion_kf import FusionKfParams
 
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.units import DEG
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.report import stats

@@ -17,9 +17,9 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioning, FreeGyroPositioningParams
-from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
-from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
-from gimbal_kinematics.units import ARCSEC
+from gimbal_kinematics.maths.earth import meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.free_gyro import spin_axes_for_site_deg
+from gimbal_kinematics.maths.units import ARCSEC
 
 from ..world.sensors.free_gyro_sensor import FreeGyroSensor, FreeGyroSensorParams, sailing_position
 from ..world.vehicle import VehicleConfig, VehicleCore

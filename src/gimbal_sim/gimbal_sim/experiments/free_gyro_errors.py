@@ -29,8 +29,8 @@ import numpy as np
 
 from gimbal_estimators.free_gyro_error_model import ErrorSources, FixErrorModel, circle_probability
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioningParams
-from gimbal_kinematics.free_gyro import nadir_angle
-from gimbal_kinematics.units import ARCSEC
+from gimbal_kinematics.maths.free_gyro import nadir_angle
+from gimbal_kinematics.maths.units import ARCSEC
 
 from ..campaign.experiment import ExperimentCampaign, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli

@@ -64,10 +64,10 @@ from gimbal_control.platform_servo_params import PARAMS as SERVO_NODE_PARAMS
 from gimbal_estimators.platform_navigator import HandOff, PlatformNavigator
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
-from gimbal_kinematics.earth import meridian_radius, prime_vertical_radius
-from gimbal_kinematics.four_gimbal import platform_misalignment_enu
-from gimbal_kinematics.rotations import quat_to_dcm
-from gimbal_kinematics.units import ARCSEC, DEG_H, NMI_M, UG
+from gimbal_kinematics.maths.earth import meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.four_gimbal import platform_misalignment_enu
+from gimbal_kinematics.maths.rotations import quat_to_dcm
+from gimbal_kinematics.maths.units import ARCSEC, DEG_H, NMI_M, UG
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
 from ..campaign.order_stats import quantile_interval

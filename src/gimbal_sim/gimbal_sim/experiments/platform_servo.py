@@ -42,9 +42,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
-from gimbal_kinematics.four_gimbal import gimbal_angles_from_dcm
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
-from gimbal_kinematics.units import ARCSEC
+from gimbal_kinematics.maths.four_gimbal import gimbal_angles_from_dcm
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, euler321_to_dcm
+from gimbal_kinematics.maths.units import ARCSEC
 
 from ..world.plant import paper3_axis_params
 from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig

@@ -12,7 +12,7 @@ from pathlib import Path
 import gimbal_control
 import gimbal_estimators
 import gimbal_sim
-from gimbal_kinematics.params import params_markdown, params_yaml
+from gimbal_kinematics.params.table import params_markdown, params_yaml
 
 from .registry import NODE_TYPES
 

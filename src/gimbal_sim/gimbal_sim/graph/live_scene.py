@@ -19,7 +19,7 @@ from typing import Any
 
 import yaml
 
-from gimbal_kinematics.geo_pointing import los_to_target
+from gimbal_kinematics.maths.geo_pointing import los_to_target
 
 from ..bag.scene_config import SCENE_FILE, SceneConfig
 from .registry import NODE_TYPES

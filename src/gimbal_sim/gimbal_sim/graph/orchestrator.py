@@ -20,7 +20,7 @@ from typing import Any, Iterable
 
 import yaml
 
-from gimbal_kinematics.cli_boundary import on_stop_signals
+from gimbal_kinematics.cli.boundary import on_stop_signals
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.ros_domain import claim_domain_id, die_with_parent, localhost_env

@@ -32,7 +32,7 @@ from gimbal_estimators.free_gyro_positioning import FreeGyroPositioningParams
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_estimators.rotation_alignment import RotationAlignmentParams
-from gimbal_kinematics.params import Param
+from gimbal_kinematics.params.table import Param
 
 from ..mavlink import mavlink_gimbal_device_params, mavlink_gimbal_manager_params
 from ..mavlink.device_core import DeviceParams

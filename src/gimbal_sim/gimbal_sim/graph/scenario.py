@@ -38,7 +38,7 @@ from typing import Any
 
 import yaml
 
-from gimbal_kinematics.params_file import ParamsFileError, blocks, load_ros_yaml
+from gimbal_kinematics.params.file import ParamsFileError, blocks, load_ros_yaml
 
 from .registry import NODE_TYPES
 

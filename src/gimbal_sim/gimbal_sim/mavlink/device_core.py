@@ -55,9 +55,11 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import body_rates_to_euler_rates, dcm_to_euler321, quat_from_euler321, quat_to_dcm
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.rotations import (
+    body_rates_to_euler_rates, dcm_to_euler321, quat_from_euler321, quat_to_dcm,
+)
+from gimbal_kinematics.maths.units import DEG
+from gimbal_kinematics.params.table import ParameterError
 from pymavlink.dialects.v20 import common as mavlink
 
 from .link import Codec, quat_wxyz, quat_xyzw, unit_quaternion

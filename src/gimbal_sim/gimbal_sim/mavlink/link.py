@@ -21,7 +21,7 @@ import socket
 import struct
 from collections.abc import Sequence
 
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params.table import ParameterError
 from pymavlink.dialects.v20 import common as mavlink
 
 #: Largest UDP payload read at once (a MAVLink 2 packet is at most 280 bytes).

@@ -15,7 +15,7 @@ A direction (:meth:`GimbalManagerClient.point`: the LOS unit vector in NED, geo_
 aim) becomes the attitude (roll 0, pitch = its elevation, yaw = its azimuth), rates NaN (not
 given). A LOS rate (:meth:`~GimbalManagerClient.rate`: (q, r) about the sight's y and z
 axes, the operator input's convention) becomes the Euler rates (θ̇, ψ̇) at the gimbal's newest
-reported roll and pitch (:func:`gimbal_kinematics.rotations.body_rates_to_euler_rates`, the
+reported roll and pitch (:func:`gimbal_kinematics.maths.rotations.body_rates_to_euler_rates`, the
 sight's roll rate taken as zero: a two-axis LOS command has none), attitude NaN; before any
 report it cannot be converted and is counted (``rates_without_attitude``), not sent.
 
@@ -32,8 +32,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import body_rates_to_euler_rates, quat_from_euler321, quat_mul, quat_to_euler321
+from gimbal_kinematics.maths.rotations import body_rates_to_euler_rates, quat_from_euler321, quat_mul, quat_to_euler321
+from gimbal_kinematics.params.table import ParameterError
 from pymavlink.dialects.v20 import common as mavlink
 
 from .link import Codec, quat_wxyz, quat_xyzw, unit_quaternion

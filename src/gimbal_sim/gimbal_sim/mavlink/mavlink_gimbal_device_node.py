@@ -27,9 +27,9 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.control_policy import ControlStep, FreeControl
-from gimbal_kinematics.frames import GIMBAL_FRAME
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl
+from gimbal_kinematics.maths.frames import GIMBAL_FRAME
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.diagnostics import health_msg

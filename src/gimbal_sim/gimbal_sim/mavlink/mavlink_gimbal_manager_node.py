@@ -27,13 +27,13 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import Imu
 
-from gimbal_kinematics.frames import NAV_FRAME
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.maths.frames import NAV_FRAME
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.node_io import NodeIo
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.rotations import euler_rates_to_body_rates, quat_to_euler321
+from gimbal_kinematics.maths.rotations import euler_rates_to_body_rates, quat_to_euler321
 
 from .link import open_link
 from .manager_core import GimbalManagerClient, ManagerParams, Report

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import declaration, param
+from gimbal_kinematics.params.table import declaration, param
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from rosgraph_msgs.msg import Clock
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.ros.params import declare_and_read
 from ..bag.qos_yaml import qos_to_dict
 from .bag_recorder_params import DESCRIPTION, PARAMS

@@ -17,7 +17,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from gimbal_kinematics.params import steps_per_sample
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_main import run_node

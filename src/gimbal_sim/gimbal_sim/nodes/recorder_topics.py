@@ -11,7 +11,7 @@ from typing import Any, Callable
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from gimbal_kinematics.params import ParameterError
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from ..bag.live import SOURCE_TOPICS as LIVE_SOURCES, LiveGuard, LivePortError, LiveRelay, parse_topic_rates
 from ..bag.record_rates import RecordRates

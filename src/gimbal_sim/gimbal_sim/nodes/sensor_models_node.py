@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 
-from gimbal_kinematics.rotations import euler321_from_quat
+from gimbal_kinematics.maths.rotations import euler321_from_quat
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -19,9 +19,9 @@ from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.params import topic_counts
+from gimbal_kinematics.params.table import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.sync import StampSync
+from gimbal_kinematics.timing.sync import StampSync
 from .sensor_models_params import DESCRIPTION, PARAMS
 from .wire import noise_covariances, sensor_messages
 from ..world.sensor_suite import SensorSuite, SensorSuiteConfig

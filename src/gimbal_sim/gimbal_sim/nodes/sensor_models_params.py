@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gimbal_kinematics.params import SHARED, declaration, param, same_as
+from gimbal_kinematics.params.table import SHARED, declaration, param, same_as
 
 from ..world.sensor_suite import SENSORS
 

@@ -18,8 +18,8 @@ import math
 from collections import deque
 from typing import Any, Callable, Mapping, Sequence
 
-from gimbal_kinematics.frames import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS
-from gimbal_kinematics.params import topic_counts
+from gimbal_kinematics.maths.frames import GIMBAL_COMMAND_JOINTS, PLATFORM_JOINTS
+from gimbal_kinematics.params.table import topic_counts
 from gimbal_kinematics.ros import messages as m
 
 #: the command joints of each plant, in plant order (the host alone takes none)

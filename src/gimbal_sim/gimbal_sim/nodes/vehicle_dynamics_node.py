@@ -54,7 +54,7 @@ from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.node_io import input_qos
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS, ROS2_CONTROL_QOS
-from gimbal_kinematics.params import ros2_control_topic
+from gimbal_kinematics.params.table import ros2_control_topic
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.ros.params import declare_and_read
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth

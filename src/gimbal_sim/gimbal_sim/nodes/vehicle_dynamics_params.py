@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
-from gimbal_kinematics.params import SHARED, declaration, param, same_as
+from gimbal_kinematics.params.table import SHARED, declaration, param, same_as
 
 from ..world.plant.motion_profiles import PROFILE_NAMES
 from ..world.vehicle import PLANTS, PLATFORM_INTEGRATORS

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import math
 
-from gimbal_kinematics.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, LGU2_FRAME, NAV_FRAME, PLATFORM_FRAME
-from gimbal_kinematics.rotations import euler321_to_quat, quat_canonical, quat_from_euler321
+from gimbal_kinematics.maths.frames import BASE_FRAME, GIMBAL_FRAME, LGU1_FRAME, LGU2_FRAME, NAV_FRAME, PLATFORM_FRAME
+from gimbal_kinematics.maths.rotations import euler321_to_quat, quat_canonical, quat_from_euler321
 from gimbal_kinematics.ros.wire import (
     CLOCK, IMU, JOINT_STATE, NAVSAT_FIX, VECTOR3_STAMPED, ZERO_COV, clock_cdr, diag_cov, gimbal_gyro_covariance,
     imu_cdr, joint_state_cdr, navsat_fix_cdr, vector3_cdr,
 )
-from gimbal_kinematics.units import DEG, UG
+from gimbal_kinematics.maths.units import DEG, UG
 
 from ..world.sensor_suite import (
     EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuiteConfig,

@@ -29,10 +29,10 @@ from typing import Sequence
 import numpy as np
 import yaml
 
-from gimbal_kinematics.earth import normal_gravity
-from gimbal_kinematics.four_gimbal import dcm_bs, platform_misalignment_enu
-from gimbal_kinematics.rotations import euler321_to_dcm
-from gimbal_kinematics.units import ARCMIN, ARCSEC, DEG_H, UG
+from gimbal_kinematics.maths.earth import normal_gravity
+from gimbal_kinematics.maths.four_gimbal import dcm_bs, platform_misalignment_enu
+from gimbal_kinematics.maths.rotations import euler321_to_dcm
+from gimbal_kinematics.maths.units import ARCMIN, ARCSEC, DEG_H, UG
 
 from ..bag.reader import BagError
 from ..figures import limit_lines, save_stacked, stacked, style

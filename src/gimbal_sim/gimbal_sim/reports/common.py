@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from gimbal_kinematics.earth import earth_rate_n
+from gimbal_kinematics.maths.earth import earth_rate_n
 from gimbal_kinematics.ros.cdr import CdrError
 from gimbal_kinematics.ros.views import VIEWS
 
@@ -86,5 +86,5 @@ def vehicle_site(bag_dir: Path) -> tuple[float, bool]:
 def site_rate_n(lat: float, earth_rate: bool) -> np.ndarray:
     """ω_in^n [rad/s] (3,) of a fixed site at latitude ``lat`` [rad]: the earth rate, or zero
     when the run's NED is inertial (``earth_rate: false``); for
-    :func:`gimbal_kinematics.los.inertial_los`."""
+    :func:`gimbal_kinematics.maths.los.inertial_los`."""
     return earth_rate_n(lat) if earth_rate else np.zeros(3)

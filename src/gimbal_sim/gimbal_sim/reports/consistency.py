@@ -31,8 +31,8 @@ from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import PARAMS, GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_estimators.nis import NisWindow
-from gimbal_kinematics.sync import RateSync
-from gimbal_kinematics.units import ARCSEC_PER_RAD, DEG_H_PER_RAD_S
+from gimbal_kinematics.maths.units import ARCSEC_PER_RAD, DEG_H_PER_RAD_S
+from gimbal_kinematics.timing.sync import RateSync
 
 from ..bag.reader import BagError, read_messages
 from ..bag.ekf_replay import EKF_INPUTS, ekf_outputs

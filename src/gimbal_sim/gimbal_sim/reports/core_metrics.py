@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from gimbal_kinematics.stamps import step_stamp_ns
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 from ..graph.scenario import Scenario
 from .common import vehicle_site
 from .geo_pointing import analyse_series as geo_pointing_series, geo_pointing_figures

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import yaml
 
-from gimbal_kinematics.cli_boundary import cli_boundary, read_text
+from gimbal_kinematics.cli.boundary import cli_boundary, read_text
 
 from ..bag.checks import damage_warnings
 from ..bag.reader import BagError, require_messages, scan

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from gimbal_kinematics.los import inertial_los, los_from_quat
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.los import inertial_los, los_from_quat
+from gimbal_kinematics.maths.units import DEG
 
 from ..bag.reader import BagError
 from .common import load_series, plot, site_rate_n, vehicle_site

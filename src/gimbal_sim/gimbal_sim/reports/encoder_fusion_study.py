@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.units import DEG
 
 from ..figures import pyplot, save
 

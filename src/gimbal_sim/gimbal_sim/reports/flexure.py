@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from gimbal_kinematics.units import ARCSEC, DEG_H
+from gimbal_kinematics.maths.units import ARCSEC, DEG_H
 
 from ..bag.reader import BagError, scan
 from ..figures import save, stacked

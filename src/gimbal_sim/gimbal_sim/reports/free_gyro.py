@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_kinematics.earth import earth_rate_n, meridian_radius, prime_vertical_radius
-from gimbal_kinematics.free_gyro import heading_error
-from gimbal_kinematics.rotations import quat_to_dcm, quat_to_euler321
-from gimbal_kinematics.units import ARCSEC
+from gimbal_kinematics.maths.earth import earth_rate_n, meridian_radius, prime_vertical_radius
+from gimbal_kinematics.maths.free_gyro import heading_error
+from gimbal_kinematics.maths.rotations import quat_to_dcm, quat_to_euler321
+from gimbal_kinematics.maths.units import ARCSEC
 
 from ..bag.reader import BagError
 from .common import load_series, plot

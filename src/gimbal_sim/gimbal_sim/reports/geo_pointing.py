@@ -3,11 +3,11 @@ at the target beside the budget the ``geo_pointer`` node computed.
 
 True error: the angle between the true LOS (first column of the true C(n,m),
 ``/truth/gimbal/imu``) and the true direction from the sight pivot to the target
-(:func:`gimbal_kinematics.geo_pointing.los_to_target` with the vehicle's true site, from the
+(:func:`gimbal_kinematics.maths.geo_pointing.los_to_target` with the vehicle's true site, from the
 run's scenario.yaml; the truth has no position error). Measured from ``acquire_s`` on (the
 initial slew onto the target is not pointing). Budget: ``/geo_pointer/budget``: x, the 1σ RMS
 pointing error the node predicts, and y, z the two semi-axes of its covariance, from which
-:func:`gimbal_kinematics.geo_pointing.radial_quantile` gives the radius the error stays
+:func:`gimbal_kinematics.maths.geo_pointing.radial_quantile` gives the radius the error stays
 within 95 % of the time (the node's ``PointingBudget.radius_95_rad``, one function). "Within
 budget", the fraction of the time the true error is at or below the newest budget, is judged
 against that 95 % radius (a ≥ 95 % requirement needs a 95 % bound: a two-axis error is within
@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from gimbal_kinematics.geo_pointing import los_to_target, radial_quantile
-from gimbal_kinematics.los import los_from_quat
+from gimbal_kinematics.maths.geo_pointing import los_to_target, radial_quantile
+from gimbal_kinematics.maths.los import los_from_quat
 
 from ..bag.reader import BagError
 from .common import load_series, plot, times, vectors

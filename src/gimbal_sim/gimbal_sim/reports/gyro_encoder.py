@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.units import DEG
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style

@@ -34,7 +34,7 @@ from typing import Callable
 
 import yaml
 
-from gimbal_kinematics.units import ARCSEC, DEG_H, UG
+from gimbal_kinematics.maths.units import ARCSEC, DEG_H, UG
 
 from ..bag.reader import BagError
 from .alignment import alignment_series

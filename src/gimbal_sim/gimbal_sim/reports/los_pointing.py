@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from gimbal_kinematics.los import inertial_los, los_from_quat
+from gimbal_kinematics.maths.los import inertial_los, los_from_quat
 
 from ..bag.reader import BagError
 from .common import load_series, plot, site_rate_n, vehicle_site

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_kinematics.earth import meridian_radius, normal_gravity, prime_vertical_radius
-from gimbal_kinematics.units import ARCSEC, NMI_M, UG
+from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.maths.units import ARCSEC, NMI_M, UG
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style

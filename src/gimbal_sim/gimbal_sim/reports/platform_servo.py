@@ -31,7 +31,7 @@ from typing import Callable
 
 import numpy as np
 
-from gimbal_kinematics.units import ARCSEC
+from gimbal_kinematics.maths.units import ARCSEC
 
 from ..bag.reader import BagContents, BagError, stream
 from ..bag.schemas import message_class

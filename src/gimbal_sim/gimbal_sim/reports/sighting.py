@@ -4,7 +4,7 @@ with the gyro-bias EKF fed back, and the bias estimates against the truth.
 Per run (``sighting_report``), from the bag:
 
 * LOS drift (truth, ``/truth/gimbal/imu``): azimuth (cross-elevation) and elevation change
-  of the inertial LOS from its initial direction (:func:`gimbal_kinematics.los.los_drift`);
+  of the inertial LOS from its initial direction (:func:`gimbal_kinematics.maths.los.los_drift`);
   at the end, and as a mean rate over the last ``LAST_SPAN_S``;
 * the drift the true gyro bias alone would cause, −∫b dt (``/truth/gimbal/gyro_bias``:
   r for azimuth, q for elevation), and the ratio of the two;
@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_kinematics.los import inertial_los, los_drift, los_from_quat
-from gimbal_kinematics.units import DEG_H_PER_RAD_S
+from gimbal_kinematics.maths.los import inertial_los, los_drift, los_from_quat
+from gimbal_kinematics.maths.units import DEG_H_PER_RAD_S
 
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style

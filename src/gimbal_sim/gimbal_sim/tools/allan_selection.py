@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import lfilter
 
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.units import DEG
 
 from ..allan.analyze import analyze
 from ..allan.stream import ImuField

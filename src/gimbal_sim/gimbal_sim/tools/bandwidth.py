@@ -25,8 +25,8 @@ import sys
 
 import numpy as np
 from gimbal_control.loop_design import margins_full
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.los import inertial_los, los_from_quat
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.los import inertial_los, los_from_quat
 
 from ..core.core_loop import run_core_loop
 from ..graph.scenario import Scenario, apply_set, load

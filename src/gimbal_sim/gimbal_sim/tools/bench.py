@@ -42,7 +42,7 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
-from gimbal_kinematics.cli_boundary import cli_boundary, finite, writable_dir
+from gimbal_kinematics.cli.boundary import cli_boundary, finite, writable_dir
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError, read_stamp
 

@@ -16,7 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gimbal_kinematics.cli_boundary import cli_boundary, finite
+from gimbal_kinematics.cli.boundary import cli_boundary, finite
 
 from ..core.core_loop import run_core_loop
 from ..core.engine_run import check_engine, run_engine

@@ -26,7 +26,7 @@ from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams, PARAMS
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
 from gimbal_kinematics.ros import messages as m
-from gimbal_kinematics.sync import RateSync
+from gimbal_kinematics.timing.sync import RateSync
 
 from ..bag.ekf_replay import EKF_INPUTS, ekf_outputs
 from ..graph.orchestrator import _ros_env, stop_processes

@@ -67,11 +67,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from numbers import Integral
 
-from gimbal_kinematics.earth import earth_rate_n
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, quat_to_dcm
-from gimbal_kinematics.stamps import Stamp, judge
-from gimbal_kinematics.validate import nonneg_finite, positive
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, quat_to_dcm
+from gimbal_kinematics.maths.validate import nonneg_finite, positive
+from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.timing.stamps import Stamp, judge
 
 WATCH, REACT, SLEW = "watch", "react", "slew"
 
@@ -256,7 +256,7 @@ class SightOperator:
     from: a target far enough away that the vehicle's travel does not turn it).
     NED turns with the earth at ω_in^n (``lat_deg``; ``earth_rate`` False: NED is
     inertial), so the target seen from NED at τ after the capture is exp(−[ω×] τ) u_i
-    (:func:`gimbal_kinematics.los.inertial_los` inverted). Before the capture the
+    (:func:`gimbal_kinematics.maths.los.inertial_los` inverted). Before the capture the
     operator only watches the sight (no command, nothing observed)."""
 
     def __init__(self, params: OperatorModelParams | None = None, capture_s: float = 0.0, lat_deg: float = 0.0,

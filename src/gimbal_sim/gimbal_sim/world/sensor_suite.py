@@ -26,9 +26,9 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.free_gyro import spin_axes_for_site_deg
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
+from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.maths.free_gyro import spin_axes_for_site_deg
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
 
 from .sensors import (
     PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,

@@ -12,7 +12,7 @@ host (analytic profile) and one plant:
 * ``host_only``: no plant (e.g. the ship carrying the LGUs of paper 5).
 
 Platform model: each loop is a gimbal joint of the chain base → outer roll r → pitch p →
-inner roll q → azimuth a (:mod:`gimbal_kinematics.four_gimbal`): its angle and rate are the
+inner roll q → azimuth a (:mod:`gimbal_kinematics.maths.four_gimbal`): its angle and rate are the
 joint's, relative to the outer member, driven by that joint's motor. The stable element's
 attitude is ``C_sn = C_sb(θ_a, θ_q, θ_p, θ_r) C_bn`` and its inertial rate the chain's
 (``four_gimbal.platform_rate_s``), so the azimuth turns the platform about its own axis and
@@ -32,17 +32,17 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from gimbal_kinematics.four_gimbal import outer_member_rates
-from gimbal_kinematics.platform_kernels import platform_truth
-from gimbal_kinematics.params import ParameterError
-from gimbal_kinematics.rotations import (
+from gimbal_kinematics.maths.four_gimbal import outer_member_rates
+from gimbal_kinematics.maths.platform_kernels import platform_truth
+from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.maths.rotations import (
     quat_canonical, quat_conj, quat_from_euler321, quat_from_rotation_vector,
     quat_mul, rotation_vector_from_quat,
 )
 
 from .plant.gimbal_simulator import GimbalSimulator
 from .plant.sighting_plant_kernels import inner_gimbal_truth
-from gimbal_kinematics.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS, PLATFORM_JOINTS
+from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS, PLATFORM_JOINTS
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.gimbal.host_state import inertial_rates_trig
 from .plant.motion_profiles import PROFILE_NAMES, make_profile
@@ -68,7 +68,7 @@ class VehicleConfig:
     control rates of tens of Hz, where RK4 would need a substep per 2 ms).
     ``platform_base_motion``: the host's motion enters each gimbal loop (paper 3 Fig. 2): the
     joint states stay relative to the outer member, whose inertial rate ω_A about the joint
-    axis (:func:`gimbal_kinematics.four_gimbal.outer_member_rates`) accelerates and so torques
+    axis (:func:`gimbal_kinematics.maths.four_gimbal.outer_member_rates`) accelerates and so torques
     the gimbal by −J ω̇_A (differenced over the last step), while the bearing friction and the
     back-EMF see the relative rate; off (default), the joints see no base motion.
     """

@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from gimbal_kinematics.gimbal.host_state import HostState
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths.units import DEG
 
 from . import profile_kernels
 

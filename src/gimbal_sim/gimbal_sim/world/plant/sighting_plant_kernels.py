@@ -14,7 +14,7 @@ from numba import njit
 
 from gimbal_kinematics.gimbal.gimbal_kernels import rk4_step
 from gimbal_kinematics.gimbal.host_kernels import turret_base
-from gimbal_kinematics.quat_kernels import quat_canonical, quat_mul
+from gimbal_kinematics.maths.quat_kernels import quat_canonical, quat_mul
 
 from .profile_kernels import sample
 

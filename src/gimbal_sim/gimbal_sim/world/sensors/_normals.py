@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gimbal_kinematics.validate import of_type
+from gimbal_kinematics.maths.validate import of_type
 
 _BLOCK = 4096
 

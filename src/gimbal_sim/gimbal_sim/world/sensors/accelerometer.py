@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_kinematics import validate as v
-from gimbal_kinematics.units import UG_G0, UG_RT_HZ
+from gimbal_kinematics.maths import validate as v
+from gimbal_kinematics.maths.units import UG_G0, UG_RT_HZ
 from .inertial_core import ErrorSpecSI, InertialErrorCore
 
 

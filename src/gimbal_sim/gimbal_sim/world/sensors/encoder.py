@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_kinematics import validate as v
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths import validate as v
+from gimbal_kinematics.maths.units import DEG
 from ._normals import NormalStream
 from .sensor_kernels import encoder_step
 

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_kinematics import validate as v
-from gimbal_kinematics.units import ARCSEC, DEG, DEG_H
+from gimbal_kinematics.maths import validate as v
+from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H
 from .markov import SecondOrderGaussMarkov
 
 _AXES = 3

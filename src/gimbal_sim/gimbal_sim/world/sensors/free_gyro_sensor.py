@@ -4,7 +4,7 @@ What is simulated (paper 4 §2.3, Figs. 3–4): two free gyros whose spin axes u
 fixed direction in inertial space, read out in the ship's body frame by their pickoffs, a
 body gyro triad (earth rate + ship rate), and the vertical reference that levels them.
 
-* Inertial frame ``i`` as in :mod:`gimbal_kinematics.free_gyro`: x_i toward Greenwich at
+* Inertial frame ``i`` as in :mod:`gimbal_kinematics.maths.free_gyro`: x_i toward Greenwich at
   t = 0, z_i along the earth's axis; t is the simulation time [s].
 * Spin axis in the body: ``u_b = C_bn(roll, pitch, yaw) · C_ni(lat, lon, t) · u_i(t)``, with
   u_i(t) = exp([d t ×]) u_i(0): an optional random-constant drift d ⊥ u_i (the spin axis
@@ -34,12 +34,14 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from gimbal_kinematics.earth import OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius, transport_rate_n
-from gimbal_kinematics.free_gyro import dcm_ni, unit_vector
-from gimbal_kinematics.rotations import dcm_from_rotation_vector, euler321_to_dcm
+from gimbal_kinematics.maths.earth import (
+    OMEGA_IE, earth_rate_n, meridian_radius, prime_vertical_radius, transport_rate_n,
+)
+from gimbal_kinematics.maths.free_gyro import dcm_ni, unit_vector
+from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
-from gimbal_kinematics import validate as v
-from gimbal_kinematics.units import ARCSEC, DEG_H
+from gimbal_kinematics.maths import validate as v
+from gimbal_kinematics.maths.units import ARCSEC, DEG_H
 from ._normals import NormalStream
 from .gyro import GyroModel, GyroParams
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_kinematics import validate as v
-from gimbal_kinematics.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
+from gimbal_kinematics.maths import validate as v
+from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
 from .inertial_core import ErrorSpecSI, InertialErrorCore
 
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import sensor_kernels as sk
 from ._normals import NormalStream
-from gimbal_kinematics.validate import broadcast, nonneg_finite, positive
+from gimbal_kinematics.maths.validate import broadcast, nonneg_finite, positive
 from .markov import gm1_coefficients
 
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gimbal_kinematics import validate as v
-from gimbal_kinematics.units import DEG
+from gimbal_kinematics.maths import validate as v
+from gimbal_kinematics.maths.units import DEG
 from .gyro import PAPER1_INS_GYRO, GyroModel, GyroParams
 from .markov import FirstOrderGaussMarkov
 

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gimbal_kinematics.validate import of_type
+from gimbal_kinematics.maths.validate import of_type
 
 from .flexure import ShipFlexureTruth
 from .gyro import LGU1_GYRO, LGU2_GYRO, GyroModel, GyroParams

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ._normals import NormalStream
-from gimbal_kinematics.validate import nonneg, per_axis, positive
+from gimbal_kinematics.maths.validate import nonneg, per_axis, positive
 
 
 def gm1_coefficients(sigma: float, tau_s: float, dt: float) -> tuple[float, float]:

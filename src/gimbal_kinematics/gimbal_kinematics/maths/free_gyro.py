@@ -7,7 +7,7 @@ Frames
   triad. The earth turns about z_i at ``omega_ie`` [rad/s], so a meridian of longitude λ lies
   at inertial longitude Λ = λ + ω_e t, and ``C_in(φ, λ, t) = dcm_en(φ, λ + ω_e t)``.
 * Navigation ``n``: local-level NED; body ``b``: FRD with 3-2-1 Euler angles (roll, pitch,
-  heading ψ), as in :mod:`gimbal_kinematics.rotations`.
+  heading ψ), as in :mod:`gimbal_kinematics.maths.rotations`.
 
 A free gyro keeps its spin axis ``u_i`` fixed in ``i`` (unit vector, inertial components
 u_x, u_y, u_z).
@@ -23,7 +23,7 @@ Latitude: the paper assumes a spherical earth. Because a gyro vector is a *direc
 parallax), only the direction of the vertical matters, and r above is exactly the normal of
 the WGS-84 ellipsoid when φ is the **geodetic** latitude. So every function here uses
 geodetic φ, the forward model and the fix are mutually consistent, and they agree with the NED
-frame of :mod:`gimbal_kinematics.earth`. (A real level reference follows the plumb line, which
+frame of :mod:`gimbal_kinematics.maths.earth`. (A real level reference follows the plumb line, which
 differs from the ellipsoid normal by the deflection of the vertical, ~10″; ignored here.)
 
 Azimuth (eq. 2)

@@ -3,15 +3,15 @@
 A driver's or a bag's stamps are absolute (wall clock or epoch, ~1.8e9 s) and irregular:
 jitter, dropped samples, duplicates, samples out of order. :class:`StreamStats` judges each
 stamp against the stream's last accepted one (the verdicts and the drop rule of
-:mod:`gimbal_kinematics.stamps`) and counts what it saw, for ``/diagnostics``:
+:mod:`gimbal_kinematics.timing.stamps`) and counts what it saw, for ``/diagnostics``:
 
 * ``received``: every stamp offered;
 * ``duplicates``: a stamp equal to the last accepted one (rejected);
 * ``out_of_order``: a stamp before the last accepted one, by no more than ``jump_ns``
   (rejected: the sample is late, its successor was already used);
 * ``jumps``: clock jumps, back (a bag loop, a clock reset: the consumer resets) or ahead
-  (no reset), each believed only when :data:`~gimbal_kinematics.stamps.JUMP_SAMPLES` stamps
-  in a row agree on the new timeline (the clock-jump rule of :mod:`gimbal_kinematics.stamps`);
+  (no reset), each believed only when :data:`~gimbal_kinematics.timing.stamps.JUMP_SAMPLES` stamps
+  in a row agree on the new timeline (the clock-jump rule of :mod:`gimbal_kinematics.timing.stamps`);
 * ``outliers``: stamps off the timeline by more than ``jump_ns`` that the next stamp on
   the timeline showed to be single outliers (a message 3 years ahead, a stamp of zero):
   dropped, never a reset and never a gap;

@@ -266,7 +266,7 @@ class FreshInputs:
     never steps back in time). One more than ``backjump_ns`` earlier is a clock jump (a
     replayed bag looping): every stream is forgotten, the time origin starts again and
     ``restarts`` counts it. Driving intervals are checked against ``period_ns``, the
-    nominal driving period, by the drop rule of :mod:`gimbal_kinematics.stamps` (dropped
+    nominal driving period, by the drop rule of :mod:`gimbal_kinematics.timing.stamps` (dropped
     samples, jittered intervals). Nothing here waits: each driving sample is a step at once.
     """
 

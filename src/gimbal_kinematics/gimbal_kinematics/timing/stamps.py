@@ -1,7 +1,7 @@
 """The one stamp vocabulary: a verdict on each stamp and the rule that counts dropped
 samples (pure Python, no rclpy). Every stamp check of the project uses it: the input
-policies' (:mod:`gimbal_kinematics.input_policy`), the free-timing ones
-(:class:`gimbal_kinematics.sync.FreshInputs`, :class:`gimbal_kinematics.stream_stats.StreamStats`),
+policies' (:mod:`gimbal_kinematics.timing.input_policy`), the free-timing ones
+(:class:`gimbal_kinematics.timing.sync.FreshInputs`, :class:`gimbal_kinematics.timing.stream_stats.StreamStats`),
 and, inline for speed, the LOS rate controller's per-sample path (same rule, same
 ``clock_jump_s``).
 
@@ -17,7 +17,7 @@ seconds or integer nanoseconds, as long as ``t``, ``last`` and ``clock_jump`` ag
   consumer resets;
 * ``OK``: anything later (or the first stamp).
 
-The clock-jump rule of a stream (:class:`gimbal_kinematics.stream_stats.StreamStats`, the
+The clock-jump rule of a stream (:class:`gimbal_kinematics.timing.stream_stats.StreamStats`, the
 free-timing policies' judge): one stamp is not enough to believe a jump. A stamp more than
 ``clock_jump`` from the stream's timeline, back or ahead, is ``HELD``; the jump is believed
 (``JUMPED_BACK``, or ``JUMPED_AHEAD``: accepted, no reset, no samples counted as dropped)
@@ -34,7 +34,7 @@ halfway between one and two periods reads jitter as jitter and almost every drop
 drop (both overlap only between 1.4 and 1.5), and rounding the ratio counts several drops in
 one gap. The nominal period is the stream's configured one where the node has it (a
 controller's driving gyro: ``sim_rate_hz``), else the median of its recent intervals
-(:class:`gimbal_kinematics.stream_stats.StreamStats`: a driver's or a bag's real rate).
+(:class:`gimbal_kinematics.timing.stream_stats.StreamStats`: a driver's or a bag's real rate).
 An interval off the period by more than :data:`JITTER_FRACTION` but not a gap counts as
 jittered (:func:`jittered`).
 """

@@ -1,5 +1,5 @@
 """The input policies of the controller nodes (pure Python, no rclpy): the controllers'
-side of :mod:`gimbal_kinematics.input_policy`, one interface, two timings.
+side of :mod:`gimbal_kinematics.timing.input_policy`, one interface, two timings.
 
 A controller node validates each input once, as it arrives (an input it cannot use becomes
 ``None``, counted by the node), hands it to ``policy.add(kind, stamp_ns, value)`` and runs
@@ -7,13 +7,13 @@ its one ``_step`` on each :class:`ControlStep` returned, whatever the timing. Wh
 between the timings lives here:
 
 * lockstep (:class:`LockstepControl`): the orchestrator's graph. A step k is released when
-  the inputs it needs (``needs(k)``) stamped k are in (:class:`~gimbal_kinematics.sync.StepGroups`,
-  or :class:`~gimbal_kinematics.sync.EagerStepGroups` for a loop that must not stall behind
+  the inputs it needs (``needs(k)``) stamped k are in (:class:`~gimbal_kinematics.timing.sync.StepGroups`,
+  or :class:`~gimbal_kinematics.timing.sync.EagerStepGroups` for a loop that must not stall behind
   a lost input); an input that could not be used is in the step as ``None``, so the node
   holds its last command. An estimate stamped off the steps that wait for it is released
   at once as a step without a command (``command`` false). Nothing is ever zeroed.
 * free (:class:`FreeControl`): a driver or a bag. Each sample of the driving stream is a
-  command step with the newest fresh inputs (:class:`~gimbal_kinematics.sync.FreshInputs`);
+  command step with the newest fresh inputs (:class:`~gimbal_kinematics.timing.sync.FreshInputs`);
   an input that could not be used is not taken. A stale or missing measurement sets
   ``zero_command`` (counted, ``stale_commands``); a stale or missing estimate (``held``)
   is left out of the step, so the core keeps the last one (``stale_estimate_steps``); the
@@ -79,7 +79,7 @@ class LockstepControl:
     for; ``estimates``: kinds used at once when stamped off the steps that wait for them;
     ``ticks``: kinds that only pace steps (``/clock``, the node subscribes to them), ignored
     at steps that do not need them; ``eager_stale_steps``: release each step the moment it is complete
-    (:class:`~gimbal_kinematics.sync.EagerStepGroups`, incomplete steps that many steps older
+    (:class:`~gimbal_kinematics.timing.sync.EagerStepGroups`, incomplete steps that many steps older
     forgotten) instead of in order, each stream's stamps judged (a repeated or late step of a
     stream dropped, counted in ``rejected``; one more than ``clock_jump_s`` back restarts, the
     next step carrying the reset) so the core sees them in order; ``sample_hold``: kinds whose

@@ -10,11 +10,11 @@ import sys
 
 import numpy as np
 
-from .cli_boundary import UsageError, cli_boundary
-from .free_gyro import fix_geometry, gyro_azimuth, nadir_angle
-from .geo_pointing import GimbalLimits, PointingSigmas, geo_point, pointing_budget
-from .sighting_chain import dcm_nb, dcm_nm, los_azimuth_elevation
-from .units import ARCSEC
+from ..maths.free_gyro import fix_geometry, gyro_azimuth, nadir_angle
+from ..maths.geo_pointing import GimbalLimits, PointingSigmas, geo_point, pointing_budget
+from ..maths.sighting_chain import dcm_nb, dcm_nm, los_azimuth_elevation
+from ..maths.units import ARCSEC
+from .boundary import UsageError, cli_boundary
 
 
 def _los(args: argparse.Namespace) -> int:

@@ -16,7 +16,7 @@ here, behind one interface:
   node that never did keeps its bags as they were);
 * ``counters() -> dict``: the policy's own counters.
 
-Two timings (:data:`gimbal_kinematics.params.TIMING_CHOICES`), four shapes of input, each
+Two timings (:data:`gimbal_kinematics.params.table.TIMING_CHOICES`), four shapes of input, each
 with a factory that picks the timing's policy:
 
 ========================  ==================  ================  ==========================
@@ -32,12 +32,12 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
   the stamp in seconds, or k / ``sim_rate_hz`` for a step), ``~/progress`` names the next
   step on the ``sim_rate_hz`` grid, and ``/diagnostics`` carries the core's counters only
   (or is not advertised), so the scenario bags stay as they were; a duplicate or late stamp
-  is dropped and counted here, a jump back restarts (:func:`gimbal_kinematics.stamps.judge`);
+  is dropped and counted here, a jump back restarts (:func:`gimbal_kinematics.timing.stamps.judge`);
 * free: a driver or a bag. Each stream's stamps are judged
-  (:class:`gimbal_kinematics.stream_stats.StreamStats`: duplicates and late samples dropped
+  (:class:`gimbal_kinematics.timing.stream_stats.StreamStats`: duplicates and late samples dropped
   and counted; a single stamp off the stream's timeline an outlier, dropped and counted; a
   clock jump, believed when several samples in a row agree on it
-  (:data:`gimbal_kinematics.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts); the core
+  (:data:`gimbal_kinematics.timing.stamps.JUMP_SAMPLES`, :class:`HeldSamples`), restarts); the core
   runs on seconds since the run's first stamp (integer ns kept: a float64 near 1.8e9 s
   resolves only 2.4e-7 s); ``~/progress`` reports the newest stamp every ``progress_every``
   steps of the pacing stream; ``/diagnostics`` adds the input counters, the node's, the NIS's.
@@ -45,12 +45,12 @@ exact-stamp groups        LockstepSynced      FreeSynced        :func:`synced_po
 A restart calls the node's ``on_restart(reason)``, which resets its core: the core sees only
 checked samples in stamp order (a node that gives no ``on_restart`` still leaves the jump
 to its core). The ordered policies release the
-streams in stamp order (:class:`gimbal_kinematics.sync.StampOrder`), so a replay at any
+streams in stamp order (:class:`gimbal_kinematics.timing.sync.StampOrder`), so a replay at any
 speed computes what the run computed; the sampled ones release each sample at once with the
 interval it covers.
 
 The controllers' policies (fresh inputs, the stale-input policy) are in
-:mod:`gimbal_kinematics.control_policy`.
+:mod:`gimbal_kinematics.timing.control_policy`.
 """
 from __future__ import annotations
 
@@ -111,7 +111,7 @@ class _CoreReport:
 
 class LockstepOrder(_CoreReport):
     """Lockstep input policy (module docstring): each stream's stamp judged against its last
-    (:func:`gimbal_kinematics.stamps.judge`: a duplicate or late stamp dropped and counted in
+    (:func:`gimbal_kinematics.timing.stamps.judge`: a duplicate or late stamp dropped and counted in
     ``rejected``; one more than ``clock_jump_ns`` back restarts, ``on_restart(reason)``
     resetting the node's core), then ``streams`` in stamp order (within a stamp in the order
     given), released when every stream has reached the stamp or after ``max_wait_ns``;
@@ -161,7 +161,7 @@ class LockstepOrder(_CoreReport):
 
 class LockstepGroups(_CoreReport):
     """Lockstep policy of a node whose inputs are grouped by step
-    (:class:`gimbal_kinematics.sync.StepGroups`): an input stamped off the steps its stream
+    (:class:`gimbal_kinematics.timing.sync.StepGroups`): an input stamped off the steps its stream
     samples at (``needs(k)``) is rejected and counted (``off_grid``); a complete step is
     released as one step per input, in the order of ``streams``, at the core time k /
     ``rate_hz``; after a step's last input ``~/progress`` names ``next_due(k)`` when that
@@ -221,7 +221,7 @@ class LockstepGroups(_CoreReport):
 
 class HeldSamples:
     """The samples a stream's stamp judge holds (the clock-jump rule of
-    :mod:`gimbal_kinematics.stamps`): ``take(stream, verdict, stamp_ns, msg)`` returns the
+    :mod:`gimbal_kinematics.timing.stamps`): ``take(stream, verdict, stamp_ns, msg)`` returns the
     samples to use now, in order: none while held or rejected, the held ones then this one
     once a jump is believed, this one alone otherwise. ``warn(text)`` hears of each
     rejection and of outliers dropped."""
@@ -379,7 +379,7 @@ class FreeSamples:
     """Free-timing policy of a sampled node (module docstring): each stream's stamps judged
     (duplicates and late samples dropped, counted); a sample's interval is its stamp minus
     its stream's previous accepted one when that is no gap (the drop rule of
-    :mod:`gimbal_kinematics.stamps` at ``period_ns``, so jitter is followed), the nominal
+    :mod:`gimbal_kinematics.timing.stamps` at ``period_ns``, so jitter is followed), the nominal
     period for a stream's first sample or the first after a clock jump (which calls
     ``on_restart(reason)`` first: the node resets its core); after a gap the interval is unknown, so the sample is not released
     (counted, ``<stream>_interval_unknown``). The core's time runs from the first stamp.
@@ -491,7 +491,7 @@ def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int]
 
 class _Synced:
     """One step per complete exact-stamp group of ``streams``
-    (:class:`gimbal_kinematics.sync.StampSync`), at the core time of its stamp [s]. A stamp
+    (:class:`gimbal_kinematics.timing.sync.StampSync`), at the core time of its stamp [s]. A stamp
     more than ``clock_jump_ns`` before the last group's restarts (``on_restart(reason)``:
     the node resets its core). ``rejected``: stamps refused (late or repeated), every run."""
 
