@@ -532,13 +532,13 @@ def test_the_timing_import_check_finds_a_planted_import(tmp_path, line):
 #: gimbal_kinematics's rooms, bottom-up: a module imports its own room and the rooms of a lower
 #: level; rooms of one level are siblings and import neither each other. maths is the floor.
 KINEMATICS_ROOM = {
-    "__init__": 0,  # the package's docstring: frames, vectors, units and stamps conventions
     "maths": 0,     # rotations, earth, sighting chain, LOS, four-gimbal, free gyro, geo-pointing, Kalman, kernels
     "gimbal": 1,    # rigid-body models: the two-axis gimbal, the host state, the turret base
     "timing": 1,    # the one timing edge: stamps, orderings, stream statistics, input and control policies
     "params": 1,    # a node's parameters without ROS: the Param table, ROS 2 parameter files
     "cli": 2,       # the command-line edge: the error boundary of every command, gimbal-geometry
     "ros": 3,       # the import-isolated ROS edge
+    "__init__": 4,  # the package: its conventions (docstring) and numba's cache key, set before any kernel
 }
 #: Packages of one level that import neither each other (nor list each other in package.xml).
 SIBLINGS = ("gimbal_control", "gimbal_estimators")

@@ -49,17 +49,15 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, NavSatFix, NavSatStatus
 
-from gimbal_kinematics.timing.control_policy import (
-    ArrivalCheck, ControlStep, FreeControl, LockstepControl, control_policy,
-)
-from gimbal_kinematics.timing.input_policy import SampleGrid
+from gimbal_kinematics.maths.rotations import quat_to_dcm
 from gimbal_kinematics.params.table import ParameterError, steps_per_sample
-from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.diagnostics import health_msg
+from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.maths.rotations import quat_to_dcm
+from gimbal_kinematics.timing.control_policy import ArrivalCheck, ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.timing.input_policy import SampleGrid
 
 from . import messages as m
 from .geo_pointer import GeoPointer, GeoPointerParams
