@@ -40,34 +40,36 @@ def controller(ros_domain_env):
 
 
 def _feed(node, k, t_ns, m, ins=True):
-    node._on_input("enc", m.joint_state_cdr(t_ns, ENC, (0.0, 0.1, 0.2), (0.0, 0.0, 0.0)), m.joint_state_from_cdr)
+    node.edge.take("enc", m.joint_state_cdr(t_ns, ENC, (0.0, 0.1, 0.2), (0.0, 0.0, 0.0)))
     if ins:
-        node._on_input("ins", m.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
-                                        angular_velocity=(0.0, 0.0, 0.0)), m.imu_from_cdr)
-    node._on_input("gyro", m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, 0.0, 0.0)), m.imu_from_cdr)
+        node.edge.take("ins", m.imu_cdr(t_ns, "base_link_frd", orientation=(0.0, 0.0, 0.0, 1.0),
+                                        angular_velocity=(0.0, 0.0, 0.0)))
+    node.edge.take("gyro", m.imu_cdr(t_ns, "gimbal_inner_frd", angular_velocity=(0.0, 0.0, 0.0)))
 
 
 def test_free_timing_counts_bad_commands_and_the_deadman_in_diagnostics(controller):
+    from rclpy.serialization import serialize_message
     from sensor_msgs.msg import Joy
 
     from gimbal_kinematics.ros import messages as m
 
     node = controller({"joy_topic": "/joy"})
     diags, sent = [], []
-    node.pub_diag.publish = diags.append
+    node.edge.pubs["/diagnostics"].publish = diags.append
+    operator_topic = node.get_parameter("operator_topic").value
     node.pub.publish = sent.append
     t0 = 10 * 10**9
     for k in range(1500):
         t_ns = t0 + k * 10**6
         if k == 5:
-            node._on_operator(m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, math.nan, 0.0)))
-            node._on_operator(m.vector3_cdr(t_ns + 1, "gimbal_inner_frd", (0.0, 0.0, math.radians(11.0))))
+            node.edge.take(operator_topic, m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, math.nan, 0.0)))
+            node.edge.take(operator_topic, m.vector3_cdr(t_ns + 1, "gimbal_inner_frd", (0.0, 0.0, math.radians(11.0))))
             joy = Joy()
             joy.header.stamp = m.time_msg(t_ns)
             joy.axes = [0.5]  # the elevation axis (1) is missing
-            node._on_joy(joy)
+            node.edge.take("/joy", serialize_message(joy))
         if 10 <= k <= 100 and k % 50 == 0:  # at k = 50, 100 (20 Hz), then nothing
-            node._on_operator(m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, 0.0, AZ)))
+            node.edge.take(operator_topic, m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, 0.0, AZ)))
         _feed(node, k, t_ns, m, ins=k % 10 == 0)
         if k == 400:  # slewing: the shaped command is in the reference
             assert node.operator.output == (0.0, AZ)
@@ -92,8 +94,7 @@ def test_lockstep_step_waits_for_the_operators_command(controller):
         _feed(node, k, t_ns, m, ins=k % 10 == 0)
         if k % 10 == 0:
             assert len(sent) == k  # the operator's step: waits for its command
-            node._on_input("op", m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, 0.0, AZ)),
-                           m.vector3_stamped_from_cdr)
+            node.edge.take("op", m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, 0.0, AZ)))
         assert len(sent) == k + 1
     assert node.operator.commands_accepted == 2 and node.operator.output[1] > 0.0
 
