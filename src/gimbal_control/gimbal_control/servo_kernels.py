@@ -122,15 +122,9 @@ def servo_held(s: np.ndarray, p: np.ndarray, t: float) -> int:
 
 
 @njit(cache=True)
-def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarray, t: float,
-               wx: float, wy: float, wz: float) -> int:
-    """One control tick on the gyro sample ω (x, y, z in s) [rad/s] at ``t`` (module
-    docstring); the voltages in ``s[S_V0:S_V3+1]``, the signals in ``s[S_G0:S_G3+1]``."""
-    if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
-        s[S_NONFINITE] += 1.0
-        return servo_held(s, p, t)
-    if s[S_HAS_ANGLES] == 0.0:
-        return TICK_NONE
+def _tick_dt(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, t: float) -> float:
+    """The tick's Δt from the last one (0 at the first); a gap longer than the maximum
+    restarts the pickoff integration and the PIDs' differences (counted) and gives 0."""
     if math.isnan(s[S_T0]):
         s[S_T0] = t
     dt = 0.0 if math.isnan(s[S_T_TICK]) else t - s[S_T_TICK]
@@ -142,6 +136,37 @@ def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarra
             pid_s[j, S_FIRST] = 1.0
             pid_s[j, S_D] = 0.0
         dt = 0.0
+    return dt
+
+
+@njit(cache=True)
+def _preset_dt(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, dt: float, phi_rate: float) -> float:
+    """The PIDs' Δt (the last one's when this is 0), with the azimuth integrator preset to
+    the friction voltage of the new direction when φ̇z changes sign."""
+    if dt > 0.0:
+        s[S_DT_LAST] = dt
+    else:
+        dt = s[S_DT_LAST]
+    direction = (phi_rate > 0.0) - (phi_rate < 0.0)
+    if direction != 0 and direction != s[S_DIR]:
+        if p[P_PRESET] != 0.0:
+            pid_s[0, S_INTEGRAL] = p[P_V_POS] if direction > 0 else p[P_V_NEG]
+            s[S_PRESETS] += 1.0
+        s[S_DIR] = direction
+    return dt
+
+
+@njit(cache=True)
+def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarray, t: float,
+               wx: float, wy: float, wz: float) -> int:
+    """One control tick on the gyro sample ω (x, y, z in s) [rad/s] at ``t`` (module
+    docstring); the voltages in ``s[S_V0:S_V3+1]``, the signals in ``s[S_G0:S_G3+1]``."""
+    if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
+        s[S_NONFINITE] += 1.0
+        return servo_held(s, p, t)
+    if s[S_HAS_ANGLES] == 0.0:
+        return TICK_NONE
+    dt = _tick_dt(s, p, pid_s, t)
     phi, phi_rate = _phi(s, p, t)
     cx, cy, cz = _command_rate(s, p, t, phi, phi_rate)
     ex, ey, ez0 = wx - cx, wy - cy, wz - (cz - phi_rate)
@@ -158,16 +183,7 @@ def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarra
     if not ok:
         s[S_LOCK] += 1.0
         return servo_held(s, p, t)
-    if dt > 0.0:
-        s[S_DT_LAST] = dt
-    else:
-        dt = s[S_DT_LAST]
-    direction = (phi_rate > 0.0) - (phi_rate < 0.0)
-    if direction != 0 and direction != s[S_DIR]:
-        if p[P_PRESET] != 0.0:
-            pid_s[0, S_INTEGRAL] = p[P_V_POS] if direction > 0 else p[P_V_NEG]
-            s[S_PRESETS] += 1.0
-        s[S_DIR] = direction
+    dt = _preset_dt(s, p, pid_s, dt, phi_rate)
     sq, sp, sa = sig
     rq, rp, ra = rate_sig
     s[S_V0], s[S_V1], s[S_V2], s[S_V3] = pid_step4(pid_s, pid_g, -sa, -sq, -sp, sig_r, -ra, -rq, -rp, dt)
@@ -194,16 +210,7 @@ def servo_tick_pickoff(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: n
         return servo_held(s, p, t), 0.0, 0.0, 0.0
     if s[S_HAS_ANGLES] == 0.0:
         return TICK_NONE, 0.0, 0.0, 0.0
-    if math.isnan(s[S_T0]):
-        s[S_T0] = t
-    dt = 0.0 if math.isnan(s[S_T_TICK]) else t - s[S_T_TICK]
-    s[S_T_TICK] = t
-    if dt > p[P_MAX_GAP]:
-        s[S_GAPS] += 1.0
-        for j in range(4):
-            pid_s[j, S_FIRST] = 1.0
-            pid_s[j, S_D] = 0.0
-        dt = 0.0
+    dt = _tick_dt(s, p, pid_s, t)
     phi, phi_rate = _phi(s, p, t)
     cx, cy, cz = _command_rate(s, p, t, phi, phi_rate)
     s[S_D0], s[S_D1], s[S_D2] = dx, dy, dz
@@ -212,16 +219,7 @@ def servo_tick_pickoff(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: n
     if not ok:
         s[S_LOCK] += 1.0
         return servo_held(s, p, t), currents[0], currents[1], currents[2]
-    if dt > 0.0:
-        s[S_DT_LAST] = dt
-    else:
-        dt = s[S_DT_LAST]
-    direction = (phi_rate > 0.0) - (phi_rate < 0.0)
-    if direction != 0 and direction != s[S_DIR]:
-        if p[P_PRESET] != 0.0:
-            pid_s[0, S_INTEGRAL] = p[P_V_POS] if direction > 0 else p[P_V_NEG]
-            s[S_PRESETS] += 1.0
-        s[S_DIR] = direction
+    dt = _preset_dt(s, p, pid_s, dt, phi_rate)
     sq, sp, sa = sig
     s[S_V0] = pid_step(pid_s[0], pid_g[0], -sa, dt, 0.0, False)
     s[S_V1] = pid_step(pid_s[1], pid_g[1], -sq, dt, 0.0, False)

@@ -8,10 +8,10 @@ The world: gimbal_sim's four-gimbal platform on a static base at 1 kHz, its reso
 per seed, rotor random walk, torquer scale-factor error). The processor:
 :class:`gimbal_control.dtg_servo.DtgPlatformServo` (loops closed on the pickoffs, placed in
 discrete time at 1 kHz; the command rate ω_c becomes torquer currents with the nominal scale
-factor). Each step: the servo ticks on the pickoffs of t_k and the resolvers of t_k, the
-plant integrates to t_{k+1} under its voltages, the gyros integrate the platform's exact
-inertial rotation over the step (from the plant's attitudes and the earth's rotation) under
-the currents held from t_k.
+factor). The engine's loop (:func:`..core.core_loop.run_stages`) with the stages of
+:mod:`..core.dtg_stages`: each step the gyros integrate the platform's exact inertial
+rotation over the last step under the currents held from its start, the servo ticks on the
+pickoffs and resolvers of t_k, the plant integrates to t_{k+1} under its voltages.
 
 Figures. The azimuth torquer current i_z while the platform turns one leg at 1.2 °/s, sampled
 at 1 s as paper 3's 6½-digit voltmeter did: its mean magnitude [mA] and its relative standard
@@ -28,10 +28,12 @@ import numpy as np
 
 from gimbal_control.dtg_servo import DtgPlatformServo, dtg_servo_params
 from gimbal_control.platform_servo import PlatformServoParams
-from gimbal_kinematics.maths.rotations import quat_conj, quat_from_rotation_vector, quat_mul, rotation_vector_from_quat
 from gimbal_kinematics.maths.units import ARCSEC
 
-from ..world.sensor_suite import PAPER3_RESOLVER, ResolverSample, SensorSuite, SensorSuiteConfig
+from ..core.core_loop import run_stages
+from ..core.dtg_stages import dtg_servo_stage, dtg_stage
+from ..core.platform_stages import platform_sensor_stage
+from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.sensors.dtg import DtgPair, DtgPairParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 
@@ -53,37 +55,23 @@ def run_dtg_servo(duration_s: float = 300.0, seed: int = 1, *, lat_deg: float = 
     base = servo_params or PlatformServoParams(lat_deg=lat_deg)
     servo = DtgPlatformServo(dtg_servo_params(base, rate_hz), scale_deg_h_ma=gyros.scale_deg_h_ma,
                              max_current_ma=gyros.max_current_ma)
-    dt = core.config.dt
-    w = core.env.omega_in_n
-    q_earth = quat_from_rotation_vector(w[0] * dt, w[1] * dt, w[2] * dt)
     n = core.config.n_steps + 1
     current = np.zeros((n, 3))
     pick = np.zeros((n, 4))
     err = np.zeros((n, 3))
     phi = np.zeros(n)
-    pickoffs = (0.0, 0.0, 0.0, 0.0)
-    truth = core.truth()
-    for k in range(n):
-        t = k * dt
-        for s in suite.update(truth):
-            if type(s) is ResolverSample:
-                servo.on_resolvers(t, s.angles)
-        out = servo.on_pickoffs(t, pickoffs[:2], pickoffs[2:])
-        if out is not None:
-            phi[k] = out.phi_z
+
+    def observe(bus) -> None:
+        k = bus.k
+        if bus.modulation is not None:
+            phi[k] = bus.modulation[1]
         current[k] = servo.torquer_current
-        pick[k] = pickoffs
-        th_a, th_q, th_p, _ = truth.joint_position
+        pick[k] = bus.dtg
+        th_a, th_q, th_p, _ = bus.truth.joint_position
         err[k] = th_a - phi[k], th_q, th_p
-        if k == n - 1:
-            break
-        q0 = truth.quat_nm
-        core.step(servo.command_voltages)
-        truth = core.truth()
-        # the platform's inertial rotation over the step, in m at its start: exact for any path
-        # the plant took as long as its axis held still within the step
-        rot = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(tuple(q0)), q_earth), tuple(truth.quat_nm)))
-        pickoffs = pair.step(tuple(r / dt for r in rot), truth.specific_force_m, servo.torquer_current, dt)
+
+    run_stages(core, [platform_sensor_stage(suite), dtg_stage(pair, servo, core.env.omega_in_n, core.config.dt),
+                      dtg_servo_stage(servo)], observer=observe)
     return _figures(servo, current, pick, err, phi, duration_s, rate_hz, settle_s, sample_s, pair, seed)
 
 
@@ -101,6 +89,7 @@ def _figures(servo, current, pick, err, phi, duration_s, rate_hz, settle_s, samp
     sampled = np.zeros(len(t), dtype=bool)
     sampled[::every] = True
     iz = current[steady & sampled, 2]
+    legs = [("+", iz[iz > 0.0]), ("-", -iz[iz < 0.0])]  # out and back: the vertical earth rate differs in sign
     mean_iz = float(np.mean(np.abs(iz))) if iz.size else math.nan
     return {
         "seed": seed, "duration_s": duration_s, "rate_hz": rate_hz,
@@ -108,6 +97,8 @@ def _figures(servo, current, pick, err, phi, duration_s, rate_hz, settle_s, samp
         "azimuth_current_mean_abs_ma": mean_iz * 1e3,
         "azimuth_current_rsd": float(np.std(np.abs(iz)) / mean_iz) if iz.size > 1 else math.nan,
         "azimuth_current_samples": int(iz.size),
+        "azimuth_current_legs": [(sign, float(np.mean(leg)) * 1e3, float(np.std(leg) / np.mean(leg)), int(leg.size))
+                                 for sign, leg in legs if leg.size > 1],
         "level_current_max_abs_ma": _max_abs(current[steady, :2]) * 1e3,
         "steady_max_azimuth_error_arcsec": _max_abs(err[steady, 0]) / ARCSEC,
         "steady_max_level_error_arcsec": _max_abs(err[steady, 1:]) / ARCSEC,
@@ -135,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"azimuth torquer current at 1.2 deg/s: {r['azimuth_current_mean_abs_ma']:.4f} mA "
           f"(paper: 60 mA), relative std {r['azimuth_current_rsd']:.3e} over {r['azimuth_current_samples']} "
           f"1-s samples (paper: 4.52e-5)")
+    for sign, mean, rsd, count in r["azimuth_current_legs"]:
+        print(f"  leg at {sign}1.2 deg/s: {mean:.4f} mA, relative std {rsd:.3e} over {count} 1-s samples")
     print(f"level torquer current max {r['level_current_max_abs_ma']:.4f} mA")
     print(f"steady errors: azimuth {r['steady_max_azimuth_error_arcsec']:.2f}\", level "
           f"{r['steady_max_level_error_arcsec']:.2f}\", pickoff {r['steady_max_pickoff_arcsec']:.2f}\" "
