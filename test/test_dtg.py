@@ -104,10 +104,19 @@ def test_pid_kernel_on_the_motor_plant_steps_as_scipy_says():
     assert max(y[:, 0]) > 1.0  # the integrator's overshoot: the response is not trivially flat
 
 
-def test_servo_on_dtgs_torques_the_azimuth_gyro_at_the_rotation_plus_earth_rate():
+def test_servo_on_dtgs_torques_the_azimuth_gyro_and_its_scale_error_turns_the_platform_faster():
+    """The processor's current is the command over the nominal scale factor, whatever the
+    true one; a torquer scale-factor error e on the azimuth gyro turns the platform at
+    (1 + e)·1.2 °/s, so the azimuth error θ_a − φz grows at e·1.2 °/s."""
     from gimbal_sim.experiments.dtg_torquer import run_dtg_servo
-    r = run_dtg_servo(3.0, 2, lat_deg=45.0, settle_s=1.0, sample_s=0.1)
+    error = 0.01
+    gyros = DtgPairParams(scale_error_ppm=(0.0, 0.0, 0.0, error * 1e6))
+    r = run_dtg_servo(3.0, 2, lat_deg=45.0, gyros=gyros, settle_s=1.0, sample_s=0.1)
     scale = dtg.PAPER_TORQUER_SCALE_DEG_H_MA * dtg.DEG_H_PER_MA
     expected = (1.2 * DEG - OMEGA_IE * math.sin(45.0 * DEG)) / scale  # z_s down: the earth rate is −Ω sin L
     assert r["azimuth_current_mean_abs_ma"] == pytest.approx(expected * 1e3, rel=1e-9)
-    assert r["steady_max_azimuth_error_arcsec"] < 40.0 and r["steady_max_level_error_arcsec"] < 40.0
+    t, e = r["series"]["t"], r["series"]["azimuth_error_rad"]
+    late = t >= 1.0
+    slope = np.polyfit(t[late], e[late], 1)[0]
+    assert slope == pytest.approx(error * expected * scale, rel=0.01)
+    assert r["steady_max_level_error_arcsec"] < 40.0
