@@ -26,7 +26,7 @@ from numba import njit
 
 from gimbal_kinematics.maths.platform_kernels import servo_signals
 
-from .control_kernels import S_D, S_FIRST, S_INTEGRAL, pid_step4
+from .control_kernels import S_D, S_FIRST, S_INTEGRAL, pid_step, pid_step4
 
 (S_T0, S_T_TICK, S_HAS_ANGLES, S_A0, S_A1, S_A2, S_A3, S_HAS_CMD, S_T_CMD, S_C0, S_C1, S_C2, S_D0, S_D1, S_D2,
  S_HAS_PREV, S_PEX, S_PEY, S_PEZ, S_PPHI, S_DIR, S_V0, S_V1, S_V2, S_V3, S_G0, S_G1, S_G2, S_G3, S_DT_LAST,
@@ -122,15 +122,9 @@ def servo_held(s: np.ndarray, p: np.ndarray, t: float) -> int:
 
 
 @njit(cache=True)
-def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarray, t: float,
-               wx: float, wy: float, wz: float) -> int:
-    """One control tick on the gyro sample ω (x, y, z in s) [rad/s] at ``t`` (module
-    docstring); the voltages in ``s[S_V0:S_V3+1]``, the signals in ``s[S_G0:S_G3+1]``."""
-    if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
-        s[S_NONFINITE] += 1.0
-        return servo_held(s, p, t)
-    if s[S_HAS_ANGLES] == 0.0:
-        return TICK_NONE
+def _tick_dt(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, t: float) -> float:
+    """The tick's Δt from the last one (0 at the first); a gap longer than the maximum
+    restarts the pickoff integration and the PIDs' differences (counted) and gives 0."""
     if math.isnan(s[S_T0]):
         s[S_T0] = t
     dt = 0.0 if math.isnan(s[S_T_TICK]) else t - s[S_T_TICK]
@@ -142,6 +136,37 @@ def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarra
             pid_s[j, S_FIRST] = 1.0
             pid_s[j, S_D] = 0.0
         dt = 0.0
+    return dt
+
+
+@njit(cache=True)
+def _preset_dt(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, dt: float, phi_rate: float) -> float:
+    """The PIDs' Δt (the last one's when this is 0), with the azimuth integrator preset to
+    the friction voltage of the new direction when φ̇z changes sign."""
+    if dt > 0.0:
+        s[S_DT_LAST] = dt
+    else:
+        dt = s[S_DT_LAST]
+    direction = (phi_rate > 0.0) - (phi_rate < 0.0)
+    if direction != 0 and direction != s[S_DIR]:
+        if p[P_PRESET] != 0.0:
+            pid_s[0, S_INTEGRAL] = p[P_V_POS] if direction > 0 else p[P_V_NEG]
+            s[S_PRESETS] += 1.0
+        s[S_DIR] = direction
+    return dt
+
+
+@njit(cache=True)
+def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarray, t: float,
+               wx: float, wy: float, wz: float) -> int:
+    """One control tick on the gyro sample ω (x, y, z in s) [rad/s] at ``t`` (module
+    docstring); the voltages in ``s[S_V0:S_V3+1]``, the signals in ``s[S_G0:S_G3+1]``."""
+    if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
+        s[S_NONFINITE] += 1.0
+        return servo_held(s, p, t)
+    if s[S_HAS_ANGLES] == 0.0:
+        return TICK_NONE
+    dt = _tick_dt(s, p, pid_s, t)
     phi, phi_rate = _phi(s, p, t)
     cx, cy, cz = _command_rate(s, p, t, phi, phi_rate)
     ex, ey, ez0 = wx - cx, wy - cy, wz - (cz - phi_rate)
@@ -158,19 +183,48 @@ def servo_tick(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarra
     if not ok:
         s[S_LOCK] += 1.0
         return servo_held(s, p, t)
-    if dt > 0.0:
-        s[S_DT_LAST] = dt
-    else:
-        dt = s[S_DT_LAST]
-    direction = (phi_rate > 0.0) - (phi_rate < 0.0)
-    if direction != 0 and direction != s[S_DIR]:
-        if p[P_PRESET] != 0.0:
-            pid_s[0, S_INTEGRAL] = p[P_V_POS] if direction > 0 else p[P_V_NEG]
-            s[S_PRESETS] += 1.0
-        s[S_DIR] = direction
+    dt = _preset_dt(s, p, pid_s, dt, phi_rate)
     sq, sp, sa = sig
     rq, rp, ra = rate_sig
     s[S_V0], s[S_V1], s[S_V2], s[S_V3] = pid_step4(pid_s, pid_g, -sa, -sq, -sp, sig_r, -ra, -rq, -rp, dt)
     s[S_G0], s[S_G1], s[S_G2], s[S_G3] = sa, sq, sp, sig_r
     s[S_PHI], s[S_PHI_RATE] = phi, phi_rate
     return TICK_NEW
+
+
+@njit(cache=True)
+def _clip(v: float, lim: float) -> float:
+    return lim if v > lim else -lim if v < -lim else v
+
+
+@njit(cache=True)
+def servo_tick_pickoff(s: np.ndarray, p: np.ndarray, pid_s: np.ndarray, pid_g: np.ndarray, t: float,
+                       dx: float, dy: float, dz: float, scale: float, i_max: float) -> tuple:
+    """One control tick on the DTG pickoffs: the platform's dip angles δ (x, y, z in s) [rad]
+    read from the gyros (``gimbal_kinematics.maths.dtg.platform_deviation``) replace the
+    emulated δ, the four PIDs difference their errors (no rate gyro), and the command ω_c
+    becomes torquer currents ω_c / ``scale`` [A] (nominal scale factor [rad/s/A], clipped at
+    ``i_max``). Returns (result, i_x, i_y, i_z); the currents are zero until a command is made."""
+    if not (math.isfinite(dx) and math.isfinite(dy) and math.isfinite(dz)):
+        s[S_NONFINITE] += 1.0
+        return servo_held(s, p, t), 0.0, 0.0, 0.0
+    if s[S_HAS_ANGLES] == 0.0:
+        return TICK_NONE, 0.0, 0.0, 0.0
+    dt = _tick_dt(s, p, pid_s, t)
+    phi, phi_rate = _phi(s, p, t)
+    cx, cy, cz = _command_rate(s, p, t, phi, phi_rate)
+    s[S_D0], s[S_D1], s[S_D2] = dx, dy, dz
+    ok, sig, _, sig_r = servo_signals(dx, dy, dz, 0.0, 0.0, 0.0, s[S_A0], s[S_A1], s[S_A2], p[P_LOCK_COS])
+    currents = (_clip(cx / scale, i_max), _clip(cy / scale, i_max), _clip(cz / scale, i_max))
+    if not ok:
+        s[S_LOCK] += 1.0
+        return servo_held(s, p, t), currents[0], currents[1], currents[2]
+    dt = _preset_dt(s, p, pid_s, dt, phi_rate)
+    sq, sp, sa = sig
+    s[S_V0] = pid_step(pid_s[0], pid_g[0], -sa, dt, 0.0, False)
+    s[S_V1] = pid_step(pid_s[1], pid_g[1], -sq, dt, 0.0, False)
+    s[S_V2] = pid_step(pid_s[2], pid_g[2], -sp, dt, 0.0, False)
+    s[S_V3] = pid_step(pid_s[3], pid_g[3], sig_r, dt, 0.0, False)
+    s[S_G0], s[S_G1], s[S_G2], s[S_G3] = sa, sq, sp, sig_r
+    s[S_PHI], s[S_PHI_RATE] = phi, phi_rate
+    return TICK_NEW, currents[0], currents[1], currents[2]

@@ -55,7 +55,7 @@ class Bus:
 
     __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias",
                  "ekf", "operator", "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation",
-                 "geo_budget", "lgu", "free_gyro")
+                 "geo_budget", "lgu", "free_gyro", "dtg")
 
     def __init__(self) -> None:
         self.k, self.t, self.t_ns = 0, 0.0, 0
@@ -71,6 +71,8 @@ class Bus:
         self.lgu = self.free_gyro = None
         # the servo's last (t [s], φz [rad], φ̇z [rad/s]), what its ~/modulation carries
         self.modulation = None
+        # paper 3's DTG pickoffs of the step (lower θ_x, θ_y, upper θ_x, θ_y) [rad] (:mod:`.dtg_stages`)
+        self.dtg = None
 
 
 def truth_stage(plant: str, position_every: int = 0, site=None, name: str = "vehicle_dynamics"

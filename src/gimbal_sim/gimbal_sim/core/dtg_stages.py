@@ -1,0 +1,50 @@
+"""Paper 3's platform on its two DTGs, as engine stages (:func:`.core_loop.run_stages`):
+the gyros (world) and the servo closed on their pickoffs (processor).
+
+Per step k: :func:`dtg_stage` integrates the gyros over the step k−1 → k, through the
+platform's exact inertial rotation (from the plant's attitudes of k−1 and k and the earth's
+rotation over the step) under the torquer currents the servo commanded at k−1 (held over the
+step, as the torquing electronics hold them), and puts the pickoffs of t_k on ``bus.dtg``;
+:func:`dtg_servo_stage` then ticks the servo on them and the step's resolvers.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+from gimbal_control.dtg_servo import DtgPlatformServo
+from gimbal_kinematics.maths.rotations import quat_conj, quat_from_rotation_vector, quat_mul, rotation_vector_from_quat
+
+from .core_stages import Bus
+from ..world.sensors.dtg import DtgPair
+
+
+def dtg_stage(pair: DtgPair, servo: DtgPlatformServo, omega_in_n, dt: float) -> Callable[[Bus], None]:
+    """The DTG pair's pickoffs of the step on ``bus.dtg`` (zero tilt at k = 0)."""
+    q_earth = quat_from_rotation_vector(omega_in_n[0] * dt, omega_in_n[1] * dt, omega_in_n[2] * dt)
+    last = [None]
+
+    def stage(bus: Bus) -> None:
+        q = tuple(bus.truth.quat_nm)
+        if last[0] is None:
+            bus.dtg = (0.0, 0.0, 0.0, 0.0)
+        else:
+            # the platform's inertial rotation over the step, in m at its start (a constant-axis rotation exactly)
+            rot = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(last[0]), q_earth), q))
+            bus.dtg = pair.step(tuple(r / dt for r in rot), bus.truth.specific_force_m, servo.torquer_current, dt)
+        last[0] = q
+    return stage
+
+
+def dtg_servo_stage(servo: DtgPlatformServo) -> Callable[[Bus], None]:
+    """The servo on the step's resolvers and pickoffs; ``bus.command`` its voltages,
+    ``bus.modulation`` its last (t, φz, φ̇z)."""
+
+    def stage(bus: Bus) -> None:
+        if bus.resolvers is not None:
+            servo.on_resolvers(bus.t, bus.resolvers.angles)
+        if bus.dtg is not None:
+            out = servo.on_pickoffs(bus.t, bus.dtg[:2], bus.dtg[2:])
+            if out is not None:
+                bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
+        bus.command = servo.command_voltages
+    return stage
