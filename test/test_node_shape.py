@@ -23,8 +23,9 @@ MODEL_NODE, MODEL_NODE_LINES = SRC / "gimbal_estimators" / "gimbal_estimators" /
 #: Nodes not yet on the shared edge's shape, with what keeps them long. The list only shrinks.
 OVERSIZED: dict[str, str] = {}
 #: Stamp, clock-jump and queue logic, by the names it goes by in code.
-STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "JUMPED_BACK",
-                         "rejected_out_of_order", "_drain", "_interp", "StampOrder", "StepGroups"})
+STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "clock_jump_ns",
+                         "_jump_ns", "JUMPED_BACK", "rejected_out_of_order", "_drain", "_interp", "_pending",
+                         "max_pending", "StampOrder", "StepGroups", "StampPairs"})
 #: Cores whose stamp, clock-jump or queue logic has not moved to their node's input policy
 #: yet, each with what stays. The list only shrinks.
 CORES_WITH_STAMP_LOGIC = {
@@ -105,14 +106,15 @@ def test_core_parameters_carry_no_timing_policy():
     clock-jump limit to the node, which builds its input policy from it once."""
     paths = [p for pkg in ("gimbal_estimators", "gimbal_control") for p in (SRC / pkg / pkg).glob("*.py")
              if not p.stem.endswith("_node") and p.stem not in CORES_WITH_STAMP_LOGIC]
-    bad = {f"{p.stem}.{cls}": sorted(names) for p in paths for cls, names in core_parameter_fields(p.read_text()).items()}
+    bad = {f"{p.stem}.{cls}": sorted(names)
+           for p in paths for cls, names in core_parameter_fields(p.read_text()).items()}
     assert not bad, f"core parameters with the node's timing policy (declare it in the *NodeParams): {bad}"
     planted = "class CoreParams:\n    clock_jump_s: float = 1.0\nclass XNodeParams:\n    clock_jump_s: float = 1.0\n"
     assert core_parameter_fields(planted) == {"CoreParams": {"clock_jump_s"}}
 
 
 @pytest.mark.parametrize("text", ["if judge(t, last, 0.5) is Stamp.OK:", "self._drain()",
-                                  "jump = self.params.clock_jump_s"])
+                                  "jump = self.params.clock_jump_s", "partner = self._pending[1].pop(key)"])
 def test_the_stamp_search_finds_planted_logic(text):
     assert stamp_names(text)
     assert not stamp_names("self.judgement = interpolate(stamps)  # judge the clock_jump_s\n\"StampOrder\"\n")

@@ -67,6 +67,7 @@ from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.timing.input_policy import Step, sample_policy
+from gimbal_kinematics.timing.sync import StampPairs
 
 from . import messages as m
 from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
@@ -98,6 +99,7 @@ class FlexureEstimatorNode(Node):
         # the attitude-matching method: paper 5's simplified filter or the original (eq. 1)
         self.core = (AttitudeMatchingKf(AttitudeMatchingParams.from_values(values)) if values["model"] == "original"
                      else FlexureKf(FlexureKfParams.from_values(values)))
+        self.pairs = StampPairs.feeding(self.core)  # the two units' samples, paired by stamp
         self.edge = edge = NodeEdge(self, values)
         # the one choice of timing (module docstring)
         self.policy = sample_policy(values["timing"], UNITS, rate_hz=values["sim_rate_hz"],
@@ -127,11 +129,10 @@ class FlexureEstimatorNode(Node):
             self._step(unit, step)
 
     def _step(self, unit: int, step: Step) -> None:
-        before = dict(self.core.counters)
+        before = self.counts()
         dalpha = m.lgu_increment(step.msg, step.dt)
-        feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
         # rates marked not provided go in as an empty increment, which the core counts as malformed
-        est = feed(step.t, () if dalpha is None else dalpha, step.dt)
+        est = self.pairs.add(unit, step.t, () if dalpha is None else dalpha, step.dt)
         self._log_events(unit, step.stamp_ns, before)
         if est is not None:
             if not (est.d2 != est.d2):  # an update (accepted or gated); NaN: no innovation
@@ -139,8 +140,12 @@ class FlexureEstimatorNode(Node):
             self._publish(step.stamp_ns, est)
         self.edge.progress(self.policy.progress(step))
 
+    def counts(self) -> dict[str, int]:
+        """The filter's counters and the pairing's."""
+        return {**self.core.counters, **self.pairs.counts}
+
     def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
-        c, warn, t = self.core.counters, self.edge.warn, t_ns * 1e-9
+        c, warn, t = self.counts(), self.edge.warn, t_ns * 1e-9
         for key, text in _REJECTIONS.items():
             if c[key] > before[key]:
                 warn(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)")
@@ -163,7 +168,7 @@ class FlexureEstimatorNode(Node):
             self._last_bin = b
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
         self.edge.publish(flexure_messages(t_ns, est))
-        self.edge.diagnostics(t_ns, lambda: self.edge.health(t_ns, self.policy, self.core.counters, self.nis,
+        self.edge.diagnostics(t_ns, lambda: self.edge.health(t_ns, self.policy, self.counts(), self.nis,
                                                             ready=self.core.initialized, not_ready="no estimate yet",
                                                             warn=WARN_COUNTERS))
 
