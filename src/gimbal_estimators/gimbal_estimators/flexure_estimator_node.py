@@ -62,7 +62,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
 from gimbal_kinematics.params.table import ParameterError, steps_per_sample
-from gimbal_kinematics.ros.node_edge import NodeEdge
+from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -84,8 +84,7 @@ _REJECTIONS = {"nonfinite": "non-finite value", "malformed": "malformed (rates n
                "out_of_order": "stamp not after the last fused pair", "duplicates": "duplicate stamp"}
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
-                 "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos",
-                 "wrong_type")
+                 *input_warnings(*UNITS))
 
 
 class FlexureEstimatorNode(Node):
