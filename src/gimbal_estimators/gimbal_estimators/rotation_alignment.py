@@ -160,15 +160,11 @@ class RotationAlignmentParams:
         """The parameters from a ``platform_alignment`` node's values (name -> value, as
         declared in :mod:`.platform_alignment_params`; ``gravity_m_s2`` 0 means WGS-84);
         :class:`ParameterError` names the parameter refused."""
+        same = ("lat_deg", "accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
+                "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h", "max_joint_age_s",
+                "converged_tilt_arcsec", "converged_azimuth_arcmin")  # node parameters of the field's name
         try:
-            return cls(
-                lat_deg=v["lat_deg"], gravity_m_s2=v["gravity_m_s2"] or None,
-                accel_noise_ug_rt_hz=v["accel_noise_ug_rt_hz"], block_s=v["block_s"],
-                tilt_scale_arcsec=v["tilt_scale_arcsec"], azimuth_scale_deg=v["azimuth_scale_deg"],
-                north_drift_scale_deg_h=v["north_drift_scale_deg_h"], accel_bias_scale_ug=v["accel_bias_scale_ug"],
-                gyro_drift_scale_deg_h=v["gyro_drift_scale_deg_h"], max_joint_age_s=v["max_joint_age_s"],
-                converged_tilt_arcsec=v["converged_tilt_arcsec"],
-                converged_azimuth_arcmin=v["converged_azimuth_arcmin"])
+            return cls(gravity_m_s2=v["gravity_m_s2"] or None, **{name: v[name] for name in same})
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
