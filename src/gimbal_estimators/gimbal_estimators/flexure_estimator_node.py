@@ -128,11 +128,10 @@ class FlexureEstimatorNode(Node):
             self._step(unit, step)
 
     def _step(self, unit: int, step: Step) -> None:
-        before = self.counts()
         dalpha = m.lgu_increment(step.msg, step.dt)
         # rates marked not provided go in as an empty increment, which the core counts as malformed
         est = self.pairs.add(unit, step.t, () if dalpha is None else dalpha, step.dt)
-        self._log_events(unit, step.stamp_ns, before)
+        self._log_events(unit, step.stamp_ns)
         if est is not None:
             if not (est.d2 != est.d2):  # an update (accepted or gated); NaN: no innovation
                 self.nis.add(est.d2)
@@ -143,19 +142,21 @@ class FlexureEstimatorNode(Node):
         """The filter's counters and the pairing's."""
         return {**self.core.counters, **self.pairs.counts}
 
-    def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
+    def _log_events(self, unit: int, t_ns: int) -> None:
+        """What the last sample did (the filter's events, the pairing's refusal), logged."""
         c, warn, t = self.counts(), self.edge.warn, t_ns * 1e-9
+        done = {*self.core.events, self.pairs.refused}
         for key, text in _REJECTIONS.items():
-            if c[key] > before[key]:
+            if key in done:
                 warn(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)")
-        if c["resets"] > before["resets"]:
+        if "resets" in done:
             self.get_logger().warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} "
                                       f"({c['resets']} resets)")  # every one: not throttled
-        elif c["reanchors"] > before["reanchors"]:
-            cause = "gated measurements in a row" if c["gaps"] == before["gaps"] else "lost LGU sample(s)"
+        elif "reanchors" in done:
+            cause = "lost LGU sample(s)" if "gaps" in done else "gated measurements in a row"
             warn(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, covariance kept; "
                  f"{c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, {c['reanchors']} re-anchors)")
-        if c["gated"] > before["gated"]:
+        if "gated" in done:
             warn(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)")
 
     # ------------------------------------------------------------------ output

@@ -225,13 +225,20 @@ class FlexureKf:
         self.reset_reasons: list[str] = []
         #: Called on every reset: the edge forgets the samples waiting for their partner.
         self.on_reset: Callable[[], None] | None = None
+        #: What the last sample or pair did: the counters it raised, in order.
+        self.events: list[str] = []
         self._clear()
 
     # ------------------------------------------------------------------ public API
     def on_pair(self, t: float, lgu1: tuple[tuple, float], lgu2: tuple[tuple, float]) -> FlexureEstimate | None:
         """Both units' checked ``(dalpha, dt)`` of stamp ``t`` [s], later than
         :attr:`paired_until`. Returns the estimate when the pair ends a filter step."""
+        self.events.clear()
         return self._on_pair(t, lgu1[0], lgu2[0], lgu1[1], lgu2[1])
+
+    def _count(self, name: str) -> None:
+        self.counters[name] += 1
+        self.events.append(name)
 
     @property
     def paired_until(self) -> float:
@@ -240,7 +247,7 @@ class FlexureKf:
 
     def reset(self, reason: str) -> None:
         """Forget everything (state, attitudes, pending samples); record ``reason``."""
-        self.counters["resets"] += 1
+        self._count("resets")
         self.reset_reasons.append(reason)
         del self.reset_reasons[:-20]
         self._clear()
@@ -366,8 +373,8 @@ class FlexureKf:
     def check_sample(self, t: float, dalpha: Sequence[float], dt: float) -> tuple[float, tuple, float] | None:
         """One unit's incremental angle ``dalpha`` [rad] (3,) over ``dt`` [s] ending at stamp
         ``t`` [s]: ``(t, dalpha, dt)`` as floats, or None (counted) when it cannot be used."""
-        c = self.counters
-        c["samples"] += 1
+        self.events.clear()
+        self._count("samples")
         try:
             t = float(t)
             dt = float(dt)
@@ -375,24 +382,23 @@ class FlexureKf:
                 raise ValueError
             d = (float(dalpha[0]), float(dalpha[1]), float(dalpha[2]))
         except (TypeError, ValueError):
-            c["malformed"] += 1
+            self._count("malformed")
             return None
         if not (math.isfinite(t) and math.isfinite(dt) and math.isfinite(d[0] + d[1] + d[2])):
-            c["nonfinite"] += 1
+            self._count("nonfinite")
             return None
         if not 0.0 < dt <= self.params.max_gap_s or d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.0:
             # A rotation over 1 rad in one sample is not a ship's.
-            c["bad_dt" if not 0.0 < dt <= self.params.max_gap_s else "malformed"] += 1
+            self._count("bad_dt" if not 0.0 < dt <= self.params.max_gap_s else "malformed")
             return None
         return t, d, dt
 
     def _on_pair(self, t: float, d1: tuple, d2: tuple, dt1: float, dt2: float) -> FlexureEstimate | None:
         p = self.params
-        c = self.counters
-        c["pairs"] += 1
+        self._count("pairs")
         tol = p.dt_tolerance * dt1
         if abs(dt1 - dt2) > tol:
-            c["bad_dt"] += 1
+            self._count("bad_dt")
             return None
         t_start = t - dt1
         if self._x is None:
@@ -402,10 +408,10 @@ class FlexureKf:
             gap = t_start - self._t_att
             if gap < -tol:
                 # Overlapping intervals: the stamps contradict the samples' dt.
-                c["bad_dt"] += 1
+                self._count("bad_dt")
                 return None
             if gap > tol:
-                c["gaps"] += 1
+                self._count("gaps")
                 if t_start - self._t_kf > p.max_gap_s:
                     self.reset(f"data gap of {gap:.3f} s exceeds max_gap_s")
                     self._x, self._P = self._initial()
@@ -433,7 +439,7 @@ class FlexureKf:
         self._C1 = np.eye(3)
         self._C2 = np.eye(3)
         self._hold_attitudes()
-        self.counters["reanchors"] += 1
+        self._count("reanchors")
 
     def _propagate(self, t: float) -> None:
         """Time update from the filter time to ``t`` in whole nominal steps."""
@@ -486,13 +492,12 @@ class FlexureKf:
     def _count_gate(self, accepted: bool, d2: float) -> bool:
         """The gate policy: count the update or the gated measurement; after
         ``max_gate_rejections`` in a row re-anchor, and reset if they go on. False when it reset."""
-        c = self.counters
         if accepted:
-            c["updates"] += 1
+            self._count("updates")
             self._rejections = 0
             self._gate_reanchored = False
             return True
-        c["gated"] += 1
+        self._count("gated")
         self._rejections += 1
         if self._rejections >= self.params.max_gate_rejections:
             if self._gate_reanchored:

@@ -491,6 +491,8 @@ class StampPairs:
         self._check, self._fuse, self._taken, self.max_pending = check, fuse, taken, max_pending
         self._pending: tuple[dict[int, tuple], dict[int, tuple]] = ({}, {})
         self.counts: dict[str, int] = dict.fromkeys(self.COUNTERS, 0)
+        #: Why :meth:`add` refused its sample (``out_of_order``, ``duplicates``), or None.
+        self.refused: str | None = None
 
     @classmethod
     def feeding(cls, core: Any, max_pending: int = 64) -> StampPairs:
@@ -508,6 +510,7 @@ class StampPairs:
     def add(self, unit: int, t: Any, *sample: Any) -> Any:
         """A sample of stream ``unit`` (0 or 1) stamped ``t`` [s]: ``fuse``'s result when it
         completes a pair, else None."""
+        self.refused = None
         checked = self._check(t, *sample)
         if checked is None:
             return None
@@ -515,11 +518,13 @@ class StampPairs:
         c, taken = self.counts, self._taken()
         if not math.isnan(taken) and t <= taken:
             c["out_of_order"] += 1
+            self.refused = "out_of_order"
             return None
         key = round(t * 1e9)
         mine, other = self._pending[unit], self._pending[1 - unit]
         if key in mine:
             c["duplicates"] += 1
+            self.refused = "duplicates"
             return None
         partner = other.pop(key, None)
         if partner is None:
