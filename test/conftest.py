@@ -5,6 +5,7 @@ tests that start node processes take a fresh id from the ``ros_domain_env`` fixt
 """
 from __future__ import annotations
 
+import configparser
 import os
 import sys
 from pathlib import Path
@@ -21,6 +22,17 @@ os.environ["ROS_DOMAIN_ID"] = str(_SESSION_DOMAIN.domain_id)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
+
+
+def console_scripts(pkg: str) -> list[tuple[str, str]]:
+    """(executable, ``module:function``) of every ``console_scripts`` entry that
+    ``src/<pkg>/setup.cfg`` declares (what colcon and pip turn into executables)."""
+    cfg = configparser.ConfigParser()
+    cfg.read(REPO_ROOT / "src" / pkg / "setup.cfg")
+    specs = [line for line in cfg.get("options.entry_points", "console_scripts", fallback="").splitlines()
+             if line.strip()]
+    assert specs, f"{pkg}/setup.cfg declares no console_scripts"
+    return [tuple(s.strip() for s in spec.partition("=")[::2]) for spec in specs]
 
 
 def _claimed_env():

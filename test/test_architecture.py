@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO_ROOT
+from conftest import REPO_ROOT, console_scripts
 
 SRC = REPO_ROOT / "src"
 #: Each package's level: a module may import packages of its level or below, never above; the two
@@ -164,16 +164,13 @@ def test_every_package_manifest_lists_only_packages_below_it():
 
 def node_entry_points() -> dict[str, tuple[str, str]]:
     """executable -> (package, module) of every ``<module>_node:main`` console script that the
-    packages' ``setup.py`` declare (the graph's nodes; CLIs like gimbal-run are not nodes)."""
+    packages' ``setup.cfg`` declare (the graph's nodes; CLIs like gimbal-run are not nodes)."""
     out = {}
     for pkg in LEVEL:
-        for node in ast.walk(ast.parse((SRC / pkg / "setup.py").read_text())):
-            if isinstance(node, ast.keyword) and node.arg == "entry_points":
-                for spec in ast.literal_eval(node.value).get("console_scripts", []):
-                    exe, _, target = (s.strip() for s in spec.partition("="))
-                    module = target.partition(":")[0]
-                    if module.endswith("_node"):
-                        out[exe] = (pkg, module)
+        for exe, target in console_scripts(pkg):
+            module = target.partition(":")[0]
+            if module.endswith("_node"):
+                out[exe] = (pkg, module)
     return out
 
 
@@ -205,24 +202,21 @@ def test_the_registry_lists_every_node_executable_with_its_package_table_and_cla
 
 
 def test_every_console_script_names_a_function_of_a_module_in_src():
-    """Each ``console_scripts`` entry of the packages' ``setup.py`` (what colcon and pip turn
+    """Each ``console_scripts`` entry of the packages' ``setup.cfg`` (what colcon and pip turn
     into executables) names a module file under src/ that defines the function, read with
     ``ast`` without importing it: a module moved or renamed leaves no entry point behind."""
     missing, count = [], 0
     for pkg in LEVEL:
-        for node in ast.walk(ast.parse((SRC / pkg / "setup.py").read_text())):
-            if isinstance(node, ast.keyword) and node.arg == "entry_points":
-                for spec in ast.literal_eval(node.value).get("console_scripts", []):
-                    exe, _, target = (s.strip() for s in spec.partition("="))
-                    module, _, func = target.partition(":")
-                    base = SRC / pkg / Path(*module.split("."))
-                    path = next((p for p in (base.with_suffix(".py"), base / "__init__.py") if p.is_file()), None)
-                    defined = path is not None and any(
-                        isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.name == func
-                        for n in ast.parse(path.read_text()).body)
-                    count += 1
-                    if not (module.split(".")[0] == pkg and defined):
-                        missing.append(f"{pkg}/setup.py: {exe} = {target}")
+        for exe, target in console_scripts(pkg):
+            module, _, func = target.partition(":")
+            base = SRC / pkg / Path(*module.split("."))
+            path = next((p for p in (base.with_suffix(".py"), base / "__init__.py") if p.is_file()), None)
+            defined = path is not None and any(
+                isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.name == func
+                for n in ast.parse(path.read_text()).body)
+            count += 1
+            if not (module.split(".")[0] == pkg and defined):
+                missing.append(f"{pkg}/setup.cfg: {exe} = {target}")
     assert not missing, "entry points naming no function of a module in src/:\n" + "\n".join(missing)
     assert count > 20
 
@@ -476,9 +470,10 @@ def test_reports_run_nothing():
 
 
 # ------------------------------------------------------------------ one timing edge
-#: gimbal_kinematics' timing modules: stamps, order, duplicates, clock jumps, staleness and
-#: step grouping (the nodes' input policies). Matched by module name, in whichever room.
-TIMING_MODULES = {"input_policy", "control_policy", "sync", "stamps", "stream_stats"}
+#: gimbal_kinematics' timing room and its modules: stamps, order, pairing, duplicates, clock
+#: jumps, staleness and step grouping (the nodes' input policies). Matched by name, in whichever
+#: room a module sits.
+TIMING_MODULES = {"timing", "input_policy", "control_policy", "sync", "stamps", "stream_stats"}
 #: Cores that still judge stamps through a timing module, each with the piece that stays to
 #: move into its node's input policy. The list only shrinks (the test says when to drop one).
 STAMP_CHECKING_CORES: dict[str, str] = {}
@@ -518,6 +513,10 @@ def test_no_core_imports_a_timing_module():
 
 @pytest.mark.parametrize("line", ["from gimbal_kinematics.timing.stamps import judge",
                                   "from gimbal_kinematics import sync",
+                                  "from gimbal_kinematics.timing.sync import StampPairs",
+                                  "from gimbal_kinematics.timing import StampPairs",
+                                  "from gimbal_kinematics import timing",
+                                  "import gimbal_kinematics.timing",
                                   "import gimbal_kinematics.timing.input_policy",
                                   "from gimbal_kinematics.timing.stream_stats import StreamStats"])
 def test_the_timing_import_check_finds_a_planted_import(tmp_path, line):

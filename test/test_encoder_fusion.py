@@ -13,6 +13,8 @@ from gimbal_control.encoder_fusion import (
 )
 from gimbal_control.fusion_kf import ClosedLoopComplementaryKf, FusionKfParams, process_noise, transition
 from gimbal_control.pid import Pid, PidParams, pole_placement_gains
+from gimbal_control.encoder_fusion_controller_params import PARAMS as EFC_PARAMS
+from gimbal_kinematics.params.table import defaults
 from gimbal_sim.experiments.encoder_fusion import MEMS_GYRO, UAV_GIMBAL, UAV_INITIAL_JOINTS_DEG, run_encoder_fusion
 from gimbal_sim.world.plant import TwoAxisGimbal
 
@@ -181,7 +183,7 @@ def test_late_stamps_are_dropped_and_a_clock_jump_resets_through_the_lockstep_po
     from gimbal_kinematics.timing.stamps import step_stamp_ns
 
     rate = 1000.0
-    policy = LockstepControl(lambda k: ("gyro", "enc"), rate, EncoderFusionParams().clock_jump_s,
+    policy = LockstepControl(lambda k: ("gyro", "enc"), rate, defaults(EFC_PARAMS)["clock_jump_s"],
                              eager_stale_steps=1000)
     add = lambda kind, k: policy.add(kind, step_stamp_ns(k, rate), 0.0)  # noqa: E731
     assert add("enc", 5) == [] and [s.resets for s in add("gyro", 5)] == [()]

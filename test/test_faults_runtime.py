@@ -426,12 +426,13 @@ def test_the_ekf_timing_edge_rejects_outlier_stamps_and_resets_on_sustained_jump
     """The ``gyro_bias_ekf`` node's free-timing input policy, as its constructor builds it
     (``order_policy``, its default ``clock_jump_s``), fed its gyro stream alone (the others
     would only hold the stamp order); ``on_restart`` is where the node resets its filter."""
-    from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
+    from gimbal_estimators.gyro_bias_ekf_params import PARAMS as EKF_PARAMS
+    from gimbal_kinematics.params.table import defaults
     from gimbal_kinematics.timing.input_policy import order_policy
 
     resets, warnings = [], []
     policy = order_policy("free", ("gyro",), max_wait_ns=0, rate_hz=1000.0, progress_every=1,
-                          clock_jump_ns=int(GyroBiasEkfParams().clock_jump_s * 1e9), on_restart=resets.append)
+                          clock_jump_ns=int(defaults(EKF_PARAMS)["clock_jump_s"] * 1e9), on_restart=resets.append)
     policy.held.warn = warnings.append
     fed = [step for s in stamps for step in policy.add("gyro", s, None)]
     c = policy.counters()

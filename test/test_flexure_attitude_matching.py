@@ -8,6 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
+from lgu_pairs import Fed
 from gimbal_estimators import flexure_attitude_matching as am
 from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_kf import FlexureKfParams
@@ -110,7 +111,7 @@ def _model_consistent_final_nees(params, duration_s, seed):
     exact rotations with each unit's own bias and angle random walk in its increments.
     Returns the NEES of the total flexure at the last epoch (3 dof)."""
     rng = np.random.default_rng(seed)
-    kf = AttitudeMatchingKf(params)
+    kf = Fed(AttitudeMatchingKf(params))
     F, Q = kf.discrete_model(T)  # θr, θr' come from the increments, not from F
     kf.on_lgu1(T, [0.0, 0.0, 0.0], T)
     kf.on_lgu2(T, [0.0, 0.0, 0.0], T)
@@ -120,7 +121,7 @@ def _model_consistent_final_nees(params, duration_s, seed):
     phi = x[am.PHI_K] + x[am.THETA_K]
     C_i2i1 = _rot(phi).T
     C1p, C2p = _ship_dcm(0.0), C_i2i1 @ _ship_dcm(0.0) @ _rot(phi)
-    kf = AttitudeMatchingKf(params)
+    kf = Fed(AttitudeMatchingKf(params))
     for k in range(1, int(round(duration_s / T)) + 1):
         t = k * T
         x = F @ x + L @ rng.standard_normal(am.N_STATES)
@@ -181,7 +182,7 @@ def test_constant_flexure_is_recovered_within_its_sigma():
                          helm_amplitude_deg=0.0, dynamic_rms_arcsec=0.0)
     run = sim_run(3, 600.0, flexure=flex)
     params = AttitudeMatchingParams(quasi_static_model="random_constant", dynamic_rms_arcsec=1.0)
-    est = feed(AttitudeMatchingKf(params), run)
+    est = feed(Fed(AttitudeMatchingKf(params)), run)
     err = est.flexure - run.truth[-1]
     print(f"\nconstant flexure: error {np.round(err / AS, 2)} arcsec, sigma {np.round(est.flexure_sigma / AS, 2)}")
     assert np.all(np.abs(err) < 2.0 * est.flexure_sigma)
@@ -197,9 +198,9 @@ def short_run():
 
 def test_bad_samples_are_counted_and_not_fused(short_run):
     run = short_run
-    clean = AttitudeMatchingKf()
+    clean = Fed(AttitudeMatchingKf())
     ref = feed(clean, run)
-    kf = AttitudeMatchingKf()
+    kf = Fed(AttitudeMatchingKf())
     feed(kf, run, 0, 100)
     t, d, dt = run.t[99], run.dalpha1[99], run.dt[99]
     kf.on_lgu1(t + 0.05, [math.nan, 0.0, 0.0], T)
@@ -220,7 +221,7 @@ def test_bad_samples_are_counted_and_not_fused(short_run):
 
 def test_gap_reanchors_and_clock_jump_resets(short_run):
     run = short_run
-    kf = AttitudeMatchingKf()
+    kf = Fed(AttitudeMatchingKf())
     feed(kf, run, 0, 100)
     sigma_before = kf.estimate().flexure_sigma
     est = feed(kf, run, 105)  # five pairs lost: re-anchor, keep what was learnt
@@ -237,7 +238,7 @@ def test_gap_reanchors_and_clock_jump_resets(short_run):
 
 # ---------------------------------------------------------------- parameters and shapes
 def test_states_covariance_and_parameters():
-    kf = AttitudeMatchingKf()
+    kf = Fed(AttitudeMatchingKf())
     kf.on_lgu1(T, [0.0, 0.0, 0.0], T)
     kf.on_lgu2(T, [0.0, 0.0, 0.0], T)
     assert kf.state.shape == (27,) and kf.covariance.shape == (27, 27)
@@ -249,7 +250,7 @@ def test_states_covariance_and_parameters():
     arw, sigma_unit = 0.001 * DEG / 60.0, 0.1 / math.sqrt(2.0) * DEG_H
     np.testing.assert_allclose(np.diag(P[am.THETA_R1, am.THETA_R1]), arw ** 2 * T + (sigma_unit * T) ** 2, rtol=1e-2)
     with pytest.raises(TypeError):
-        AttitudeMatchingKf(FlexureKfParams())
+        Fed(AttitudeMatchingKf(FlexureKfParams()))
     with pytest.raises(ValueError, match="meas_noise_arcsec"):  # the shared fields are checked too
         AttitudeMatchingParams(meas_noise_arcsec=-1.0)
     with pytest.raises(ValueError, match="lgu_bias_initial_sigma_deg_h"):

@@ -12,6 +12,7 @@ import pytest
 import rclpy
 from rclpy.context import Context
 
+from lgu_pairs import Counted, Fed
 from gimbal_estimators.flexure_estimator_node import FlexureEstimatorNode
 from gimbal_estimators.flexure_kf import FlexureKf
 from gimbal_kinematics.ros import messages as m
@@ -49,7 +50,7 @@ def free_run(messages, **params) -> tuple[object, dict[str, dict[int, np.ndarray
                                                                           for s in msg.status)
         for unit, msg in messages:
             node._on_lgu(unit, msg)
-        return node.core, out, diags
+        return Counted(node), out, diags
     finally:
         node.destroy_node()
         rclpy.shutdown(context=context)
@@ -128,7 +129,7 @@ def test_jitter_duplicates_late_and_lost_samples_are_counted_and_not_fused(lgu_s
     assert len(got) == c["updates"] + c["gated"] and 0.7 * N_PAIRS < len(got) < N_PAIRS
     assert stamps[500] not in got and stamps[501] not in got
     # none fused: a core fed the clean samples with their true intervals, on the relative time
-    ref = FlexureKf(KF_PARAMS)
+    ref = Fed(FlexureKf(KF_PARAMS))
     expected = {}
     for unit, t, dalpha, dt in clean:
         est = (ref.on_lgu1 if unit == 0 else ref.on_lgu2)((t - stamps[0]) * 1e-9, dalpha, dt)

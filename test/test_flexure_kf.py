@@ -7,6 +7,8 @@ import pytest
 from scipy.linalg import solve_discrete_lyapunov
 from scipy.spatial.transform import Rotation
 
+from lgu_pairs import Fed
+from gimbal_kinematics.timing.sync import StampPairs
 from gimbal_estimators import flexure_kf as fk
 from gimbal_estimators import flexure_model as fm
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
@@ -73,7 +75,7 @@ def synthetic():
 
 @pytest.fixture(scope="module")
 def reference(synthetic):
-    kf = FlexureKf()
+    kf = Fed(FlexureKf())
     return feed(kf, synthetic), kf
 
 
@@ -90,13 +92,13 @@ def wobbly():
 
 @pytest.fixture(scope="module")
 def wobbly_reference(wobbly):
-    return feed(FlexureKf(WOBBLE_BAND), wobbly)
+    return feed(Fed(FlexureKf(WOBBLE_BAND)), wobbly)
 
 
 # ---------------------------------------------------------------- models
 def test_attitude_integration_matches_scipy_composition():
     rng = np.random.default_rng(3)
-    kf = FlexureKf()
+    kf = Fed(FlexureKf())
     R1, R2 = Rotation.identity(), Rotation.identity()
     for k in range(1, 400):
         d1 = rng.normal(0.0, 0.02, 3)
@@ -136,9 +138,9 @@ def test_ar2_matches_second_order_markov(beta, lam, dt):
 
 def test_discrete_model_blocks_follow_eq_10_and_12():
     T = 0.1
-    rwr = FlexureKf(FlexureKfParams(quasi_static_model="random_walk_rate", qs_rate_rw_arcsec_s_rt_s=2.0,
-                                    dynamic_beta_per_s=0.1, dynamic_freq_rad_s=0.5))
-    rc = FlexureKf(FlexureKfParams(quasi_static_model="random_constant", qs_rw_arcsec_rt_s=0.5))
+    rwr = Fed(FlexureKf(FlexureKfParams(quasi_static_model="random_walk_rate", qs_rate_rw_arcsec_s_rt_s=2.0,
+                                    dynamic_beta_per_s=0.1, dynamic_freq_rad_s=0.5)))
+    rc = Fed(FlexureKf(FlexureKfParams(quasi_static_model="random_constant", qs_rw_arcsec_rt_s=0.5)))
     F, Q = rwr.discrete_model(T)
     I3 = np.eye(3)
     np.testing.assert_array_equal(F[0:3, 0:3], 2 * I3)
@@ -192,7 +194,7 @@ def test_observation_model_against_the_ship_simulation():
     vc = VehicleCore(VehicleConfig(profile="paper5_ship", plant="host_only", sim_rate_hz=50.0, duration_s=240.0))
     ss = SensorSuite(SensorSuiteConfig(sensors=("lgu",), sim_rate_hz=50.0, lgu_rate_hz=10.0, seed=4,
                                        lgu1=GyroParams(bias_deg_h=0.05), lgu2=GyroParams(bias_deg_h=-0.05)))
-    kf = FlexureKf()
+    kf = Fed(FlexureKf())
     theta_d = np.array(ss.lgu.flexure.angle)
     worst = worst2 = 0.0
     while True:
@@ -221,7 +223,7 @@ def _model_consistent_run(params, duration_s, seed):
     in the LGU increments; exact rotations), fed as increments. Returns per-epoch NEES of
     the total flexure (3 dof, full 3×3 covariance)."""
     rng = np.random.default_rng(seed)
-    kf = FlexureKf(params)
+    kf = Fed(FlexureKf(params))
     T = params.filter_period_s
     F, Q = kf.discrete_model(T)
     # The prior the filter starts from: the state after its first (anchoring) pair.
@@ -233,7 +235,7 @@ def _model_consistent_run(params, duration_s, seed):
     arw = params.lgu_arw_deg_rt_h * DEG / 60.0 * math.sqrt(T)
     flex = lambda v: Rotation.from_rotvec(v).as_matrix()  # noqa: E731
     C_i2i1 = flex(x[0:3] + x[6:9]).T
-    kf = FlexureKf(params)
+    kf = Fed(FlexureKf(params))
     C1p, C2p = _ship_dcm(0.0), C_i2i1 @ _ship_dcm(0.0) @ flex(x[0:3] + x[6:9])
     M = np.zeros((3, 18))
     M[:, 0:3] = M[:, 6:9] = np.eye(3)
@@ -273,21 +275,21 @@ def test_synthetic_constant_flexure_and_bias_difference_are_estimated(synthetic,
     assert np.all(np.abs(err) < 3 * est.flexure_sigma + AS)
     # With a dynamic-flexure model matching this flexure-free hull the rocking modulation
     # pins θ_d, hence the flexure, within arcseconds in 300 s.
-    kf2 = FlexureKf(FlexureKfParams(dynamic_rms_arcsec=2.0))
+    kf2 = Fed(FlexureKf(FlexureKfParams(dynamic_rms_arcsec=2.0)))
     est2 = feed(kf2, synthetic)
     assert np.all(np.abs(est2.flexure - PHI_TRUE) < 3.0 * AS)
     assert np.all(np.abs(est2.flexure - PHI_TRUE) < 3 * est2.flexure_sigma + 0.5 * AS)
     assert np.all(np.abs(est2.bias_diff - EPS_TRUE) < 3 * est2.bias_diff_sigma)
     assert np.all(np.abs(est2.bias_diff - EPS_TRUE) < 0.02 * DEG_H)
     # The paper's first-order prediction H X leaves the ½ u×φ term: arcseconds at 0.5°.
-    kf3 = FlexureKf(FlexureKfParams(dynamic_rms_arcsec=2.0, second_order_observation=False))
+    kf3 = Fed(FlexureKf(FlexureKfParams(dynamic_rms_arcsec=2.0, second_order_observation=False)))
     est3 = feed(kf3, synthetic)
     assert np.max(np.abs(est3.flexure - PHI_TRUE)) > 2.0 * AS
 
 
 def test_first_pair_anchors_relative_attitude_to_the_flexure():
     """θ_d(t0) = φ(t0) (paper 5 after eq. 6): the prior ties θ_d to Φ + θ within the anchor σ."""
-    kf = FlexureKf(FlexureKfParams(filter_period_s=0.3, anchor_sigma_arcsec=0.1))
+    kf = Fed(FlexureKf(FlexureKfParams(filter_period_s=0.3, anchor_sigma_arcsec=0.1)))
     kf.on_lgu1(0.1, [0.0, 0.0, 0.0], 0.1)
     assert kf.on_lgu2(0.1, [0.0, 0.0, 0.0], 0.1) is None  # no filter step yet
     P = kf.covariance
@@ -301,7 +303,7 @@ def test_first_pair_anchors_relative_attitude_to_the_flexure():
 
 
 def test_nan_inf_and_malformed_are_rejected_and_counted(wobbly, wobbly_reference):
-    kf = FlexureKf(WOBBLE_BAND)
+    kf = Fed(FlexureKf(WOBBLE_BAND))
     feed(kf, wobbly[:100])
     x0 = kf.state
     t_next, d1, _ = wobbly[100]
@@ -324,7 +326,7 @@ def test_nan_inf_and_malformed_are_rejected_and_counted(wobbly, wobbly_reference
 @pytest.mark.parametrize("skip1, skip2", [((), (1500,)), ((1500, 1501), (1500, 1501))],
                          ids=["lgu2_sample_lost", "both_lost_two_stamps"])
 def test_dropped_samples_reanchor_and_keep_the_estimate(wobbly, wobbly_reference, skip1, skip2):
-    kf = FlexureKf(WOBBLE_BAND)
+    kf = Fed(FlexureKf(WOBBLE_BAND))
     est = feed(kf, wobbly, skip1=skip1, skip2=skip2)
     c = kf.counters
     assert c["gaps"] == 1 and c["reanchors"] == 1 and c["resets"] == 0 and c["gated"] == 0
@@ -336,7 +338,7 @@ def test_dropped_samples_reanchor_and_keep_the_estimate(wobbly, wobbly_reference
 
 
 def test_out_of_order_and_duplicate_stamps_are_rejected(synthetic):
-    kf = FlexureKf()
+    kf = Fed(FlexureKf())
     feed(kf, synthetic[:50])
     x0 = kf.state
     t_prev, d1, d2 = synthetic[48]
@@ -354,7 +356,7 @@ def test_out_of_order_and_duplicate_stamps_are_rejected(synthetic):
 def test_backward_clock_jump_is_the_policys_reset(synthetic):
     """The core judges no clock: a sample stamped before the fused pairs is out of order;
     the sampled input policy sees the jump back and resets the core before the new run."""
-    kf = FlexureKf()
+    kf = Fed(FlexureKf())
     feed(kf, synthetic[:600])
     x = kf.state.copy()
     assert kf.on_lgu1(5.0, synthetic[0][1], 0.1) is None
@@ -374,7 +376,7 @@ def test_backward_clock_jump_is_the_policys_reset(synthetic):
 
 
 def test_long_gap_resets_short_gap_reanchors(synthetic):
-    kf = FlexureKf(FlexureKfParams(max_gap_s=2.0))
+    kf = Fed(FlexureKf(FlexureKfParams(max_gap_s=2.0)))
     feed(kf, synthetic[:100])
     feed(kf, synthetic[110:130])  # 1 s gap
     assert kf.counters["reanchors"] == 1 and kf.counters["resets"] == 0
@@ -384,14 +386,14 @@ def test_long_gap_resets_short_gap_reanchors(synthetic):
 
 
 def test_mismatched_dt_of_a_pair_is_rejected():
-    kf = FlexureKf()
+    kf = Fed(FlexureKf())
     kf.on_lgu1(0.1, [0.0, 0.0, 0.0], 0.1)
     assert kf.on_lgu2(0.1, [0.0, 0.0, 0.0], 0.2) is None
     assert kf.counters["bad_dt"] == 1 and not kf.initialized
 
 
 def test_a_corrupted_increment_is_gated_then_reanchored(synthetic, reference):
-    kf = FlexureKf(FlexureKfParams(max_gate_rejections=20))
+    kf = Fed(FlexureKf(FlexureKfParams(max_gate_rejections=20)))
     spiked = list(synthetic)
     t, d1, d2 = spiked[1500]
     spiked[1500] = (t, d1, d2 + np.array([2e-3, 0.0, 0.0]))  # 400″ spike on one sample
@@ -401,13 +403,13 @@ def test_a_corrupted_increment_is_gated_then_reanchored(synthetic, reference):
     ref, _ = reference
     np.testing.assert_allclose(est.flexure, ref.flexure, atol=5 * AS)
     # Without the gate the spike is fused: an error beyond the filter's own 3σ.
-    kf2 = FlexureKf(FlexureKfParams(gate_probability=None))
+    kf2 = Fed(FlexureKf(FlexureKfParams(gate_probability=None)))
     est2 = feed(kf2, spiked)
     assert np.max(np.abs(est2.flexure - PHI_TRUE) / est2.flexure_sigma) > 3.0
 
 
 def test_persistent_gating_after_reanchor_resets():
-    kf = FlexureKf(FlexureKfParams(max_gate_rejections=5))
+    kf = Fed(FlexureKf(FlexureKfParams(max_gate_rejections=5)))
     for k in range(1, 200):
         kf.on_lgu1(0.1 * k, [0.0, 0.0, 0.0], 0.1)
         # LGU2 turns at 1e-3 rad/sample: far beyond any flexure.
@@ -431,11 +433,15 @@ def test_persistent_gating_after_reanchor_resets():
     ("max_gate_rejections", 0),
     ("max_gap_s", 0.05),
     ("dt_tolerance", 0.6),
-    ("max_pending", 2.5),
 ])
 def test_bad_parameters_are_refused_naming_the_field(field, value):
     with pytest.raises(ValueError, match=field):
         FlexureKfParams(**{field: value})
+
+
+def test_the_pairing_refuses_a_bad_bound():
+    with pytest.raises(ValueError, match="max_pending"):
+        StampPairs.feeding(FlexureKf(), max_pending=2.5)
 
 
 def test_random_constant_needs_its_own_process_noise():

@@ -17,6 +17,7 @@ from rosbags.highlevel import AnyReader
 
 from conftest import VENV_BIN
 from ros_harness import spin_until
+from lgu_pairs import Counted, Fed
 from gimbal_estimators.flexure_estimator_node import OUTPUTS, FlexureEstimatorNode
 from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_kf import FlexureKf, FlexureKfParams
@@ -76,7 +77,7 @@ def stream(samples, drop=(), nan=(), replay_old=(), jump_at=None):
 def core_run(params: FlexureKfParams, messages) -> tuple[FlexureKf, dict[int, np.ndarray]]:
     """The core fed the same messages directly: (core, {stamp ns: total flexure}); the
     original eq. 1 filter for :class:`AttitudeMatchingParams`."""
-    kf = AttitudeMatchingKf(params) if isinstance(params, AttitudeMatchingParams) else FlexureKf(params)
+    kf = Fed(AttitudeMatchingKf(params) if isinstance(params, AttitudeMatchingParams) else FlexureKf(params))
     out = {}
     for unit, msg in messages:
         w = msg.angular_velocity
@@ -124,7 +125,7 @@ def node_run(messages, name: str = "flex_test", **params):
             published += node.core.counters["updates"] + node.core.counters["gated"] > before
             # take each estimate off the wire before the next (the readers keep the last 100)
             assert spin_until(executor, lambda: min(counts.values()) >= published, 10.0), "outputs not received"
-        return node.core, received
+        return Counted(node), received
     finally:
         executor.shutdown()
         node.destroy_node()
@@ -236,7 +237,7 @@ def test_model_original_runs_the_eq1_filter_on_the_same_messages(clean, lgu_samp
     publishes (per-unit bias models from σ_diff/√2), and not the simplified filter's."""
     msgs = list(stream(lgu_samples[:300]))
     core, received = node_run(msgs, name="flex_original", model="original")
-    assert isinstance(core, AttitudeMatchingKf) and core.state.shape == (27,)
+    assert isinstance(core.node.core, AttitudeMatchingKf) and core.state.shape == (27,)
     _, ref = core_run(AttitudeMatchingParams.from_simplified(KF_PARAMS), msgs)
     got = received["/flex_original/flexure"]
     assert len(got) == 300 and sorted(got) == sorted(ref)
@@ -292,7 +293,7 @@ def test_ship_flexure_graph_runs_both_models_side_by_side(ros_domain_env, tmp_pa
         assert counts[f"/{n}/progress"] >= 300 // 10
     lgu.sort(key=lambda r: (r[0], r[1]))
     for n, params in nodes.items():
-        kf = FlexureKf(params)
+        kf = Fed(FlexureKf(params))
         replay = {}
         for t_ns, unit, d in lgu:
             est = (kf.on_lgu1 if unit == 0 else kf.on_lgu2)(t_ns * 1e-9, d, DT)

@@ -13,6 +13,8 @@ from gimbal_estimators.free_gyro_positioning import (
     navsat_covariance_enu,
 )
 from gimbal_kinematics.maths import earth
+from gimbal_estimators.free_gyro_positioning_params import PARAMS as FGP_PARAMS
+from gimbal_kinematics.params.table import defaults
 from gimbal_kinematics.maths import free_gyro as fg
 from gimbal_kinematics.maths.free_gyro import spin_axis_for_site
 from gimbal_kinematics.maths.rotations import rot3
@@ -250,7 +252,7 @@ def test_late_read_outs_are_refused_and_a_clock_jump_resets_through_the_input_po
 
     resets = []
     policy = synced_policy("free", ("a", "b"), rate_hz=100.0, progress_every=1,
-                           clock_jump_ns=int(FreeGyroPositioningParams(U_A, U_B).clock_jump_s * 1e9),
+                           clock_jump_ns=int(defaults(FGP_PARAMS)["clock_jump_s"] * 1e9),
                            on_restart=resets.append)
     read_out = lambda t_s: [s for k in ("a", "b") for s in policy.add(k, int(t_s * 1e9), k)]  # noqa: E731
     assert [s.stamp_ns for s in read_out(10.0) + read_out(10.1)] == [10_000_000_000, 10_100_000_000]

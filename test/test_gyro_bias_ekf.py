@@ -11,6 +11,8 @@ from scipy.stats import chi2
 
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf, GyroBiasEkfParams
 from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput
+from gimbal_estimators.gyro_bias_ekf_params import PARAMS as EKF_PARAMS
+from gimbal_kinematics.params.table import defaults
 from gimbal_kinematics.maths import kalman
 from gimbal_estimators.gyro_bias_ekf_model import (
     discretize_error_model, encoder_error_jacobian, ins_error_jacobian, measured_quat_nm, quat_nb_from_euler,
@@ -87,7 +89,7 @@ def paper_run():
     ("gyro_bias_tau_s", 0.0), ("gyro_bias_sigma_deg_h", -1.0), ("encoder_noise_deg", 0.0),
     ("gate_probability", 1.0), ("lat_deg", 95.0), ("ins_attitude_tau_s", math.nan),
     ("velocity_n_m_s", (1.0, 2.0)), ("max_consecutive_gated", 0), ("gyro_arw_deg_rt_h", math.inf),
-    ("ins_error_states", "yes"), ("clock_jump_s", -1.0), ("ins_heading_rms_deg", 0.0),
+    ("ins_error_states", "yes"), ("ins_heading_rms_deg", 0.0),
     ("attitude_noise_floor_deg", 0.0),
 ])
 def test_bad_parameters_are_refused_naming_the_field(field, value):
@@ -313,7 +315,7 @@ def _ekf_policy(ekf: GyroBiasEkf):
     from gimbal_kinematics.timing.input_policy import order_policy
 
     return order_policy("lockstep", ("encoders", "ins", "gyro"), max_wait_ns=0, rate_hz=500.0, progress_every=1,
-                        clock_jump_ns=int(ekf.params.clock_jump_s * 1e9),
+                        clock_jump_ns=int(defaults(EKF_PARAMS)["clock_jump_s"] * 1e9),
                         on_restart=lambda reason: ekf.reset(reason, 0.0))
 
 

@@ -247,7 +247,7 @@ def test_bias_feedback_subtracts_y_z_components():
     ("zeta", 0.0), ("feedback", "yes"), ("anti_windup", "backcalc"),
     ("azimuth_torque_limit_nm", 0.0), ("elevation_torque_limit_nm", math.nan),
     ("integrator_limit_factor", 0.0), ("gravity_m_s2", -9.8), ("min_cos_elevation", 1.5),
-    ("max_dt_factor", 0.5), ("clock_jump_s", -1.0),
+    ("max_dt_factor", 0.5),
 ])
 def test_bad_params_refused_naming_the_field(field, value):
     with pytest.raises(ValueError, match=field):

@@ -23,17 +23,16 @@ MODEL_NODE, MODEL_NODE_LINES = SRC / "gimbal_estimators" / "gimbal_estimators" /
 #: Nodes not yet on the shared edge's shape, with what keeps them long. The list only shrinks.
 OVERSIZED: dict[str, str] = {}
 #: Stamp, clock-jump and queue logic, by the names it goes by in code.
-STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "JUMPED_BACK",
-                         "rejected_out_of_order", "_drain", "_interp", "StampOrder", "StepGroups"})
+STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "clock_jump_s", "clock_jump_ns",
+                         "_jump_ns", "JUMPED_BACK", "rejected_out_of_order", "_drain", "_interp", "_pending",
+                         "max_pending", "StampOrder", "StepGroups", "StampPairs"})
 #: Cores whose stamp, clock-jump or queue logic has not moved to their node's input policy
 #: yet, each with what stays. The list only shrinks.
 CORES_WITH_STAMP_LOGIC = {
-    "encoder_fusion": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
-    "los_rate_controller": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
     "operator_command": "the command stamps' order and the clock-jump reset",
-    "free_gyro_positioning": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
-    "rotation_alignment": "its parameters still carry the policy's clock_jump_s (the parameter table's to own)",
 }
+#: Fields of a node's timing policy: the node's own parameters, never a core's.
+POLICY_FIELDS = frozenset({"clock_jump_s"})
 
 
 def stamp_names(text: str) -> set[str]:
@@ -90,8 +89,32 @@ def test_no_stamp_clock_jump_or_queue_logic_in_the_cores():
     assert not done, f"clean now; drop them from CORES_WITH_STAMP_LOGIC: {done}"
 
 
+def core_parameter_fields(text: str) -> dict[str, set[str]]:
+    """Fields of :data:`POLICY_FIELDS` declared by the classes of ``text`` that are not a
+    node's own parameters (a class named ``*NodeParams``), by class name."""
+    found: dict[str, set[str]] = {}
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.ClassDef) and not node.name.endswith("NodeParams"):
+            names = {s.target.id for s in node.body if isinstance(s, ast.AnnAssign) and isinstance(s.target, ast.Name)}
+            if names & POLICY_FIELDS:
+                found[node.name] = names & POLICY_FIELDS
+    return found
+
+
+def test_core_parameters_carry_no_timing_policy():
+    """A core's parameters (in its module or in the node's ``*_params`` module) leave the
+    clock-jump limit to the node, which builds its input policy from it once."""
+    paths = [p for pkg in ("gimbal_estimators", "gimbal_control") for p in (SRC / pkg / pkg).glob("*.py")
+             if not p.stem.endswith("_node") and p.stem not in CORES_WITH_STAMP_LOGIC]
+    bad = {f"{p.stem}.{cls}": sorted(names)
+           for p in paths for cls, names in core_parameter_fields(p.read_text()).items()}
+    assert not bad, f"core parameters with the node's timing policy (declare it in the *NodeParams): {bad}"
+    planted = "class CoreParams:\n    clock_jump_s: float = 1.0\nclass XNodeParams:\n    clock_jump_s: float = 1.0\n"
+    assert core_parameter_fields(planted) == {"CoreParams": {"clock_jump_s"}}
+
+
 @pytest.mark.parametrize("text", ["if judge(t, last, 0.5) is Stamp.OK:", "self._drain()",
-                                  "jump = self.params.clock_jump_s"])
+                                  "jump = self.params.clock_jump_s", "partner = self._pending[1].pop(key)"])
 def test_the_stamp_search_finds_planted_logic(text):
     assert stamp_names(text)
     assert not stamp_names("self.judgement = interpolate(stamps)  # judge the clock_jump_s\n\"StampOrder\"\n")

@@ -1,7 +1,7 @@
 """The four packages form a real ROS 2 (ament_python) workspace.
 
 colcon (not our code) builds src/ into a temporary prefix; each executable declared in a
-setup.py must then resolve the way ``ros2 run`` resolves it (ament index prefix +
+setup.cfg must then resolve the way ``ros2 run`` resolves it (ament index prefix +
 ``lib/<pkg>/<exe>``) and answer ``--help`` with exit code 0.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO_ROOT, VENV_BIN
+from conftest import REPO_ROOT, VENV_BIN, console_scripts
 from ros_harness import interrupt_when_on_graph
 
 PACKAGES = ("gimbal_kinematics", "gimbal_sim", "gimbal_control", "gimbal_estimators")
@@ -34,13 +34,8 @@ ROS_PACKAGES = {"rclpy", "builtin_interfaces", "std_msgs", "sensor_msgs", "geome
 
 
 def declared_console_scripts(pkg: str) -> list[str]:
-    """Executable names from the ``console_scripts`` literal in ``src/<pkg>/setup.py``."""
-    tree = ast.parse((SRC / pkg / "setup.py").read_text())
-    for node in ast.walk(tree):
-        if isinstance(node, ast.keyword) and node.arg == "entry_points":
-            entry_points = ast.literal_eval(node.value)
-            return [spec.split("=")[0].strip() for spec in entry_points.get("console_scripts", [])]
-    raise AssertionError(f"{pkg}/setup.py declares no entry_points")
+    """Executable names of the ``console_scripts`` in ``src/<pkg>/setup.cfg``."""
+    return [exe for exe, _ in console_scripts(pkg)]
 
 
 def imported_top_level_modules(pkg: str) -> set[str]:
@@ -86,6 +81,7 @@ def test_package_manifests_are_ament_python_format_3():
         assert root.find("export/build_type").text == "ament_python"
         assert (SRC / pkg / "resource" / pkg).is_file()
         cfg = (SRC / pkg / "setup.cfg").read_text()
+        assert f"description = {root.findtext('description')}\n" in cfg, f"{pkg}: setup.cfg and package.xml differ"
         assert f"install_scripts=$base/lib/{pkg}" in cfg and f"script_dir=$base/lib/{pkg}" in cfg
 
 

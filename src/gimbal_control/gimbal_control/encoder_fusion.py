@@ -54,7 +54,7 @@ Feed the encoder and base samples of a stamp before the gyro sample of the same 
 as the lockstep graph orders them; the gyro sample is the control tick. Stamps come checked
 and in order, each stream's rising: the node's input policy
 (:mod:`gimbal_kinematics.timing.control_policy`) drops repeated and late ones and, on a clock jump
-back (``clock_jump_s``, its parameter), calls :meth:`~EncoderFusionController.reset`. Bad input:
+back, calls :meth:`~EncoderFusionController.reset`. Bad input:
 
 * NaN/inf inputs are rejected and counted. A bad gyro sample returns the last command with
   ``held`` set; so does :meth:`~EncoderFusionController.step` for a bad value in any of its
@@ -119,8 +119,6 @@ class EncoderFusionParams:
         min_cos_elevation: floor of cos θm in τ_a = u_r / cos θm (near θm = ±90° the
             azimuth motor no longer turns the LOS about m-z).
         max_gap_s: a longer gap between control ticks restarts the gate and derivative [s].
-        clock_jump_s: a stamp this far behind the last one resets the controller [s] (the
-            node's input policy judges it).
     """
 
     mode: str = "fused"
@@ -132,12 +130,11 @@ class EncoderFusionParams:
     kf: FusionKfParams = field(default_factory=FusionKfParams)
     min_cos_elevation: float = 0.2
     max_gap_s: float = 0.05
-    clock_jump_s: float = 1.0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-        for name in ("encoder_gate_s", "max_gap_s", "clock_jump_s"):
+        for name in ("encoder_gate_s", "max_gap_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"{name} must be > 0, got {v!r}")
@@ -179,8 +176,7 @@ class EncoderFusionParams:
                 azimuth_pid=gains("azimuth_inertia_kg_m2", "loop_bandwidth_hz"),
                 encoder_elevation_pid=gains("elevation_inertia_kg_m2", "encoder_loop_bandwidth_hz"),
                 encoder_azimuth_pid=gains("azimuth_inertia_kg_m2", "encoder_loop_bandwidth_hz"),
-                kf=kf, min_cos_elevation=v["min_cos_elevation"], max_gap_s=v["max_gap_s"],
-                clock_jump_s=v["clock_jump_s"])
+                kf=kf, min_cos_elevation=v["min_cos_elevation"], max_gap_s=v["max_gap_s"])
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 

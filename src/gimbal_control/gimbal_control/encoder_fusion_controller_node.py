@@ -70,7 +70,7 @@ class EncoderFusionControllerNode(Node):
         self.base_every = steps_per_sample(values, "base_rate_hz")
         self.rate = rate = values["sim_rate_hz"]
         self.core = EncoderFusionController(EncoderFusionParams.from_values(values))
-        clock_jump_s = self.core.params.clock_jump_s
+        clock_jump_s = values["clock_jump_s"]
         self._kf_updates = 0
         self.held = 0  # steps whose command was held (bad or missing input)
         self.edge = edge = NodeEdge(self, values, COUNTERS)

@@ -55,7 +55,7 @@ class EncoderFusionControllerNodeParams(CommandingParams):
         1e-3, 1.0, unit="-")
     max_gap_s: float = param(_CORE.max_gap_s, "a longer gap between gyro samples restarts the gate and D term",
         1e-6, 1e3, unit="s")
-    clock_jump_s: float = param(_CORE.clock_jump_s, "a stamp this far behind the last resets the controller (bag "
+    clock_jump_s: float = param(1.0, "a stamp this far behind the last resets the controller (bag "
         "loop)", 1e-6, 1e6, unit="s", aliases=CLOCK_JUMP_ALIASES)
     kf_q_angle_deg_rt_s: float = param(_KF.q_angle_deg_rt_s, "KF Q: gyro angle-random-walk density",
         0.0, 1e3, unit="deg/sqrt(s)")

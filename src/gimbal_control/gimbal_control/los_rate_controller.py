@@ -51,9 +51,9 @@ once but forgets all of that angle (255 µrad offset at ω_n = 100 Hz, 4 kHz).
 
 Bad input: a non-finite measurement or rate command is rejected: the last command is
 returned, the event counted (``rejected_inputs``), nothing is integrated. Samples come
-checked and in stamp order: duplicates, samples out of order and a stamp going back by more
-than ``clock_jump_s`` (a bag loop, which calls :meth:`LosRateController.reset`) are the
-node's input policy's (:mod:`gimbal_kinematics.timing.control_policy`).
+checked and in stamp order: duplicates, samples out of order and a clock jump back (a bag
+loop, which calls :meth:`LosRateController.reset`) are the node's input policy's
+(:mod:`gimbal_kinematics.timing.control_policy`).
 
 Gyro bias: :meth:`LosRateController.set_bias_estimate` stores the EKF's 3-axis bias
 estimate (m frame, rad/s); with ``feedback`` its y, z components are subtracted from q_m,
@@ -111,8 +111,6 @@ class LosRateControllerParams:
             θm = ±90°); below it the gain is limited and ``singular_steps`` counts.
         max_dt_factor: largest integration step as a multiple of 1/rate_hz (a gap in
             the stamps does not make one huge integrator step).
-        clock_jump_s: for the node's input policy: a stamp more than this [s] before the
-            last one (a bag loop) resets the controller; a smaller step back is dropped.
     """
 
     rate_hz: float = DEFAULT_RATE_HZ
@@ -127,7 +125,6 @@ class LosRateControllerParams:
     gravity_m_s2: float = G0
     min_cos_elevation: float = 0.05
     max_dt_factor: float = 2.0
-    clock_jump_s: float = 0.5
 
     def __post_init__(self) -> None:
         positive("rate_hz", self.rate_hz)
@@ -153,8 +150,6 @@ class LosRateControllerParams:
             raise ValueError(f"min_cos_elevation must be in (0, 1), got {self.min_cos_elevation!r}")
         if not (math.isfinite(self.max_dt_factor) and self.max_dt_factor >= 1.0):
             raise ValueError(f"max_dt_factor must be >= 1, got {self.max_dt_factor!r}")
-        if not (math.isfinite(self.clock_jump_s) and self.clock_jump_s >= 0.0):
-            raise ValueError(f"clock_jump_s must be >= 0, got {self.clock_jump_s!r}")
 
     @classmethod
     def from_values(cls, v: dict) -> LosRateControllerParams:

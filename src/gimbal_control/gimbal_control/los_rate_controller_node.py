@@ -71,7 +71,7 @@ from gimbal_kinematics.timing.input_policy import SampleGrid
 from . import messages as m
 from .los_hold import LosHold, LosHoldParams
 from .los_rate_controller import LosRateController, LosRateControllerParams
-from .los_rate_controller_params import DESCRIPTION, PARAMS
+from .los_rate_controller_params import CLOCK_JUMP_S, DESCRIPTION, PARAMS
 from .operator_command import OperatorCommand, OperatorCommandParams
 from .wire import torque_command_messages
 
@@ -113,9 +113,9 @@ class LosRateControllerNode(Node):
         # the one choice of timing (module docstring)
         self.policy = control_policy(
             timing,
-            lockstep=lambda: LockstepControl(grid.needs, rate, params.clock_jump_s, estimates=estimates,
+            lockstep=lambda: LockstepControl(grid.needs, rate, CLOCK_JUMP_S, estimates=estimates,
                                              logger=self.get_logger()),
-            free=lambda: FreeControl(InputKind.GYRO, ages, 1.0 / rate, params.clock_jump_s, held=estimates,
+            free=lambda: FreeControl(InputKind.GYRO, ages, 1.0 / rate, CLOCK_JUMP_S, held=estimates,
                                      on_arrival=(InputKind.ATTITUDE,) if self.hold is not None else (), warn=edge.warn))
         edge.advertise_diagnostics(self.policy)
         self._ins_rates: tuple[float, float, float] | None = None

@@ -7,6 +7,10 @@ from dataclasses import dataclass
 
 from gimbal_kinematics.params.table import SHARED, CommandingParams, declaration, param, same_as
 
+#: The node's input policy: a stamp more than this [s] before the last one (a bag loop)
+#: restarts the controller; a smaller step back is dropped. Not a parameter: no run sets it.
+CLOCK_JUMP_S = 0.5
+
 
 @dataclass(frozen=True)
 class LosRateControllerNodeParams(CommandingParams):

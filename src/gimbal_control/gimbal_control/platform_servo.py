@@ -340,24 +340,27 @@ class PlatformServo:
 
     def on_resolvers(self, t: float, angles: Sequence[float]) -> None:
         """Gimbal resolver angles (θ_a, θ_q, θ_p, θ_r) [rad] at stamp ``t`` [s]."""
-        vals = tuple(float(v) for v in angles)
-        if len(vals) != 4:
-            raise ValueError(f"angles must have 4 elements (a, q, p, r), got {len(vals)}")
-        if not all(math.isfinite(v) for v in vals):
-            self.rejected_nonfinite += 1
-            return
-        sk.servo_resolvers(self.state, t, *vals)
+        vals = self._finite("angles", angles, "a, q, p, r")
+        if vals is not None:
+            sk.servo_resolvers(self.state, t, *vals)
 
     def on_command_rate(self, t: float, omega_n: Sequence[float]) -> None:
         """The navigator's level command rate ω_c^n (3,) NED [rad/s] at stamp ``t`` [s], held
         until the next one (module docstring; used with ``command_source="navigator"``)."""
-        vals = tuple(float(v) for v in omega_n)
-        if len(vals) != 3:
-            raise ValueError(f"omega_n must have 3 elements (N, E, D), got {len(vals)}")
+        vals = self._finite("omega_n", omega_n, "N, E, D")
+        if vals is not None:
+            sk.servo_command(self.state, float(t), *vals)
+
+    def _finite(self, name: str, values: Sequence[float], axes: str) -> tuple[float, ...] | None:
+        """``values`` as floats, one per axis of ``axes``; None (counted) when one is not finite."""
+        vals = tuple(float(v) for v in values)
+        n = len(axes.split(", "))
+        if len(vals) != n:
+            raise ValueError(f"{name} must have {n} elements ({axes}), got {len(vals)}")
         if not all(math.isfinite(v) for v in vals):
             self.rejected_nonfinite += 1
-            return
-        sk.servo_command(self.state, float(t), *vals)
+            return None
+        return vals
 
     def _output(self, t: float, held: bool) -> ServoCommand:
         s = self.state

@@ -41,9 +41,9 @@ filters model the same flexure and estimate it alike.
 Messages
 --------
 :class:`AttitudeMatchingKf` is a :class:`.flexure_kf.FlexureKf` with another state, model and
-observation: it inherits the message handling (pairing by stamp; rejection and counting of
-non-finite, malformed, duplicate and out-of-order samples; attitude integration; gaps,
-clock jumps and the gate) and its outputs (:class:`.flexure_kf.FlexureEstimate`, with
+observation: it inherits the sample handling (rejection and counting of non-finite and
+malformed samples; pairs taken from the edge; attitude integration; gaps, resets and the
+gate) and its outputs (:class:`.flexure_kf.FlexureEstimate`, with
 ε1 − ε2 as the bias difference and φ0 − θr + θr' as the relative attitude). Re-anchoring
 starts new initial frames: φ0 := Φ_k + θ_k, θr = θr' := 0.
 """

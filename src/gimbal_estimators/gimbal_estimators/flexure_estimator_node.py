@@ -62,11 +62,12 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
 from gimbal_kinematics.params.table import ParameterError, steps_per_sample
-from gimbal_kinematics.ros.node_edge import NodeEdge
+from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.timing.input_policy import Step, sample_policy
+from gimbal_kinematics.timing.sync import StampPairs
 
 from . import messages as m
 from .flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
@@ -83,8 +84,7 @@ _REJECTIONS = {"nonfinite": "non-finite value", "malformed": "malformed (rates n
                "out_of_order": "stamp not after the last fused pair", "duplicates": "duplicate stamp"}
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("gated", "nonfinite", "malformed", "bad_dt", "out_of_order", "duplicates", "resets",
-                 "lgu1_duplicates", "lgu2_duplicates", "lgu1_out_of_order", "lgu2_out_of_order", "incompatible_qos",
-                 "wrong_type")
+                 *input_warnings(*UNITS))
 
 
 class FlexureEstimatorNode(Node):
@@ -98,6 +98,7 @@ class FlexureEstimatorNode(Node):
         # the attitude-matching method: paper 5's simplified filter or the original (eq. 1)
         self.core = (AttitudeMatchingKf(AttitudeMatchingParams.from_values(values)) if values["model"] == "original"
                      else FlexureKf(FlexureKfParams.from_values(values)))
+        self.pairs = StampPairs.feeding(self.core)  # the two units' samples, paired by stamp
         self.edge = edge = NodeEdge(self, values)
         # the one choice of timing (module docstring)
         self.policy = sample_policy(values["timing"], UNITS, rate_hz=values["sim_rate_hz"],
@@ -127,31 +128,35 @@ class FlexureEstimatorNode(Node):
             self._step(unit, step)
 
     def _step(self, unit: int, step: Step) -> None:
-        before = dict(self.core.counters)
         dalpha = m.lgu_increment(step.msg, step.dt)
-        feed = self.core.on_lgu1 if unit == 0 else self.core.on_lgu2
         # rates marked not provided go in as an empty increment, which the core counts as malformed
-        est = feed(step.t, () if dalpha is None else dalpha, step.dt)
-        self._log_events(unit, step.stamp_ns, before)
+        est = self.pairs.add(unit, step.t, () if dalpha is None else dalpha, step.dt)
+        self._log_events(unit, step.stamp_ns)
         if est is not None:
             if not (est.d2 != est.d2):  # an update (accepted or gated); NaN: no innovation
                 self.nis.add(est.d2)
             self._publish(step.stamp_ns, est)
         self.edge.progress(self.policy.progress(step))
 
-    def _log_events(self, unit: int, t_ns: int, before: dict[str, int]) -> None:
-        c, warn, t = self.core.counters, self.edge.warn, t_ns * 1e-9
+    def counts(self) -> dict[str, int]:
+        """The filter's counters and the pairing's."""
+        return {**self.core.counters, **self.pairs.counts}
+
+    def _log_events(self, unit: int, t_ns: int) -> None:
+        """What the last sample did (the filter's events, the pairing's refusal), logged."""
+        c, warn, t = self.counts(), self.edge.warn, t_ns * 1e-9
+        done = {*self.core.events, self.pairs.refused}
         for key, text in _REJECTIONS.items():
-            if c[key] > before[key]:
+            if key in done:
                 warn(f"LGU{unit + 1} sample at {t:.3f} s rejected: {text} ({c[key]} so far)")
-        if c["resets"] > before["resets"]:
+        if "resets" in done:
             self.get_logger().warning(f"filter reset at {t:.3f} s: {self.core.last_reset_reason} "
                                       f"({c['resets']} resets)")  # every one: not throttled
-        elif c["reanchors"] > before["reanchors"]:
-            cause = "gated measurements in a row" if c["gaps"] == before["gaps"] else "lost LGU sample(s)"
+        elif "reanchors" in done:
+            cause = "lost LGU sample(s)" if "gaps" in done else "gated measurements in a row"
             warn(f"{cause} before {t:.3f} s: attitudes re-anchored there (theta_d := Phi + theta, covariance kept; "
                  f"{c['gaps']} gaps, {c['unpaired']} unpaired samples dropped, {c['reanchors']} re-anchors)")
-        if c["gated"] > before["gated"]:
+        if "gated" in done:
             warn(f"measurement at {t:.3f} s beyond the chi-square gate, not fused ({c['gated']} gated)")
 
     # ------------------------------------------------------------------ output
@@ -163,7 +168,7 @@ class FlexureEstimatorNode(Node):
             self._last_bin = b
         # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
         self.edge.publish(flexure_messages(t_ns, est))
-        self.edge.diagnostics(t_ns, lambda: self.edge.health(t_ns, self.policy, self.core.counters, self.nis,
+        self.edge.diagnostics(t_ns, lambda: self.edge.health(t_ns, self.policy, self.counts(), self.nis,
                                                             ready=self.core.initialized, not_ready="no estimate yet",
                                                             warn=WARN_COUNTERS))
 

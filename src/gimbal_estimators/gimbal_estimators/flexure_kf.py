@@ -11,9 +11,10 @@ Observation and state: :mod:`.flexure_model` (paper 5 eqs. 3-6 re-derived, the 1
 
 Robustness
 ----------
-Messages arrive per unit (:meth:`FlexureKf.on_lgu1`, :meth:`FlexureKf.on_lgu2`) and are
-paired by stamp; the filter runs when both of a stamp are in. Non-finite or malformed
-input, non-increasing stamps and duplicates are rejected and counted. A lost sample (a gap
+Each unit's sample is checked (:meth:`FlexureKf.check_sample`: non-finite or malformed
+input is rejected and counted); the edge pairs the checked samples by stamp, in stamp order
+(:class:`gimbal_kinematics.timing.sync.StampPairs`, which also refuses repeated and late
+stamps), and the filter runs on each pair (:meth:`FlexureKf.on_pair`). A lost sample (a gap
 between one pair's start and the previous pair's end, or a sample of one unit without its
 partner, whose own sample is then dropped too) loses that interval's rotation for good in
 both units. The common part cancels in Ĉ_i1b1ᵀĈ_i2b2 (A is the filter's own attitude), but
@@ -33,7 +34,7 @@ the gate keeps rejecting after that, the model no longer explains the data and i
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -85,7 +86,6 @@ class FlexureKfParams:
             when they go on after one, a reset).
         max_gap_s: a data gap longer than this resets instead of re-anchoring [s].
         dt_tolerance: relative tolerance on stamp spacing vs the samples' dt.
-        max_pending: unpaired samples held per unit while waiting for the partner.
     """
 
     quasi_static_model: str = "random_walk_rate"
@@ -107,7 +107,6 @@ class FlexureKfParams:
     max_gate_rejections: int = 200
     max_gap_s: float = 5.0
     dt_tolerance: float = 0.25
-    max_pending: int = 64
 
     def __post_init__(self) -> None:
         if self.quasi_static_model not in QS_MODELS:
@@ -138,10 +137,9 @@ class FlexureKfParams:
             positive("gate_probability", self.gate_probability)
             if not self.gate_probability < 1.0:
                 raise ValueError(f"gate_probability must be in (0, 1) or None, got {self.gate_probability}")
-        for name in ("max_gate_rejections", "max_pending"):
-            val = getattr(self, name)
-            if not isinstance(val, int) or isinstance(val, bool) or val < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {val!r}")
+        val = self.max_gate_rejections
+        if not isinstance(val, int) or isinstance(val, bool) or val < 1:
+            raise ValueError(f"max_gate_rejections must be an integer >= 1, got {val!r}")
         if self.max_gap_s <= self.filter_period_s:
             raise ValueError(f"max_gap_s must exceed filter_period_s ({self.filter_period_s}), got {self.max_gap_s}")
 
@@ -190,8 +188,8 @@ class FlexureEstimate(NamedTuple):
 
 
 #: Counter names on :attr:`FlexureKf.counters`.
-COUNTERS = ("samples", "pairs", "updates", "gated", "nonfinite", "malformed", "bad_dt", "out_of_order",
-            "duplicates", "unpaired", "gaps", "reanchors", "resets")
+COUNTERS = ("samples", "pairs", "updates", "gated", "nonfinite", "malformed", "bad_dt", "gaps", "reanchors",
+            "resets")
 
 
 class FlexureKf:
@@ -225,25 +223,36 @@ class FlexureKf:
         self.counters: dict[str, int] = dict.fromkeys(COUNTERS, 0)
         #: Reasons of the resets so far (newest last, at most 20 kept).
         self.reset_reasons: list[str] = []
-        self._pending: tuple[dict[int, tuple], dict[int, tuple]] = ({}, {})
+        #: Called on every reset: the edge forgets the samples waiting for their partner.
+        self.on_reset: Callable[[], None] | None = None
+        #: What the last sample or pair did: the counters it raised, in order.
+        self.events: list[str] = []
         self._clear()
 
     # ------------------------------------------------------------------ public API
-    def on_lgu1(self, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
-        """LGU1 incremental angle ``dalpha`` [rad] (3,) over ``dt`` [s] ending at stamp ``t``
-        [s]. Returns the estimate when this completes a pair that ends a filter step."""
-        return self._on_sample(0, t, dalpha, dt)
+    def on_pair(self, t: float, lgu1: tuple[tuple, float], lgu2: tuple[tuple, float]) -> FlexureEstimate | None:
+        """Both units' checked ``(dalpha, dt)`` of stamp ``t`` [s], later than
+        :attr:`paired_until`. Returns the estimate when the pair ends a filter step."""
+        self.events.clear()
+        return self._on_pair(t, lgu1[0], lgu2[0], lgu1[1], lgu2[1])
 
-    def on_lgu2(self, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
-        """LGU2 counterpart of :meth:`on_lgu1`."""
-        return self._on_sample(1, t, dalpha, dt)
+    def _count(self, name: str) -> None:
+        self.counters[name] += 1
+        self.events.append(name)
+
+    @property
+    def paired_until(self) -> float:
+        """The stamp [s] of the last pair taken, which the attitudes reach (NaN: none yet)."""
+        return self._t_att
 
     def reset(self, reason: str) -> None:
         """Forget everything (state, attitudes, pending samples); record ``reason``."""
-        self.counters["resets"] += 1
+        self._count("resets")
         self.reset_reasons.append(reason)
         del self.reset_reasons[:-20]
         self._clear()
+        if self.on_reset is not None:
+            self.on_reset()
 
     @property
     def last_reset_reason(self) -> str | None:
@@ -360,12 +369,12 @@ class FlexureKf:
         self._n_att = 0
         self._rejections = 0
         self._gate_reanchored = False
-        self._pending[0].clear()
-        self._pending[1].clear()
 
-    def _on_sample(self, unit: int, t: float, dalpha: Sequence[float], dt: float) -> FlexureEstimate | None:
-        c = self.counters
-        c["samples"] += 1
+    def check_sample(self, t: float, dalpha: Sequence[float], dt: float) -> tuple[float, tuple, float] | None:
+        """One unit's incremental angle ``dalpha`` [rad] (3,) over ``dt`` [s] ending at stamp
+        ``t`` [s]: ``(t, dalpha, dt)`` as floats, or None (counted) when it cannot be used."""
+        self.events.clear()
+        self._count("samples")
         try:
             t = float(t)
             dt = float(dt)
@@ -373,47 +382,23 @@ class FlexureKf:
                 raise ValueError
             d = (float(dalpha[0]), float(dalpha[1]), float(dalpha[2]))
         except (TypeError, ValueError):
-            c["malformed"] += 1
+            self._count("malformed")
             return None
         if not (math.isfinite(t) and math.isfinite(dt) and math.isfinite(d[0] + d[1] + d[2])):
-            c["nonfinite"] += 1
+            self._count("nonfinite")
             return None
         if not 0.0 < dt <= self.params.max_gap_s or d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.0:
             # A rotation over 1 rad in one sample is not a ship's.
-            c["bad_dt" if not 0.0 < dt <= self.params.max_gap_s else "malformed"] += 1
+            self._count("bad_dt" if not 0.0 < dt <= self.params.max_gap_s else "malformed")
             return None
-        if not math.isnan(self._t_att) and t <= self._t_att:
-            c["out_of_order"] += 1
-            return None
-        key = round(t * 1e9)
-        mine, other = self._pending[unit], self._pending[1 - unit]
-        if key in mine:
-            c["duplicates"] += 1
-            return None
-        partner = other.pop(key, None)
-        if partner is None:
-            mine[key] = (t, d, dt)
-            if len(mine) > self.params.max_pending:
-                del mine[min(mine)]
-                c["unpaired"] += 1
-            return None
-        # Samples older than a complete pair will never pair: their rotation is lost.
-        for dct in self._pending:
-            stale = [k for k in dct if k < key]
-            for k in stale:
-                del dct[k]
-            c["unpaired"] += len(stale)
-        if unit == 0:
-            return self._on_pair(t, d, partner[1], dt, partner[2])
-        return self._on_pair(t, partner[1], d, partner[2], dt)
+        return t, d, dt
 
     def _on_pair(self, t: float, d1: tuple, d2: tuple, dt1: float, dt2: float) -> FlexureEstimate | None:
         p = self.params
-        c = self.counters
-        c["pairs"] += 1
+        self._count("pairs")
         tol = p.dt_tolerance * dt1
         if abs(dt1 - dt2) > tol:
-            c["bad_dt"] += 1
+            self._count("bad_dt")
             return None
         t_start = t - dt1
         if self._x is None:
@@ -423,10 +408,10 @@ class FlexureKf:
             gap = t_start - self._t_att
             if gap < -tol:
                 # Overlapping intervals: the stamps contradict the samples' dt.
-                c["bad_dt"] += 1
+                self._count("bad_dt")
                 return None
             if gap > tol:
-                c["gaps"] += 1
+                self._count("gaps")
                 if t_start - self._t_kf > p.max_gap_s:
                     self.reset(f"data gap of {gap:.3f} s exceeds max_gap_s")
                     self._x, self._P = self._initial()
@@ -454,7 +439,7 @@ class FlexureKf:
         self._C1 = np.eye(3)
         self._C2 = np.eye(3)
         self._hold_attitudes()
-        self.counters["reanchors"] += 1
+        self._count("reanchors")
 
     def _propagate(self, t: float) -> None:
         """Time update from the filter time to ``t`` in whole nominal steps."""
@@ -507,13 +492,12 @@ class FlexureKf:
     def _count_gate(self, accepted: bool, d2: float) -> bool:
         """The gate policy: count the update or the gated measurement; after
         ``max_gate_rejections`` in a row re-anchor, and reset if they go on. False when it reset."""
-        c = self.counters
         if accepted:
-            c["updates"] += 1
+            self._count("updates")
             self._rejections = 0
             self._gate_reanchored = False
             return True
-        c["gated"] += 1
+        self._count("gated")
         self._rejections += 1
         if self._rejections >= self.params.max_gate_rejections:
             if self._gate_reanchored:

@@ -74,8 +74,10 @@ def _step(kf: FlexureKf, run: LguRun, k: int, score: _Score, convergence_s: floa
     """Feed pair ``k`` to ``kf``, add its CPU time to ``score`` and score its estimate;
     returns the estimate's NEES (nan when the pair ended no filter step)."""
     c0 = time.process_time()
-    kf.on_lgu1(run.t[k], run.dalpha1[k], run.dt[k])
-    est = kf.on_lgu2(run.t[k], run.dalpha2[k], run.dt[k])
+    # a run's pairs come in stamp order, both units of a stamp together: nothing to pair or order
+    lgu1 = kf.check_sample(run.t[k], run.dalpha1[k], run.dt[k])
+    lgu2 = kf.check_sample(run.t[k], run.dalpha2[k], run.dt[k])
+    est = None if lgu1 is None or lgu2 is None else kf.on_pair(lgu1[0], lgu1[1:], lgu2[1:])
     score.cpu += time.process_time() - c0
     if est is None:
         return float("nan")

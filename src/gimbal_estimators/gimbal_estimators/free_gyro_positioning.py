@@ -51,7 +51,7 @@ Heading, two ways:
 All angles rad, rates rad/s, times s, distances m. Non-finite inputs and non-unit spin axes
 are rejected and counted. Stamps come checked and in order: the node's input policy
 (:func:`gimbal_kinematics.timing.input_policy.synced_policy`) refuses late and repeated read-outs
-and, on a clock jump back of more than ``clock_jump_s``, calls :meth:`FreeGyroPositioning.reset`.
+and, on a clock jump back, calls :meth:`FreeGyroPositioning.reset`.
 """
 from __future__ import annotations
 
@@ -95,8 +95,6 @@ class FreeGyroPositioningParams:
         min_sin_gyro_separation, min_sin_crossing_angle: ``FixTolerances`` of the fix.
         height_m: height used for the metric covariance [m].
         max_level_age_s: oldest vertical-reference sample [s] used to level a read-out.
-        clock_jump_s: a read-out stamp this far [s] behind the last resets the core (the
-            node's input policy judges it).
     """
 
     u_a_i: tuple[float, float, float]
@@ -111,7 +109,6 @@ class FreeGyroPositioningParams:
     min_sin_crossing_angle: float = 1e-6
     height_m: float = 0.0
     max_level_age_s: float = 0.2
-    clock_jump_s: float = 1.0
     omega_ie_rad_s: float = OMEGA_IE
 
     def __post_init__(self) -> None:
@@ -120,7 +117,7 @@ class FreeGyroPositioningParams:
         object.__setattr__(self, "u_a_i", a)
         object.__setattr__(self, "u_b_i", b)
         for name in ("nadir_noise_arcsec", "fix_interval_s", "heading_window_s", "triad_arw_deg_rt_h",
-                     "max_level_age_s", "clock_jump_s", "omega_ie_rad_s"):
+                     "max_level_age_s", "omega_ie_rad_s"):
             positive(name, getattr(self, name))
         if positive("max_fdop", self.max_fdop) < math.sqrt(2.0):
             raise ValueError(f"max_fdop must be >= √2 (the best two-gyro FDOP), got {self.max_fdop}")
@@ -156,8 +153,7 @@ class FreeGyroPositioningParams:
             return cls(
                 u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],
                 min_samples=v["min_samples"], heading_window_s=v["heading_window_s"],
-                triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"],
-                clock_jump_s=v["clock_jump_s"])
+                triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"])
         except ValueError as exc:
             text = str(exc)
             if "u_a_i" in text or "u_b_i" in text:  # the axes are the spin angles' doing

@@ -70,7 +70,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, NavSatFix
 
 from gimbal_kinematics.timing.input_policy import Step, synced_policy
-from gimbal_kinematics.ros.node_edge import NodeEdge
+from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.readiness import announce_when_connected
 from gimbal_kinematics.ros.params import declare_and_read
@@ -89,8 +89,7 @@ PREDICTIONS = tuple((Vector3Stamped, f"~/predicted_{k}") for k in ("nadir", "pos
 CORE_COUNTERS = ("spin_accepted", "rates_accepted", "rejected_nonfinite", "rejected_not_unit", "rejected_no_level",
                  "rejected_stale_level", "fixes", "degenerate", "resets")
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_not_unit", "rejected_no_level",
-                 "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", "incompatible_qos",
-                 "wrong_type")
+                 "rejected_stale_level", "degenerate", "rejected_stamps", "node_resets", *input_warnings())
 
 
 class FreeGyroPositioningNode(Node):

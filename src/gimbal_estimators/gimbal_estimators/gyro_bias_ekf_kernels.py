@@ -58,15 +58,7 @@ def mat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 @njit(cache=True)
 def mat_mul_t(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a bᵀ, summed in index order."""
-    n, m, p = a.shape[0], a.shape[1], b.shape[0]
-    out = np.zeros((n, p))
-    for i in range(n):
-        for j in range(p):
-            s = 0.0
-            for k in range(m):
-                s += a[i, k] * b[j, k]
-            out[i, j] = s
-    return out
+    return mat_mul(a, b.T)
 
 
 @njit(cache=True)

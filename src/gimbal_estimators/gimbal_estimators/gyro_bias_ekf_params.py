@@ -27,6 +27,8 @@ class GyroBiasEkfNodeParams(TimedParams):
     progress_every_steps: int = param(10, "report the next step needed on ~/progress every N gyro steps", 1, 10**6)
     diagnostics_period_s: float = param(1.0, "health on /diagnostics every this much sim time", 1e-3, 1e6, unit="s")
     nis_window: int = param(100, "measurement updates in the NIS window on /diagnostics (free timing)", 1, 10**6)
+    clock_jump_s: float = param(0.5, "a stamp this far behind resets the filter (bag loop)", 1e-9, 1e9, unit="s",
+                                aliases=CLOCK_JUMP_ALIASES)
 
 
 @dataclass(frozen=True)
@@ -39,8 +41,7 @@ class GyroBiasEkfParams:
     2σ²/τ (τ = inf: random constant). ``ins_error_states`` chooses the augmented INS
     attitude error states (default) or paper 1's white-noise treatment;
     ``attitude_noise_floor_deg`` is added to R for unmodelled residuals (module docstring,
-    "Synchronisation"). A stamp step back larger than ``clock_jump_s`` is a clock jump
-    (reset); smaller ones are out-of-order samples.
+    "Synchronisation").
     """
 
     lat_deg: float = param(0.0, "site latitude (earth rate, transport rate)", -89.999, 89.999, unit="deg")
@@ -71,8 +72,6 @@ class GyroBiasEkfParams:
     gate_probability: float = param(0.9999, "chi-square innovation gate probability (3 dof)", 1e-6, 0.999999999,
                                     unit="-")
     max_consecutive_gated: int = param(100, "gated updates in a row before the attitude is re-aligned", 1, 10**9)
-    clock_jump_s: float = param(0.5, "a stamp this far behind resets the filter (bag loop)", 1e-9, 1e9, unit="s",
-                                aliases=CLOCK_JUMP_ALIASES)
     max_gyro_gap_s: float = param(0.1, "gyro gap that forces a re-alignment", 1e-6, 1e6, unit="s")
     covariance_period_s: float = param(0.05, "longest interval between covariance propagations", 1e-6, 1e6,
                                        unit="s")
@@ -95,7 +94,7 @@ class GyroBiasEkfParams:
                      "roll_bias_instability_deg_h", "ins_roll_pitch_rms_deg", "ins_heading_rms_deg"):
             nonneg_finite(name, getattr(self, name))
         for name in ("gyro_bias_sigma_deg_h", "roll_bias_sigma_deg_h", "encoder_noise_deg",
-                     "attitude_noise_floor_deg", "clock_jump_s", "max_gyro_gap_s", "covariance_period_s",
+                     "attitude_noise_floor_deg", "max_gyro_gap_s", "covariance_period_s",
                      "max_sync_wait_s"):
             positive(name, getattr(self, name))
         for name in ("gyro_bias_tau_s", "roll_bias_tau_s", "ins_attitude_tau_s"):

@@ -64,7 +64,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.params.table import steps_per_sample
-from gimbal_kinematics.ros.node_edge import NodeEdge
+from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -85,9 +85,7 @@ CORE_COUNTERS = ("accepted", "rejected_nonfinite", "rejected_no_joint", "rejecte
                  "joint_rejected_nonfinite", "resets")
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_no_joint", "rejected_stale_joint", "joint_rejected_nonfinite",
-                 "resets", "rejected_joints",
-                 "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order", "incompatible_qos",
-                 "wrong_type")
+                 "resets", "rejected_joints", *input_warnings("imu", "joint"))
 
 
 class PlatformAlignmentNode(Node):

@@ -56,7 +56,7 @@ from gimbal_kinematics.maths.frames import MODULATION_JOINT
 from gimbal_kinematics.timing.input_policy import SampleGrid, Step, grouped_policy
 from gimbal_kinematics.params.table import ParameterError, steps_per_sample
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
-from gimbal_kinematics.ros.node_edge import NodeEdge
+from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -71,8 +71,7 @@ from .wire import navigator_messages
 SERVO_MODULATION_TOPIC = "/platform_servo/modulation"
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_resolver", "resets",
-                 "rejected_joints", "imu_duplicates", "imu_out_of_order", "joint_duplicates", "joint_out_of_order",
-                 "incompatible_qos", "wrong_type")
+                 "rejected_joints", *input_warnings("imu", "joint"))
 
 
 class PlatformNavigatorNode(Node):

@@ -34,8 +34,7 @@ class PlatformNavigatorParams:
     platform azimuth about NED down (:mod:`.platform_navigator`, "Azimuth source"). The
     hand-off estimates are the alignment's: the platform gyro drifts ε_x, ε_y (it does not
     estimate ε_z), ε_N fixed in NED, the accelerometer biases and the misalignment in its ENU
-    convention, torqued out after the first sample. Stamp reversals and repeats smaller than
-    ``clock_jump_s`` are rejected and counted.
+    convention, torqued out after the first sample.
     """
 
     lat_deg: float = param(40.0, "hand-off latitude, geodetic", -88.999, 88.999, unit="deg")
@@ -62,8 +61,6 @@ class PlatformNavigatorParams:
                                 1e-3, 1e4, unit="s")
     vertical_tau_s: float = param(100.0, "time constant of the damped vertical channel's triple pole", 1.0, 1e5,
                                   unit="s")
-    clock_jump_s: float = param(1.0, "a stamp this far before the last one restarts navigation from the hand-off",
-                                1e-9, 1e9, unit="s", aliases=CLOCK_JUMP_ALIASES)
 
     def __post_init__(self) -> None:
         lat = finite("lat_deg", self.lat_deg)
@@ -75,7 +72,7 @@ class PlatformNavigatorParams:
         finite("north_drift_deg_h", self.north_drift_deg_h)
         for name in ("gyro_drift_deg_h", "accel_bias_ug", "misalignment_arcsec"):
             object.__setattr__(self, name, per_axis(name, getattr(self, name), 3))
-        for name in ("torque_out_s", "vertical_tau_s", "clock_jump_s"):
+        for name in ("torque_out_s", "vertical_tau_s"):
             positive(name, getattr(self, name))
         if self.azimuth_source not in AZIMUTH_SOURCES:
             raise ValueError(f"azimuth_source must be one of {AZIMUTH_SOURCES}, got {self.azimuth_source!r}")
@@ -140,6 +137,8 @@ class PlatformNavigatorNodeParams(TimedParams):
                                    "out every sample: the servo follows it)", 1, 10**9)
     max_sync_wait_s: float = param(0.05, "free timing: longest a sample waits for the other stream's stamp to pass "
                                    "it (stamp order)", 0.0, 10.0, unit="s")
+    clock_jump_s: float = param(1.0, "a stamp this far before the last one restarts navigation from the hand-off",
+                                1e-9, 1e9, unit="s", aliases=CLOCK_JUMP_ALIASES)
     diagnostics_period_s: float = param(1.0, "free timing: counters on /diagnostics every this much stamp time",
                                         1e-3, 1e6, unit="s")
     progress_every_steps: int = same_as(SHARED["progress_every_steps"])

@@ -122,8 +122,6 @@ class RotationAlignmentParams:
             with its rate; older joint data rejects the accelerometer sample.
         converged_tilt_arcsec, converged_azimuth_arcmin: σ of δφE0/δφN0 and of δφU0 below
             which the estimate is flagged converged.
-        clock_jump_s: a timestamp this far [s] before the last one resets the filter
-            (bag loop); smaller reversals are rejected and counted.
         rank_rel_tol: eigenvalues of the information matrix below this fraction of the
             largest count as unobservable directions.
     """
@@ -140,7 +138,6 @@ class RotationAlignmentParams:
     max_joint_age_s: float = 0.1
     converged_tilt_arcsec: float = 5.0
     converged_azimuth_arcmin: float = 2.0
-    clock_jump_s: float = 1.0
     rank_rel_tol: float = 1e-9
     omega_ie_rad_s: float = OMEGA_IE
 
@@ -153,7 +150,7 @@ class RotationAlignmentParams:
         for name in ("accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
                      "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h",
                      "max_joint_age_s", "converged_tilt_arcsec", "converged_azimuth_arcmin",
-                     "clock_jump_s", "rank_rel_tol", "omega_ie_rad_s"):
+                     "rank_rel_tol", "omega_ie_rad_s"):
             positive(name, getattr(self, name))
         if self.rank_rel_tol >= 1.0:
             raise ValueError(f"rank_rel_tol must be < 1, got {self.rank_rel_tol}")
@@ -163,15 +160,11 @@ class RotationAlignmentParams:
         """The parameters from a ``platform_alignment`` node's values (name -> value, as
         declared in :mod:`.platform_alignment_params`; ``gravity_m_s2`` 0 means WGS-84);
         :class:`ParameterError` names the parameter refused."""
+        same = ("lat_deg", "accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
+                "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h", "max_joint_age_s",
+                "converged_tilt_arcsec", "converged_azimuth_arcmin")  # node parameters of the field's name
         try:
-            return cls(
-                lat_deg=v["lat_deg"], gravity_m_s2=v["gravity_m_s2"] or None,
-                accel_noise_ug_rt_hz=v["accel_noise_ug_rt_hz"], block_s=v["block_s"],
-                tilt_scale_arcsec=v["tilt_scale_arcsec"], azimuth_scale_deg=v["azimuth_scale_deg"],
-                north_drift_scale_deg_h=v["north_drift_scale_deg_h"], accel_bias_scale_ug=v["accel_bias_scale_ug"],
-                gyro_drift_scale_deg_h=v["gyro_drift_scale_deg_h"], max_joint_age_s=v["max_joint_age_s"],
-                converged_tilt_arcsec=v["converged_tilt_arcsec"],
-                converged_azimuth_arcmin=v["converged_azimuth_arcmin"], clock_jump_s=v["clock_jump_s"])
+            return cls(gravity_m_s2=v["gravity_m_s2"] or None, **{name: v[name] for name in same})
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
@@ -267,8 +260,8 @@ class RotationAlignmentRls:
     Each accelerometer sample that completes an averaging block returns the new
     :class:`AlignmentEstimate`; others return None. Non-finite input is rejected and counted
     in :attr:`counters`. Stamps come checked and in order, each stream's rising: the node's
-    input policy drops repeated and late ones and, on a jump back by more than
-    ``clock_jump_s``, calls :meth:`reset` (reason in ``counters.reset_reasons``).
+    input policy drops repeated and late ones and, on a clock jump back, calls :meth:`reset`
+    (reason in ``counters.reset_reasons``).
     """
 
     def __init__(self, params: RotationAlignmentParams) -> None:

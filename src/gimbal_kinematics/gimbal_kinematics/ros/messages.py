@@ -72,24 +72,16 @@ def imu_msg(t_ns: int, frame_id: str, *, orientation: Sequence[float] | None = N
     msg = Imu()
     msg.header.stamp = time_msg(t_ns)
     msg.header.frame_id = frame_id
-    if orientation is None:
-        msg.orientation_covariance = NOT_PROVIDED
-    else:
-        o = msg.orientation
-        o.x, o.y, o.z, o.w = (float(v) for v in orientation)
-        msg.orientation_covariance = tuple(float(v) for v in orientation_cov)
-    if angular_velocity is None:
-        msg.angular_velocity_covariance = NOT_PROVIDED
-    else:
-        w = msg.angular_velocity
-        w.x, w.y, w.z = (float(v) for v in angular_velocity)
-        msg.angular_velocity_covariance = tuple(float(v) for v in angular_velocity_cov)
-    if linear_acceleration is None:
-        msg.linear_acceleration_covariance = NOT_PROVIDED
-    else:
-        a = msg.linear_acceleration
-        a.x, a.y, a.z = (float(v) for v in linear_acceleration)
-        msg.linear_acceleration_covariance = tuple(float(v) for v in linear_acceleration_cov)
+    for name, axes, values, cov in (("orientation", "xyzw", orientation, orientation_cov),
+                                    ("angular_velocity", "xyz", angular_velocity, angular_velocity_cov),
+                                    ("linear_acceleration", "xyz", linear_acceleration, linear_acceleration_cov)):
+        if values is None:
+            setattr(msg, f"{name}_covariance", NOT_PROVIDED)
+            continue
+        field = getattr(msg, name)
+        for axis, v in zip(axes, values, strict=True):
+            setattr(field, axis, float(v))
+        setattr(msg, f"{name}_covariance", tuple(float(v) for v in cov))
     return msg
 
 

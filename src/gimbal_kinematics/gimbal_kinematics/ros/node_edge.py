@@ -37,6 +37,14 @@ from .wire import clock_cdr
 
 #: (topic, message type name, serialized bytes): what a node's serialisation returns
 Messages = list[tuple[str, str, bytes]]
+#: The edge's own counters that make /diagnostics a WARN: inputs of the wrong QoS or type.
+EDGE_WARNINGS = ("incompatible_qos", "wrong_type")
+
+
+def input_warnings(*streams: str) -> tuple[str, ...]:
+    """The counters that make /diagnostics a WARN for inputs of ``streams``: the input
+    policy's repeated and late stamps of each, then the edge's own (:data:`EDGE_WARNINGS`)."""
+    return (*(f"{s}_{kind}" for s in streams for kind in ("duplicates", "out_of_order")), *EDGE_WARNINGS)
 
 
 class NodeEdge:

@@ -77,21 +77,22 @@ def _check_timing(timing: str) -> None:
 def input_qos(timing: str) -> QoSProfile:
     """QoS of an input subscription: lockstep -> GRAPH_QOS; free -> the REP 2003 consumer
     profile (best effort, volatile, keep-last :data:`FREE_INPUT_DEPTH`)."""
-    _check_timing(timing)
-    if timing == "lockstep":
-        return GRAPH_QOS
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=FREE_INPUT_DEPTH,
-                      reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+    return _qos(timing, FREE_INPUT_DEPTH, ReliabilityPolicy.BEST_EFFORT)
 
 
 def output_qos(timing: str) -> QoSProfile:
     """QoS of an output publisher: lockstep -> GRAPH_QOS; free -> the ROS default (reliable,
     volatile, keep-last :data:`FREE_OUTPUT_DEPTH`)."""
+    return _qos(timing, FREE_OUTPUT_DEPTH, ReliabilityPolicy.RELIABLE)
+
+
+def _qos(timing: str, free_depth: int, free_reliability: ReliabilityPolicy) -> QoSProfile:
+    """GRAPH_QOS in lockstep; in free timing keep-last ``free_depth``, volatile."""
     _check_timing(timing)
     if timing == "lockstep":
         return GRAPH_QOS
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=FREE_OUTPUT_DEPTH,
-                      reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=free_depth, reliability=free_reliability,
+                      durability=DurabilityPolicy.VOLATILE)
 
 
 def type_name(msg_type: Any) -> str:

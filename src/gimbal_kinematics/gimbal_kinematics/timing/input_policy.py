@@ -489,7 +489,7 @@ def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int]
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
 
 
-class _Synced:
+class _Synced(_CoreReport):
     """One step per complete exact-stamp group of ``streams``
     (:class:`gimbal_kinematics.timing.sync.StampSync`), at the core time of its stamp [s]. A stamp
     more than ``clock_jump_ns`` before the last group's restarts (``on_restart(reason)``:
@@ -524,12 +524,6 @@ class _Synced:
         self._rejected_before += self.sync.rejected
         self.sync = StampSync(self.streams)
         self._last_ns = None
-
-    def stamp_of(self, t: float) -> int:
-        return int(round(t * 1e9))
-
-    def counters(self) -> dict[str, int]:
-        return {}
 
     def report(self, core: Fields, node: Fields, nis: Fields, nis_verdict: str | None
                ) -> tuple[dict[str, Any], str | None]:

@@ -18,6 +18,8 @@ what the node computes must not depend on that order, or a replay would not repr
 * :class:`RateSync`: multi-rate grouping for a gyro-propagated filter: each gyro sample goes
   out with the joint angles and reference rates interpolated to its stamp, each reference
   attitude with the joint angles of its stamp, once the integration has reached it.
+* :class:`StampPairs`: pair two streams sample by sample on equal stamps, for a core that
+  takes both samples of a stamp at once (two ring-laser-gyro units of one flexure filter).
 
 StampOrder: a message is released once every stream has delivered a stamp at or after it
 (nothing earlier can still come), or once the newest stamp seen is more than ``max_wait_ns``
@@ -26,6 +28,7 @@ loop) flushes the buffer and is released at once, for the filter to judge.
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Any, Callable, Iterable, NamedTuple, Sequence
 
@@ -461,3 +464,79 @@ class RateSync:
                 if res is not None:
                     out = res
         return out
+
+
+# ----------------------------------------------------------------------------------------
+# StampPairs: two streams paired on equal stamps.
+# ----------------------------------------------------------------------------------------
+class StampPairs:
+    """Two streams (unit 0 and 1) paired sample by sample on equal stamps [s], each pair
+    handed to ``fuse(t, sample_0, sample_1)`` and its result returned by :meth:`add`.
+
+    Each sample first goes through ``check(t, *sample)``, the core's own judgement of the
+    values: None refuses it (the core counts why), otherwise it returns ``(t, *checked)``.
+    A checked sample stamped at or before ``taken()`` (the stamp the core has reached; NaN:
+    nothing yet) is out of order; one whose stream already holds that stamp is a duplicate.
+    A sample waits for its partner, at most ``max_pending`` a stream (the oldest is dropped,
+    counted unpaired); once a pair completes, the older samples of either stream can never
+    pair and are dropped, counted unpaired. :meth:`clear` forgets the waiting samples (the
+    core calls it when it starts over)."""
+
+    COUNTERS = ("out_of_order", "duplicates", "unpaired")
+
+    def __init__(self, check: Callable[..., tuple | None], fuse: Callable[[float, Any, Any], Any],
+                 taken: Callable[[], float], max_pending: int = 64) -> None:
+        if not isinstance(max_pending, int) or isinstance(max_pending, bool) or max_pending < 1:
+            raise ValueError(f"max_pending must be an integer >= 1, got {max_pending!r}")
+        self._check, self._fuse, self._taken, self.max_pending = check, fuse, taken, max_pending
+        self._pending: tuple[dict[int, tuple], dict[int, tuple]] = ({}, {})
+        self.counts: dict[str, int] = dict.fromkeys(self.COUNTERS, 0)
+        #: Why :meth:`add` refused its sample (``out_of_order``, ``duplicates``), or None.
+        self.refused: str | None = None
+
+    @classmethod
+    def feeding(cls, core: Any, max_pending: int = 64) -> StampPairs:
+        """Pairs for a core that takes two streams' samples by pairs: its ``check_sample``,
+        ``on_pair`` and ``paired_until`` (the stamp of the last pair it took), and its ``on_reset``,
+        set here so that the core starting over forgets the waiting samples."""
+        pairs = cls(core.check_sample, core.on_pair, lambda: core.paired_until, max_pending)
+        core.on_reset = pairs.clear
+        return pairs
+
+    def clear(self) -> None:
+        self._pending[0].clear()
+        self._pending[1].clear()
+
+    def add(self, unit: int, t: Any, *sample: Any) -> Any:
+        """A sample of stream ``unit`` (0 or 1) stamped ``t`` [s]: ``fuse``'s result when it
+        completes a pair, else None."""
+        self.refused = None
+        checked = self._check(t, *sample)
+        if checked is None:
+            return None
+        t, sample = checked[0], checked[1:]
+        c, taken = self.counts, self._taken()
+        if not math.isnan(taken) and t <= taken:
+            c["out_of_order"] += 1
+            self.refused = "out_of_order"
+            return None
+        key = round(t * 1e9)
+        mine, other = self._pending[unit], self._pending[1 - unit]
+        if key in mine:
+            c["duplicates"] += 1
+            self.refused = "duplicates"
+            return None
+        partner = other.pop(key, None)
+        if partner is None:
+            mine[key] = sample
+            if len(mine) > self.max_pending:
+                del mine[min(mine)]
+                c["unpaired"] += 1
+            return None
+        # Samples older than a complete pair can no longer find their partner.
+        for dct in self._pending:
+            stale = [k for k in dct if k < key]
+            for k in stale:
+                del dct[k]
+            c["unpaired"] += len(stale)
+        return self._fuse(t, sample, partner) if unit == 0 else self._fuse(t, partner, sample)

@@ -308,12 +308,7 @@ class BagWriter:
         except OSError as exc:
             self._stop_on(exc)
         record.count += 1
-        if self._start_ns is None or log_time_ns < self._start_ns:
-            self._start_ns = log_time_ns
-        self._end_ns = max(self._end_ns, log_time_ns)
-        if log_time_ns - self._last_flush_ns >= self.chunk_duration_ns or \
-                time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
-            self.flush()
+        self._reach(log_time_ns, log_time_ns)
 
     def sequence(self, topic: str) -> int:
         """The sequence number the next message of ``topic`` gets (its count so far)."""
@@ -352,14 +347,18 @@ class BagWriter:
             for j, count in enumerate(counts):
                 if count:
                     records[j].count += count
-            lo, hi = int(log_times[i]), int(log_times[k])
-            if self._start_ns is None or lo < self._start_ns:
-                self._start_ns = lo
-            self._end_ns = max(self._end_ns, hi)
-            if hi - self._last_flush_ns >= self.chunk_duration_ns or \
-                    time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
-                self.flush()
+            self._reach(int(log_times[i]), int(log_times[k]))
             i = k + 1
+
+    def _reach(self, lo: int, hi: int) -> None:
+        """Messages logged from ``lo`` to ``hi`` [ns] are in: the bag's span grows to them, and
+        the chunk goes to disk once it spans ``chunk_duration_ns`` or waited ``wall_flush_s``."""
+        if self._start_ns is None or lo < self._start_ns:
+            self._start_ns = lo
+        self._end_ns = max(self._end_ns, hi)
+        if hi - self._last_flush_ns >= self.chunk_duration_ns or \
+                time.monotonic() - self._last_flush_wall >= self.wall_flush_s:
+            self.flush()
 
     def _segment_end(self, starts: np.ndarray, ends: np.ndarray, log_times: np.ndarray, i: int) -> int:
         """The last message from ``i`` on after which :meth:`write` would finish a chunk: the

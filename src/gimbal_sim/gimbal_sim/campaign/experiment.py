@@ -35,6 +35,13 @@ from .spec import CampaignError, CampaignPlan, CampaignSpec, PlannedRun, RunTask
 ExperimentRun = Callable[[str, int, dict[str, Any]], dict[str, Any]]
 
 
+def numbered_table(summarize: Callable[[dict[str, list[tuple[int, dict]]]], str]
+                   ) -> Callable[[dict[str, list[dict]]], str]:
+    """A campaign's table (what its report carries) from an experiment's ``summarize`` of each
+    variant's (run index, report metrics), the runs numbered in order."""
+    return lambda runs: summarize({v: list(enumerate(ms)) for v, ms in runs.items()})
+
+
 def duration_only(options: dict[str, Any]) -> tuple[float, tuple[tuple[str, Any], ...]]:
     """A :attr:`GraphEquivalent.translate` for runners whose only scenario-expressible option
     is the run's duration (``duration_s``)."""

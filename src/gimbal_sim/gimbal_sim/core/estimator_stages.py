@@ -16,6 +16,7 @@ from gimbal_estimators.rotation_alignment import RotationAlignmentParams, Rotati
 from gimbal_estimators.wire import alignment_messages, flexure_messages, free_gyro_fix_messages
 from gimbal_kinematics.maths.rotations import euler321_from_quat, euler321_to_quat
 from gimbal_kinematics.params.table import steps_per_sample
+from gimbal_kinematics.timing.sync import StampPairs
 
 from .core_stages import Bus, joint_sample
 
@@ -27,6 +28,7 @@ def flexure_estimator_stage(values: dict[str, Any], name: str = "flexure_estimat
     ``publish_period_s`` of stamps (0: each one)."""
     core = AttitudeMatchingKf(AttitudeMatchingParams.from_values(values)) if values["model"] == "original" \
         else FlexureKf(FlexureKfParams.from_values(values))
+    pairs = StampPairs.feeding(core)
     period_s = 1.0 / values["lgu_rate_hz"]
     publish_ns = int(round(values["publish_period_s"] * 1e9))
     last_bin: list[int | None] = [None]
@@ -36,9 +38,9 @@ def flexure_estimator_stage(values: dict[str, Any], name: str = "flexure_estimat
         if s is None:
             return
         t = bus.t
-        for feed, dalpha in ((core.on_lgu1, s.dalpha1), (core.on_lgu2, s.dalpha2)):
+        for unit, dalpha in enumerate((s.dalpha1, s.dalpha2)):
             # the message carries Δα/Δt (nodes.wire.sensor_messages); the node multiplies back by its Δt
-            est = feed(t, tuple(d / s.dt * period_s for d in dalpha), period_s)
+            est = pairs.add(unit, t, tuple(d / s.dt * period_s for d in dalpha), period_s)
             if est is None or bus.record is None:
                 continue
             if publish_ns > 0:

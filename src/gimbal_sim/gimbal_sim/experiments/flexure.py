@@ -29,6 +29,7 @@ import numpy as np
 from gimbal_estimators.flexure_attitude_matching import AttitudeMatchingKf, AttitudeMatchingParams
 from gimbal_estimators.flexure_estimator_params import METHODS
 from gimbal_estimators.flexure_kf import QS_MODELS, FlexureKf, FlexureKfParams
+from gimbal_kinematics.timing.sync import StampPairs
 
 from ..core.core_loop import run_stages
 from ..core.core_stages import Bus, suite_stage
@@ -200,6 +201,7 @@ def _filters_stage(suite: SensorSuite, filters: dict[str, FlexureKf], rows: dict
     # CPU time of this process, not wall time: on a shared machine other processes' turns
     # would count as filter time otherwise
     clock = time.process_time
+    feeds = {m: StampPairs.feeding(kf) for m, kf in filters.items()}
     orders = (tuple(filters.items()), tuple(reversed(filters.items())))
 
     def stage(bus: Bus) -> None:
@@ -210,8 +212,8 @@ def _filters_stage(suite: SensorSuite, filters: dict[str, FlexureKf], rows: dict
         truth_eps = None
         for m, kf in orders[pairs[0] % 2]:
             c0 = clock()
-            kf.on_lgu1(sample.t, sample.dalpha1, sample.dt)
-            est = kf.on_lgu2(sample.t, sample.dalpha2, sample.dt)
+            feeds[m].add(0, sample.t, sample.dalpha1, sample.dt)
+            est = feeds[m].add(1, sample.t, sample.dalpha2, sample.dt)
             filter_s[m] += clock() - c0
             if est is None:
                 continue

@@ -23,7 +23,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..campaign.spec import CampaignSpec
-from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
+from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, numbered_table, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 from .engine_runs import run_on_engine
 
@@ -75,12 +75,6 @@ def summarize(runs: dict[str, list[tuple[int, dict]]], settle_s: float = SETTLE_
     return "\n".join(lines)
 
 
-def campaign_table(runs: dict[str, list[dict]]) -> str:
-    """:func:`summarize` of a campaign's runs (each variant's report metrics, in order), the
-    table its campaign report carries."""
-    return summarize({v: list(enumerate(ms)) for v, ms in runs.items()})
-
-
 #: The Monte Carlo over seeds as campaigns: scenario ``sighting_land_vehicle``'s runs (``off``,
 #: ``feedback``) and ``sighting_los_hold``'s (``los_hold``, the same scenario with the outer
 #: loop), on either engine, each with its bag and ``sighting`` report.
@@ -88,7 +82,7 @@ CAMPAIGN = ExperimentCampaign(
     name="sighting_loop", variants=MODES[:2], defaults={"duration_s": 120.0, "correlated_ins": False}, run=None,
     graph=GraphEquivalent("sighting_land_vehicle", {"off": "ekf_off", "feedback": "ekf_on"},
                           ("duration_s", "correlated_ins"), scenario_values),
-    table=campaign_table)
+    table=numbered_table(summarize))
 LOS_HOLD_CAMPAIGN = ExperimentCampaign(
     name="sighting_loop_los_hold", variants=MODES[2:], defaults=dict(CAMPAIGN.defaults), run=None,
     graph=GraphEquivalent("sighting_los_hold", {"los_hold": None}, ("duration_s", "correlated_ins"), scenario_values))

@@ -28,7 +28,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
+from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, numbered_table, run_metrics
 from ..campaign.report import nees_verdict, stats
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 from ..campaign.spec import CampaignSpec
@@ -91,18 +91,12 @@ def summarize(runs: dict[str, list[tuple[int, dict]]]) -> str:
     return "\n".join(lines)
 
 
-def campaign_table(runs: dict[str, list[dict]]) -> str:
-    """:func:`summarize` of a campaign's runs (each variant's report metrics, in order), the
-    table its campaign report carries."""
-    return summarize({v: list(enumerate(ms)) for v, ms in runs.items()})
-
-
 #: A declaration: scenario ``sighting_slew``'s variants on the one engine (``engine: core``, each
 #: run's bag and ``slew`` report) or in the node graph (``engine: graph``).
 CAMPAIGN = ExperimentCampaign(name="slew", variants=MODES, defaults=dict(DEFAULTS), run=None,
                               graph=GraphEquivalent("sighting_slew", {m: m for m in MODES}, tuple(DEFAULTS),
                                                     scenario_values),
-                              table=campaign_table)
+                              table=numbered_table(summarize))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
