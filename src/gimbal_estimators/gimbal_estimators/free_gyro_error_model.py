@@ -70,6 +70,24 @@ A computed vector is then v̂ = v − (error angle) × v.
    the FDOP circle (after eq. 38) is 1 − e⁻¹: for a circular distribution FDOP σ = drms =
    √2 σ per axis (:func:`fdop_circle_probability`).
 
+The drifting free gyro and the rate sensors (paper 4's closing section, §2.3). The spin-axis
+error η's i-frame part ε is a sum of independent vectors ⊥ u, each isotropic in that plane, so
+its covariance is a scalar times (I − u uᵀ) (:func:`spin_axis_error_variance`):
+
+* uncaging error c, a random constant: σ_c²;
+* constant drift d: (σ_d t)²;
+* first-order Gauss–Markov drift rate (σ_m, τ), stationary from t = 0: the variance of its
+  integral, 2 σ_m² τ² (t/τ − 1 + e^{−t/τ}) (σ_m² t² for t ≪ τ, 2 σ_m² τ t for t ≫ τ);
+* the spin-axis rate sensors' integrated white noise N, a random walk: N² t per axis at one
+  read-out, and over a fix window of n read-outs Δt apart, the variance of the window mean,
+  N² (t_first + Δt (n − 1)(2n − 1)/(6n)) (≈ N² (t̄ − T/6)), since the fix uses the window mean.
+
+Eq. 19 carries each alike: a drift turns the true axis (the fix's nominal axis errs, eq. 30's
+δu), a read-out error turns the measured one (eq. 22–26's δθ); the two maps differ only in
+sign, and the covariance does not see the sign. The gimbal-lock suppression is not a random
+input: where it acts it precesses the axis away from the outer gimbal axis, a bias
+(:func:`suppression_spin_error_i`, from the ship's attitude history).
+
 Not modelled: the clock error δt of eq. 30; the velocity/position feedback δω_in^n of
 eq. 20 (kept as an input of the dynamics, zero in the fix map); white levelling noise; the
 attitude's variation within a window (the map is taken at the window-mean attitude, and
@@ -248,6 +266,44 @@ def spin_drift_error_cov_i(u_i: Vector3, sigma_drift_rad_s: float, elapsed_s: fl
     return s * s * (np.eye(3) - np.outer(u, u))
 
 
+def gauss_markov_integral_variance(sigma: float, tau_s: float, t: float) -> float:
+    """Variance [rad²] of ∫₀ᵗ x dt of a stationary first-order Gauss–Markov rate x with σ
+    ``sigma`` [rad/s] and correlation time ``tau_s`` [s]: 2 σ² τ² (t/τ − 1 + e^{−t/τ})."""
+    s, tau, t = nonneg_finite("sigma", sigma), positive("tau_s", tau_s), nonneg_finite("t", t)
+    r = t / tau
+    # t/τ − 1 + e^{−t/τ}, series for small t/τ (cancellation)
+    g = r * r / 2.0 - r ** 3 / 6.0 + r ** 4 / 24.0 if r < 1e-3 else r - 1.0 + math.exp(-r)
+    return 2.0 * s * s * tau * tau * g
+
+
+def random_walk_window_time(t_first: float, samples: int, interval_s: float) -> float:
+    """The random walk's effective time [s] of the mean of ``samples`` read-outs
+    ``interval_s`` apart from ``t_first`` [s] (its variance over N²): t_first + Δt (n − 1)(2n − 1)/(6n),
+    from Σᵢⱼ min(tᵢ, tⱼ)/n²."""
+    n = int(samples)
+    if n < 1:
+        raise ValueError(f"samples must be >= 1, got {samples!r}")
+    return nonneg_finite("t_first", t_first) + nonneg_finite("interval_s", interval_s) * (n - 1) * (2 * n - 1) / (6 * n)
+
+
+def suppression_spin_error_i(u_i: Vector3, C_bi_history: np.ndarray, dt: float, guard_deg: float,
+                             rate_rad_s: float) -> np.ndarray:
+    """The gimbal-lock suppression's spin-axis error ε (3,) [rad] in i accumulated over the
+    attitudes ``C_bi_history`` (m, 3, 3) (i to b, ``dt`` [s] apart): where the nominal axis is
+    within ``guard_deg`` of the outer gimbal axis ±z_b, it is precessed away at
+    ``rate_rad_s``, ε = rate Σ (±z × u)/|±z × u| dt (first order: the nominal axis)."""
+    u = np.array(unit_vector(u_i, "u_i"))
+    C = np.asarray(C_bi_history, dtype=float)
+    z = C[:, 2, :]                      # z_b in i, per sample
+    c = z @ u
+    active = np.abs(c) >= math.cos(math.radians(guard_deg)) if guard_deg > 0.0 else np.zeros(len(c), bool)
+    a = np.sign(c)[:, None] * z
+    n = np.cross(a, u)
+    nn = np.linalg.norm(n, axis=1)
+    ok = active & (nn > 1e-12)
+    return nonneg_finite("rate_rad_s", rate_rad_s) * dt * np.sum(n[ok] / nn[ok, None], axis=0)
+
+
 # --- 2. nadir, azimuth and heading chain (eq. 22–29) --------------------------------------------
 def nadir_azimuth_sensitivity(theta: float, azimuth: float) -> np.ndarray:
     """(2, 3) map of an error angle η (paper sign: v̂ = v − η × v; frame with third axis
@@ -292,7 +348,11 @@ class ErrorSources:
     ``level_error_arcsec`` of the vertical reference's roll and pitch errors [″];
     ``spin_drift_deg_h`` per axis ⊥ u of each spin axis's drift [°/h] (as the sensor's
     ``spin_drift_sigma_deg_h``). White: ``pickoff_noise_arcsec`` per axis per read-out [″];
-    ``triad_arw_deg_rt_h`` the triad's angle random walk [°/√h].
+    ``triad_arw_deg_rt_h`` the triad's angle random walk [°/√h]. The drifting free gyro:
+    ``caging_arcsec`` per axis ⊥ u of the uncaging error [″] (random constant),
+    ``gm_drift_deg_h`` and ``gm_drift_tau_s`` the Gauss–Markov drift's σ [°/h] and correlation
+    time [s], ``spin_rate_arw_deg_rt_h`` the spin-axis rate sensors' angle random walk [°/√h]
+    (their outputs integrated since the axes were set).
     """
 
     triad_bias_deg_h: float = 0.0
@@ -300,11 +360,26 @@ class ErrorSources:
     spin_drift_deg_h: float = 0.0
     pickoff_noise_arcsec: float = 0.0
     triad_arw_deg_rt_h: float = 0.0
+    caging_arcsec: float = 0.0
+    gm_drift_deg_h: float = 0.0
+    gm_drift_tau_s: float = 300.0
+    spin_rate_arw_deg_rt_h: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("triad_bias_deg_h", "level_error_arcsec", "spin_drift_deg_h", "pickoff_noise_arcsec",
-                     "triad_arw_deg_rt_h"):
+                     "triad_arw_deg_rt_h", "caging_arcsec", "gm_drift_deg_h", "spin_rate_arw_deg_rt_h"):
             nonneg_finite(name, getattr(self, name))
+        positive("gm_drift_tau_s", self.gm_drift_tau_s)
+
+    def spin_axis_error_variance(self, elapsed_s: float, rate_walk_s: float | None = None) -> float:
+        """Variance [rad²] per axis ⊥ u of a spin axis's error ``elapsed_s`` after it was set
+        (module doc): uncaging + constant drift + Gauss–Markov drift + the integrated rate
+        sensors' random walk over ``rate_walk_s`` (default ``elapsed_s``)."""
+        t = nonneg_finite("elapsed_s", elapsed_s)
+        tw = t if rate_walk_s is None else nonneg_finite("rate_walk_s", rate_walk_s)
+        return ((self.caging_arcsec * ARCSEC) ** 2 + (self.spin_drift_deg_h * DEG_H * t) ** 2
+                + gauss_markov_integral_variance(self.gm_drift_deg_h * DEG_H, self.gm_drift_tau_s, t)
+                + (self.spin_rate_arw_deg_rt_h * DEG_RT_H) ** 2 * tw)
 
 
 class ErrorPrediction(NamedTuple):
@@ -370,7 +445,9 @@ class FixErrorModel:
     ship attitude ``roll``, ``pitch``, ``heading`` [rad] (the window means; the ship at
     rest), ``drift_elapsed_s`` since the spin axes were set (ε = d · that),
     ``samples_per_fix`` read-outs averaged, and the earth-rate heading's window
-    ``heading_window_s`` [s] and the ship's mean ``yaw_rate_rad_s`` over it.
+    ``heading_window_s`` [s] and the ship's mean ``yaw_rate_rad_s`` over it. With
+    ``sample_interval_s`` [s] (the read-outs' spacing) the rate sensors' random walk is taken
+    over the window mean (:func:`random_walk_window_time`); 0 takes it at the fix time.
 
     ``H`` (6, 11) maps the random constants :data:`INPUTS` (δroll, δpitch [rad]; ε_a, ε_b
     [rad] in i; δω_ib^b [rad/s]) to :data:`OUTPUTS`; ``H_white`` (6, 4) maps one fix's
@@ -380,8 +457,9 @@ class FixErrorModel:
     def __init__(self, u_a_i: Vector3, u_b_i: Vector3, lat: float, lon: float, t: float, *,
                  roll: float = 0.0, pitch: float = 0.0, heading: float = 0.0, drift_elapsed_s: float = 0.0,
                  samples_per_fix: int = 1, heading_window_s: float = 60.0, yaw_rate_rad_s: float = 0.0,
-                 height_m: float = 0.0, omega_ie: float = OMEGA_IE) -> None:
+                 height_m: float = 0.0, omega_ie: float = OMEGA_IE, sample_interval_s: float = 0.0) -> None:
         self.u = (np.array(unit_vector(u_a_i, "u_a_i")), np.array(unit_vector(u_b_i, "u_b_i")))
+        self.sample_interval_s = nonneg_finite("sample_interval_s", sample_interval_s)
         self.lat, self.lon, self.t = finite("lat", lat), finite("lon", lon), finite("t", t)
         self.roll, self.pitch, self.heading = finite("roll", roll), finite("pitch", pitch), finite("heading", heading)
         self.drift_elapsed_s = nonneg_finite("drift_elapsed_s", drift_elapsed_s)
@@ -443,9 +521,12 @@ class FixErrorModel:
         """(11, 11) [rad², rad²/s²] covariance of :data:`INPUTS` for ``sources``."""
         P = np.zeros((N_INPUTS, N_INPUTS))
         P[IN_LEVEL, IN_LEVEL] = (sources.level_error_arcsec * ARCSEC) ** 2 * np.eye(2)
-        sd = sources.spin_drift_deg_h * DEG_H
-        P[IN_SPIN_A, IN_SPIN_A] = spin_drift_error_cov_i(self.u[0], sd, self.drift_elapsed_s)
-        P[IN_SPIN_B, IN_SPIN_B] = spin_drift_error_cov_i(self.u[1], sd, self.drift_elapsed_s)
+        t = self.drift_elapsed_s
+        half = 0.5 * self.sample_interval_s * (self.samples_per_fix - 1)
+        tw = random_walk_window_time(max(t - half, 0.0), self.samples_per_fix, self.sample_interval_s)
+        var = sources.spin_axis_error_variance(t, tw)
+        for spin, u in ((IN_SPIN_A, self.u[0]), (IN_SPIN_B, self.u[1])):
+            P[spin, spin] = spin_drift_error_cov_i(u, 1.0, 1.0) * var
         P[IN_TRIAD_BIAS, IN_TRIAD_BIAS] = (sources.triad_bias_deg_h * DEG_H) ** 2 * np.eye(3)
         return P
 
