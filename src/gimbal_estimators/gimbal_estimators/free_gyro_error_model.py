@@ -114,6 +114,9 @@ from gimbal_kinematics.maths.validate import finite, nonneg_finite, of_type, pos
 
 from gimbal_kinematics.maths.kalman import check_state, predict, symmetrize
 
+from .free_gyro_drift import (  # noqa: F401  (the drift model's pieces, re-exported)
+    gauss_markov_integral_variance, random_walk_window_time, suppression_spin_error_i, suppression_spin_rates_i)
+
 
 #: Names of the outputs of :class:`FixErrorModel`, in order.
 OUTPUTS = ("nadir_a", "nadir_b", "north_m", "east_m", "heading", "heading_earth_rate")
@@ -264,44 +267,6 @@ def spin_drift_error_cov_i(u_i: Vector3, sigma_drift_rad_s: float, elapsed_s: fl
     u = np.array(unit_vector(u_i, "u_i"))
     s = nonneg_finite("sigma_drift_rad_s", sigma_drift_rad_s) * finite("elapsed_s", elapsed_s)
     return s * s * (np.eye(3) - np.outer(u, u))
-
-
-def gauss_markov_integral_variance(sigma: float, tau_s: float, t: float) -> float:
-    """Variance [rad²] of ∫₀ᵗ x dt of a stationary first-order Gauss–Markov rate x with σ
-    ``sigma`` [rad/s] and correlation time ``tau_s`` [s]: 2 σ² τ² (t/τ − 1 + e^{−t/τ})."""
-    s, tau, t = nonneg_finite("sigma", sigma), positive("tau_s", tau_s), nonneg_finite("t", t)
-    r = t / tau
-    # t/τ − 1 + e^{−t/τ}, series for small t/τ (cancellation)
-    g = r * r / 2.0 - r ** 3 / 6.0 + r ** 4 / 24.0 if r < 1e-3 else r - 1.0 + math.exp(-r)
-    return 2.0 * s * s * tau * tau * g
-
-
-def random_walk_window_time(t_first: float, samples: int, interval_s: float) -> float:
-    """The random walk's effective time [s] of the mean of ``samples`` read-outs
-    ``interval_s`` apart from ``t_first`` [s] (its variance over N²): t_first + Δt (n − 1)(2n − 1)/(6n),
-    from Σᵢⱼ min(tᵢ, tⱼ)/n²."""
-    n = int(samples)
-    if n < 1:
-        raise ValueError(f"samples must be >= 1, got {samples!r}")
-    return nonneg_finite("t_first", t_first) + nonneg_finite("interval_s", interval_s) * (n - 1) * (2 * n - 1) / (6 * n)
-
-
-def suppression_spin_error_i(u_i: Vector3, C_bi_history: np.ndarray, dt: float, guard_deg: float,
-                             rate_rad_s: float) -> np.ndarray:
-    """The gimbal-lock suppression's spin-axis error ε (3,) [rad] in i accumulated over the
-    attitudes ``C_bi_history`` (m, 3, 3) (i to b, ``dt`` [s] apart): where the nominal axis is
-    within ``guard_deg`` of the outer gimbal axis ±z_b, it is precessed away at
-    ``rate_rad_s``, ε = rate Σ (±z × u)/|±z × u| dt (first order: the nominal axis)."""
-    u = np.array(unit_vector(u_i, "u_i"))
-    C = np.asarray(C_bi_history, dtype=float)
-    z = C[:, 2, :]                      # z_b in i, per sample
-    c = z @ u
-    active = np.abs(c) >= math.cos(math.radians(guard_deg)) if guard_deg > 0.0 else np.zeros(len(c), bool)
-    a = np.sign(c)[:, None] * z
-    n = np.cross(a, u)
-    nn = np.linalg.norm(n, axis=1)
-    ok = active & (nn > 1e-12)
-    return nonneg_finite("rate_rad_s", rate_rad_s) * dt * np.sum(n[ok] / nn[ok, None], axis=0)
 
 
 # --- 2. nadir, azimuth and heading chain (eq. 22–29) --------------------------------------------

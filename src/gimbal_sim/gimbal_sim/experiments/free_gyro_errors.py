@@ -28,7 +28,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from gimbal_estimators.free_gyro_error_model import (
-    IN_SPIN_A, IN_SPIN_B, ErrorSources, FixErrorModel, circle_probability, suppression_spin_error_i)
+    IN_SPIN_A, IN_SPIN_B, ErrorSources, FixErrorModel, circle_probability, suppression_spin_rates_i)
 from gimbal_estimators.free_gyro_positioning import FreeGyroPositioningParams
 from gimbal_kinematics.maths.free_gyro import dcm_ni, nadir_angle
 from gimbal_kinematics.maths.rotations import euler321_to_dcm
@@ -139,7 +139,7 @@ def fix_model(truth: Sequence, fix, u_a, u_b, lat: float, lon: float, heading_wi
 def suppression_bias(truth: Sequence, fix, model: FixErrorModel, u_a, u_b, guard_deg: float,
                      rate_deg_h: float) -> np.ndarray:
     """The model's bias (6,) of :data:`OUTPUTS` at ``fix`` from the gimbal-lock suppression: each
-    nominal axis's precession (:func:`suppression_spin_error_i`) accumulated over the truth's
+    nominal axis's precession (:func:`suppression_spin_rates_i`) accumulated over the truth's
     attitude history up to each read-out of the fix window, averaged over the window, through
     the fix map's spin columns (a suppression moves the true axis as a drift does)."""
     if guard_deg <= 0.0 or rate_deg_h <= 0.0:
@@ -149,11 +149,8 @@ def suppression_bias(truth: Sequence, fix, model: FixErrorModel, u_a, u_b, guard
         lat, lon = model.lat, model.lon
         C = np.array([euler321_to_dcm(*tr.euler).T @ dcm_ni(lat, lon, tr.t) for tr in truth])
         dt = truth[1].t - truth[0].t
-        cum = []
-        for u in (u_a, u_b):
-            steps = np.array([suppression_spin_error_i(u, C[k:k + 1], dt, guard_deg, rate_deg_h * DEG_H)
-                              for k in range(len(C))])
-            cum.append(np.cumsum(steps, axis=0))
+        cum = [np.cumsum(suppression_spin_rates_i(u, C, guard_deg, rate_deg_h * DEG_H) * dt, axis=0)
+               for u in (u_a, u_b)]
         _CACHE[key] = (np.array([tr.t for tr in truth]), cum)
     times, cum = _CACHE[key]
     dt = times[1] - times[0]
