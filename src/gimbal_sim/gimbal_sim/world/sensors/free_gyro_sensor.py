@@ -251,6 +251,12 @@ class FreeGyroSensor:
         return self._cage[0].copy(), self._cage[1].copy()
 
     @property
+    def gm_drift_rates(self) -> tuple[np.ndarray, np.ndarray]:
+        """The Gauss–Markov drift rates (2,) [rad/s] of each gyro at the last read-out, in
+        its fixed basis ⊥ the set axis."""
+        return self._gm_x[0].copy(), self._gm_x[1].copy()
+
+    @property
     def rate_sensor_error_i(self) -> tuple[np.ndarray, np.ndarray]:
         """The integrated rate sensors' error angles (3,) [rad] in i at the last read-out."""
         return self._rw[0].copy(), self._rw[1].copy()
@@ -273,8 +279,8 @@ class FreeGyroSensor:
     def _step_axes(self, t: float, C_bi: np.ndarray) -> None:
         """Turn the stepped axes from the last read-out to ``t`` by the step's mean rate:
         constant drift + the Gauss–Markov rate (trapezoid of its two samples) + the
-        suppression's precession where the axis (at the step's start) is within the guard of
-        the outer gimbal axis (``C_bi`` maps i to b at t)."""
+        suppression's precession where the axis at the step's start, seen in the case at t
+        (``C_bi`` maps i to b at t), is within the guard of the outer gimbal axis."""
         h = t - self._t_axes
         self._t_axes = t
         if h <= 0.0:
