@@ -587,6 +587,9 @@ def fix_predictor(values: dict, params) -> FixPredictor | None:
     if not values["predict_error"]:
         return None
     sources = ErrorSources(values["error_triad_bias_deg_h"], values["error_level_arcsec"],
-                           values["error_spin_drift_deg_h"], params.nadir_noise_arcsec, params.triad_arw_deg_rt_h)
+                           values["error_spin_drift_deg_h"], params.nadir_noise_arcsec, params.triad_arw_deg_rt_h,
+                           caging_arcsec=values["error_caging_arcsec"], gm_drift_deg_h=values["error_gm_drift_deg_h"],
+                           gm_drift_tau_s=values["error_gm_drift_tau_s"],
+                           spin_rate_arw_deg_rt_h=params.spin_rate_arw_deg_rt_h)
     return FixPredictor(params.u_a_i, params.u_b_i, sources, t_set=values["spin_reference_time_s"],
                         heading_window_s=params.heading_window_s, height_m=params.height_m)

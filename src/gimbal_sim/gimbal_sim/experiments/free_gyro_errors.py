@@ -277,7 +277,8 @@ def main(argv: Sequence[str] | None = None) -> None:
                                              "positioning cores against the linear error model, per error source, "
                                              "all together and sailing; the FDOP circle. Core engine only.")
     ap.add_argument("--seeds", type=int, default=200, help="seeded runs per variant (one scored fix each)")
-    ap.add_argument("--variants", help=f"comma-separated, of {', '.join(VARIANTS)} (default all)")
+    ap.add_argument("--variants", help=f"comma-separated, of {', '.join(VARIANTS)} (default all); 'drift': "
+                                       f"the drifting free gyro's, {', '.join(DRIFT_VARIANTS)}")
     ap.add_argument("--speed-m-s", type=float, default=DEFAULTS["speed_m_s"], help="sailing variant's speed [m/s]")
     ap.add_argument("--course-deg", type=float, default=DEFAULTS["course_deg"], help="its course [deg]")
     ap.add_argument("--plots", metavar="DIR", help="write the ratio and FDOP-circle plots here")
@@ -288,7 +289,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     if not (0.0 <= a.speed_m_s < math.inf and math.isfinite(a.course_deg)):
         ap.error("--speed-m-s must be finite and >= 0, --course-deg finite")
     options = {**DEFAULTS, "speed_m_s": a.speed_m_s, "course_deg": a.course_deg}
-    variants = tuple(a.variants.split(",")) if a.variants else ()
+    variants = (DRIFT_VARIANTS if a.variants == "drift" else tuple(a.variants.split(","))) if a.variants else ()
     spec = CampaignSpec(scenario="", experiment=CAMPAIGN.name, seeds=tuple(range(1, a.seeds + 1)), engine="core",
                         variants=variants, options=tuple(options.items()))
     with campaign_dir(a.out) as out:
