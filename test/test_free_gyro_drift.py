@@ -47,7 +47,7 @@ def test_gauss_markov_drift_matches_closed_forms():
         if t in (10, 10 + lag):
             x_at[t] = np.array([np.concatenate(s.gm_drift_rates) for s in sensors]).ravel()
         if t in (5, 20, 45):
-            axes0 = [s._u_rel for s in sensors]
+            axes0 = [s.released_axes_i for s in sensors]
             ang2[t] = np.array([_angle(a, b) ** 2 for s, u0 in zip(sensors, axes0)
                                 for a, b in zip(s.spin_axes_i(t), u0)])
     sigma = sigma_deg_h * DEG_H
@@ -155,3 +155,23 @@ def test_fdop_circle_headline(runs):
           f"(99.9 % range {lo / len(last):.3f}-{hi / len(last):.3f}); paper 1 − e⁻¹ = {1 - math.exp(-1):.3f}")
     assert abs(p - (1.0 - math.exp(-1.0))) < 0.01
     assert lo <= inside <= hi
+
+
+def test_positioning_core_claims_the_rate_sensors_walk_from_its_own_figure():
+    """The core's fix σ with its own ``spin_rate_arw_deg_rt_h``: the pickoff σ²/n plus the
+    window mean's random walk N² Σᵢⱼ min(tᵢ, tⱼ)/n² (brute force here), independent of the
+    sensor's figure (set to another value: the core is told 0.008 °/√h, the sensor has 0.01)."""
+    from gimbal_estimators.free_gyro_positioning import FreeGyroPositioningParams
+    from gimbal_kinematics.maths.units import ARCSEC
+    from gimbal_sim.experiments.free_gyro import run_free_gyro_experiment, simulate_truth
+    truth = simulate_truth("paper5_ship", 35.0, 129.0, 30.1, 10.0)
+    sp = FreeGyroSensorParams(U_A, U_B, pickoff_noise_arcsec=5.0, spin_rate_arw_deg_rt_h=0.01)
+    cp = FreeGyroPositioningParams(U_A, U_B, nadir_noise_arcsec=5.0, spin_rate_arw_deg_rt_h=0.008)
+    run = run_free_gyro_experiment(3, truth, 35.0, 129.0, sp, cp)
+    assert len(run.fixes) >= 2
+    for fix in run.fixes:
+        t = fix.t + 0.1 * (np.arange(fix.n_samples) - 0.5 * (fix.n_samples - 1))
+        walk = float(np.mean(np.minimum.outer(t, t)))
+        want = (5.0 * ARCSEC) ** 2 / fix.n_samples + (0.008 * DEG_RT_H) ** 2 * walk
+        print(f"fix at {fix.t:.2f} s: σ_θ {fix.nadir_sigma / ARCSEC:.4f}″ vs {math.sqrt(want) / ARCSEC:.4f}″")
+        assert fix.nadir_sigma ** 2 == pytest.approx(want, rel=1e-3)

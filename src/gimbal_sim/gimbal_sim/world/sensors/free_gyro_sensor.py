@@ -251,6 +251,11 @@ class FreeGyroSensor:
         return self._cage[0].copy(), self._cage[1].copy()
 
     @property
+    def released_axes_i(self) -> tuple[np.ndarray, np.ndarray]:
+        """The spin axes (3,) at release (t = 0): the set axes turned by the uncaging error."""
+        return self._u_rel[0].copy(), self._u_rel[1].copy()
+
+    @property
     def gm_drift_rates(self) -> tuple[np.ndarray, np.ndarray]:
         """The Gauss–Markov drift rates (2,) [rad/s] of each gyro at the last read-out, in
         its fixed basis ⊥ the set axis."""
