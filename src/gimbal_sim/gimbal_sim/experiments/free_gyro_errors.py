@@ -8,7 +8,12 @@ together, plus the FDOP circle and a sailing ship::
 Variants (:data:`VARIANTS`): ``pickoff`` (the scenario's sensor: 5″ pickoff noise and the
 0.002 °/√h triad, no other source), ``triad_bias``, ``levelling``, ``spin_drift`` (that
 source on top of ``pickoff``), ``all`` (every source) and ``sailing`` (``pickoff`` on a ship
-sailing ``course_deg`` at ``speed_m_s``, the core given its velocity). Each run draws its
+sailing ``course_deg`` at ``speed_m_s``, the core given its velocity). The drifting free
+gyro (``--variants drift``, :data:`DRIFT_VARIANTS`): ``caging``, ``gm_drift``,
+``rate_sensors`` (the spin-axis rate sensors' integrated random walk) and ``suppression`` (the
+gimbal-lock suppression with a guard gyro b enters: a bias, scored as the mean against the
+model's bias, :func:`suppression_bias`), each on top of ``pickoff``, and ``drifting`` with
+every source. Each run draws its
 random constants from its seed (the triad bias and the spin drift in the sensor, the
 levelling error here) and runs ``heading_window_s + fix_interval_s``: its last fix carries
 the first earth-rate heading, so every run gives one independent sample of all six outputs
