@@ -70,6 +70,24 @@ A computed vector is then v̂ = v − (error angle) × v.
    the FDOP circle (after eq. 38) is 1 − e⁻¹: for a circular distribution FDOP σ = drms =
    √2 σ per axis (:func:`fdop_circle_probability`).
 
+The drifting free gyro and the rate sensors (paper 4's closing section, §2.3). The spin-axis
+error η's i-frame part ε is a sum of independent vectors ⊥ u, each isotropic in that plane, so
+its covariance is a scalar times (I − u uᵀ) (:func:`spin_axis_error_variance`):
+
+* uncaging error c, a random constant: σ_c²;
+* constant drift d: (σ_d t)²;
+* first-order Gauss–Markov drift rate (σ_m, τ), stationary from t = 0: the variance of its
+  integral, 2 σ_m² τ² (t/τ − 1 + e^{−t/τ}) (σ_m² t² for t ≪ τ, 2 σ_m² τ t for t ≫ τ);
+* the spin-axis rate sensors' integrated white noise N, a random walk: N² t per axis at one
+  read-out, and over a fix window of n read-outs Δt apart, the variance of the window mean,
+  N² (t_first + Δt (n − 1)(2n − 1)/(6n)) (≈ N² (t̄ − T/6)), since the fix uses the window mean.
+
+Eq. 19 carries each alike: a drift turns the true axis (the fix's nominal axis errs, eq. 30's
+δu), a read-out error turns the measured one (eq. 22–26's δθ); the two maps differ only in
+sign, and the covariance does not see the sign. The gimbal-lock suppression is not a random
+input: where it acts it precesses the axis away from the outer gimbal axis, a bias
+(:func:`suppression_spin_error_i`, from the ship's attitude history).
+
 Not modelled: the clock error δt of eq. 30; the velocity/position feedback δω_in^n of
 eq. 20 (kept as an input of the dynamics, zero in the fix map); white levelling noise; the
 attitude's variation within a window (the map is taken at the window-mean attitude, and
@@ -95,6 +113,9 @@ from gimbal_kinematics.maths.units import ARCSEC, DEG_H, DEG_RT_H
 from gimbal_kinematics.maths.validate import finite, nonneg_finite, of_type, positive
 
 from gimbal_kinematics.maths.kalman import check_state, predict, symmetrize
+
+from .free_gyro_drift import (  # noqa: F401  (the drift model's pieces, re-exported)
+    gauss_markov_integral_variance, random_walk_window_time, suppression_spin_error_i, suppression_spin_rates_i)
 
 
 #: Names of the outputs of :class:`FixErrorModel`, in order.
@@ -292,7 +313,11 @@ class ErrorSources:
     ``level_error_arcsec`` of the vertical reference's roll and pitch errors [″];
     ``spin_drift_deg_h`` per axis ⊥ u of each spin axis's drift [°/h] (as the sensor's
     ``spin_drift_sigma_deg_h``). White: ``pickoff_noise_arcsec`` per axis per read-out [″];
-    ``triad_arw_deg_rt_h`` the triad's angle random walk [°/√h].
+    ``triad_arw_deg_rt_h`` the triad's angle random walk [°/√h]. The drifting free gyro:
+    ``caging_arcsec`` per axis ⊥ u of the uncaging error [″] (random constant),
+    ``gm_drift_deg_h`` and ``gm_drift_tau_s`` the Gauss–Markov drift's σ [°/h] and correlation
+    time [s], ``spin_rate_arw_deg_rt_h`` the spin-axis rate sensors' angle random walk [°/√h]
+    (their outputs integrated since the axes were set).
     """
 
     triad_bias_deg_h: float = 0.0
@@ -300,11 +325,26 @@ class ErrorSources:
     spin_drift_deg_h: float = 0.0
     pickoff_noise_arcsec: float = 0.0
     triad_arw_deg_rt_h: float = 0.0
+    caging_arcsec: float = 0.0
+    gm_drift_deg_h: float = 0.0
+    gm_drift_tau_s: float = 300.0
+    spin_rate_arw_deg_rt_h: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("triad_bias_deg_h", "level_error_arcsec", "spin_drift_deg_h", "pickoff_noise_arcsec",
-                     "triad_arw_deg_rt_h"):
+                     "triad_arw_deg_rt_h", "caging_arcsec", "gm_drift_deg_h", "spin_rate_arw_deg_rt_h"):
             nonneg_finite(name, getattr(self, name))
+        positive("gm_drift_tau_s", self.gm_drift_tau_s)
+
+    def spin_axis_error_variance(self, elapsed_s: float, rate_walk_s: float | None = None) -> float:
+        """Variance [rad²] per axis ⊥ u of a spin axis's error ``elapsed_s`` after it was set
+        (module doc): uncaging + constant drift + Gauss–Markov drift + the integrated rate
+        sensors' random walk over ``rate_walk_s`` (default ``elapsed_s``)."""
+        t = nonneg_finite("elapsed_s", elapsed_s)
+        tw = t if rate_walk_s is None else nonneg_finite("rate_walk_s", rate_walk_s)
+        return ((self.caging_arcsec * ARCSEC) ** 2 + (self.spin_drift_deg_h * DEG_H * t) ** 2
+                + gauss_markov_integral_variance(self.gm_drift_deg_h * DEG_H, self.gm_drift_tau_s, t)
+                + (self.spin_rate_arw_deg_rt_h * DEG_RT_H) ** 2 * tw)
 
 
 class ErrorPrediction(NamedTuple):
@@ -370,7 +410,9 @@ class FixErrorModel:
     ship attitude ``roll``, ``pitch``, ``heading`` [rad] (the window means; the ship at
     rest), ``drift_elapsed_s`` since the spin axes were set (ε = d · that),
     ``samples_per_fix`` read-outs averaged, and the earth-rate heading's window
-    ``heading_window_s`` [s] and the ship's mean ``yaw_rate_rad_s`` over it.
+    ``heading_window_s`` [s] and the ship's mean ``yaw_rate_rad_s`` over it. With
+    ``sample_interval_s`` [s] (the read-outs' spacing) the rate sensors' random walk is taken
+    over the window mean (:func:`random_walk_window_time`); 0 takes it at the fix time.
 
     ``H`` (6, 11) maps the random constants :data:`INPUTS` (δroll, δpitch [rad]; ε_a, ε_b
     [rad] in i; δω_ib^b [rad/s]) to :data:`OUTPUTS`; ``H_white`` (6, 4) maps one fix's
@@ -380,8 +422,9 @@ class FixErrorModel:
     def __init__(self, u_a_i: Vector3, u_b_i: Vector3, lat: float, lon: float, t: float, *,
                  roll: float = 0.0, pitch: float = 0.0, heading: float = 0.0, drift_elapsed_s: float = 0.0,
                  samples_per_fix: int = 1, heading_window_s: float = 60.0, yaw_rate_rad_s: float = 0.0,
-                 height_m: float = 0.0, omega_ie: float = OMEGA_IE) -> None:
+                 height_m: float = 0.0, omega_ie: float = OMEGA_IE, sample_interval_s: float = 0.0) -> None:
         self.u = (np.array(unit_vector(u_a_i, "u_a_i")), np.array(unit_vector(u_b_i, "u_b_i")))
+        self.sample_interval_s = nonneg_finite("sample_interval_s", sample_interval_s)
         self.lat, self.lon, self.t = finite("lat", lat), finite("lon", lon), finite("t", t)
         self.roll, self.pitch, self.heading = finite("roll", roll), finite("pitch", pitch), finite("heading", heading)
         self.drift_elapsed_s = nonneg_finite("drift_elapsed_s", drift_elapsed_s)
@@ -443,9 +486,12 @@ class FixErrorModel:
         """(11, 11) [rad², rad²/s²] covariance of :data:`INPUTS` for ``sources``."""
         P = np.zeros((N_INPUTS, N_INPUTS))
         P[IN_LEVEL, IN_LEVEL] = (sources.level_error_arcsec * ARCSEC) ** 2 * np.eye(2)
-        sd = sources.spin_drift_deg_h * DEG_H
-        P[IN_SPIN_A, IN_SPIN_A] = spin_drift_error_cov_i(self.u[0], sd, self.drift_elapsed_s)
-        P[IN_SPIN_B, IN_SPIN_B] = spin_drift_error_cov_i(self.u[1], sd, self.drift_elapsed_s)
+        t = self.drift_elapsed_s
+        half = 0.5 * self.sample_interval_s * (self.samples_per_fix - 1)
+        tw = random_walk_window_time(max(t - half, 0.0), self.samples_per_fix, self.sample_interval_s)
+        var = sources.spin_axis_error_variance(t, tw)
+        for spin, u in ((IN_SPIN_A, self.u[0]), (IN_SPIN_B, self.u[1])):
+            P[spin, spin] = spin_drift_error_cov_i(u, 1.0, 1.0) * var
         P[IN_TRIAD_BIAS, IN_TRIAD_BIAS] = (sources.triad_bias_deg_h * DEG_H) ** 2 * np.eye(3)
         return P
 
@@ -541,6 +587,9 @@ def fix_predictor(values: dict, params) -> FixPredictor | None:
     if not values["predict_error"]:
         return None
     sources = ErrorSources(values["error_triad_bias_deg_h"], values["error_level_arcsec"],
-                           values["error_spin_drift_deg_h"], params.nadir_noise_arcsec, params.triad_arw_deg_rt_h)
+                           values["error_spin_drift_deg_h"], params.nadir_noise_arcsec, params.triad_arw_deg_rt_h,
+                           caging_arcsec=values["error_caging_arcsec"], gm_drift_deg_h=values["error_gm_drift_deg_h"],
+                           gm_drift_tau_s=values["error_gm_drift_tau_s"],
+                           spin_rate_arw_deg_rt_h=params.spin_rate_arw_deg_rt_h)
     return FixPredictor(params.u_a_i, params.u_b_i, sources, t_set=values["spin_reference_time_s"],
                         heading_window_s=params.heading_window_s, height_m=params.height_m)

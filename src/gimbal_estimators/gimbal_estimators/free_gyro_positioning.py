@@ -72,7 +72,7 @@ from gimbal_kinematics.maths.free_gyro import (
     unit_vector,
 )
 from gimbal_kinematics.maths.units import ARCSEC, DEG_RT_H
-from gimbal_kinematics.maths.validate import finite, of_type, positive
+from gimbal_kinematics.maths.validate import finite, nonneg_finite, of_type, positive
 from gimbal_kinematics.params.table import ParameterError
 
 _NAN = float("nan")
@@ -91,6 +91,9 @@ class FreeGyroPositioningParams:
         min_samples: fewest read-outs in a window for a fix (≥ 3: a line and its residual).
         heading_window_s: earth-rate heading averaging window [s].
         triad_arw_deg_rt_h: triad angle random walk [°/√h], for the earth-rate heading σ.
+        spin_rate_arw_deg_rt_h: angle random walk [°/√h] of the spin-axis rate sensors, whose
+            integrated outputs the read-outs are, integrated since ``spin_reference_time_s`` [s]:
+            the fix σ adds the window mean's random walk, N² (t̄ − t_ref − T/6) (0: pickoffs).
         max_fdop: FDOP above which the geometry is reported degenerate and no fix is given.
         min_sin_gyro_separation, min_sin_crossing_angle: ``FixTolerances`` of the fix.
         height_m: height used for the metric covariance [m].
@@ -104,6 +107,8 @@ class FreeGyroPositioningParams:
     min_samples: int = 5
     heading_window_s: float = 60.0
     triad_arw_deg_rt_h: float = 0.002
+    spin_rate_arw_deg_rt_h: float = 0.0
+    spin_reference_time_s: float = 0.0
     max_fdop: float = 20.0
     min_sin_gyro_separation: float = 1e-6
     min_sin_crossing_angle: float = 1e-6
@@ -128,6 +133,8 @@ class FreeGyroPositioningParams:
             if not 0.0 < v < 1.0:
                 raise ValueError(f"{name} must be in (0, 1), got {v}")
         finite("height_m", self.height_m)
+        nonneg_finite("spin_rate_arw_deg_rt_h", self.spin_rate_arw_deg_rt_h)
+        finite("spin_reference_time_s", self.spin_reference_time_s)
         cx = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         if math.sqrt(sum(c * c for c in cx)) < self.min_sin_gyro_separation:
             raise ValueError("u_b_i must not be parallel or antiparallel to u_a_i (the nadir circles "
@@ -153,7 +160,8 @@ class FreeGyroPositioningParams:
             return cls(
                 u_a, u_b, nadir_noise_arcsec=v["nadir_noise_arcsec"], fix_interval_s=v["fix_interval_s"],
                 min_samples=v["min_samples"], heading_window_s=v["heading_window_s"],
-                triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"])
+                triad_arw_deg_rt_h=v["triad_arw_deg_rt_h"], max_fdop=v["max_fdop"], height_m=v["height_m"],
+                spin_rate_arw_deg_rt_h=v["spin_rate_arw_deg_rt_h"], spin_reference_time_s=v["spin_reference_time_s"])
         except ValueError as exc:
             text = str(exc)
             if "u_a_i" in text or "u_b_i" in text:  # the axes are the spin angles' doing
@@ -447,6 +455,9 @@ class FreeGyroPositioning:
         slope = np.array([(w[4] - tbar * w[2]) / stt, (w[5] - tbar * w[3]) / stt]) if stt > 0.0 else np.full(2, _NAN)
         t_fix = self._w_t0 + tbar
         sigma_theta = self._sigma_pick / math.sqrt(n)
+        if p.spin_rate_arw_deg_rt_h > 0.0:   # the integrated rate sensors' random walk, window mean
+            walk = max(t_fix - p.spin_reference_time_s - math.sqrt(max(stt, 0.0) / (3.0 * n)), 0.0)
+            sigma_theta = math.sqrt(sigma_theta**2 + (p.spin_rate_arw_deg_rt_h * DEG_RT_H) ** 2 * walk)
         crossing = math.atan2(w[11], w[10])
         zeta = (math.atan2(w[7], w[6]), math.atan2(w[9], w[8]))
         er_psi, er_sigma, er_t = self._er

@@ -41,6 +41,9 @@ class FreeGyroPositioningNodeParams(TimedParams):
     heading_window_s: float = param(60.0, "earth-rate heading averaging window", 1e-6, INF, unit="s")
     triad_arw_deg_rt_h: float = param(0.002, "body triad angle random walk, for the earth-rate heading sigma",
         1e-12, INF, unit="deg/sqrt(h)")
+    spin_rate_arw_deg_rt_h: float = param(0.0, "angle random walk of the spin-axis rate sensors whose integrated "
+        "outputs (since spin_reference_time_s) are the read-outs, for the fix sigma (0: angle pickoffs)",
+        0.0, INF, unit="deg/sqrt(h)")
     max_fdop: float = param(20.0, "FDOP above which the geometry counts as degenerate and no fix is published (>= "
         "sqrt(2))", 1.0, INF, unit="-")
     height_m: float = param(0.0, "height above the ellipsoid reported as altitude and used for the metric covariance "
@@ -58,6 +61,12 @@ class FreeGyroPositioningNodeParams(TimedParams):
         "errors", 0.0, INF, unit="arcsec")
     error_spin_drift_deg_h: float = param(0.0, "model input: 1-sigma per axis of each spin axis's constant drift "
         "since spin_reference_time_s", 0.0, INF, unit="deg/h")
+    error_caging_arcsec: float = param(0.0, "model input: 1-sigma per axis of each rotor's uncaging error (its "
+        "axis released away from where it was set)", 0.0, INF, unit="arcsec")
+    error_gm_drift_deg_h: float = param(0.0, "model input: 1-sigma of each spin axis's first-order Gauss-Markov "
+        "drift rate per axis", 0.0, INF, unit="deg/h")
+    error_gm_drift_tau_s: float = param(300.0, "model input: correlation time of that Gauss-Markov drift",
+        1e-6, INF, unit="s")
     clock_jump_s: float = param(1.0, "a read-out stamp this far behind the last one resets the node (bag loop)",
         1e-9, INF, unit="s", aliases=CLOCK_JUMP_ALIASES)
 

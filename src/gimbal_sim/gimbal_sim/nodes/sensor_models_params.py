@@ -98,6 +98,19 @@ class SensorModelsNodeParams:
         0.0, INF, unit="arcsec")
     free_gyro_spin_drift_sigma_deg_h: float = param(0.0, "spin-axis random-constant drift 1-sigma per axis (0: ideal "
         "free gyro)", 0.0, INF, unit="deg/h")
+    free_gyro_caging_error_arcsec: float = param(0.0, "1-sigma per axis of each rotor's random-constant uncaging "
+        "error: its spin axis released this far from where it was set (0: none)", 0.0, INF, unit="arcsec")
+    free_gyro_gm_drift_sigma_deg_h: float = param(0.0, "1-sigma per axis of each spin axis's first-order "
+        "Gauss-Markov drift rate, stationary from t = 0 (0: none)", 0.0, INF, unit="deg/h")
+    free_gyro_gm_drift_tau_s: float = param(300.0, "correlation time of that Gauss-Markov drift",
+        1e-6, INF, unit="s")
+    free_gyro_lock_guard_deg: float = param(0.0, "gimbal-lock suppression: within this angle of the outer gimbal "
+        "axis (the case's z) the spin axis is precessed away from it (0: no suppression)", 0.0, 89.999, unit="deg")
+    free_gyro_lock_suppression_rate_deg_h: float = param(0.0, "precession rate of that suppression",
+        0.0, INF, unit="deg/h")
+    free_gyro_spin_rate_arw_deg_rt_h: float = param(0.0, "angle random walk of the spin-axis rate sensors whose "
+        "outputs are integrated from t = 0, so the read-out random-walks (0: angle pickoffs)", 0.0, INF,
+        unit="deg/sqrt(h)")
     free_gyro_level_noise_arcsec: float = param(0.0, "vertical reference roll/pitch white noise",
         0.0, INF, unit="arcsec")
     free_gyro_level_bias_arcsec: tuple[float, ...] = param((0.0, 0.0), "vertical reference fixed (roll, pitch) error",

@@ -74,7 +74,12 @@ def _free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
             u_a, u_b, pickoff_noise_arcsec=v["free_gyro_pickoff_noise_arcsec"],
             spin_drift_sigma_deg_h=v["free_gyro_spin_drift_sigma_deg_h"],
             level_noise_arcsec=v["free_gyro_level_noise_arcsec"], level_bias_arcsec=tuple(level_bias), triad=triad,
-            speed_m_s=v["free_gyro_speed_m_s"], course_deg=v["free_gyro_course_deg"])
+            speed_m_s=v["free_gyro_speed_m_s"], course_deg=v["free_gyro_course_deg"],
+            caging_error_arcsec=v["free_gyro_caging_error_arcsec"],
+            gm_drift_sigma_deg_h=v["free_gyro_gm_drift_sigma_deg_h"], gm_drift_tau_s=v["free_gyro_gm_drift_tau_s"],
+            lock_guard_deg=v["free_gyro_lock_guard_deg"],
+            lock_suppression_rate_deg_h=v["free_gyro_lock_suppression_rate_deg_h"],
+            spin_rate_arw_deg_rt_h=v["free_gyro_spin_rate_arw_deg_rt_h"])
     except ValueError as exc:  # what is left to refuse is the pair of spin axes (parallel)
         raise ValueError(f"parameters 'free_gyro_nadir_deg', 'free_gyro_azimuth_deg': {exc}") from exc
 

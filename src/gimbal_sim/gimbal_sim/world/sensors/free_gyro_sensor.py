@@ -6,11 +6,33 @@ body gyro triad (earth rate + ship rate), and the vertical reference that levels
 
 * Inertial frame ``i`` as in :mod:`gimbal_kinematics.maths.free_gyro`: x_i toward Greenwich at
   t = 0, z_i along the earth's axis; t is the simulation time [s].
-* Spin axis in the body: ``u_b = C_bn(roll, pitch, yaw) · C_ni(lat, lon, t) · u_i(t)``, with
-  u_i(t) = exp([d t ×]) u_i(0): an optional random-constant drift d ⊥ u_i (the spin axis
-  wander the paper's conclusion mentions; default 0, i.e. an ideal free gyro).
+* Spin axis in the body: ``u_b = C_bn(roll, pitch, yaw) · C_ni(lat, lon, t) · u_i(t)``. The
+  true axis wanders (paper 4's closing section: "the additional drift ... when a free gyro is
+  suppressed by the measures which prevent gimbals lock and tumbling"); every term defaults
+  to 0, an ideal free gyro:
+
+  - caging error: the rotor is released from its cage (uncaged) a random constant angle c ⊥ u
+    away from where it was set, σ ``caging_error_arcsec`` per axis;
+  - constant drift: a random-constant rate d ⊥ u, σ ``spin_drift_sigma_deg_h`` per axis;
+  - Gauss–Markov drift: a first-order Gauss–Markov rate x ⊥ u (two components in a fixed
+    basis ⊥ the set axis), stationary from t = 0, σ ``gm_drift_sigma_deg_h``, correlation
+    time ``gm_drift_tau_s``: x_{k+1} = e^{−Δt/τ} x_k + σ √(1 − e^{−2Δt/τ}) w_k (exact);
+  - gimbal-lock suppression: the outer gimbal axis is the case's z (down). When the spin
+    axis comes within ``lock_guard_deg`` of it (or of −z), a suppression torque precesses the
+    axis away from it at ``lock_suppression_rate_deg_h`` (0 guard: none).
+
+  Without the Gauss–Markov and suppression terms u_i(t) = exp([d t ×]) exp([c ×]) u_i(0) in
+  closed form; with them the axis is stepped read-out by read-out, turned by the step's mean
+  rate.
+* Spin-axis sensors: with ``spin_rate_arw_deg_rt_h`` > 0 the two sensors of the spin axis's
+  motion (paper 4 §2.3, Fig. 3) are rate sensors whose outputs are integrated from the
+  setting time t = 0, not angle pickoffs: the integrated read-out is the true axis turned by
+  the integral of the sensors' white rate noise, a random walk ⊥ u (resolved in the gyro
+  frame, eq. 19) whose variance grows as N² t per axis. The true rate integrates exactly (the
+  error, not the mechanisation's numerics, is simulated).
 * Pickoff noise: white per sample, isotropic in the plane ⊥ u_b with σ =
-  ``pickoff_noise_arcsec`` per axis (the read-out direction is renormalised). Its component
+  ``pickoff_noise_arcsec`` per axis (the read-out direction is renormalised): the angle
+  pickoffs' noise, or the integrated rate sensors' read-out (quantisation) noise. Its component
   in the vertical plane through u is the nadir-angle error (σ), its horizontal component
   the gyro-azimuth error (σ / sin θ).
 * Body triad: :class:`GyroModel` (``triad`` parameters, 3 axes) fed the step-average
@@ -41,7 +63,7 @@ from gimbal_kinematics.maths.free_gyro import dcm_ni, unit_vector
 from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, euler321_to_dcm
 
 from gimbal_kinematics.maths import validate as v
-from gimbal_kinematics.maths.units import ARCSEC, DEG_H
+from gimbal_kinematics.maths.units import ARCSEC, DEG_H, DEG_RT_H
 from ._normals import NormalStream
 from .gyro import GyroModel, GyroParams
 
@@ -63,6 +85,14 @@ class FreeGyroSensorParams:
         triad: body gyro triad error parameters.
         speed_m_s, course_deg: the ship's speed over ground [m/s] and course [deg from
             north toward east] (0: the ship stays at its site).
+        caging_error_arcsec: σ per ⊥ axis of each rotor's random-constant uncaging error [″].
+        gm_drift_sigma_deg_h, gm_drift_tau_s: σ per ⊥ axis [°/h] and correlation time [s] of
+            the first-order Gauss–Markov spin-axis drift (0 σ: none).
+        lock_guard_deg, lock_suppression_rate_deg_h: gimbal-lock suppression: within this
+            angle [deg] of the outer gimbal axis (case z) the axis is precessed away at this
+            rate [°/h] (0 guard: none).
+        spin_rate_arw_deg_rt_h: angle random walk of the spin-axis rate sensors, whose
+            outputs are integrated from t = 0 [°/√h] (0: angle pickoffs, no random walk).
     """
 
     u_a_i: tuple[float, float, float]
@@ -74,6 +104,12 @@ class FreeGyroSensorParams:
     triad: GyroParams = field(default_factory=lambda: FREE_GYRO_TRIAD)
     speed_m_s: float = 0.0
     course_deg: float = 0.0
+    caging_error_arcsec: float = 0.0
+    gm_drift_sigma_deg_h: float = 0.0
+    gm_drift_tau_s: float = 300.0
+    lock_guard_deg: float = 0.0
+    lock_suppression_rate_deg_h: float = 0.0
+    spin_rate_arw_deg_rt_h: float = 0.0
 
     def __post_init__(self) -> None:
         a = unit_vector(self.u_a_i, "u_a_i")
@@ -91,6 +127,12 @@ class FreeGyroSensorParams:
             raise ValueError(f"triad must be GyroParams, got {type(self.triad).__name__}")
         v.nonneg_finite("speed_m_s", self.speed_m_s)
         v.finite("course_deg", self.course_deg)
+        for name in ("caging_error_arcsec", "gm_drift_sigma_deg_h", "lock_suppression_rate_deg_h",
+                     "spin_rate_arw_deg_rt_h"):
+            v.nonneg_finite(name, getattr(self, name))
+        v.positive("gm_drift_tau_s", self.gm_drift_tau_s)
+        if not (0.0 <= self.lock_guard_deg < 90.0):
+            raise ValueError(f"lock_guard_deg must be in [0, 90), got {self.lock_guard_deg!r}")
 
     @property
     def velocity_n(self) -> tuple[float, float, float]:
@@ -169,6 +211,30 @@ class FreeGyroSensor:
         for u in self._u0:
             d = r_drift.standard_normal(3) * sd
             self._drift.append(d - (d @ u) * u)  # only ⊥ components move the axis
+        # the drift terms and the rate sensors draw from streams of their own (spawned after
+        # the four above, so that those, and every run without the new terms, are unchanged)
+        r_cage, r_gm, r_rate = rng.spawn(3)
+        self._perp = []   # an orthonormal basis (e1, e2) ⊥ each set axis, in i
+        for u in self._u0:
+            e1 = np.cross(u, [0.0, 0.0, 1.0] if abs(u[2]) < 0.9 else [1.0, 0.0, 0.0])
+            e1 /= np.linalg.norm(e1)
+            self._perp.append((e1, np.cross(u, e1)))
+        sc = params.caging_error_arcsec * ARCSEC
+        self._cage = [sc * (r_cage.standard_normal() * e1 + r_cage.standard_normal() * e2) for e1, e2 in self._perp]
+        self._u_rel = [dcm_from_rotation_vector(c) @ u if c.any() else u.copy() for c, u in zip(self._cage, self._u0)]
+        self._gm_sigma = params.gm_drift_sigma_deg_h * DEG_H
+        self._gm = NormalStream(r_gm)
+        self._gm_x = [self._gm_sigma * np.array([self._gm.one(), self._gm.one()]) for _ in self._u0]
+        self._lock_cos = math.cos(math.radians(params.lock_guard_deg)) if params.lock_guard_deg > 0.0 else 2.0
+        self._lock_rate = params.lock_suppression_rate_deg_h * DEG_H
+        self._stepped = self._gm_sigma > 0.0 or (self._lock_cos <= 1.0 and self._lock_rate > 0.0)
+        self._u_now = [u.copy() for u in self._u_rel]   # the stepped axes (Gauss–Markov, suppression)
+        self._t_axes = 0.0
+        self._lock_time = [0.0, 0.0]
+        self._rate_n = params.spin_rate_arw_deg_rt_h * DEG_RT_H
+        self._rate = NormalStream(r_rate)
+        self._rw = [np.zeros(3), np.zeros(3)]   # integrated rate-sensor error ⊥ u, in i
+        self._t_rw = 0.0
         self._sigma = params.pickoff_noise_arcsec * ARCSEC
         self._level_sigma = params.level_noise_arcsec * ARCSEC
         self._level_bias = tuple(b * ARCSEC for b in params.level_bias_arcsec)  # type: ignore[union-attr]
@@ -179,12 +245,82 @@ class FreeGyroSensor:
         """Drawn spin-axis drift rate vectors d (3,) [rad/s] in i, one per gyro."""
         return self._drift[0].copy(), self._drift[1].copy()
 
+    @property
+    def caging_error_i(self) -> tuple[np.ndarray, np.ndarray]:
+        """Drawn uncaging errors c (3,) [rad] in i, one per gyro (⊥ the set axis)."""
+        return self._cage[0].copy(), self._cage[1].copy()
+
+    @property
+    def released_axes_i(self) -> tuple[np.ndarray, np.ndarray]:
+        """The spin axes (3,) at release (t = 0): the set axes turned by the uncaging error."""
+        return self._u_rel[0].copy(), self._u_rel[1].copy()
+
+    @property
+    def gm_drift_rates(self) -> tuple[np.ndarray, np.ndarray]:
+        """The Gauss–Markov drift rates (2,) [rad/s] of each gyro at the last read-out, in
+        its fixed basis ⊥ the set axis."""
+        return self._gm_x[0].copy(), self._gm_x[1].copy()
+
+    @property
+    def rate_sensor_error_i(self) -> tuple[np.ndarray, np.ndarray]:
+        """The integrated rate sensors' error angles (3,) [rad] in i at the last read-out."""
+        return self._rw[0].copy(), self._rw[1].copy()
+
+    @property
+    def lock_suppression_time_s(self) -> tuple[float, float]:
+        """Time [s] each gyro has spent within the gimbal-lock guard so far."""
+        return self._lock_time[0], self._lock_time[1]
+
     def spin_axes_i(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """True spin axes u_i(t) (3,) at time ``t`` [s]."""
+        """True spin axes u_i(t) (3,) at time ``t`` [s]: in closed form, or, with the
+        Gauss–Markov drift or the suppression on, the axes stepped to the last read-out."""
+        if self._stepped:
+            return self._u_now[0].copy(), self._u_now[1].copy()
         out = []
-        for u, d in zip(self._u0, self._drift):
+        for u, d in zip(self._u_rel, self._drift):
             out.append(dcm_from_rotation_vector(d * t) @ u if d.any() else u.copy())
         return out[0], out[1]
+
+    def _step_axes(self, t: float, C_bi: np.ndarray) -> None:
+        """Turn the stepped axes from the last read-out to ``t`` by the step's mean rate:
+        constant drift + the Gauss–Markov rate (trapezoid of its two samples) + the
+        suppression's precession where the axis at the step's start, seen in the case at t
+        (``C_bi`` maps i to b at t), is within the guard of the outer gimbal axis."""
+        h = t - self._t_axes
+        self._t_axes = t
+        if h <= 0.0:
+            return
+        phi = math.exp(-h / self.params.gm_drift_tau_s)
+        q = self._gm_sigma * math.sqrt(max(1.0 - phi * phi, 0.0))
+        for k in (0, 1):
+            e1, e2 = self._perp[k]
+            x0 = self._gm_x[k]
+            x1 = phi * x0 + q * np.array([self._gm.one(), self._gm.one()]) if self._gm_sigma > 0.0 else x0
+            self._gm_x[k] = x1
+            xm = 0.5 * (x0 + x1)
+            w = self._drift[k] + xm[0] * e1 + xm[1] * e2
+            u = self._u_now[k]
+            if self._lock_rate > 0.0:
+                c = float(C_bi[2] @ u)   # cos of the angle to the outer gimbal axis z_b
+                if abs(c) >= self._lock_cos:
+                    a = math.copysign(1.0, c) * C_bi[2]   # the nearer end of the outer axis, in i
+                    n = np.cross(a, u)
+                    nn = float(np.linalg.norm(n))
+                    if nn > 1e-12:
+                        w = w + self._lock_rate * n / nn   # n × u points away from a
+                    self._lock_time[k] += h
+            self._u_now[k] = dcm_from_rotation_vector(w * h) @ u
+
+    def _step_rate_sensors(self, t: float) -> None:
+        h = t - self._t_rw
+        self._t_rw = t
+        if h <= 0.0 or self._rate_n == 0.0:
+            return
+        s = self._rate_n * math.sqrt(h)
+        for k in (0, 1):
+            e1, e2 = self._perp[k]
+            buf, j = self._rate.take(2)
+            self._rw[k] = self._rw[k] + s * (buf[j] * e1 + buf[j + 1] * e2)
 
     def _read(self, u_b: np.ndarray) -> tuple[float, float, float]:
         if self._sigma == 0.0:
@@ -215,9 +351,18 @@ class FreeGyroSensor:
             extra_n = earth_rate_n(lat) - earth_rate_n(lat0) + transport_rate_n(lat, 0.0, np.array(v_n))
             omega_ib_b = np.asarray(omega_ib_b, dtype=float) + C_bn @ extra_n
         C_ni = dcm_ni(lat, lon, t)
+        if self._stepped:
+            self._step_axes(t, C_bn @ C_ni)
         u_a, u_b = self.spin_axes_i(t)
         un_a, un_b = C_ni @ u_a, C_ni @ u_b
         ua_b, ub_b = C_bn @ un_a, C_bn @ un_b
+        if self._rate_n > 0.0:   # integrated rate sensors: the read-out turned by their error
+            self._step_rate_sensors(t)
+            C_bi = C_bn @ C_ni
+            ma, mb = (dcm_from_rotation_vector(e) @ u for e, u in zip(self._rw, (u_a, u_b)))
+            ma_b, mb_b = C_bi @ ma, C_bi @ mb
+        else:
+            ma_b, mb_b = ua_b, ub_b
         w = self.triad.step_rate([float(c) for c in omega_ib_b], dt)
         lr, lp = self._level_bias
         if self._level_sigma > 0.0:
@@ -228,7 +373,7 @@ class FreeGyroSensor:
         azimuth = (math.atan2(un_a[1], un_a[0]), math.atan2(un_b[1], un_b[0]))
         w_ie_b = C_bn @ (C_ni[:, 2] * OMEGA_IE)  # ω_ie^i = Ω e3
         return FreeGyroSample(
-            t=float(t), spin_a_b=self._read(ua_b), spin_b_b=self._read(ub_b),
+            t=float(t), spin_a_b=self._read(ma_b), spin_b_b=self._read(mb_b),
             omega_ib_b=(float(w[0]), float(w[1]), float(w[2])), roll=roll + lr, pitch=pitch + lp,
             true_spin_a_b=tuple(float(c) for c in ua_b), true_spin_b_b=tuple(float(c) for c in ub_b),
             true_nadir=(float(nadir[0]), float(nadir[1])), true_azimuth=(float(azimuth[0]), float(azimuth[1])),
