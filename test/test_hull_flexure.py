@@ -172,8 +172,12 @@ def test_scenarios_ship_flexure_is_sea_state_4_hull_and_the_band_is_kept():
 #: Test scale of the headline: seeds, run length [s] and scoring start [s].
 HEADLINE_SEEDS, HEADLINE_S, HEADLINE_CONV_S = (0, 1), 1500.0, 600.0
 #: The bound the sea-state study sets at this scale (docs/results/paper5.md: the hull under a
-#: sea), per axis (roll, pitch, yaw) [″], on the mean over HEADLINE_SEEDS.
-HEADLINE_BOUND_ARCSEC = (None, None, None)
+#: sea), per axis (roll, pitch, yaw) [″], on the mean over HEADLINE_SEEDS: 1.25 times the worst
+#: of seeds 0..7 at this scale (55.7″, 153.7″, 23.2″; mean 30.4″, 147.9″, 20.6″). Paper 5: 20″.
+HEADLINE_BOUND_ARCSEC = (70.0, 192.0, 29.0)
+#: ... and the pitch miss it pins: at least 100″ (best of the eight seeds 138.6″), so that a
+#: change that moves the figure toward the paper's 20″ is seen and explained, not absorbed.
+HEADLINE_PITCH_MISS_ARCSEC = 100.0
 
 
 def test_headline_sea_state_4_accuracy_against_the_study_bound():
@@ -192,3 +196,4 @@ def test_headline_sea_state_4_accuracy_against_the_study_bound():
     print({k: np.round(v, 1).tolist() for k, v in mean.items()})
     assert np.all(np.abs(mean["original"] - mean["simplified"]) <= 0.05 * mean["simplified"] + 0.5)
     assert np.all(mean["simplified"] < np.array(HEADLINE_BOUND_ARCSEC, float))
+    assert mean["simplified"][1] > HEADLINE_PITCH_MISS_ARCSEC

@@ -16,11 +16,17 @@ assumes; printed as RMS per frequency band (which part of the flexure the filter
 drawn to ``DIR/flexure_sea_spectrum.png`` with ``--out``::
 
     python -m gimbal_sim.experiments.flexure_sea --spectrum --seeds 0 --duration 3600
+
+Error budget (``--budget``): the random_walk_rate filter with one truth source changed at a
+time (:func:`budget_cases`), core loop, no bag::
+
+    python -m gimbal_sim.experiments.flexure_sea --budget --sea-states 4 --seeds 0 1 --duration 3600
 """
 from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -32,10 +38,10 @@ from gimbal_kinematics.maths.units import ARCSEC
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 from ..campaign.spec import CampaignSpec
-from ..world.sensors import FlexureParams, HullParams
+from ..world.sensors import FlexureParams, HullFlexure, HullParams
 from ..figures import pyplot
 from .engine_runs import run_on_engine
-from .flexure import model_params, run_flexure_comparison
+from .flexure import run_flexure_comparison
 
 SEA_STATES = (3, 4, 5)
 VARIANTS = tuple(f"sea_state_{n}" for n in SEA_STATES)
@@ -102,7 +108,7 @@ def spectrum(sea_state: int, seed: int, duration_s: float, convergence_s: float 
     and as RMS per :data:`BANDS_RAD_S` [″]."""
     kf = FlexureKfParams()
     flexure = FlexureParams(dynamic_model="hull", hull=HullParams(sea_state=sea_state))
-    res = run_flexure_comparison(duration_s, seed, models=model_params(("random_walk_rate",), kf),
+    res = run_flexure_comparison(duration_s, seed, models={"random_walk_rate": kf},
                                  sim_rate_hz=10.0, lgu_rate_hz=10.0, convergence_s=convergence_s,
                                  flexure=flexure, record_period_s=0.0)["random_walk_rate"]
     s = res.series
@@ -122,13 +128,14 @@ def spectrum(sea_state: int, seed: int, duration_s: float, convergence_s: float 
     return {"sea_state": sea_state, "seed": seed, "omega": w, "psd_truth_dynamic": p_dyn, "psd_error": p_err,
             "psd_filter_band": p_band, "bands": table,
             "error_rms_arcsec": (np.sqrt(np.mean(err ** 2, axis=0)) / ARCSEC).tolist(),
+            "gated_fraction": res.counters["gated"] / max(res.counters["pairs"], 1),
             "truth_dynamic_rms_arcsec": (np.sqrt(np.mean(dyn ** 2, axis=0)) / ARCSEC).tolist()}
 
 
 def format_spectrum(r: dict[str, Any]) -> str:
     f = lambda v: ", ".join(f"{x:6.1f}" for x in v)  # noqa: E731
     lines = [f"sea state {r['sea_state']}, seed {r['seed']}: random_walk_rate total error RMS {f(r['error_rms_arcsec'])}″;"
-             f" truth dynamic RMS {f(r['truth_dynamic_rms_arcsec'])}″",
+             f" truth dynamic RMS {f(r['truth_dynamic_rms_arcsec'])}″; LGU pairs gated {100 * r['gated_fraction']:.0f} %",
              "  band [rad/s]   truth dynamic (roll, pitch, yaw) | filter's band model | filter error  [″ RMS]"]
     for band, row in r["bands"].items():
         lines.append(f"  {band:12s}  {f(row['truth_dynamic'])} | {f(row['filter_band'])} | {f(row['error'])}")
@@ -156,6 +163,45 @@ def plot_spectra(results: list[dict[str, Any]], path: Path) -> None:
     plt.close(fig)
 
 
+def budget_cases(sea_state: int) -> dict[str, tuple[FlexureParams, FlexureKfParams]]:
+    """One source at a time (:func:`budget`): the truth configurations and filter settings
+    compared, by label. The filter is the product's (its own model and tuning) except in the
+    row labelled a diagnostic, which runs it without its innovation gate."""
+    hull = HullParams(sea_state=sea_state)
+    rms = HullFlexure(hull, np.random.default_rng(0), 0.1).rms() / ARCSEC
+    no_qs = {"initial_deg": 0.0, "linear_rate_deg_h": 0.0, "slow_amplitude_arcsec": 0.0, "helm_amplitude_deg": 0.0}
+    kf = FlexureKfParams()
+    cases = {
+        f"hull, sea state {sea_state} (all sources)": FlexureParams(dynamic_model="hull", hull=hull),
+        "hull dynamic flexure alone (no quasi-static)": FlexureParams(dynamic_model="hull", hull=hull, **no_qs),
+        "quasi-static alone (no dynamic flexure)": FlexureParams(dynamic_rms_arcsec=0.0),
+        "hull, head seas (vertical bending only)": FlexureParams(
+            dynamic_model="hull", hull=replace(hull, wave_heading_rad=math.pi)),
+        f"filter's band at the hull's RMS ({', '.join(f'{x:.0f}' for x in rms)}″)": FlexureParams(
+            dynamic_rms_arcsec=tuple(float(x) for x in rms)),
+        "filter's own band (20″, 60″, 40″; ship_flexure_band)": FlexureParams(),
+    }
+    out = {label: (flex, kf) for label, flex in cases.items()}
+    out[f"hull, sea state {sea_state}, filter ungated (diagnostic, not a default)"] = (
+        FlexureParams(dynamic_model="hull", hull=hull), replace(kf, gate_probability=None))
+    return out
+
+
+def budget(sea_state: int, seeds: Sequence[int], duration_s: float, convergence_s: float = 600.0) -> dict[str, Any]:
+    """The random_walk_rate filter's total-flexure RMS error [″] (mean over ``seeds``) with one
+    truth source changed at a time (:func:`budget_cases`), core loop, no bag."""
+    out: dict[str, Any] = {}
+    for label, (flex, kf) in budget_cases(sea_state).items():
+        rms, gated = [], []
+        for seed in seeds:
+            r = run_flexure_comparison(duration_s, seed, models={"rwr": kf}, sim_rate_hz=10.0, lgu_rate_hz=10.0,
+                                       convergence_s=convergence_s, flexure=flex)["rwr"]
+            rms.append(r.metrics["total_rms_arcsec"])
+            gated.append(r.counters["gated"] / max(r.counters["pairs"], 1))
+        out[label] = {"total_rms_arcsec": np.mean(rms, axis=0).tolist(), "gated_fraction": float(np.mean(gated))}
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m gimbal_sim.experiments.flexure_sea",
@@ -166,12 +212,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--sea-states", type=int, nargs="+", choices=SEA_STATES, default=list(SEA_STATES))
     ap.add_argument("--duration", type=float, default=7200.0, help="simulated time [s] (default 7200)")
     ap.add_argument("--spectrum", action="store_true", help="the spectrum comparison instead of the table")
+    ap.add_argument("--budget", action="store_true",
+                    help="the error budget, one truth source at a time (core loop, no bag), instead of the table")
     add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
     if not 0.0 < a.duration < math.inf:
         ap.error(f"--duration must be a finite number > 0, got {a.duration}")
     if len(set(a.seeds)) != len(a.seeds) or min(a.seeds) < 0:
         ap.error("--seeds must be distinct integers >= 0")
+    if a.budget:
+        if a.duration <= 600.0:
+            ap.error("--budget needs --duration > 600 s (the first 600 s are left out)")
+        for ss in a.sea_states:
+            print(f"random_walk_rate total flexure RMS error, mean of seeds {list(a.seeds)}, {a.duration:.0f} s "
+                  f"scored after 600 s (roll, pitch, yaw) [″]:")
+            for label, v in budget(ss, a.seeds, a.duration).items():
+                print(f"  {label:66s} {', '.join(f'{x:.1f}' for x in v['total_rms_arcsec'])}"
+                      f"   LGU pairs gated {100 * v['gated_fraction']:.0f} %")
+        return 0
     if a.spectrum:
         if a.duration <= 600.0:
             ap.error("--spectrum needs --duration > 600 s (the first 600 s are left out)")
