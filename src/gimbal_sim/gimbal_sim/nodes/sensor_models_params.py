@@ -94,7 +94,7 @@ class SensorModelsNodeParams:
     flexure_hull_mode_freq_hz: tuple[float, ...] = param((2.4, 1.2, 1.8), "hull model: first mode frequency "
         "(roll: torsion, pitch: 2-node vertical, yaw: 2-node horizontal bending)", unit="Hz")
     flexure_hull_damping_ratio: tuple[float, ...] = param((0.02, 0.02, 0.02), "hull model: modal damping ratio "
-        "(roll, pitch, yaw), fraction of critical")
+        "(roll, pitch, yaw), fraction of critical", unit="-")
     flexure_lgu_stations_m: tuple[float, ...] = param((0.0, 30.0), "hull model: LGU1 and LGU2 positions along the "
         "hull from amidships, forward positive (125 m hull)", unit="m")
     platform_gyro_bias_sigma_deg_h: float = param(0.03, "platform gyro run-to-run bias 1-sigma",
