@@ -197,3 +197,15 @@ def test_headline_sea_state_4_accuracy_against_the_study_bound():
     assert np.all(np.abs(mean["original"] - mean["simplified"]) <= 0.05 * mean["simplified"] + 0.5)
     assert np.all(mean["simplified"] < np.array(HEADLINE_BOUND_ARCSEC, float))
     assert mean["simplified"][1] > HEADLINE_PITCH_MISS_ARCSEC
+
+
+@pytest.mark.parametrize("args, named", [(["--duration", "0"], "--duration"), (["--seeds", "1", "1"], "--seeds"),
+                                         (["--spectrum", "--duration", "600"], "--spectrum"),
+                                         (["--budget", "--duration", "600"], "--budget"),
+                                         (["--sea-states", "7"], "--sea-states")])
+def test_flexure_sea_command_refuses_bad_input_naming_it(args, named, capsys):
+    from gimbal_sim.experiments import flexure_sea
+
+    with pytest.raises(SystemExit) as exc:
+        flexure_sea.main(args)
+    assert exc.value.code == 2 and named in capsys.readouterr().err
