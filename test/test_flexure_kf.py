@@ -453,7 +453,7 @@ def test_random_constant_needs_its_own_process_noise():
 # ---------------------------------------------------------------- paper 5 §5, full size
 @pytest.fixture(scope="module")
 def ship_runs():
-    # The ship_flexure scenario without ROS: 2 h at 10 Hz, scored after 10 min (~20 s here).
+    # The ship_flexure_band scenario (truth on the filter's own band) without ROS: 2 h at 10 Hz, scored after 10 min (~20 s here).
     return run_flexure_comparison(7200.0, seed=0, sim_rate_hz=10.0, lgu_rate_hz=10.0, convergence_s=600.0)
 
 

@@ -1,6 +1,6 @@
 """flexure_estimator node (paper 5): bad input (NaN, a dropped LGU sample, an out-of-order
 stamp, a backward clock jump, bad parameters) checked against the filter core fed directly,
-and a short ship_flexure graph run read back with rosbags and replayed through the core."""
+and a short ship_flexure_band graph run read back with rosbags and replayed through the core."""
 from __future__ import annotations
 
 import math
@@ -261,12 +261,12 @@ def test_bad_parameters_are_refused_naming_them(args, named, ros_domain_env):
 
 @pytest.mark.slow
 def test_ship_flexure_graph_runs_both_models_side_by_side(ros_domain_env, tmp_path):
-    """30 s of the ship_flexure scenario in container mode: both estimators (same
+    """30 s of the ship_flexure_band scenario (the two estimators on the filter's own band) in container mode: both estimators (same
     executable, two node names) record their own topics, and replaying the recorded LGU
     messages through the core reproduces every recorded estimate: each node saw every
     sample with its own parameters."""
     out = tmp_path / "run"
-    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "ship_flexure", "--duration", "30", "--mode", "container",
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "ship_flexure_band", "--duration", "30", "--mode", "container",
                              "--out", str(out), "--no-progress"], env=ros_domain_env, capture_output=True, text=True,
                             timeout=900)
     assert result.returncode == 0, result.stderr[-3000:]

@@ -20,11 +20,11 @@ from ..campaign.runner_cli import experiment_runners
 from ..campaign.spec import CampaignError, CampaignPlan, CampaignSpec, RunFunction
 from ..reports.paper import campaign_paper_figure
 from .engine_runs import run_on_engine
-from . import encoder_fusion_study, flexure, free_gyro, free_gyro_errors, navigation, platform_servo, sighting_loop, slew
+from . import encoder_fusion_study, flexure, flexure_sea, free_gyro, free_gyro_errors, navigation, platform_servo, sighting_loop, slew
 
 #: experiment name -> its campaign
 EXPERIMENTS: dict[str, ExperimentCampaign] = {
-    e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, free_gyro.CAMPAIGN, platform_servo.CAMPAIGN,
+    e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, flexure_sea.CAMPAIGN, free_gyro.CAMPAIGN, platform_servo.CAMPAIGN,
                         encoder_fusion_study.CAMPAIGN, encoder_fusion_study.RQ_CAMPAIGN,
                         free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN, navigation.RUNNER_CAMPAIGN, slew.CAMPAIGN)}
 

@@ -77,6 +77,26 @@ class SensorModelsNodeParams:
     flexure_dynamic_freq_rad_s: tuple[float, ...] = param((0.0, 0.0, 0.0), "dynamic flexure damped frequency lambda "
         "(roll, pitch, yaw), >= 0; 0 (default): the textbook critically damped 2nd-order Markov, > 0: a band peaked "
         "at lambda (sea waves)", unit="rad/s")
+    flexure_dynamic_model: str = param("band", "dynamic flexure truth: band (the filter's own 2nd-order Markov, "
+        "the flexure_dynamic_* figures above) or hull (a frigate hull's first bending and torsion modes driven by a "
+        "sea spectrum; docs/results/paper5.md: the hull under a sea)", choices=("band", "hull"))
+    flexure_sea_state: int = param(4, "hull model: NATO sea state (open ocean North Atlantic) giving the "
+        "significant wave height and modal period: 3 (0.88 m, 7.5 s), 4 (1.88 m, 8.8 s), 5 (3.25 m, 9.7 s), "
+        "6 (5.0 m, 12.4 s)", 3, 6)
+    flexure_wave_height_m: float = param(0.0, "hull model: significant wave height, 0 = the sea state's",
+        0.0, INF, unit="m")
+    flexure_wave_period_s: float = param(0.0, "hull model: modal (peak) wave period, 0 = the sea state's",
+        0.0, INF, unit="s")
+    flexure_ship_speed_m_s: float = param(7.72, "hull model: ship speed through the waves (7.72 m/s = 15 kn)",
+        0.0, 30.0, unit="m/s")
+    flexure_wave_heading_deg: float = param(150.0, "hull model: wave heading relative to the bow (180: head seas, "
+        "90: beam seas, 0: following)", -360.0, 360.0, unit="deg")
+    flexure_hull_mode_freq_hz: tuple[float, ...] = param((2.4, 1.2, 1.8), "hull model: first mode frequency "
+        "(roll: torsion, pitch: 2-node vertical, yaw: 2-node horizontal bending)", unit="Hz")
+    flexure_hull_damping_ratio: tuple[float, ...] = param((0.02, 0.02, 0.02), "hull model: modal damping ratio "
+        "(roll, pitch, yaw), fraction of critical", unit="-")
+    flexure_lgu_stations_m: tuple[float, ...] = param((0.0, 30.0), "hull model: LGU1 and LGU2 positions along the "
+        "hull from amidships, forward positive (125 m hull)", unit="m")
     platform_gyro_bias_sigma_deg_h: float = param(0.03, "platform gyro run-to-run bias 1-sigma",
         0.0, INF, unit="deg/h")
     platform_gyro_arw_deg_rt_h: float = param(0.003, "platform gyro angle random walk", 0.0, INF, unit="deg/sqrt(h)")

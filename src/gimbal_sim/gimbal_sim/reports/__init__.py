@@ -16,7 +16,7 @@ from .alignment import alignment_campaign, alignment_report, rotation_comparison
 from .allan import allan_comparison, allan_report
 from .consistency import consistency_report
 from .encoder_fusion import encoder_fusion_comparison, encoder_fusion_report
-from .flexure import flexure_report
+from .flexure import flexure_report, flexure_sea_states_comparison
 from .free_gyro import free_gyro_report
 from .generic import generic_report
 from .geo_pointing import geo_pointing_comparison, geo_pointing_report
@@ -59,6 +59,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "geo_pointing": geo_pointing_comparison,
     "navigation_rotation": navigation_rotation_comparison,
     "slew": slew_comparison,
+    "flexure_sea_states": flexure_sea_states_comparison,
 }
 
 

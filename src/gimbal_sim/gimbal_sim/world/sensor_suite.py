@@ -33,7 +33,7 @@ from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, rotation
 from .sensors import (
     PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,
     AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
-    GyroParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
+    GyroParams, HullParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
 )
 from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensor, FreeGyroSensorParams
 from .vehicle import VehicleTruth
@@ -167,7 +167,16 @@ class SensorSuiteConfig:
                                       helm_period_s=v["flexure_helm_period_s"],
                                       dynamic_rms_arcsec=tuple(v["flexure_dynamic_rms_arcsec"]),
                                       dynamic_beta_per_s=tuple(v["flexure_dynamic_beta_per_s"]),
-                                      dynamic_freq_rad_s=tuple(v["flexure_dynamic_freq_rad_s"])),
+                                      dynamic_freq_rad_s=tuple(v["flexure_dynamic_freq_rad_s"]),
+                                      dynamic_model=v["flexure_dynamic_model"],
+                                      hull=HullParams(sea_state=v["flexure_sea_state"],
+                                                      wave_height_m=v["flexure_wave_height_m"],
+                                                      wave_period_s=v["flexure_wave_period_s"],
+                                                      speed_m_s=v["flexure_ship_speed_m_s"],
+                                                      wave_heading_rad=math.radians(v["flexure_wave_heading_deg"]),
+                                                      mode_freq_hz=tuple(v["flexure_hull_mode_freq_hz"]),
+                                                      damping_ratio=tuple(v["flexure_hull_damping_ratio"]),
+                                                      stations_m=tuple(v["flexure_lgu_stations_m"]))),
                 platform_gyro=GyroParams(bias_sigma_deg_h=v["platform_gyro_bias_sigma_deg_h"],
                                          arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"]),
                 platform_accel=AccelerometerParams(bias_sigma_ug=v["platform_accel_bias_sigma_ug"],

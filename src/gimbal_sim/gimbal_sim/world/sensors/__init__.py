@@ -6,6 +6,7 @@ dataclasses with unit-suffixed fields, converted to SI once at construction.
 from .accelerometer import PAPER3_ACCELEROMETER, AccelerometerModel, AccelerometerParams
 from .encoder import PAPER1_ENCODER, PAPER2_ENCODER, EncoderModel, EncoderParams
 from .flexure import FlexureParams, ShipFlexureTruth
+from .hull_flexure import NATO_SEA_STATES, HullFlexure, HullParams
 from .free_gyro_sensor import (
     FREE_GYRO_TRIAD,
     FreeGyroSample,
@@ -40,12 +41,15 @@ __all__ = [
     "FreeGyroSensorParams",
     "GyroModel",
     "GyroParams",
+    "HullFlexure",
+    "HullParams",
     "InertialErrorCore",
     "InsModel",
     "InsParams",
     "LGU1_GYRO",
     "LGU2_GYRO",
     "LguPair",
+    "NATO_SEA_STATES",
     "PAPER1_ENCODER",
     "PAPER1_GIMBAL_GYRO",
     "PAPER1_INS_GYRO",

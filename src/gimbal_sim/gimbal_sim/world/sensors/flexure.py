@@ -16,7 +16,13 @@ frame b1 to the LGU2 body frame b2: ``C_b1b2 ≈ I + [θ×]`` (paper 5 eq. 4), i
   default correlation time is 10 s (β = 0.2146 1/s), the ship's roll period. β and a damped
   frequency λ > 0 (a band peaked at λ, e.g. sea waves at 0.5 rad/s) are settable per axis.
   How the band moves the estimator's accuracy is measured in docs/results/paper5.md (the
-  dynamic-flexure band).
+  dynamic-flexure band). With ``dynamic_model="hull"`` the dynamic part is instead the hull
+  girder's bending and torsion under a sea (:mod:`.hull_flexure`: sea spectrum, encounter
+  frequency, Froude–Krylov loads, first structural modes), a model the filter does not contain;
+  the ``dynamic_rms/beta/freq`` fields are then unused.
+
+The quasi-static part reads, on a ship: Φ0 and the linear rate the loading (stores, fuel) and
+the slow heating, the 1 h sinusoid the temperature (sunshine), the helm sinusoid the turn.
 """
 from __future__ import annotations
 
@@ -27,9 +33,12 @@ import numpy as np
 
 from gimbal_kinematics.maths import validate as v
 from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H
+from .hull_flexure import HullFlexure, HullParams
 from .markov import SecondOrderGaussMarkov
 
 _AXES = 3
+#: The dynamic-flexure truth models: the filter's own band, or the hull under a sea.
+DYNAMIC_MODELS = ("band", "hull")
 
 
 @dataclass(frozen=True)
@@ -44,6 +53,8 @@ class FlexureParams:
         dynamic_rms_arcsec: RMS of the dynamic (second-order Markov) flexure [″].
         dynamic_beta_per_s: its decay rate β [1/s] (> 0).
         dynamic_freq_rad_s: its damped angular frequency λ [rad/s] (>= 0).
+        dynamic_model: "band" (the second-order Markov above) or "hull" (:mod:`.hull_flexure`).
+        hull: the hull, sea and route of the "hull" model.
     """
 
     initial_deg: float | tuple[float, ...] = 0.1
@@ -57,9 +68,16 @@ class FlexureParams:
     dynamic_rms_arcsec: float | tuple[float, ...] = (20.0, 60.0, 40.0)
     dynamic_beta_per_s: float | tuple[float, ...] = 0.2146
     dynamic_freq_rad_s: float | tuple[float, ...] = 0.0
+    dynamic_model: str = "band"
+    hull: HullParams = HullParams()
 
     def __post_init__(self) -> None:
+        if self.dynamic_model not in DYNAMIC_MODELS:
+            raise ValueError(f"dynamic_model must be one of {DYNAMIC_MODELS}, got {self.dynamic_model!r}")
+        v.of_type("hull", self.hull, HullParams)
         for name in self.__dataclass_fields__:
+            if name in ("dynamic_model", "hull"):
+                continue
             vals = v.per_axis(name, getattr(self, name), _AXES)
             object.__setattr__(self, name, vals)
         for name in ("slow_period_s", "helm_period_s", "dynamic_beta_per_s"):
@@ -92,13 +110,17 @@ class ShipFlexureTruth:
             [(a * ARCSEC, 2.0 * math.pi / T, ph) for a, T, ph in slow],
             [(a * DEG, 2.0 * math.pi / T, ph) for a, T, ph in helm],
         ]
-        self.dynamic = SecondOrderGaussMarkov(
-            [x * ARCSEC for x in p.dynamic_rms_arcsec],  # type: ignore[union-attr]
-            p.dynamic_beta_per_s,  # type: ignore[arg-type]
-            p.dynamic_freq_rad_s,  # type: ignore[arg-type]
-            rng,
-            dt,
-        )
+        self.dynamic: SecondOrderGaussMarkov | HullFlexure
+        if p.dynamic_model == "hull":
+            self.dynamic = HullFlexure(p.hull, rng, dt)
+        else:
+            self.dynamic = SecondOrderGaussMarkov(
+                [x * ARCSEC for x in p.dynamic_rms_arcsec],  # type: ignore[union-attr]
+                p.dynamic_beta_per_s,  # type: ignore[arg-type]
+                p.dynamic_freq_rad_s,  # type: ignore[arg-type]
+                rng,
+                dt,
+            )
         self.dt = dt
         #: Time since t0 [s].
         self.t = 0.0
