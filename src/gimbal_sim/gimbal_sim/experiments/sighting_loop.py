@@ -20,6 +20,8 @@ so that without the EKF both components equal minus the integral of the true gyr
 """
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -103,6 +105,44 @@ LOS_HOLD_CAMPAIGN = ExperimentCampaign(
     graph=GraphEquivalent("sighting_los_hold", {"los_hold": None}, ("duration_s", "ins", "ins_error_states"), scenario_values))
 
 
+#: the headline's cases: the INS cases with paper 1's 6-state EKF, and the Schuler INS with the
+#: 9-state EKF that models correlated INS errors
+HEADLINE_CASES = {"schuler": INS_CASES["schuler"], "white": INS_CASES["white"],
+                  "schuler, 9-state EKF": INS_CASES["schuler"] + (("gyro_bias_ekf.ins_error_states", True),)}
+#: the report's topics a headline run records (the truth at 10 Hz: the figures are its final values)
+HEADLINE_RECORD = {"/truth/gimbal/imu": 10.0, "/truth/gimbal/gyro_bias": 10.0}
+
+
+def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple(HEADLINE_CASES)) -> str:
+    """Paper 1's headline over ``seeds``: scenario ``sighting_land_vehicle``'s ``ekf_off`` and
+    ``ekf_on`` in each case (:data:`HEADLINE_CASES`) on the engine, each run's bag (the truth
+    LOS and bias at 10 Hz) under ``out``; per case and variant, |drift| at the run's end
+    (azimuth and elevation pooled per run), its seed mean with the 95 % Student-t interval,
+    and the worst seed."""
+    from scipy import stats
+    from tqdm import tqdm
+
+    from ..graph.scenario import apply_set, load, variant
+
+    rows = ["| case | EKF | runs | mean \\|drift\\| at 120 s [deg] | 95 % interval of the mean | worst seed [deg] |",
+            "| --- | --- | --- | --- | --- | --- |"]
+    jobs = [(c, v, seed) for c in cases for v in ("ekf_off", "ekf_on") for seed in seeds]
+    drift: dict[tuple[str, str], list[float]] = {}
+    for ins, v, seed in tqdm(jobs, desc="headline runs", unit="run"):
+        s = variant(load("sighting_land_vehicle"), v)
+        for key, value in HEADLINE_CASES[ins]:
+            s = apply_set(s, f"{key}={value}")
+        s = dataclasses.replace(s, seed=seed, record=list(HEADLINE_RECORD), record_rates_hz=dict(HEADLINE_RECORD))
+        d = run_on_engine(s, out / f"{ins.replace(', ', '_').replace('-', '_')}_{v}_seed{seed}")["sighting"]["final_drift_deg"]
+        drift.setdefault((ins, v), []).append((abs(d["azimuth"]) + abs(d["elevation"])) / 2.0)
+    for (ins, v), d in drift.items():
+        a = np.array(d)
+        half = stats.t.ppf(0.975, len(a) - 1) * a.std(ddof=1) / np.sqrt(len(a)) if len(a) > 1 else float("nan")
+        rows.append(f"| {ins} | {v} | {len(a)} | {a.mean():.3f} | [{a.mean() - half:.3f}, {a.mean() + half:.3f}] | "
+                    f"{a.max():.3f} |")
+    return "\n".join(rows)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     import argparse
 
@@ -122,8 +162,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                          "(paper 1's literal reading), gauss_markov (first order, tau 300 s)")
     ap.add_argument("--ins-error-states", action="store_true",
                     help="the 9-state EKF that models correlated INS attitude errors (ins_error_states)")
+    ap.add_argument("--headline", type=int, metavar="N", default=0,
+                    help="instead: the headline table over seeds 1..N, Schuler and white INS, EKF off and on, on the "
+                         "engine with light bags (the truth at 10 Hz) under --out")
     add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
+    if a.headline:
+        with campaign_dir(a.out) as out:
+            print(headline_table(range(1, a.headline + 1), out))
+        return 0
     if a.monte_carlo < 1 or not 0 < a.duration < float("inf"):
         ap.error("--monte-carlo must be >= 1 and --duration a finite number > 0")
     modes = a.modes or list(MODES)
