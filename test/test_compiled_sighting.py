@@ -21,6 +21,8 @@ from gimbal_sim.graph.scenario import load, variant
 from gimbal_sim.world.sensors import EncoderModel, EncoderParams, GyroModel, GyroParams, InsModel, InsParams
 from gimbal_sim.world.sensors import sensor_kernels as sk
 from gimbal_sim.world.sensors._normals import NormalStream
+from gimbal_sim.world.sensors.markov import FirstOrderGaussMarkov
+from gimbal_kinematics.maths.units import DEG
 
 RNG = np.random.default_rng(20261128)
 
@@ -35,14 +37,18 @@ def test_a_block_of_normals_is_the_draws_one_sample_at_a_time():
     assert a.one() == b.one()
 
 
-def test_the_ins_attitude_kernel_is_the_ins_model_to_the_bit():
-    model, twin = (InsModel(InsParams(attitude_tau_s=0.5), np.random.default_rng(4), 0.01) for _ in range(2))
-    att = twin._attitude
-    e, phi, drive = np.array(att._x), np.array(att._phi), np.array(att._drive)
-    z = att._normals.take_block(3, 300)
-    for k in range(300):
+def test_the_ins_attitude_kernel_is_the_first_order_gauss_markov_class_to_the_bit():
+    """The INS model steps its errors through the kernel; the Gauss-Markov model's errors are
+    :class:`FirstOrderGaussMarkov`'s (the pure-Python class) on the same stream, to the bit."""
+    model = InsModel(InsParams(attitude_tau_s=0.5), np.random.default_rng(4), 0.01)
+    rp = InsParams().roll_pitch_rms_deg * DEG
+    gm = FirstOrderGaussMarkov((rp, rp, InsParams().heading_rms_deg * DEG), 0.5,
+                               np.random.default_rng(4).spawn(2)[0], 0.01)
+    for _ in range(300):
         true = (0.1, -0.2, math.pi * (1.0 - 2.0 * RNG.random()))
-        assert sk.ins_attitude(e, phi, drive, z[k], *true) == tuple(model.step(true, (0.0, 0.0, 0.0))[0])
+        e = gm.step()
+        expected = (true[0] + e[0], true[1] + e[1], sk.wrap_pi(true[2] + e[2]))
+        assert tuple(model.step(true, (0.0, 0.0, 0.0))[0]) == expected
 
 
 @pytest.mark.parametrize("anti_windup", ["clamp", "conditional", "none"])

@@ -52,13 +52,15 @@ def test_sighting_loop_prints_figures_recomputed_from_its_runs_bags_and_resume_r
     assert last["ran"] == 0 and last["skipped"] == 2
 
 
-def test_sighting_loop_los_hold_and_correlated_ins_are_scenario_values(tmp_path, capsys):
+def test_sighting_loop_los_hold_and_the_ins_case_are_scenario_values(tmp_path, capsys):
     out = tmp_path / "hold"
-    assert sighting_loop.main(["--duration", "1", "--modes", "los_hold", "--correlated-ins", "--out", str(out)]) == 0
+    assert sighting_loop.main(["--duration", "1", "--modes", "los_hold", "--ins", "gauss_markov",
+                               "--ins-error-states", "--out", str(out)]) == 0
     (run,) = _run_dirs(out / "los_hold")
     params = (run / "scenario.yaml").read_text()
     assert "los_hold" in json.loads((run / "run.json").read_text())["scenario"]
     assert "ins_attitude_tau_s: 300.0" in params and "ins_error_states: true" in params
+    assert "ins_attitude_model: gauss_markov" in params
     assert "los_hold  1 runs: drift at 1 s" in capsys.readouterr().out
 
 

@@ -130,12 +130,12 @@ def _sensor_arrays(suite: SensorSuite) -> tuple:
     """The kernels' arrays of the suite's INS, gimbal gyro and encoders, and each one's
     (normal stream, normals per sample)."""
     att = suite.ins._attitude
-    ins_att = (np.array(att._x), np.array(att._phi), np.array(att._drive))
+    ins_att = (att.state.copy(), att.coef.copy(), att.order.copy())
     ins_gyro, ins_need = _inertial_arrays(suite.ins.gyro)
     gyro, gyro_need = _inertial_arrays(suite.gimbal_gyro)
     e = suite.encoders
     enc = (e._state.copy(), np.array([e.quantum_rad, e._noise, e._gate_steps, e.gate_time_s]))
-    streams = ((att._normals, att.n_axes), (suite.ins.gyro._normals, ins_need),
+    streams = ((att._normals, att.n_normals), (suite.ins.gyro._normals, ins_need),
                (suite.gimbal_gyro._normals, gyro_need),
                (suite.encoders._normals, suite.encoders.n_axes if suite.encoders._noise > 0.0 else 0))
     return ins_att, ins_gyro, gyro, enc, streams

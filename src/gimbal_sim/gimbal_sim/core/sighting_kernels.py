@@ -308,7 +308,7 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
     into ``rec`` (k1 − k0, N_REC); noise rows: one per INS sample of the block (``z_att``,
     ``z_ins``), one per step (``z_gyro``, ``z_enc``)."""
     lines, terms, starts = profile
-    e_att, phi_att, drive_att = ins_att
+    e_att, coef_att, order_att = ins_att
     ef, eg, P, A_cov, P_keep, Pb0, queue = ekf
     cs, cg = ctrl
     omega_b, ins_rates, qr, qr_m = np.empty(3), np.zeros(3), np.empty(2), np.empty(2)
@@ -321,7 +321,7 @@ def run_block(k0: int, k1: int, n_steps: int, stamps_ns: np.ndarray, rate_hz: fl
         euler, w, f, p, v, inner = vehicle_truth(vs, vg)
         ins_due = k % ins_dec == 0
         if ins_due:
-            em = ins_attitude(e_att, phi_att, drive_att, z_att[ia], euler[0], euler[1], euler[2])
+            em = ins_attitude(e_att, coef_att, order_att, z_att[ia], euler[0], euler[1], euler[2])
             omega_b[0], omega_b[1], omega_b[2] = w
             inertial_step(omega_b, ins_gyro[0], ins_gyro[1], ins_gyro[2], z_ins[ia], False, ins_rates)
             ins_euler = euler321_from_quat(*quat_canonical(quat_from_euler321(em[0], em[1], em[2])))

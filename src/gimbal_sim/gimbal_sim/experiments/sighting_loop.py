@@ -8,8 +8,10 @@ Each run is the scenario's, on the one engine (``engine: core``, :mod:`gimbal_si
 the graph's bag) or in the node graph (``engine: graph``); its figures are the ``sighting``
 report's, computed from the run's bag (:mod:`gimbal_sim.reports.sighting`: LOS drift against
 −∫ true gyro bias dt, the (b_q, b_r) NEES from the EKF's recorded σ, the share within ±3σ), and
-the table below from the runs' reports. ``correlated_ins`` sets the Gauss-Markov INS attitude
-errors (τ 300 s) and the 9-state EKF that models them, as scenario values.
+the table below from the runs' reports. ``ins`` picks the host INS's attitude errors
+(:data:`INS_CASES`: the scenario's Schuler-correlated INS, paper 1's literal white reading, or
+first-order Gauss-Markov with τ 300 s) and ``ins_error_states`` the 9-state EKF that models
+correlated ones, as scenario values.
 
 LOS drift (truth): the LOS (m-frame x axis) carried to the inertial frame (NED at t = 0), as
 azimuth and elevation relative to the initial ones; azimuth cross-elevation (Δaz · cos el0),
@@ -18,6 +20,8 @@ so that without the EKF both components equal minus the integral of the true gyr
 """
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -29,14 +33,20 @@ from .engine_runs import run_on_engine
 
 MODES = ("off", "feedback", "los_hold")
 SETTLE_S = 30.0   # the bias figures are taken after the EKF's settling [s]
-#: the correlated-INS case as scenario values: Gauss-Markov INS attitude errors and the EKF's INS-error states
-CORRELATED_INS = (("sensor_models.ins_attitude_tau_s", 300.0), ("gyro_bias_ekf.ins_error_states", True))
+#: the host INS's attitude errors as scenario values: the scenario's own (Schuler), paper 1's
+#: literal white reading, and first-order Gauss-Markov errors with τ 300 s
+INS_CASES = {
+    "schuler": (("sensor_models.ins_attitude_model", "schuler"), ("sensor_models.ins_attitude_tau_s", 3600.0)),
+    "white": (("sensor_models.ins_attitude_model", "gauss_markov"), ("sensor_models.ins_attitude_tau_s", 0.001)),
+    "gauss_markov": (("sensor_models.ins_attitude_model", "gauss_markov"), ("sensor_models.ins_attitude_tau_s", 300.0)),
+}
 
 
 def scenario_values(options: dict[str, Any]) -> tuple[float, tuple[tuple[str, Any], ...]]:
-    """The options of :data:`CAMPAIGN` as the scenario's: the duration, and with
-    ``correlated_ins`` :data:`CORRELATED_INS`."""
-    return options["duration_s"], CORRELATED_INS if options["correlated_ins"] else ()
+    """The options of :data:`CAMPAIGN` as the scenario's: the duration, the ``ins`` case's
+    values (:data:`INS_CASES`) and the EKF's INS-error states."""
+    return options["duration_s"], INS_CASES[options["ins"]] + (
+        (("gyro_bias_ekf.ins_error_states", True),) if options["ins_error_states"] else ())
 
 
 def summarize(runs: dict[str, list[tuple[int, dict]]], settle_s: float = SETTLE_S) -> str:
@@ -79,13 +89,52 @@ def summarize(runs: dict[str, list[tuple[int, dict]]], settle_s: float = SETTLE_
 #: ``feedback``) and ``sighting_los_hold``'s (``los_hold``, the same scenario with the outer
 #: loop), on either engine, each with its bag and ``sighting`` report.
 CAMPAIGN = ExperimentCampaign(
-    name="sighting_loop", variants=MODES[:2], defaults={"duration_s": 120.0, "correlated_ins": False}, run=None,
+    name="sighting_loop", variants=MODES[:2], defaults={"duration_s": 120.0, "ins": "schuler",
+                                                                  "ins_error_states": False}, run=None,
     graph=GraphEquivalent("sighting_land_vehicle", {"off": "ekf_off", "feedback": "ekf_on"},
-                          ("duration_s", "correlated_ins"), scenario_values),
+                          ("duration_s", "ins", "ins_error_states"), scenario_values),
     table=numbered_table(summarize))
 LOS_HOLD_CAMPAIGN = ExperimentCampaign(
     name="sighting_loop_los_hold", variants=MODES[2:], defaults=dict(CAMPAIGN.defaults), run=None,
-    graph=GraphEquivalent("sighting_los_hold", {"los_hold": None}, ("duration_s", "correlated_ins"), scenario_values))
+    graph=GraphEquivalent("sighting_los_hold", {"los_hold": None}, ("duration_s", "ins", "ins_error_states"), scenario_values))
+
+
+#: the headline's cases: the INS cases with paper 1's 6-state EKF, and the Schuler INS with the
+#: 9-state EKF that models correlated INS errors
+HEADLINE_CASES = {"schuler": INS_CASES["schuler"], "white": INS_CASES["white"],
+                  "schuler, 9-state EKF": INS_CASES["schuler"] + (("gyro_bias_ekf.ins_error_states", True),)}
+#: the report's topics a headline run records (the truth at 10 Hz: the figures are its final values)
+HEADLINE_RECORD = {"/truth/gimbal/imu": 10.0, "/truth/gimbal/gyro_bias": 10.0}
+
+
+def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple(HEADLINE_CASES)) -> str:
+    """Paper 1's headline over ``seeds``: scenario ``sighting_land_vehicle``'s ``ekf_off`` and
+    ``ekf_on`` in each case (:data:`HEADLINE_CASES`) on the engine, each run's bag (the truth
+    LOS and bias at 10 Hz) under ``out``; per case and variant, |drift| at the run's end
+    (azimuth and elevation pooled per run), its seed mean with the 95 % Student-t interval,
+    and the worst seed."""
+    from scipy import stats
+    from tqdm import tqdm
+
+    from ..graph.scenario import apply_set, load, variant
+
+    rows = ["| case | EKF | runs | mean \\|drift\\| at 120 s [deg] | 95 % interval of the mean | worst seed [deg] |",
+            "| --- | --- | --- | --- | --- | --- |"]
+    jobs = [(c, v, seed) for c in cases for v in ("ekf_off", "ekf_on") for seed in seeds]
+    drift: dict[tuple[str, str], list[float]] = {}
+    for ins, v, seed in tqdm(jobs, desc="headline runs", unit="run"):
+        s = variant(load("sighting_land_vehicle"), v)
+        for key, value in HEADLINE_CASES[ins]:
+            s = apply_set(s, f"{key}={value}")
+        s = dataclasses.replace(s, seed=seed, record=list(HEADLINE_RECORD), record_rates_hz=dict(HEADLINE_RECORD))
+        d = run_on_engine(s, out / f"{ins.replace(', ', '_').replace('-', '_')}_{v}_seed{seed}")["sighting"]["final_drift_deg"]
+        drift.setdefault((ins, v), []).append((abs(d["azimuth"]) + abs(d["elevation"])) / 2.0)
+    for (ins, v), d in drift.items():
+        a = np.array(d)
+        half = stats.t.ppf(0.975, len(a) - 1) * a.std(ddof=1) / np.sqrt(len(a)) if len(a) > 1 else float("nan")
+        rows.append(f"| {ins} | {v} | {len(a)} | {a.mean():.3f} | [{a.mean() - half:.3f}, {a.mean() + half:.3f}] | "
+                    f"{a.max():.3f} |")
+    return "\n".join(rows)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -102,14 +151,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=120.0, help="simulated time per run [s]")
     ap.add_argument("--modes", nargs="+", default=None, choices=MODES,
                     help=f"default: {' '.join(MODES)}")
-    ap.add_argument("--correlated-ins", action="store_true",
-                    help="Gauss-Markov INS attitude errors (tau 300 s) and the 9-state EKF instead of paper 1's white")
+    ap.add_argument("--ins", choices=list(INS_CASES), default="schuler",
+                    help="host INS attitude errors: schuler (the scenario's, Schuler-correlated tilt), white "
+                         "(paper 1's literal reading), gauss_markov (first order, tau 300 s)")
+    ap.add_argument("--ins-error-states", action="store_true",
+                    help="the 9-state EKF that models correlated INS attitude errors (ins_error_states)")
+    ap.add_argument("--headline", type=int, metavar="N", default=0,
+                    help="instead: the headline table over seeds 1..N, Schuler and white INS, EKF off and on, on the "
+                         "engine with light bags (the truth at 10 Hz) under --out")
     add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
+    if a.headline:
+        with campaign_dir(a.out) as out:
+            print(headline_table(range(1, a.headline + 1), out))
+        return 0
     if a.monte_carlo < 1 or not 0 < a.duration < float("inf"):
         ap.error("--monte-carlo must be >= 1 and --duration a finite number > 0")
     modes = a.modes or list(MODES)
-    options = (("duration_s", a.duration), ("correlated_ins", a.correlated_ins))
+    options = (("duration_s", a.duration), ("ins", a.ins), ("ins_error_states", a.ins_error_states))
     runs: dict[str, list[tuple[int, dict]]] = {}
     with campaign_dir(a.out) as out:
         for exp, where in ((CAMPAIGN, out), (LOS_HOLD_CAMPAIGN, out / "los_hold")):

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from gimbal_kinematics.params.table import SHARED, declaration, param, same_as
 
 from ..world.sensor_suite import SENSORS
+from ..world.sensors.ins import ATTITUDE_MODELS, SCHULER_PERIOD_S
 
 INF = math.inf
 
@@ -48,7 +49,15 @@ class SensorModelsNodeParams:
         0.0, INF, unit="deg/s")
     ins_roll_pitch_rms_deg: float = param(0.05, "INS roll/pitch error RMS", 0.0, INF, unit="deg")
     ins_heading_rms_deg: float = param(0.2, "INS heading error RMS", 0.0, INF, unit="deg")
-    ins_attitude_tau_s: float = param(300.0, "INS attitude error correlation time", 1e-9, INF, unit="s")
+    ins_attitude_tau_s: float = param(300.0, "INS attitude error correlation time (the heading's alone with the "
+                                      "schuler model)", 1e-9, INF, unit="s")
+    ins_attitude_model: str = param("gauss_markov", "INS attitude errors: gauss_markov (first order per angle) or "
+                                    "schuler (damped Schuler-period tilt oscillation, Gauss-Markov heading)",
+                                    choices=ATTITUDE_MODELS)
+    ins_schuler_period_s: float = param(SCHULER_PERIOD_S, "undamped Schuler period of the INS tilt errors, "
+                                        "2 pi sqrt(R/g)", 60.0, 1e5, unit="s")
+    ins_schuler_damping: float = param(0.1, "damping ratio of the INS tilt oscillation (aided INS)", 1e-3, 0.999,
+                                       unit="-")
     ins_gyro_bias_sigma_deg_h: float = param(1.0, "INS gyro run-to-run bias 1-sigma", 0.0, INF, unit="deg/h")
     ins_gyro_bi_deg_h: float = param(1.0, "INS gyro Gauss-Markov bias RMS", 0.0, INF, unit="deg/h")
     ins_gyro_bi_tau_s: float = param(60.0, "its correlation time", 1e-9, INF, unit="s")

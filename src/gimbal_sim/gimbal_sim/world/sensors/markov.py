@@ -137,6 +137,16 @@ def gm2_discrete(beta: float, freq: float, sigma: float, dt: float) -> tuple[np.
     return Phi, 0.5 * (Qd + Qd.T)
 
 
+def gm2_coefficients(beta: float, freq: float, sigma: float, dt: float) -> tuple[float, ...]:
+    """``(Φ00, Φ01, Φ10, Φ11, L11, L21, L22)`` of :func:`gm2_discrete`'s step, ``L`` the lower
+    Cholesky factor of ``Q_d`` (by hand; round-off negatives clipped so σ = 0 stays exactly 0)."""
+    Phi, Qd = gm2_discrete(beta, freq, sigma, dt)
+    l11 = math.sqrt(max(Qd[0, 0], 0.0))
+    l21 = Qd[1, 0] / l11 if l11 > 0.0 else 0.0
+    l22 = math.sqrt(max(Qd[1, 1] - l21 * l21, 0.0))
+    return float(Phi[0, 0]), float(Phi[0, 1]), float(Phi[1, 0]), float(Phi[1, 1]), l11, float(l21), l22
+
+
 class SecondOrderGaussMarkov:
     """n independent second-order Gauss-Markov processes (θ and θ̇ per axis), exact in any step.
 
@@ -185,16 +195,7 @@ class SecondOrderGaussMarkov:
 
     def _set_dt(self, dt: float) -> None:
         positive("dt", dt)
-        self._coef = []
-        for s, b, f in zip(self._sigma, self._beta, self._freq):
-            Phi, Qd = gm2_discrete(b, f, s, dt)
-            # 2x2 Cholesky by hand; clip round-off negatives so σ = 0 stays exactly 0.
-            l11 = math.sqrt(max(Qd[0, 0], 0.0))
-            l21 = Qd[1, 0] / l11 if l11 > 0.0 else 0.0
-            l22 = math.sqrt(max(Qd[1, 1] - l21 * l21, 0.0))
-            self._coef.append(
-                (float(Phi[0, 0]), float(Phi[0, 1]), float(Phi[1, 0]), float(Phi[1, 1]), l11, l21, l22)
-            )
+        self._coef = [gm2_coefficients(b, f, s, dt) for s, b, f in zip(self._sigma, self._beta, self._freq)]
         self._dt = dt
 
     def step(self, dt: float | None = None) -> None:

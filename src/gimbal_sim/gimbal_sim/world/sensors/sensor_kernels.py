@@ -12,8 +12,9 @@ in the arrays of :func:`encoder_step` and :func:`inertial_step` and call them pe
 compiled engine (``gimbal_sim.core.compiled_platform``) calls both kernels
 over the models' states (``E_*`` for an encoder set).
 
-INS attitude (:mod:`.ins`): first-order Gauss-Markov error e ← φ e + d z per Euler angle,
-added to the true angles, yaw wrapped to (−π, π] (:func:`ins_attitude`).
+INS attitude (:mod:`.ins`): per Euler angle a first-order Gauss-Markov error e ← φ e + d z or a
+damped Schuler oscillation (θ, θ̇) ← Φ (θ, θ̇) + L z, added to the true angles, yaw wrapped to
+(−π, π] (:func:`ins_attitude`).
 """
 from __future__ import annotations
 
@@ -135,11 +136,33 @@ def wrap_pi(a: float) -> float:
     return w - math.pi
 
 
+# One row of the INS attitude-error coefficients per Euler angle: Φ (p00, p01, p10, p11) and the
+# lower Cholesky factor (l11, l21, l22) of the step's noise covariance; a first-order axis uses
+# p00 and l11 only and draws one normal, a second-order axis (θ, θ̇) draws two.
+A_P00, A_P01, A_P10, A_P11, A_L11, A_L21, A_L22 = range(7)
+
+
 @njit(cache=True)
-def ins_attitude(e: np.ndarray, phi: np.ndarray, drive: np.ndarray, z: np.ndarray, roll: float, pitch: float,
-                 yaw: float) -> tuple:
-    """The measured Euler angles from the true ones, after one step of the attitude errors ``e``
-    (3,) (first-order Gauss-Markov with ``phi``, ``drive``, normals ``z``)."""
+def ins_attitude_error_step(e: np.ndarray, coef: np.ndarray, order: np.ndarray, z: np.ndarray) -> None:
+    """One step of the attitude errors ``e`` (3, 2) (θ, θ̇ per Euler angle) with ``coef`` (3, 7),
+    ``order`` (3,) (1 or 2) and the sample's normals ``z``, taken in axis order."""
+    j = 0
     for i in range(3):
-        e[i] = phi[i] * e[i] + drive[i] * z[i]
-    return roll + e[0], pitch + e[1], wrap_pi(yaw + e[2])
+        c = coef[i]
+        if order[i] == 1:
+            e[i, 0] = c[A_P00] * e[i, 0] + c[A_L11] * z[j]
+            j += 1
+        else:
+            x, v = e[i, 0], e[i, 1]
+            e[i, 0] = c[A_P00] * x + c[A_P01] * v + c[A_L11] * z[j]
+            e[i, 1] = c[A_P10] * x + c[A_P11] * v + c[A_L21] * z[j] + c[A_L22] * z[j + 1]
+            j += 2
+
+
+@njit(cache=True)
+def ins_attitude(e: np.ndarray, coef: np.ndarray, order: np.ndarray, z: np.ndarray, roll: float, pitch: float,
+                 yaw: float) -> tuple:
+    """The measured Euler angles from the true ones, after one step of the attitude errors
+    (:func:`ins_attitude_error_step`)."""
+    ins_attitude_error_step(e, coef, order, z)
+    return roll + e[0, 0], pitch + e[1, 0], wrap_pi(yaw + e[2, 0])
