@@ -170,8 +170,7 @@ def test_the_controller_side_holds_no_motor_model():
     """No inverse crime: the paper 2 controller and filter (gimbal_control) never see the motor's
     figures; the motor lives in the simulated world only."""
     root = Path(__file__).resolve().parents[1] / "src" / "gimbal_control" / "gimbal_control"
-    for name in ("encoder_fusion.py", "fusion_kf.py", "pid.py", "encoder_fusion_controller_node.py"):
-        path = root / name
-        if path.exists():
-            text = path.read_text()
-            assert "dc_motor" not in text and "back_emf" not in text and "armature" not in text, name
+    for name in ("encoder_fusion.py", "fusion_kf.py", "pid.py", "encoder_fusion_controller_node.py",
+                 "encoder_fusion_controller_params.py"):
+        text = (root / name).read_text()
+        assert "dc_motor" not in text and "back_emf" not in text and "armature" not in text, name
