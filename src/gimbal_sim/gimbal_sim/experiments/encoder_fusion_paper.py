@@ -38,7 +38,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import shutil
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
