@@ -60,7 +60,8 @@ def matches(values: dict[str, tuple[str, dict[str, Any]]]) -> bool:
             or any(len(v) != 1 for v in nodes.values()) or "sensor_models" not in nodes:
         return False
     veh, sen = nodes["vehicle_dynamics"][0], nodes["sensor_models"][0]
-    if veh["plant"] != "two_axis_gimbal" or set(sen["sensors"]) != SENSORS \
+    if veh["plant"] != "two_axis_gimbal" or veh.get("gimbal_actuator", "torque") != "torque" \
+            or set(sen["sensors"]) != SENSORS \
             or any(v.get("timing", "lockstep") != "lockstep" for v in (veh, sen)):
         return False
     rate = veh["sim_rate_hz"]

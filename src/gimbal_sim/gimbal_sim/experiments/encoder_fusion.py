@@ -17,6 +17,7 @@ from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 
 from ..world.sensor_suite import EncoderSample, GimbalGyroSample, SensorSuite, SensorSuiteConfig
 from ..world.sensors import PAPER2_ENCODER, EncoderParams, GyroParams
+from ..world.plant.dc_motor import SMALL_GIMBAL_MOTOR, DcMotorParams
 from ..world.vehicle import VehicleConfig, VehicleCore
 from ..core.core_loop import run_stages
 
@@ -73,7 +74,8 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
                        settle_s: float = 5.0, gyro: GyroParams = MEMS_GYRO,
                        encoder: EncoderParams = PAPER2_ENCODER,
                        profile_params: dict[str, Any] | None = None,
-                       record_every: int = 10) -> dict[str, Any]:
+                       record_every: int = 10, actuator: str = "torque",
+                       motor: DcMotorParams = SMALL_GIMBAL_MOTOR) -> dict[str, Any]:
     """Closed-loop paper 2 experiment on the small UAV gimbal; returns metrics + series.
 
     The UAV base follows ``profile_params`` (default :data:`UAV_PROFILE`) with NED treated
@@ -110,7 +112,7 @@ def run_encoder_fusion(mode: str, duration_s: float = 60.0, seed: int = 0, *,
     core = VehicleCore(VehicleConfig(
         profile="sinusoids", profile_params=profile_params or UAV_PROFILE, plant="two_axis_gimbal",
         sim_rate_hz=rate, duration_s=duration_s, earth_rate=False,
-        initial_joints_deg=UAV_INITIAL_JOINTS_DEG), gimbal_params=UAV_GIMBAL)
+        initial_joints_deg=UAV_INITIAL_JOINTS_DEG, gimbal_actuator=actuator, motor=motor), gimbal_params=UAV_GIMBAL)
     suite = SensorSuite(SensorSuiteConfig(sensors=("gimbal_gyro", "encoders"), sim_rate_hz=rate, seed=seed,
                                           gimbal_gyro=gyro, encoder=encoder,
                                           gimbal_gyro_rate_hz=rate, encoder_rate_hz=rate))

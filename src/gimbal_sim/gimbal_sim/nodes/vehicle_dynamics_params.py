@@ -10,6 +10,7 @@ from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.params.table import SHARED, declaration, param, same_as
 
 from ..world.plant.motion_profiles import PROFILE_NAMES
+from ..world.plant.dc_motor import GIMBAL_ACTUATORS, SMALL_GIMBAL_MOTOR as _M
 from ..world.vehicle import PLANTS, PLATFORM_INTEGRATORS
 
 
@@ -58,6 +59,23 @@ class VehicleDynamicsNodeParams:
     platform_base_motion: bool = param(False, "four_gimbal_platform: the host's motion enters each gimbal loop (the "
         "outer member's inertial acceleration torques the gimbal; friction and back-EMF see the relative rate); "
         "false: the joints see no base motion (a base at rest)")
+    gimbal_actuator: str = param("torque", "two_axis_gimbal: torque (the command's joint torques act directly) or "
+        "dc_motor (each joint is a direct-drive brushed DC motor on a PWM H-bridge: the command is its torque demand, "
+        "turned into a duty with the motor_* figures; armature lag, back-EMF, bus limit and duty steps act)",
+        choices=GIMBAL_ACTUATORS)
+    motor_resistance_ohm: float = param(_M.resistance_ohm, "dc_motor: armature resistance R (default: FAULHABER "
+        "2342 S 012 CR)", 1e-6, 1e6, unit="ohm")
+    motor_inductance_h: float = param(_M.inductance_h, "dc_motor: armature inductance L", 1e-9, 10.0, unit="H")
+    motor_torque_constant_nm_a: float = param(_M.torque_constant_nm_a, "dc_motor: torque constant k_t", 1e-6, 100.0,
+        unit="N*m/A")
+    motor_back_emf_v_s_rad: float = param(_M.back_emf_v_s_rad, "dc_motor: back-EMF constant k_e", 1e-6, 100.0,
+        unit="V*s/rad")
+    motor_bus_voltage_v: float = param(_M.bus_voltage_v, "dc_motor: H-bridge supply voltage (stall torque "
+        "k_t V/R)", 1e-3, 1e4, unit="V")
+    motor_pwm_hz: float = param(_M.pwm_hz, "dc_motor: PWM switching frequency (averaged model: the armature "
+        "sees the duty's mean voltage)", 1.0, 1e7, unit="Hz")
+    motor_pwm_timer_hz: float = param(_M.pwm_timer_hz, "dc_motor: PWM timer clock; timer/PWM counts per period "
+        "set the duty resolution (0: continuous duty)", 0.0, 1e10, unit="Hz")
     position_truth_every_steps: int = param(0, "publish the host's true position (/truth/host/fix, NavSatFix) and "
         "NED velocity (/truth/host/velocity, m/s) every N steps; 0: not published", 0, 10**9)
 

@@ -5,7 +5,9 @@ host (analytic profile) and one plant:
 
 * ``two_axis_gimbal``: the paper 1 sighting system (:mod:`.plant.gimbal_simulator`, with the
   rigid-body model of :mod:`gimbal_kinematics.gimbal.gimbal_dynamics`),
-  commanded by joint torques (τ_a, τ_e) [N·m];
+  commanded by joint torques (τ_a, τ_e) [N·m], applied directly (``gimbal_actuator: torque``)
+  or as the torque demands of a brushed DC motor and PWM drive per joint
+  (``dc_motor``, :mod:`.plant.dc_motor`: armature R, L, k_t, k_e, bus limit, duty steps);
 * ``four_gimbal_platform``: the paper 3 four-gimbal platform, one single-axis DC-motor
   loop per gimbal joint (:mod:`.plant.platform_loops`), commanded by the gimbal motor
   voltages [V] in the order azimuth a, inner roll q, pitch p, outer roll r;
@@ -40,6 +42,7 @@ from gimbal_kinematics.maths.rotations import (
     quat_mul, rotation_vector_from_quat,
 )
 
+from .plant.dc_motor import GIMBAL_ACTUATORS, DcMotorDrive, DcMotorParams
 from .plant.gimbal_simulator import GimbalSimulator
 from .plant.sighting_plant_kernels import inner_gimbal_truth
 from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS as GIMBAL_JOINTS, PLATFORM_JOINTS
@@ -71,6 +74,9 @@ class VehicleConfig:
     axis (:func:`gimbal_kinematics.maths.four_gimbal.outer_member_rates`) accelerates and so torques
     the gimbal by −J ω̇_A (differenced over the last step), while the bearing friction and the
     back-EMF see the relative rate; off (default), the joints see no base motion.
+    ``gimbal_actuator`` (two_axis_gimbal): ``torque`` (the command is the joint torques) or
+    ``dc_motor`` (the command is each joint's torque demand to a DC motor's PWM drive,
+    ``motor``'s figures; :mod:`.plant.dc_motor`).
     """
 
     profile: str = "paper1_land_vehicle"
@@ -83,8 +89,14 @@ class VehicleConfig:
     platform_substeps: int = 4
     platform_integrator: str = "rk4"
     platform_base_motion: bool = False
+    gimbal_actuator: str = "torque"
+    motor: DcMotorParams = field(default_factory=DcMotorParams)
 
     def __post_init__(self) -> None:
+        if self.gimbal_actuator not in GIMBAL_ACTUATORS:
+            raise ValueError(f"gimbal_actuator must be one of {list(GIMBAL_ACTUATORS)}, got {self.gimbal_actuator!r}")
+        if not isinstance(self.motor, DcMotorParams):
+            raise ValueError("motor must be a DcMotorParams")
         if self.profile not in PROFILE_NAMES:
             raise ValueError(f"profile {self.profile!r} is unknown; known: {sorted(PROFILE_NAMES)}")
         if self.plant not in PLANTS:
@@ -124,7 +136,14 @@ class VehicleConfig:
                        earth_rate=values["earth_rate"], initial_joints_deg=tuple(initial),
                        platform_substeps=values["platform_substeps"],
                        platform_integrator=values["platform_integrator"],
-                       platform_base_motion=values["platform_base_motion"])
+                       platform_base_motion=values["platform_base_motion"],
+                       gimbal_actuator=values["gimbal_actuator"],
+                       motor=DcMotorParams(resistance_ohm=values["motor_resistance_ohm"],
+                                           inductance_h=values["motor_inductance_h"],
+                                           torque_constant_nm_a=values["motor_torque_constant_nm_a"],
+                                           back_emf_v_s_rad=values["motor_back_emf_v_s_rad"],
+                                           bus_voltage_v=values["motor_bus_voltage_v"],
+                                           pwm_hz=values["motor_pwm_hz"], pwm_timer_hz=values["motor_pwm_timer_hz"]))
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
@@ -182,6 +201,7 @@ class VehicleCore:
         self._q_earth = quat_from_rotation_vector(w[0] * config.dt, w[1] * config.dt, w[2] * config.dt)
         self.k = 0
         self._gimbal: GimbalSimulator | None = None
+        self._motor: DcMotorDrive | None = None
         self._platform: list[PlatformAxis] = []
         self._platform_x = np.zeros((0, 3))  # (θ, ω, i) per axis a, q, p, r
         self._applied: tuple[float, ...] = (0.0,) * config.command_size
@@ -190,6 +210,8 @@ class VehicleCore:
             self._gimbal = GimbalSimulator(self.profile, config.dt, gimbal_params,
                                            x0=(init[0], init[1], 0.0, 0.0), earth_rate=config.earth_rate)
             self._host = self._gimbal.host
+            if config.gimbal_actuator == "dc_motor":
+                self._motor = DcMotorDrive(config.motor, 2)
         else:
             self._host = self.profile.sample(0.0)
         if config.plant == "four_gimbal_platform":
@@ -233,6 +255,8 @@ class VehicleCore:
             raise ValueError(f"command needs {self.config.command_size} values, got {len(command)}")
         dt = self.config.dt
         if self._gimbal is not None:
+            if self._motor is not None:  # the motors' torques over the step, from the joint rates at its start
+                command = self._motor.step(command, self._gimbal.x[2:], dt)
             self._gimbal.step(command)
             self._applied = self._gimbal.applied_torque
             host1 = self._gimbal.host
