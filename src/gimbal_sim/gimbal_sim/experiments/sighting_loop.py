@@ -29,6 +29,7 @@ import numpy as np
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, numbered_table, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
+from ..graph.scenario import apply_set, load, variant
 from .engine_runs import run_on_engine
 
 MODES = ("off", "feedback", "los_hold")
@@ -115,8 +116,6 @@ def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple
     and the worst seed."""
     from scipy import stats
     from tqdm import tqdm
-
-    from ..graph.scenario import apply_set, load, variant
 
     rows = ["| case | EKF | runs | mean \\|drift\\| at 120 s [deg] | 95 % interval of the mean | worst seed [deg] |",
             "| --- | --- | --- | --- | --- | --- |"]
