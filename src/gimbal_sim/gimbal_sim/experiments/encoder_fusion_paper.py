@@ -51,6 +51,7 @@ from gimbal_kinematics.maths.units import DEG
 from gimbal_control.encoder_fusion import EncoderFusionParams
 
 from ..campaign.report import stats
+from ..campaign.parsing import parse_seeds
 from ..core.engine_run import run_engine
 from ..graph.scenario import apply_set, load, variant
 from ..reports.encoder_fusion import load_run, run_metrics
@@ -182,14 +183,6 @@ def markdown(tables: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _seeds(text: str) -> tuple[int, ...]:
-    out: list[int] = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out.extend(range(int(a), int(b or a) + 1))
-    return tuple(out)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.encoder_fusion_paper",
                                  description="Paper 2's 10x on its baseline with the DC motor and eq. 1's gate, on the "
@@ -211,7 +204,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         t0, t1 = (float(v) for v in a.window.split(","))
         print(json.dumps(fig8_plot(Path(a.bag), Path(a.png), (t0, t1)), indent=1))
         return 0
-    seeds = _seeds(a.seeds)
+    try:
+        seeds = parse_seeds(a.seeds)
+    except ValueError as exc:
+        ap.error(str(exc))
     cases = ["paper"] if a.study == "headline" else list(CASES)
     figs = run_cases(cases, seeds, Path(a.out), a.jobs, a.duration, keep_seed=seeds[0])
     tables = [case_table(figs, c) for c in cases]

@@ -41,6 +41,7 @@ from gimbal_kinematics.maths.units import DEG
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, run_metrics
 from ..campaign.report import stats
+from ..campaign.parsing import parse_seeds
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
 from ..campaign.spec import CampaignSpec
 from ..reports.encoder_fusion import FusionRun, run_metrics as fusion_run_metrics
@@ -224,14 +225,6 @@ def rq_table(by_variant: dict[str, list[tuple[int, dict]]]) -> tuple[str, dict[s
 
 
 # ---------------------------------------------------------------------------- command line
-def _seeds(text: str) -> tuple[int, ...]:
-    out: list[int] = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out.extend(range(int(a), int(b or a) + 1))
-    return tuple(out)
-
-
 def main(argv: Sequence[str] | None = None) -> None:
     """``python -m gimbal_sim.experiments.encoder_fusion_study headline|rq``."""
     ap = argparse.ArgumentParser(prog="python -m gimbal_sim.experiments.encoder_fusion_study",
@@ -251,7 +244,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     a = ap.parse_args(argv)
     exp = CAMPAIGN if a.study == "headline" else RQ_CAMPAIGN
     try:
-        seeds = _seeds(a.seeds)
+        seeds = parse_seeds(a.seeds)
     except ValueError:
         ap.error(f"--seeds {a.seeds!r}: expected a list like 1-10 or 1,3,5")
     options = dict(exp.defaults)

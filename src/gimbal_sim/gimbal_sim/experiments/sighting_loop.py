@@ -26,6 +26,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..campaign.report import stats
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, numbered_table, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
@@ -114,7 +115,6 @@ def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple
     LOS and bias at 10 Hz) under ``out``; per case and variant, |drift| at the run's end
     (azimuth and elevation pooled per run), its seed mean with the 95 % Student-t interval,
     and the worst seed."""
-    from scipy import stats
     from tqdm import tqdm
 
     rows = ["| case | EKF | runs | mean \\|drift\\| at 120 s [deg] | 95 % interval of the mean | worst seed [deg] |",
@@ -129,10 +129,9 @@ def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple
         d = run_on_engine(s, out / f"{ins.replace(', ', '_').replace('-', '_')}_{v}_seed{seed}")["sighting"]["final_drift_deg"]
         drift.setdefault((ins, v), []).append((abs(d["azimuth"]) + abs(d["elevation"])) / 2.0)
     for (ins, v), d in drift.items():
-        a = np.array(d)
-        half = stats.t.ppf(0.975, len(a) - 1) * a.std(ddof=1) / np.sqrt(len(a)) if len(a) > 1 else float("nan")
-        rows.append(f"| {ins} | {v} | {len(a)} | {a.mean():.3f} | [{a.mean() - half:.3f}, {a.mean() + half:.3f}] | "
-                    f"{a.max():.3f} |")
+        st = stats(d)
+        lo, hi = st["ci95"]
+        rows.append(f"| {ins} | {v} | {st['n']} | {st['mean']:.3f} | [{lo:.3f}, {hi:.3f}] | {st['max']:.3f} |")
     return "\n".join(rows)
 
 

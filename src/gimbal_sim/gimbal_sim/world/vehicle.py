@@ -138,12 +138,9 @@ class VehicleConfig:
                        platform_integrator=values["platform_integrator"],
                        platform_base_motion=values["platform_base_motion"],
                        gimbal_actuator=values["gimbal_actuator"],
-                       motor=DcMotorParams(resistance_ohm=values["motor_resistance_ohm"],
-                                           inductance_h=values["motor_inductance_h"],
-                                           torque_constant_nm_a=values["motor_torque_constant_nm_a"],
-                                           back_emf_v_s_rad=values["motor_back_emf_v_s_rad"],
-                                           bus_voltage_v=values["motor_bus_voltage_v"],
-                                           pwm_hz=values["motor_pwm_hz"], pwm_timer_hz=values["motor_pwm_timer_hz"]))
+                       # the motor_* parameters are DcMotorParams' fields by name
+                       motor=DcMotorParams(**{k[len("motor_"):]: x for k, x in values.items()
+                                              if k.startswith("motor_")}))
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
 
