@@ -91,10 +91,14 @@ def dask_cluster(tmp_path, ros_domain_env):
 @pytest.mark.ros
 def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_serial_runs(
         dask_cluster, tmp_path, ros_domain_env):
+    """One seed in both variants, a run per worker: the killed worker's run is done again
+    and every metric equals gimbal-run's. Seed 2 is not the scenario's own (1), so that
+    equality also shows the campaign's seed reached the run; campaigns of several seeds are
+    the other tests' concern."""
     from distributed import Client
 
     out = tmp_path / "campaign"
-    cmd = [str(BIN / "gimbal-campaign"), "sighting_land_vehicle", "--seeds", "1-2", "--duration", "3",
+    cmd = [str(BIN / "gimbal-campaign"), "sighting_land_vehicle", "--seeds", "2", "--duration", "3",
            "--mode", "container", "--scheduler", dask_cluster, "--out", str(out), "--no-progress"]
     campaign = subprocess.Popen(cmd, env=ros_domain_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     killed = None
@@ -120,7 +124,7 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
     assert killed is not None, "no run was seen in progress to kill its worker"
     assert campaign.returncode == 0, output
     rows = _rows(out)
-    assert len(rows) == 4 and all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+    assert len(rows) == 2 and all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
     killed_run = killed[1].rsplit("-", 1)[1]
     assert killed_run in {r["run_id"] for r in rows}  # the killed worker's run was done again, elsewhere
     assert not (out / "runs" / ".attempts").exists()  # its half-done attempt was cleaned away
@@ -130,7 +134,7 @@ def test_campaign_on_a_real_scheduler_survives_a_killed_worker_and_matches_seria
     assert not _processes_mentioning(str(out / "runs" / ".attempts"))
 
     # the same runs, serially, by gimbal-run itself: every metric of every run is the same
-    for seed in (1, 2):
+    for seed in (2,):
         serial = tmp_path / f"serial{seed}"
         result = subprocess.run([str(BIN / "gimbal-run"), "sighting_land_vehicle", "--seed", str(seed),
                                  "--duration", "3", "--mode", "container", "--out", str(serial), "--no-progress"],

@@ -190,7 +190,9 @@ def test_scenario_starts_the_platform_where_alignment_setup_puts_it():
 
 
 # ------------------------------------------------------------------------------- graph run
-DURATION_S = 10.0
+#: Three of the alignment's 1 s blocks, so three RLS updates to compare graph and engine on
+#: (exact equality: the number of updates does not change what is checked).
+DURATION_S = 3.0
 
 
 @pytest.fixture(scope="module")
