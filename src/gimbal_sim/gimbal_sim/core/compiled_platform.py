@@ -32,15 +32,16 @@ from gimbal_kinematics.maths.platform_kernels import platform_truth
 from .loop_plan import CoreLoopResult, node_values
 from .compiled_platform_record import ChainRecorder
 from .compiled_platform_setup import (
+    C_CONTROLLED, C_DT, C_FOLLOWS, C_IMU_EVERY, C_JOINT, C_MAX_AGE_NS, C_N, C_QUASI, C_RATE, C_RES_CYCLIC,
+    C_RES_EVERY, C_RES_GATE_STEPS, C_RES_GATE_TIME, C_RES_HARMONIC, C_RES_NOISE, C_RES_PHASES, C_RES_QUANTUM,
+    C_SUBSTEPS,
     J_CMD, J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_RATE, J_T_NS, J_THETA, N_OUT, PlatformChain, build_chain,
     chain_values,
 )
 from ..world.plant.platform_kernels import P_KT, P_VMAX, platform_step, saturate
-from ..world.sensors.sensor_kernels import encoder_step, inertial_step
+from ..world.sensors.sensor_kernels import cyclic_error, encoder_step, inertial_step
 
 #: configuration vector of the block (``C_*``)
-(C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
- C_RES_GATE_TIME, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT) = range(15)
 N_CONFIG = 15
 #: steps per block: the normals and (recorded) the output rows of one block in memory
 BLOCK_STEPS = 16384
@@ -137,7 +138,7 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c
     angles, rates, ra, rr = np.empty(4), np.empty(4), np.zeros(4), np.zeros(4)
     fm, wm, volts, zeros = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
     wt, ft = np.zeros(3), np.zeros(3)
-    empty = np.empty(0)
+    empty, cyc = np.empty(0), np.empty(4)
     res_every, imu_every, n = int(c[C_RES_EVERY]), int(c[C_IMU_EVERY]), int(c[C_N])
     for k in range(k0, k1):
         t_ns = stamps[k - k0]
@@ -145,7 +146,11 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c
         _truth(x, pp, host, angles, rates, wt, ft, row)
         res_due, imu_due = k % res_every == 0, k % imu_every == 0
         if res_due:
-            encoder_step(rstate, 4, angles, c[C_RES_QUANTUM], c[C_RES_NOISE], int(c[C_RES_GATE_STEPS]),
+            read = angles
+            if c[C_RES_CYCLIC] > 0.0:
+                cyclic_error(angles, 4, c[C_RES_CYCLIC], c[C_RES_HARMONIC], c[C_RES_PHASES:C_RES_PHASES + 4], cyc)
+                read = cyc
+            encoder_step(rstate, 4, read, c[C_RES_QUANTUM], c[C_RES_NOISE], int(c[C_RES_GATE_STEPS]),
                          c[C_RES_GATE_TIME], rz[int(counts[1])], ra, rr)
             counts[1] += 1.0
         if imu_due:

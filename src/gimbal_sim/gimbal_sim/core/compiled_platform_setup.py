@@ -119,15 +119,26 @@ def _joint() -> np.ndarray:
     return j
 
 
+#: the chain's constants (``_config``): step, platform, resolver and IMU decimations, the
+#: resolvers' converter (quantum, noise, velocity gate, cyclic error and its four phases), the
+#: navigator's joint age, the servo's source, the run's rate, steps and azimuth joint
+(C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
+ C_RES_GATE_TIME, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT, C_RES_CYCLIC,
+ C_RES_HARMONIC, C_RES_PHASES) = range(18)
+N_CONFIG = C_RES_PHASES + 4
+
+
 def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, controlled: bool) -> np.ndarray:
     res = suite.resolvers
-    c = np.zeros(15)
-    c[:] = (vehicle.config.dt, vehicle.config.platform_substeps, 1.0 if vehicle._platform_quasi_static else 0.0,
+    c = np.zeros(N_CONFIG)
+    c[:C_RES_CYCLIC] = (vehicle.config.dt, vehicle.config.platform_substeps, 1.0 if vehicle._platform_quasi_static else 0.0,
             suite._dec["resolver_rate_hz"], suite._dec["platform_imu_rate_hz"], res.quantum_rad, res._noise,
             res._gate_steps, res.gate_time_s,
             int(round(nav["max_joint_age_s"] * 1e9)), 1.0 if servo["command_source"] == "navigator" else 0.0,
             1.0 if controlled else 0.0, vehicle.config.sim_rate_hz, vehicle.config.n_steps,
             PLATFORM_JOINTS.index(nav["azimuth_joint"]))
+    c[C_RES_CYCLIC], c[C_RES_HARMONIC] = res.cyclic_rad, res.cyclic_harmonic
+    c[C_RES_PHASES:C_RES_PHASES + 4] = res.cyclic_phases
     return c
 
 

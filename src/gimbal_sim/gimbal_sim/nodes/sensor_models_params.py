@@ -161,6 +161,10 @@ class SensorModelsNodeParams:
     resolver_noise_arcsec: float = param(0.0, "resolver white readout noise RMS", 0.0, INF, unit="arcsec")
     resolver_velocity_gate_s: float = param(0.01, "gate of the resolver count-difference velocity",
         1e-9, INF, unit="s")
+    resolver_cyclic_error_arcsec: float = param(0.0, "peak of the resolver converter's cyclic error, "
+        "A sin(h theta + phase) per gimbal (paper 3's RDC: 10; 0: none)", 0.0, 3600.0, unit="arcsec")
+    resolver_cyclic_harmonic: int = param(2, "harmonic h of the shaft angle that cyclic error repeats at "
+        "(2: the windings' amplitude imbalance and quadrature error)", 1, 8)
 
 
 PARAMS, DESCRIPTION = declaration(SensorModelsNodeParams)

@@ -189,7 +189,9 @@ class SensorSuiteConfig:
                 resolver_rate_hz=v["resolver_rate_hz"],
                 resolver=EncoderParams(noise_deg=v["resolver_noise_arcsec"] / 3600.0,
                                        lines_per_rev=2 ** v["resolver_bits"] if v["resolver_bits"] else 0,
-                                       velocity_gate_s=v["resolver_velocity_gate_s"]),
+                                       velocity_gate_s=v["resolver_velocity_gate_s"],
+                                       cyclic_error_arcsec=v["resolver_cyclic_error_arcsec"],
+                                       cyclic_harmonic=v["resolver_cyclic_harmonic"]),
             )
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc

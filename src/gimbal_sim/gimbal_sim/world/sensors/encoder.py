@@ -29,7 +29,7 @@ import numpy as np
 from gimbal_kinematics.maths import validate as v
 from gimbal_kinematics.maths.units import DEG
 from ._normals import NormalStream
-from .sensor_kernels import encoder_step
+from .sensor_kernels import cyclic_error, encoder_step
 
 
 @dataclass(frozen=True)
@@ -41,12 +41,16 @@ class EncoderParams:
         lines_per_rev: optical lines per revolution (0 = no quantisation).
         quadrature: edges counted per line: 1, 2 or 4.
         velocity_gate_s: pulse-counting gate time T_g [s].
+        cyclic_error_arcsec: peak of the converter's cyclic error [″] (module docstring).
+        cyclic_harmonic: its harmonic of the shaft angle (1 to 8).
     """
 
     noise_deg: float = 0.0
     lines_per_rev: int = 0
     quadrature: int = 1
     velocity_gate_s: float = 0.01
+    cyclic_error_arcsec: float = 0.0
+    cyclic_harmonic: int = 2
 
     def __post_init__(self) -> None:
         v.nonneg_finite("noise_deg", self.noise_deg)
@@ -55,6 +59,10 @@ class EncoderParams:
         if self.quadrature not in (1, 2, 4):
             raise ValueError(f"quadrature must be 1, 2 or 4, got {self.quadrature!r}")
         v.positive("velocity_gate_s", self.velocity_gate_s)
+        v.nonneg_finite("cyclic_error_arcsec", self.cyclic_error_arcsec)
+        if not isinstance(self.cyclic_harmonic, int) or isinstance(self.cyclic_harmonic, bool) \
+                or not 1 <= self.cyclic_harmonic <= 8:
+            raise ValueError(f"cyclic_harmonic must be an int in [1, 8], got {self.cyclic_harmonic!r}")
 
     @property
     def counts_per_rev(self) -> int:
@@ -92,6 +100,13 @@ class EncoderModel:
         self._angles = np.zeros(n_axes)
         self._rates = np.zeros(n_axes)
         self._no_noise = np.zeros(n_axes)
+        #: Cyclic error: peak [rad], harmonic and the unit's phase per axis [rad] (drawn from a
+        #: stream of its own, so the readout noise is the same draws with and without it)
+        self.cyclic_rad = params.cyclic_error_arcsec * DEG / 3600.0
+        self.cyclic_harmonic = float(params.cyclic_harmonic)
+        self.cyclic_phases = (rng.spawn(1)[0].uniform(0.0, 2.0 * math.pi, n_axes) if self.cyclic_rad > 0.0
+                              else np.zeros(n_axes))
+        self._read = np.zeros(n_axes)
 
     @property
     def velocity_resolution_rad_s(self) -> float:
@@ -112,7 +127,11 @@ class EncoderModel:
         if self._noise > 0.0:
             buf, j = self._normals.take(n)
             z = np.array(buf[j:j + n], dtype=float)
-        encoder_step(self._state, n, np.asarray(angles_true, dtype=float), self.quantum_rad, self._noise,
+        angles = np.asarray(angles_true, dtype=float)
+        if self.cyclic_rad > 0.0:
+            cyclic_error(angles, n, self.cyclic_rad, self.cyclic_harmonic, self.cyclic_phases, self._read)
+            angles = self._read
+        encoder_step(self._state, n, angles, self.quantum_rad, self._noise,
                      self._gate_steps, self.gate_time_s, z, self._angles, self._rates)
         return self._angles.tolist(), self._rates.tolist()
 

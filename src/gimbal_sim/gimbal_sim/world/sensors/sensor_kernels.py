@@ -28,6 +28,15 @@ E_HAS_REF, E_K = 0, 1  # then the reference counts (n) and the held rates (n)
 
 
 @njit(cache=True)
+def cyclic_error(angles: np.ndarray, n: int, amplitude: float, harmonic: float, phases: np.ndarray,
+                 out: np.ndarray) -> None:
+    """The angles a converter with a cyclic error reads: ``θ + A sin(h θ + φ_i)`` per axis
+    (:class:`.encoder.EncoderParams`' ``cyclic_error_arcsec``), into ``out``."""
+    for i in range(n):
+        out[i] = angles[i] + amplitude * math.sin(harmonic * angles[i] + phases[i])
+
+
+@njit(cache=True)
 def encoder_step(state: np.ndarray, n: int, angles: np.ndarray, quantum: float, noise: float, gate_steps: int,
                  gate_time: float, z: np.ndarray, out_angles: np.ndarray, out_rates: np.ndarray) -> None:
     """One sample of ``n`` encoders (``EncoderModel.step``): measured angles and rates into
