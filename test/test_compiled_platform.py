@@ -118,6 +118,17 @@ def test_the_compiled_chain_publishes_the_python_loops_bytes_across_a_reversal()
         assert data == fast[key], key
 
 
+def test_the_compiled_chain_reads_the_resolvers_cyclic_error_as_the_python_loop_does():
+    scenario = apply_set(paper_rate_navigation(1.0), "sensor_models.resolver_cyclic_error_arcsec=10.0")
+    python, fast = _messages(scenario, False), _messages(scenario, True)
+    assert python.keys() == fast.keys()
+    for key, data in python.items():
+        assert data == fast[key], key
+    plain = _messages(paper_rate_navigation(1.0), True)
+    key = next(k for k in python if k[1] == "/platform/resolvers")
+    assert plain[key] != python[key]  # the error reaches the published angles
+
+
 def test_the_engine_compiles_the_chain_only():
     nav = variant(load("rotational_ins_navigation"), "rotation_off")
     runner = compiled.compiled_runner

@@ -1,16 +1,13 @@
 """The resolver converter's cyclic error (paper 3 §3: the 19-bit RDC's ±10″): over a turn the
 readout's error is a single sinusoid at twice the shaft angle of the stated peak (numpy's
-FFT), the converter's quantisation stays on top of it, zero error leaves the readout's bytes
-as they were (the no-regression and engine-bag tests hold every scenario to that), and the compiled platform chain publishes the Python loop's bytes with it on."""
+FFT), the converter's quantisation stays on top of it, and zero error draws nothing (the
+no-regression and engine-bag tests hold every scenario's bytes to that); the compiled platform
+chain with the error on is checked in test_compiled_platform.py."""
 import math
 
 import numpy as np
 import pytest
 
-from gimbal_sim.core import compiled_platform
-from gimbal_sim.core.core_loop import core_plan, run_stages
-from gimbal_sim.graph.scenario import apply_set
-from gimbal_sim.tools.engine_speed import paper_rate_navigation
 from gimbal_sim.world.sensors import EncoderModel, EncoderParams
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -54,28 +51,3 @@ def test_zero_cyclic_error_draws_no_phase_and_bad_values_are_refused_by_name():
         EncoderParams(cyclic_harmonic=0)
     with pytest.raises(ValueError, match="cyclic_error_arcsec"):
         EncoderParams(cyclic_error_arcsec=-1.0)
-
-
-def _messages(scenario, compiled_run: bool) -> dict:
-    got: dict = {}
-
-    def record(node, messages):
-        for topic, _, data in messages:
-            got.setdefault((node, topic), []).append(data)
-    if compiled_run:
-        compiled_platform.run(scenario, record)
-    else:
-        vehicle, controlled, stages = core_plan(scenario)
-        run_stages(vehicle, stages, controlled=controlled, record=record)
-    return got
-
-
-def test_the_compiled_chain_reads_the_resolvers_as_the_python_loop_does():
-    scenario = apply_set(paper_rate_navigation(1.0), "sensor_models.resolver_cyclic_error_arcsec=10.0")
-    python, fast = _messages(scenario, False), _messages(scenario, True)
-    assert python.keys() == fast.keys()
-    for key, data in python.items():
-        assert data == fast[key], key
-    plain = _messages(paper_rate_navigation(1.0), True)
-    key = next(k for k in python if k[1] == "/platform/resolvers")
-    assert plain[key] != python[key]  # the error reaches the published angles
