@@ -149,3 +149,21 @@ def test_the_report_carries_the_residuals_and_the_biases_are_the_alignments(chai
     assert np.allclose(nav["true_gyro_bias_deg_h"], hand_off["true_gyro_bias_deg_h"], atol=1e-12)
     assert math.isfinite(nav["final_position_error_m"]["radial"]) and nav["duration_s"] == pytest.approx(NAV_S)
     assert "hand-off" in chained["stdout"] and "residual misalignment" in chained["stdout"]
+
+
+@pytest.mark.ros
+def test_the_engine_runs_the_same_chain_to_the_same_hand_off_and_navigation(chained, tmp_path):
+    """gimbal-run --engine core chains the prelude as the graph does: the same parameter file
+    from the alignment, the same navigation figures."""
+    spec = chained["run"].parent.parent / "short.yaml"
+    out = tmp_path / "engine"
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(spec), "--duration", str(NAV_S), "--engine", "core",
+                             "--set", "platform_navigator.fix_every_samples=1", "--out", str(out), "--no-progress"],
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout + result.stderr
+    run = out / "align_then_navigate"
+    assert yaml.safe_load((run / "prelude" / "hand_off.yaml").read_text()) == chained["handed"]
+    engine = json.loads((run / "report" / "metrics.json").read_text())
+    assert engine["navigation"]["final_position_error_m"] == pytest.approx(
+        chained["metrics"]["navigation"]["final_position_error_m"], rel=0.0, abs=1e-6)
+    assert engine["hand_off"]["sensor_biases_carried"] is True

@@ -5,7 +5,8 @@ bag with its own report), and then writes the comparison report into ``OUT/repor
 ``--jobs N`` up to N variants run at once, each as a child ``gimbal-run`` of the single
 variant with a ROS domain id of its own (claimed here, so concurrent runs never meet).
 
-A scenario (or variant) with a ``prelude`` runs two chained graph runs: the prelude scenario
+A scenario (or variant) with a ``prelude`` runs two chained runs (graph or engine alike,
+:func:`.experiments.engine_runs.run_chained`): the prelude scenario
 first (same seed, its own duration), whose hand-off turns its run into a ROS 2 parameter
 file applied to the scenario like ``--params-file`` (after the user's ``--set``); the
 prelude's run ends up in the run's ``prelude/`` (bag, report, the parameter file) and the
@@ -47,7 +48,8 @@ from .graph.plan import check_nodes
 from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
 from .page import PAGE
 from .reports.dispatch import write_comparison, write_report
-from .reports.hand_off import FIGURES_FILE, HAND_OFFS, write_hand_off
+from .experiments.engine_runs import prelude_scenario, run_chained
+from .reports.hand_off import FIGURES_FILE
 
 
 #: How long a child ``gimbal-run`` (--jobs) may take to keep its run after Ctrl-C [s].
@@ -131,10 +133,10 @@ def _check_engine(runs: list[tuple[str, Scenario]], args: argparse.Namespace) ->
         raise UsageError("--live shows the graph's topics as they are published: drop it with --engine core")
     for name, single in runs:
         where = f"variant {name!r}: " if name else ""
-        if single.prelude:
-            raise UsageError(f"--engine core: {where}a prelude runs on the graph only")
         try:
             check_engine(single)
+            if single.prelude:
+                check_engine(prelude_scenario(single))
         except NoCoreError as exc:
             raise UsageError(f"--engine core: {where}{exc}") from None
 
@@ -208,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
     args.live_params = _live_params(args)
     for _, single in runs:
         if single.prelude:
-            _prelude_scenario(single)  # refused now, before any run starts
+            prelude_scenario(single)  # refused now, before any run starts
 
     rows, ok = [], True
     if args.jobs > 1 and len(runs) > 1:
@@ -323,48 +325,6 @@ def _run_concurrently(runs: list[tuple[str, Scenario]], out: Path, args: argpars
     return True
 
 
-def _prelude_scenario(scenario: Scenario) -> Scenario:
-    """The single-run scenario of ``scenario``'s prelude: its scenario (and variant), the
-    prelude's duration, ``scenario``'s seed; refuses an unknown hand-off or a prelude that
-    has variants and names none."""
-    spec = scenario.prelude
-    if spec["hand_off"] not in HAND_OFFS:
-        raise UsageError(f"prelude of {scenario.name}: unknown hand_off {spec['hand_off']!r}; "
-                         f"known: {', '.join(sorted(HAND_OFFS))}")
-    first = load(spec["scenario"])
-    if "variant" in spec:
-        first = variant(first, spec["variant"])
-    elif first.variants:
-        raise UsageError(f"prelude of {scenario.name}: scenario {first.name!r} has variants "
-                         f"({', '.join(first.variants)}); name one with 'variant'")
-    if first.prelude:
-        raise UsageError(f"prelude of {scenario.name}: {first.name!r} has a prelude itself; chain one at a time")
-    return dataclasses.replace(first, seed=scenario.seed, duration_s=spec.get("duration_s", first.duration_s))
-
-
-def _run_prelude(scenario: Scenario, out: Path, args: argparse.Namespace
-                 ) -> tuple[Scenario, Path, dict, list[tuple[str, str]]]:
-    """Run ``scenario``'s prelude beside ``out`` (into ``.<name>.prelude/prelude``: ``out``
-    must not exist before its own run) and its hand-off; returns the scenario with the
-    hand-off's parameter file applied, the prelude's directory, the hand-off figures and the
-    summary rows."""
-    first = _prelude_scenario(scenario)
-    if (out.parent / f".{out.name}.prelude").exists():
-        raise UsageError(f"{out.parent / f'.{out.name}.prelude'} exists (left by an earlier run?); not overwriting it")
-    where = out.parent / f".{out.name}.prelude" / "prelude"
-    print(f"== prelude {first.name} ({first.duration_s:g} s) into {where}", file=sys.stderr)
-    try:
-        metrics, rows = _run_graph(first, where, args)
-    except RunError as exc:
-        raise RunError(f"prelude {first.name}: {exc} (its bag so far: {where})") from None
-    if metrics.get("interrupted"):
-        raise Interrupted(f"stopped in the prelude {first.name}; its bag, run.json and report are in {where}")
-    if not metrics["closed_cleanly"]:
-        raise RunError(f"prelude {first.name}: its bag was not closed cleanly ({where})")
-    params_file, figures = write_hand_off(scenario.prelude["hand_off"], where)
-    return apply_params_file(scenario, params_file), where, figures, [(f"prelude: {k}", v) for k, v in rows]
-
-
 def _hand_off_row(figures: dict) -> tuple[str, str]:
     e, n, u = figures["residual_misalignment_arcsec"]
     return "hand-off", f"at {figures['hand_off_s']:g} s, residual misalignment E {e:.2f}″, N {n:.2f}″, U {u:.1f}″"
@@ -375,25 +335,22 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     and report; returns the report's metrics and the summary rows."""
     if not scenario.prelude:
         return _run_graph(scenario, out, args)
-    scenario, prelude_dir, figures, prelude_rows = _run_prelude(scenario, out, args)
-    try:
-        metrics, rows = _run_graph(dataclasses.replace(scenario, prelude=None), out, args, figures)
-    finally:
-        if out.is_dir():  # the prelude's run goes with the run it started
-            prelude_dir.rename(out / "prelude")
-            prelude_dir.parent.rmdir()
-    prelude_rows = [(k, v.replace(str(prelude_dir), str(out / "prelude"))) for k, v in prelude_rows]
-    return metrics, prelude_rows + [_hand_off_row(figures)] + rows
+    metrics, figures, rows = run_chained(scenario, out, lambda s, o, h: _run_graph(s, o, args, h))
+    n_prelude = sum(1 for k, _ in rows if k.startswith("prelude: "))
+    return metrics, rows[:n_prelude] + [_hand_off_row(figures)] + rows[n_prelude:]
 
 
-def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[dict, list[tuple[str, str]]]:
-    """:func:`_run_one` on the engine (``--engine core``): its bag, run.json, report and page."""
+def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace,
+                hand_off: dict | None = None) -> tuple[dict, list[tuple[str, str]]]:
+    """:func:`_run_graph` on the engine (``--engine core``): its bag, run.json, report and page."""
     if not args.no_progress:
         print(f"stepping {scenario.name} on the engine ({scenario.duration_s:g} s simulated) ...", file=sys.stderr)
     try:
         done = run_engine(scenario, out, compress=not args.no_compress)
     except DiskStopped as exc:  # the bag is closed at its last chunk on disk
         raise RunError(f"{exc}; the engine stopped there") from None
+    if hand_off is not None:
+        (out / FIGURES_FILE).write_text(json.dumps(hand_off, indent=2) + "\n")
     report_dir, metrics = write_report(out)
     return metrics, [
         ("scenario", f"{scenario.name} (engine core, seed {scenario.seed})"),
@@ -412,7 +369,7 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
     """:func:`_run_one` without a prelude; ``hand_off``: the prelude's hand-off figures,
     written into ``out`` for the report."""
     if args.engine == "core":
-        return _run_engine(scenario, out, args)
+        return _run_engine(scenario, out, args, hand_off)
     result = run(scenario, out, args.mode, progress=not args.no_progress, compress=not args.no_compress,
                  live=args.live_params)
     if result.interrupted or result.stopped:
