@@ -49,7 +49,7 @@ from .graph.scenario import Scenario, apply_params_file, apply_set, describe_bui
 from .page import PAGE
 from .reports.dispatch import write_comparison, write_report
 from .experiments.engine_runs import prelude_scenario, run_chained
-from .reports.hand_off import FIGURES_FILE
+from .reports.hand_off import write_figures
 
 
 #: How long a child ``gimbal-run`` (--jobs) may take to keep its run after Ctrl-C [s].
@@ -335,9 +335,8 @@ def _run_one(scenario: Scenario, out: Path, args: argparse.Namespace) -> tuple[d
     and report; returns the report's metrics and the summary rows."""
     if not scenario.prelude:
         return _run_graph(scenario, out, args)
-    metrics, figures, rows = run_chained(scenario, out, lambda s, o, h: _run_graph(s, o, args, h))
-    n_prelude = sum(1 for k, _ in rows if k.startswith("prelude: "))
-    return metrics, rows[:n_prelude] + [_hand_off_row(figures)] + rows[n_prelude:]
+    metrics, figures, prelude_rows, rows = run_chained(scenario, out, lambda s, o, h: _run_graph(s, o, args, h))
+    return metrics, prelude_rows + [_hand_off_row(figures)] + rows
 
 
 def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace,
@@ -350,7 +349,7 @@ def _run_engine(scenario: Scenario, out: Path, args: argparse.Namespace,
     except DiskStopped as exc:  # the bag is closed at its last chunk on disk
         raise RunError(f"{exc}; the engine stopped there") from None
     if hand_off is not None:
-        (out / FIGURES_FILE).write_text(json.dumps(hand_off, indent=2) + "\n")
+        write_figures(out, hand_off)
     report_dir, metrics = write_report(out)
     return metrics, [
         ("scenario", f"{scenario.name} (engine core, seed {scenario.seed})"),
@@ -378,7 +377,7 @@ def _run_graph(scenario: Scenario, out: Path, args: argparse.Namespace,
         if contents.start_ns is not None:
             result.sim_s = (contents.end_ns - contents.start_ns) * 1e-9
     if hand_off is not None:
-        (out / FIGURES_FILE).write_text(json.dumps(hand_off, indent=2) + "\n")
+        write_figures(out, hand_off)
     (out / "run.json").write_text(json.dumps({
         "scenario": scenario.name, "mode": args.mode, "seed": scenario.seed, "compressed": not args.no_compress,
         "sim_s": result.sim_s, "interrupted": result.interrupted,

@@ -12,7 +12,7 @@ figures in its ``hand_off.json``; the prelude's run then moves into the run's ``
 from __future__ import annotations
 
 import dataclasses
-import json
+import sys
 from functools import partial
 from pathlib import Path
 from typing import Any, Callable
@@ -23,7 +23,7 @@ from ..core.engine_run import run_engine
 from ..graph.orchestrator import RunError
 from ..graph.scenario import Scenario, apply_params_file, load, variant
 from ..reports.dispatch import write_report
-from ..reports.hand_off import FIGURES_FILE, HAND_OFFS, write_hand_off
+from ..reports.hand_off import HAND_OFFS, write_figures, write_hand_off
 
 #: One run of a scenario without a prelude: (scenario, run dir, hand-off figures or None)
 #: -> (its report's metrics, summary rows).
@@ -49,15 +49,17 @@ def prelude_scenario(scenario: Scenario) -> Scenario:
     return dataclasses.replace(first, seed=scenario.seed, duration_s=spec.get("duration_s", first.duration_s))
 
 
-def run_chained(scenario: Scenario, out: Path, run_one: RunOne) -> tuple[dict, dict, list[tuple[str, str]]]:
+def run_chained(scenario: Scenario, out: Path, run_one: RunOne
+                ) -> tuple[dict, dict, list[tuple[str, str]], list[tuple[str, str]]]:
     """Run ``scenario``'s prelude and then ``scenario`` from its hand-off, each with ``run_one``
-    (module docstring). Returns the run's metrics, the hand-off figures and the summary rows
-    (the prelude's prefixed ``prelude:``, with their paths where the prelude ends up)."""
+    (module docstring). Returns the run's metrics, the hand-off figures, the prelude's summary
+    rows (prefixed ``prelude:``, with their paths where the prelude ends up) and the run's."""
     first = prelude_scenario(scenario)
     staging = out.parent / f".{out.name}.prelude"
     if staging.exists():
         raise UsageError(f"{staging} exists (left by an earlier run?); not overwriting it")
     where = staging / "prelude"
+    print(f"== prelude {first.name} ({first.duration_s:g} s) into {where}", file=sys.stderr)
     try:
         metrics, rows = run_one(first, where, None)
     except RunError as exc:
@@ -75,14 +77,14 @@ def run_chained(scenario: Scenario, out: Path, run_one: RunOne) -> tuple[dict, d
             where.rename(out / "prelude")
             staging.rmdir()
     rows = [(f"prelude: {k}", v.replace(str(where), str(out / "prelude"))) for k, v in rows]
-    return metrics, figures, rows + own_rows
+    return metrics, figures, rows, own_rows
 
 
 def _engine_one(scenario: Scenario, run_dir: Path, hand_off: dict | None, compress: bool = True
                 ) -> tuple[dict, list[tuple[str, str]]]:
     run_engine(scenario, run_dir, compress)
     if hand_off is not None:
-        (run_dir / FIGURES_FILE).write_text(json.dumps(hand_off, indent=2) + "\n")
+        write_figures(run_dir, hand_off)
     return write_report(run_dir)[1], []
 
 

@@ -98,3 +98,8 @@ def write_hand_off(name: str, run_dir: Path) -> tuple[Path, dict]:
     path.write_text(yaml.safe_dump(params, sort_keys=False))
     (Path(run_dir) / FIGURES_FILE).write_text(json.dumps(figures, indent=2) + "\n")
     return path, figures
+
+
+def write_figures(run_dir: Path, figures: dict) -> None:
+    """The hand-off's figures into the run it started (``hand_off.json``), which its report reads."""
+    (Path(run_dir) / FIGURES_FILE).write_text(json.dumps(figures, indent=2) + "\n")
