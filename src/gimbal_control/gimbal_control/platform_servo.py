@@ -85,6 +85,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.maths.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
 from gimbal_kinematics.maths.units import DEG, DEG_H
@@ -212,9 +213,7 @@ class PlatformServoParams:
         if self.command_source not in COMMAND_SOURCES:
             raise ValueError(f"command_source must be one of {COMMAND_SOURCES}, got {self.command_source!r}")
         for name in ("max_gap_s", "command_max_age_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {v!r}")
+            positive(name, getattr(self, name))
 
     @classmethod
     def from_values(cls, v: dict) -> PlatformServoParams:
