@@ -47,6 +47,13 @@ def input_warnings(*streams: str) -> tuple[str, ...]:
     return (*(f"{s}_{kind}" for s in streams for kind in ("duplicates", "out_of_order")), *EDGE_WARNINGS)
 
 
+def publish_progress(pub: Any, stamp_ns: int | None) -> None:
+    """Report ``stamp_ns`` (None: nothing) on the ``~/progress`` publisher ``pub``, a
+    ``rosgraph_msgs/Clock``: what every node's pacing reader waits for."""
+    if stamp_ns is not None:
+        pub.publish(clock_cdr(stamp_ns))
+
+
 class NodeEdge:
     """The shared plumbing of one node (module docstring); ``values`` its parameters
     (``timing``, and ``diagnostics_period_s`` when it publishes /diagnostics); ``counters``
@@ -106,8 +113,7 @@ class NodeEdge:
 
     def progress(self, stamp_ns: int | None) -> None:
         """Report ``stamp_ns`` (the input policy's ``progress``; None: nothing) on ``~/progress``."""
-        if stamp_ns is not None:
-            self.pubs["~/progress"].publish(clock_cdr(stamp_ns))
+        publish_progress(self.pubs["~/progress"], stamp_ns)
 
     def publish(self, messages: Messages) -> None:
         """Publish each (topic, type, bytes) on the publisher advertised for its topic."""

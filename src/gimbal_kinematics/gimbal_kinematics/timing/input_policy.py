@@ -56,7 +56,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
-from .stamps import Stamp, is_gap, judge, step_of_stamp, step_stamp_ns
+from .stamps import Stamp, is_gap, judge, progress_stamp_ns, step_of_stamp, step_stamp_ns
 from .stream_stats import SilenceWatch, StreamStats
 from .sync import StampOrder, StampSync, StepGroups
 
@@ -155,8 +155,7 @@ class LockstepOrder(_CoreReport):
 
     def progress(self, step: Step) -> int | None:
         """The next step's stamp when it starts a new block of ``progress_every`` steps."""
-        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
-        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
+        return progress_stamp_ns(step.stamp_ns, self.rate_hz, self.progress_every)
 
 
 class LockstepGroups(_CoreReport):
