@@ -72,7 +72,7 @@ def platform_alignment_stage(values: dict[str, Any], name: str = "platform_align
             core.on_joint_state(t, joint[0] + heading, joint[1])
         if bus.platform_imu is None:
             return
-        est = core.on_accel(t, bus.platform_imu.specific_force)
+        est = core.on_accel(t, bus.platform_imu.specific_force).output
         if est is not None and bus.record is not None:
             bus.record(name, alignment_messages(bus.t_ns, est))
     return stage
