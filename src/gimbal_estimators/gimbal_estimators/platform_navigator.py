@@ -116,6 +116,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.maths.outcome import Fed, refused
 
 from . import navigator_kernels as nk
 from .platform_navigator_params import PlatformNavigatorParams
@@ -168,6 +169,10 @@ class NavigatorOutput(NamedTuple):
     command_rate_n: tuple[float, float, float]
     azimuth: float
     torquing: bool
+
+
+_NONFINITE = refused("non-finite specific force or azimuth angle")
+_NO_RESOLVER = refused("no azimuth angle within max_joint_age_s")
 
 
 class PlatformNavigator:
@@ -247,38 +252,39 @@ class PlatformNavigator:
         self.kernel_params[nk.Q_H_REF] = h_ref
 
     # -- input checks ----------------------------------------------------------------------
-    def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | None:
-        """(f_x, f_y, f_z, θ_a) as floats, or None after counting why the sample is refused."""
+    def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | Fed:
+        """(f_x, f_y, f_z, θ_a) as floats, or why the sample is refused (counted)."""
         try:
             f = [float(v) for v in f_s]
             t_ok = math.isfinite(float(t_ns))
         except (TypeError, ValueError):
             self.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         if len(f) != 3 or not t_ok or not all(math.isfinite(v) for v in f):
             self.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         if theta_a is None:
             self.rejected_no_resolver += 1
-            return None
+            return _NO_RESOLVER
         try:
             a = float(theta_a)
         except (TypeError, ValueError):
             a = math.nan
         if not math.isfinite(a):
             self.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         return f[0], f[1], f[2], a
 
     # -- the step ----------------------------------------------------------------------------
-    def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> NavigatorOutput | None:
+    def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> Fed:
         """One sample: specific force ``f_s`` (3,) [m/s²] in platform axes, azimuth angle
         ``theta_a`` [rad] of the ``azimuth_source`` (resolver θ_a or servo φz; None when the
-        sample is missing or stale) at stamp ``t_ns`` [int ns]. Returns None for a refused
-        sample (counted)."""
+        sample is missing or stale) at stamp ``t_ns`` [int ns]. Returns what it did
+        (:class:`~gimbal_kinematics.maths.outcome.Fed`): the :class:`NavigatorOutput`, or
+        why the sample was refused (counted)."""
         sample = self._admit(t_ns, f_s, theta_a)
-        if sample is None:
-            return None
+        if isinstance(sample, Fed):
+            return sample
         t_ns = int(t_ns)
         first = self._t_last_ns is None
         if first:
@@ -288,9 +294,9 @@ class PlatformNavigator:
         s = self.state
         nk.navigator_step(s, self.kernel_params, first, dt, (t_ns - self._t0_ns) * 1e-9, sample[0], sample[1],
                           sample[2], sample[3])
-        return NavigatorOutput(t_ns, (self.vn, self.ve, self.vd), self.lat, self.lon, self.height,
-                               tuple(s[nk.N_CMD_N:nk.N_CMD_D + 1].tolist()), float(s[nk.N_PSI]),
-                               bool(s[nk.N_TORQUING]))
+        return Fed(True, output=NavigatorOutput(t_ns, (self.vn, self.ve, self.vd), self.lat, self.lon, self.height,
+                                                tuple(s[nk.N_CMD_N:nk.N_CMD_D + 1].tolist()), float(s[nk.N_PSI]),
+                                                bool(s[nk.N_TORQUING])))
 
     # -- outputs -----------------------------------------------------------------------------
     def counters(self, dropped_stamps: int = 0) -> dict[str, int]:

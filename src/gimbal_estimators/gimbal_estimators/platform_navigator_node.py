@@ -106,7 +106,6 @@ class PlatformNavigatorNode(Node):
                                      logger=self.get_logger(), on_restart=self.core.reset)
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
-        self._seen: tuple[int, ...] = ()
         self.edge = edge = NodeEdge(self, values, ("rejected_joints",))
         outputs = ((NavSatFix, "~/fix"), (Vector3Stamped, "~/velocity"), (Odometry, "~/odom"),
                    (Vector3Stamped, "~/command_rate"))
@@ -125,9 +124,10 @@ class PlatformNavigatorNode(Node):
         if step.kind == "joint":
             self._validate_joint(step)
         else:
-            out = self.core.step(step.stamp_ns, m.vec_of(step.msg.linear_acceleration), self._theta_at(step.stamp_ns))
-            self._warn_counters(step.stamp_ns)
-            self._publish(step.stamp_ns, out)
+            fed = self.core.step(step.stamp_ns, m.vec_of(step.msg.linear_acceleration), self._theta_at(step.stamp_ns))
+            if fed.why is not None:
+                self._warn_refused(step.stamp_ns, fed.why)
+            self._publish(step.stamp_ns, fed.output)
         self.edge.progress(self.policy.progress(step))
 
     def _validate_joint(self, step: Step) -> None:
@@ -148,13 +148,11 @@ class PlatformNavigatorNode(Node):
             return None
         return theta + rate * age_ns * 1e-9 if age_ns else theta
 
-    def _warn_counters(self, t_ns: int) -> None:
+    def _warn_refused(self, t_ns: int, why: str) -> None:
         c = self.core
-        seen = (c.rejected_nonfinite, self.policy.rejected, c.rejected_no_resolver, c.resets)
-        if seen != self._seen and any(seen):
-            self.edge.warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of "
-                           f"order, {seen[2]} without a resolver angle; {seen[3]} restarts")
-        self._seen = seen
+        self.edge.warn(f"{t_ns * 1e-9:.6f} s: sample refused: {why} (so far: {c.rejected_nonfinite} non-finite, "
+                       f"{self.policy.rejected} out of order, {c.rejected_no_resolver} without a resolver angle; "
+                       f"{c.resets} restarts)")
 
     def _publish(self, t_ns: int, out: NavigatorOutput | None) -> None:
         if out is not None:

@@ -79,7 +79,7 @@ def navigator_stage(navigator: PlatformNavigator, rate_hz: float, every: int = 1
         if imu is None:
             return
         if every == 1:
-            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), imu.specific_force, theta_a[0])
+            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), imu.specific_force, theta_a[0]).output
             return
         f = imu.specific_force
         acc[0] += f[0]
@@ -88,7 +88,8 @@ def navigator_stage(navigator: PlatformNavigator, rate_hz: float, every: int = 1
         acc[3] += 1
         if navigator.accepted == 0 or acc[3] >= every:
             n = acc[3]
-            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), (acc[0] / n, acc[1] / n, acc[2] / n), theta_a[0])
+            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), (acc[0] / n, acc[1] / n, acc[2] / n),
+                                     theta_a[0]).output
             acc[:] = [0.0, 0.0, 0.0, 0]
     return stage
 
@@ -176,7 +177,7 @@ def platform_navigator_node_stage(values: dict, name: str = "platform_navigator"
         if joint[0] is not None and 0 <= bus.t_ns - joint[0][0] <= max_age_ns:
             age = bus.t_ns - joint[0][0]
             theta = joint[0][1] + joint[0][2] * age * 1e-9 if age else joint[0][1]
-        out = navigator.step(bus.t_ns, imu.specific_force, theta)
+        out = navigator.step(bus.t_ns, imu.specific_force, theta).output
         if out is not None:
             joint[1] = out.command_rate_n
         bus.nav_command = joint[1]
