@@ -106,7 +106,7 @@ def servo_stage(servo: PlatformServo) -> Callable[[Bus], None]:
         if bus.resolvers is not None:
             servo.on_resolvers(bus.t, bus.resolvers.angles)
         if bus.platform_imu is not None:
-            out = servo.on_gyro(bus.t, bus.platform_imu.omega)
+            out = servo.on_gyro(bus.t, bus.platform_imu.omega).output
             if out is not None:
                 bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
         bus.command = servo.command_voltages
@@ -132,7 +132,7 @@ def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Cal
         if follows and bus.nav_command is not None:
             servo.on_command_rate(bus.t, bus.nav_command)
         if bus.platform_imu is not None:
-            out = servo.on_gyro(bus.k / rate, bus.platform_imu.omega)  # the node's step time, k / rate
+            out = servo.on_gyro(bus.k / rate, bus.platform_imu.omega).output  # the node's step time, k / rate
         volts = out.voltages if out is not None else servo.command_voltages
         bus.command = volts
         if out is not None:
