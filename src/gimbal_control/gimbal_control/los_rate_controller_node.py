@@ -176,10 +176,10 @@ class LosRateControllerNode(Node):
                 self.edge.warn(f"step at {step.t:.6f} s: gyro, encoders or INS rates missing; holding the last command")
                 tau = core.command
             else:
-                before = core.rejected_inputs
-                tau = core.step(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates,
-                                core.reference(step.stamp_ns))
-                if core.rejected_inputs > before:
+                fed = core.control(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates,
+                                   core.reference(step.stamp_ns))
+                tau = fed.output
+                if not fed.used:
                     self.edge.reject("rejected_nonfinite", "non-finite gyro sample; holding the last command")
         for _, _, data in torque_command_messages(step.stamp_ns, tau):  # as the engine writes it
             self.pub.publish(data)
