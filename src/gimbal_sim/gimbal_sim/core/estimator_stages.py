@@ -105,7 +105,7 @@ def free_gyro_positioning_stage(values: dict[str, Any], name: str = "free_gyro_p
         if predictor is not None:
             predictor.add_level(roll, pitch)
         core.on_body_rates(t, tuple(s.omega_ib_b))
-        fix = core.on_spin_axes(t, tuple(s.spin_a_b), tuple(s.spin_b_b))
+        fix = core.on_spin_axes(t, tuple(s.spin_a_b), tuple(s.spin_b_b)).output
         if fix is None:
             return
         prediction = predictor.predict(fix.lat, fix.lon, fix.t, fix.heading, fix.n_samples) \
