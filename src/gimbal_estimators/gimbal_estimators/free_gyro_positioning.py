@@ -296,6 +296,19 @@ class FreeGyroPositioning:
             return None
         return t
 
+    def _checked(self, t: object, values: Sequence[float], n: int) -> tuple[float, tuple[float, ...]] | None:
+        """(stamp, the first ``n`` values) as finite floats; None (counted) when a value is
+        missing or not finite, or the stamp is not finite."""
+        try:
+            v = tuple(float(values[i]) for i in range(n))
+        except (TypeError, ValueError, IndexError):
+            v = None
+        if v is None or not all(math.isfinite(c) for c in v):
+            self.counters.rejected_nonfinite += 1
+            return None
+        ts = self._stamp(t)
+        return None if ts is None else (ts, v)
+
     def _level_at(self, t: float) -> tuple[float, float] | Fed:
         """(roll, pitch) [rad] of the vertical reference at ``t``, or why there is none (counted)."""
         lv = self._level_sample
@@ -311,49 +324,26 @@ class FreeGyroPositioning:
     def on_level(self, t: float, roll: float, pitch: float) -> Fed:
         """Vertical reference: roll, pitch [rad] (3-2-1 Euler angles of the body); each
         ``on_*`` returns what it did (:class:`~gimbal_kinematics.maths.outcome.Fed`)."""
-        try:
-            roll, pitch = float(roll), float(pitch)
-        except (TypeError, ValueError):
-            self.counters.rejected_nonfinite += 1
+        sample = self._checked(t, (roll, pitch), 2)
+        if sample is None:
             return _NONFINITE
-        if not (math.isfinite(roll) and math.isfinite(pitch)):
-            self.counters.rejected_nonfinite += 1
-            return _NONFINITE
-        ts = self._stamp(t)
-        if ts is None:
-            return _NONFINITE
-        self._level_sample = (ts, roll, pitch)
+        self._level_sample = (sample[0], *sample[1])
         return _USED
 
     def on_velocity(self, t: float, v_n: Sequence[float]) -> Fed:
         """NED ground velocity [m/s] (3,), for the transport rate of the earth-rate heading."""
-        try:
-            v = (float(v_n[0]), float(v_n[1]), float(v_n[2]))
-        except (TypeError, ValueError, IndexError):
-            self.counters.rejected_nonfinite += 1
+        sample = self._checked(t, v_n, 3)
+        if sample is None:
             return _NONFINITE
-        if not all(math.isfinite(c) for c in v):
-            self.counters.rejected_nonfinite += 1
-            return _NONFINITE
-        ts = self._stamp(t)
-        if ts is None:
-            return _NONFINITE
-        self._v_n = v
+        self._v_n = sample[1]
         return _USED
 
     def on_body_rates(self, t: float, omega_ib_b: Sequence[float]) -> Fed:
         """Body triad step-average rate ω_ib^b (3,) [rad/s] over the interval ending at t."""
-        try:
-            wx, wy, wz = float(omega_ib_b[0]), float(omega_ib_b[1]), float(omega_ib_b[2])
-        except (TypeError, ValueError, IndexError):
-            self.counters.rejected_nonfinite += 1
+        sample = self._checked(t, omega_ib_b, 3)
+        if sample is None:
             return _NONFINITE
-        if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
-            self.counters.rejected_nonfinite += 1
-            return _NONFINITE
-        ts = self._stamp(t)
-        if ts is None:
-            return _NONFINITE
+        ts, (wx, wy, wz) = sample
         lv = self._level_at(ts)
         if isinstance(lv, Fed):
             return lv
@@ -403,23 +393,15 @@ class FreeGyroPositioning:
         """Read-out of both spin axes in body FRD (unit (3,) each) at ``t`` [s]. Returns what
         it did, its ``output`` the :class:`FreeGyroFix` when this sample completes a fix
         window."""
-        try:
-            ax, ay, az = float(spin_a_b[0]), float(spin_a_b[1]), float(spin_a_b[2])
-            bx, by, bz = float(spin_b_b[0]), float(spin_b_b[1]), float(spin_b_b[2])
-        except (TypeError, ValueError, IndexError):
-            self.counters.rejected_nonfinite += 1
+        a = self._checked(t, spin_a_b, 3)
+        b = None if a is None else self._checked(t, spin_b_b, 3)
+        if b is None:
             return _NONFINITE
-        vals = (ax, ay, az, bx, by, bz)
-        if not all(math.isfinite(c) for c in vals):
-            self.counters.rejected_nonfinite += 1
-            return _NONFINITE
+        (ts, (ax, ay, az)), (bx, by, bz) = a, b[1]
         na, nb = math.sqrt(ax * ax + ay * ay + az * az), math.sqrt(bx * bx + by * by + bz * bz)
         if abs(na - 1.0) > 1e-3 or abs(nb - 1.0) > 1e-3:
             self.counters.rejected_not_unit += 1
             return _NOT_UNIT
-        ts = self._stamp(t)
-        if ts is None:
-            return _NONFINITE
         lv = self._level_at(ts)
         if isinstance(lv, Fed):
             return lv
