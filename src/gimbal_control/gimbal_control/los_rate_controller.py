@@ -270,15 +270,17 @@ class LosRateController:
         self._s[lk.S_CMD_Q], self._s[lk.S_CMD_R] = float(q_md), float(r_md)
         return True
 
-    def reference(self, stamp_ns: int) -> tuple[float, float] | None:
-        """The step's LOS rate reference for :meth:`step` at ``stamp_ns`` [ns]: the outer
-        loop's command (:meth:`set_rate_command`) plus the operator's shaped command
-        (:class:`.operator_command.OperatorCommand`, advanced to the stamp). None (use the
-        outer loop's alone) without an operator or while its shaped command is zero, so a
-        controller nobody commands computes exactly what it did without one."""
+    def reference(self, released) -> tuple[float, float] | None:
+        """The step's LOS rate reference for :meth:`step`: the outer loop's command
+        (:meth:`set_rate_command`) plus the operator's shaped command
+        (:class:`.operator_command.OperatorCommand`, advanced to the step with the commands
+        it reached, ``released``: what the node's
+        :class:`~gimbal_kinematics.timing.control_policy.CommandStamps` hands over). None
+        (use the outer loop's alone) without an operator or while its shaped command is zero,
+        so a controller nobody commands computes exactly what it did without one."""
         if self.operator is None:
             return None
-        q, r = self.operator.step(stamp_ns)
+        q, r = self.operator.step(released)
         if q == 0.0 and r == 0.0:
             return None
         return (float(self._s[lk.S_CMD_Q]) + q, float(self._s[lk.S_CMD_R]) + r)
