@@ -346,6 +346,11 @@ def _int_stamp(stamp_ns: object) -> int:
     return int(stamp_ns)
 
 
+#: :class:`CommandStamps`' counters
+COMMAND_COUNTERS = ("commands_accepted", "rejected_duplicate", "rejected_out_of_order", "rejected_stale",
+                    "rejected_future", "rejected_step_stamps")
+
+
 class CommandStamps:
     """The stamp rule of a command stream that a step loop shapes (the operator's LOS rate
     commands, :mod:`gimbal_control.operator_command`), so the shaper gets checked commands
@@ -366,12 +371,7 @@ class CommandStamps:
     def __init__(self, timeout_s: float, clock_jump_s: float) -> None:
         self.timeout_ns = int(round(timeout_s * 1e9))
         self.jump_ns = int(round(clock_jump_s * 1e9))
-        self.commands_accepted = 0
-        self.rejected_duplicate = 0
-        self.rejected_out_of_order = 0
-        self.rejected_stale = 0
-        self.rejected_future = 0
-        self.rejected_step_stamps = 0
+        self.counts = dict.fromkeys(COMMAND_COUNTERS, 0)
         self._clear()
 
     def _clear(self) -> None:
@@ -382,10 +382,10 @@ class CommandStamps:
     def _too_far(self, stamp: int, now: int) -> bool:
         """Whether a command stamped ``stamp`` is stale or too far ahead at ``now`` (counted)."""
         if stamp - now > self.timeout_ns:
-            self.rejected_future += 1
+            self.counts["rejected_future"] += 1
             return True
         if stamp + self.timeout_ns <= now:
-            self.rejected_stale += 1
+            self.counts["rejected_stale"] += 1
             return True
         return False
 
@@ -399,14 +399,11 @@ class CommandStamps:
             return False
         last = self._last_cmd_ns
         if last is not None and t <= last:
-            if t == last:
-                self.rejected_duplicate += 1
-            else:
-                self.rejected_out_of_order += 1
+            self.counts["rejected_duplicate" if t == last else "rejected_out_of_order"] += 1
             return False
         self._waiting.append((t, value))
         self._last_cmd_ns = t
-        self.commands_accepted += 1
+        self.counts["commands_accepted"] += 1
         return True
 
     def step(self, stamp_ns: int) -> Released | None:
@@ -415,7 +412,7 @@ class CommandStamps:
         last, reset = self._t_ns, ""
         if last is not None and t <= last:
             if last - t <= self.jump_ns:
-                self.rejected_step_stamps += 1
+                self.counts["rejected_step_stamps"] += 1
                 return None
             reset = f"step stamp jumped back {(last - t) * 1e-9:.3f} s (to {t} ns)"
             self._clear()
@@ -431,7 +428,5 @@ class CommandStamps:
         return Released(t, reached, reset)
 
     def counters(self) -> dict[str, int]:
-        """Counters for /diagnostics (name -> value)."""
-        return {"commands_accepted": self.commands_accepted, "rejected_duplicate": self.rejected_duplicate,
-                "rejected_out_of_order": self.rejected_out_of_order, "rejected_stale": self.rejected_stale,
-                "rejected_future": self.rejected_future, "rejected_step_stamps": self.rejected_step_stamps}
+        """Counters for /diagnostics (name -> value, :data:`COMMAND_COUNTERS`)."""
+        return dict(self.counts)
