@@ -237,7 +237,7 @@ def test_repeated_and_late_stamps_are_dropped_and_a_clock_jump_resets_through_th
     """The alignment node's grouped input policy (as its constructor builds it) judges the
     stamps: a repeated or late step never reaches the core, a bag loop calls the node's reset
     before the new run's first step."""
-    from gimbal_kinematics.timing.input_policy import SampleGrid, grouped_policy
+    from gimbal_kinematics.timing.input_policy import grouped_policy
 
     class Log:
         def warning(self, *args, **kwargs):
@@ -245,10 +245,9 @@ def test_repeated_and_late_stamps_are_dropped_and_a_clock_jump_resets_through_th
 
         info = warning
 
-    grid, resets = SampleGrid({"joint": 1, "imu": 1}), []
-    policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=10.0, next_due=grid.next_due,
-                            progress_every=1, clock_jump_s=1.0, max_wait_ns=0, paced="imu", logger=Log(),
-                            on_restart=resets.append)
+    resets = []
+    policy = grouped_policy(timing, {"joint": 1, "imu": 1}, rate_hz=10.0, progress_every=1, clock_jump_s=1.0,
+                            max_wait_ns=0, paced="imu", logger=Log(), on_restart=resets.append)
     feed = lambda k: [(s.kind, s.stamp_ns) for kind in ("joint", "imu")  # noqa: E731
                       for s in policy.add(kind, 10**9 + k * 10**8, k)]
     released = [step for k in range(30) for step in feed(k)]

@@ -63,12 +63,11 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.params.table import steps_per_sample
-from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
+from gimbal_kinematics.ros.node_edge import NodeEdge, grouped_policy_of, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.timing.input_policy import SampleGrid, Step, grouped_policy
+from gimbal_kinematics.timing.input_policy import Step
 
 from . import messages as m
 from .nis import NisWindow
@@ -92,18 +91,11 @@ class PlatformAlignmentNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_alignment", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        grid = SampleGrid({"joint": steps_per_sample(values, "joint_rate_hz"),
-                           "imu": steps_per_sample(values, "imu_rate_hz")})
         self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(values))
         self.azimuth_joint = values["azimuth_joint"]
         self.heading = math.radians(values["base_heading_deg"])
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(values["timing"], ("joint", "imu"), needs=grid.needs,
-                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
-                                     progress_every=values["progress_every_steps"],
-                                     clock_jump_s=values["clock_jump_s"],
-                                     max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger(), on_restart=self.core.reset)
+        self.policy = grouped_policy_of(self, values, ("joint", "imu"), "imu", self.core.reset)
         self.nis = NisWindow(2, window=values["nis_window"])
         self.edge = edge = NodeEdge(self, values, ("rejected_joints",))
         edge.advertise_all([(Vector3Stamped, f"~/{name}") for name in OUTPUTS] + [(Clock, "~/progress")])
