@@ -323,9 +323,9 @@ def test_a_reset_restarts_from_the_hand_off():
 def test_parameter_table_maps_to_the_core_and_refuses_bad_values_by_name():
     p = PlatformNavigatorParams.from_values(defaults(PARAMS))
     assert p == PlatformNavigatorParams()
-    assert p.gyro_drift_rad_s == (0.0, 0.0, 0.0)
-    assert PlatformNavigatorParams(misalignment_arcsec=(3600.0, 0, 0)).misalignment_enu_rad[0] == pytest.approx(
-        math.radians(1.0))
+    assert HandOff.from_params(p).gyro_drift_s == (0.0, 0.0, 0.0)
+    assert HandOff.from_params(PlatformNavigatorParams(misalignment_arcsec=(3600.0, 0, 0))).misalignment_enu[0] \
+        == pytest.approx(math.radians(1.0))
     for name, value in (("torque_out_s", 0.0), ("lat_deg", 89.5), ("gyro_drift_deg_h", [0.1, 0.2]),
                         ("vertical_tau_s", math.nan), ("accel_bias_ug", [0, 0, math.inf])):
         with pytest.raises(ParameterError, match=name):

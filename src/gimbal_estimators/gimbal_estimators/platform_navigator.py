@@ -117,6 +117,7 @@ import numpy as np
 
 from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
 from gimbal_kinematics.maths.outcome import Fed, refused
+from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H, UG
 
 from . import navigator_kernels as nk
 from .platform_navigator_params import PlatformNavigatorParams
@@ -139,8 +140,10 @@ class HandOff(NamedTuple):
 
     @classmethod
     def from_params(cls, p: PlatformNavigatorParams) -> HandOff:
-        return cls(p.lat_rad, p.lon_rad, float(p.height_m), (0.0, 0.0, 0.0), p.gyro_drift_rad_s,
-                   p.north_drift_rad_s, p.accel_bias_m_s2, p.misalignment_enu_rad)
+        """The start values the parameters give, in SI (the one place they are converted)."""
+        return cls(p.lat_deg * DEG, p.lon_deg * DEG, float(p.height_m), (0.0, 0.0, 0.0),
+                   tuple(v * DEG_H for v in p.gyro_drift_deg_h), p.north_drift_deg_h * DEG_H,  # type: ignore[arg-type]
+                   tuple(v * UG for v in p.accel_bias_ug), tuple(v * ARCSEC for v in p.misalignment_arcsec))
 
     @classmethod
     def from_alignment(cls, estimate, lat: float, lon: float, height: float) -> HandOff:
@@ -207,7 +210,7 @@ class PlatformNavigator:
         e, n, u = (float(v) for v in h.misalignment_enu)
         T = self.params.torque_out_s
         torque_n = (-n / T, -e / T, u / T)  # −φ^n / T with φ^n = (δφN, δφE, −δφU)
-        self.kernel_params[:] = (*h.accel_bias_s, self.params.base_heading_rad, T, *k, float(h.height),
+        self.kernel_params[:] = (*h.accel_bias_s, self.params.base_heading_deg * DEG, T, *k, float(h.height),
                                  h.north_drift, *h.gyro_drift_s, *torque_n)
         self._start()
 
