@@ -149,7 +149,7 @@ def _core_outputs(e: np.ndarray) -> tuple[np.ndarray, object]:
         C_ni = dcm_ni(LAT, LON, t)
         core.on_level(t, ROLL + e[0], PITCH + e[1])
         core.on_body_rates(t, C_bn @ (C_ni[:, 2] * OMEGA_IE) + e[8:11])
-        fix = core.on_spin_axes(t, C_bn @ C_ni @ u_true[0], C_bn @ C_ni @ u_true[1])
+        fix = core.on_spin_axes(t, C_bn @ C_ni @ u_true[0], C_bn @ C_ni @ u_true[1]).output
         if fix is not None:
             break
     rm, rn = meridian_radius(LAT), prime_vertical_radius(LAT) * math.cos(LAT)

@@ -98,7 +98,7 @@ def test_noise_free_sailing_ship_fixes_its_track_and_heading():
         s = sensor.update_from_truth(tr, LAT, LON, dt)
         core.on_level(s.t, s.roll, s.pitch)
         core.on_body_rates(s.t, s.omega_ib_b)
-        fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b) or fix
+        fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b).output or fix
     no_velocity = math.remainder(fix.heading_earth_rate - (run.fixes[-1].heading_earth_rate - er[-1]), math.tau)
     # ω_en's east component −v_N/R_M turns the horizontal earth rate (north) by atan of its ratio
     v_north = 10.0 * math.cos(math.radians(70.0))

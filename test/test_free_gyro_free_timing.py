@@ -62,7 +62,7 @@ def test_epoch_stamped_readouts_fix_like_the_core_and_bad_ones_are_counted():
         roll, pitch, _ = euler321_from_quat(euler321_to_quat(s.roll, s.pitch, 0.0))
         core.on_level(t, roll, pitch)
         core.on_body_rates(t, s.omega_ib_b)
-        fix = core.on_spin_axes(t, (math.nan, 0.0, 1.0) if k == 57 else s.spin_a_b, s.spin_b_b)
+        fix = core.on_spin_axes(t, (math.nan, 0.0, 1.0) if k == 57 else s.spin_a_b, s.spin_b_b).output
         if fix is not None:
             fixes.append(fix)
     assert len(fixes) == len(out["fix"]) == 3

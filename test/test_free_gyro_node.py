@@ -141,7 +141,7 @@ def test_node_equals_the_core_and_rejects_nan_and_out_of_order_inputs(rig):
         core.on_level(t, roll, pitch)
         core.on_body_rates(t, s.omega_ib_b)
         spin_a = (math.nan, 0.0, 1.0) if k == 57 else s.spin_a_b
-        fix = core.on_spin_axes(t, spin_a, s.spin_b_b)
+        fix = core.on_spin_axes(t, spin_a, s.spin_b_b).output
         if fix is not None:
             fixes.append(fix)
     assert len(fixes) == 3 and all(f.valid for f in fixes)
@@ -193,7 +193,7 @@ def test_sailing_velocity_input_and_predicted_errors(rig):
         core.on_velocity(t, s.velocity_n)
         core.on_level(t, roll, pitch)
         core.on_body_rates(t, s.omega_ib_b)
-        fix = core.on_spin_axes(t, s.spin_a_b, s.spin_b_b)
+        fix = core.on_spin_axes(t, s.spin_a_b, s.spin_b_b).output
         fixes += [fix] if fix is not None else []
     assert spin_until(rig.executor, lambda: len(rig.got["predicted_heading"]) == 3, 30.0)
     assert rig.got["heading_earth_rate"][0].vector.x == pytest.approx(fixes[-1].heading_earth_rate, abs=1e-15)
@@ -360,7 +360,7 @@ def test_scenario_run_read_back_with_rosbags_and_mcap(ros_domain_env, tmp_path):
         pitch = math.asin(2 * (q.w * q.y - q.z * q.x))
         core.on_level(t, roll, pitch)
         core.on_body_rates(t, (imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z))
-        fix = core.on_spin_axes(t, (a.vector.x, a.vector.y, a.vector.z), (b.vector.x, b.vector.y, b.vector.z))
+        fix = core.on_spin_axes(t, (a.vector.x, a.vector.y, a.vector.z), (b.vector.x, b.vector.y, b.vector.z)).output
         if fix is not None:
             expected.append(fix)
     assert len(expected) == 7

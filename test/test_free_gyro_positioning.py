@@ -167,7 +167,7 @@ def test_degenerate_geometry_is_reported_without_a_fix(azimuths):
     for tr in truth:
         s = sensor.update_from_truth(tr, math.radians(LAT), math.radians(LON), 0.1)
         core.on_level(s.t, s.roll, s.pitch)
-        last = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b) or last
+        last = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b).output or last
     assert last is not None and not last.valid and last.status == "degenerate"
     assert math.isnan(last.lat) and math.isnan(last.lon) and np.all(np.isnan(last.cov_ne_m))
     assert core.counters.degenerate == 4 and core.counters.fixes == 0
@@ -228,7 +228,7 @@ def test_earth_rate_heading_sigma_is_consistent_with_triad_noise():
 def test_bad_inputs_rejected_and_counted_and_backjump_resets():
     core = FreeGyroPositioning(FreeGyroPositioningParams(U_A, U_B, fix_interval_s=1.0))
     ua, ub = (0.6, 0.0, 0.8), (0.0, 0.6, 0.8)
-    assert core.on_spin_axes(0.0, ua, ub) is None
+    assert core.on_spin_axes(0.0, ua, ub).why == "no vertical reference yet"
     assert core.counters.rejected_no_level == 1
     core.on_level(0.0, 0.0, 0.0)
     core.on_level(0.1, float("nan"), 0.0)
@@ -287,7 +287,7 @@ def test_earth_rate_heading_removes_transport_rate_given_velocity():
             if with_velocity:
                 core.on_velocity(s.t, v_n)
             core.on_body_rates(s.t, s.omega_ib_b)
-            fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b) or fix
+            fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b).output or fix
         results[with_velocity] = math.remainder(fix.heading_earth_rate - psi, math.tau)
     assert abs(results[False]) > 0.5 * math.pi / 180.0
     assert abs(results[True]) < 0.5 * ARCSEC
@@ -328,7 +328,7 @@ def test_sensor_suite_free_gyro_against_an_independent_rotation_chain():
             prev = R
             positioning.on_level(s.t, s.roll, s.pitch)
             positioning.on_body_rates(s.t, s.omega_ib_b)
-            fix = positioning.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b)
+            fix = positioning.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b).output
             if fix is not None:
                 fixes.append(fix)
         if core.finished:

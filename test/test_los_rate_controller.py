@@ -199,7 +199,8 @@ def test_nan_and_inf_hold_last_command_and_are_counted():
         ((0.0, 0.0), (0.0, 0.0, 0.0), ZERO3, ZERO3, (math.inf, -math.inf)),
     ]
     for i, (g, a, r, w, cmd) in enumerate(bad_inputs):
-        assert ctrl.step(0.002 + 0.001 * i, g, a, r, w, rate_command_qr=cmd) == good
+        fed = ctrl.control(0.002 + 0.001 * i, g, a, r, w, rate_command_qr=cmd)
+        assert not fed.used and "non-finite" in fed.why and fed.output == good
     assert ctrl.step(math.nan, (0.0, 0.0), ZERO3, ZERO3, ZERO3) == good
     assert ctrl.rejected_inputs == len(bad_inputs) + 1
     assert ctrl.integrator == integ

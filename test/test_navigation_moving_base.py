@@ -53,8 +53,8 @@ def test_resolver_with_fixed_heading_is_off_by_the_heading_motion():
 @pytest.mark.parametrize("angle", [None, math.nan])
 def test_missing_or_bad_servo_angle_is_counted_not_integrated(angle):
     nav = PlatformNavigator(PlatformNavigatorParams(azimuth_source="servo"))
-    assert nav.step(0, (0.0, 0.0, -9.8), 0.0) is not None
-    assert nav.step(20_000_000, (1.0, 0.0, -9.8), angle) is None
+    assert nav.step(0, (0.0, 0.0, -9.8), 0.0).output is not None
+    assert nav.step(20_000_000, (1.0, 0.0, -9.8), angle).output is None
     assert (nav.rejected_no_resolver, nav.rejected_nonfinite) == ((1, 0) if angle is None else (0, 1))
     assert (nav.vn, nav.ve) == (0.0, 0.0) and nav.accepted == 1
 

@@ -28,9 +28,7 @@ STAMP_NAMES = frozenset({"judge", "StampGate", "_accept_stamp", "_stamp_ok", "cl
                          "max_pending", "StampOrder", "StepGroups", "StampPairs"})
 #: Cores whose stamp, clock-jump or queue logic has not moved to their node's input policy
 #: yet, each with what stays. The list only shrinks.
-CORES_WITH_STAMP_LOGIC = {
-    "operator_command": "the command stamps' order and the clock-jump reset",
-}
+CORES_WITH_STAMP_LOGIC: dict[str, str] = {}
 #: Fields of a node's timing policy: the node's own parameters, never a core's.
 POLICY_FIELDS = frozenset({"clock_jump_s"})
 

@@ -14,9 +14,10 @@ import pytest
 
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
 from gimbal_control.los_rate_controller_params import PARAMS
-from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
+from gimbal_control.operator_command import OperatorCommandParams
 from gimbal_kinematics.params.table import ParameterError, defaults
 from gimbal_kinematics.timing.stamps import step_stamp_ns
+from operator_shaper import Shaper
 
 RATE = 1000.0
 AZ, EL = math.radians(5.0), math.radians(2.0)
@@ -51,16 +52,17 @@ def test_bad_operator_params_refused_naming_the_node_parameter(name, value):
 def test_no_command_no_change():
     rng = np.random.default_rng(7)
     plain = LosRateController(LosRateControllerParams())
-    shaped = LosRateController(LosRateControllerParams(), operator=OperatorCommand())
+    op = Shaper()
+    shaped = LosRateController(LosRateControllerParams(), operator=op.core)
     for k, (gyro, ang, rates, ins) in enumerate(_inputs(rng, 400)):
-        ref = shaped.reference(step_stamp_ns(k, RATE))
+        ref = shaped.reference(op.stamps.step(step_stamp_ns(k, RATE)))
         assert ref is None
         assert shaped.step(k / RATE, gyro, ang, rates, ins, ref) == plain.step(k / RATE, gyro, ang, rates, ins)
 
 
 def test_step_command_is_added_to_the_outer_loop_command_with_the_accel_limit():
-    op = OperatorCommand()
-    core = LosRateController(LosRateControllerParams(), operator=op)
+    op = Shaper()
+    core = LosRateController(LosRateControllerParams(), operator=op.core)
     hold = (1e-4, -2e-4)
     core.set_rate_command(*hold)
     t_c = step_stamp_ns(10, RATE) + 300_000  # between two steps
@@ -68,7 +70,7 @@ def test_step_command_is_added_to_the_outer_loop_command_with_the_accel_limit():
     a = op.max_accel
     for k in range(0, 200):
         t = step_stamp_ns(k, RATE)
-        ref = core.reference(t)
+        ref = core.reference(op.stamps.step(t))
         ramp = max(0.0, (t - t_c) * 1e-9) * a
         want = (min(EL, ramp), min(AZ, ramp))
         if want == (0.0, 0.0):
@@ -78,8 +80,8 @@ def test_step_command_is_added_to_the_outer_loop_command_with_the_accel_limit():
 
 
 def test_deadman_stops_the_slew_and_counts_it():
-    op = OperatorCommand()
-    core = LosRateController(LosRateControllerParams(), operator=op)
+    op = Shaper()
+    core = LosRateController(LosRateControllerParams(), operator=op.core)
     timeout_ns = int(op.params.timeout_s * 1e9)
     t_c = 0
     for k in range(0, 50):  # commands at 20 Hz for the first 50 ms... then they stop
@@ -89,7 +91,7 @@ def test_deadman_stops_the_slew_and_counts_it():
     last_moving = None
     for k in range(0, 1000):
         t = step_stamp_ns(k, RATE)
-        if core.reference(t) is not None:
+        if core.reference(op.stamps.step(t)) is not None:
             last_moving = t
     assert op.deadman_stops == 1
     assert op.holding
@@ -98,11 +100,11 @@ def test_deadman_stops_the_slew_and_counts_it():
 
 
 def test_bad_operator_commands_are_counted_never_acted_on():
-    op = OperatorCommand()
-    core = LosRateController(LosRateControllerParams(), operator=op)
+    op = Shaper()
+    core = LosRateController(LosRateControllerParams(), operator=op.core)
     assert not op.set_rate(1, math.nan, 0.0)
     assert not op.set_rate(2, 0.0, math.inf)
     assert not op.set_rate(3, 0.0, math.radians(10.5))  # above the 10 °/s limit
-    assert all(core.reference(step_stamp_ns(k, RATE)) is None for k in range(100))
+    assert all(core.reference(op.stamps.step(step_stamp_ns(k, RATE))) is None for k in range(100))
     c = op.counters()
     assert (c["rejected_nonfinite"], c["rejected_over_limit"], c["commands_accepted"]) == (2, 1, 0)

@@ -74,7 +74,7 @@ def test_free_timing_counts_bad_commands_and_the_deadman_in_diagnostics(controll
         if k == 400:  # slewing: the shaped command is in the reference
             assert node.operator.output == (0.0, AZ)
     op = node.operator
-    assert (op.rejected_nonfinite, op.rejected_over_limit, op.rejected_joy, op.commands_accepted) == (1, 1, 1, 2)
+    assert (op.rejected_nonfinite, op.rejected_over_limit, op.rejected_joy, node.commands.counts["commands_accepted"]) == (1, 1, 1, 2)
     assert op.deadman_stops == 1 and op.holding
     assert op.last_stop_ns == pytest.approx(t0 + (100 + 500) * 10**6 + AZ / op.max_accel * 1e9, abs=1e3)
     assert len(sent) == 1500
@@ -96,7 +96,7 @@ def test_lockstep_step_waits_for_the_operators_command(controller):
             assert len(sent) == k  # the operator's step: waits for its command
             node.edge.take("op", m.vector3_cdr(t_ns, "gimbal_inner_frd", (0.0, 0.0, AZ)))
         assert len(sent) == k + 1
-    assert node.operator.commands_accepted == 2 and node.operator.output[1] > 0.0
+    assert node.commands.counts["commands_accepted"] == 2 and node.operator.output[1] > 0.0
 
 
 def test_operator_node_refuses_bad_parameters(ros_domain_env):

@@ -120,7 +120,7 @@ def fly(truth, hours, nav=None, every=1):
     out = np.empty((n // every + 1, 4))
     for k in range(n + 1):
         f, th = truth.sense()
-        o = nav.step(k * DT_NS, f, th)
+        o = nav.step(k * DT_NS, f, th).output
         if k % every == 0:
             out[k // every] = (truth.t, (o.lat - LAT) * rm, o.lon * rn * math.cos(LAT), o.velocity_n[0])
         truth.step(o.command_rate_n, DT)
@@ -200,7 +200,7 @@ def test_vertical_channel_is_damped_by_the_reference_height():
     t, h = [], []
     for k in range(int(1800.0 / DT) + 1):
         f, th = truth.sense()
-        o = nav.step(k * DT_NS, f, th)
+        o = nav.step(k * DT_NS, f, th).output
         t.append(truth.t)
         h.append(o.height)
         truth.step(o.command_rate_n, DT)
@@ -237,7 +237,7 @@ def test_misalignment_is_torqued_out_by_the_pulse():
     truth = StaticBaseTruth(misalignment_enu=phi)
     for k in range(int(T / DT) + 4):
         f, th = truth.sense()
-        o = nav.step(k * DT_NS, f, th)
+        o = nav.step(k * DT_NS, f, th).output
         assert o.torquing == (k * DT < T)
         truth.step(o.command_rate_n, DT)
     res = truth.misalignment_enu() / ARCSEC
@@ -271,7 +271,7 @@ def test_command_rate_is_earth_plus_transport_rate_minus_drift_closed_form():
     eps_s, eps_n, psi = np.array([0.02, -0.01, 0.005]) * DEG_H, 0.004 * DEG_H, math.radians(30.0)
     nav = PlatformNavigator(PlatformNavigatorParams(lat_deg=40.0, height_m=h),
                             HandOff(lat, 0.2, h, velocity_n=v, gyro_drift_s=tuple(eps_s), north_drift=eps_n))
-    out = nav.step(10**18, (0.0, 0.0, -gravity(lat)), psi)
+    out = nav.step(10**18, (0.0, 0.0, -gravity(lat)), psi).output
     rm, rn = radii(lat)
     earth = OMEGA * np.array([math.cos(lat), 0.0, -math.sin(lat)])
     transport = np.array([v[1] / (rn + h), -v[0] / (rm + h), -v[1] * math.tan(lat) / (rn + h)])
@@ -286,7 +286,7 @@ def test_bad_input_is_counted_and_never_integrated():
     good = [(k * DT_NS, (1e-3, -2e-3, -g), 0.1 * k) for k in range(6)]
     ref = PlatformNavigator(PlatformNavigatorParams(lat_deg=40.0))
     for s in good:
-        expected = ref.step(*s)
+        expected = ref.step(*s).output
     nav = PlatformNavigator(PlatformNavigatorParams(lat_deg=40.0))
     bad = [
         (2 * DT_NS + 1, (math.nan, 0.0, -g), 0.0),       # NaN specific force
@@ -297,9 +297,10 @@ def test_bad_input_is_counted_and_never_integrated():
     for s in good[:3]:
         nav.step(*s)
     for s in bad:
-        assert nav.step(*s) is None
+        fed = nav.step(*s)
+        assert not fed.used and fed.output is None and fed.why
     for s in good[3:]:
-        out = nav.step(*s)
+        out = nav.step(*s).output
     assert out == expected
     assert nav.counters(2) == {"accepted": 6, "rejected_nonfinite": 3, "rejected_out_of_order": 2,
                                "rejected_no_resolver": 1, "resets": 0}
@@ -313,7 +314,7 @@ def test_a_reset_restarts_from_the_hand_off():
         nav.step(10**12 + k * DT_NS, (1e-2, 0.0, -gravity(LAT)), 0.0)
     assert nav.vn > 0.0
     nav.reset("clock jumped back on imu")
-    out = nav.step(10**12 - 5 * 10**9, (0.0, 0.0, -gravity(LAT)), 0.0)
+    out = nav.step(10**12 - 5 * 10**9, (0.0, 0.0, -gravity(LAT)), 0.0).output
     assert nav.resets == 1 and out.velocity_n == (0.0, 0.0, 0.0) and out.torquing
     assert nav.reset_reasons == ["clock jumped back on imu"]
 
@@ -322,9 +323,9 @@ def test_a_reset_restarts_from_the_hand_off():
 def test_parameter_table_maps_to_the_core_and_refuses_bad_values_by_name():
     p = PlatformNavigatorParams.from_values(defaults(PARAMS))
     assert p == PlatformNavigatorParams()
-    assert p.gyro_drift_rad_s == (0.0, 0.0, 0.0)
-    assert PlatformNavigatorParams(misalignment_arcsec=(3600.0, 0, 0)).misalignment_enu_rad[0] == pytest.approx(
-        math.radians(1.0))
+    assert HandOff.from_params(p).gyro_drift_s == (0.0, 0.0, 0.0)
+    assert HandOff.from_params(PlatformNavigatorParams(misalignment_arcsec=(3600.0, 0, 0))).misalignment_enu[0] \
+        == pytest.approx(math.radians(1.0))
     for name, value in (("torque_out_s", 0.0), ("lat_deg", 89.5), ("gyro_drift_deg_h", [0.1, 0.2]),
                         ("vertical_tau_s", math.nan), ("accel_bias_ug", [0, 0, math.inf])):
         with pytest.raises(ParameterError, match=name):

@@ -33,7 +33,7 @@ def test_friction_preset_voltage_turns_the_simulated_axis_at_the_rate():
 
 def _servo_tick(servo, t, omega_s, angles=(0.0, 0.0, 0.0, 0.0)):
     servo.on_resolvers(t, angles)
-    return servo.on_gyro(t, omega_s)
+    return servo.on_gyro(t, omega_s).output
 
 
 def _follow_command(sweep_deg, seconds, lat_deg=30.0, reversal_time_s=0.0):
@@ -143,9 +143,11 @@ def test_bad_input_holds_the_command_and_is_counted():
     servo = PlatformServo()
     a = _servo_tick(servo, 0.0, (0.0, 0.0, 0.0))
     b = _servo_tick(servo, 0.001, (1e-4, 0.0, 0.0))
-    held = servo.on_gyro(0.002, (math.nan, 0.0, 0.0))
+    fed = servo.on_gyro(0.002, (math.nan, 0.0, 0.0))
+    held = fed.output
+    assert not fed.used and "non-finite" in fed.why
     assert held.held and held.voltages == b.voltages and not a.held
-    servo.on_resolvers(0.002, (0.0, math.inf, 0.0, 0.0))
+    assert servo.on_resolvers(0.002, (0.0, math.inf, 0.0, 0.0)).why == "non-finite resolver angles"
     assert servo.rejected_nonfinite == 2 and servo.held_commands == 1
     locked = _servo_tick(servo, 0.003, (0.0, 0.0, 0.0), (0.0, 0.0, math.pi / 2, 0.0))
     assert locked.held and servo.rejected_gimbal_lock == 1

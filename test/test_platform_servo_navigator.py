@@ -23,7 +23,7 @@ def _tick(servo, t, sched, extra_n=(0.0, 0.0, 0.0), lat=0.0):
     phi, rate, _ = sched.state(t)
     omega = rot3(phi) @ (earth_rate_n(lat) + np.asarray(extra_n)) + np.array([0.0, 0.0, rate])
     servo.on_resolvers(t, (phi, 0.0, 0.0, 0.0))
-    return servo.on_gyro(t, omega)
+    return servo.on_gyro(t, omega).output
 
 
 def _navigator_servo(**kw):

@@ -274,7 +274,7 @@ def test_following_the_navigator_each_step_waits_for_its_command_rate(ros_domain
             for core in (ref, internal):
                 core.on_resolvers(t, (0.0, 0.0, 0.0, 0.0))
             ref.on_command_rate(t, w_n)
-            out, out_internal = ref.on_gyro(t, tuple(omega)), internal.on_gyro(t, tuple(omega))
+            out, out_internal = ref.on_gyro(t, tuple(omega)).output, internal.on_gyro(t, tuple(omega)).output
             assert _volts(sent["cmd"][k]) == pytest.approx(out.voltages, rel=1e-12, abs=1e-15)
         assert out.voltages != pytest.approx(out_internal.voltages, rel=1e-3)
 

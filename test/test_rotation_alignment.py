@@ -191,9 +191,10 @@ def test_estimate_shapes_and_covariance():
         if k:
             tr.step(0.1)
         m_core.on_joint_state(tr.t, *tr.psi_state(tr.t))
-        out = m_core.on_accel(tr.t, tr.specific_force_s())
-        if out is not None:
-            outs.append(out)
+        fed = m_core.on_accel(tr.t, tr.specific_force_s())
+        assert fed.used and (fed.output is None) == (fed.nis is None)
+        if fed.output is not None:
+            outs.append(fed.output)
     assert len(outs) == 30  # one update per 1 s block
     est = outs[-1]
     assert est.x.shape == (8,) and est.P.shape == (8, 8) and len(STATE_NAMES) == 8
@@ -206,17 +207,18 @@ def test_estimate_shapes_and_covariance():
 def test_bad_inputs_are_rejected_and_counted_and_backjump_resets():
     core = RotationAlignmentRls(RotationAlignmentParams(lat_deg=LAT_DEG))
     g = 9.8
-    assert core.on_accel(0.0, (0.0, 0.0, -g)) is None
+    fed = core.on_accel(0.0, (0.0, 0.0, -g))
+    assert not fed.used and fed.why == "no joint angle yet" and fed.output is None
     assert core.counters.rejected_no_joint == 1
-    core.on_joint_state(0.0, 0.0, 0.0)
-    core.on_joint_state(float("nan"), 0.0)
+    assert core.on_joint_state(0.0, 0.0, 0.0).used
+    assert not core.on_joint_state(float("nan"), 0.0).used
     core.on_joint_state(1.0, float("inf"))
     assert core.counters.joint_rejected_nonfinite == 2
     core.on_accel(0.0, (0.0, 0.0, -g))
-    core.on_accel(0.05, (float("nan"), 0.0, -g))
+    assert "non-finite" in core.on_accel(0.05, (float("nan"), 0.0, -g)).why
     core.on_accel(0.06, (0.0, None, -g))
     assert core.counters.rejected_nonfinite == 2
-    core.on_accel(0.5, (0.0, 0.0, -g))  # joint is 0.5 s old
+    assert "older" in core.on_accel(0.5, (0.0, 0.0, -g)).why  # joint is 0.5 s old
     assert core.counters.rejected_stale_joint == 1
     for k in range(1, 31):
         core.on_joint_state(0.1 * k, 0.0, 0.0)
@@ -235,7 +237,7 @@ def test_repeated_and_late_stamps_are_dropped_and_a_clock_jump_resets_through_th
     """The alignment node's grouped input policy (as its constructor builds it) judges the
     stamps: a repeated or late step never reaches the core, a bag loop calls the node's reset
     before the new run's first step."""
-    from gimbal_kinematics.timing.input_policy import SampleGrid, grouped_policy
+    from gimbal_kinematics.timing.input_policy import grouped_policy
 
     class Log:
         def warning(self, *args, **kwargs):
@@ -243,10 +245,9 @@ def test_repeated_and_late_stamps_are_dropped_and_a_clock_jump_resets_through_th
 
         info = warning
 
-    grid, resets = SampleGrid({"joint": 1, "imu": 1}), []
-    policy = grouped_policy(timing, ("joint", "imu"), needs=grid.needs, rate_hz=10.0, next_due=grid.next_due,
-                            progress_every=1, clock_jump_s=1.0, max_wait_ns=0, paced="imu", logger=Log(),
-                            on_restart=resets.append)
+    resets = []
+    policy = grouped_policy(timing, {"joint": 1, "imu": 1}, rate_hz=10.0, progress_every=1, clock_jump_s=1.0,
+                            max_wait_ns=0, paced="imu", logger=Log(), on_restart=resets.append)
     feed = lambda k: [(s.kind, s.stamp_ns) for kind in ("joint", "imu")  # noqa: E731
                       for s in policy.add(kind, 10**9 + k * 10**8, k)]
     released = [step for k in range(30) for step in feed(k)]

@@ -70,6 +70,7 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple, Sequence
 
+from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.gimbal.gimbal_params import UAV_SMALL_GIMBAL
 
@@ -135,9 +136,7 @@ class EncoderFusionParams:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
         for name in ("encoder_gate_s", "max_gap_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {v!r}")
+            positive(name, getattr(self, name))
         v = self.min_cos_elevation
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 < v <= 1.0:
             raise ValueError(f"min_cos_elevation must be in (0, 1], got {v!r}")

@@ -72,6 +72,7 @@ from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.maths.units import G0
+from gimbal_kinematics.maths.outcome import Fed
 
 from . import los_rate_kernels as lk
 from .linearize import linearize_gimbal
@@ -269,18 +270,32 @@ class LosRateController:
         self._s[lk.S_CMD_Q], self._s[lk.S_CMD_R] = float(q_md), float(r_md)
         return True
 
-    def reference(self, stamp_ns: int) -> tuple[float, float] | None:
-        """The step's LOS rate reference for :meth:`step` at ``stamp_ns`` [ns]: the outer
-        loop's command (:meth:`set_rate_command`) plus the operator's shaped command
-        (:class:`.operator_command.OperatorCommand`, advanced to the stamp). None (use the
-        outer loop's alone) without an operator or while its shaped command is zero, so a
-        controller nobody commands computes exactly what it did without one."""
+    def reference(self, released) -> tuple[float, float] | None:
+        """The step's LOS rate reference for :meth:`step`: the outer loop's command
+        (:meth:`set_rate_command`) plus the operator's shaped command
+        (:class:`.operator_command.OperatorCommand`, advanced to the step with the commands
+        it reached, ``released``: what the node's
+        :class:`~gimbal_kinematics.timing.control_policy.CommandStamps` hands over). None
+        (use the outer loop's alone) without an operator or while its shaped command is zero,
+        so a controller nobody commands computes exactly what it did without one."""
         if self.operator is None:
             return None
-        q, r = self.operator.step(stamp_ns)
+        q, r = self.operator.step(released)
         if q == 0.0 and r == 0.0:
             return None
         return (float(self._s[lk.S_CMD_Q]) + q, float(self._s[lk.S_CMD_R]) + r)
+
+    def control(self, t: float, gyro_qr: Sequence[float], joint_angles: Sequence[float],
+                joint_rates: Sequence[float], omega_b_b: Sequence[float],
+                rate_command_qr: Sequence[float] | None = None) -> Fed:
+        """:meth:`step`, reporting what it did (:class:`~gimbal_kinematics.maths.outcome.Fed`,
+        its ``output`` the torque command): a non-finite input is not used (counted in
+        ``rejected_inputs``) and the last command is held."""
+        rejected = self._s[lk.S_REJECTED_INPUTS]
+        tau = self.step(t, gyro_qr, joint_angles, joint_rates, omega_b_b, rate_command_qr)
+        if self._s[lk.S_REJECTED_INPUTS] != rejected:
+            return Fed(False, "non-finite input: the last command held", tau)
+        return Fed(True, output=tau)
 
     # ----------------------------------------------------------------------- hot path
     def step(self, t: float, gyro_qr: Sequence[float], joint_angles: Sequence[float],

@@ -15,9 +15,11 @@ adds the outer LOS angle loop (:mod:`.los_hold`) on the EKF's attitude estimate
 An operator slews the LOS with a rate command on ``operator_topic`` (Vector3Stamped, sight
 frame, rad/s, y = q, z = r) or a joystick on ``joy_topic`` (sensor_msgs/Joy): the shaper
 (:mod:`.operator_command`: rate and acceleration limits, dead-man ``operator_timeout_s``)
-judges each command as it arrives and its shaped output is added to the stabilisation
-reference at every step (:meth:`.los_rate_controller.LosRateController.reference`). Those
-commands bypass the input policy: the shaper has its own stamp rule and timeout. Only a
+checks each command's value as it arrives and its shaped output is added to the stabilisation
+reference at every step (:meth:`.los_rate_controller.LosRateController.reference`). Their
+stamps are judged by the node's command policy
+(:class:`gimbal_kinematics.timing.control_policy.CommandStamps`: order, staleness, clock
+jumps), which hands the shaper at each step the commands that step reached. Only a
 lockstep graph with an ``operator`` node (``operator_rate_hz`` > 0) waits for its command
 at the operator's steps, so the run is deterministic; nobody publishing leaves the loop's
 data unchanged. Its counters are ``operator_*`` in /diagnostics.
@@ -65,7 +67,7 @@ from gimbal_kinematics.ros.input_kinds import InputKind
 from gimbal_kinematics.ros.node_edge import NodeEdge
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
-from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
+from gimbal_kinematics.timing.control_policy import CommandStamps, ControlStep, FreeControl, LockstepControl, control_policy
 from gimbal_kinematics.timing.input_policy import SampleGrid
 
 from . import messages as m
@@ -86,10 +88,11 @@ class LosRateControllerNode(Node):
         timing, rate = values["timing"], values["sim_rate_hz"]
         params = LosRateControllerParams.from_values(values)
         self.operator = OperatorCommand(OperatorCommandParams.from_values(values))
+        self.commands = CommandStamps(values["operator_timeout_s"], CLOCK_JUMP_S)  # the operator's stamp rule
         self.core = LosRateController(params, operator=self.operator)
         self.hold = LosHold(LosHoldParams.from_values(values)) if values["mode"] == "los_hold" else None
         self.edge = edge = NodeEdge(self, values, COUNTERS)
-        self.pub = edge.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
+        self.pub = edge.pubs["/gimbal/torque_cmd"] = edge.io.advertise_command(JointState, "/gimbal/torque_cmd", values)
         inputs = [(InputKind.GYRO, Imu, "/gimbal/imu"), (InputKind.ENCODERS, JointState, "/gimbal/joint_states"),
                   (InputKind.INS, Imu, "/ins/imu")]
         if params.feedback:
@@ -120,11 +123,11 @@ class LosRateControllerNode(Node):
         edge.advertise_diagnostics(self.policy)
         self._ins_rates: tuple[float, float, float] | None = None
         edge.subscribe_all(inputs, self._on_input)
-        stamp, op = m.stamp_ns, self.operator
-        if op_topic and not op_every:  # used as it arrives (the shaper judges and counts it)
-            edge.subscribe(Vector3Stamped, op_topic, lambda v: op.set_rate(stamp(v.header.stamp), *v.vector[1:]))
+        stamp, rate_of, joy_of, add = m.stamp_ns, self.operator.check_rate, self.operator.check_joy, self.commands.add
+        if op_topic and not op_every:  # used as it arrives: the shaper checks its value, the policy its stamp
+            edge.subscribe(Vector3Stamped, op_topic, lambda v: add(stamp(v.header.stamp), rate_of(*v.vector[1:]).output))
         if values["joy_topic"]:
-            edge.subscribe(Joy, values["joy_topic"], lambda joy: op.set_joy(stamp(joy.header.stamp), joy.axes))
+            edge.subscribe(Joy, values["joy_topic"], lambda joy: add(stamp(joy.header.stamp), joy_of(joy.axes).output))
 
     def _on_input(self, kind: str, msg) -> None:
         for step in self.policy.add(kind, m.stamp_ns(msg.header.stamp), self._validate(kind, msg)):
@@ -132,7 +135,7 @@ class LosRateControllerNode(Node):
 
     def _validate(self, kind: str, msg):
         """What the loop takes from an input message, or None (counted) when it cannot be used."""
-        if kind == InputKind.OPERATOR:  # the operator's waited-for command: the shaper judges it
+        if kind == InputKind.OPERATOR:  # the operator's waited-for command: the shaper and CommandStamps judge it
             return (m.stamp_ns(msg.header.stamp), msg.vector[1], msg.vector[2])
         if kind == InputKind.ENCODERS:
             readings = m.encoder_readings(msg)
@@ -159,7 +162,7 @@ class LosRateControllerNode(Node):
             core.reset(reason)
         bias, att, op = inputs.get(InputKind.BIAS), inputs.get(InputKind.ATTITUDE), inputs.get(InputKind.OPERATOR)
         if op is not None:
-            self.operator.set_rate(*op.value)
+            self.commands.add(op.value[0], self.operator.check_rate(*op.value[1:]).output)
         if bias is not None:
             core.set_bias_estimate(bias.t, bias.value)
         if att is not None and self.hold is not None:  # the outer loop runs on each new attitude estimate
@@ -176,20 +179,19 @@ class LosRateControllerNode(Node):
                 self.edge.warn(f"step at {step.t:.6f} s: gyro, encoders or INS rates missing; holding the last command")
                 tau = core.command
             else:
-                before = core.rejected_inputs
-                tau = core.step(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates,
-                                core.reference(step.stamp_ns))
-                if core.rejected_inputs > before:
+                fed = core.control(step.t, gyro.value, enc.value[0], enc.value[1], self._ins_rates,
+                                   core.reference(self.commands.step(step.stamp_ns)))
+                tau = fed.output
+                if not fed.used:
                     self.edge.reject("rejected_nonfinite", "non-finite gyro sample; holding the last command")
-        for _, _, data in torque_command_messages(step.stamp_ns, tau):  # as the engine writes it
-            self.pub.publish(data)
+        self.edge.publish(torque_command_messages(step.stamp_ns, tau))  # as the engine writes it
         self.edge.diagnostics(step.stamp_ns, lambda: self.health(step))
 
     def health(self, step: ControlStep):
         core = self.core  # /diagnostics: the policy's counters, the inputs', the loop's
         fields = {**self.policy.counters(), **self.edge.counters(), "saturated_steps": core.saturated_steps,
                   "singular_steps": core.singular_steps, "rejected_bias": core.rejected_bias, "resets": core.resets,
-                  **{f"operator_{k}": n for k, n in self.operator.counters().items()}}
+                  **self.operator.diagnostics(self.commands.counters())}
         return health_msg(step.stamp_ns, self.get_name(), fields, stale=step.zero_command)
 
 

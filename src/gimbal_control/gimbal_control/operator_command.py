@@ -36,6 +36,10 @@ before the newest accepted one (duplicate or out of order), a command already ol
 stamps follow the project's stamp rule: at or before the last step and within
 ``clock_jump_s`` of it, rejected and counted (the output is returned unchanged); further
 back, the clock jumped (a bag loop) and the shaper resets (output and commands forgotten).
+Those stamp rules are the node's timing policy
+(:class:`gimbal_kinematics.timing.control_policy.CommandStamps`): the shaper takes only the
+values (:meth:`OperatorCommand.check_rate`, :meth:`OperatorCommand.check_joy`, each
+returning what it did) and, at each step, the commands that step reached, in stamp order.
 
 Dead-man. A command older than ``timeout_s`` stops the slew: the target becomes zero at
 stamp + timeout and the output ramps to zero under the acceleration limit, so a slew at v
@@ -52,18 +56,17 @@ Defaults (argued; the paper gives none):
   a 5 °/s slew is reached in 50 ms.
 * ``timeout_s`` = 0.5: ten periods of joy_node's default 20 Hz autorepeat, twist_mux's
   customary input timeout.
-* ``clock_jump_s`` = 0.5: the other cores' value.
 
 Pure Python, scalar maths (the controller calls :meth:`step` at its loop rate).
 """
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from numbers import Integral
 
+from gimbal_kinematics.maths.outcome import Fed, refused
 from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.params.table import ParameterError
 
@@ -81,7 +84,6 @@ class OperatorCommandParams:
         max_rate_deg_s: largest commanded LOS rate per axis [°/s]; above: rejected.
         max_accel_deg_s2: acceleration limit of the shaped command per axis [°/s²].
         timeout_s: dead-man: a command older than this stops the slew [s].
-        clock_jump_s: a step stamp this much before the last one resets the shaper [s].
         joy_azimuth_axis, joy_elevation_axis: Joy ``axes`` indices (distinct, >= 0).
         joy_scale_rad_s: rate at full deflection [rad/s], <= the rate limit; None: the
             rate limit.
@@ -91,7 +93,6 @@ class OperatorCommandParams:
     max_rate_deg_s: float = 10.0
     max_accel_deg_s2: float = 100.0
     timeout_s: float = 0.5
-    clock_jump_s: float = 0.5
     joy_azimuth_axis: int = 0
     joy_elevation_axis: int = 1
     joy_scale_rad_s: float | None = None
@@ -99,7 +100,7 @@ class OperatorCommandParams:
     joy_invert_elevation: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("max_rate_deg_s", "max_accel_deg_s2", "timeout_s", "clock_jump_s"):
+        for name in ("max_rate_deg_s", "max_accel_deg_s2", "timeout_s"):
             positive(name, getattr(self, name))
         for name in ("joy_azimuth_axis", "joy_elevation_axis"):
             value = getattr(self, name)
@@ -120,9 +121,8 @@ class OperatorCommandParams:
     @classmethod
     def from_values(cls, v: dict) -> OperatorCommandParams:
         """The shaper's parameters from a ``los_rate_controller`` node's values (its
-        ``operator_*`` and ``joy_*``; ``joy_scale_rad_s`` 0 means the rate limit, and
-        ``clock_jump_s`` is the controller's); :class:`ParameterError` names the node's
-        parameter refused."""
+        ``operator_*`` and ``joy_*``; ``joy_scale_rad_s`` 0 means the rate limit);
+        :class:`ParameterError` names the node's parameter refused."""
         try:
             return cls(max_rate_deg_s=v["operator_max_rate_deg_s"], max_accel_deg_s2=v["operator_max_accel_deg_s2"],
                        timeout_s=v["operator_timeout_s"], joy_azimuth_axis=v["joy_azimuth_axis"],
@@ -136,16 +136,16 @@ class OperatorCommandParams:
             raise ParameterError(f"parameter {text}") from exc
 
 
-def _stamp(stamp_ns: object) -> int:
-    """A stamp must be an integer [ns]; anything else is a caller's bug, not data."""
-    if isinstance(stamp_ns, bool) or not isinstance(stamp_ns, Integral):
-        raise TypeError(f"stamps are integer nanoseconds, got {stamp_ns!r}")
-    return int(stamp_ns)
+_NONFINITE = refused("non-finite rate")
+_OVER_LIMIT = refused("rate above max_rate_deg_s")
+_BAD_JOY = refused("joystick axes missing or outside [-1, 1]")
 
 
 class OperatorCommand:
     """Rate- and acceleration-limited operator LOS rate command with a dead-man (module
-    docstring). :meth:`set_rate` / :meth:`set_joy` per message, :meth:`step` per loop."""
+    docstring). :meth:`check_rate` / :meth:`check_joy` per message, :meth:`step` per loop
+    with the commands its step reached (the node's
+    :class:`~gimbal_kinematics.timing.control_policy.CommandStamps`)."""
 
     def __init__(self, params: OperatorCommandParams | None = None) -> None:
         self.params = params if params is not None else OperatorCommandParams()
@@ -154,19 +154,12 @@ class OperatorCommand:
         self.max_accel = math.radians(p.max_accel_deg_s2)
         self._rate_bound = self.max_rate * (1.0 + RATE_LIMIT_SLACK)
         self._timeout_ns = int(round(p.timeout_s * 1e9))
-        self._jump_ns = int(round(p.clock_jump_s * 1e9))
         scale = self.max_rate if p.joy_scale_rad_s is None else float(p.joy_scale_rad_s)
         self._joy_gain = (-scale if p.joy_invert_elevation else scale, -scale if p.joy_invert_azimuth else scale)
         self._joy_len = max(p.joy_azimuth_axis, p.joy_elevation_axis) + 1
-        self.commands_accepted = 0
         self.rejected_nonfinite = 0
         self.rejected_over_limit = 0
         self.rejected_joy = 0
-        self.rejected_duplicate = 0
-        self.rejected_out_of_order = 0
-        self.rejected_stale = 0
-        self.rejected_future = 0
-        self.rejected_step_stamps = 0
         self.deadman_stops = 0
         self.resets = 0
         self.last_reset_reason = ""
@@ -176,14 +169,12 @@ class OperatorCommand:
         self._out = [0.0, 0.0]               # shaped (q, r) at the last step [rad/s]
         self._target = (0.0, 0.0)            # command in force at the last step [rad/s]
         self._cmd_ns: int | None = None      # stamp of the command in force (None: none)
-        self._pending: deque[tuple[int, tuple[float, float]]] = deque()  # accepted, not yet in force
-        self._last_cmd_ns: int | None = None  # newest accepted command stamp
         self._t_ns: int | None = None        # last step stamp
         self._stopping = False               # a dead-man lapse is ramping the output down
         self.last_stop_ns: int | None = None  # when the output reached zero after the last lapse
 
     def reset(self, reason: str = "") -> None:
-        """Forget the output, the commands and the clock (counters are kept)."""
+        """Forget the output, the command in force and the last step (counters are kept)."""
         self._clear()
         if reason:
             self.resets += 1
@@ -197,109 +188,72 @@ class OperatorCommand:
 
     @property
     def holding(self) -> bool:
-        """No slew: the output and the command in force are zero (the controller holds)."""
-        return self._out[0] == 0.0 and self._out[1] == 0.0 and self._target == (0.0, 0.0) and not self._pending
+        """No slew: the output and the command in force are zero (the controller holds; a
+        command not yet reached by a step waits in the node's timing policy)."""
+        return self._out[0] == 0.0 and self._out[1] == 0.0 and self._target == (0.0, 0.0)
 
-    def set_rate(self, stamp_ns: int, q: float, r: float) -> bool:
-        """Commanded LOS rate (q about m-y, r about m-z) [rad/s] stamped ``stamp_ns``;
-        returns whether it was accepted (module docstring for the rejections)."""
-        t = _stamp(stamp_ns)
+    def check_rate(self, q: float, r: float) -> Fed:
+        """A commanded LOS rate (q about m-y, r about m-z) [rad/s]: what it did, its
+        ``output`` the rate (q, r) when usable (module docstring for the rejections)."""
         try:
             q, r = float(q), float(r)
         except (TypeError, ValueError):
             self.rejected_nonfinite += 1
-            return False
+            return _NONFINITE
         if not (math.isfinite(q) and math.isfinite(r)):
             self.rejected_nonfinite += 1
-            return False
+            return _NONFINITE
         if abs(q) > self._rate_bound or abs(r) > self._rate_bound:
             self.rejected_over_limit += 1
-            return False
-        return self._accept(t, (q, r))
+            return _OVER_LIMIT
+        return Fed(True, output=(q, r))
 
-    def set_joy(self, stamp_ns: int, axes: Sequence[float]) -> bool:
-        """A ``sensor_msgs/Joy`` axes array stamped ``stamp_ns``; returns acceptance."""
-        t = _stamp(stamp_ns)
+    def check_joy(self, axes: Sequence[float]) -> Fed:
+        """A ``sensor_msgs/Joy`` axes array: what it did, its ``output`` the rate (q, r)."""
         p = self.params
         try:
             el, az = float(axes[p.joy_elevation_axis]), float(axes[p.joy_azimuth_axis])
         except (TypeError, ValueError, IndexError):
             self.rejected_joy += 1
-            return False
+            return _BAD_JOY
         if not (math.isfinite(el) and math.isfinite(az)):
             self.rejected_nonfinite += 1
-            return False
+            return _NONFINITE
         if abs(el) > 1.0 + JOY_RANGE_SLACK or abs(az) > 1.0 + JOY_RANGE_SLACK:
             self.rejected_joy += 1
-            return False
+            return _BAD_JOY
         el, az = max(-1.0, min(1.0, el)), max(-1.0, min(1.0, az))
-        return self._accept(t, (self._joy_gain[0] * el, self._joy_gain[1] * az))
-
-    def _accept(self, t: int, rate: tuple[float, float]) -> bool:
-        now = self._t_ns
-        if now is not None:
-            if t - now > self._timeout_ns:
-                self.rejected_future += 1
-                return False
-            if t + self._timeout_ns <= now:
-                self.rejected_stale += 1
-                return False
-        last = self._last_cmd_ns
-        if last is not None and t <= last:
-            if t == last:
-                self.rejected_duplicate += 1
-            else:
-                self.rejected_out_of_order += 1
-            return False
-        self._pending.append((t, rate))
-        self._last_cmd_ns = t
-        self.commands_accepted += 1
-        return True
+        return Fed(True, output=(self._joy_gain[0] * el, self._joy_gain[1] * az))
 
     # ------------------------------------------------------------------ step
-    def step(self, stamp_ns: int) -> tuple[float, float]:
-        """Advance the shaped command to the step stamped ``stamp_ns``; returns (q, r) [rad/s]."""
-        t = _stamp(stamp_ns)
-        last = self._t_ns
-        if last is not None and t <= last:
-            if last - t <= self._jump_ns:
-                self.rejected_step_stamps += 1
-                return self.output
-            self.reset(f"step stamp jumped back {(last - t) * 1e-9:.3f} s (to {t} ns)")
-            last = None
-        if last is None:
-            self._first_step(t)
-            last = t
-        s = last
+    def step(self, released) -> tuple[float, float]:
+        """Advance the shaped command to a step; returns (q, r) [rad/s]. ``released`` is what
+        the node's :class:`~gimbal_kinematics.timing.control_policy.CommandStamps` hands over:
+        the step stamp [ns], the commands it reached in stamp order and, after a clock jump,
+        why to start over; None (a refused step stamp) keeps the output."""
+        if released is None:
+            return self.output
+        if released.reset:
+            self.reset(released.reset)
+        t = released.stamp_ns
+        s = t if self._t_ns is None else self._t_ns
+        commands, i = released.commands, 0
         while True:
             deadline = None if self._cmd_ns is None else self._cmd_ns + self._timeout_ns
-            nxt = self._pending[0][0] if self._pending and self._pending[0][0] <= t else None
+            nxt = commands[i][0] if i < len(commands) else None
             if deadline is not None and deadline <= t and (nxt is None or deadline < nxt):
                 s = self._advance(s, deadline)
                 self._lapse()
             elif nxt is not None:
                 s = self._advance(s, nxt)
-                self._cmd_ns, self._target = self._pending.popleft()
+                self._cmd_ns, self._target = commands[i]
+                i += 1
                 self._stopping = False
             else:
                 self._advance(s, t)
                 break
         self._t_ns = t
         return self.output
-
-    def _first_step(self, t: int) -> None:
-        """The first step after construction or a reset: drop the commands accepted before
-        it that are already stale or too far ahead (there was no clock to judge them by)."""
-        kept = deque()
-        for stamp, rate in self._pending:
-            if stamp + self._timeout_ns <= t:
-                self.rejected_stale += 1
-            elif stamp - t > self._timeout_ns:
-                self.rejected_future += 1
-            else:
-                kept.append((stamp, rate))
-        self._pending = kept
-        self._last_cmd_ns = kept[-1][0] if kept else None
 
     def _lapse(self) -> None:
         """Dead-man: the command in force timed out; the target becomes zero."""
@@ -326,12 +280,23 @@ class OperatorCommand:
         return e
 
     def counters(self) -> dict[str, int | str]:
-        """Counters for /diagnostics (name -> value)."""
+        """Counters for /diagnostics (name -> value); the stamp counters are the node's
+        timing policy's."""
         return {
-            "commands_accepted": self.commands_accepted, "rejected_nonfinite": self.rejected_nonfinite,
-            "rejected_over_limit": self.rejected_over_limit, "rejected_joy": self.rejected_joy,
-            "rejected_duplicate": self.rejected_duplicate, "rejected_out_of_order": self.rejected_out_of_order,
-            "rejected_stale": self.rejected_stale, "rejected_future": self.rejected_future,
-            "rejected_step_stamps": self.rejected_step_stamps, "deadman_stops": self.deadman_stops,
-            "resets": self.resets, "last_reset_reason": self.last_reset_reason,
+            "rejected_nonfinite": self.rejected_nonfinite, "rejected_over_limit": self.rejected_over_limit,
+            "rejected_joy": self.rejected_joy, "deadman_stops": self.deadman_stops, "resets": self.resets,
+            "last_reset_reason": self.last_reset_reason,
         }
+
+
+    def diagnostics(self, stamp_counters: dict[str, int]) -> dict[str, int | str]:
+        """The operator's /diagnostics fields (``operator_*``, in :data:`DIAGNOSTICS` order):
+        the node's command policy's counters (``stamp_counters``) and the shaper's."""
+        both = {**stamp_counters, **self.counters()}
+        return {f"operator_{k}": both[k] for k in DIAGNOSTICS}
+
+
+#: The operator's counters on /diagnostics, in order: the node's CommandStamps' and the shaper's.
+DIAGNOSTICS = ("commands_accepted", "rejected_nonfinite", "rejected_over_limit", "rejected_joy", "rejected_duplicate",
+               "rejected_out_of_order", "rejected_stale", "rejected_future", "rejected_step_stamps", "deadman_stops",
+               "resets", "last_reset_reason")

@@ -65,7 +65,7 @@ identified bearing friction and motor constants (:class:`FrictionModel`).
 Message-driven API (stamps [s], SI units)::
 
     servo.on_resolvers(t, angles)    # gimbal angles (θ_a, θ_q, θ_p, θ_r) [rad]
-    out = servo.on_gyro(t, omega_s)  # platform gyro triad (3,) [rad/s] -> ServoCommand
+    fed = servo.on_gyro(t, omega_s)  # platform gyro triad (3,) [rad/s] -> Fed, its output a ServoCommand
 
 The gyro sample is the control tick; feed the resolver sample of a stamp first. The
 schedule starts (φz = 0) at the first tick. Stamps come checked and in order from the
@@ -85,8 +85,10 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.maths.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
+from gimbal_kinematics.maths.outcome import Fed, refused
 from gimbal_kinematics.maths.units import DEG, DEG_H
 from gimbal_kinematics.maths.wgs84 import OMEGA_IE
 
@@ -212,9 +214,7 @@ class PlatformServoParams:
         if self.command_source not in COMMAND_SOURCES:
             raise ValueError(f"command_source must be one of {COMMAND_SOURCES}, got {self.command_source!r}")
         for name in ("max_gap_s", "command_max_age_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {v!r}")
+            positive(name, getattr(self, name))
 
     @classmethod
     def from_values(cls, v: dict) -> PlatformServoParams:
@@ -264,6 +264,12 @@ class ServoCommand(NamedTuple):
     phi_z: float
     phi_z_rate: float
     held: bool
+
+
+_USED = Fed(True)
+_NO_ANGLES = Fed(False)  # no resolver angles yet: nothing to command, nothing wrong
+_NONFINITE_ANGLES = refused("non-finite resolver angles")
+_NONFINITE_COMMAND = refused("non-finite navigator command rate")
 
 
 class PlatformServo:
@@ -338,18 +344,24 @@ class PlatformServo:
         self.reset_reasons.append(reason)
         self._reset_state()
 
-    def on_resolvers(self, t: float, angles: Sequence[float]) -> None:
-        """Gimbal resolver angles (θ_a, θ_q, θ_p, θ_r) [rad] at stamp ``t`` [s]."""
+    def on_resolvers(self, t: float, angles: Sequence[float]) -> Fed:
+        """Gimbal resolver angles (θ_a, θ_q, θ_p, θ_r) [rad] at stamp ``t`` [s]; returns what
+        it did (:class:`~gimbal_kinematics.maths.outcome.Fed`)."""
         vals = self._finite("angles", angles, "a, q, p, r")
-        if vals is not None:
-            sk.servo_resolvers(self.state, t, *vals)
+        if vals is None:
+            return _NONFINITE_ANGLES
+        sk.servo_resolvers(self.state, t, *vals)
+        return _USED
 
-    def on_command_rate(self, t: float, omega_n: Sequence[float]) -> None:
+    def on_command_rate(self, t: float, omega_n: Sequence[float]) -> Fed:
         """The navigator's level command rate ω_c^n (3,) NED [rad/s] at stamp ``t`` [s], held
-        until the next one (module docstring; used with ``command_source="navigator"``)."""
+        until the next one (module docstring; used with ``command_source="navigator"``);
+        returns what it did."""
         vals = self._finite("omega_n", omega_n, "N, E, D")
-        if vals is not None:
-            sk.servo_command(self.state, float(t), *vals)
+        if vals is None:
+            return _NONFINITE_COMMAND
+        sk.servo_command(self.state, float(t), *vals)
+        return _USED
 
     def _finite(self, name: str, values: Sequence[float], axes: str) -> tuple[float, ...] | None:
         """``values`` as floats, one per axis of ``axes``; None (counted) when one is not finite."""
@@ -367,23 +379,27 @@ class PlatformServo:
         return ServoCommand(t, self.command_voltages, tuple(s[sk.S_G0:sk.S_G3 + 1].tolist()), float(s[sk.S_PHI]),
                             float(s[sk.S_PHI_RATE]), held)
 
-    def on_gyro(self, t: float, omega_s: Sequence[float]) -> ServoCommand | None:
+    def on_gyro(self, t: float, omega_s: Sequence[float]) -> Fed:
         """Control tick on a platform gyro sample ω_meas (3,) [rad/s] resolved in s
-        (:func:`.servo_kernels.servo_tick`).
+        (:func:`.servo_kernels.servo_tick`); returns what it did
+        (:class:`~gimbal_kinematics.maths.outcome.Fed`), its ``output`` the
+        :class:`ServoCommand`.
 
-        Returns None until resolver angles have arrived; a non-finite sample holds the last
-        command (``held=True``).
+        No output until resolver angles have arrived; a non-finite sample, or one within 1°
+        of gimbal lock, holds the last command (``held=True``, and ``why``).
         """
         last = self._stamp(sk.S_T_TICK)
         wx, wy, wz = (float(v) for v in omega_s)
         if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
             self.rejected_nonfinite += 1
             sk.servo_held(self.state, self.kernel_params, float(t))
-            return self._output(t, True)
+            return Fed(False, "non-finite gyro sample: the last command held", self._output(t, True))
         gaps = self.state[sk.S_GAPS]
         result = sk.servo_tick(self.state, self.kernel_params, self._pid_state, self._pid_gains, float(t), wx, wy, wz)
         if self.state[sk.S_GAPS] != gaps:
             self.reset_reasons.append(f"gap of {t - last:.3f} s before t={t:.3f}: pickoff integration restarted")
         if result == sk.TICK_NONE:
-            return None
-        return self._output(t, result == sk.TICK_HELD)
+            return _NO_ANGLES
+        if result == sk.TICK_HELD:
+            return Fed(True, "within 1° of gimbal lock: the last command held", self._output(t, True))
+        return Fed(True, output=self._output(t, False))

@@ -78,7 +78,6 @@ class PlatformServoNode(Node):
         self.follows_navigator = values["command_source"] == "navigator"
         self.diag_every = values["diagnostics_every_steps"]
         self._ticks = 0
-        self._seen = (0, 0, 0)  # core counters already warned about
         self.edge = edge = NodeEdge(self, values, COUNTERS)
         edge.pubs["/platform/voltage_cmd"] = edge.io.advertise_command(JointState, "/platform/voltage_cmd", values)
         edge.advertise_all(((JointState, "~/control_error"), (JointState, "~/modulation")))
@@ -136,18 +135,15 @@ class PlatformServoNode(Node):
             volts = ZERO
         else:
             res, imu, nav = inputs.get("res"), inputs.get("imu"), inputs.get("nav")
-            if res is not None:
-                core.on_resolvers(res.t, res.value)
-            if nav is not None:
-                core.on_command_rate(nav.t, nav.value)
-            if imu is not None:
-                out = core.on_gyro(step.t, imu.value)
+            fed = ((core.on_resolvers(res.t, res.value) if res is not None else None),
+                   (core.on_command_rate(nav.t, nav.value) if nav is not None else None),
+                   (core.on_gyro(step.t, imu.value) if imu is not None else None))
+            out = None if fed[2] is None else fed[2].output
             volts = out.voltages if out is not None else core.command_voltages
-        seen = (core.rejected_nonfinite, core.held_commands, core.rejected_gimbal_lock)
-        if seen != self._seen:
-            self._seen = seen
-            self.edge.warn(f"step at {step.t:.6f} s: bad measurement; {core.rejected_nonfinite} non-finite samples "
-                      f"rejected, {core.held_commands} commands held, {core.rejected_gimbal_lock} at gimbal lock")
+            why = "; ".join(f.why for f in fed if f is not None and f.why is not None)
+            if why:
+                self.edge.warn(f"step at {step.t:.6f} s: {why} ({core.rejected_nonfinite} non-finite samples "
+                               f"rejected, {core.held_commands} commands held, {core.rejected_gimbal_lock} at gimbal lock)")
         t_ns = step.stamp_ns
         if out is not None:
             self._ticks += 1

@@ -72,6 +72,7 @@ from gimbal_kinematics.maths.free_gyro import (
     unit_vector,
 )
 from gimbal_kinematics.maths.units import ARCSEC, DEG_RT_H
+from gimbal_kinematics.maths.outcome import Fed, refused
 from gimbal_kinematics.maths.validate import finite, nonneg_finite, of_type, positive
 from gimbal_kinematics.params.table import ParameterError
 
@@ -225,6 +226,13 @@ def _level(x: float, y: float, z: float, cr: float, sr: float, cp: float, sp: fl
     return cp * x + sp * vz, vy, -sp * x + cp * vz
 
 
+_USED = Fed(True)
+_NONFINITE = refused("non-finite sample")
+_NOT_UNIT = refused("spin axis not a unit vector")
+_NO_LEVEL = refused("no vertical reference yet")
+_STALE_LEVEL = refused("vertical reference older than max_level_age_s")
+
+
 @dataclass
 class _Counters:
     spin_accepted: int = 0
@@ -288,69 +296,63 @@ class FreeGyroPositioning:
             return None
         return t
 
-    def _level_at(self, t: float) -> tuple[float, float] | None:
+    def _checked(self, t: object, values: Sequence[float], n: int) -> tuple[float, tuple[float, ...]] | None:
+        """(stamp, the first ``n`` values) as finite floats; None (counted) when a value is
+        missing or not finite, or the stamp is not finite."""
+        try:
+            v = tuple(float(values[i]) for i in range(n))
+        except (TypeError, ValueError, IndexError):
+            v = None
+        if v is None or not all(math.isfinite(c) for c in v):
+            self.counters.rejected_nonfinite += 1
+            return None
+        ts = self._stamp(t)
+        return None if ts is None else (ts, v)
+
+    def _level_at(self, t: float) -> tuple[float, float] | Fed:
+        """(roll, pitch) [rad] of the vertical reference at ``t``, or why there is none (counted)."""
         lv = self._level_sample
         if lv is None:
             self.counters.rejected_no_level += 1
-            return None
+            return _NO_LEVEL
         if abs(t - lv[0]) > self.params.max_level_age_s:
             self.counters.rejected_stale_level += 1
-            return None
+            return _STALE_LEVEL
         return lv[1], lv[2]
 
     # -- inputs --------------------------------------------------------------------------
-    def on_level(self, t: float, roll: float, pitch: float) -> None:
-        """Vertical reference: roll, pitch [rad] (3-2-1 Euler angles of the body)."""
-        try:
-            roll, pitch = float(roll), float(pitch)
-        except (TypeError, ValueError):
-            self.counters.rejected_nonfinite += 1
-            return
-        if not (math.isfinite(roll) and math.isfinite(pitch)):
-            self.counters.rejected_nonfinite += 1
-            return
-        ts = self._stamp(t)
-        if ts is None:
-            return
-        self._level_sample = (ts, roll, pitch)
+    def on_level(self, t: float, roll: float, pitch: float) -> Fed:
+        """Vertical reference: roll, pitch [rad] (3-2-1 Euler angles of the body); each
+        ``on_*`` returns what it did (:class:`~gimbal_kinematics.maths.outcome.Fed`)."""
+        sample = self._checked(t, (roll, pitch), 2)
+        if sample is None:
+            return _NONFINITE
+        self._level_sample = (sample[0], *sample[1])
+        return _USED
 
-    def on_velocity(self, t: float, v_n: Sequence[float]) -> None:
+    def on_velocity(self, t: float, v_n: Sequence[float]) -> Fed:
         """NED ground velocity [m/s] (3,), for the transport rate of the earth-rate heading."""
-        try:
-            v = (float(v_n[0]), float(v_n[1]), float(v_n[2]))
-        except (TypeError, ValueError, IndexError):
-            self.counters.rejected_nonfinite += 1
-            return
-        if not all(math.isfinite(c) for c in v):
-            self.counters.rejected_nonfinite += 1
-            return
-        ts = self._stamp(t)
-        if ts is None:
-            return
-        self._v_n = v
+        sample = self._checked(t, v_n, 3)
+        if sample is None:
+            return _NONFINITE
+        self._v_n = sample[1]
+        return _USED
 
-    def on_body_rates(self, t: float, omega_ib_b: Sequence[float]) -> None:
+    def on_body_rates(self, t: float, omega_ib_b: Sequence[float]) -> Fed:
         """Body triad step-average rate ω_ib^b (3,) [rad/s] over the interval ending at t."""
-        try:
-            wx, wy, wz = float(omega_ib_b[0]), float(omega_ib_b[1]), float(omega_ib_b[2])
-        except (TypeError, ValueError, IndexError):
-            self.counters.rejected_nonfinite += 1
-            return
-        if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
-            self.counters.rejected_nonfinite += 1
-            return
-        ts = self._stamp(t)
-        if ts is None:
-            return
+        sample = self._checked(t, omega_ib_b, 3)
+        if sample is None:
+            return _NONFINITE
+        ts, (wx, wy, wz) = sample
         lv = self._level_at(ts)
-        if lv is None:
-            return
+        if isinstance(lv, Fed):
+            return lv
         self.counters.rates_accepted += 1
         roll, pitch = lv
         prev = self._h_prev
         self._h_prev = (ts, roll, pitch)
         if prev is None:
-            return  # opens the window: the rate covers an interval before it
+            return _USED  # opens the window: the rate covers an interval before it
         dt = ts - prev[0]
         rm, pm = 0.5 * (roll + prev[1]), 0.5 * (pitch + prev[2])
         lx, ly, _ = _level(wx, wy, wz, math.cos(rm), math.sin(rm), math.cos(pm), math.sin(pm))
@@ -362,6 +364,7 @@ class FreeGyroPositioning:
         h[4] += dt
         if h[4] >= self.params.heading_window_s:
             self._close_heading_window(ts)
+        return _USED
 
     def _close_heading_window(self, t: float) -> None:
         sx, sy, sphi, stheta, T = self._h
@@ -386,29 +389,22 @@ class FreeGyroPositioning:
         self._clear_heading_window()
         self._h_prev = (t, *self._level_sample[1:]) if self._level_sample is not None else None
 
-    def on_spin_axes(self, t: float, spin_a_b: Sequence[float], spin_b_b: Sequence[float]) -> FreeGyroFix | None:
-        """Read-out of both spin axes in body FRD (unit (3,) each) at ``t`` [s]. Returns the
-        :class:`FreeGyroFix` when this sample completes a fix window, else None."""
-        try:
-            ax, ay, az = float(spin_a_b[0]), float(spin_a_b[1]), float(spin_a_b[2])
-            bx, by, bz = float(spin_b_b[0]), float(spin_b_b[1]), float(spin_b_b[2])
-        except (TypeError, ValueError, IndexError):
-            self.counters.rejected_nonfinite += 1
-            return None
-        vals = (ax, ay, az, bx, by, bz)
-        if not all(math.isfinite(c) for c in vals):
-            self.counters.rejected_nonfinite += 1
-            return None
+    def on_spin_axes(self, t: float, spin_a_b: Sequence[float], spin_b_b: Sequence[float]) -> Fed:
+        """Read-out of both spin axes in body FRD (unit (3,) each) at ``t`` [s]. Returns what
+        it did, its ``output`` the :class:`FreeGyroFix` when this sample completes a fix
+        window."""
+        a = self._checked(t, spin_a_b, 3)
+        b = None if a is None else self._checked(t, spin_b_b, 3)
+        if b is None:
+            return _NONFINITE
+        (ts, (ax, ay, az)), (bx, by, bz) = a, b[1]
         na, nb = math.sqrt(ax * ax + ay * ay + az * az), math.sqrt(bx * bx + by * by + bz * bz)
         if abs(na - 1.0) > 1e-3 or abs(nb - 1.0) > 1e-3:
             self.counters.rejected_not_unit += 1
-            return None
-        ts = self._stamp(t)
-        if ts is None:
-            return None
+            return _NOT_UNIT
         lv = self._level_at(ts)
-        if lv is None:
-            return None
+        if isinstance(lv, Fed):
+            return lv
         self.counters.spin_accepted += 1
         cr, sr, cp, sp = math.cos(lv[0]), math.sin(lv[0]), math.cos(lv[1]), math.sin(lv[1])
         lax, lay, laz = _level(ax / na, ay / na, az / na, cr, sr, cp, sp)
@@ -439,10 +435,10 @@ class FreeGyroPositioning:
         n = self._w_n
         # n read-outs cover n sample intervals (≈ τ n/(n−1)): close when they span the interval
         if n < self.params.min_samples or tau * n < (self.params.fix_interval_s - 1e-9) * (n - 1):
-            return None
+            return _USED
         fix = self._close_window()
         self._clear_window()
-        return fix
+        return Fed(True, output=fix)
 
     # -- fix -----------------------------------------------------------------------------
     def _close_window(self) -> FreeGyroFix:

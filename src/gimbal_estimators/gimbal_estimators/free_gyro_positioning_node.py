@@ -109,7 +109,6 @@ class FreeGyroPositioningNode(Node):
         self.predictor = fix_predictor(values, self.core.params)
         self.degenerate = 0
         self.resets = 0
-        self._rejected_seen = 0
         self._er_t: float | None = None        # stamp of the last earth-rate heading published
         self.edge = edge = NodeEdge(self, values)
         outputs = OUTPUTS + (PREDICTIONS if self.predictor is not None else ())
@@ -127,12 +126,6 @@ class FreeGyroPositioningNode(Node):
         return (self.policy.rejected + c.rejected_nonfinite + c.rejected_not_unit
                 + c.rejected_no_level + c.rejected_stale_level)
 
-    def _warn_rejected(self) -> None:
-        n = self.rejected
-        if n > self._rejected_seen:
-            self._rejected_seen = n
-            self.edge.warn(f"input rejected (non-finite, non-unit or out of order): {n} so far")
-
     def _reset(self, reason: str) -> None:  # the input policy saw the read-out stamps jump back
         self.resets += 1
         self.core.reset(reason)
@@ -145,19 +138,21 @@ class FreeGyroPositioningNode(Node):
     def _on_input(self, topic: str, msg) -> None:
         for step in self.policy.add(topic, m.stamp_ns(msg.header.stamp), msg):
             self._step(step)
-        self._warn_rejected()
 
     def _step(self, step: Step) -> None:
         t_ns, t, group = step.stamp_ns, step.t, step.msg
         imu = group[IMU]
         roll, pitch = m.level_of(imu)
-        if self.velocity_input:
-            self.core.on_velocity(t, m.vec_of(group[VELOCITY].vector))
-        self.core.on_level(t, roll, pitch)
+        fed = [self.core.on_velocity(t, m.vec_of(group[VELOCITY].vector))] if self.velocity_input else []
+        fed.append(self.core.on_level(t, roll, pitch))
         if self.predictor is not None:
             self.predictor.add_level(roll, pitch)
-        self.core.on_body_rates(t, m.vec_of(imu.angular_velocity))
-        fix = self.core.on_spin_axes(t, m.vec_of(group[SPIN_A].vector), m.vec_of(group[SPIN_B].vector))
+        fed.append(self.core.on_body_rates(t, m.vec_of(imu.angular_velocity)))
+        fed.append(self.core.on_spin_axes(t, m.vec_of(group[SPIN_A].vector), m.vec_of(group[SPIN_B].vector)))
+        why = "; ".join(f.why for f in fed if f.why is not None)
+        if why:
+            self.edge.warn(f"read-out at {t:.3f} s: input rejected: {why}")
+        fix = fed[-1].output
         if fix is not None:
             self._publish_fix(fix, t)
             self.edge.pubs["/diagnostics"].publish(self.health(t_ns))  # each fix: no throttle

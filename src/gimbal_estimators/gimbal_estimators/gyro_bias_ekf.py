@@ -88,6 +88,7 @@ from gimbal_kinematics.maths.rotations import (
 from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_RT_H
 
 from gimbal_kinematics.maths import kalman
+from gimbal_kinematics.maths.outcome import Fed
 from . import gyro_bias_ekf_kernels as kernels
 from .gyro_bias_ekf_model import BIAS, INS_ERROR, N_STATES_BASE, N_STATES_INS, PSI
 from .gyro_bias_ekf_params import GyroBiasEkfParams
@@ -132,16 +133,6 @@ class EkfOutput(NamedTuple):
     accepted: bool
     counters: Counters
     nis: float | None = None
-
-
-class Fed(NamedTuple):
-    """One ``on_*`` call: the sample ``used`` or ``why`` not, the last :class:`EkfOutput` it
-    completed (all: :meth:`GyroBiasEkf.take_outputs`), the (t, reason) of each re-alignment."""
-
-    used: bool
-    why: str | None = None
-    output: EkfOutput | None = None
-    realigned: tuple[tuple[float, str], ...] = ()
 
 
 _NONFINITE = Fed(False, "non-finite or malformed values")

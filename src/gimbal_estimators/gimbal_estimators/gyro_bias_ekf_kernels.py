@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from gimbal_kinematics.maths.quat_kernels import quat_from_euler321, quat_from_rotation_vector, quat_mul
+from gimbal_kinematics.maths.rotation_kernels import rotation_vector_to_dcm
 
 #: |cos θm| below which eq. 4 is singular (the core's ``_SINGULAR_COS``).
 SINGULAR_COS = 1e-3
@@ -138,31 +139,13 @@ def a_matrix(q: tuple, ct: float, st: float) -> np.ndarray:
 
 
 @njit(cache=True)
-def _rotation_dcm(x: float, y: float, z: float) -> np.ndarray:
-    """exp([v×]) (Rodrigues, series near zero): ``rotations.dcm_from_rotation_vector``."""
-    a2 = x * x + y * y + z * z
-    if a2 < 1e-8:
-        s = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
-        c = 0.5 - a2 / 24.0 + a2 * a2 / 720.0
-    else:
-        a = math.sqrt(a2)
-        s = math.sin(a) / a
-        c = (1.0 - math.cos(a)) / a2
-    out = np.empty((3, 3))
-    out[0, 0], out[0, 1], out[0, 2] = 1.0 - c * (y * y + z * z), c * x * y - s * z, c * x * z + s * y
-    out[1, 0], out[1, 1], out[1, 2] = c * x * y + s * z, 1.0 - c * (x * x + z * z), c * y * z - s * x
-    out[2, 0], out[2, 1], out[2, 2] = c * x * z - s * y, c * y * z + s * x, 1.0 - c * (x * x + y * y)
-    return out
-
-
-@njit(cache=True)
 def propagate(P: np.ndarray, A: np.ndarray, T: float, w: np.ndarray, n_psd: np.ndarray, qb_psd: np.ndarray,
               pe_var: np.ndarray, tau_e: float) -> tuple:
     """(P over T, F_ee) with the error model (module docstring); P (n, n), n = 6 or 9
     (``pe_var`` (3,) is used with n = 9 only); ``tau_e`` inf: constant INS errors."""
     n = P.shape[0]
     F = np.eye(n)
-    F[PSI, PSI] = _rotation_dcm(-T * w[0], -T * w[1], -T * w[2])
+    F[PSI, PSI] = rotation_vector_to_dcm(-T * w[0], -T * w[1], -T * w[2])
     Wx = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     F[PSI, BIAS] = (0.5 * T * T) * mat_mul(Wx, A) - T * A
     Q = np.zeros((n, n))

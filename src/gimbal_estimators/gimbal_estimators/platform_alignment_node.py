@@ -63,12 +63,11 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.params.table import steps_per_sample
-from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
+from gimbal_kinematics.ros.node_edge import NodeEdge, grouped_policy_of, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.timing.input_policy import SampleGrid, Step, grouped_policy
+from gimbal_kinematics.timing.input_policy import Step
 
 from . import messages as m
 from .nis import NisWindow
@@ -92,21 +91,12 @@ class PlatformAlignmentNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_alignment", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        grid = SampleGrid({"joint": steps_per_sample(values, "joint_rate_hz"),
-                           "imu": steps_per_sample(values, "imu_rate_hz")})
         self.core = RotationAlignmentRls(RotationAlignmentParams.from_values(values))
         self.azimuth_joint = values["azimuth_joint"]
         self.heading = math.radians(values["base_heading_deg"])
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(values["timing"], ("joint", "imu"), needs=grid.needs,
-                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
-                                     progress_every=values["progress_every_steps"],
-                                     clock_jump_s=values["clock_jump_s"],
-                                     max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger(), on_restart=self.core.reset)
-        self._seen: tuple[int, ...] = ()
+        self.policy = grouped_policy_of(self, values, ("joint", "imu"), "imu", self.core.reset)
         self.nis = NisWindow(2, window=values["nis_window"])
-        self._updates_seen = 0
         self.edge = edge = NodeEdge(self, values, ("rejected_joints",))
         edge.advertise_all([(Vector3Stamped, f"~/{name}") for name in OUTPUTS] + [(Clock, "~/progress")])
         edge.advertise_diagnostics(self.policy)
@@ -121,19 +111,17 @@ class PlatformAlignmentNode(Node):
 
     def _step(self, step: Step) -> None:
         where = f"{step.stamp_ns * 1e-9:.6f} s"
-        est = None
         if step.kind == "joint":
-            self._validate_joint(step.t, step.msg, where)
+            fed = self._validate_joint(step.t, step.msg, where)
         else:
-            est = self.core.on_accel(step.t, m.vec_of(step.msg.linear_acceleration))
-        self._warn_counters(where)
-        if self.core.n_updates != self._updates_seen:
-            if self.core.n_updates > self._updates_seen:
-                self.nis.add(self.core.last_nis)
-            self._updates_seen = self.core.n_updates
-        if est is not None:
+            fed = self.core.on_accel(step.t, m.vec_of(step.msg.linear_acceleration))
+        if fed is not None and fed.why is not None:
+            self._warn_rejected(where, fed.why)
+        if fed is not None and fed.nis is not None:
+            self.nis.add(fed.nis)
+        if fed is not None and fed.output is not None:
             # serialized by gimbal_estimators.wire (the engine writes the same bytes into its bag)
-            self.edge.publish(alignment_messages(step.stamp_ns, est))
+            self.edge.publish(alignment_messages(step.stamp_ns, fed.output))
             self.edge.diagnostics(step.stamp_ns, lambda: self.health(step.stamp_ns))
         self.edge.progress(self.policy.progress(step))
 
@@ -145,20 +133,17 @@ class PlatformAlignmentNode(Node):
         return self.edge.health(t_ns, self.policy, core, self.nis, ready=self.core.n_updates > 0,
                                 not_ready="no estimate yet", warn=WARN_COUNTERS)
 
-    def _validate_joint(self, t: float, msg, where: str) -> None:
+    def _validate_joint(self, t: float, msg, where: str):
         joint = m.joint_position_velocity(msg, self.azimuth_joint)
         if joint is None:
-            self.edge.reject("rejected_joints", f"{where}: no joint {self.azimuth_joint!r} with a position: ignored")
-        else:
-            self.core.on_joint_state(t, joint[0] + self.heading, joint[1])
+            return self.edge.reject("rejected_joints", f"{where}: no joint {self.azimuth_joint!r} with a position: ignored")
+        return self.core.on_joint_state(t, joint[0] + self.heading, joint[1])
 
-    def _warn_counters(self, where: str) -> None:
+    def _warn_rejected(self, where: str, why: str) -> None:
         c = self.core.counters
-        seen = (c.rejected_nonfinite, c.rejected_no_joint, c.rejected_stale_joint, c.joint_rejected_nonfinite)
-        if seen != self._seen and any(seen):
-            self.edge.warn(f"{where}: samples rejected so far: accelerometer {seen[0]} non-finite, "
-                           f"{seen[1] + seen[2]} without a joint angle; joint {seen[3]} non-finite")
-        self._seen = seen
+        self.edge.warn(f"{where}: sample rejected: {why} (so far: accelerometer {c.rejected_nonfinite} non-finite, "
+                       f"{c.rejected_no_joint + c.rejected_stale_joint} without a joint angle; joint "
+                       f"{c.joint_rejected_nonfinite} non-finite)")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -116,6 +116,8 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
+from gimbal_kinematics.maths.outcome import Fed, refused
+from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H, UG
 
 from . import navigator_kernels as nk
 from .platform_navigator_params import PlatformNavigatorParams
@@ -138,8 +140,10 @@ class HandOff(NamedTuple):
 
     @classmethod
     def from_params(cls, p: PlatformNavigatorParams) -> HandOff:
-        return cls(p.lat_rad, p.lon_rad, float(p.height_m), (0.0, 0.0, 0.0), p.gyro_drift_rad_s,
-                   p.north_drift_rad_s, p.accel_bias_m_s2, p.misalignment_enu_rad)
+        """The start values the parameters give, in SI (the one place they are converted)."""
+        return cls(p.lat_deg * DEG, p.lon_deg * DEG, float(p.height_m), (0.0, 0.0, 0.0),
+                   tuple(v * DEG_H for v in p.gyro_drift_deg_h), p.north_drift_deg_h * DEG_H,  # type: ignore[arg-type]
+                   tuple(v * UG for v in p.accel_bias_ug), tuple(v * ARCSEC for v in p.misalignment_arcsec))
 
     @classmethod
     def from_alignment(cls, estimate, lat: float, lon: float, height: float) -> HandOff:
@@ -168,6 +172,10 @@ class NavigatorOutput(NamedTuple):
     command_rate_n: tuple[float, float, float]
     azimuth: float
     torquing: bool
+
+
+_NONFINITE = refused("non-finite specific force or azimuth angle")
+_NO_RESOLVER = refused("no azimuth angle within max_joint_age_s")
 
 
 class PlatformNavigator:
@@ -202,7 +210,7 @@ class PlatformNavigator:
         e, n, u = (float(v) for v in h.misalignment_enu)
         T = self.params.torque_out_s
         torque_n = (-n / T, -e / T, u / T)  # −φ^n / T with φ^n = (δφN, δφE, −δφU)
-        self.kernel_params[:] = (*h.accel_bias_s, self.params.base_heading_rad, T, *k, float(h.height),
+        self.kernel_params[:] = (*h.accel_bias_s, self.params.base_heading_deg * DEG, T, *k, float(h.height),
                                  h.north_drift, *h.gyro_drift_s, *torque_n)
         self._start()
 
@@ -247,38 +255,39 @@ class PlatformNavigator:
         self.kernel_params[nk.Q_H_REF] = h_ref
 
     # -- input checks ----------------------------------------------------------------------
-    def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | None:
-        """(f_x, f_y, f_z, θ_a) as floats, or None after counting why the sample is refused."""
+    def _admit(self, t_ns, f_s, theta_a) -> tuple[float, float, float, float] | Fed:
+        """(f_x, f_y, f_z, θ_a) as floats, or why the sample is refused (counted)."""
         try:
             f = [float(v) for v in f_s]
             t_ok = math.isfinite(float(t_ns))
         except (TypeError, ValueError):
             self.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         if len(f) != 3 or not t_ok or not all(math.isfinite(v) for v in f):
             self.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         if theta_a is None:
             self.rejected_no_resolver += 1
-            return None
+            return _NO_RESOLVER
         try:
             a = float(theta_a)
         except (TypeError, ValueError):
             a = math.nan
         if not math.isfinite(a):
             self.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         return f[0], f[1], f[2], a
 
     # -- the step ----------------------------------------------------------------------------
-    def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> NavigatorOutput | None:
+    def step(self, t_ns: int, f_s: Sequence[float], theta_a: float | None) -> Fed:
         """One sample: specific force ``f_s`` (3,) [m/s²] in platform axes, azimuth angle
         ``theta_a`` [rad] of the ``azimuth_source`` (resolver θ_a or servo φz; None when the
-        sample is missing or stale) at stamp ``t_ns`` [int ns]. Returns None for a refused
-        sample (counted)."""
+        sample is missing or stale) at stamp ``t_ns`` [int ns]. Returns what it did
+        (:class:`~gimbal_kinematics.maths.outcome.Fed`): the :class:`NavigatorOutput`, or
+        why the sample was refused (counted)."""
         sample = self._admit(t_ns, f_s, theta_a)
-        if sample is None:
-            return None
+        if isinstance(sample, Fed):
+            return sample
         t_ns = int(t_ns)
         first = self._t_last_ns is None
         if first:
@@ -288,9 +297,9 @@ class PlatformNavigator:
         s = self.state
         nk.navigator_step(s, self.kernel_params, first, dt, (t_ns - self._t0_ns) * 1e-9, sample[0], sample[1],
                           sample[2], sample[3])
-        return NavigatorOutput(t_ns, (self.vn, self.ve, self.vd), self.lat, self.lon, self.height,
-                               tuple(s[nk.N_CMD_N:nk.N_CMD_D + 1].tolist()), float(s[nk.N_PSI]),
-                               bool(s[nk.N_TORQUING]))
+        return Fed(True, output=NavigatorOutput(t_ns, (self.vn, self.ve, self.vd), self.lat, self.lon, self.height,
+                                                tuple(s[nk.N_CMD_N:nk.N_CMD_D + 1].tolist()), float(s[nk.N_PSI]),
+                                                bool(s[nk.N_TORQUING])))
 
     # -- outputs -----------------------------------------------------------------------------
     def counters(self, dropped_stamps: int = 0) -> dict[str, int]:

@@ -53,10 +53,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState, NavSatFix
 
 from gimbal_kinematics.maths.frames import MODULATION_JOINT
-from gimbal_kinematics.timing.input_policy import SampleGrid, Step, grouped_policy
-from gimbal_kinematics.params.table import ParameterError, steps_per_sample
+from gimbal_kinematics.timing.input_policy import Step
+from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
-from gimbal_kinematics.ros.node_edge import NodeEdge, input_warnings
+from gimbal_kinematics.ros.node_edge import NodeEdge, grouped_policy_of, input_warnings
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.readiness import announce_when_connected
@@ -78,8 +78,6 @@ class PlatformNavigatorNode(Node):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("platform_navigator", **node_kwargs)
         values = declare_and_read(self, PARAMS)
-        grid = SampleGrid({"joint": steps_per_sample(values, "joint_rate_hz"),
-                           "imu": steps_per_sample(values, "imu_rate_hz")})
         self.core = PlatformNavigator(PlatformNavigatorParams.from_values(values))
         from_servo = values["azimuth_source"] == "servo"
         if from_servo and values["timing"] == "lockstep":
@@ -99,14 +97,9 @@ class PlatformNavigatorNode(Node):
         self.max_joint_age_ns = int(round(values["max_joint_age_s"] * 1e9))
         self.fix_every = values["fix_every_samples"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy(values["timing"], ("joint", "imu"), needs=grid.needs,
-                                     rate_hz=values["sim_rate_hz"], next_due=grid.next_due,
-                                     progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
-                                     max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced="imu",
-                                     logger=self.get_logger(), on_restart=self.core.reset)
+        self.policy = grouped_policy_of(self, values, ("joint", "imu"), "imu", self.core.reset)
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
-        self._seen: tuple[int, ...] = ()
         self.edge = edge = NodeEdge(self, values, ("rejected_joints",))
         outputs = ((NavSatFix, "~/fix"), (Vector3Stamped, "~/velocity"), (Odometry, "~/odom"),
                    (Vector3Stamped, "~/command_rate"))
@@ -125,9 +118,10 @@ class PlatformNavigatorNode(Node):
         if step.kind == "joint":
             self._validate_joint(step)
         else:
-            out = self.core.step(step.stamp_ns, m.vec_of(step.msg.linear_acceleration), self._theta_at(step.stamp_ns))
-            self._warn_counters(step.stamp_ns)
-            self._publish(step.stamp_ns, out)
+            fed = self.core.step(step.stamp_ns, m.vec_of(step.msg.linear_acceleration), self._theta_at(step.stamp_ns))
+            if fed.why is not None:
+                self._warn_refused(step.stamp_ns, fed.why)
+            self._publish(step.stamp_ns, fed.output)
         self.edge.progress(self.policy.progress(step))
 
     def _validate_joint(self, step: Step) -> None:
@@ -148,13 +142,11 @@ class PlatformNavigatorNode(Node):
             return None
         return theta + rate * age_ns * 1e-9 if age_ns else theta
 
-    def _warn_counters(self, t_ns: int) -> None:
+    def _warn_refused(self, t_ns: int, why: str) -> None:
         c = self.core
-        seen = (c.rejected_nonfinite, self.policy.rejected, c.rejected_no_resolver, c.resets)
-        if seen != self._seen and any(seen):
-            self.edge.warn(f"{t_ns * 1e-9:.6f} s: samples refused so far: {seen[0]} non-finite, {seen[1]} out of "
-                           f"order, {seen[2]} without a resolver angle; {seen[3]} restarts")
-        self._seen = seen
+        self.edge.warn(f"{t_ns * 1e-9:.6f} s: sample refused: {why} (so far: {c.rejected_nonfinite} non-finite, "
+                       f"{self.policy.rejected} out of order, {c.rejected_no_resolver} without a resolver angle; "
+                       f"{c.resets} restarts)")
 
     def _publish(self, t_ns: int, out: NavigatorOutput | None) -> None:
         if out is not None:

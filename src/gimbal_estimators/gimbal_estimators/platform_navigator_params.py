@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from gimbal_kinematics.params.table import (
     CLOCK_JUMP_ALIASES, SHARED, TimedParams, declaration, from_values, param, same_as,
 )
-from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H, UG
 from gimbal_kinematics.maths.validate import finite, per_axis, positive
 
 #: Where the platform azimuth comes from: the azimuth resolver (+ a fixed base heading) or the
@@ -82,35 +81,6 @@ class PlatformNavigatorParams:
         """The parameters from a ``platform_navigator`` node's values (name -> value, as
         declared in :data:`PARAMS`); :class:`ParameterError` names the parameter refused."""
         return from_values(cls, values)
-
-    # -- SI views ------------------------------------------------------------------------
-    @property
-    def lat_rad(self) -> float:
-        return self.lat_deg * DEG
-
-    @property
-    def lon_rad(self) -> float:
-        return self.lon_deg * DEG
-
-    @property
-    def base_heading_rad(self) -> float:
-        return self.base_heading_deg * DEG
-
-    @property
-    def gyro_drift_rad_s(self) -> tuple[float, float, float]:
-        return tuple(v * DEG_H for v in self.gyro_drift_deg_h)  # type: ignore[return-value]
-
-    @property
-    def north_drift_rad_s(self) -> float:
-        return self.north_drift_deg_h * DEG_H
-
-    @property
-    def accel_bias_m_s2(self) -> tuple[float, float, float]:
-        return tuple(v * UG for v in self.accel_bias_ug)  # type: ignore[return-value]
-
-    @property
-    def misalignment_enu_rad(self) -> tuple[float, float, float]:
-        return tuple(v * ARCSEC for v in self.misalignment_arcsec)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)

@@ -94,6 +94,7 @@ from gimbal_kinematics.maths.validate import finite, of_type, positive
 from gimbal_kinematics.params.table import ParameterError
 
 from gimbal_kinematics.maths.kalman import check_state, joseph_update, symmetrize
+from gimbal_kinematics.maths.outcome import Fed, refused
 
 #: State order (paper eq. 15).
 STATE_NAMES = ("dphi_E0", "dphi_N0", "dphi_U0", "eps_N", "bias_x", "bias_y", "eps_x", "eps_y")
@@ -240,6 +241,11 @@ class ObservabilityReport(NamedTuple):
     correlation: np.ndarray
 
 
+_USED = Fed(True)
+_NONFINITE = refused("non-finite accelerometer sample")
+_JOINT_NONFINITE = refused("non-finite joint sample")
+
+
 @dataclass
 class _Counters:
     accepted: int = 0
@@ -257,9 +263,10 @@ class RotationAlignmentRls:
     Feed :meth:`on_joint_state` with the platform azimuth joint (θ_a [rad], its rate
     [rad/s]) and :meth:`on_accel` with the platform specific force f_s (3,) [m/s²] in the
     stable-element frame (``PlatformImuSample.specific_force`` / Imu linear_acceleration).
-    Each accelerometer sample that completes an averaging block returns the new
-    :class:`AlignmentEstimate`; others return None. Non-finite input is rejected and counted
-    in :attr:`counters`. Stamps come checked and in order, each stream's rising: the node's
+    Each call returns what it did (:class:`~gimbal_kinematics.maths.outcome.Fed`): an
+    accelerometer sample that completes an averaging block carries the new
+    :class:`AlignmentEstimate` and the block's NIS. Non-finite input is rejected (``why``)
+    and counted in :attr:`counters`. Stamps come checked and in order, each stream's rising: the node's
     input policy drops repeated and late ones and, on a clock jump back, calls :meth:`reset`
     (reason in ``counters.reset_reasons``).
     """
@@ -308,56 +315,61 @@ class RotationAlignmentRls:
         self._restart()
 
     # -- inputs --------------------------------------------------------------------------
-    def on_joint_state(self, t: float, theta_a: float, theta_a_rate: float | None = None) -> None:
+    def on_joint_state(self, t: float, theta_a: float, theta_a_rate: float | None = None) -> Fed:
         """Platform azimuth joint at time ``t`` [s]: θ_a [rad] about NED down (= −φz of the
-        paper) and optionally its rate [rad/s] (else differenced from the previous sample)."""
+        paper) and optionally its rate [rad/s] (else differenced from the previous sample);
+        returns what it did (:class:`~gimbal_kinematics.maths.outcome.Fed`)."""
         try:
             t, theta_a = float(t), float(theta_a)
             rate = None if theta_a_rate is None else float(theta_a_rate)
         except (TypeError, ValueError):
             self.counters.joint_rejected_nonfinite += 1
-            return
+            return _JOINT_NONFINITE
         if not (math.isfinite(t) and math.isfinite(theta_a) and (rate is None or math.isfinite(rate))):
             self.counters.joint_rejected_nonfinite += 1
-            return
+            return _JOINT_NONFINITE
         if rate is None and self._joint is not None:
             t_p, a_p = self._joint[0], self._joint[1]
             rate = math.remainder(theta_a - a_p, math.tau) / (t - t_p)
         self._joint = (t, theta_a, rate)
+        return _USED
 
-    def _azimuth_at(self, t: float) -> float | None:
+    def _azimuth_at(self, t: float) -> float | str:
+        """ψ at ``t`` [rad] from the newest joint sample, or why there is none (counted)."""
         j = self._joint
         if j is None:
             self.counters.rejected_no_joint += 1
-            return None
+            return "no joint angle yet"
         age = t - j[0]
         if abs(age) > self.params.max_joint_age_s:
             self.counters.rejected_stale_joint += 1
-            return None
+            return "joint angle older than max_joint_age_s"
         return j[1] + (j[2] * age if j[2] is not None else 0.0)
 
-    def on_accel(self, t: float, f_s: Sequence[float]) -> AlignmentEstimate | None:
+    def on_accel(self, t: float, f_s: Sequence[float]) -> Fed:
         """Platform specific force ``f_s`` (3,) [m/s²] in the stable-element frame at ``t``
-        [s]. Returns the estimate when this sample completes an averaging block."""
+        [s]; returns what it did (:class:`~gimbal_kinematics.maths.outcome.Fed`): the
+        estimate (``output``) and the block's NIS when this sample completes an averaging
+        block."""
         try:
             t = float(t)
             fx, fy = float(f_s[0]), float(f_s[1])
         except (TypeError, ValueError, IndexError):
             self.counters.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         if not (math.isfinite(t) and math.isfinite(fx) and math.isfinite(fy)):
             self.counters.rejected_nonfinite += 1
-            return None
+            return _NONFINITE
         psi = self._azimuth_at(t)
-        if psi is None:
-            return None
+        if isinstance(psi, str):
+            return refused(psi)
         self.counters.accepted += 1
         c, s = math.cos(psi), math.sin(psi)
         if self._t0 is None:
             # first sample: fixes the alignment epoch and the start of the ψ integrals
             self._t0, self._t_last, self._psi_last = t, t, psi
             self._b_start = t
-            return None
+            return _USED
         dt = t - self._t_last
         cp, sp = math.cos(self._psi_last), math.sin(self._psi_last)
         self._ic += 0.5 * (cp + c) * dt
@@ -377,9 +389,9 @@ class RotationAlignmentRls:
         b[7] += 1.0 / dt
         self._bn += 1
         if t - self._b_start < self.params.block_s * (1.0 - 1e-9):  # stamps k·dt carry round-off
-            return None
+            return _USED
         self._update_block()
-        return self.estimate()
+        return Fed(True, output=self.estimate(), nis=self.last_nis)
 
     # -- RLS update ----------------------------------------------------------------------
     def _update_block(self) -> None:

@@ -1,6 +1,7 @@
 """Compiled rotation kernels (numba ``njit``): plain functions over floats and float64
 arrays. :mod:`.rotations` checks its inputs and calls these (``euler321_to_dcm``,
-``dcm_to_quat``), and the platform kernels build the stable element's attitude with them."""
+``dcm_to_quat``, ``rotation_vector_to_dcm``), the platform kernels build the stable
+element's attitude with them, and the gyro-bias EKF's kernels its error transition."""
 from __future__ import annotations
 
 import math
@@ -51,3 +52,22 @@ def dcm_to_quat(C: np.ndarray) -> np.ndarray:
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     q = q / n
     return -q if q[3] < 0.0 else q
+
+
+@njit(cache=True)
+def rotation_vector_to_dcm(x: float, y: float, z: float) -> np.ndarray:
+    """exp([v×]) of the rotation vector v = (x, y, z) [rad], (3, 3): Rodrigues' formula with
+    series coefficients near zero, so tiny angles stay exact."""
+    a2 = x * x + y * y + z * z
+    if a2 < 1e-8:
+        s = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
+        c = 0.5 - a2 / 24.0 + a2 * a2 / 720.0
+    else:
+        a = math.sqrt(a2)
+        s = math.sin(a) / a
+        c = (1.0 - math.cos(a)) / a2
+    out = np.empty((3, 3))
+    out[0, 0], out[0, 1], out[0, 2] = 1.0 - c * (y * y + z * z), c * x * y - s * z, c * x * z + s * y
+    out[1, 0], out[1, 1], out[1, 2] = c * x * y + s * z, 1.0 - c * (x * x + z * z), c * y * z - s * x
+    out[2, 0], out[2, 1], out[2, 2] = c * x * z - s * y, c * y * z + s * x, 1.0 - c * (x * x + y * y)
+    return out

@@ -206,24 +206,12 @@ def dcm_from_rotation_vector(rotvec: np.ndarray) -> np.ndarray:
     """Rotation matrix ``exp(skew(v))`` of a rotation vector ``v`` [rad]; (3,) -> (3, 3).
 
     With ``C_ab = dcm_from_rotation_vector(v)``, frame b is frame a turned by |v| about v.
-    Rodrigues' formula with series coefficients near zero, so tiny angles stay exact.
+    Rodrigues' formula with series coefficients near zero, so tiny angles stay exact (the
+    compiled :func:`.rotation_kernels.rotation_vector_to_dcm`).
     """
-    x, y, z = float(rotvec[0]), float(rotvec[1]), float(rotvec[2])
-    a2 = x * x + y * y + z * z
-    if a2 < 1e-8:
-        s = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
-        c = 0.5 - a2 / 24.0 + a2 * a2 / 720.0
-    else:
-        a = math.sqrt(a2)
-        s = math.sin(a) / a
-        c = (1.0 - math.cos(a)) / a2
-    return np.array(
-        [
-            [1.0 - c * (y * y + z * z), c * x * y - s * z, c * x * z + s * y],
-            [c * x * y + s * z, 1.0 - c * (x * x + z * z), c * y * z - s * x],
-            [c * x * z - s * y, c * y * z + s * x, 1.0 - c * (x * x + y * y)],
-        ]
-    )
+    from . import rotation_kernels as rk  # lazily: numba loads only where a kernel runs
+
+    return rk.rotation_vector_to_dcm(float(rotvec[0]), float(rotvec[1]), float(rotvec[2]))
 
 
 def rotation_vector_from_dcm(C: np.ndarray) -> np.ndarray:

@@ -30,6 +30,8 @@ from rclpy.subscription import Subscription
 
 from diagnostic_msgs.msg import DiagnosticArray
 
+from ..params.table import steps_per_sample
+from ..timing.input_policy import grouped_policy
 from .diagnostics import advertise_diagnostics, health_msg
 from .node_io import NodeIo
 from .views import decoder
@@ -45,6 +47,26 @@ def input_warnings(*streams: str) -> tuple[str, ...]:
     """The counters that make /diagnostics a WARN for inputs of ``streams``: the input
     policy's repeated and late stamps of each, then the edge's own (:data:`EDGE_WARNINGS`)."""
     return (*(f"{s}_{kind}" for s in streams for kind in ("duplicates", "out_of_order")), *EDGE_WARNINGS)
+
+
+def grouped_policy_of(node: Node, values: dict[str, Any], kinds: tuple[str, ...], paced: str,
+                      on_restart: Callable[[str], None]) -> Any:
+    """The grouped input policy (:func:`gimbal_kinematics.timing.input_policy.grouped_policy`)
+    of a node whose inputs ``kinds`` are sampled at ``<kind>_rate_hz``, from its timing
+    parameters (``timing``, ``sim_rate_hz``, ``progress_every_steps``, ``clock_jump_s``,
+    ``max_sync_wait_s``); ``~/progress`` on ``paced``; a clock jump back calls ``on_restart``."""
+    every = {kind: steps_per_sample(values, f"{kind}_rate_hz") for kind in kinds}
+    return grouped_policy(values["timing"], every, rate_hz=values["sim_rate_hz"],
+                          progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
+                          max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced=paced,
+                          logger=node.get_logger(), on_restart=on_restart)
+
+
+def publish_progress(pub: Any, stamp_ns: int | None) -> None:
+    """Report ``stamp_ns`` (None: nothing) on the ``~/progress`` publisher ``pub``, a
+    ``rosgraph_msgs/Clock``: what every node's pacing reader waits for."""
+    if stamp_ns is not None:
+        pub.publish(clock_cdr(stamp_ns))
 
 
 class NodeEdge:
@@ -106,8 +128,7 @@ class NodeEdge:
 
     def progress(self, stamp_ns: int | None) -> None:
         """Report ``stamp_ns`` (the input policy's ``progress``; None: nothing) on ``~/progress``."""
-        if stamp_ns is not None:
-            self.pubs["~/progress"].publish(clock_cdr(stamp_ns))
+        publish_progress(self.pubs["~/progress"], stamp_ns)
 
     def publish(self, messages: Messages) -> None:
         """Publish each (topic, type, bytes) on the publisher advertised for its topic."""

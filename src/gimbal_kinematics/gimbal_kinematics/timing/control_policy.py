@@ -40,6 +40,7 @@ says whether the node advertises /diagnostics at all (a lockstep controller neve
 from __future__ import annotations
 
 import math
+from numbers import Integral
 from typing import Any, Callable, Mapping, NamedTuple, Sequence, TypeVar
 
 from .stream_stats import SilenceWatch
@@ -325,3 +326,107 @@ def control_policy(timing: str, *, lockstep: Callable[[], _Built], free: Callabl
     if timing == "free":
         return free()
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
+
+
+# ------------------------------------------------------------------ commands a step loop shapes
+class Released(NamedTuple):
+    """What :class:`CommandStamps` hands a shaper at a step: the step's stamp [ns], the
+    commands that have come by it as (stamp [ns], value), oldest first, and ``reset``: why
+    the shaper starts over first ('' : it does not)."""
+
+    stamp_ns: int
+    commands: tuple[tuple[int, Any], ...] = ()
+    reset: str = ""
+
+
+def _int_stamp(stamp_ns: object) -> int:
+    """A stamp must be an integer [ns]; anything else is a caller's bug, not data."""
+    if isinstance(stamp_ns, bool) or not isinstance(stamp_ns, Integral):
+        raise TypeError(f"stamps are integer nanoseconds, got {stamp_ns!r}")
+    return int(stamp_ns)
+
+
+#: :class:`CommandStamps`' counters
+COMMAND_COUNTERS = ("commands_accepted", "rejected_duplicate", "rejected_out_of_order", "rejected_stale",
+                    "rejected_future", "rejected_step_stamps")
+
+
+class CommandStamps:
+    """The stamp rule of a command stream that a step loop shapes (the operator's LOS rate
+    commands, :mod:`gimbal_control.operator_command`), so the shaper gets checked commands
+    in stamp order and never judges a stamp.
+
+    A command (:meth:`add`, its value already checked) is refused and counted when its stamp
+    is at or before the newest accepted one (``rejected_duplicate``,
+    ``rejected_out_of_order``), already ``timeout_s`` old at the newest step
+    (``rejected_stale``: it would stop at once) or more than ``timeout_s`` ahead of it
+    (``rejected_future``: a different clock; holding it would defeat the dead-man). The
+    accepted ones wait here until a step reaches their stamp. Before the first step there is
+    no clock: the first step drops those already stale or too far ahead. A step stamp
+    (:meth:`step`) at or before the last one and within ``clock_jump_s`` of it is refused and
+    counted (``rejected_step_stamps``: None, the shaper keeps its output); further back, the
+    clock jumped (a bag loop): the waiting commands are forgotten and the step says why the
+    shaper starts over."""
+
+    def __init__(self, timeout_s: float, clock_jump_s: float) -> None:
+        self.timeout_ns = int(round(timeout_s * 1e9))
+        self.jump_ns = int(round(clock_jump_s * 1e9))
+        self.counts = dict.fromkeys(COMMAND_COUNTERS, 0)
+        self._clear()
+
+    def _clear(self) -> None:
+        self._waiting: list[tuple[int, Any]] = []  # accepted, not yet reached by a step
+        self._last_cmd_ns: int | None = None       # newest accepted command stamp
+        self._t_ns: int | None = None              # last step stamp
+
+    def _too_far(self, stamp: int, now: int) -> bool:
+        """Whether a command stamped ``stamp`` is stale or too far ahead at ``now`` (counted)."""
+        if stamp - now > self.timeout_ns:
+            self.counts["rejected_future"] += 1
+            return True
+        if stamp + self.timeout_ns <= now:
+            self.counts["rejected_stale"] += 1
+            return True
+        return False
+
+    def add(self, stamp_ns: int, value: Any) -> bool:
+        """A checked command stamped ``stamp_ns``; returns whether its stamp is accepted.
+        ``value`` None (a command whose value the shaper refused) is not judged."""
+        t = _int_stamp(stamp_ns)
+        if value is None:
+            return False
+        if self._t_ns is not None and self._too_far(t, self._t_ns):
+            return False
+        last = self._last_cmd_ns
+        if last is not None and t <= last:
+            self.counts["rejected_duplicate" if t == last else "rejected_out_of_order"] += 1
+            return False
+        self._waiting.append((t, value))
+        self._last_cmd_ns = t
+        self.counts["commands_accepted"] += 1
+        return True
+
+    def step(self, stamp_ns: int) -> Released | None:
+        """The commands a step stamped ``stamp_ns`` reaches; None: the step stamp is refused."""
+        t = _int_stamp(stamp_ns)
+        last, reset = self._t_ns, ""
+        if last is not None and t <= last:
+            if last - t <= self.jump_ns:
+                self.counts["rejected_step_stamps"] += 1
+                return None
+            reset = f"step stamp jumped back {(last - t) * 1e-9:.3f} s (to {t} ns)"
+            self._clear()
+            last = None
+        if last is None:  # the first step: the clock to judge the early commands by
+            self._waiting = [c for c in self._waiting if not self._too_far(c[0], t)]
+            self._last_cmd_ns = self._waiting[-1][0] if self._waiting else None
+        n = 0
+        while n < len(self._waiting) and self._waiting[n][0] <= t:
+            n += 1
+        reached, self._waiting = tuple(self._waiting[:n]), self._waiting[n:]
+        self._t_ns = t
+        return Released(t, reached, reset)
+
+    def counters(self) -> dict[str, int]:
+        """Counters for /diagnostics (name -> value, :data:`COMMAND_COUNTERS`)."""
+        return dict(self.counts)

@@ -56,7 +56,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
-from .stamps import Stamp, is_gap, judge, step_of_stamp, step_stamp_ns
+from .stamps import Stamp, is_gap, judge, progress_stamp_ns, step_of_stamp, step_stamp_ns
 from .stream_stats import SilenceWatch, StreamStats
 from .sync import StampOrder, StampSync, StepGroups
 
@@ -155,8 +155,7 @@ class LockstepOrder(_CoreReport):
 
     def progress(self, step: Step) -> int | None:
         """The next step's stamp when it starts a new block of ``progress_every`` steps."""
-        k = step_of_stamp(step.stamp_ns, self.rate_hz) + 1
-        return step_stamp_ns(k, self.rate_hz) if k % self.progress_every == 0 else None
+        return progress_stamp_ns(step.stamp_ns, self.rate_hz, self.progress_every)
 
 
 class LockstepGroups(_CoreReport):
@@ -471,16 +470,18 @@ def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample
     raise ValueError(f"parameter 'timing' = {timing!r} is not one of ['free', 'lockstep']")
 
 
-def grouped_policy(timing: str, streams: Sequence[str], *, needs: Callable[[int], tuple[str, ...]], rate_hz: float,
-                   next_due: Callable[[int], int], progress_every: int, clock_jump_s: float, max_wait_ns: int,
-                   paced: str, logger: Any, on_restart: Callable[[str], None] | None = None
-                   ) -> LockstepGroups | FreeOrder:
-    """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step:
-    lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order, ``~/progress``
-    on the ``paced`` stream). A clock jump back calls ``on_restart(reason)``, the node's core
-    reset (None: the core judges the jump itself)."""
+def grouped_policy(timing: str, every: Mapping[str, int], *, rate_hz: float, progress_every: int,
+                   clock_jump_s: float, max_wait_ns: int, paced: str, logger: Any,
+                   on_restart: Callable[[str], None] | None = None) -> LockstepGroups | FreeOrder:
+    """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step,
+    each stream sampled every ``every[stream]`` steps (:class:`SampleGrid`; within a step in
+    that order): lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order,
+    ``~/progress`` on the ``paced`` stream). A clock jump back calls ``on_restart(reason)``,
+    the node's core reset (None: the core judges the jump itself)."""
+    streams, grid = tuple(every), SampleGrid(every)
     if timing == "lockstep":
-        return LockstepGroups(streams, needs, rate_hz, clock_jump_s, next_due, progress_every, logger, on_restart)
+        return LockstepGroups(streams, grid.needs, rate_hz, clock_jump_s, grid.next_due, progress_every, logger,
+                              on_restart)
     if timing == "free":
         def warn(text: str) -> None:
             logger.warning(text, throttle_duration_sec=1.0)

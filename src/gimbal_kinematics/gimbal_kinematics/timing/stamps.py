@@ -104,3 +104,10 @@ def step_stamp_ns(k: int, rate_hz: float) -> int:
 def step_of_stamp(stamp_ns: int, rate_hz: float) -> int:
     """Lockstep step of a stamp [ns] at ``rate_hz`` (inverse of :func:`step_stamp_ns`)."""
     return int(round(stamp_ns * rate_hz / 1e9))
+
+
+def progress_stamp_ns(stamp_ns: int, rate_hz: float, every: int) -> int | None:
+    """What ``~/progress`` reports after the step stamped ``stamp_ns`` [ns]: the next step's
+    stamp when that step starts a new block of ``every`` steps, else None."""
+    k = step_of_stamp(stamp_ns, rate_hz) + 1
+    return step_stamp_ns(k, rate_hz) if k % every == 0 else None

@@ -19,6 +19,7 @@ from gimbal_control.encoder_fusion import EncoderFusionController, EncoderFusion
 from gimbal_control.geo_pointer import GeoPointer, GeoPointerParams
 from gimbal_control.los_hold import LosHold, LosHoldParams
 from gimbal_control.los_rate_controller import LosRateController, LosRateControllerParams
+from gimbal_control.los_rate_controller_params import CLOCK_JUMP_S
 from gimbal_control.operator_command import OperatorCommand, OperatorCommandParams
 from gimbal_estimators.gyro_bias_ekf import GyroBiasEkf
 from gimbal_estimators.gyro_bias_ekf_params import GyroBiasEkfParams
@@ -26,6 +27,7 @@ from gimbal_estimators.gyro_bias_ekf_stamp import EkfInput, feed_stamp
 from gimbal_kinematics.maths.frames import GIMBAL_ENCODER_JOINTS
 from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.maths.rotations import euler321_from_quat, quat_canonical, quat_from_euler321, quat_to_dcm
+from gimbal_kinematics.timing.control_policy import CommandStamps
 from gimbal_kinematics.timing.stamps import step_stamp_ns
 from gimbal_kinematics.timing.sync import RateSync
 from gimbal_control.wire import encoder_fusion_messages, geo_pointer_messages, torque_command_messages
@@ -240,6 +242,8 @@ def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | No
     ``sample_time(bus)`` [s] when given (``experiments.closed_loop`` keeps the vehicle's k·dt,
     which its recorded figures were computed with; the two differ in the last bits)."""
     ins_rates: list[tuple[float, float, float] | None] = [None]
+    # the operator's stamp rule, as the node chooses it (gimbal_kinematics.timing.control_policy)
+    commands = CommandStamps(core.operator.params.timeout_s, CLOCK_JUMP_S) if core.operator is not None else None
     if sample_time is None:
         def sample_time(bus: Bus) -> float:
             return bus.k / rate_hz
@@ -251,14 +255,15 @@ def controller_stage(core: LosRateController, rate_hz: float, hold: LosHold | No
             core.set_bias_estimate(bus.t, bus.bias)
             if hold is not None:
                 core.set_rate_command(*hold.update(bus.t, tuple(bus.ekf.quat_nm), core.bias_estimate_qr))
-        if bus.operator is not None and core.operator is not None:
-            core.operator.set_rate(*bus.operator)
+        if bus.operator is not None and commands is not None:
+            commands.add(bus.operator[0], core.operator.check_rate(*bus.operator[1:]).output)
         enc = bus.encoders
         if bus.gyro is None or enc is None or ins_rates[0] is None:
             bus.command = core.command
         else:
             bus.command = core.step(sample_time(bus), (bus.gyro.q_m, bus.gyro.r_m), enc.angles, enc.rates,
-                                    ins_rates[0], core.reference(step_stamp_ns(bus.k, rate_hz)))
+                                    ins_rates[0],
+                                    core.reference(None if commands is None else commands.step(step_stamp_ns(bus.k, rate_hz))))
         if bus.record is not None:
             bus.record(name, torque_command_messages(bus.t_ns, bus.command))
     return stage

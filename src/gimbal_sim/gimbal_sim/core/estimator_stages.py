@@ -72,7 +72,7 @@ def platform_alignment_stage(values: dict[str, Any], name: str = "platform_align
             core.on_joint_state(t, joint[0] + heading, joint[1])
         if bus.platform_imu is None:
             return
-        est = core.on_accel(t, bus.platform_imu.specific_force)
+        est = core.on_accel(t, bus.platform_imu.specific_force).output
         if est is not None and bus.record is not None:
             bus.record(name, alignment_messages(bus.t_ns, est))
     return stage
@@ -105,7 +105,7 @@ def free_gyro_positioning_stage(values: dict[str, Any], name: str = "free_gyro_p
         if predictor is not None:
             predictor.add_level(roll, pitch)
         core.on_body_rates(t, tuple(s.omega_ib_b))
-        fix = core.on_spin_axes(t, tuple(s.spin_a_b), tuple(s.spin_b_b))
+        fix = core.on_spin_axes(t, tuple(s.spin_a_b), tuple(s.spin_b_b)).output
         if fix is None:
             return
         prediction = predictor.predict(fix.lat, fix.lon, fix.t, fix.heading, fix.n_samples) \

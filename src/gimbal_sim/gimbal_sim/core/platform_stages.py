@@ -79,7 +79,7 @@ def navigator_stage(navigator: PlatformNavigator, rate_hz: float, every: int = 1
         if imu is None:
             return
         if every == 1:
-            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), imu.specific_force, theta_a[0])
+            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), imu.specific_force, theta_a[0]).output
             return
         f = imu.specific_force
         acc[0] += f[0]
@@ -88,7 +88,8 @@ def navigator_stage(navigator: PlatformNavigator, rate_hz: float, every: int = 1
         acc[3] += 1
         if navigator.accepted == 0 or acc[3] >= every:
             n = acc[3]
-            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), (acc[0] / n, acc[1] / n, acc[2] / n), theta_a[0])
+            bus.nav = navigator.step(step_stamp_ns(bus.k, rate_hz), (acc[0] / n, acc[1] / n, acc[2] / n),
+                                     theta_a[0]).output
             acc[:] = [0.0, 0.0, 0.0, 0]
     return stage
 
@@ -105,7 +106,7 @@ def servo_stage(servo: PlatformServo) -> Callable[[Bus], None]:
         if bus.resolvers is not None:
             servo.on_resolvers(bus.t, bus.resolvers.angles)
         if bus.platform_imu is not None:
-            out = servo.on_gyro(bus.t, bus.platform_imu.omega)
+            out = servo.on_gyro(bus.t, bus.platform_imu.omega).output
             if out is not None:
                 bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
         bus.command = servo.command_voltages
@@ -131,7 +132,7 @@ def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Cal
         if follows and bus.nav_command is not None:
             servo.on_command_rate(bus.t, bus.nav_command)
         if bus.platform_imu is not None:
-            out = servo.on_gyro(bus.k / rate, bus.platform_imu.omega)  # the node's step time, k / rate
+            out = servo.on_gyro(bus.k / rate, bus.platform_imu.omega).output  # the node's step time, k / rate
         volts = out.voltages if out is not None else servo.command_voltages
         bus.command = volts
         if out is not None:
@@ -176,7 +177,7 @@ def platform_navigator_node_stage(values: dict, name: str = "platform_navigator"
         if joint[0] is not None and 0 <= bus.t_ns - joint[0][0] <= max_age_ns:
             age = bus.t_ns - joint[0][0]
             theta = joint[0][1] + joint[0][2] * age * 1e-9 if age else joint[0][1]
-        out = navigator.step(bus.t_ns, imu.specific_force, theta)
+        out = navigator.step(bus.t_ns, imu.specific_force, theta).output
         if out is not None:
             joint[1] = out.command_rate_n
         bus.nav_command = joint[1]

@@ -98,7 +98,7 @@ def run_free_gyro_experiment(seed: int, truth: Sequence, lat_deg: float, lon_deg
             core.on_velocity(s.t, s.velocity_n)
         core.on_level(s.t, s.roll, s.pitch)
         core.on_body_rates(s.t, s.omega_ib_b)
-        fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b)
+        fix = core.on_spin_axes(s.t, s.spin_a_b, s.spin_b_b).output
         if fix is None:
             continue
         if not fix.valid:

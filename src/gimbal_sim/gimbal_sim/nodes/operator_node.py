@@ -20,10 +20,12 @@ from sensor_msgs.msg import Imu
 from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.node_edge import publish_progress
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.timing.stamps import progress_stamp_ns
 
 from ..world.operator_model import operator_core
 from .operator_params import DESCRIPTION, PARAMS
@@ -58,8 +60,7 @@ class OperatorNode(Node):
             q, r = self.core.step(msg.stamp_ns, msg.orientation)
             for topic, _, data in operator_messages(msg.stamp_ns, q, r, self.core.pointing_error()):  # as the engine writes them
                 (self.pub_cmd if topic == "/operator/los_rate" else self.pub_err).publish(data)
-        if (k + 1) % self.progress_every == 0:
-            self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(k + 1, self.rate)))
+        publish_progress(self.pub_progress, progress_stamp_ns(msg.stamp_ns, self.rate, self.progress_every))
 
 
 def main(argv: list[str] | None = None) -> int:

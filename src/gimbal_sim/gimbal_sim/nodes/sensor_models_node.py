@@ -16,9 +16,11 @@ from sensor_msgs.msg import Imu, JointState, NavSatFix
 from gimbal_kinematics.ros import messages as m
 from gimbal_kinematics.ros import wire as w
 from gimbal_kinematics.ros.cdr import CdrError
+from gimbal_kinematics.ros.node_edge import publish_progress
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
+from gimbal_kinematics.timing.stamps import progress_stamp_ns
 from gimbal_kinematics.params.table import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.timing.sync import StampSync
@@ -138,8 +140,7 @@ class SensorModelsNode(Node):
             # serialized by nodes.wire (the engine writes the same bytes into its bag)
             for topic, _, data in sensor_messages(t_ns, sample, self._noise_cov, self.free_gyro_velocity):
                 self.pubs[topic].publish(data)
-        if (k + 1) % self.progress_every == 0:
-            self.pub_progress.publish(m.clock_cdr(m.step_stamp_ns(k + 1, self.rate)))
+        publish_progress(self.pub_progress, progress_stamp_ns(t_ns, self.rate, self.progress_every))
 
 
 def main(argv: list[str] | None = None) -> int:
