@@ -211,3 +211,32 @@ def test_with_the_new_terms_zero_the_sensors_give_the_bits_they_gave_before():
                   suite.platform_accel, suite.free_gyro.triad):
         assert model.constants[sk.I_HAS_K] == 0.0 and model.constants[sk.I_HAS_ASYM] == 0.0
         assert np.all(model.rows[sk.R_KDIAG] == 1.0) and np.all(model.rows[sk.R_ASYM] == 0.0)
+
+
+def test_gimbal_allan_carries_the_data_sheets_scale_factor_and_misalignment_into_the_parameter_files(tmp_path):
+    import yaml
+
+    from gimbal_sim.allan import kalibr
+    from gimbal_sim.allan.cli import main
+
+    noise = tmp_path / "imu.yaml"
+    noise.write_text("accelerometer_noise_density: 0.002\naccelerometer_random_walk: 3.0e-05\n"
+                     "gyroscope_noise_density: 0.0002\ngyroscope_random_walk: 2.0e-06\nrostopic: /imu0\n"
+                     "update_rate: 200.0\n")
+    assert main(["--from-kalibr", str(noise), "--simulate-as", "ins_gyro", "--scale-factor-ppm", "300",
+                 "--misalignment-urad", "150", "--out", str(tmp_path / "out")]) == 0
+    sim = yaml.safe_load((tmp_path / "out" / "sensor_models.yaml").read_text())["sensor_models"]["ros__parameters"]
+    assert sim["ins_gyro_scale_factor_sigma_ppm"] == 300.0 and sim["ins_gyro_misalignment_sigma_urad"] == 150.0
+    assert "ins_gyro_scale_asymmetry_sigma_ppm" not in sim  # not given: a scenario keeps its own
+    args = (tmp_path / "out" / "set_args.txt").read_text()
+    assert "--set sensor_models.ins_gyro_scale_factor_sigma_ppm=300.0" in args
+    # the file reaches the simulated sensor: sensor_models takes these parameters
+    v = {p.name: p.default for p in PARAMS}
+    v.update(sim, sensors=["ins"])
+    suite = SensorSuite(SensorSuiteConfig.from_values(v))
+    assert suite.ins.gyro.constants[sk.I_HAS_K] == 1.0 and np.any(suite.ins.gyro.scale_factor_error != 0.0)
+    # Kalibr's noise file has no place for them: comments
+    imu = kalibr.read_kalibr(noise, "--from-kalibr")
+    text = kalibr.kalibr_yaml(imu, "test", {"scale_factor_sigma_ppm": 300.0, "misalignment_sigma_urad": None})
+    assert "scale-factor error 1-sigma [ppm] 300" in text and yaml.safe_load(text)["gyroscope_noise_density"] == 0.0002
+    assert main(["--from-kalibr", str(noise), "--scale-factor-ppm", "-1", "--out", str(tmp_path / "bad")]) == 2
