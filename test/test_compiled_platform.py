@@ -3,7 +3,8 @@ schedule against ``BidirectionalRotation``, the encoder kernel against its sourc
 counting closed form, the inertial kernel against its source and the
 error model's closed form, the block normals against
 the stream's own takes), and the compiled block loop against the Python loop over the same
-cores: the same messages, byte for byte, across a modulation reversal; and the engine's
+cores: the same messages, byte for byte, across a modulation reversal, with and without the
+IMU's scale-factor, asymmetry and misalignment errors; and the engine's
 dispatch, which compiles only the chain it reproduces."""
 import dataclasses
 import math
@@ -127,6 +128,24 @@ def test_the_compiled_chain_reads_the_resolvers_cyclic_error_as_the_python_loop_
     plain = _messages(paper_rate_navigation(1.0), True)
     key = next(k for k in python if k[1] == "/platform/resolvers")
     assert plain[key] != python[key]  # the error reaches the published angles
+
+
+def test_the_compiled_chain_applies_the_imus_scale_and_misalignment_errors_as_the_python_loop_does():
+    # given and drawn scale factors, asymmetries and misalignments on both triads, across a reversal
+    scenario = apply_set(paper_rate_navigation(2.5), "platform_servo.sweep_deg=1.2")
+    for assignment in ("platform_gyro_scale_factor_ppm=[200.0, -100.0, 300.0]",
+                       "platform_gyro_scale_asymmetry_sigma_ppm=50.0", "platform_gyro_misalignment_sigma_urad=100.0",
+                       "platform_accel_scale_factor_sigma_ppm=300.0",
+                       "platform_accel_misalignment_urad=[10.0, -20.0, 30.0, 0.0, 5.0, -5.0]",
+                       "platform_accel_scale_asymmetry_ppm=[40.0]"):
+        scenario = apply_set(scenario, "sensor_models." + assignment)
+    python, fast = _messages(scenario, False), _messages(scenario, True)
+    assert python.keys() == fast.keys()
+    for key, data in python.items():
+        assert data == fast[key], key
+    plain = _messages(apply_set(paper_rate_navigation(2.5), "platform_servo.sweep_deg=1.2"), True)
+    key = next(k for k in python if k[1] == "/platform/imu")
+    assert plain[key] != python[key]  # the errors reach the published IMU
 
 
 def test_the_engine_compiles_the_chain_only():

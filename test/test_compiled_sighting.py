@@ -108,9 +108,18 @@ def _short(name, v="", duration_s=0.35):
     return dataclasses.replace(s, duration_s=duration_s)
 
 
-@pytest.mark.parametrize("name,v", [("sighting_land_vehicle", "ekf_on"), ("los_stabilization", "")])
-def test_the_compiled_run_gives_the_python_loops_commands_to_the_bit(name, v):
+SCALE_ERRORS = {"gimbal_gyro_scale_factor_ppm": [3000.0, -2000.0], "gimbal_gyro_scale_asymmetry_sigma_ppm": 500.0,
+                "gimbal_gyro_misalignment_urad": [800.0, -300.0], "ins_gyro_scale_factor_sigma_ppm": 300.0,
+                "ins_gyro_misalignment_sigma_urad": 200.0, "ins_gyro_scale_asymmetry_ppm": [50.0]}
+
+
+@pytest.mark.parametrize("name,v,errors", [("sighting_land_vehicle", "ekf_on", False), ("los_stabilization", "", False),
+                                           ("sighting_land_vehicle", "ekf_on", True)])
+def test_the_compiled_run_gives_the_python_loops_commands_to_the_bit(name, v, errors):
+    # errors: the gyros' scale factors, asymmetries and misalignments, given and drawn
     scenario = _short(name, v)
+    if errors:
+        scenario.nodes["sensor_models"]["params"].update(SCALE_ERRORS)
     python = run_core_loop(scenario, keep_commands=True, compiled=False)
     fast = run_core_loop(scenario, keep_commands=True)
     assert fast.steps == python.steps == 350

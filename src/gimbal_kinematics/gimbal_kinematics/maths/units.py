@@ -29,6 +29,11 @@ ARCSEC_PER_RAD = math.degrees(1.0) * 3600.0
 #: rad/s -> °/h, the reciprocal of :data:`DEG_H`, as a factor
 DEG_H_PER_RAD_S = ARCSEC_PER_RAD
 
+#: µrad -> rad
+URAD = 1e-6
+#: ppm (parts per million: a scale-factor error or asymmetry) -> dimensionless
+PPM = 1e-6
+
 #: µg -> m/s²
 UG = 9.80665e-6
 #: µg -> m/s² as 1e-6 · G0, one ulp below :data:`UG`: the sensor models' conversion, kept

@@ -23,7 +23,8 @@ from gimbal_kinematics.cli.boundary import UsageError, cli_boundary, creatable
 from ..bag.any_reader import AnyBagError
 from .analyze import ACCEL_SIGMA_PREFIX, AXES, AnalysisError, SIGMA_PREFIX, UNITS, analyze, to_json
 from . import kalibr
-from .params import ACCEL_TARGETS, GYRO_TARGETS, filters_yaml, sensor_models_params, sensor_models_yaml, set_arguments
+from .params import (ACCEL_TARGETS, DATASHEET, GYRO_TARGETS, datasheet_params, filters_yaml, sensor_models_params,
+                     sensor_models_yaml, set_arguments)
 from .plot import plot_all
 from .stream import FIELDS, read_imu_field
 
@@ -79,8 +80,27 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--bias-tau-s", type=float, metavar="S",
                         help="with --from-*: gyro_bias_ekf's bias correlation time [s] for the file's random walk "
                              "(default: gyro_bias_ekf's own default for the channel)")
+    for option, help_ in (("--scale-factor-ppm", "the data sheet's scale-factor error"),
+                          ("--scale-asymmetry-ppm", "the data sheet's scale-factor asymmetry"),
+                          ("--misalignment-urad", "the data sheet's axis misalignment (each off-diagonal element)")):
+        parser.add_argument(option, type=float, metavar="X",
+                            help=f"{help_}, 1-sigma: a record at rest does not show it; written into "
+                                 f"sensor_models.yaml and set_args.txt as the sensor's per-run draw (and as a comment "
+                                 f"of --kalibr's file)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
+
+
+def _datasheet(args: argparse.Namespace) -> dict[str, float | None]:
+    """The data sheet's figures given (:data:`.params.DATASHEET`); ``UsageError`` naming the
+    option of a value that is not a finite number >= 0."""
+    out = {}
+    for key, (option, _) in DATASHEET.items():
+        value = getattr(args, option[2:].replace("-", "_"))
+        if value is not None and not (value >= 0.0 and value != float("inf")):
+            raise UsageError(f"{option}: must be a finite number >= 0, got {value}")
+        out[key] = value
+    return out
 
 
 def _refuse(option: str, message: str) -> int:
@@ -146,7 +166,7 @@ def _from_file(args: argparse.Namespace, target: str) -> int:
         return _refuse("--bias-tau-s", f"must be > 0 and finite, got {args.bias_tau_s}")
     _check_outputs(args, FILE_OUTPUTS)
     imu = kalibr.read_kalibr(path, option)
-    files = kalibr.parameter_files(imu, target, tau, str(path))
+    files = kalibr.parameter_files(imu, target, tau, str(path), _datasheet(args))
     args.out.mkdir(parents=True, exist_ok=True)
     for name, text in files.items():
         (args.out / name).write_text(text)
@@ -187,6 +207,7 @@ def main(argv: list[str] | None = None) -> int:
     if target not in targets:
         return _refuse("--simulate-as", f"{target!r} cannot simulate {args.field}; choose one of {sorted(targets)}")
     _check_outputs(args)
+    datasheet = _datasheet(args)
     if args.tau_max_s is not None and not args.tau_max_s > 0:
         return _refuse("--tau-max-s", f"must be > 0, got {args.tau_max_s}")
     try:
@@ -209,12 +230,13 @@ def main(argv: list[str] | None = None) -> int:
         args.json.write_text(text)
     plots = plot_all(result, args.out)
     source = str(args.bag)
-    (args.out / "sensor_models.yaml").write_text(sensor_models_yaml(result, target, source))
+    (args.out / "sensor_models.yaml").write_text(sensor_models_yaml(result, target, source, datasheet))
     (args.out / "filters.yaml").write_text(filters_yaml(result, target, source))
-    (args.out / "set_args.txt").write_text(" ".join(set_arguments(sensor_models_params(result, target))) + "\n")
+    sim = {**sensor_models_params(result, target), **datasheet_params(target, datasheet)}
+    (args.out / "set_args.txt").write_text(" ".join(set_arguments(sim)) + "\n")
     if imu is not None:
         args.kalibr.parent.mkdir(parents=True, exist_ok=True)
-        args.kalibr.write_text(kalibr.kalibr_yaml(imu, source))
+        args.kalibr.write_text(kalibr.kalibr_yaml(imu, source, datasheet if result.is_gyro else None))
         for note in imu.notes:
             print(f"gimbal-allan: note: {note}", file=sys.stderr)
     if result.sampling.segments and not result.sampling.regular:

@@ -27,6 +27,11 @@ quantisation have no place in Kalibr's model and are left out. Kalibr refuses a
 value ≤ 0, so a term no axis detected is written as the largest 1σ an axis could have had
 (its detection bound), said in the file's comments and on stderr.
 
+Kalibr's noise file has no scale factor or misalignment (``kalibr_calibrate_imu_camera
+--imu-models scale-misalignment`` estimates them with a camera, apart from this file): the data
+sheet's figures, when given (:data:`.params.DATASHEET`), are written as comments of the export
+and as ``sensor_models`` parameters of the files read back.
+
 Read back: the white noise and the walk become the ``sensor_models`` parameters of a sensor
 with exactly that model (no Gauss-Markov, no quantisation) and the filters' parameters, with
 ``gyro_bias_ekf``'s bias correlation time ``bias_tau_s`` (its PSD 2σ²/τ is the file's σ_bg²).
@@ -48,7 +53,8 @@ from gimbal_kinematics.cli.boundary import UsageError
 from gimbal_kinematics.maths.units import DEG, UG
 
 from .analyze import Characterisation
-from .params import GYRO_TARGETS, filter_noise, gyro_filter_params, ros_params_yaml, set_arguments
+from .params import (DATASHEET, GYRO_TARGETS, datasheet_header, datasheet_params, filter_noise,
+                     gyro_filter_params, ros_params_yaml, set_arguments)
 
 #: Kalibr's keys, in the order its documentation's example lists them, with their units.
 KEYS = {"accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
@@ -94,12 +100,17 @@ def from_characterisations(gyro: Characterisation, accel: Characterisation) -> K
     return KalibrImu(**values, rostopic=gyro.topic, update_rate=gyro.sample_rate_hz, notes=notes)
 
 
-def kalibr_yaml(imu: KalibrImu, source: str) -> str:
-    """The ``imu.yaml`` text: Kalibr's keys and layout, continuous-time values, full precision."""
+def kalibr_yaml(imu: KalibrImu, source: str, datasheet: dict[str, float | None] | None = None) -> str:
+    """The ``imu.yaml`` text: Kalibr's keys and layout, continuous-time values, full precision;
+    the data sheet's scale-factor and misalignment figures given, as comments (module docstring)."""
     lines = [f"# Kalibr IMU noise model written by gimbal-allan from {source}: continuous-time densities",
              "# (per-sample white noise = density * sqrt(update_rate); per-sample bias step = random_walk /",
              "# sqrt(update_rate)); each the largest over the axes."]
     lines += [f"# NOTE {n}" for n in imu.notes]
+    given = {k: v for k, v in (datasheet or {}).items() if v is not None}
+    if given:
+        lines += ["# Gyro data sheet, not in Kalibr's noise model (its scale-misalignment IMU model estimates",
+                  "# them): " + ", ".join(f"{DATASHEET[k][1]} {v:g}" for k, v in given.items())]
     for key, unit in KEYS.items():
         if key.startswith("accelerometer_noise"):
             lines.append("#Accelerometers")
@@ -163,16 +174,19 @@ def default_bias_tau_s(target: str) -> float:
     return float(next(p.default for p in EKF_PARAMS if p.name == name))
 
 
-def parameter_files(imu: KalibrImu, target: str, bias_tau_s: float, source: str) -> dict[str, str]:
-    """``sensor_models.yaml``, ``filters.yaml`` and ``set_args.txt`` of a Kalibr file: name -> text."""
-    sim = sensor_models_params(imu, target)
+def parameter_files(imu: KalibrImu, target: str, bias_tau_s: float, source: str,
+                    datasheet: dict[str, float | None] | None = None) -> dict[str, str]:
+    """``sensor_models.yaml``, ``filters.yaml`` and ``set_args.txt`` of a Kalibr file: name -> text;
+    the gyro's data-sheet scale-factor and misalignment figures given in the first and last."""
+    sim = {**sensor_models_params(imu, target), **datasheet_params(target, datasheet)}
     head = [f"from the Kalibr IMU noise file {source} (continuous-time densities; rostopic {imu.rostopic},",
             f"update_rate {imu.update_rate:g} Hz), by gimbal-allan."] + [f"NOTE {n}" for n in imu.notes]
     return {
         "sensor_models.yaml": ros_params_yaml(
             ["sensor_models parameters " + head[0], *head[1:],
              f"Kalibr's model is white noise plus a bias random walk: {target} gets exactly that (no Gauss-Markov",
-             "bias, no quantisation); the accelerometer's white noise goes to the platform accelerometer."],
+             "bias, no quantisation); the accelerometer's white noise goes to the platform accelerometer.",
+             *datasheet_header(datasheet)],
             {"sensor_models": sim}),
         "filters.yaml": ros_params_yaml(
             ["Filter noise parameters " + head[0], *head[1:],

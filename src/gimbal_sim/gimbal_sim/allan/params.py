@@ -8,6 +8,12 @@ than an axis has is overconfident on that axis). Each file's header names the te
 did not detect, with that axis's bound, and the values flagged as not determined by the
 record, which are left out of the parameters (gimbal-allan also says so on stderr).
 
+A record at rest shows no scale-factor error, asymmetry or misalignment (they scale and mix a
+rate that is not there): the data sheet's 1σ figures, given as ``--scale-factor-ppm``,
+``--scale-asymmetry-ppm`` and ``--misalignment-urad``, are written as the target's per-run
+draws (``<target>_scale_factor_sigma_ppm``, ``_scale_asymmetry_sigma_ppm``,
+``_misalignment_sigma_urad``); not given, they are not written and a scenario keeps its own.
+
 Filters model the bias as a random walk of PSD ``q_b``: the Gauss-Markov term contributes
 ``2σ²/T`` at lags shorter than T and the rate random walk ``K²``, so ``q_b = 2σ²/T + K²``.
 ``gyro_bias_ekf`` takes it as ``2 σ_ekf² / τ_ekf``: τ_ekf is the fitted T (the longest τ of
@@ -28,6 +34,30 @@ from .analyze import Characterisation, axis_json, implausible
 #: Sensors of ``sensor_models`` a gyro characterisation can be written for: parameter prefix.
 GYRO_TARGETS = {"gimbal_gyro": "gimbal_gyro", "ins_gyro": "ins_gyro"}
 ACCEL_TARGETS = {"platform_accel": "platform_accel"}
+
+
+#: The data sheet's figures a record at rest cannot give: sensor_models parameter suffix ->
+#: (gimbal-allan option, what it is). Written as the target's 1σ per-run draws.
+DATASHEET = {"scale_factor_sigma_ppm": ("--scale-factor-ppm", "scale-factor error 1-sigma [ppm]"),
+             "scale_asymmetry_sigma_ppm": ("--scale-asymmetry-ppm", "scale-factor asymmetry 1-sigma [ppm]"),
+             "misalignment_sigma_urad": ("--misalignment-urad", "axis misalignment 1-sigma per element [urad]")}
+
+
+def datasheet_params(target: str, values: dict[str, float | None] | None) -> dict[str, float]:
+    """``sensor_models`` parameters of the data sheet's figures given (suffix -> value, None:
+    not given) for ``target`` (a ``sensor_models`` prefix)."""
+    return {f"{target}_{key}": float(v) for key, v in (values or {}).items() if v is not None}
+
+
+def datasheet_header(values: dict[str, float | None] | None) -> list[str]:
+    """The parameter files' lines on the terms a record at rest does not show."""
+    given = {k: v for k, v in (values or {}).items() if v is not None}
+    if given:
+        return ["Scale factor, asymmetry and misalignment are not in a record at rest: from the data sheet, as",
+                "1-sigma per-run draws: " + ", ".join(f"{DATASHEET[k][1]} {v:g}" for k, v in given.items()) + "."]
+    return ["Scale factor, asymmetry and misalignment are not in a record at rest and are not set here (a",
+            "scenario keeps its own): give the data sheet's 1-sigma with " + ", ".join(o for o, _ in DATASHEET.values())
+            + "."]
 
 
 def _usable(res, name: str) -> bool:
@@ -139,9 +169,11 @@ def ros_params_yaml(header: list[str], nodes: dict[str, dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def sensor_models_yaml(result: Characterisation, target: str, source: str) -> str:
-    """A ``--params-file`` for ``sensor_models`` that simulates the characterised sensor."""
-    params = sensor_models_params(result, target)
+def sensor_models_yaml(result: Characterisation, target: str, source: str,
+                       datasheet: dict[str, float | None] | None = None) -> str:
+    """A ``--params-file`` for ``sensor_models`` that simulates the characterised sensor, with
+    the data sheet's scale-factor and misalignment figures given (:data:`DATASHEET`)."""
+    params = {**sensor_models_params(result, target), **datasheet_params(target, datasheet)}
     header = [f"sensor_models parameters fitted by gimbal-allan from {source}",
               f"({result.topic} {result.field}, axes {' '.join(result.axes)}: mean over the axes that detected "
               f"each term)."] + caveats(result)
@@ -151,6 +183,7 @@ def sensor_models_yaml(result: Characterisation, target: str, source: str) -> st
     else:
         header += ["Only the white noise is a parameter of sensor_models' platform accelerometer; its bias",
                    "instability and random walk are in the JSON."]
+    header += datasheet_header(datasheet)
     return ros_params_yaml(header, {"sensor_models": params})
 
 

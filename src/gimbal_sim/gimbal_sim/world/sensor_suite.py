@@ -29,6 +29,7 @@ import numpy as np
 from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.maths.free_gyro import spin_axes_for_site_deg
 from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
+from gimbal_kinematics.maths.units import URAD
 
 from .sensors import (
     PAPER1_ENCODER, PAPER1_GIMBAL_GYRO, PAPER3_ACCELEROMETER, PAPER3_GYRO, LGU1_GYRO, LGU2_GYRO,
@@ -36,6 +37,7 @@ from .sensors import (
     GyroParams, HullParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
 )
 from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensor, FreeGyroSensorParams
+from .sensors.inertial_core import off_diagonal
 from .vehicle import VehicleTruth
 
 #: Sensor name -> the config field holding its output rate [Hz].
@@ -53,6 +55,25 @@ def _default_free_gyro() -> FreeGyroSensorParams:
     return FreeGyroSensorParams(*spin_axes_for_site_deg(*FREE_GYRO_SITE_DEG, (60.0, 50.0), (-40.0, 50.0)))
 
 
+def _scale_errors(v: dict, prefix: str, n: int) -> dict:
+    """The scale-factor, asymmetry and misalignment fields of a ``GyroParams`` or
+    ``AccelerometerParams`` from a ``sensor_models`` node's ``<prefix>_*`` values (n axes);
+    ``ValueError`` naming the parameter at fault."""
+    out = {}
+    for name, key in (("scale_factor_ppm", "scale_factor_ppm"), ("scale_asymmetry_ppm", "scale_asymmetry_ppm")):
+        values = tuple(float(x) for x in v[f"{prefix}_{name}"])
+        if len(values) not in (1, n) or not all(math.isfinite(x) for x in values):
+            raise ValueError(f"parameter '{prefix}_{name}' needs one finite value (every axis) or {n} (one per "
+                             f"axis), got {list(values)}")
+        out[key] = values
+    out["scale_factor_sigma_ppm"] = v[f"{prefix}_scale_factor_sigma_ppm"]
+    out["scale_asymmetry_sigma_ppm"] = v[f"{prefix}_scale_asymmetry_sigma_ppm"]
+    out["misalignment_rad"] = off_diagonal(f"parameter '{prefix}_misalignment_urad'", v[f"{prefix}_misalignment_urad"],
+                                           n, URAD)
+    out["misalignment_sigma_urad"] = v[f"{prefix}_misalignment_sigma_urad"]
+    return out
+
+
 def _free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
     """The free-gyro sensor parameters from a ``sensor_models`` node's values; ``ValueError``
     naming the parameter at fault."""
@@ -64,9 +85,13 @@ def _free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
         raise ValueError(f"parameter 'free_gyro_level_bias_arcsec' needs two finite values (roll, pitch), "
                          f"got {list(level_bias)}")
     try:
+        triad_errors = _scale_errors(v, "free_gyro_triad", 3)
+    except ValueError as exc:
+        raise ValueError(str(exc)) from exc
+    try:
         triad = GyroParams(bias_deg_h=tuple(v["free_gyro_triad_bias_deg_h"]),
                            arw_deg_rt_h=v["free_gyro_triad_arw_deg_rt_h"],
-                           bias_sigma_deg_h=v["free_gyro_triad_bias_sigma_deg_h"])
+                           bias_sigma_deg_h=v["free_gyro_triad_bias_sigma_deg_h"], **triad_errors)
     except ValueError as exc:
         raise ValueError(f"parameter 'free_gyro_triad_bias_deg_h': {exc}") from exc
     try:
@@ -145,8 +170,8 @@ class SensorSuiteConfig:
                                        bias_instability_tau_s=v["gimbal_gyro_bi_tau_s"],
                                        rrw_deg_h_rt_h=v["gimbal_gyro_rrw_deg_h_rt_h"],
                                        quantisation_rad=math.radians(v["gimbal_gyro_quantum_deg"]),
-                                       scale_factor_ppm=tuple(v["gimbal_gyro_scale_factor_ppm"]),
-                                       saturation_deg_s=v["gimbal_gyro_range_deg_s"] or math.inf),
+                                       saturation_deg_s=v["gimbal_gyro_range_deg_s"] or math.inf,
+                                       **_scale_errors(v, "gimbal_gyro", 2)),
                 ins=InsParams(roll_pitch_rms_deg=v["ins_roll_pitch_rms_deg"], heading_rms_deg=v["ins_heading_rms_deg"],
                               attitude_tau_s=v["ins_attitude_tau_s"], attitude_model=v["ins_attitude_model"],
                               schuler_period_s=v["ins_schuler_period_s"],
@@ -156,11 +181,14 @@ class SensorSuiteConfig:
                                               bias_instability_tau_s=v["ins_gyro_bi_tau_s"],
                                               arw_deg_rt_h=v["ins_gyro_arw_deg_rt_h"],
                                               rrw_deg_h_rt_h=v["ins_gyro_rrw_deg_h_rt_h"],
-                                              quantisation_rad=math.radians(v["ins_gyro_quantum_deg"]))),
+                                              quantisation_rad=math.radians(v["ins_gyro_quantum_deg"]),
+                                              **_scale_errors(v, "ins_gyro", 3))),
                 encoder=EncoderParams(noise_deg=v["encoder_noise_deg"], lines_per_rev=v["encoder_lines_per_rev"],
                                       quadrature=v["encoder_quadrature"], velocity_gate_s=v["encoder_velocity_gate_s"]),
-                lgu1=GyroParams(bias_deg_h=v["lgu1_bias_deg_h"], arw_deg_rt_h=v["lgu_arw_deg_rt_h"]),
-                lgu2=GyroParams(bias_deg_h=v["lgu2_bias_deg_h"], arw_deg_rt_h=v["lgu_arw_deg_rt_h"]),
+                lgu1=GyroParams(bias_deg_h=v["lgu1_bias_deg_h"], arw_deg_rt_h=v["lgu_arw_deg_rt_h"],
+                                **_scale_errors(v, "lgu", 3)),
+                lgu2=GyroParams(bias_deg_h=v["lgu2_bias_deg_h"], arw_deg_rt_h=v["lgu_arw_deg_rt_h"],
+                                **_scale_errors(v, "lgu", 3)),
                 flexure=FlexureParams(initial_deg=v["flexure_initial_deg"],
                                       linear_rate_deg_h=v["flexure_linear_rate_deg_h"],
                                       slow_amplitude_arcsec=v["flexure_slow_amplitude_arcsec"],
@@ -180,9 +208,11 @@ class SensorSuiteConfig:
                                                       damping_ratio=tuple(v["flexure_hull_damping_ratio"]),
                                                       stations_m=tuple(v["flexure_lgu_stations_m"]))),
                 platform_gyro=GyroParams(bias_sigma_deg_h=v["platform_gyro_bias_sigma_deg_h"],
-                                         arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"]),
+                                         arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"],
+                                         **_scale_errors(v, "platform_gyro", 3)),
                 platform_accel=AccelerometerParams(bias_sigma_ug=v["platform_accel_bias_sigma_ug"],
-                                                   noise_ug_rt_hz=v["platform_accel_noise_ug_rt_hz"]),
+                                                   noise_ug_rt_hz=v["platform_accel_noise_ug_rt_hz"],
+                                                   **_scale_errors(v, "platform_accel", 3)),
                 free_gyro_rate_hz=v["free_gyro_rate_hz"],
                 free_gyro_site_deg=(v["free_gyro_site_lat_deg"], v["free_gyro_site_lon_deg"]),
                 free_gyro=_free_gyro_params_from(v),

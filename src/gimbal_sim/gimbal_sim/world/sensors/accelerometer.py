@@ -1,9 +1,10 @@
 """Accelerometer error model (paper 3: 100 µg grade), on the shared inertial error core.
 
 Terms: fixed bias (given and/or drawn per run), optional Gauss-Markov bias instability,
-white noise (velocity random walk) and scale factor; n = 3 for a triad or 2 for the level
-pair of paper 3's alignment. Output as step-average specific force [m/s²] or velocity
-increment [m/s].
+white noise (velocity random walk), scale-factor error, its asymmetry and the small-angle
+axis misalignment (each given and/or drawn per run, the gyro's model: :mod:`.inertial_core`);
+n = 3 for a triad or 2 for the level pair of paper 3's alignment. Output as step-average
+specific force [m/s²] or velocity increment [m/s].
 """
 from __future__ import annotations
 
@@ -13,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics.maths import validate as v
-from gimbal_kinematics.maths.units import UG_G0, UG_RT_HZ
-from .inertial_core import ErrorSpecSI, InertialErrorCore
+from gimbal_kinematics.maths.units import PPM, UG_G0, UG_RT_HZ, URAD
+from .inertial_core import ErrorSpecSI, InertialErrorCore, misalignment_matrix
 
 
 @dataclass(frozen=True)
@@ -27,7 +28,13 @@ class AccelerometerParams:
         bias_instability_ug: Gauss-Markov bias instability RMS [µg].
         bias_instability_tau_s: its correlation time [s] (> 0; inf = random constant).
         noise_ug_rt_hz: white noise density [µg/√Hz] (step-average σ = density/√Δt).
-        scale_factor_ppm: scale-factor error [ppm], scalar or per axis.
+        scale_factor_ppm: given scale-factor error s [ppm], scalar or per axis.
+        scale_factor_sigma_ppm: σ of a run-to-run scale-factor error drawn per axis and added [ppm].
+        scale_asymmetry_ppm: given scale-factor asymmetry A = K+ − K− [ppm], scalar or per axis:
+            the scale factor is 1 + s + A/2 for a positive input, 1 + s − A/2 for a negative one.
+        scale_asymmetry_sigma_ppm: σ of a run-to-run asymmetry drawn per axis and added [ppm].
+        misalignment_rad: (n, n) small-angle cross-coupling, zero diagonal [rad], or None.
+        misalignment_sigma_urad: σ of a run-to-run draw added to each off-diagonal element [µrad].
     """
 
     bias_ug: float | tuple[float, ...] = 0.0
@@ -36,6 +43,11 @@ class AccelerometerParams:
     bias_instability_tau_s: float = math.inf
     noise_ug_rt_hz: float = 0.0
     scale_factor_ppm: float | tuple[float, ...] = 0.0
+    scale_factor_sigma_ppm: float = 0.0
+    scale_asymmetry_ppm: float | tuple[float, ...] = 0.0
+    scale_asymmetry_sigma_ppm: float = 0.0
+    misalignment_rad: tuple[tuple[float, ...], ...] | None = None
+    misalignment_sigma_urad: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "bias_ug", v.per_axis("bias_ug", self.bias_ug))
@@ -44,6 +56,11 @@ class AccelerometerParams:
         v.positive("bias_instability_tau_s", self.bias_instability_tau_s, allow_inf=True)
         v.nonneg_finite("noise_ug_rt_hz", self.noise_ug_rt_hz)
         object.__setattr__(self, "scale_factor_ppm", v.per_axis("scale_factor_ppm", self.scale_factor_ppm))
+        v.nonneg_finite("scale_factor_sigma_ppm", self.scale_factor_sigma_ppm)
+        object.__setattr__(self, "scale_asymmetry_ppm", v.per_axis("scale_asymmetry_ppm", self.scale_asymmetry_ppm))
+        v.nonneg_finite("scale_asymmetry_sigma_ppm", self.scale_asymmetry_sigma_ppm)
+        object.__setattr__(self, "misalignment_rad", misalignment_matrix("misalignment_rad", self.misalignment_rad))
+        v.nonneg_finite("misalignment_sigma_urad", self.misalignment_sigma_urad)
 
     def to_si(self) -> ErrorSpecSI:
         """The same terms in m/s² and m/s/√s."""
@@ -53,7 +70,12 @@ class AccelerometerParams:
             gm_sigma=self.bias_instability_ug * UG_G0,
             gm_tau=float(self.bias_instability_tau_s),
             white_density=self.noise_ug_rt_hz * UG_RT_HZ,
-            scale_factor=tuple(s * 1e-6 for s in self.scale_factor_ppm),  # type: ignore[union-attr]
+            scale_factor=tuple(s * PPM for s in self.scale_factor_ppm),  # type: ignore[union-attr]
+            scale_factor_sigma=self.scale_factor_sigma_ppm * PPM,
+            asymmetry=tuple(a * PPM for a in self.scale_asymmetry_ppm),  # type: ignore[union-attr]
+            asymmetry_sigma=self.scale_asymmetry_sigma_ppm * PPM,
+            misalignment=self.misalignment_rad,
+            misalignment_sigma=self.misalignment_sigma_urad * URAD,
         )
 
 

@@ -2,9 +2,10 @@
 
 Terms (docs/spec.md §3.1, paper 1 §3): fixed bias (given and/or drawn per run), first-order
 Gauss-Markov bias instability (exact discretisation), angle random walk, rate random walk,
-scale factor, small-angle axis misalignment, quantisation with carried residual and
-saturation; output as step-average rate [rad/s] or incremental angle [rad]. The maths is in
-:mod:`.inertial_core`; this module converts the unit-suffixed fields to SI once.
+scale-factor error, its asymmetry and the small-angle axis misalignment (each given and/or
+drawn per run), quantisation with carried residual and saturation; output as step-average
+rate [rad/s] or incremental angle [rad]. The maths is in :mod:`.inertial_core`; this module
+converts the unit-suffixed fields to SI once.
 """
 from __future__ import annotations
 
@@ -14,24 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics.maths import validate as v
-from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
-from .inertial_core import ErrorSpecSI, InertialErrorCore
-
-
-def _misalignment(name: str, value: object) -> tuple[tuple[float, ...], ...] | None:
-    if value is None:
-        return None
-    try:
-        M = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a square matrix of numbers, got {value!r}") from exc
-    if M.ndim != 2 or M.shape[0] != M.shape[1] or M.shape[0] < 1:
-        raise ValueError(f"{name} must be a square (n, n) matrix, got shape {M.shape}")
-    if not np.all(np.isfinite(M)):
-        raise ValueError(f"{name} must be finite")
-    if np.any(np.diag(M) != 0.0):
-        raise ValueError(f"{name} must have a zero diagonal (scale errors go in scale_factor_ppm)")
-    return tuple(tuple(float(x) for x in row) for row in M)
+from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H, PPM, URAD
+from .inertial_core import ErrorSpecSI, InertialErrorCore, misalignment_matrix
 
 
 @dataclass(frozen=True)
@@ -47,8 +32,13 @@ class GyroParams:
         bias_instability_tau_s: its correlation time [s] (> 0; inf = random constant).
         arw_deg_rt_h: angle random walk [°/√h].
         rrw_deg_h_rt_h: rate random walk [°/h/√h].
-        scale_factor_ppm: scale-factor error [ppm].
+        scale_factor_ppm: given scale-factor error s [ppm].
+        scale_factor_sigma_ppm: σ of a run-to-run scale-factor error drawn per axis and added [ppm].
+        scale_asymmetry_ppm: given scale-factor asymmetry A = K+ − K− [ppm]: the scale factor is
+            1 + s + A/2 for a positive input, 1 + s − A/2 for a negative one (IEEE Std 528).
+        scale_asymmetry_sigma_ppm: σ of a run-to-run asymmetry drawn per axis and added [ppm].
         misalignment_rad: (n, n) small-angle cross-coupling, zero diagonal [rad], or None.
+        misalignment_sigma_urad: σ of a run-to-run draw added to each off-diagonal element [µrad].
         quantisation_rad: incremental-angle quantum [rad] (0 = none).
         saturation_deg_s: measurement range ±[°/s] (inf = none).
     """
@@ -63,6 +53,10 @@ class GyroParams:
     misalignment_rad: tuple[tuple[float, ...], ...] | None = None
     quantisation_rad: float = 0.0
     saturation_deg_s: float = math.inf
+    scale_factor_sigma_ppm: float = 0.0
+    scale_asymmetry_ppm: float | tuple[float, ...] = 0.0
+    scale_asymmetry_sigma_ppm: float = 0.0
+    misalignment_sigma_urad: float = 0.0
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -73,9 +67,13 @@ class GyroParams:
         v.nonneg_finite("arw_deg_rt_h", self.arw_deg_rt_h)
         v.nonneg_finite("rrw_deg_h_rt_h", self.rrw_deg_h_rt_h)
         set_(self, "scale_factor_ppm", v.per_axis("scale_factor_ppm", self.scale_factor_ppm))
-        set_(self, "misalignment_rad", _misalignment("misalignment_rad", self.misalignment_rad))
+        set_(self, "misalignment_rad", misalignment_matrix("misalignment_rad", self.misalignment_rad))
         v.nonneg_finite("quantisation_rad", self.quantisation_rad)
         v.positive("saturation_deg_s", self.saturation_deg_s, allow_inf=True)
+        v.nonneg_finite("scale_factor_sigma_ppm", self.scale_factor_sigma_ppm)
+        set_(self, "scale_asymmetry_ppm", v.per_axis("scale_asymmetry_ppm", self.scale_asymmetry_ppm))
+        v.nonneg_finite("scale_asymmetry_sigma_ppm", self.scale_asymmetry_sigma_ppm)
+        v.nonneg_finite("misalignment_sigma_urad", self.misalignment_sigma_urad)
 
     def to_si(self) -> ErrorSpecSI:
         """The same terms in rad/s, rad/√s, rad/s/√s, rad (done once per model)."""
@@ -86,10 +84,14 @@ class GyroParams:
             gm_tau=float(self.bias_instability_tau_s),
             white_density=self.arw_deg_rt_h * DEG_RT_H,
             rrw_density=self.rrw_deg_h_rt_h * DEG_H_RT_H,
-            scale_factor=tuple(s * 1e-6 for s in self.scale_factor_ppm),  # type: ignore[union-attr]
+            scale_factor=tuple(s * PPM for s in self.scale_factor_ppm),  # type: ignore[union-attr]
             misalignment=self.misalignment_rad,
             quantum=float(self.quantisation_rad),
             saturation=self.saturation_deg_s * DEG,
+            scale_factor_sigma=self.scale_factor_sigma_ppm * PPM,
+            asymmetry=tuple(a * PPM for a in self.scale_asymmetry_ppm),  # type: ignore[union-attr]
+            asymmetry_sigma=self.scale_asymmetry_sigma_ppm * PPM,
+            misalignment_sigma=self.misalignment_sigma_urad * URAD,
         )
 
 

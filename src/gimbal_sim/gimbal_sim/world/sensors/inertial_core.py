@@ -2,16 +2,29 @@
 
 Per axis i, over the step [t_k, t_k+Δt] the sensor reports the step-average
 
-    y_i = Σ_j K_ij u_j + b_fix,i + b_gm,i(t_k+Δt) + b_rrw,i(t_k+Δt) + (N/√Δt) z_i
+    y_i = Σ_j K_ij u_j + a_i |u_i| + b_fix,i + b_gm,i(t_k+Δt) + b_rrw,i(t_k+Δt) + (N/√Δt) z_i
 
 then clamps it to ±saturation and, when a quantum is set, quantises the increment y_i Δt
 with the residual carried to the next step (so the sum of outputs never drifts from the
 sum of inputs by more than half a quantum). ``u`` is the true quantity (inertial rate
 [rad/s] or specific force [m/s²]) averaged over the step, ``K = I + diag(s) + M`` holds
 the scale-factor errors ``s`` and the small-angle misalignment ``M`` (zero diagonal:
-``M_ij`` is how much of true axis j leaks into sensed axis i), ``N`` is the white-noise
-density (ARW in rad/√s for a gyro), so the *increment* noise has variance N²Δt and the
-step-average *rate* noise N²/Δt, independent of how Δt is chosen.
+``M_ij`` is how much of true axis j leaks into sensed axis i: the axis non-orthogonality and
+its misalignment to the case in one matrix), ``a_i = A_i/2`` is half the scale-factor
+asymmetry ``A_i`` (IEEE Std 528: the scale factor measured with a positive input less the one
+measured with a negative input, relative to the nominal one), so axis i's scale factor is
+1 + s_i + A_i/2 for a positive input and 1 + s_i − A_i/2 for a negative one. ``N`` is the
+white-noise density (ARW in rad/√s for a gyro), so the *increment* noise has variance N²Δt
+and the step-average *rate* noise N²/Δt, independent of how Δt is chosen.
+
+The scale-factor error, its asymmetry and the misalignment are each a given value plus, when
+its 1σ is set, a per-run draw (per axis; per off-diagonal element for M), as the run-to-run
+bias is: drawn once at construction, constant over the run. The three draws come from
+children of the sensor's stream (``Generator.spawn``: scale factor, asymmetry, misalignment),
+never from the stream itself, so setting them changes no other draw of the sensor: the same
+seed gives the same biases and noise with or without them. Unset (all zero), nothing is drawn
+and the kernel skips the asymmetry and the off-diagonal terms, so the outputs are the bits of
+a sensor without them.
 
 The bias states are advanced to the end of the step first and held over it; holding
 instead of integrating the Gauss-Markov term within the step changes the increment by
@@ -31,6 +44,43 @@ from gimbal_kinematics.maths.validate import broadcast, nonneg_finite, positive
 from .markov import gm1_coefficients
 
 
+def misalignment_matrix(name: str, value: object) -> tuple[tuple[float, ...], ...] | None:
+    """A given misalignment M checked (square, finite, zero diagonal) as a tuple of rows, or
+    None; ``ValueError`` naming ``name``."""
+    if value is None:
+        return None
+    try:
+        M = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a square matrix of numbers, got {value!r}") from exc
+    if M.ndim != 2 or M.shape[0] != M.shape[1] or M.shape[0] < 1:
+        raise ValueError(f"{name} must be a square (n, n) matrix, got shape {M.shape}")
+    if not np.all(np.isfinite(M)):
+        raise ValueError(f"{name} must be finite")
+    if np.any(np.diag(M) != 0.0):
+        raise ValueError(f"{name} must have a zero diagonal (scale errors go in scale_factor_ppm)")
+    return tuple(tuple(float(x) for x in row) for row in M)
+
+
+def off_diagonal(name: str, values: Sequence[float], n: int, scale: float = 1.0
+                 ) -> tuple[tuple[float, ...], ...] | None:
+    """The (n, n) misalignment whose off-diagonal elements are ``values`` × ``scale``, row by
+    row (n = 3: M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; n = 2: M_12, M_21), or None when ``values``
+    is empty or all zero (no misalignment); ``ValueError`` naming ``name``."""
+    vals = [float(v) for v in values]
+    if not vals or all(v == 0.0 for v in vals):
+        if vals and len(vals) != n * (n - 1):
+            raise ValueError(f"{name} needs {n * (n - 1)} values (the off-diagonal elements row by row), "
+                             f"or none, got {len(vals)}")
+        return None
+    if len(vals) != n * (n - 1) or not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"{name} needs {n * (n - 1)} finite values (the off-diagonal elements row by row), "
+                         f"or none, got {vals}")
+    M = np.zeros((n, n))
+    M[~np.eye(n, dtype=bool)] = np.asarray(vals) * scale
+    return misalignment_matrix(name, M)
+
+
 @dataclass(frozen=True)
 class ErrorSpecSI:
     """Error terms in SI (``u`` = unit of the sensed quantity: rad/s or m/s²).
@@ -47,11 +97,16 @@ class ErrorSpecSI:
     rrw_density: float = 0.0  # random-walk-of-bias density [u/√s]
     scale_factor: tuple[float, ...] = (0.0,)  # dimensionless
     misalignment: tuple[tuple[float, ...], ...] | None = None  # (n, n) rad, zero diagonal
+    scale_factor_sigma: float = 0.0  # run-to-run scale-factor error σ per axis, dimensionless
+    asymmetry: tuple[float, ...] = (0.0,)  # scale-factor asymmetry A = K+ − K−, dimensionless
+    asymmetry_sigma: float = 0.0  # run-to-run asymmetry σ per axis, dimensionless
+    misalignment_sigma: float = 0.0  # run-to-run σ of each off-diagonal M_ij [rad]
     quantum: float = 0.0  # increment quantum [u·s], 0 = none
     saturation: float = math.inf  # output clamp [u]
 
     def __post_init__(self) -> None:
-        for name in ("bias_sigma", "gm_sigma", "white_density", "rrw_density", "quantum"):
+        for name in ("bias_sigma", "gm_sigma", "white_density", "rrw_density", "quantum", "scale_factor_sigma",
+                     "asymmetry_sigma", "misalignment_sigma"):
             nonneg_finite(name, getattr(self, name))
         positive("gm_tau", self.gm_tau, allow_inf=True)
         positive("saturation", self.saturation, allow_inf=True)
@@ -76,8 +131,8 @@ class InertialErrorCore:
         self.spec = spec
         self._normals = NormalStream(rng)
 
-        # the kernel's arrays: rows (1 + s, b_fix, b_gm, b_rrw, quantiser residual), K, constants
-        self.rows = np.zeros((5, n))
+        # the kernel's arrays: rows (1 + s, b_fix, b_gm, b_rrw, quantiser residual, A/2), K, constants
+        self.rows = np.zeros((sk.N_ROWS, n))
         rows = self.rows
         rows[sk.R_FIXED] = broadcast("bias", spec.bias, n)
         if spec.bias_sigma > 0.0:
@@ -91,22 +146,64 @@ class InertialErrorCore:
         self._has_rrw = spec.rrw_density > 0.0
         self._has_white = spec.white_density > 0.0
         self._need = n * (int(self._has_gm) + int(self._has_rrw) + int(self._has_white))
-        rows[sk.R_KDIAG] = [1.0 + s for s in broadcast("scale_factor", spec.scale_factor, n)]
+        scale, asym, M = self._scale_errors(spec, n, rng)
+        rows[sk.R_KDIAG] = [1.0 + s for s in scale]
+        rows[sk.R_ASYM] = [0.5 * a for a in asym]
         self.K = np.zeros((n, n))
-        if spec.misalignment is not None:
-            M = np.asarray(spec.misalignment, dtype=float)
-            if M.shape != (n, n):
-                raise ValueError(f"misalignment must have shape ({n}, {n}), got {M.shape}")
+        if M is not None:
             self.K[:] = M
             self.K[np.diag_indices(n)] = rows[sk.R_KDIAG]
         self.constants = np.zeros(sk.N_INERTIAL)
         c = self.constants
         c[sk.I_SATURATION], c[sk.I_QUANTUM] = spec.saturation, spec.quantum
         c[sk.I_HAS_GM], c[sk.I_HAS_RRW] = float(self._has_gm), float(self._has_rrw)
-        c[sk.I_HAS_K] = float(spec.misalignment is not None)
+        c[sk.I_HAS_K] = float(M is not None)
+        c[sk.I_HAS_ASYM] = float(any(a != 0.0 for a in asym))
         self._out = np.zeros(n)
         self._dt = -1.0
         self._set_dt(dt)
+
+    @staticmethod
+    def _scale_errors(spec: ErrorSpecSI, n: int, rng: np.random.Generator
+                      ) -> tuple[list[float], list[float], np.ndarray | None]:
+        """The run's scale-factor errors s (n), asymmetries A (n) and misalignment M ((n, n) or
+        None): the given values plus the per-run draws, from the stream's children (module
+        docstring); nothing is drawn when no σ is set."""
+        scale = broadcast("scale_factor", spec.scale_factor, n)
+        asym = broadcast("asymmetry", spec.asymmetry, n)
+        M = None
+        if spec.misalignment is not None:
+            M = np.asarray(spec.misalignment, dtype=float)
+            if M.shape != (n, n):
+                raise ValueError(f"misalignment must have shape ({n}, {n}), got {M.shape}")
+        if spec.scale_factor_sigma > 0.0 or spec.asymmetry_sigma > 0.0 or spec.misalignment_sigma > 0.0:
+            r_scale, r_asym, r_mis = rng.spawn(3)
+            if spec.scale_factor_sigma > 0.0:
+                scale = [s + spec.scale_factor_sigma * float(z) for s, z in zip(scale, r_scale.standard_normal(n))]
+            if spec.asymmetry_sigma > 0.0:
+                asym = [a + spec.asymmetry_sigma * float(z) for a, z in zip(asym, r_asym.standard_normal(n))]
+            if spec.misalignment_sigma > 0.0 and n > 1:
+                off = ~np.eye(n, dtype=bool)  # the off-diagonal elements, row by row
+                M = np.zeros((n, n)) if M is None else M.copy()
+                M[off] += spec.misalignment_sigma * r_mis.standard_normal(n * (n - 1))
+        return scale, asym, M
+
+    @property
+    def scale_factor_error(self) -> np.ndarray:
+        """The run's scale-factor errors s (given + drawn), shape (n,)."""
+        return self.rows[sk.R_KDIAG] - 1.0
+
+    @property
+    def scale_asymmetry(self) -> np.ndarray:
+        """The run's scale-factor asymmetries A = K+ − K− (given + drawn), shape (n,)."""
+        return 2.0 * self.rows[sk.R_ASYM]
+
+    @property
+    def misalignment(self) -> np.ndarray:
+        """The run's misalignment M (given + drawn; zero diagonal), shape (n, n)."""
+        M = self.K.copy() if self.constants[sk.I_HAS_K] != 0.0 else np.zeros((self.n_axes, self.n_axes))
+        M[np.diag_indices(self.n_axes)] = 0.0
+        return M
 
     def _set_dt(self, dt: float) -> None:
         positive("dt", dt)

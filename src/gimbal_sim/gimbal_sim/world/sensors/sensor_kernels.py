@@ -4,8 +4,9 @@ stream in its order (``NormalStream.take_block``). The maths is :mod:`.encoder`'
 :mod:`.inertial_core`'s docstrings:
 
     encoder:   c = ⌊θ/δ + ½⌋,  θ̃ = c δ + σ z,  ω̃ = (c − c_ref) δ / T_g every gate (held between)
-    inertial:  y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z   (b_gm, b_rrw advanced first; clamped;
-               the increment y Δt quantised with its residual carried)
+    inertial:  y = K u + a ∘ |u| + b_fix + b_gm + b_rrw + (N/√Δt) z   (K = I + S + M, a = half the
+               scale-factor asymmetry; b_gm, b_rrw advanced first; clamped; the increment y Δt
+               quantised with its residual carried)
 
 :class:`.encoder.EncoderModel` and :class:`.inertial_core.InertialErrorCore` hold their state
 in the arrays of :func:`encoder_step` and :func:`inertial_step` and call them per sample; the
@@ -72,12 +73,17 @@ def encoder_step(state: np.ndarray, n: int, angles: np.ndarray, quantum: float, 
 
 #: an inertial model's constants (``I_*``): Gauss-Markov φ and drive, random-walk drive,
 #: white-noise σ of the step average, saturation, increment quantum, step Δt, which bias
-#: states evolve, whether the full matrix K (misalignment) applies
-(I_PHI, I_GM_DRIVE, I_RRW_DRIVE, I_WHITE_SD, I_SATURATION, I_QUANTUM, I_DT, I_HAS_GM, I_HAS_RRW, I_HAS_K) = range(10)
-N_INERTIAL = 10
+#: states evolve, whether the full matrix K (misalignment) applies, whether the scale factor
+#: is asymmetric
+(I_PHI, I_GM_DRIVE, I_RRW_DRIVE, I_WHITE_SD, I_SATURATION, I_QUANTUM, I_DT, I_HAS_GM, I_HAS_RRW, I_HAS_K,
+ I_HAS_ASYM) = range(11)
+N_INERTIAL = 11
 #: rows of an inertial model's state array: scale factors 1 + s, fixed bias, Gauss-Markov
-#: and random-walk bias states, the quantiser's carried residual
-R_KDIAG, R_FIXED, R_GM, R_RRW, R_RESIDUAL = range(5)
+#: and random-walk bias states, the quantiser's carried residual, half the scale-factor
+#: asymmetry a = A/2 (the scale factor is 1 + s + a for a positive input, 1 + s − a for a
+#: negative one)
+R_KDIAG, R_FIXED, R_GM, R_RRW, R_RESIDUAL, R_ASYM = range(6)
+N_ROWS = 6
 
 
 @njit(cache=True)
@@ -96,7 +102,11 @@ def inertial_step(u: np.ndarray, rows: np.ndarray, K: np.ndarray, c: np.ndarray,
     advanced to the step's end by the normals ``z`` (Gauss-Markov n, then random walk n,
     then white n, each when it applies), then
 
-        y = K u + b_fix + b_gm + b_rrw + (N/√Δt) z,   clamped to ±saturation,
+        y = K u + a ∘ |u| + b_fix + b_gm + b_rrw + (N/√Δt) z,   clamped to ±saturation,
+
+    with K = I + diag(s) + M (``K`` when ``c[I_HAS_K]``, else its diagonal ``rows[R_KDIAG]``)
+    and a = ``rows[R_ASYM]`` when ``c[I_HAS_ASYM]`` (a term switched off is not computed, so
+    a sensor without it gives the bits it gave before the term existed),
 
     into ``out`` as the step average (``increment`` False) or the increment y Δt, a quantum
     set quantising the increment with the residual carried (``rows[R_RESIDUAL]``)."""
@@ -120,6 +130,8 @@ def inertial_step(u: np.ndarray, rows: np.ndarray, K: np.ndarray, c: np.ndarray,
             y = y + rows[R_FIXED, i] + gm[i] + rrw[i]
         else:
             y = rows[R_KDIAG, i] * u[i] + rows[R_FIXED, i] + gm[i] + rrw[i]
+        if c[I_HAS_ASYM] != 0.0:
+            y += rows[R_ASYM, i] * abs(u[i])
         if c[I_WHITE_SD] > 0.0:
             y += c[I_WHITE_SD] * z[j + i]
         if sat != np.inf:
