@@ -149,7 +149,8 @@ def alignment_metrics(core: RotationAlignmentRls, truth_x: np.ndarray, *, seed: 
     P = core._P
 
     def _corr(i: int, a: np.ndarray) -> float:
-        return float((P[i] @ a) / math.sqrt(P[i, i] * (a @ P @ a)))
+        var = P[i, i] * (a @ P @ a)
+        return float((P[i] @ a) / math.sqrt(var)) if var > 0.0 else 0.0  # a state held at zero: none
 
     return AlignmentMetrics(
         seed=int(seed), rotate=bool(rotate), duration_s=float(duration_s), truth=truth_x, estimate=est.x,

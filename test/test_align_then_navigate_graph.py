@@ -1,4 +1,4 @@
-"""``rotational_ins_navigation`` variant ``align_then_navigate`` through the node graph: the
+"""``rotational_ins_navigation`` variant ``upgraded`` through the node graph: the
 alignment run (the variant's prelude), its hand-off as a parameter file, the navigation run.
 
 One short chained run (a 4 s alignment with the platform held, so that the navigation's
@@ -41,22 +41,22 @@ VEC = lambda msg: (msg.vector.x, msg.vector.y, msg.vector.z)  # noqa: E731
 
 
 def test_the_variant_carries_its_prelude_and_a_bad_prelude_is_refused():
-    single = variant(load("rotational_ins_navigation"), "align_then_navigate")
+    single = variant(load("rotational_ins_navigation"), "upgraded")
     assert single.prelude == {"scenario": "rotational_ins_alignment", "variant": "rotation_on",
                               "hand_off": "alignment_to_navigation", "duration_s": 600.0}
     assert validate(yaml.safe_load(single.to_yaml())).prelude == single.prelude  # what a --jobs child reads
     data = yaml.safe_load(builtin_scenarios()["rotational_ins_navigation"].read_text())
-    data["variants"]["align_then_navigate"]["prelude"] = {"scenario": "rotational_ins_alignment"}
+    data["variants"]["upgraded"]["prelude"] = {"scenario": "rotational_ins_alignment"}
     with pytest.raises(ScenarioError, match="hand_off"):
         validate(data)
 
 
 def test_gimbal_run_refuses_an_unknown_hand_off_before_starting_anything(tmp_path):
     data = yaml.safe_load(builtin_scenarios()["rotational_ins_navigation"].read_text())
-    data["variants"]["align_then_navigate"]["prelude"]["hand_off"] = "nonesuch"
+    data["variants"]["upgraded"]["prelude"]["hand_off"] = "nonesuch"
     spec = tmp_path / "s.yaml"
     spec.write_text(yaml.safe_dump(data))
-    result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(spec), "--variant", "align_then_navigate",
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(spec), "--variant", "upgraded",
                              "--out", str(tmp_path / "run")], capture_output=True, text=True, timeout=120)
     assert result.returncode == 2 and "nonesuch" in result.stderr and "Traceback" not in result.stderr
     assert not (tmp_path / "run").exists()
@@ -64,11 +64,11 @@ def test_gimbal_run_refuses_an_unknown_hand_off_before_starting_anything(tmp_pat
 
 @pytest.fixture(scope="module")
 def chained(module_ros_domain_env, tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("align_then_navigate")
+    tmp = tmp_path_factory.mktemp("upgraded")
     data = yaml.safe_load(builtin_scenarios()["rotational_ins_navigation"].read_text())
-    step = data["variants"]["align_then_navigate"]
+    step = data["variants"]["upgraded"]
     step["prelude"].update(duration_s=ALIGN_S, variant="rotation_off")
-    data["variants"] = {"align_then_navigate": step}
+    data["variants"] = {"upgraded": step}
     assert "/platform_navigator/command_rate" in data["record"]  # the scenario records it
     data["record"] += ["/truth/platform/joint_states"]
     spec = tmp / "short.yaml"
@@ -79,7 +79,7 @@ def chained(module_ros_domain_env, tmp_path_factory):
                              "--mode", "container", "--no-progress"],
                             env=module_ros_domain_env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr
-    run = out / "align_then_navigate"
+    run = out / "upgraded"
     handed = yaml.safe_load((run / "prelude" / "hand_off.yaml").read_text())
     return {"run": run, "stdout": result.stdout, "handed": handed,
             "metrics": json.loads((run / "report" / "metrics.json").read_text()),
@@ -161,7 +161,7 @@ def test_the_engine_runs_the_same_chain_to_the_same_hand_off_and_navigation(chai
                              "--set", "platform_navigator.fix_every_samples=1", "--out", str(out), "--no-progress"],
                             capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr
-    run = out / "align_then_navigate"
+    run = out / "upgraded"
     assert yaml.safe_load((run / "prelude" / "hand_off.yaml").read_text()) == chained["handed"]
     engine = json.loads((run / "report" / "metrics.json").read_text())
     assert engine["navigation"]["final_position_error_m"] == pytest.approx(

@@ -28,8 +28,8 @@ def test_gimbal_campaign_runs_the_scenario_variants_on_the_engine_and_its_table_
     engine, each with its bag; each run's radial rate recomputed from its bag with rosbags (a
     reader we did not write) is the one the table's per-seed rows print."""
     out = tmp_path / "c"
-    assert campaign_main(["rotational_ins_navigation", "--seeds", "1", "--duration", "20", "--serial",
-                          "--no-progress", "--out", str(out)]) == 0
+    assert campaign_main(["rotational_ins_navigation", "--variant", "rotation_on", "--variant", "rotation_off",
+                          "--seeds", "1", "--duration", "20", "--serial", "--no-progress", "--out", str(out)]) == 0
     runs = sorted(out.glob("runs/*/report/metrics.json"))
     assert len(runs) == 2
     metrics = [json.loads(p.read_text())["navigation"] for p in runs]

@@ -25,7 +25,7 @@ def test_misalignment_handed_over_is_torqued_out_within_the_pulse():
     heading_deg, joints_deg = alignment_setup(phi_arcsec)
     hand_off = HandOff(LAT, 0.0, 0.0, misalignment_enu=tuple(v * ARCSEC for v in phi_arcsec))
     start = PlatformStart(heading_deg, joints_deg, hand_off, heading_deg)
-    # at align_then_navigate's navigation rate (at 5 Hz the servo's loops ring on the pulse)
+    # at the hand-off's navigation rate (at 5 Hz the servo's loops ring on the pulse)
     s = run_navigation(31.0, 0, gyro=GyroParams(), start=start, rate_hz=HAND_OFF_RATE_HZ, **QUIET)["series"]
     tilt = s["tilt_en_rad"] / ARCSEC
     azimuth = s["azimuth_true_rad"] / ARCSEC

@@ -16,7 +16,7 @@ from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_sim.campaign.experiment import plan_experiment
 from gimbal_sim.campaign.spec import CampaignSpec
-from gimbal_sim.experiments.navigation import RUNNER_CAMPAIGN, SHIP_NAV_RATE_HZ, SHIP_RATE_HZ, SHIP_VARIANTS, run_navigation
+from gimbal_sim.experiments.navigation import CAMPAIGN, RUNNER_CAMPAIGN, SHIP_NAV_RATE_HZ, SHIP_RATE_HZ, SHIP_VARIANTS, run_navigation
 from gimbal_sim.world.sensors import AccelerometerParams, EncoderParams, GyroParams
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -65,12 +65,12 @@ def test_unknown_azimuth_source_is_refused_naming_it():
 
 
 def test_ship_variants_run_only_when_named():
-    """A 3-hour ship run is 4.3 M steps at 400 Hz: the campaign's default set (no --variant)
-    stays the static ones; named, the ship variants are planned."""
+    """A 3-hour ship run is 4.3 M steps at 400 Hz: the navigation campaign's default set (no
+    --variant) stays the static systems, and the ship's own campaign plans what it is given."""
     default = plan_experiment(CampaignSpec(scenario="", seeds=(1,), engine="core",
-                                           experiment="rotational_ins_navigation_runner"), RUNNER_CAMPAIGN)
-    assert not {r.variant for r in default.runs} & set(SHIP_VARIANTS)
-    assert {r.variant for r in default.runs} == set(RUNNER_CAMPAIGN.variants) - set(SHIP_VARIANTS)
+                                           experiment="rotational_ins_navigation"), CAMPAIGN)
+    assert {r.variant for r in default.runs} == {"original_system", "upgraded", "perfectly_aligned"}
+    assert set(RUNNER_CAMPAIGN.variants) == set(SHIP_VARIANTS)
     named = plan_experiment(CampaignSpec(scenario="", seeds=(1, 2), variants=SHIP_VARIANTS, engine="core",
                                          experiment="rotational_ins_navigation_runner"), RUNNER_CAMPAIGN)
     assert sorted((r.variant, r.seed) for r in named.runs) == sorted((v, s) for v in SHIP_VARIANTS for s in (1, 2))

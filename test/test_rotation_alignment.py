@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.stats import chi2
 
 from gimbal_estimators.rotation_alignment import (
     ACCEL_BIAS, DPHI_U0, NORTH_DRIFT, STATE_NAMES, RotationAlignmentParams, RotationAlignmentRls,
@@ -177,6 +178,49 @@ def test_east_drift_fixed_in_n_biases_azimuth_by_the_gyrocompass_limit():
     shift = biased.azimuth_error_arcmin - base.azimuth_error_arcmin
     assert shift == pytest.approx(predicted, rel=0.03)
     assert abs(predicted) > 1.0
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_static_gyrocompass_takes_the_east_drift_as_azimuth_and_the_biases_as_tilt(seed):
+    """``sensor_error_states=False`` held still at ψ: the classical gyrocompass. Its tilt
+    errors are the level biases over g, (∇N/g, −∇E/g) (eq. 9), and its azimuth error the
+    east drift over the earth rate's north component plus the north tilt error's share of the
+    east tilt's slope: −εE/(Ω cos L) − tan L ∇E/g, with εE = sin ψ εx + cos ψ εy and
+    ∇E = sin ψ ∇x + cos ψ ∇y (eq. 11). Closed forms from the truth's drawn sensor errors,
+    noise-free accelerometers; the tolerance is the neglected vertical drift's ε_U T/2
+    (0.15′ at 1σ)."""
+    psi = math.radians(30.0)
+    acc = AccelerometerParams(bias_ug=(80.0, -120.0, 30.0))
+    params = RotationAlignmentParams(lat_deg=LAT_DEG, sensor_error_states=False)
+    m = run_alignment_experiment(seed, rotate=False, imu_rate_hz=IMU_HZ, accel_params=acc, params=params,
+                                 fixed_psi_deg=30.0)
+    eps_x, eps_y = m.truth[6], m.truth[7]
+    bias_x, bias_y = m.truth[4], m.truth[5]
+    g = params.gravity
+    eps_e = math.sin(psi) * eps_x + math.cos(psi) * eps_y
+    bias_n = math.cos(psi) * bias_x - math.sin(psi) * bias_y
+    bias_e = math.sin(psi) * bias_x + math.cos(psi) * bias_y
+    lat = math.radians(LAT_DEG)
+    predicted = (-eps_e / (OMEGA_IE * math.cos(lat)) - math.tan(lat) * bias_e / g) / ARCMIN
+    assert m.azimuth_error_arcmin == pytest.approx(predicted, abs=0.3)
+    assert abs(predicted) > 0.5  # the drift draws are not trivially small
+    assert m.tilt_error_arcsec == pytest.approx([bias_n / g / ARCSEC, -bias_e / g / ARCSEC], abs=0.5)
+    assert np.all(m.estimate[4:] == 0.0) and np.all(m.sigma[4:] == 0.0)  # the sensor errors stay unestimated
+
+
+def test_the_gyrocompass_azimuth_spread_is_the_drift_over_the_earth_rate():
+    """Over 20 seeds of paper 3's 0.03 °/h drifts, the gyrocompass's azimuth errors scatter as
+    σ_ε/(Ω cos L) = 8.95′ (paper 3 §2: the original system's 9′): the sample rms inside the
+    χ²(20) 99 % interval around it."""
+    params = RotationAlignmentParams(lat_deg=LAT_DEG, sensor_error_states=False)
+    acc = AccelerometerParams(bias_sigma_ug=100.0)
+    errors = [run_alignment_experiment(seed, rotate=False, imu_rate_hz=2.0, accel_params=acc, params=params,
+                                       north_drift_sigma_deg_h=0.0).azimuth_error_arcmin for seed in range(20)]
+    sigma = 0.03 * DEG_H / (OMEGA_IE * math.cos(math.radians(LAT_DEG))) / ARCMIN
+    assert sigma == pytest.approx(8.95, abs=0.01)
+    rms = math.sqrt(np.mean(np.square(errors)))
+    lo, hi = (math.sqrt(chi2.ppf(q, 20) / 20) * sigma for q in (0.005, 0.995))
+    assert lo < rms < hi, (rms, lo, hi)
 
 
 def test_estimate_shapes_and_covariance():

@@ -40,6 +40,8 @@ class PlatformAlignmentNodeParams(TimedParams):
     accel_bias_scale_ug: float = param(1000.0, "a-priori size of the level accelerometer biases",
         1e-9, INF, unit="micro-g")
     gyro_drift_scale_deg_h: float = param(0.1, "a-priori size of the level gyro drifts", 1e-9, INF, unit="deg/h")
+    sensor_error_states: bool = param(True, "estimate the level accelerometer biases and gyro drifts (false: the "
+        "classical static gyrocompass, which takes them as zero: the east drift goes into the azimuth)")
     max_joint_age_s: float = param(0.1, "largest gap between an accelerometer sample and the joint sample "
         "extrapolated to it", 1e-9, INF, unit="s")
     converged_tilt_arcsec: float = param(5.0, "tilt sigma below which the estimate counts as converged",

@@ -125,6 +125,10 @@ class RotationAlignmentParams:
             which the estimate is flagged converged.
         rank_rel_tol: eigenvalues of the information matrix below this fraction of the
             largest count as unobservable directions.
+        sensor_error_states: estimate the level accelerometer biases and gyro drifts (paper 3's
+            8 states). False is the classical static gyrocompass: their prior is zero, so the
+            least squares keeps (δφE0, δφN0, δφU0, ε_N) and the level biases go into the tilt
+            (∇/g) and the east drift into the azimuth (ε_E/ω_N), the gyrocompass limit.
     """
 
     lat_deg: float
@@ -141,6 +145,7 @@ class RotationAlignmentParams:
     converged_azimuth_arcmin: float = 2.0
     rank_rel_tol: float = 1e-9
     omega_ie_rad_s: float = OMEGA_IE
+    sensor_error_states: bool = True
 
     def __post_init__(self) -> None:
         lat = finite("lat_deg", self.lat_deg)
@@ -155,6 +160,7 @@ class RotationAlignmentParams:
             positive(name, getattr(self, name))
         if self.rank_rel_tol >= 1.0:
             raise ValueError(f"rank_rel_tol must be < 1, got {self.rank_rel_tol}")
+        of_type("sensor_error_states", self.sensor_error_states, bool)
 
     @classmethod
     def from_values(cls, v: dict) -> RotationAlignmentParams:
@@ -163,7 +169,7 @@ class RotationAlignmentParams:
         :class:`ParameterError` names the parameter refused."""
         same = ("lat_deg", "accel_noise_ug_rt_hz", "block_s", "tilt_scale_arcsec", "azimuth_scale_deg",
                 "north_drift_scale_deg_h", "accel_bias_scale_ug", "gyro_drift_scale_deg_h", "max_joint_age_s",
-                "converged_tilt_arcsec", "converged_azimuth_arcmin")  # node parameters of the field's name
+                "converged_tilt_arcsec", "converged_azimuth_arcmin", "sensor_error_states")  # node parameters of the field's name
         try:
             return cls(gravity_m_s2=v["gravity_m_s2"] or None, **{name: v[name] for name in same})
         except ValueError as exc:
@@ -186,6 +192,14 @@ class RotationAlignmentParams:
             self.accel_bias_scale_ug * UG, self.accel_bias_scale_ug * UG,
             self.gyro_drift_scale_deg_h * DEG_H, self.gyro_drift_scale_deg_h * DEG_H,
         ])
+
+    def prior(self) -> np.ndarray:
+        """P0 (8, 8) in the normalised states: I, with the sensor-error states' rows and
+        columns zero when they are not estimated (``sensor_error_states`` False)."""
+        diag = np.ones(N_STATES)
+        if not self.sensor_error_states:
+            diag[ACCEL_BIAS] = diag[GYRO_DRIFT] = 0.0
+        return np.diag(diag)
 
 
 class AlignmentEstimate(NamedTuple):
@@ -289,7 +303,7 @@ class RotationAlignmentRls:
 
     # -- state handling ------------------------------------------------------------------
     def _restart(self) -> None:
-        self._xi, self._P = check_state(np.zeros(N_STATES), np.eye(N_STATES), "RotationAlignmentRls")
+        self._xi, self._P = check_state(np.zeros(N_STATES), self.params.prior(), "RotationAlignmentRls")
         self._info = np.zeros((N_STATES, N_STATES))
         self._t0: float | None = None
         self._t_last: float | None = None
@@ -307,7 +321,7 @@ class RotationAlignmentRls:
         self._b_start = self._t_last
 
     def reset(self, reason: str) -> None:
-        """Restart the alignment from X0 = 0, P0 = I (normalised); ``reason`` is recorded."""
+        """Restart the alignment from X0 = 0, P0 = :meth:`RotationAlignmentParams.prior`; ``reason`` is recorded."""
         self.counters.resets += 1
         self.counters.reset_reasons.append(str(reason))
         self._joint = None
@@ -471,6 +485,7 @@ class RotationAlignmentRls:
         rank = int(np.sum(eig > self.params.rank_rel_tol * lam_max)) if lam_max > 0.0 else 0
         cond = lam_max / float(eig[0]) if eig[0] > 0.0 else math.inf
         d = np.sqrt(np.diag(self._P))
+        d = np.where(d > 0.0, d, math.inf)  # a state held at zero correlates with nothing
         return ObservabilityReport(
             information=info, eigenvalues=eig, rank=rank, informative_rank=int(np.sum(eig > 1.0)), condition=cond,
             weakest_direction=vec[:, 0], correlation=self._P / np.outer(d, d),

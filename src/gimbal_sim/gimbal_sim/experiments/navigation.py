@@ -24,24 +24,24 @@ error after an hour with rotation on than at 2 Hz.
 
 Start. ``rotation_on`` and ``rotation_off`` start perfectly aligned: platform level at
 azimuth 0 over a base at heading 0, navigator at the site at rest with no estimates, so the
-errors are those of the sensors alone. ``align_then_navigate`` is paper 3's sequence as two
-chained runs in one command (the plant's rate is fixed per run): the fine alignment at 1 kHz
-(:func:`run_alignment_phase`), then navigation at :data:`HAND_OFF_RATE_HZ` from the plant
-state, sensor biases and estimate it leaves (:func:`run_align_then_navigate`).
+errors are those of the sensors alone. ``original_system`` and ``upgraded`` are paper 3's two
+systems, each aligned by its own method (the static gyrocompass; the rotating alignment) in a
+1 kHz prelude that the scenario chains (:mod:`.engine_runs`), then navigating at
+:data:`HAND_OFF_RATE_HZ` from the plant state, sensors and estimate it leaves.
 
 The CEP campaign (:data:`CAMPAIGN`) is a declaration: its runs are scenario
-``rotational_ins_navigation``'s, this 5 Hz system its variants ``rotation_on_5hz`` and
-``rotation_off_5hz`` (``platform_integrator: quasi_static``), run on the one engine with their
-bags, and its table reads the runs' ``navigation`` reports. The moored ship and the hand-off
-stay on this module's stages (:data:`RUNNER_CAMPAIGN`).
+``rotational_ins_navigation``'s (:data:`SCENARIO_VARIANTS`; this module's 5 Hz system is its
+variants ``rotation_on_5hz`` and ``rotation_off_5hz``, ``platform_integrator: quasi_static``),
+run on the one engine with their bags, and its table reads the runs' ``navigation`` reports.
+The moored ship stays on this module's stages (:data:`RUNNER_CAMPAIGN`).
 
 Errors (truth is the site: a static base): north and east position error [m] from the
 navigated latitude and longitude through the WGS-84 radii, radial = their norm; velocity
 error = the navigated NED velocity. CEP rate: radial error at the end / duration, in n mile/h.
 
     python -m gimbal_sim.experiments.navigation run --duration 10800 --seed 1 --no-rotation
-    python -m gimbal_sim.experiments.navigation run --seed 1 --align-then-navigate
-    gimbal-campaign rotational_ins_navigation --seeds 1-20 --serial --out DIR      # the CEP campaign and its CEP50 table
+    gimbal-campaign rotational_ins_navigation --seeds 1-20 --out DIR      # the three systems' CEP50 table
+    gimbal-campaign rotational_ins_navigation --variant rotation_on --variant rotation_off --seeds 1-20 --out DIR
     gimbal-campaign rotational_ins_navigation_runner --variant ship_rotation_on --seeds 1-7 --out DIR
     python -m gimbal_sim.experiments.navigation cep DIR [DIR...] --per-seed  # the table again, campaigns merged
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
@@ -62,12 +62,11 @@ from gimbal_control.platform_servo import BANDWIDTH_RATE_DIVISOR, PlatformServo,
     platform_pid_gains
 from gimbal_control.platform_servo_params import PARAMS as SERVO_NODE_PARAMS
 from gimbal_estimators.platform_navigator import HandOff, PlatformNavigator
-from gimbal_estimators.rotation_alignment import RotationAlignmentParams, RotationAlignmentRls
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_kinematics.maths.earth import meridian_radius, prime_vertical_radius
 from gimbal_kinematics.maths.four_gimbal import platform_misalignment_enu
 from gimbal_kinematics.maths.rotations import quat_to_dcm
-from gimbal_kinematics.maths.units import ARCSEC, DEG_H, NMI_M, UG
+from gimbal_kinematics.maths.units import ARCSEC, NMI_M, UG
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
 from ..campaign.order_stats import quantile_interval
@@ -78,12 +77,9 @@ from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo
 from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
-from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, PAPER3_MISALIGNMENT_ARCSEC, \
-    RATE_HZ as SERVO_RATE_HZ, _platform_sim, alignment_setup, run_platform_servo
+from .platform_servo import RATE_HZ as SERVO_RATE_HZ, run_platform_servo
 
-#: The alignment phase of ``align_then_navigate`` [s]: 360° and back at 1.2 °/s (Table 2).
-ALIGNMENT_S = 600.0
-#: The navigation phase rate of ``align_then_navigate`` [Hz] (the graph scenario's): at 5 Hz
+#: The navigation rate after a hand-off [Hz] (the graph scenario's): at 5 Hz
 #: the servo's 0.125 Hz loops ring for minutes after the torque-out pulse (1000″ of azimuth
 #: still 553″ at 30 s, then swinging ±800″ with a ~90 s period; spreading the pulse over
 #: 300 s still leaves 66″ after 600 s), at 50 Hz the pulse leaves 0.3″ and 1″ after 20 s.
@@ -220,100 +216,27 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
     }
 
 
-# ------------------------------------------------------------------------------ hand-off
-def run_alignment_phase(seed: int, duration_s: float = ALIGNMENT_S, lat_deg: float = 40.0
-                        ) -> tuple[PlatformStart, dict[str, Any]]:
-    """Paper 3's fine alignment on the simulated platform at 1 kHz, as
-    scenario ``rotational_ins_alignment`` runs it (rotation on, Table 2 initial
-    misalignment, its sensor grades and noise). Returns the navigation start it leaves (the
-    plant's gimbal angles at its end, the estimate as the hand-off at the site, −δφU as the
-    heading) and the hand-off
-    figures: truth and estimate at the end, residual = truth − estimate (misalignment ENU
-    [″] against the true azimuth gimbal angle, level drifts [°/h], accelerometer biases [µg]),
-    and the sensors' true biases (rad/s, m/s²) the navigation phase keeps."""
-    heading_deg, joints_deg = alignment_setup(PAPER3_MISALIGNMENT_ARCSEC)
-    core, suite = _platform_sim(duration_s, seed, {"lat_deg": lat_deg, "yaw_deg": heading_deg}, joints_deg,
-                                platform_gyro=GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=ALIGNMENT_GYRO_ARW_DEG_RT_H),
-                                platform_accel=AccelerometerParams(bias_sigma_ug=100.0,
-                                                                   noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ))
-    servo = PlatformServo(PlatformServoParams(lat_deg=lat_deg, rotate=True))
-    rls = RotationAlignmentRls(RotationAlignmentParams(lat_deg=lat_deg, accel_noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ))
-    last: dict[str, Any] = {"truth": None, "biases": None}
-
-    def observe(bus) -> None:  # the step's samples, as the alignment node takes them
-        last["truth"] = bus.truth
-        if bus.resolvers is not None:
-            rls.on_joint_state(bus.resolvers.t, bus.resolvers.angles[0], bus.resolvers.rates[0])
-        imu = bus.platform_imu
-        if imu is not None:
-            rls.on_accel(imu.t, imu.specific_force)
-            last["biases"] = (imu.true_gyro_bias, imu.true_accel_bias)
-
-    run_stages(core, [platform_sensor_stage(suite), servo_stage(servo)], observer=observe)
-    truth, biases = last["truth"], last["biases"]
-    est = rls.estimate()
-    phi_true = platform_misalignment_enu(quat_to_dcm(truth.quat_nm), truth.joint_position[0])
-    gyro_bias, accel_bias = biases
-    drift_true = (-gyro_bias[0], -gyro_bias[1])  # the servo nulls the measured rate
-    figures = {
-        "misalignment_truth_arcsec": [float(v) / ARCSEC for v in phi_true],
-        "misalignment_estimate_arcsec": [float(v) / ARCSEC for v in est.misalignment_enu],
-        "residual_misalignment_arcsec": [float(a - b) / ARCSEC for a, b in zip(phi_true, est.misalignment_enu)],
-        "residual_gyro_drift_deg_h": [float(a - b) / DEG_H for a, b in zip(drift_true, est.gyro_drift_xy)],
-        "residual_accel_bias_ug": [float(a - b) / UG for a, b in zip(accel_bias[:2], est.accel_bias_xy)],
-        "north_drift_estimate_deg_h": float(est.north_drift) / DEG_H,
-        "true_gyro_bias_rad_s": [float(v) for v in gyro_bias], "true_accel_bias_m_s2": [float(v) for v in accel_bias]}
-    site = core.profile.site
-    start = PlatformStart(heading_deg, tuple(math.degrees(v) for v in truth.joint_position),
-                          HandOff.from_alignment(est, site.lat_rad, site.lon_rad, site.height_m),
-                          -math.degrees(float(est.misalignment_enu[2])))
-    return start, figures
-
-
-def run_align_then_navigate(duration_s: float = 10800.0, seed: int = 0, *, rate_hz: float = HAND_OFF_RATE_HZ,
-                            lat_deg: float = 40.0, align_s: float = ALIGNMENT_S,
-                            record_every_s: float = 10.0) -> dict[str, Any]:
-    """Variant ``align_then_navigate`` (paper 3 l. 580–582, 707–709) as two chained runs: the
-    alignment phase (:func:`run_alignment_phase`, 1 kHz) and a navigation run at ``rate_hz``
-    with rotation on that starts where it left the plant (its gimbal angles, base heading and
-    the sensors' biases, now fixed) and with its estimate handed over: misalignment torqued
-    out, drifts in the command, accelerometer biases taken off. Metrics: :func:`run_navigation`'s
-    plus ``hand_off`` (:func:`run_alignment_phase`'s figures) and ``tilt_after_torque_out_arcsec``
-    (the true tilt E, N at the first record after the pulse)."""
-    start, figures = run_alignment_phase(seed, align_s, lat_deg)
-    gyro = GyroParams(bias_deg_h=tuple(v / DEG_H for v in figures["true_gyro_bias_rad_s"]),
-                      arw_deg_rt_h=PAPER3_NAV_GYRO.arw_deg_rt_h)
-    accel = AccelerometerParams(bias_ug=tuple(v / UG for v in figures["true_accel_bias_m_s2"]),
-                                noise_ug_rt_hz=PAPER3_NAV_ACCEL.noise_ug_rt_hz)
-    m = run_navigation(duration_s, seed, rotate=True, rate_hz=rate_hz, lat_deg=lat_deg, gyro=gyro, accel=accel,
-                       record_every_s=record_every_s, start=start)
-    s = m["series"]
-    after = int(np.searchsorted(s["t"], PlatformNavigatorParams().torque_out_s))
-    m.update(variant="align_then_navigate", align_s=align_s, hand_off=figures,
-             tilt_after_torque_out_arcsec=[float(v) / ARCSEC for v in s["tilt_en_rad"][after]])
-    return m
-
-
 # ------------------------------------------------------------------------------ campaign
-#: The CEP campaign's variants -> scenario ``rotational_ins_navigation``'s: the 5 Hz stand-in
-#: system (the default campaign) and the scenario's own 50 Hz loop.
-SCENARIO_VARIANTS = {"rotation_on": "rotation_on_5hz", "rotation_off": "rotation_off_5hz",
-                     "rotation_on_50hz": "rotation_on", "rotation_off_50hz": "rotation_off"}
-#: The variants the scenario cannot express yet, run by :func:`campaign_run` (:data:`RUNNER_CAMPAIGN`).
-RUNNER_VARIANTS = {"align_then_navigate": True, "ship_rotation_on": True, "ship_rotation_off": False}
-VARIANTS = {**{v: not v.startswith("rotation_off") for v in SCENARIO_VARIANTS}, **RUNNER_VARIANTS}
-#: The variants on paper 5's moored ship (:data:`SHIP_RATE_HZ`); run only when named (--variant).
+#: The CEP campaign's variants -> scenario ``rotational_ins_navigation``'s: paper 3's two systems
+#: (each aligned by its own method in a 1 kHz prelude, then navigating at 50 Hz) and the upgraded
+#: one perfectly aligned (the default campaign); the 5 Hz stand-in system and the 50 Hz loop
+#: without rotation, when named.
+SCENARIO_VARIANTS = {"original_system": "original_system", "upgraded": "upgraded", "perfectly_aligned": "rotation_on",
+                     "rotation_on": "rotation_on_5hz", "rotation_off": "rotation_off_5hz",
+                     "rotation_off_50hz": "rotation_off"}
+#: The variants on paper 5's moored ship, which the scenario cannot express yet, run by
+#: :func:`campaign_run` (:data:`RUNNER_CAMPAIGN`, :data:`SHIP_RATE_HZ`).
 SHIP_VARIANTS = ("ship_rotation_on", "ship_rotation_off")
+#: Each variant -> whether its platform rotates.
+VARIANTS = {"original_system": False, "upgraded": True, "perfectly_aligned": True, "rotation_on": True,
+            "rotation_off": False, "rotation_off_50hz": False, "ship_rotation_on": True, "ship_rotation_off": False}
 
 
 def campaign_run(variant: str, seed: int, options: dict) -> dict:
-    """:data:`RUNNER_CAMPAIGN`'s core run: one run's metrics, no series."""
-    if variant == "align_then_navigate":
-        m = run_align_then_navigate(options["duration_s"], seed, lat_deg=options["lat_deg"])
-    else:
-        m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=SHIP_RATE_HZ,
-                           lat_deg=options["lat_deg"], ship=True, nav_rate_hz=SHIP_NAV_RATE_HZ, azimuth_source="servo")
-        m["variant"] = variant
+    """:data:`RUNNER_CAMPAIGN`'s core run: one ship run's metrics, no series."""
+    m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=SHIP_RATE_HZ,
+                       lat_deg=options["lat_deg"], ship=True, nav_rate_hz=SHIP_NAV_RATE_HZ, azimuth_source="servo")
+    m["variant"] = variant
     m.pop("series")
     return {"navigation": m}
 
@@ -336,7 +259,9 @@ def median_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[
 
 def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
     """Per variant the CEP50 rate [n mile/h] at the runs' end (the median radial error over
-    the duration) with its 95 % interval, and the ratio rotation_off / rotation_on. ``runs``:
+    the duration) with its 95 % interval; for the variants a prelude aligned, the residual
+    misalignment at hand-off (rms, and the azimuth's std as Table 2 gives it); the ratios
+    original_system / upgraded and rotation_off / rotation_on (and the ship's). ``runs``:
     each variant's ``navigation`` metrics, of core runs (:func:`run_navigation`) or of graph
     runs (the ``navigation`` report: ``final_radial_rate_nmi_h``, no servo figures: None)."""
     out: dict[str, Any] = {}
@@ -353,10 +278,13 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
         if all("hand_off" in m for m in metrics):
             res = np.array([m["hand_off"]["residual_misalignment_arcsec"] for m in metrics])
             out[variant]["hand_off_residual_rms_arcsec"] = [float(v) for v in np.sqrt(np.mean(res ** 2, axis=0))]
-    if "rotation_on" in out and "rotation_off" in out:
-        out["ratio_off_on"] = out["rotation_off"]["cep50_nmi_h"] / out["rotation_on"]["cep50_nmi_h"]
-    if "ship_rotation_on" in out and "ship_rotation_off" in out:
-        out["ship_ratio_off_on"] = out["ship_rotation_off"]["cep50_nmi_h"] / out["ship_rotation_on"]["cep50_nmi_h"]
+            out[variant]["azimuth_alignment_std_arcmin"] = float(np.std(res[:, 2], ddof=1)) / 60.0 \
+                if len(res) > 1 else None
+    for num, den, key in (("rotation_off", "rotation_on", "ratio_off_on"),
+                          ("original_system", "upgraded", "ratio_original_upgraded"),
+                          ("ship_rotation_off", "ship_rotation_on", "ship_ratio_off_on")):
+        if num in out and den in out:
+            out[key] = out[num]["cep50_nmi_h"] / out[den]["cep50_nmi_h"]
     return out
 
 
@@ -385,7 +313,13 @@ def closed_form_figures(duration_s: float = 10800.0, rate_hz: float = NAV_RATE_H
 def cep_table(runs: dict[str, list[dict]]) -> str:
     """:data:`CAMPAIGN`'s own table, which ``gimbal-campaign`` prints and its report carries:
     :func:`cep_summary` of each variant's runs' ``metrics.json`` (core or graph runs)."""
-    return _campaign_table(cep_summary({v: [m["navigation"] for m in ms] for v, ms in runs.items()}))
+    return _campaign_table(cep_summary({v: [run_navigation_metrics(m) for m in ms] for v, ms in runs.items()}))
+
+
+def run_navigation_metrics(metrics: dict) -> dict:
+    """A run's ``navigation`` metrics, with its report's ``hand_off`` figures when a prelude
+    aligned it."""
+    return {**metrics["navigation"], **({"hand_off": metrics["hand_off"]} if "hand_off" in metrics else {})}
 
 
 def _cell(value: float | int | None, width: int, spec: str) -> str:
@@ -424,6 +358,10 @@ def servo_rate_figures(duration_s: float = 320.0, seed: int = 1,
     return out
 
 
+#: The paper's azimuth alignment accuracy beside each aligned variant's.
+PAPER_AZIMUTH = {"original_system": "paper 3: 9′, the original system", "upgraded": "paper 3: 1.5′ Table 2, < 1′ Exp. 3"}
+
+
 def _campaign_table(summary: dict[str, Any]) -> str:
     rows = ["CEP50 at the end of the runs: the median radial error / duration, with the 95 % interval of the "
             "median (paper 3: 0.38 n mile/h rotating, 2 n mile/h not)",
@@ -440,8 +378,13 @@ def _campaign_table(summary: dict[str, Any]) -> str:
     for v in VARIANTS:
         if "hand_off_residual_rms_arcsec" in summary.get(v, {}):
             e, n, u = summary[v]["hand_off_residual_rms_arcsec"]
+            std = summary[v]["azimuth_alignment_std_arcmin"]
             rows.append(f"{v}: residual misalignment at hand-off (truth − estimate), rms over runs: "
-                        f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″")
+                        f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″ = {u / 60.0:.2f}′ (std {_cell(std, 0, '.2f').strip()}′; "
+                        f"{PAPER_AZIMUTH.get(v, 'paper 3: -')})")
+    if "ratio_original_upgraded" in summary:
+        rows.append(f"ratio original_system / upgraded: {summary['ratio_original_upgraded']:.2f}   "
+                    f"(paper 3: 2 / 0.38 = 5.3, 'improved by almost 5 times')")
     if "ratio_off_on" in summary:
         rows.append(f"ratio rotation_off / rotation_on: {summary['ratio_off_on']:.2f}   (paper 3: 2 / 0.38 = 5.3)")
     if "ship_ratio_off_on" in summary:
@@ -454,17 +397,17 @@ def _campaign_table(summary: dict[str, Any]) -> str:
 #: run's bag and ``navigation`` report) or in the node graph (``--engine graph``); the CEP table
 #: reads the runs' reports.
 CAMPAIGN = ExperimentCampaign(
-    name="rotational_ins_navigation", variants=tuple(SCENARIO_VARIANTS), default_variants=("rotation_on", "rotation_off"),
+    name="rotational_ins_navigation", variants=tuple(SCENARIO_VARIANTS),
+    default_variants=("original_system", "upgraded", "perfectly_aligned"),
     defaults={"duration_s": 10800.0, "lat_deg": 40.0}, run=None,
     graph=GraphEquivalent("rotational_ins_navigation", SCENARIO_VARIANTS, ("duration_s", "lat_deg"),
                           navigation_translate),
     table=cep_table)
-#: ``gimbal-campaign rotational_ins_navigation_runner --variant ...``: the variants the scenario
-#: does not express yet, on this module's own stages: the moored ship (its navigator averages
-#: the IMU over each 50 Hz step and takes its azimuth from the servo, which the lockstep node
-#: does not) and the alignment hand-off (a prelude at 1 kHz, then navigation at 50 Hz).
+#: ``gimbal-campaign rotational_ins_navigation_runner``: the moored ship, which the scenario does
+#: not express yet, on this module's own stages (its navigator averages the IMU over each 50 Hz
+#: step and takes its azimuth from the servo, which the lockstep node does not).
 RUNNER_CAMPAIGN = ExperimentCampaign(
-    name="rotational_ins_navigation_runner", variants=tuple(RUNNER_VARIANTS), default_variants=("align_then_navigate",),
+    name="rotational_ins_navigation_runner", variants=SHIP_VARIANTS, default_variants=SHIP_VARIANTS,
     defaults={"duration_s": 10800.0, "lat_deg": 40.0}, run=campaign_run, table=cep_table)
 
 
@@ -481,8 +424,6 @@ def main(argv: list[str] | None = None) -> int:
     one.add_argument("--nav-rate", type=float, default=None, help="navigator rate [Hz], dividing --rate (default: --rate)")
     one.add_argument("--azimuth-source", choices=("resolver", "servo"), default="resolver",
                      help="the navigator's azimuth: resolver + fixed base heading, or the servo's phi_z (moving base)")
-    one.add_argument("--align-then-navigate", action="store_true",
-                     help="variant align_then_navigate: the 600 s alignment at 1 kHz, then navigation from its hand-off")
     cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
                                      "rotational_ins_navigation --seeds 1-20 --out DIR)")
     cep.add_argument("campaign_dir", nargs="+", help="one or more campaign directories, their runs merged")
@@ -503,11 +444,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{row:42s}" + "".join(f"{f[key]:>38.2f}" for f in figures.values()))
         return 0
     if args.what == "run":
-        if args.align_then_navigate:
-            m = run_align_then_navigate(args.duration, args.seed)
-        else:
-            m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship,
-                               nav_rate_hz=args.nav_rate, azimuth_source=args.azimuth_source)
+        m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship,
+                           nav_rate_hz=args.nav_rate, azimuth_source=args.azimuth_source)
         for key, value in m.items():
             if key != "series":
                 print(f"{key:36s} {value}")
@@ -531,7 +469,7 @@ def _cep_command(campaign_dirs: Sequence[str], per_seed: bool) -> int:
         for row in rows:
             path = Path(campaign_dir) / "runs" / row["run_id"] / "report" / "metrics.json"
             if row["status"] == "ok" and path.is_file():
-                m = json.loads(path.read_text())["navigation"]
+                m = run_navigation_metrics(json.loads(path.read_text()))
                 runs.setdefault(row["variant"], []).append({**m, "seed": int(row["seed"])})
     print(_campaign_table(cep_summary(runs)))
     if per_seed:

@@ -3,8 +3,8 @@ leaves a run directory; its hand-off reads that run's bag and returns the ROS 2 
 file that starts the next run where the prelude left off, and the figures of the hand-over.
 
 ``alignment_to_navigation`` (paper 3 l. 580–582, 707–709; ``rotational_ins_navigation``
-variant ``align_then_navigate``), as :func:`gimbal_sim.experiments.navigation.run_align_then_navigate`
-hands over on the no-ROS engine. From the alignment run's last estimate (``platform_alignment``,
+variants ``original_system`` and ``upgraded``), the same on either engine. From the alignment
+run's last estimate (``platform_alignment``,
 :func:`.alignment.alignment_series`):
 
 * ``platform_navigator``: the misalignment (ENU, ″) to torque out, the level drifts (x, y;

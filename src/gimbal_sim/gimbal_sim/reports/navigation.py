@@ -16,7 +16,7 @@ period read off the run — the period of the sinusoid plus trend that best fits
 velocity errors, scanned over 40–160 min — beside the local 2π√(R/g) (84.4 min); the
 control error (rms and largest |Δθ|, arc-seconds) of the four loops.
 
-After a prelude (``align_then_navigate``: gimbal-run's chained alignment run), the run
+After a prelude (``original_system``, ``upgraded``: the chained alignment run), the run
 directory's ``hand_off.json`` (:mod:`.hand_off`) goes into the metrics as ``hand_off``, with
 ``sensor_biases_carried``: whether the navigation run's true sensor biases are the alignment
 run's (to 1e-9 °/h and µg).
