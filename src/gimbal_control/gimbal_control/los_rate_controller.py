@@ -73,6 +73,7 @@ from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.gimbal.gimbal_params import GimbalParams
 from gimbal_kinematics.maths.units import G0
 from gimbal_kinematics.maths.outcome import Fed
+from gimbal_kinematics.maths.attribute_views import slot
 
 from . import los_rate_kernels as lk
 from .linearize import linearize_gimbal
@@ -224,9 +225,6 @@ class LosRateController:
     def _pair(self, i: int, j: int) -> tuple[float, float]:
         return float(self._s[i]), float(self._s[j])
 
-    def _count(self, i: int) -> int:
-        return int(self._s[i])
-
     integrator = property(lambda self: list(self._pair(lk.S_IA, lk.S_IE)), doc="(I_a, I_e) [rad]")
     command = property(lambda self: self._pair(lk.S_TAU_A, lk.S_TAU_E), doc="last command (τ_a, τ_e) [N·m]")
     unsaturated_command = property(lambda self: self._pair(lk.S_UNSAT_A, lk.S_UNSAT_E), doc="before the clip [N·m]")
@@ -234,10 +232,10 @@ class LosRateController:
     joint_rate_command = property(lambda self: self._pair(lk.S_JR_A, lk.S_JR_E), doc="(ψ̇_md, θ̇_md) [rad/s]")
     bias_estimate_qr = property(lambda self: self._pair(lk.S_BIAS_Q, lk.S_BIAS_R),
                                 doc="Gyro bias (y, z components) [rad/s] currently subtracted when ``feedback``.")
-    rejected_inputs = property(lambda self: self._count(lk.S_REJECTED_INPUTS))
-    singular_steps = property(lambda self: self._count(lk.S_SINGULAR))
-    saturated_steps = property(lambda self: self._count(lk.S_SATURATED))
-    resets = property(lambda self: self._count(lk.S_RESETS))
+    rejected_inputs = slot(lk.S_REJECTED_INPUTS, int, array="_s")
+    singular_steps = slot(lk.S_SINGULAR, int, array="_s")
+    saturated_steps = slot(lk.S_SATURATED, int, array="_s")
+    resets = slot(lk.S_RESETS, int, array="_s")
 
     @property
     def last_t(self) -> float | None:

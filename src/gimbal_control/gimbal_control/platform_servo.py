@@ -89,6 +89,7 @@ from gimbal_kinematics.maths.validate import positive
 from gimbal_kinematics.params.table import ParameterError
 from gimbal_kinematics.maths.four_gimbal import GIMBAL_LOCK_MARGIN, BidirectionalRotation
 from gimbal_kinematics.maths.outcome import Fed, refused
+from gimbal_kinematics.maths.attribute_views import slot
 from gimbal_kinematics.maths.units import DEG, DEG_H
 from gimbal_kinematics.maths.wgs84 import OMEGA_IE
 
@@ -316,14 +317,11 @@ class PlatformServo:
         self.state[:] = sk.initial_state()
         self.state[sk.S_NO_CMD:] = counters
 
-    def _count(self, index: int) -> int:
-        return int(self.state[index])
-
-    held_commands = property(lambda self: self._count(sk.S_HELD), doc="ticks that held the last command")
-    rejected_gimbal_lock = property(lambda self: self._count(sk.S_LOCK), doc="ticks within 1° of gimbal lock")
-    presets = property(lambda self: self._count(sk.S_PRESETS), doc="azimuth integrator presets")
-    ticks_without_command = property(lambda self: self._count(sk.S_NO_CMD), doc="ticks before the first command")
-    stale_command_ticks = property(lambda self: self._count(sk.S_STALE), doc="ticks on a stale command")
+    held_commands = slot(sk.S_HELD, int, "ticks that held the last command")
+    rejected_gimbal_lock = slot(sk.S_LOCK, int, "ticks within 1° of gimbal lock")
+    presets = slot(sk.S_PRESETS, int, "azimuth integrator presets")
+    ticks_without_command = slot(sk.S_NO_CMD, int, "ticks before the first command")
+    stale_command_ticks = slot(sk.S_STALE, int, "ticks on a stale command")
 
     @property
     def pickoff(self) -> tuple[float, float, float]:

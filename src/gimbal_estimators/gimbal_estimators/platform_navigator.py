@@ -117,6 +117,7 @@ import numpy as np
 
 from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
 from gimbal_kinematics.maths.outcome import Fed, refused
+from gimbal_kinematics.maths.attribute_views import slot
 from gimbal_kinematics.maths.units import ARCSEC, DEG, DEG_H, UG
 
 from . import navigator_kernels as nk
@@ -225,16 +226,13 @@ class PlatformNavigator:
         self._t_last_ns: int | None = None
         self._t0_ns: int | None = None
 
-    def _value(self, index: int) -> float:
-        return float(self.state[index])
-
-    lat = property(lambda self: self._value(nk.N_LAT), doc="latitude L [rad]")
-    lon = property(lambda self: self._value(nk.N_LON), doc="longitude λ [rad]")
-    height = property(lambda self: self._value(nk.N_H), doc="height h [m]")
-    vn = property(lambda self: self._value(nk.N_VN), doc="north velocity [m/s]")
-    ve = property(lambda self: self._value(nk.N_VE), doc="east velocity [m/s]")
-    vd = property(lambda self: self._value(nk.N_VD), doc="down velocity [m/s]")
-    accepted = property(lambda self: int(self.state[nk.N_ACCEPTED]), doc="samples integrated")
+    lat = slot(nk.N_LAT, doc="latitude L [rad]")
+    lon = slot(nk.N_LON, doc="longitude λ [rad]")
+    height = slot(nk.N_H, doc="height h [m]")
+    vn = slot(nk.N_VN, doc="north velocity [m/s]")
+    ve = slot(nk.N_VE, doc="east velocity [m/s]")
+    vd = slot(nk.N_VD, doc="down velocity [m/s]")
+    accepted = slot(nk.N_ACCEPTED, int, "samples integrated")
 
     @property
     def h_ref(self) -> float:

@@ -33,6 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from gimbal_kinematics.maths.attribute_views import vector_of
+
 from .host_kernels import host_fields, inertial_rates
 
 
@@ -68,30 +70,13 @@ class HostState(NamedTuple):
     accel_y: float
     accel_z: float
 
-    @property
-    def euler(self) -> np.ndarray:
-        """(φ, θ, ψ) [rad]; shape (3,)."""
-        return np.array([self.roll, self.pitch, self.yaw])
-
-    @property
-    def euler_rates(self) -> np.ndarray:
-        """(φ̇, θ̇, ψ̇) [rad/s]; shape (3,)."""
-        return np.array([self.roll_dot, self.pitch_dot, self.yaw_dot])
-
-    @property
-    def omega_nb_b(self) -> np.ndarray:
-        """Body rate relative to NED, resolved in b [rad/s]; shape (3,)."""
-        return np.array([self.p, self.q, self.r])
-
-    @property
-    def alpha_nb_b(self) -> np.ndarray:
-        """Body angular acceleration relative to NED, resolved in b [rad/s²]; shape (3,)."""
-        return np.array([self.p_dot, self.q_dot, self.r_dot])
-
-    @property
-    def accel_b(self) -> np.ndarray:
-        """Pivot acceleration relative to the earth, resolved in b [m/s²]; shape (3,)."""
-        return np.array([self.accel_x, self.accel_y, self.accel_z])
+    euler = vector_of("roll", "pitch", "yaw", doc="(φ, θ, ψ) [rad]; shape (3,).")
+    euler_rates = vector_of("roll_dot", "pitch_dot", "yaw_dot", doc="(φ̇, θ̇, ψ̇) [rad/s]; shape (3,).")
+    omega_nb_b = vector_of("p", "q", "r", doc="Body rate relative to NED, resolved in b [rad/s]; shape (3,).")
+    alpha_nb_b = vector_of("p_dot", "q_dot", "r_dot",
+                           doc="Body angular acceleration relative to NED, resolved in b [rad/s²]; shape (3,).")
+    accel_b = vector_of("accel_x", "accel_y", "accel_z",
+                        doc="Pivot acceleration relative to the earth, resolved in b [m/s²]; shape (3,).")
 
 
 def host_state_from_euler(

@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from gimbal_kinematics.maths.attribute_views import vector_of
 from gimbal_kinematics.maths.earth import earth_rate_n, normal_gravity
 
 from .host_kernels import turret_base
@@ -43,17 +44,9 @@ class TurretBase(NamedTuple):
     fy: float
     fz: float
 
-    @property
-    def omega_t_t(self) -> np.ndarray:
-        return np.array([self.wx, self.wy, self.wz])
-
-    @property
-    def alpha_t_t(self) -> np.ndarray:
-        return np.array([self.ax, self.ay, self.az])
-
-    @property
-    def specific_force_t(self) -> np.ndarray:
-        return np.array([self.fx, self.fy, self.fz])
+    omega_t_t = vector_of("wx", "wy", "wz")
+    alpha_t_t = vector_of("ax", "ay", "az")
+    specific_force_t = vector_of("fx", "fy", "fz")
 
 
 def rest_base(gravity_m_s2: float, roll: float = 0.0, pitch: float = 0.0, psi_t: float = 0.0) -> TurretBase:

@@ -23,8 +23,6 @@ import sys
 import time
 
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
 from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl
@@ -39,15 +37,14 @@ from gimbal_kinematics.ros.params import declare_and_read
 
 from .device_core import DeviceParams, GimbalDevice
 from .link import open_link
+from .link_node import LinkNode
 from .mavlink_gimbal_device_params import DESCRIPTION, PARAMS
 
-POLL_PERIOD_S = 0.01
-HEARTBEAT_PERIOD_S = 1.0
 CLOCK_JUMP_S = 0.5
 NODE_COUNTERS = ("malformed_ros", "rejected_inputs", "no_command_steps")
 
 
-class MavlinkGimbalDeviceNode(Node):
+class MavlinkGimbalDeviceNode(LinkNode):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("mavlink_gimbal_device", **node_kwargs)
         values = declare_and_read(self, PARAMS)
@@ -67,9 +64,7 @@ class MavlinkGimbalDeviceNode(Node):
                                   1.0 / values["ins_rate_hz"], CLOCK_JUMP_S, held=(InputKind.GYRO,), warn=edge.warn)
         edge.subscribe_all(((InputKind.ATTITUDE, Imu, values["attitude_topic"]), (InputKind.GYRO, Imu, "/gimbal/imu"),
                             (InputKind.ENCODERS, JointState, "/gimbal/joint_states")), self._on_input)
-        steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(POLL_PERIOD_S, self._poll, clock=steady)
-        self.create_timer(HEARTBEAT_PERIOD_S, lambda: self.link.send(self.core.heartbeat()), clock=steady)
+        steady = self.start_link(self._poll)
         self.create_timer(1.0 / values["status_rate_hz"], self._send_status, clock=steady)
 
     def _poll(self) -> None:
@@ -112,10 +107,6 @@ class MavlinkGimbalDeviceNode(Node):
             **self.policy.counters(), **self.edge.counts, **self.core.counts, "status_flags": self.core.status_flags(),
             "send_errors": self.link.send_errors, "incompatible_qos": self.edge.io.incompatible_qos},
             warn=("malformed", "rejected_setpoints", "earth_lock_drops")))
-
-    def destroy_node(self) -> None:
-        self.link.close()
-        super().destroy_node()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -23,8 +23,6 @@ import time
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from sensor_msgs.msg import Imu
 
 from gimbal_kinematics.maths.frames import NAV_FRAME
@@ -36,14 +34,13 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.maths.rotations import euler_rates_to_body_rates, quat_to_euler321
 
 from .link import open_link
+from .link_node import LinkNode
 from .manager_core import GimbalManagerClient, ManagerParams, Report
 from .mavlink_gimbal_manager_params import DESCRIPTION, PARAMS
 
-POLL_PERIOD_S = 0.01
-HEARTBEAT_PERIOD_S = 1.0
 
 
-class MavlinkGimbalManagerNode(Node):
+class MavlinkGimbalManagerNode(LinkNode):
     def __init__(self, **node_kwargs) -> None:
         super().__init__("mavlink_gimbal_manager", **node_kwargs)
         values = declare_and_read(self, PARAMS)
@@ -66,9 +63,7 @@ class MavlinkGimbalManagerNode(Node):
         topic, handler = ((values["aim_topic"], self._on_aim) if values["aim_topic"]
                           else (values["rate_topic"], self._on_rate))
         self.io.subscribe(Vector3Stamped, topic, handler, "free")
-        steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(POLL_PERIOD_S, self._poll, clock=steady)
-        self.create_timer(HEARTBEAT_PERIOD_S, lambda: self.link.send(self.core.heartbeat()), clock=steady)
+        self.start_link(self._poll)
 
     def _queue(self, datagram: bytes | None) -> None:
         if datagram is None:
@@ -113,10 +108,6 @@ class MavlinkGimbalManagerNode(Node):
         t_ns = self.get_clock().now().nanoseconds
         self.pub_attitude.publish(m.imu_cdr(t_ns, NAV_FRAME, orientation=report.quat_earth,
                                             orientation_cov=self.orientation_cov, angular_velocity=omega))
-
-    def destroy_node(self) -> None:
-        self.link.close()
-        super().destroy_node()
 
 
 def main(argv: list[str] | None = None) -> int:

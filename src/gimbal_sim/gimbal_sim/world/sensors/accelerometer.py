@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics.maths import validate as v
-from gimbal_kinematics.maths.units import PPM, UG_G0, UG_RT_HZ, URAD
-from .inertial_core import ErrorSpecSI, InertialErrorCore, misalignment_matrix
+from gimbal_kinematics.maths.units import UG_G0, UG_RT_HZ
+from .inertial_core import (ErrorSpecSI, InertialErrorCore, axis_errors_si, bias_terms_si, check_axis_errors,
+                            check_bias_terms)
 
 
 @dataclass(frozen=True)
@@ -50,33 +51,14 @@ class AccelerometerParams:
     misalignment_sigma_urad: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "bias_ug", v.per_axis("bias_ug", self.bias_ug))
-        v.nonneg_finite("bias_sigma_ug", self.bias_sigma_ug)
-        v.nonneg_finite("bias_instability_ug", self.bias_instability_ug)
-        v.positive("bias_instability_tau_s", self.bias_instability_tau_s, allow_inf=True)
+        check_bias_terms(self, "ug")
         v.nonneg_finite("noise_ug_rt_hz", self.noise_ug_rt_hz)
-        object.__setattr__(self, "scale_factor_ppm", v.per_axis("scale_factor_ppm", self.scale_factor_ppm))
-        v.nonneg_finite("scale_factor_sigma_ppm", self.scale_factor_sigma_ppm)
-        object.__setattr__(self, "scale_asymmetry_ppm", v.per_axis("scale_asymmetry_ppm", self.scale_asymmetry_ppm))
-        v.nonneg_finite("scale_asymmetry_sigma_ppm", self.scale_asymmetry_sigma_ppm)
-        object.__setattr__(self, "misalignment_rad", misalignment_matrix("misalignment_rad", self.misalignment_rad))
-        v.nonneg_finite("misalignment_sigma_urad", self.misalignment_sigma_urad)
+        check_axis_errors(self)
 
     def to_si(self) -> ErrorSpecSI:
         """The same terms in m/s² and m/s/√s."""
-        return ErrorSpecSI(
-            bias=tuple(b * UG_G0 for b in self.bias_ug),  # type: ignore[union-attr]
-            bias_sigma=self.bias_sigma_ug * UG_G0,
-            gm_sigma=self.bias_instability_ug * UG_G0,
-            gm_tau=float(self.bias_instability_tau_s),
-            white_density=self.noise_ug_rt_hz * UG_RT_HZ,
-            scale_factor=tuple(s * PPM for s in self.scale_factor_ppm),  # type: ignore[union-attr]
-            scale_factor_sigma=self.scale_factor_sigma_ppm * PPM,
-            asymmetry=tuple(a * PPM for a in self.scale_asymmetry_ppm),  # type: ignore[union-attr]
-            asymmetry_sigma=self.scale_asymmetry_sigma_ppm * PPM,
-            misalignment=self.misalignment_rad,
-            misalignment_sigma=self.misalignment_sigma_urad * URAD,
-        )
+        return ErrorSpecSI(white_density=self.noise_ug_rt_hz * UG_RT_HZ, **bias_terms_si(self, "ug", UG_G0),
+                           **axis_errors_si(self))
 
 
 class AccelerometerModel(InertialErrorCore):

@@ -15,8 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_kinematics.maths import validate as v
-from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H, PPM, URAD
-from .inertial_core import ErrorSpecSI, InertialErrorCore, misalignment_matrix
+from gimbal_kinematics.maths.units import DEG, DEG_H, DEG_H_RT_H, DEG_RT_H
+from .inertial_core import (ErrorSpecSI, InertialErrorCore, axis_errors_si, bias_terms_si, check_axis_errors,
+                            check_bias_terms)
 
 
 @dataclass(frozen=True)
@@ -59,39 +60,22 @@ class GyroParams:
     misalignment_sigma_urad: float = 0.0
 
     def __post_init__(self) -> None:
-        set_ = object.__setattr__
-        set_(self, "bias_deg_h", v.per_axis("bias_deg_h", self.bias_deg_h))
-        v.nonneg_finite("bias_sigma_deg_h", self.bias_sigma_deg_h)
-        v.nonneg_finite("bias_instability_deg_h", self.bias_instability_deg_h)
-        v.positive("bias_instability_tau_s", self.bias_instability_tau_s, allow_inf=True)
+        check_bias_terms(self, "deg_h")
         v.nonneg_finite("arw_deg_rt_h", self.arw_deg_rt_h)
         v.nonneg_finite("rrw_deg_h_rt_h", self.rrw_deg_h_rt_h)
-        set_(self, "scale_factor_ppm", v.per_axis("scale_factor_ppm", self.scale_factor_ppm))
-        set_(self, "misalignment_rad", misalignment_matrix("misalignment_rad", self.misalignment_rad))
+        check_axis_errors(self)
         v.nonneg_finite("quantisation_rad", self.quantisation_rad)
         v.positive("saturation_deg_s", self.saturation_deg_s, allow_inf=True)
-        v.nonneg_finite("scale_factor_sigma_ppm", self.scale_factor_sigma_ppm)
-        set_(self, "scale_asymmetry_ppm", v.per_axis("scale_asymmetry_ppm", self.scale_asymmetry_ppm))
-        v.nonneg_finite("scale_asymmetry_sigma_ppm", self.scale_asymmetry_sigma_ppm)
-        v.nonneg_finite("misalignment_sigma_urad", self.misalignment_sigma_urad)
 
     def to_si(self) -> ErrorSpecSI:
         """The same terms in rad/s, rad/√s, rad/s/√s, rad (done once per model)."""
         return ErrorSpecSI(
-            bias=tuple(b * DEG_H for b in self.bias_deg_h),  # type: ignore[union-attr]
-            bias_sigma=self.bias_sigma_deg_h * DEG_H,
-            gm_sigma=self.bias_instability_deg_h * DEG_H,
-            gm_tau=float(self.bias_instability_tau_s),
+            **bias_terms_si(self, "deg_h", DEG_H),
             white_density=self.arw_deg_rt_h * DEG_RT_H,
             rrw_density=self.rrw_deg_h_rt_h * DEG_H_RT_H,
-            scale_factor=tuple(s * PPM for s in self.scale_factor_ppm),  # type: ignore[union-attr]
-            misalignment=self.misalignment_rad,
             quantum=float(self.quantisation_rad),
             saturation=self.saturation_deg_s * DEG,
-            scale_factor_sigma=self.scale_factor_sigma_ppm * PPM,
-            asymmetry=tuple(a * PPM for a in self.scale_asymmetry_ppm),  # type: ignore[union-attr]
-            asymmetry_sigma=self.scale_asymmetry_sigma_ppm * PPM,
-            misalignment_sigma=self.misalignment_sigma_urad * URAD,
+            **axis_errors_si(self),
         )
 
 

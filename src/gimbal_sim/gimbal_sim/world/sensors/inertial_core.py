@@ -35,12 +35,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from . import sensor_kernels as sk
 from ._normals import NormalStream
-from gimbal_kinematics.maths.validate import broadcast, nonneg_finite, positive
+from gimbal_kinematics.maths.units import PPM, URAD
+from gimbal_kinematics.maths.validate import broadcast, nonneg_finite, per_axis, positive
 from .markov import gm1_coefficients
 
 
@@ -79,6 +81,56 @@ def off_diagonal(name: str, values: Sequence[float], n: int, scale: float = 1.0
     M = np.zeros((n, n))
     M[~np.eye(n, dtype=bool)] = np.asarray(vals) * scale
     return misalignment_matrix(name, M)
+
+
+def check_bias_terms(params: Any, unit: str) -> None:
+    """Check the bias fields every inertial sensor's parameters share, named by their unit
+    suffix ``unit`` (``bias_<unit>``, ``bias_sigma_<unit>``, ``bias_instability_<unit>``,
+    ``bias_instability_tau_s``), and store the per-axis bias on the frozen ``params``;
+    ``ValueError`` naming the field."""
+    name = f"bias_{unit}"
+    object.__setattr__(params, name, per_axis(name, getattr(params, name)))
+    for name in (f"bias_sigma_{unit}", f"bias_instability_{unit}"):
+        nonneg_finite(name, getattr(params, name))
+    positive("bias_instability_tau_s", params.bias_instability_tau_s, allow_inf=True)
+
+
+def bias_terms_si(params: Any, unit: str, scale: float) -> dict[str, Any]:
+    """Those fields (checked by :func:`check_bias_terms`) as :class:`ErrorSpecSI` keywords,
+    ``scale`` being the SI value of one ``unit``."""
+    return dict(
+        bias=tuple(b * scale for b in getattr(params, f"bias_{unit}")),
+        bias_sigma=getattr(params, f"bias_sigma_{unit}") * scale,
+        gm_sigma=getattr(params, f"bias_instability_{unit}") * scale,
+        gm_tau=float(params.bias_instability_tau_s),
+    )
+
+
+def check_axis_errors(params: Any) -> None:
+    """Check the scale-factor, asymmetry and misalignment fields every inertial sensor's
+    parameters share (``scale_factor_ppm``, ``scale_factor_sigma_ppm``, ``scale_asymmetry_ppm``,
+    ``scale_asymmetry_sigma_ppm``, ``misalignment_rad``, ``misalignment_sigma_urad``) and store
+    the normalised values on the frozen ``params``; ``ValueError`` naming the field."""
+    set_ = object.__setattr__
+    set_(params, "scale_factor_ppm", per_axis("scale_factor_ppm", params.scale_factor_ppm))
+    set_(params, "misalignment_rad", misalignment_matrix("misalignment_rad", params.misalignment_rad))
+    nonneg_finite("scale_factor_sigma_ppm", params.scale_factor_sigma_ppm)
+    set_(params, "scale_asymmetry_ppm", per_axis("scale_asymmetry_ppm", params.scale_asymmetry_ppm))
+    nonneg_finite("scale_asymmetry_sigma_ppm", params.scale_asymmetry_sigma_ppm)
+    nonneg_finite("misalignment_sigma_urad", params.misalignment_sigma_urad)
+
+
+def axis_errors_si(params: Any) -> dict[str, Any]:
+    """Those fields (checked by :func:`check_axis_errors`) as :class:`ErrorSpecSI` keywords:
+    dimensionless scale factors and asymmetries, the misalignment in rad."""
+    return dict(
+        scale_factor=tuple(s * PPM for s in params.scale_factor_ppm),
+        misalignment=params.misalignment_rad,
+        scale_factor_sigma=params.scale_factor_sigma_ppm * PPM,
+        asymmetry=tuple(a * PPM for a in params.scale_asymmetry_ppm),
+        asymmetry_sigma=params.scale_asymmetry_sigma_ppm * PPM,
+        misalignment_sigma=params.misalignment_sigma_urad * URAD,
+    )
 
 
 @dataclass(frozen=True)
