@@ -23,7 +23,7 @@ from gimbal_sim.experiments.engine_runs import run_on_engine
 from gimbal_sim.experiments.navigation import median_interval
 from gimbal_sim.graph.scenario import load, variant
 
-SEEDS = range(1, 7)
+SEEDS = range(1, 6)
 DURATION_S = 3600.0
 #: CEP50 not rotating / rotating after 1 h: paper 3 ≈ 5 (at 3 h); the bound this toolkit sets.
 RATIO_BOUND = 3.0
