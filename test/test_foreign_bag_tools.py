@@ -22,6 +22,7 @@ from sensor_msgs.msg import Imu, JointState
 from conftest import VENV_BIN
 from foreign_bags import EPOCH_NS, synthetic_messages, write_compressed_mcap, write_rosbags
 from gimbal_kinematics.ros import messages as m
+from gimbal_sim.bag.player import PlayOptions
 from gimbal_sim.bag.reader import read_messages
 from ros_harness import harness_node, spin_until
 
@@ -191,9 +192,14 @@ def test_pace_starts_on_a_free_timing_readers_ready_and_again_for_a_second_playe
     """--pace into a reader built like a free-timing node: best-effort inputs and a volatile
     ~/progress on which ``announce_when_connected`` says "ready" (step 0, i.e. epoch 0,
     1.8e9 s before the bag), then the newest /imu stamp it got. The player starts on "ready",
-    takes it as "from the bag's start" (it used to wait forever for a reader 1.8e9 s behind)
-    and delivers every message in order; a second player into the same reader gets its own
-    "ready"."""
+    takes it as "from the bag's start" (it used to wait forever for a reader 1.8e9 s behind),
+    runs to its end and exits 0; a second player into the same reader gets its own "ready".
+
+    What the reader gets is in bag order, without repeats. Best effort may still lose a sample
+    on a loaded machine (the transport, not the player), so the test does not ask for every one.
+    It asks for what pacing guarantees: the player publishes its last /imu message only once
+    the reader's progress is within the pace window (``PlayOptions.pace_window_s``) of it, so
+    the reader must have acknowledged an /imu stamp that close to the bag's end."""
     from gimbal_kinematics.ros.node_io import input_qos, output_qos
     from gimbal_kinematics.ros.readiness import announce_when_connected
 
@@ -216,11 +222,13 @@ def test_pace_starts_on_a_free_timing_readers_ready_and_again_for_a_second_playe
                 stamps.clear()
             play = _play(bags["mcap"], ros_domain_env, "--rate", "0", "--pace", "/free_reader/progress",
                          "--wait-for-subscribers", "1")
-            delivered = spin_until(executor, lambda: all(len(got[t]) >= len(want[t]) for t in want), 120.0)
-            if not delivered:
+            if not spin_until(executor, lambda: play.poll() is not None, 120.0):
                 play.kill()  # its stderr (what it waits for) is in _finish's message
             _finish(play)
-            assert delivered and got == want
+            spin_until(executor, lambda: all(len(got[t]) >= len(want[t]) for t in want), 2.0)  # the last in flight
+            for topic, stamps in got.items():
+                assert stamps == sorted(set(stamps)) and set(stamps) <= set(want[topic]), topic
+            assert got["/joints"] and max(got["/imu"]) >= want["/imu"][-1] - int(PlayOptions.pace_window_s * 1e9)
             # that player has gone: the next one to match is a new progress reader
             assert spin_until(executor, lambda: progress.get_subscription_count() == 0, 60.0)
 
