@@ -15,6 +15,40 @@ from ..world.sensors.ins import ATTITUDE_MODELS, SCHULER_PERIOD_S
 INF = math.inf
 
 
+# The axis errors of a three-axis IMU ("what": how --help names it), one declaration each for
+# every IMU that has them (the gimbal's two-axis gyro names its own axes).
+def _scale_factor(what: str):
+    return param((0.0,), f"{what} scale-factor error s, given: one value (every axis) or one per axis (x, y, z)",
+                 unit="ppm")
+
+
+def _scale_factor_sigma(what: str):
+    return param(0.0, f"{what} scale-factor error 1-sigma, drawn once per run per axis and added to s", 0.0, 1e6,
+                 unit="ppm")
+
+
+def _scale_asymmetry(what: str):
+    return param((0.0,), f"{what} scale-factor asymmetry A = K+ - K-, given: one value (every axis) or one per axis "
+                 "(x, y, z); the scale factor is 1 + s + A/2 for a positive input, 1 + s - A/2 for a negative one",
+                 unit="ppm")
+
+
+def _scale_asymmetry_sigma(what: str):
+    return param(0.0, f"{what} scale-factor asymmetry 1-sigma, drawn once per run per axis and added to A", 0.0, 1e6,
+                 unit="ppm")
+
+
+def _misalignment(what: str):
+    return param((0.0,) * 6, f"{what} axis misalignment and non-orthogonality, given: the off-diagonal elements of M "
+                 "in measured = (I + S + M) true, row by row (M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; M_ij: how much of "
+                 "true axis j sensed axis i reads); all zero: none", unit="urad")
+
+
+def _misalignment_sigma(what: str):
+    return param(0.0, f"{what} misalignment 1-sigma, drawn once per run for each off-diagonal element of M and added",
+                 0.0, 1e6, unit="urad")
+
+
 @dataclass(frozen=True)
 class SensorModelsNodeParams:
     """Sensor models: subscribes to the vehicle's truth topics and publishes the INS, the two-axis gimbal gyro, the
@@ -77,21 +111,12 @@ class SensorModelsNodeParams:
     ins_gyro_rrw_deg_h_rt_h: float = param(0.0, "INS gyro rate random walk", 0.0, INF, unit="deg/h/sqrt(h)")
     ins_gyro_quantum_deg: float = param(0.0, "INS gyro incremental-angle quantum (LSB) (0: none); IEEE 952 "
         "quantisation noise Q = quantum / sqrt(12)", 0.0, INF, unit="deg")
-    ins_gyro_scale_factor_ppm: tuple[float, ...] = param((0.0,), "INS gyro scale-factor error s, given: one value "
-        "(every axis) or one per axis (x, y, z)", unit="ppm")
-    ins_gyro_scale_factor_sigma_ppm: float = param(0.0, "INS gyro scale-factor error 1-sigma, drawn once per run per "
-        "axis and added to s", 0.0, 1e6, unit="ppm")
-    ins_gyro_scale_asymmetry_ppm: tuple[float, ...] = param((0.0,), "INS gyro scale-factor asymmetry A = K+ - K-, "
-        "given: one value (every axis) or one per axis (x, y, z); the scale factor is 1 + s + A/2 for a positive "
-        "input, 1 + s - A/2 for a negative one", unit="ppm")
-    ins_gyro_scale_asymmetry_sigma_ppm: float = param(0.0, "INS gyro scale-factor asymmetry 1-sigma, drawn once per "
-        "run per axis and added to A", 0.0, 1e6, unit="ppm")
-    ins_gyro_misalignment_urad: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), "INS gyro axis "
-        "misalignment and non-orthogonality, given: the off-diagonal elements of M in measured = (I + S + M) true, "
-        "row by row (M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; M_ij: how much of true axis j sensed axis i reads); all "
-        "zero: none", unit="urad")
-    ins_gyro_misalignment_sigma_urad: float = param(0.0, "INS gyro misalignment 1-sigma, drawn once per run for each "
-        "off-diagonal element of M and added", 0.0, 1e6, unit="urad")
+    ins_gyro_scale_factor_ppm: tuple[float, ...] = _scale_factor("INS gyro")
+    ins_gyro_scale_factor_sigma_ppm: float = _scale_factor_sigma("INS gyro")
+    ins_gyro_scale_asymmetry_ppm: tuple[float, ...] = _scale_asymmetry("INS gyro")
+    ins_gyro_scale_asymmetry_sigma_ppm: float = _scale_asymmetry_sigma("INS gyro")
+    ins_gyro_misalignment_urad: tuple[float, ...] = _misalignment("INS gyro")
+    ins_gyro_misalignment_sigma_urad: float = _misalignment_sigma("INS gyro")
     encoder_noise_deg: float = param(0.05, "encoder angle noise RMS", 0.0, INF, unit="deg")
     encoder_lines_per_rev: int = param(0, "encoder lines per revolution (0: no quantisation)", 0, 10**9)
     encoder_quadrature: int = param(1, "edges counted per line (1, 2 or 4)", 1, 4)
@@ -99,21 +124,12 @@ class SensorModelsNodeParams:
     lgu1_bias_deg_h: float = param(0.05, "LGU1 fixed bias", unit="deg/h")
     lgu2_bias_deg_h: float = param(-0.05, "LGU2 fixed bias", unit="deg/h")
     lgu_arw_deg_rt_h: float = param(0.001, "LGU angle random walk", 0.0, INF, unit="deg/sqrt(h)")
-    lgu_scale_factor_ppm: tuple[float, ...] = param((0.0,), "LGU gyro (each unit its own draw) scale-factor error s, "
-        "given: one value (every axis) or one per axis (x, y, z)", unit="ppm")
-    lgu_scale_factor_sigma_ppm: float = param(0.0, "LGU gyro (each unit its own draw) scale-factor error 1-sigma, "
-        "drawn once per run per axis and added to s", 0.0, 1e6, unit="ppm")
-    lgu_scale_asymmetry_ppm: tuple[float, ...] = param((0.0,), "LGU gyro (each unit its own draw) scale-factor "
-        "asymmetry A = K+ - K-, given: one value (every axis) or one per axis (x, y, z); the scale factor is 1 + s + "
-        "A/2 for a positive input, 1 + s - A/2 for a negative one", unit="ppm")
-    lgu_scale_asymmetry_sigma_ppm: float = param(0.0, "LGU gyro (each unit its own draw) scale-factor asymmetry "
-        "1-sigma, drawn once per run per axis and added to A", 0.0, 1e6, unit="ppm")
-    lgu_misalignment_urad: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), "LGU gyro (each unit its own "
-        "draw) axis misalignment and non-orthogonality, given: the off-diagonal elements of M in measured = (I + S + "
-        "M) true, row by row (M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; M_ij: how much of true axis j sensed axis i "
-        "reads); all zero: none", unit="urad")
-    lgu_misalignment_sigma_urad: float = param(0.0, "LGU gyro (each unit its own draw) misalignment 1-sigma, drawn "
-        "once per run for each off-diagonal element of M and added", 0.0, 1e6, unit="urad")
+    lgu_scale_factor_ppm: tuple[float, ...] = _scale_factor("LGU gyro (each unit its own draw)")
+    lgu_scale_factor_sigma_ppm: float = _scale_factor_sigma("LGU gyro (each unit its own draw)")
+    lgu_scale_asymmetry_ppm: tuple[float, ...] = _scale_asymmetry("LGU gyro (each unit its own draw)")
+    lgu_scale_asymmetry_sigma_ppm: float = _scale_asymmetry_sigma("LGU gyro (each unit its own draw)")
+    lgu_misalignment_urad: tuple[float, ...] = _misalignment("LGU gyro (each unit its own draw)")
+    lgu_misalignment_sigma_urad: float = _misalignment_sigma("LGU gyro (each unit its own draw)")
     flexure_initial_deg: float = param(0.1, "quasi-static flexure at t0, each axis", unit="deg")
     flexure_linear_rate_deg_h: float = param(0.2, "quasi-static linear flexure rate", unit="deg/h")
     flexure_slow_amplitude_arcsec: float = param(90.0, "slow sinusoidal flexure amplitude", 0.0, INF, unit="arcsec")
@@ -151,40 +167,22 @@ class SensorModelsNodeParams:
     platform_gyro_bias_sigma_deg_h: float = param(0.03, "platform gyro run-to-run bias 1-sigma",
         0.0, INF, unit="deg/h")
     platform_gyro_arw_deg_rt_h: float = param(0.003, "platform gyro angle random walk", 0.0, INF, unit="deg/sqrt(h)")
-    platform_gyro_scale_factor_ppm: tuple[float, ...] = param((0.0,), "platform gyro scale-factor error s, given: "
-        "one value (every axis) or one per axis (x, y, z)", unit="ppm")
-    platform_gyro_scale_factor_sigma_ppm: float = param(0.0, "platform gyro scale-factor error 1-sigma, drawn once "
-        "per run per axis and added to s", 0.0, 1e6, unit="ppm")
-    platform_gyro_scale_asymmetry_ppm: tuple[float, ...] = param((0.0,), "platform gyro scale-factor asymmetry A = "
-        "K+ - K-, given: one value (every axis) or one per axis (x, y, z); the scale factor is 1 + s + A/2 for a "
-        "positive input, 1 + s - A/2 for a negative one", unit="ppm")
-    platform_gyro_scale_asymmetry_sigma_ppm: float = param(0.0, "platform gyro scale-factor asymmetry 1-sigma, drawn "
-        "once per run per axis and added to A", 0.0, 1e6, unit="ppm")
-    platform_gyro_misalignment_urad: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), "platform gyro axis "
-        "misalignment and non-orthogonality, given: the off-diagonal elements of M in measured = (I + S + M) true, "
-        "row by row (M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; M_ij: how much of true axis j sensed axis i reads); all "
-        "zero: none", unit="urad")
-    platform_gyro_misalignment_sigma_urad: float = param(0.0, "platform gyro misalignment 1-sigma, drawn once per "
-        "run for each off-diagonal element of M and added", 0.0, 1e6, unit="urad")
+    platform_gyro_scale_factor_ppm: tuple[float, ...] = _scale_factor("platform gyro")
+    platform_gyro_scale_factor_sigma_ppm: float = _scale_factor_sigma("platform gyro")
+    platform_gyro_scale_asymmetry_ppm: tuple[float, ...] = _scale_asymmetry("platform gyro")
+    platform_gyro_scale_asymmetry_sigma_ppm: float = _scale_asymmetry_sigma("platform gyro")
+    platform_gyro_misalignment_urad: tuple[float, ...] = _misalignment("platform gyro")
+    platform_gyro_misalignment_sigma_urad: float = _misalignment_sigma("platform gyro")
     platform_accel_bias_sigma_ug: float = param(100.0, "platform accelerometer bias 1-sigma",
         0.0, INF, unit="micro-g")
     platform_accel_noise_ug_rt_hz: float = param(50.0, "platform accelerometer noise density",
         0.0, INF, unit="micro-g/sqrt(Hz)")
-    platform_accel_scale_factor_ppm: tuple[float, ...] = param((0.0,), "platform accelerometer scale-factor error s, "
-        "given: one value (every axis) or one per axis (x, y, z)", unit="ppm")
-    platform_accel_scale_factor_sigma_ppm: float = param(0.0, "platform accelerometer scale-factor error 1-sigma, "
-        "drawn once per run per axis and added to s", 0.0, 1e6, unit="ppm")
-    platform_accel_scale_asymmetry_ppm: tuple[float, ...] = param((0.0,), "platform accelerometer scale-factor "
-        "asymmetry A = K+ - K-, given: one value (every axis) or one per axis (x, y, z); the scale factor is 1 + s + "
-        "A/2 for a positive input, 1 + s - A/2 for a negative one", unit="ppm")
-    platform_accel_scale_asymmetry_sigma_ppm: float = param(0.0, "platform accelerometer scale-factor asymmetry "
-        "1-sigma, drawn once per run per axis and added to A", 0.0, 1e6, unit="ppm")
-    platform_accel_misalignment_urad: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), "platform "
-        "accelerometer axis misalignment and non-orthogonality, given: the off-diagonal elements of M in measured = "
-        "(I + S + M) true, row by row (M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; M_ij: how much of true axis j sensed axis "
-        "i reads); all zero: none", unit="urad")
-    platform_accel_misalignment_sigma_urad: float = param(0.0, "platform accelerometer misalignment 1-sigma, drawn "
-        "once per run for each off-diagonal element of M and added", 0.0, 1e6, unit="urad")
+    platform_accel_scale_factor_ppm: tuple[float, ...] = _scale_factor("platform accelerometer")
+    platform_accel_scale_factor_sigma_ppm: float = _scale_factor_sigma("platform accelerometer")
+    platform_accel_scale_asymmetry_ppm: tuple[float, ...] = _scale_asymmetry("platform accelerometer")
+    platform_accel_scale_asymmetry_sigma_ppm: float = _scale_asymmetry_sigma("platform accelerometer")
+    platform_accel_misalignment_urad: tuple[float, ...] = _misalignment("platform accelerometer")
+    platform_accel_misalignment_sigma_urad: float = _misalignment_sigma("platform accelerometer")
     free_gyro_rate_hz: float = param(10.0, "free-gyro read-out rate (spin axes, triad, vertical reference)",
         1e-3, 100000.0, unit="Hz")
     free_gyro_site_lat_deg: float = param(35.0, "ship's true geodetic latitude; must equal vehicle_dynamics' "
@@ -222,21 +220,12 @@ class SensorModelsNodeParams:
         unit="deg/h")
     free_gyro_triad_bias_sigma_deg_h: float = param(0.0, "body gyro triad run-to-run bias 1-sigma",
         0.0, INF, unit="deg/h")
-    free_gyro_triad_scale_factor_ppm: tuple[float, ...] = param((0.0,), "body gyro triad scale-factor error s, "
-        "given: one value (every axis) or one per axis (x, y, z)", unit="ppm")
-    free_gyro_triad_scale_factor_sigma_ppm: float = param(0.0, "body gyro triad scale-factor error 1-sigma, drawn "
-        "once per run per axis and added to s", 0.0, 1e6, unit="ppm")
-    free_gyro_triad_scale_asymmetry_ppm: tuple[float, ...] = param((0.0,), "body gyro triad scale-factor asymmetry A "
-        "= K+ - K-, given: one value (every axis) or one per axis (x, y, z); the scale factor is 1 + s + A/2 for a "
-        "positive input, 1 + s - A/2 for a negative one", unit="ppm")
-    free_gyro_triad_scale_asymmetry_sigma_ppm: float = param(0.0, "body gyro triad scale-factor asymmetry 1-sigma, "
-        "drawn once per run per axis and added to A", 0.0, 1e6, unit="ppm")
-    free_gyro_triad_misalignment_urad: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), "body gyro triad "
-        "axis misalignment and non-orthogonality, given: the off-diagonal elements of M in measured = (I + S + M) "
-        "true, row by row (M_xy, M_xz, M_yx, M_yz, M_zx, M_zy; M_ij: how much of true axis j sensed axis i reads); "
-        "all zero: none", unit="urad")
-    free_gyro_triad_misalignment_sigma_urad: float = param(0.0, "body gyro triad misalignment 1-sigma, drawn once "
-        "per run for each off-diagonal element of M and added", 0.0, 1e6, unit="urad")
+    free_gyro_triad_scale_factor_ppm: tuple[float, ...] = _scale_factor("body gyro triad")
+    free_gyro_triad_scale_factor_sigma_ppm: float = _scale_factor_sigma("body gyro triad")
+    free_gyro_triad_scale_asymmetry_ppm: tuple[float, ...] = _scale_asymmetry("body gyro triad")
+    free_gyro_triad_scale_asymmetry_sigma_ppm: float = _scale_asymmetry_sigma("body gyro triad")
+    free_gyro_triad_misalignment_urad: tuple[float, ...] = _misalignment("body gyro triad")
+    free_gyro_triad_misalignment_sigma_urad: float = _misalignment_sigma("body gyro triad")
     free_gyro_speed_m_s: float = param(0.0, "ship's speed over ground: it sails from the site at t = 0 on a rhumb "
         "line (0: stays at the site)", 0.0, 100.0, unit="m/s")
     free_gyro_course_deg: float = param(0.0, "ship's course, from north toward east", -360.0, 360.0, unit="deg")
