@@ -59,7 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "design's N (sobol: a power of 2; morris: trajectories)")
     p.add_argument("--sample-seed", type=int, metavar="N", help="seed of the Sobol scrambling, the dispersions' "
                    "sampling and the sensitivity design (default 0)")
-    p.add_argument("--set", action="append", metavar="NODE.PARAM=VALUE", help="fix a node parameter in every run")
+    p.add_argument("--set", action="append", metavar="NODE.PARAM=VALUE", help="fix a node parameter in every run "
+                   "(prelude.NODE.PARAM: a parameter of each run's prelude)")
     p.add_argument("--disperse", action="append", metavar="NODE.PARAM=DIST",
                    help="draw a node parameter per run: normal(mean, std), truncnormal(mean, std, low, high), "
                         "uniform(low, high) or choice(v1: w1, v2: w2); NODE.PARAM[i] one element; repeatable")

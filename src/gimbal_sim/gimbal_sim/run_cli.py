@@ -45,7 +45,7 @@ from .core.core_loop import NoCoreError
 from .core.engine_run import check_engine, run_engine
 from .graph.orchestrator import PROGRESS_FILE_ENV, RunError, run, stop_processes
 from .graph.plan import check_nodes
-from .graph.scenario import Scenario, apply_params_file, apply_set, describe_builtins, load, variant
+from .graph.scenario import PRELUDE_PREFIX, Scenario, apply_params_file, apply_set, describe_builtins, load, variant
 from .page import PAGE
 from .reports.dispatch import write_comparison, write_report
 from .experiments.engine_runs import prelude_scenario, run_chained
@@ -69,7 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--duration", type=float, metavar="S", help="simulated duration [s]")
     parser.add_argument("--seed", type=int, help="seed of every random stream")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
-                        help="override a node parameter (value in YAML syntax); repeatable")
+                        help="override a node parameter (value in YAML syntax; prelude.NODE.PARAM: a parameter of "
+                             "the prelude's run, e.g. the same sensors in both runs of a chain); repeatable")
     parser.add_argument("--params-file", action="append", default=[], type=Path, metavar="FILE",
                         help="ROS 2 parameter file (node: {ros__parameters: {...}}, e.g. gimbal-allan's "
                              "sensor_models.yaml): each value overrides that node's parameter like --set, "
@@ -191,12 +192,17 @@ def main(argv: list[str] | None = None) -> int:
         scenario = dataclasses.replace(scenario, seed=args.seed)
     for path in args.params_file:
         scenario = apply_params_file(scenario, path)
+    # a prelude's parameters go to each run's own prelude, which a variant may give it
+    to_prelude = [a for a in args.set if a.startswith(PRELUDE_PREFIX)]
     for assignment in args.set:
-        scenario = apply_set(scenario, assignment)
+        if assignment not in to_prelude:
+            scenario = apply_set(scenario, assignment)
     if args.variant and not scenario.variants:
         raise UsageError(f"scenario {scenario.name!r} has no variants; drop --variant")
     names = args.variant or list(scenario.variants)
     runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
+    for assignment in to_prelude:
+        runs = [(name, apply_set(single, assignment)) for name, single in runs]
     for name, single in runs:
         check_nodes(single, f"variant {name!r}: " if name else "")
     out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")

@@ -61,7 +61,7 @@ from ..core.core_loop import NoCoreError
 from ..core.engine_run import check_engine
 from ..graph.plan import check_nodes
 from ..graph.registry import NODE_TYPES
-from ..graph.scenario import Scenario, ScenarioError, check_param, load, variant
+from ..graph.scenario import PRELUDE_PREFIX, Scenario, ScenarioError, check_param, load, override, variant
 from . import sensitivity as sensitivity_design
 from . import order_stats
 from .parsing import _TARGET, CampaignError, Sweep, parse_seeds, parse_sweep
@@ -335,7 +335,13 @@ def _typed(node: str, executable: str, param: str, index: int | None, value: Any
 
 def apply_value(scenario: Scenario, target: str, value: Any, where: str) -> Scenario:
     """``scenario`` with ``node.param`` (or ``node.param[i]``) set to ``value``, checked
-    against the node's declaration; raises :class:`CampaignError` naming ``where``."""
+    against the node's declaration (``prelude.node.param``: a parameter of the prelude's run);
+    raises :class:`CampaignError` naming ``where``."""
+    if target.startswith(PRELUDE_PREFIX):
+        try:
+            return override(scenario, target, value, where)
+        except ScenarioError as exc:
+            raise CampaignError(str(exc)) from None
     match = _TARGET.match(target)
     if not match:
         raise CampaignError(f"{where}: expected node.param or node.param[i], got {target!r}")
@@ -415,8 +421,11 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
         raise CampaignError(f"scenario: {exc}") from None
     if spec.duration_s is not None:
         base = dataclasses.replace(base, duration_s=spec.duration_s)
+    # a prelude's parameters go to each run's own prelude, which a variant may give it
+    to_prelude = [(t, v) for t, v in spec.overrides if t.startswith(PRELUDE_PREFIX)]
     for target, value in spec.overrides:
-        base = apply_value(base, target, value, f"--set {target}")
+        if not target.startswith(PRELUDE_PREFIX):
+            base = apply_value(base, target, value, f"--set {target}")
     if spec.variants and not base.variants:
         raise CampaignError(f"--variant: scenario {base.name!r} has no variants")
     for name in spec.variants:
@@ -434,6 +443,8 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
         raise CampaignError(f"--sweep: a parameter is swept twice ({targets})")
     variant_names = list(spec.variants or base.variants) or [""]
     singles = {name: (variant(base, name) if name else base) for name in variant_names}
+    for target, value in to_prelude:
+        singles = {name: apply_value(single, target, value, f"--set {target}") for name, single in singles.items()}
     for name, single in singles.items():
         for target, _ in spec.overrides:  # a variant's own override would silently win
             node_param = target.split("[")[0]

@@ -39,7 +39,7 @@ from .compiled_platform_setup import (
     chain_values,
 )
 from ..world.plant.platform_kernels import P_KT, P_VMAX, platform_step, saturate
-from ..world.sensors.sensor_kernels import cyclic_error, encoder_step, inertial_step
+from ..world.sensors.sensor_kernels import R_FIXED, R_GM, R_RRW, cyclic_error, encoder_step, inertial_step
 
 #: configuration vector of the block (``C_*``)
 N_CONFIG = 15
@@ -112,7 +112,7 @@ def _truth(x, pp, host, angles, rates, wt, ft, out_row) -> None:
 
 
 @njit(cache=True)
-def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks) -> None:
+def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks, acc, gyr) -> None:
     for a in range(4):
         row[22 + a], row[26 + a] = ra[a], rr[a]
     for a in range(3):
@@ -126,6 +126,9 @@ def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks) -> Non
     for a in range(4):
         row[52 + a], row[56 + a] = ss[sk.S_V0 + a], ss[sk.S_G0 + a]
     row[60], row[61] = ss[sk.S_PHI], ss[sk.S_PHI_RATE]
+    for a in range(3):
+        row[62 + a] = acc[R_FIXED, a] + acc[R_GM, a] + acc[R_RRW, a]
+        row[65 + a] = gyr[R_FIXED, a] + gyr[R_GM, a] + gyr[R_RRW, a]
 
 
 @njit(cache=True)
@@ -162,7 +165,7 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c
         if tick >= 0:
             counts[0] += 1.0
         if row.shape[0] > 0:
-            _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, counts[0])
+            _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, counts[0], acc, gyr)
         if k < n:
             for a in range(4):
                 v = ss[sk.S_V0 + a] if c[C_CONTROLLED] != 0.0 else 0.0

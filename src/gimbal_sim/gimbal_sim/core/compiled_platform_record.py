@@ -54,8 +54,6 @@ class ChainRecorder:
         self.diag_every = v["platform_servo"]["diagnostics_every_steps"]
         self.frames = (v["platform_navigator"]["odom_frame_id"], v["platform_navigator"]["odom_child_frame_id"])
         self.cov = noise_covariances(chain.suite.config)
-        self.biases = (tuple(map(float, chain.suite.platform_accel.true_bias)),
-                       tuple(map(float, chain.suite.platform_gyro.true_bias)))
 
     def _kept(self, node: str, topics: tuple[str, ...], mask: np.ndarray, stamps: np.ndarray) -> np.ndarray:
         """Where any of ``node``'s ``topics`` published at ``mask`` is recorded and kept."""
@@ -129,7 +127,7 @@ class ChainRecorder:
             s = ResolverSample(t, PLATFORM_JOINTS, _tuple(row, 22, 26), _tuple(row, 26, 30))
             self.record(name, sensor_messages(t_ns, s, self.cov))
         if k % ch.imu_every == 0:
-            s = PlatformImuSample(t, _tuple(row, 30, 33), _tuple(row, 33, 36), *self.biases)
+            s = PlatformImuSample(t, _tuple(row, 30, 33), _tuple(row, 33, 36), _tuple(row, self.O["ab0"], self.O["ab0"] + 3), _tuple(row, self.O["gb0"], self.O["gb0"] + 3))
             self.record(name, sensor_messages(t_ns, s, self.cov))
 
     def _navigator(self, k: int, t_ns: int, row: np.ndarray) -> None:

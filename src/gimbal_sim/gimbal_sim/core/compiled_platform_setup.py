@@ -31,13 +31,15 @@ CHAIN = ("vehicle_dynamics", "sensor_models", "platform_navigator", "platform_se
 #: The block's output row of a step (recorded runs): truth (joint angles, rates, efforts,
 #: q_ns, ω_s, f_s), the resolver and IMU samples, the navigator (output this step, accepted
 #: samples, L, λ, h, v, held command and whether there is one, ψ̂, torquing) and the servo
-#: (tick result, ticks, voltages, signals, φz, φ̇z).
+#: (tick result, ticks, voltages, signals, φz, φ̇z); the accelerometers' and gyros' true biases
+#: (their run-constant and in-run parts) after the step's IMU sample.
 OUT_COLUMNS = (
     "pos0", "pos1", "pos2", "pos3", "vel0", "vel1", "vel2", "vel3", "eff0", "eff1", "eff2", "eff3",
     "qx", "qy", "qz", "qw", "wx", "wy", "wz", "fx", "fy", "fz",
     "ra0", "ra1", "ra2", "ra3", "rr0", "rr1", "rr2", "rr3", "if0", "if1", "if2", "iw0", "iw1", "iw2",
     "nav_out", "accepted", "lat", "lon", "h", "vn", "ve", "vd", "cmd_n", "cmd_e", "cmd_d", "has_cmd", "psi", "torquing",
-    "tick", "ticks", "v0", "v1", "v2", "v3", "g0", "g1", "g2", "g3", "phi", "phi_rate")
+    "tick", "ticks", "v0", "v1", "v2", "v3", "g0", "g1", "g2", "g3", "phi", "phi_rate",
+    "ab0", "ab1", "ab2", "gb0", "gb1", "gb2")
 O = {name: i for i, name in enumerate(OUT_COLUMNS)}
 N_OUT = len(OUT_COLUMNS)
 #: the navigator node's joint sample (has one, stamp ns, θ, rate), held command (has one, N, E,

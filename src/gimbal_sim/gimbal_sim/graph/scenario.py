@@ -25,6 +25,8 @@ the user's own file::
       variant: rotation_on                 # optional
       duration_s: 600.0                    # optional (default: that scenario's)
       hand_off: alignment_to_navigation    # turns its run into parameters of this one
+      params: {sensor_models.platform_gyro_bi_deg_h: 0.01}   # optional: node.param of its run
+                           # (--set prelude.node.param=value adds one)
 
 Everything is validated before anything starts: unknown keys, executables or parameters,
 and values of the wrong type are refused with a message naming them.
@@ -47,7 +49,9 @@ BUILTIN_DIR = Path(__file__).parent / "scenarios"
 
 _TOP_KEYS = {"name", "description", "duration_s", "sim_rate_hz", "seed", "record", "report", "nodes", "variants",
              "comparison", "prelude", "record_rates_hz"}
-_PRELUDE_KEYS = {"scenario", "variant", "duration_s", "hand_off"}
+_PRELUDE_KEYS = {"scenario", "variant", "duration_s", "hand_off", "params"}
+#: ``--set`` / override prefix of a parameter of the prelude's run: ``prelude.node.param``
+PRELUDE_PREFIX = "prelude."
 _NODE_KEYS = {"executable", "params", "remap"}
 
 
@@ -205,7 +209,7 @@ def validate(data: Any, where: str = "scenario") -> Scenario:
         if not str(name).replace("_", "").replace("-", "").isalnum():
             raise ScenarioError(f"{where}: variant name {name!r} must be letters, digits, '_' or '-'")
         for key, value in overrides.items():
-            _override(scenario, key, value, f"{where}: variant {name!r}")
+            override(scenario, key, value, f"{where}: variant {name!r}")
     comparison = str(data.get("comparison", ""))
     if variants and not comparison:
         raise ScenarioError(f"{where}: a scenario with 'variants' needs a 'comparison' report")
@@ -223,15 +227,45 @@ def _prelude(value: Any, where: str) -> dict[str, Any]:
     out = {k: str(value[k]) for k in ("scenario", "variant", "hand_off") if k in value}
     if "duration_s" in value:
         out["duration_s"] = _number(f"{where}: duration_s", value["duration_s"])
+    if "params" in value:
+        params = value["params"]
+        if not isinstance(params, dict) or not all(isinstance(k, str) and "." in k for k in params):
+            raise ScenarioError(f"{where}: 'params' must map node.param to a value, got {params!r}")
+        out["params"] = dict(params)
     return out
 
 
-def _override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
-    """``scenario`` with one override applied: ``seed``, ``sim_rate_hz``, ``prelude`` or ``node.param``."""
+def prelude_base(spec: dict[str, Any]) -> Scenario:
+    """The scenario a ``prelude`` mapping names: its scenario, its variant, its ``params``."""
+    first = load(spec["scenario"])
+    if "variant" in spec:
+        first = variant(first, spec["variant"])
+    for key, value in spec.get("params", {}).items():
+        first = override(first, key, value, f"prelude {spec['scenario']}: params")
+    return first
+
+
+def _prelude_param(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
+    """``prelude.node.param``: a parameter of the prelude's run (the same sensors in both runs
+    of a chain, say), checked against the prelude's scenario and kept in its ``params``."""
+    if not scenario.prelude:
+        raise ScenarioError(f"{where}: {key!r} sets a parameter of the prelude, and {scenario.name!r} has none")
+    target = key[len(PRELUDE_PREFIX):]
+    checked = override(prelude_base(scenario.prelude), target, value, where)
+    node, _, param = target.partition(".")
+    params = {**scenario.prelude.get("params", {}), target: checked.nodes[node]["params"][param]}
+    return replace(scenario, prelude={**scenario.prelude, "params": params})
+
+
+def override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
+    """``scenario`` with one override applied: ``seed``, ``sim_rate_hz``, ``prelude``,
+    ``prelude.node.param`` or ``node.param``."""
     if key == "sim_rate_hz":
         return replace(scenario, sim_rate_hz=_number(f"{where}: sim_rate_hz", value))
     if key == "prelude":
         return replace(scenario, prelude=_prelude(value, f"{where}: prelude"))
+    if key.startswith(PRELUDE_PREFIX):
+        return _prelude_param(scenario, key, value, where)
     if key == "seed":
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise ScenarioError(f"{where}: 'seed' must be an integer >= 0, got {value!r}")
@@ -253,7 +287,7 @@ def variant(scenario: Scenario, name: str) -> Scenario:
                             f"variants: {', '.join(scenario.variants) or 'none'}")
     single = replace(scenario, variants={}, comparison="")
     for key, value in scenario.variants[name].items():
-        single = _override(single, key, value, f"variant {name!r}")
+        single = override(single, key, value, f"variant {name!r}")
     return replace(single, name=f"{scenario.name}:{name}")
 
 
@@ -263,13 +297,13 @@ def apply_set(scenario: Scenario, assignment: str) -> Scenario:
     node, dot, param = target.partition(".")
     if not sep or not dot or not node or not param:
         raise ScenarioError(f"--set {assignment!r}: expected node.param=value")
-    if node not in scenario.nodes:
+    if node not in scenario.nodes and not target.startswith(PRELUDE_PREFIX):
         raise ScenarioError(f"--set {assignment!r}: no node {node!r} in scenario (nodes: {', '.join(scenario.nodes)})")
     try:
         value = load_ros_yaml(text)
     except yaml.YAMLError as exc:
         raise ScenarioError(f"--set {assignment!r}: value is not valid YAML: {exc}") from exc
-    return _override(scenario, target, value, f"--set {assignment!r}")
+    return override(scenario, target, value, f"--set {assignment!r}")
 
 
 def apply_params_file(scenario: Scenario, path: Path) -> Scenario:
@@ -325,7 +359,7 @@ def _apply_block_param(scenario: Scenario, wildcard: bool, targets: list[str], p
         targets = declared
     for node in targets:
         try:
-            scenario = _override(scenario, f"{node}.{param}", value, where)
+            scenario = override(scenario, f"{node}.{param}", value, where)
         except ScenarioError as exc:
             raise ScenarioError(f"{where}: {exc}" if where not in str(exc) else str(exc)) from exc
     return scenario

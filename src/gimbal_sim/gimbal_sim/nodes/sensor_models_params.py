@@ -167,6 +167,9 @@ class SensorModelsNodeParams:
     platform_gyro_bias_sigma_deg_h: float = param(0.03, "platform gyro run-to-run bias 1-sigma",
         0.0, INF, unit="deg/h")
     platform_gyro_arw_deg_rt_h: float = param(0.003, "platform gyro angle random walk", 0.0, INF, unit="deg/sqrt(h)")
+    platform_gyro_bi_deg_h: float = param(0.0, "platform gyro in-run drift: Gauss-Markov bias instability RMS "
+        "(0: the drift is the run-to-run bias alone)", 0.0, INF, unit="deg/h")
+    platform_gyro_bi_tau_s: float = param(3600.0, "its correlation time (inf: random constant)", 1e-9, INF, unit="s")
     platform_gyro_scale_factor_ppm: tuple[float, ...] = _scale_factor("platform gyro")
     platform_gyro_scale_factor_sigma_ppm: float = _scale_factor_sigma("platform gyro")
     platform_gyro_scale_asymmetry_ppm: tuple[float, ...] = _scale_asymmetry("platform gyro")

@@ -19,7 +19,7 @@ control error (rms and largest |Δθ|, arc-seconds) of the four loops.
 After a prelude (``original_system``, ``upgraded``: the chained alignment run), the run
 directory's ``hand_off.json`` (:mod:`.hand_off`) goes into the metrics as ``hand_off``, with
 ``sensor_biases_carried``: whether the navigation run's true sensor biases are the alignment
-run's (to 1e-9 °/h and µg).
+run's (to 1e-3 °/h and µg, the first samples of each: an in-run drift moves less in one step).
 """
 from __future__ import annotations
 
@@ -128,7 +128,7 @@ def _hand_off(path: Path, nav: dict) -> dict:
     """The prelude's hand-off figures, and whether the true biases are the same (module docstring)."""
     hand_off = json.loads(path.read_text())
     carried = [(hand_off[k], nav.get(k)) for k in ("true_gyro_bias_deg_h", "true_accel_bias_ug")]
-    hand_off["sensor_biases_carried"] = all(b is not None and np.allclose(a, b, rtol=0.0, atol=1e-9)
+    hand_off["sensor_biases_carried"] = all(b is not None and np.allclose(a, b, rtol=0.0, atol=1e-3)
                                             for a, b in carried)
     return hand_off
 

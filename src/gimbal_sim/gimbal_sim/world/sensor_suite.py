@@ -209,6 +209,8 @@ class SensorSuiteConfig:
                                                       stations_m=tuple(v["flexure_lgu_stations_m"]))),
                 platform_gyro=GyroParams(bias_sigma_deg_h=v["platform_gyro_bias_sigma_deg_h"],
                                          arw_deg_rt_h=v["platform_gyro_arw_deg_rt_h"],
+                                         bias_instability_deg_h=v["platform_gyro_bi_deg_h"],
+                                         bias_instability_tau_s=v["platform_gyro_bi_tau_s"],
                                          **_scale_errors(v, "platform_gyro", 3)),
                 platform_accel=AccelerometerParams(bias_sigma_ug=v["platform_accel_bias_sigma_ug"],
                                                    noise_ug_rt_hz=v["platform_accel_noise_ug_rt_hz"],
