@@ -56,7 +56,7 @@ and, on a clock jump back, calls :meth:`FreeGyroPositioning.reset`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
 import numpy as np
@@ -75,6 +75,8 @@ from gimbal_kinematics.maths.units import ARCSEC, DEG_RT_H
 from gimbal_kinematics.maths.outcome import Fed, refused
 from gimbal_kinematics.maths.validate import finite, nonneg_finite, of_type, positive
 from gimbal_kinematics.params.table import ParameterError
+
+from .core_counters import CoreCounters
 
 _NAN = float("nan")
 _TRANSPORT_ITERATIONS = 4  # contraction ≤ 0.05 at 20 m/s: the heading to 1e-5 of its first error
@@ -234,17 +236,14 @@ _STALE_LEVEL = refused("vertical reference older than max_level_age_s")
 
 
 @dataclass
-class _Counters:
+class _Counters(CoreCounters):
     spin_accepted: int = 0
     rates_accepted: int = 0
-    rejected_nonfinite: int = 0
     rejected_not_unit: int = 0
     rejected_no_level: int = 0
     rejected_stale_level: int = 0
     fixes: int = 0
     degenerate: int = 0
-    resets: int = 0
-    reset_reasons: list[str] = field(default_factory=list)
 
 
 class FreeGyroPositioning:
@@ -280,8 +279,7 @@ class FreeGyroPositioning:
 
     def reset(self, reason: str) -> None:
         """Drop all windows and inputs; ``reason`` is recorded."""
-        self.counters.resets += 1
-        self.counters.reset_reasons.append(str(reason))
+        self.counters.count_reset(reason)
         self._restart()
 
     def _stamp(self, t: object) -> float | None:

@@ -83,7 +83,7 @@ noise of density N_a; one 2-row update per block keeps the cost per raw sample t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
 import numpy as np
@@ -95,6 +95,8 @@ from gimbal_kinematics.params.table import ParameterError
 
 from gimbal_kinematics.maths.kalman import check_state, joseph_update, symmetrize
 from gimbal_kinematics.maths.outcome import Fed, refused
+
+from .core_counters import CoreCounters
 
 #: State order (paper eq. 15).
 STATE_NAMES = ("dphi_E0", "dphi_N0", "dphi_U0", "eps_N", "bias_x", "bias_y", "eps_x", "eps_y")
@@ -261,14 +263,11 @@ _JOINT_NONFINITE = refused("non-finite joint sample")
 
 
 @dataclass
-class _Counters:
+class _Counters(CoreCounters):
     accepted: int = 0
-    rejected_nonfinite: int = 0
     rejected_no_joint: int = 0
     rejected_stale_joint: int = 0
     joint_rejected_nonfinite: int = 0
-    resets: int = 0
-    reset_reasons: list[str] = field(default_factory=list)
 
 
 class RotationAlignmentRls:
@@ -322,8 +321,7 @@ class RotationAlignmentRls:
 
     def reset(self, reason: str) -> None:
         """Restart the alignment from X0 = 0, P0 = :meth:`RotationAlignmentParams.prior`; ``reason`` is recorded."""
-        self.counters.resets += 1
-        self.counters.reset_reasons.append(str(reason))
+        self.counters.count_reset(reason)
         self._joint = None
         self._joint_prev = None
         self._restart()

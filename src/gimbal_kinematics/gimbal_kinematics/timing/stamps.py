@@ -95,6 +95,28 @@ def jittered(interval: float, period: float) -> bool:
     return not is_gap(interval, period) and abs(interval - period) > JITTER_FRACTION * period
 
 
+class StampCounts:
+    """What a free-timing stamp check counts by this vocabulary, for /diagnostics: stamps
+    rejected as ``duplicates`` and ``out_of_order``, samples ``dropped`` in the gaps (the drop
+    rule). The common part of :class:`gimbal_kinematics.timing.stream_stats.StreamStats` and
+    :class:`gimbal_kinematics.timing.sync.FreshInputs`, which add their own counters."""
+
+    def __init__(self) -> None:
+        self.duplicates = 0
+        self.out_of_order = 0
+        self.dropped = 0
+
+    def count_rejected(self, verdict: Stamp) -> bool:
+        """Count a DUPLICATE or OUT_OF_ORDER ``verdict``; whether it was one."""
+        if verdict is Stamp.DUPLICATE:
+            self.duplicates += 1
+            return True
+        if verdict is Stamp.OUT_OF_ORDER:
+            self.out_of_order += 1
+            return True
+        return False
+
+
 def step_stamp_ns(k: int, rate_hz: float) -> int:
     """Stamp [ns] of lockstep step ``k`` at ``rate_hz`` (``round(k·1e9 / rate_hz)``: stamps
     never accumulate floating-point error)."""

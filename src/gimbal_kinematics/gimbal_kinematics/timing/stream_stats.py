@@ -36,26 +36,24 @@ import time
 from collections import deque
 from typing import Callable
 
-from .stamps import JUMP_SAMPLES, Stamp, dropped_samples, is_gap, judge
+from .stamps import JUMP_SAMPLES, Stamp, StampCounts, dropped_samples, is_gap, judge
 
 #: Accepted intervals the nominal period is the median of.
 PERIOD_WINDOW = 51
 
 
-class StreamStats:
+class StreamStats(StampCounts):
     """Verdicts and counters of one stream (module docstring)."""
 
     def __init__(self, jump_ns: int) -> None:
         if jump_ns <= 0:
             raise ValueError(f"jump_ns must be > 0, got {jump_ns}")
+        super().__init__()
         self.jump_ns = int(jump_ns)
         self.last_ns: int | None = None
         self.received = 0
-        self.duplicates = 0
-        self.out_of_order = 0
         self.jumps = 0
         self.outliers = 0
-        self.dropped = 0
         self._intervals: deque[int] = deque(maxlen=PERIOD_WINDOW)
         self._jitter_sq = 0.0
         self._jitter_n = 0
@@ -92,11 +90,7 @@ class StreamStats:
             self.outliers += len(self._held)
             self._held = []
         verdict = judge(stamp_ns, last, self.jump_ns)
-        if verdict is Stamp.DUPLICATE:
-            self.duplicates += 1
-            return verdict
-        if verdict is Stamp.OUT_OF_ORDER:
-            self.out_of_order += 1
+        if self.count_rejected(verdict):
             return verdict
         self.last_ns = stamp_ns
         if last is not None:

@@ -32,7 +32,7 @@ import math
 from collections import deque
 from typing import Any, Callable, Iterable, NamedTuple, Sequence
 
-from .stamps import Stamp, dropped_samples, jittered, judge
+from .stamps import Stamp, StampCounts, dropped_samples, jittered, judge
 
 
 # ----------------------------------------------------------------------------------------
@@ -259,7 +259,7 @@ class FreeStep(NamedTuple):
     restarted: bool
 
 
-class FreshInputs:
+class FreshInputs(StampCounts):
     """Free-timing gate of a controller: it steps on each sample of ``driver`` (the gyro),
     with the newest sample of each stream of ``max_age_ns`` (stream → its maximum age [ns],
     measured in stamps against the driving sample) that is no older than that.
@@ -285,10 +285,8 @@ class FreshInputs:
         self.t0_ns: int | None = None
         self._newest: dict[str, tuple[int, Any]] = {}
         self.accepted = {s: 0 for s in (driver, *max_age_ns)}
-        self.duplicates = 0
-        self.out_of_order = 0
+        super().__init__()
         self.restarts = 0
-        self.dropped = 0
         self.jittered = 0
         self.stale_steps = 0
 
@@ -296,10 +294,7 @@ class FreshInputs:
         """The stamp's verdict; a rejected one counted."""
         newest = self._newest.get(stream)
         verdict = judge(stamp_ns, None if newest is None else newest[0], self.backjump_ns)
-        if verdict is Stamp.DUPLICATE:
-            self.duplicates += 1
-        elif verdict is Stamp.OUT_OF_ORDER:
-            self.out_of_order += 1
+        self.count_rejected(verdict)
         return verdict
 
     def add(self, stream: str, stamp_ns: int, item: Any) -> FreeStep | None:

@@ -255,11 +255,20 @@ class GimbalGyroSample(NamedTuple):
     true_bias: tuple[float, float]
 
 
-class EncoderSample(NamedTuple):
+class JointReadout(NamedTuple):
+    """Angles [rad] and rates [rad/s] of the named joints at ``t`` [s], as a joint sensor
+    reads them (published as a sensor_msgs/JointState); each sensor its own subclass."""
+
     t: float
     names: tuple[str, ...]
     angles: tuple[float, ...]
     rates: tuple[float, ...]
+
+
+class EncoderSample(JointReadout):
+    """Gimbal encoder angles [rad] and rates [rad/s]."""
+
+    __slots__ = ()
 
 
 class LguSample(NamedTuple):
@@ -273,13 +282,10 @@ class LguSample(NamedTuple):
     flexure_quasi_static: tuple[float, float, float]
 
 
-class ResolverSample(NamedTuple):
+class ResolverSample(JointReadout):
     """Gimbal resolver angles [rad] (multi-turn azimuth) and tracking rates [rad/s]."""
 
-    t: float
-    names: tuple[str, ...]
-    angles: tuple[float, ...]
-    rates: tuple[float, ...]
+    __slots__ = ()
 
 
 class PlatformImuSample(NamedTuple):
