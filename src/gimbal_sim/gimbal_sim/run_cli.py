@@ -176,6 +176,22 @@ def _check_space(out: Path, runs: list[Scenario], args: argparse.Namespace) -> N
                          f"kept up to there)")
 
 
+def _variant_runs(scenario: Scenario, args: argparse.Namespace) -> tuple[Scenario, list[tuple[str, Scenario]]]:
+    """``scenario`` with its ``--set`` applied, and its runs (variant name, single scenario);
+    a prelude's parameters go to each run's own prelude, which a variant may give it."""
+    to_prelude = [a for a in args.set if a.startswith(PRELUDE_PREFIX)]
+    for assignment in args.set:
+        if assignment not in to_prelude:
+            scenario = apply_set(scenario, assignment)
+    if args.variant and not scenario.variants:
+        raise UsageError(f"scenario {scenario.name!r} has no variants; drop --variant")
+    names = args.variant or list(scenario.variants)
+    runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
+    for assignment in to_prelude:
+        runs = [(name, apply_set(single, assignment)) for name, single in runs]
+    return scenario, runs
+
+
 @cli_boundary("gimbal-run")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
@@ -192,17 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         scenario = dataclasses.replace(scenario, seed=args.seed)
     for path in args.params_file:
         scenario = apply_params_file(scenario, path)
-    # a prelude's parameters go to each run's own prelude, which a variant may give it
-    to_prelude = [a for a in args.set if a.startswith(PRELUDE_PREFIX)]
-    for assignment in args.set:
-        if assignment not in to_prelude:
-            scenario = apply_set(scenario, assignment)
-    if args.variant and not scenario.variants:
-        raise UsageError(f"scenario {scenario.name!r} has no variants; drop --variant")
-    names = args.variant or list(scenario.variants)
-    runs = [(name, variant(scenario, name)) for name in names] if scenario.variants else [("", scenario)]
-    for assignment in to_prelude:
-        runs = [(name, apply_set(single, assignment)) for name, single in runs]
+    scenario, runs = _variant_runs(scenario, args)
     for name, single in runs:
         check_nodes(single, f"variant {name!r}: " if name else "")
     out = writable_dir(args.out or Path("bags") / f"{time.strftime('%Y%m%d-%H%M%S')}_{scenario.name}", "--out")

@@ -409,6 +409,16 @@ def _check_nodes(single: Scenario, variant_name: str) -> None:
         raise CampaignError(str(exc)) from None
 
 
+def _single(spec: CampaignSpec, base: Scenario, name: str) -> Scenario:
+    """Variant ``name`` of ``base`` (``""``: ``base``), with the ``--set`` values meant for its
+    prelude (``prelude.node.param``), which a variant may give it."""
+    single = variant(base, name) if name else base
+    for target, value in spec.overrides:
+        if target.startswith(PRELUDE_PREFIX):
+            single = apply_value(single, target, value, f"--set {target}")
+    return single
+
+
 def plan(spec: CampaignSpec) -> CampaignPlan:
     """Validate ``spec`` against its scenario and expand it into runs (variant × seed × point).
     Raises :class:`CampaignError` naming what is wrong; nothing is started or written."""
@@ -421,10 +431,8 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
         raise CampaignError(f"scenario: {exc}") from None
     if spec.duration_s is not None:
         base = dataclasses.replace(base, duration_s=spec.duration_s)
-    # a prelude's parameters go to each run's own prelude, which a variant may give it
-    to_prelude = [(t, v) for t, v in spec.overrides if t.startswith(PRELUDE_PREFIX)]
     for target, value in spec.overrides:
-        if not target.startswith(PRELUDE_PREFIX):
+        if not target.startswith(PRELUDE_PREFIX):  # those go to each variant's own prelude
             base = apply_value(base, target, value, f"--set {target}")
     if spec.variants and not base.variants:
         raise CampaignError(f"--variant: scenario {base.name!r} has no variants")
@@ -442,9 +450,7 @@ def plan(spec: CampaignSpec) -> CampaignPlan:
     if len(set(targets)) != len(targets):
         raise CampaignError(f"--sweep: a parameter is swept twice ({targets})")
     variant_names = list(spec.variants or base.variants) or [""]
-    singles = {name: (variant(base, name) if name else base) for name in variant_names}
-    for target, value in to_prelude:
-        singles = {name: apply_value(single, target, value, f"--set {target}") for name, single in singles.items()}
+    singles = {name: _single(spec, base, name) for name in variant_names}
     for name, single in singles.items():
         for target, _ in spec.overrides:  # a variant's own override would silently win
             node_param = target.split("[")[0]
