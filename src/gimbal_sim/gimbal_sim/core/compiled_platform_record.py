@@ -127,7 +127,9 @@ class ChainRecorder:
             s = ResolverSample(t, PLATFORM_JOINTS, _tuple(row, 22, 26), _tuple(row, 26, 30))
             self.record(name, sensor_messages(t_ns, s, self.cov))
         if k % ch.imu_every == 0:
-            s = PlatformImuSample(t, _tuple(row, 30, 33), _tuple(row, 33, 36), _tuple(row, self.O["ab0"], self.O["ab0"] + 3), _tuple(row, self.O["gb0"], self.O["gb0"] + 3))
+            ab, gb = self.O["ab0"], self.O["gb0"]
+            s = PlatformImuSample(t, _tuple(row, 30, 33), _tuple(row, 33, 36), _tuple(row, ab, ab + 3),
+                                  _tuple(row, gb, gb + 3))
             self.record(name, sensor_messages(t_ns, s, self.cov))
 
     def _navigator(self, k: int, t_ns: int, row: np.ndarray) -> None:

@@ -21,7 +21,7 @@ from gimbal_kinematics.cli.boundary import Interrupted, UsageError
 
 from ..core.engine_run import run_engine
 from ..graph.orchestrator import RunError
-from ..graph.scenario import Scenario, apply_params_file, load, prelude_base
+from ..graph.scenario import Scenario, ScenarioError, apply_params_file, prelude_base
 from ..reports.dispatch import write_report
 from ..reports.hand_off import HAND_OFFS, write_figures, write_hand_off
 
@@ -38,11 +38,10 @@ def prelude_scenario(scenario: Scenario) -> Scenario:
     if spec["hand_off"] not in HAND_OFFS:
         raise UsageError(f"prelude of {scenario.name}: unknown hand_off {spec['hand_off']!r}; "
                          f"known: {', '.join(sorted(HAND_OFFS))}")
-    first = load(spec["scenario"])
-    if first.variants and "variant" not in spec:
-        raise UsageError(f"prelude of {scenario.name}: scenario {first.name!r} has variants "
-                         f"({', '.join(first.variants)}); name one with 'variant'")
-    first = prelude_base(spec)
+    try:
+        first = prelude_base(spec)
+    except ScenarioError as exc:
+        raise UsageError(f"prelude of {scenario.name}: {exc}") from None
     if first.prelude:
         raise UsageError(f"prelude of {scenario.name}: {first.name!r} has a prelude itself; chain one at a time")
     return dataclasses.replace(first, seed=scenario.seed, duration_s=spec.get("duration_s", first.duration_s))

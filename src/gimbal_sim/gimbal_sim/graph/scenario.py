@@ -236,10 +236,14 @@ def _prelude(value: Any, where: str) -> dict[str, Any]:
 
 
 def prelude_base(spec: dict[str, Any]) -> Scenario:
-    """The scenario a ``prelude`` mapping names: its scenario, its variant, its ``params``."""
+    """The scenario a ``prelude`` mapping names: its scenario, its variant, its ``params``;
+    refuses a scenario with variants when the mapping names none."""
     first = load(spec["scenario"])
     if "variant" in spec:
         first = variant(first, spec["variant"])
+    elif first.variants:
+        raise ScenarioError(f"prelude: scenario {first.name!r} has variants ({', '.join(first.variants)}); "
+                            f"name one with 'variant'")
     for key, value in spec.get("params", {}).items():
         first = override(first, key, value, f"prelude {spec['scenario']}: params")
     return first
