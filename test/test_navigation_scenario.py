@@ -91,3 +91,35 @@ def test_servo_rate_command_runs_the_scenarios_rate_gains_and_substeps(capsys):
     assert "1000 Hz, 12/12/4 Hz, 4 substeps" in header and "50 Hz, 1.2/1.2/0.8 Hz, 10 substeps" in header
     level = next(r for r in rows if r.startswith("level error")).split()[-2:]
     assert all(0.0 < float(v) < 20.0 for v in level)  # arc-seconds, under a 100 µg bias's 20″ of tilt
+
+
+@pytest.mark.parametrize("name", ["rotation_on_1khz", "original_system_1khz", "upgraded_1khz"])
+def test_the_paper_rate_systems_run_every_node_at_1_khz_on_the_servos_own_design(name):
+    """Paper 3's systems as the CEP campaign runs them (§4.1: the loop at 1 kHz): every rate
+    1 kHz, the servo's loops and the plant's substeps those its nodes are designed with for
+    1 kHz (their defaults, not the 50 Hz scenario's re-placed ones), and each aligned system's
+    prelude the same alignment as at 50 Hz (same seed, same sensors)."""
+    import dataclasses
+
+    from gimbal_control.platform_servo_params import PlatformServoNodeParams
+    from gimbal_sim.experiments.navigation import CAMPAIGN, SCENARIO_VARIANTS
+    from gimbal_sim.graph.scenario import variant
+    from gimbal_sim.nodes.vehicle_dynamics_params import VehicleDynamicsNodeParams
+
+    def default(cls, field):
+        return next(f.default for f in dataclasses.fields(cls) if f.name == field)
+
+    scenario = variant(load("rotational_ins_navigation"), name)
+    nodes = {node: spec["params"] for node, spec in scenario.nodes.items()}
+    servo, nav, sensors = nodes["platform_servo"], nodes["platform_navigator"], nodes["sensor_models"]
+    rates = {scenario.sim_rate_hz, servo["imu_rate_hz"], servo["resolver_rate_hz"], nav["imu_rate_hz"],
+             nav["joint_rate_hz"], sensors["platform_imu_rate_hz"], sensors["resolver_rate_hz"]}
+    assert rates == {1000.0}
+    for loop in ("azimuth_bandwidth_hz", "level_bandwidth_hz", "outer_roll_bandwidth_hz"):
+        assert servo[loop] == default(PlatformServoNodeParams, loop), loop
+    assert nodes["vehicle_dynamics"]["platform_substeps"] == default(VehicleDynamicsNodeParams, "platform_substeps")
+    assert servo["rotation"] == ("off" if name.startswith("original") else "bidirectional")
+    at_50_hz = {"original_system_1khz": "original_system", "upgraded_1khz": "upgraded"}.get(name)
+    if at_50_hz:
+        assert scenario.prelude == variant(load("rotational_ins_navigation"), at_50_hz).prelude
+    assert name in {SCENARIO_VARIANTS[label] for label in CAMPAIGN.default_variants}
