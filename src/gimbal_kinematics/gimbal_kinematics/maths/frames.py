@@ -27,3 +27,7 @@ GIMBAL_COMMAND_JOINTS = ("gimbal_azimuth", "gimbal_elevation")
 PLATFORM_JOINTS = ("platform_azimuth", "platform_inner_roll", "platform_pitch", "platform_outer_roll")
 #: The single joint of the platform servo's commanded modulation angle φz.
 MODULATION_JOINT = "modulation_angle"
+#: Paper 3's DTG pickoff angles, as joints: lower gyro (θ_x, θ_y), upper gyro (θ_x, θ_y).
+DTG_PICKOFF_JOINTS = ("dtg_lower_x", "dtg_lower_y", "dtg_upper_x", "dtg_upper_y")
+#: Paper 3's DTG torquer currents, as joints: the platform axes x_s, y_s, z_s they precess.
+DTG_TORQUER_JOINTS = ("dtg_torquer_x", "dtg_torquer_y", "dtg_torquer_z")

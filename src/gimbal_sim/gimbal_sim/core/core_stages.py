@@ -36,7 +36,7 @@ from gimbal_estimators.wire import ekf_messages
 from ..nodes.wire import noise_covariances, operator_messages, sensor_messages, truth_messages
 from ..world.operator_model import operator_core
 from ..world.sensor_suite import (
-    EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
+    DtgSample, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuite,
     SensorSuiteConfig,
 )
 from ..world.sensors.free_gyro_sensor import FreeGyroSample
@@ -57,7 +57,7 @@ class Bus:
 
     __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias",
                  "ekf", "operator", "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation",
-                 "geo_budget", "lgu", "free_gyro", "dtg")
+                 "geo_budget", "lgu", "free_gyro", "dtg", "torquer_current")
 
     def __init__(self) -> None:
         self.k, self.t, self.t_ns = 0, 0.0, 0
@@ -75,6 +75,9 @@ class Bus:
         self.modulation = None
         # paper 3's DTG pickoffs of the step (lower θ_x, θ_y, upper θ_x, θ_y) [rad] (:mod:`.dtg_stages`)
         self.dtg = None
+        # the DTG servo's torquer currents (x_s, y_s, z_s) [A] of its last step (what its ~/torquer_current
+        # carries); the sensors of the next step integrate the gyros under them
+        self.torquer_current = None
 
 
 def truth_stage(plant: str, position_every: int = 0, site=None, name: str = "vehicle_dynamics"
@@ -115,7 +118,8 @@ def sensor_stage(values: dict[str, Any], name: str = "sensor_models") -> Callabl
 
 #: The bus field of each sensor sample type.
 _BUS_FIELD = {LguSample: "lgu", FreeGyroSample: "free_gyro", ResolverSample: "resolvers",
-              PlatformImuSample: "platform_imu", GimbalGyroSample: "gyro", EncoderSample: "encoders", InsSample: "ins"}
+              PlatformImuSample: "platform_imu", GimbalGyroSample: "gyro", EncoderSample: "encoders", InsSample: "ins",
+              DtgSample: "dtg"}
 
 
 def suite_stage(suite: SensorSuite, name: str = "sensor_models",
@@ -128,11 +132,13 @@ def suite_stage(suite: SensorSuite, name: str = "sensor_models",
         # sensor_models reads the host attitude from the Imu quaternion (truth_from_group)
         truth = truth._replace(euler=euler321_from_quat(tuple(truth.quat_nb)))
         bus.gyro = bus.encoders = bus.ins = bus.resolvers = bus.platform_imu = bus.lgu = bus.free_gyro = None
+        bus.dtg = None
         record = bus.record
-        for s in suite.update(truth):
+        for s in suite.update(truth, bus.torquer_current):
             if record is not None:
                 record(name, sensor_messages(bus.t_ns, s, cov, free_gyro_velocity))
-            setattr(bus, _BUS_FIELD[type(s)], s)
+            # the pickoffs as the servo reads them from the JointState: (lower x, y, upper x, y) [rad]
+            setattr(bus, _BUS_FIELD[type(s)], s.angles if type(s) is DtgSample else s)
             if type(s) is InsSample:
                 # published as a quaternion; readers turn it back into Euler angles
                 bus.ins_euler = euler321_from_quat(quat_canonical(quat_from_euler321(*s.euler)))

@@ -12,26 +12,18 @@ from __future__ import annotations
 from typing import Callable
 
 from gimbal_control.dtg_servo import DtgPlatformServo
-from gimbal_kinematics.maths.rotations import quat_conj, quat_from_rotation_vector, quat_mul, rotation_vector_from_quat
 
 from .core_stages import Bus
-from ..world.sensors.dtg import DtgPair
+from ..world.sensors.dtg import DtgOnPlatform, DtgPair
 
 
 def dtg_stage(pair: DtgPair, servo: DtgPlatformServo, omega_in_n, dt: float) -> Callable[[Bus], None]:
-    """The DTG pair's pickoffs of the step on ``bus.dtg`` (zero tilt at k = 0)."""
-    q_earth = quat_from_rotation_vector(omega_in_n[0] * dt, omega_in_n[1] * dt, omega_in_n[2] * dt)
-    last = [None]
+    """The DTG pair's pickoffs of the step on ``bus.dtg`` (zero tilt at k = 0), under the
+    servo's currents of the step before (:class:`..world.sensors.dtg.DtgOnPlatform`)."""
+    gyros = DtgOnPlatform(pair, omega_in_n, dt)
 
     def stage(bus: Bus) -> None:
-        q = tuple(bus.truth.quat_nm)
-        if last[0] is None:
-            bus.dtg = (0.0, 0.0, 0.0, 0.0)
-        else:
-            # the platform's inertial rotation over the step, in m at its start (a constant-axis rotation exactly)
-            rot = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(last[0]), q_earth), q))
-            bus.dtg = pair.step(tuple(r / dt for r in rot), bus.truth.specific_force_m, servo.torquer_current, dt)
-        last[0] = q
+        bus.dtg = gyros.update(bus.truth.quat_nm, bus.truth.specific_force_m, servo.torquer_current)
     return stage
 
 

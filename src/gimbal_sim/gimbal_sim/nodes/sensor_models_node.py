@@ -2,6 +2,11 @@
 
 It gathers the truth topics of each step (exact stamp match), runs the enabled sensors and
 publishes their measurements stamped with the step's time. See the topic table in docs/interfaces.md.
+
+With ``dtg`` the step also needs the platform servo's torquer currents stamped one step
+before (``dtg_torquer_topic``), the currents the torquing electronics held over the step
+that ends here: a complete truth step waits for them, so a run is deterministic whatever
+order the two topics arrive in.
 """
 from __future__ import annotations
 
@@ -20,7 +25,8 @@ from gimbal_kinematics.ros.node_edge import publish_progress
 from gimbal_kinematics.ros.node_main import run_node
 from gimbal_kinematics.ros.qos import GRAPH_QOS
 from gimbal_kinematics.ros.readiness import announce_when_connected
-from gimbal_kinematics.timing.stamps import progress_stamp_ns
+from gimbal_kinematics.maths.frames import DTG_TORQUER_JOINTS
+from gimbal_kinematics.timing.stamps import progress_stamp_ns, step_stamp_ns
 from gimbal_kinematics.params.table import topic_counts
 from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.timing.sync import StampSync
@@ -47,6 +53,7 @@ NEEDS = {
     "platform_imu": ("/truth/platform/imu",),
     "free_gyro": ("/truth/host/imu", "/truth/host/delta_angle"),
     "resolvers": ("/truth/platform/joint_states",),
+    "dtg": ("/truth/platform/imu", "/truth/platform/joint_states"),
 }
 
 #: sensor -> the topics (and types) its samples are published on (:func:`.wire.sensor_messages`)
@@ -62,6 +69,7 @@ SENSOR_TOPICS = {
                   ("/free_gyro/imu", w.IMU), ("/truth/free_gyro/position", w.NAVSAT_FIX),
                   ("/truth/free_gyro/triad_bias", w.VECTOR3_STAMPED), ("/free_gyro/velocity", w.VECTOR3_STAMPED)),
     "resolvers": (("/platform/resolvers", w.JOINT_STATE),),
+    "dtg": (("/platform/dtg_pickoffs", w.JOINT_STATE),),
 }
 _TYPES = {w.IMU: Imu, w.JOINT_STATE: JointState, w.VECTOR3_STAMPED: Vector3Stamped, w.NAVSAT_FIX: NavSatFix}
 
@@ -103,6 +111,13 @@ class SensorModelsNode(Node):
         self.subs = [self.create_subscription(TRUTH_TOPICS[t], t, lambda data, t=t: self._on_truth(t, data), GRAPH_QOS,
                                               raw=True) for t in topics]
         on = set(self.config.sensors)
+        # dtg: torquer currents by stamp, and the complete truth step (stamp, group) waiting for those of k - 1
+        self.dtg = "dtg" in on
+        self._currents: dict[int, tuple[float, float, float]] = {}
+        self._waiting: tuple[int, dict] | None = None
+        if self.dtg:
+            self.subs.append(self.create_subscription(JointState, values["dtg_torquer_topic"], self._on_torquer,
+                                                      GRAPH_QOS, raw=True))
         self.free_gyro_velocity = bool(values["free_gyro_publish_velocity"])
         self.pubs = {topic: self.create_publisher(_TYPES[type_name], topic, GRAPH_QOS)
                      for sensor in SENSOR_TOPICS if sensor in on for topic, type_name in SENSOR_TOPICS[sensor]
@@ -126,11 +141,43 @@ class SensorModelsNode(Node):
             return
         t_ns = msg.stamp_ns
         group = self.sync.add(topic, t_ns, msg)
-        if group is None:
-            return
-        k = m.step_of_stamp(t_ns, self.rate)
+        if group is not None:
+            self._step(t_ns, group)
+
+    def _on_torquer(self, data: bytes) -> None:
         try:
-            samples = self.suite.update(truth_from_group(k, k / self.rate, group))
+            msg = m.joint_state_from_cdr(data)
+        except CdrError as exc:
+            msg = None
+            why = str(exc)
+        if msg is not None:
+            currents = dict(zip(msg.name, msg.effort))
+            why = "" if all(j in currents for j in DTG_TORQUER_JOINTS) else f"no efforts of {list(DTG_TORQUER_JOINTS)}"
+        if why:
+            self.rejected_truth += 1
+            self.get_logger().warning(f"malformed torquer currents: {why} ({self.rejected_truth} rejected)",
+                                      throttle_duration_sec=1.0)
+            return
+        for old in [s for s in self._currents if s < msg.stamp_ns]:  # a step takes the currents of the one before
+            del self._currents[old]
+        self._currents[msg.stamp_ns] = tuple(float(currents[j]) for j in DTG_TORQUER_JOINTS)
+        if self._waiting is not None:
+            t_ns, group = self._waiting
+            self._waiting = None
+            self._step(t_ns, group)
+
+    def _step(self, t_ns: int, group: dict) -> None:
+        """The sensors of the step stamped ``t_ns`` (its truth ``group``); with ``dtg``, kept
+        until the torquer currents of the step before have come."""
+        k = m.step_of_stamp(t_ns, self.rate)
+        currents = None
+        if self.dtg and k > 0:
+            currents = self._currents.get(step_stamp_ns(k - 1, self.rate))
+            if currents is None:
+                self._waiting = (t_ns, group)
+                return
+        try:
+            samples = self.suite.update(truth_from_group(k, k / self.rate, group), currents)
         except ValueError as exc:
             self.rejected_truth += 1
             self.get_logger().warning(f"truth rejected: {exc} ({self.rejected_truth} rejected)",

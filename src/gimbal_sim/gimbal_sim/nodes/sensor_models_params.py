@@ -244,6 +244,23 @@ class SensorModelsNodeParams:
         "A sin(h theta + phase) per gimbal (paper 3's RDC: 10; 0: none)", 0.0, 3600.0, unit="arcsec")
     resolver_cyclic_harmonic: int = param(2, "harmonic h of the shaft angle that cyclic error repeats at "
         "(2: the windings' amplitude imbalance and quadrature error)", 1, 8)
+    dtg_torquer_topic: str = param("/platform_servo/torquer_current", "dtg: the servo's torquer currents "
+        "(JointState, effort [A] of dtg_torquer_x, _y, _z); each step waits for the currents stamped one step "
+        "before, which the torquing electronics hold over the step")
+    dtg_lat_deg: float = param(45.0, "dtg: the base's latitude, whose earth rate turns the n frame under the rotors; "
+        "must equal vehicle_dynamics' profile_params lat_deg (the vehicle does not publish its position)",
+        -89.999, 89.999, unit="deg")
+    dtg_torquer_scale_deg_h_ma: float = param(72.0, "dtg: the torquers' true nominal scale factor (paper 3's own "
+        "numbers: 4320 deg/h at 60 mA)", 1e-9, INF, unit="deg/h/mA")
+    dtg_scale_error_ppm: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0), "dtg: torquer scale-factor error the "
+        "servo does not know (lower x, y, upper x, y)", unit="ppm")
+    dtg_drift_deg_h: tuple[float, ...] = param((0.0, 0.0, 0.0, 0.0), "dtg: fixed drift per sensitive axis (lower x, "
+        "y, upper x, y)", unit="deg/h")
+    dtg_drift_sigma_deg_h: float = param(0.03, "dtg: run-to-run drift 1-sigma per sensitive axis, drawn once per "
+        "run and added (paper 3: 0.03)", 0.0, INF, unit="deg/h")
+    dtg_arw_deg_rt_h: float = param(0.003, "dtg: the rotors' angle random walk", 0.0, INF, unit="deg/sqrt(h)")
+    dtg_pickoff_noise_arcsec: float = param(0.0, "dtg: white pickoff read-out noise RMS", 0.0, INF, unit="arcsec")
+    dtg_max_current_ma: float = param(200.0, "dtg: the torquing electronics' range +-", 1e-9, INF, unit="mA")
 
 
 PARAMS, DESCRIPTION = declaration(SensorModelsNodeParams)

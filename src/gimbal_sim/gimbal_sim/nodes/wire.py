@@ -20,7 +20,8 @@ from gimbal_kinematics.ros.wire import (
 from gimbal_kinematics.maths.units import DEG, UG
 
 from ..world.sensor_suite import (
-    EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample, SensorSuiteConfig,
+    DtgSample, EncoderSample, GimbalGyroSample, InsSample, LguSample, PlatformImuSample, ResolverSample,
+    SensorSuiteConfig,
 )
 from ..world.sensors.free_gyro_sensor import FreeGyroSample
 from ..world.vehicle import VehicleTruth
@@ -106,6 +107,8 @@ def sensor_messages(t_ns: int, s, cov: dict[str, tuple[float, ...]], free_gyro_v
                                                linear_acceleration_cov=cov["p_accel"])),
                 ("/truth/platform/accel_bias", VECTOR3_STAMPED, vector3_cdr(t_ns, PLATFORM_FRAME, s.true_accel_bias)),
                 ("/truth/platform/gyro_bias", VECTOR3_STAMPED, vector3_cdr(t_ns, PLATFORM_FRAME, s.true_gyro_bias))]
+    if kind is DtgSample:
+        return [("/platform/dtg_pickoffs", JOINT_STATE, joint_state_cdr(t_ns, s.names, s.angles))]
     if kind is FreeGyroSample:
         return _free_gyro_messages(t_ns, s, cov, free_gyro_velocity)
     raise TypeError(f"no serialisation for a {kind.__name__}")

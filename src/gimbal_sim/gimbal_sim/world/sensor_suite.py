@@ -16,6 +16,11 @@ enabling or re-rating one sensor never changes another's noise. Sensors:
   agree); the triad gets the exact rotation over each sample interval divided by it.
 * ``resolvers``: the paper 3 gimbal resolvers (θ_a, θ_q, θ_p, θ_r; the azimuth multi-turn),
   quantised like its 19-bit resolver-to-digital converters, with their tracking velocity.
+* ``dtg``: paper 3's two dynamically tuned gyros on the stable element (:mod:`.sensors.dtg`),
+  integrated every step through the platform's inertial rotation under the torquer
+  currents the servo commanded at the step before (:meth:`SensorSuite.update`'s
+  ``torquer_current_a``); their four pickoff angles every step (the DTG has no rate of its
+  own: the rotor integrates the platform's motion between any two reads).
 """
 from __future__ import annotations
 
@@ -27,6 +32,8 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from gimbal_kinematics.params.table import ParameterError
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.frames import DTG_PICKOFF_JOINTS
 from gimbal_kinematics.maths.free_gyro import spin_axes_for_site_deg
 from gimbal_kinematics.maths.rotations import dcm_from_rotation_vector, rotation_vector_from_dcm
 from gimbal_kinematics.maths.units import URAD
@@ -36,6 +43,7 @@ from .sensors import (
     AccelerometerModel, AccelerometerParams, EncoderModel, EncoderParams, FlexureParams, GyroModel,
     GyroParams, HullParams, InsModel, InsParams, LguPair, ShipFlexureTruth,
 )
+from .sensors.dtg import DtgOnPlatform, DtgPair, DtgPairParams
 from .sensors.free_gyro_sensor import FreeGyroSample, FreeGyroSensor, FreeGyroSensorParams
 from .sensors.inertial_core import off_diagonal
 from .vehicle import VehicleTruth
@@ -43,7 +51,7 @@ from .vehicle import VehicleTruth
 #: Sensor name -> the config field holding its output rate [Hz].
 SENSOR_RATES = {"ins": "ins_rate_hz", "gimbal_gyro": "gimbal_gyro_rate_hz", "encoders": "encoder_rate_hz",
                 "lgu": "lgu_rate_hz", "platform_imu": "platform_imu_rate_hz", "free_gyro": "free_gyro_rate_hz",
-                "resolvers": "resolver_rate_hz"}
+                "resolvers": "resolver_rate_hz", "dtg": "sim_rate_hz"}
 SENSORS = tuple(SENSOR_RATES)
 
 #: Default free-gyro ship site (off Busan, paper 4's authors) [deg], and spin axes set there at
@@ -109,6 +117,20 @@ def _free_gyro_params_from(v: dict) -> FreeGyroSensorParams:
         raise ValueError(f"parameters 'free_gyro_nadir_deg', 'free_gyro_azimuth_deg': {exc}") from exc
 
 
+def _dtg_params_from(v: dict) -> DtgPairParams:
+    """The DTG pair's parameters from a ``sensor_models`` node's ``dtg_*`` values;
+    ``ValueError`` naming the parameter at fault."""
+    for name in ("dtg_scale_error_ppm", "dtg_drift_deg_h"):
+        if len(v[name]) != 4 or not all(math.isfinite(x) for x in v[name]):
+            raise ValueError(f"parameter '{name}' needs four finite values (lower x, y, upper x, y), "
+                             f"got {list(v[name])}")
+    return DtgPairParams(scale_deg_h_ma=v["dtg_torquer_scale_deg_h_ma"],
+                         scale_error_ppm=tuple(float(x) for x in v["dtg_scale_error_ppm"]),
+                         drift_deg_h=tuple(float(x) for x in v["dtg_drift_deg_h"]),
+                         drift_sigma_deg_h=v["dtg_drift_sigma_deg_h"], arw_deg_rt_h=v["dtg_arw_deg_rt_h"],
+                         pickoff_noise_arcsec=v["dtg_pickoff_noise_arcsec"], max_current_ma=v["dtg_max_current_ma"])
+
+
 #: Paper 3 §3: 19-bit tracking resolver-to-digital converters (2π/2¹⁹ ≈ 2.5″ per count);
 #: the tracking velocity is taken as counts over a 10 ms gate.
 PAPER3_RESOLVER = EncoderParams(lines_per_rev=2 ** 19, quadrature=1, velocity_gate_s=0.01)
@@ -139,6 +161,9 @@ class SensorSuiteConfig:
     free_gyro_site_deg: tuple[float, float] = FREE_GYRO_SITE_DEG
     free_gyro: FreeGyroSensorParams = field(default_factory=_default_free_gyro)
     resolver: EncoderParams = PAPER3_RESOLVER
+    dtg: DtgPairParams = field(default_factory=DtgPairParams)
+    #: the base's latitude [deg]: the n frame the DTGs' rotors see turning at the earth rate there
+    dtg_lat_deg: float = 45.0
 
     def __post_init__(self) -> None:
         unknown = [s for s in self.sensors if s not in SENSORS]
@@ -224,6 +249,7 @@ class SensorSuiteConfig:
                                        velocity_gate_s=v["resolver_velocity_gate_s"],
                                        cyclic_error_arcsec=v["resolver_cyclic_error_arcsec"],
                                        cyclic_harmonic=v["resolver_cyclic_harmonic"]),
+                dtg=_dtg_params_from(v), dtg_lat_deg=v["dtg_lat_deg"],
             )
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc
@@ -288,6 +314,13 @@ class ResolverSample(JointReadout):
     __slots__ = ()
 
 
+class DtgSample(JointReadout):
+    """The DTG pickoff angles [rad] (:data:`~gimbal_kinematics.maths.frames.DTG_PICKOFF_JOINTS`),
+    no rates."""
+
+    __slots__ = ()
+
+
 class PlatformImuSample(NamedTuple):
     t: float
     specific_force: tuple[float, float, float]
@@ -338,13 +371,19 @@ class SensorSuite:
             self._fg_C = np.eye(3)  # body rotation since the last free-gyro sample
         self.resolvers = (EncoderModel(config.resolver, 4, rng("resolvers"), dt * self._dec["resolver_rate_hz"])
                           if "resolvers" in on else None)
+        self.dtg = None
+        if "dtg" in on:
+            self.dtg = DtgOnPlatform(DtgPair(config.dtg, rng("dtg")), earth_rate_n(math.radians(config.dtg_lat_deg)),
+                                     dt)
         self._last_k: int | None = None
         #: Steps that never arrived (the models bridge them with their nominal step).
         self.missed_steps = 0
 
-    def update(self, truth: VehicleTruth) -> list[NamedTuple]:
+    def update(self, truth: VehicleTruth, torquer_current_a: Sequence[float] | None = None) -> list[NamedTuple]:
         """Samples due at ``truth.k``. Steps must rise; a skipped step is counted in
-        ``missed_steps``, and a step at or before the last one raises ``ValueError``."""
+        ``missed_steps``, and a step at or before the last one raises ``ValueError``.
+        ``torquer_current_a``: with ``dtg``, the currents (x_s, y_s, z_s) [A] the servo
+        commanded at the step before (needed from the second step on)."""
         k = truth.k
         if self._last_k is not None and k <= self._last_k:
             raise ValueError(f"truth step {k} out of order (last was {self._last_k})")
@@ -391,6 +430,11 @@ class SensorSuite:
                                          _floats(self.platform_gyro.true_bias)))
         if self.free_gyro is not None:
             out.extend(self._free_gyro_update(truth, due("free_gyro_rate_hz")))
+        if self.dtg is not None:
+            if truth.quat_nm is None or truth.specific_force_m is None or len(truth.joint_position) != 4:
+                raise ValueError("dtg needs the four_gimbal_platform plant")
+            out.append(DtgSample(truth.t, DTG_PICKOFF_JOINTS,
+                                 self.dtg.update(truth.quat_nm, truth.specific_force_m, torquer_current_a), ()))
         return out
 
     def _free_gyro_update(self, truth: VehicleTruth, due: bool) -> list[FreeGyroSample]:

@@ -28,6 +28,7 @@ from typing import Sequence
 import numpy as np
 
 from gimbal_kinematics.maths import dtg
+from gimbal_kinematics.maths.rotations import quat_conj, quat_from_rotation_vector, quat_mul, rotation_vector_from_quat
 from gimbal_kinematics.maths.units import ARCSEC, DEG_H, DEG_RT_H
 
 
@@ -104,3 +105,40 @@ class DtgPair:
         if self._pick_sigma > 0.0:
             out = (np.asarray(out) + self._pick_sigma * self.rng.standard_normal(4)).tolist()
         return tuple(out)
+
+
+class DtgOnPlatform:
+    """The pair on the stable element, driven by the platform's attitude truth.
+
+    :meth:`update` takes the platform's attitude q_nm and specific force of step k; from
+    k = 1 on it integrates the pair over k−1 → k through the platform's inertial rotation
+    over the step, exact for the n frame turning at the constant ``omega_in_n`` [rad/s] (a
+    base at rest on the earth), under the currents the servo commanded at k−1 (held over
+    the step, as the torquing electronics hold them). The pickoffs of k = 0 are zero: the
+    rotors are uncaged onto the platform's axes.
+    """
+
+    def __init__(self, pair: DtgPair, omega_in_n: Sequence[float], dt: float) -> None:
+        self.pair = pair
+        self.dt = dt
+        w = [float(v) * dt for v in omega_in_n]
+        self._q_earth = quat_from_rotation_vector(w[0], w[1], w[2])
+        self._last: tuple[float, ...] | None = None
+
+    def update(self, quat_nm: Sequence[float], f_m: Sequence[float],
+               currents_a: Sequence[float] | None) -> tuple[float, float, float, float]:
+        """The pickoffs (lower θ_x, θ_y, upper θ_x, θ_y) [rad] of the step whose attitude is
+        ``quat_nm``; ``currents_a``: the torquer currents (x_s, y_s, z_s) [A] held over the
+        step that ends here (ignored at the first step)."""
+        q = tuple(quat_nm)
+        if self._last is None:
+            out = (0.0, 0.0, 0.0, 0.0)
+        else:
+            if currents_a is None:
+                raise ValueError("the DTG pair needs the torquer currents of the last step")
+            # the platform's inertial rotation over the step, in m at its start (a constant-axis rotation exactly)
+            rot = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._last), self._q_earth), q))
+            dt = self.dt
+            out = self.pair.step(tuple(r / dt for r in rot), f_m, currents_a, dt)
+        self._last = q
+        return out
