@@ -20,6 +20,7 @@ from dataclasses import replace
 from typing import Sequence
 
 from gimbal_kinematics.maths import dtg
+from gimbal_kinematics.params.table import ParameterError
 
 from . import servo_kernels as sk
 from .platform_loop_design import DEFAULT_BANDWIDTH_HZ, DEFAULT_DERIVATIVE_TAU_S, design_all
@@ -63,3 +64,20 @@ class DtgPlatformServo(PlatformServo):
             return None
         self.torquer_current = (ix, iy, iz)
         return self._output(t, result == sk.TICK_HELD)
+
+
+def dtg_servo_from_values(v: dict) -> DtgPlatformServo:
+    """The servo of a ``platform_servo`` node with ``gyro_source: dtg`` (its values, as
+    declared in :mod:`.platform_servo_params`): :meth:`.PlatformServoParams.from_values` with
+    the four loops placed in discrete time at ``imu_rate_hz`` (the pickoffs' read rate, the
+    control rate) at the node's bandwidths, and the torquer's nominal scale factor and
+    range; :class:`ParameterError` names the parameter refused."""
+    base = PlatformServoParams.from_values(v)
+    level = v["level_bandwidth_hz"]
+    params = dtg_servo_params(base, v["imu_rate_hz"], {"a": v["azimuth_bandwidth_hz"], "q": level, "p": level,
+                                                       "r": v["outer_roll_bandwidth_hz"]})
+    for name in ("dtg_torquer_scale_deg_h_ma", "dtg_max_current_ma"):
+        if not v[name] > 0.0:
+            raise ParameterError(f"parameter {name!r} must be > 0, got {v[name]!r}")
+    return DtgPlatformServo(params, scale_deg_h_ma=v["dtg_torquer_scale_deg_h_ma"],
+                            max_current_ma=v["dtg_max_current_ma"])

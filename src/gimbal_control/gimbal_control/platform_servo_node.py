@@ -28,6 +28,15 @@ step (the navigator answers every accelerometer sample, so its IMU rate must be 
 in free timing the newest command is used as it arrives, and the core falls back to its
 internal command when it is older than ``command_max_age_s`` (counted).
 
+With ``gyro_source: dtg`` the loops close on paper 3's two DTGs instead of the gyro triad
+(:mod:`.dtg_servo`): the pickoff angles (``/platform/dtg_pickoffs``, JointState positions
+[rad] of ``dtg_lower_x``, ``_y``, ``dtg_upper_x``, ``_y``) take the gyro sample's place in
+every step and tick, and each step also publishes, before its voltages, the torquer currents
+(x_s, y_s, z_s) [A] that precess the gyros at the command rate on ``~/torquer_current``
+(a sensor_msgs/JointState: joints ``dtg_torquer_x``, ``_y``, ``_z``, the currents as
+efforts; the type the toolkit already uses for per-axis actuator commands, as the voltages).
+``sensor_models`` holds them over the next step of the gyros.
+
 That is ``timing: lockstep`` (the orchestrator sets it). ``timing: free`` (the default, for a
 driver or a bag) never waits: each platform gyro sample makes one command, stamped like it,
 with the newest resolver sample no older than ``max_input_age_s``; a stale or missing one
@@ -47,6 +56,8 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
+from gimbal_kinematics.maths.frames import DTG_PICKOFF_JOINTS
+from gimbal_kinematics.maths.outcome import Fed
 from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.diagnostics import health_msg
 from gimbal_kinematics.ros.node_edge import NodeEdge
@@ -55,15 +66,18 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 
 from . import messages as m
+from .dtg_servo import dtg_servo_from_values
 from .platform_servo import PlatformServo, PlatformServoParams
 from .platform_servo_params import DESCRIPTION, PARAMS
 from .wire import platform_servo_messages
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
-COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names")
+COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names", "rejected_pickoff_names")
 ZERO = (0.0, 0.0, 0.0, 0.0)
 #: the navigator's command rate (command_source: navigator)
 NAVIGATOR_TOPIC = "/platform_navigator/command_rate"
+#: gyro_source -> the input the loops close on: (kind, type, topic)
+GYRO_INPUTS = {"rate_triad": ("imu", Imu, "/platform/imu"), "dtg": ("dtg", JointState, "/platform/dtg_pickoffs")}
 
 
 class PlatformServoNode(Node):
@@ -74,13 +88,18 @@ class PlatformServoNode(Node):
         self.rate = values["sim_rate_hz"]
         self.imu_every = steps_per_sample(values, "imu_rate_hz")
         self.res_every = steps_per_sample(values, "resolver_rate_hz")
-        self.core = PlatformServo(PlatformServoParams.from_values(values))
+        self.dtg = values["gyro_source"] == "dtg"
+        self.core = (dtg_servo_from_values(values) if self.dtg
+                     else PlatformServo(PlatformServoParams.from_values(values)))
+        self.gyro_input = GYRO_INPUTS[values["gyro_source"]]
+        gyro = self.gyro_input[0]
         self.follows_navigator = values["command_source"] == "navigator"
         self.diag_every = values["diagnostics_every_steps"]
         self._ticks = 0
         self.edge = edge = NodeEdge(self, values, COUNTERS)
         edge.pubs["/platform/voltage_cmd"] = edge.io.advertise_command(JointState, "/platform/voltage_cmd", values)
-        edge.advertise_all(((JointState, "~/control_error"), (JointState, "~/modulation")))
+        edge.advertise_all(((JointState, "~/control_error"), (JointState, "~/modulation"))
+                           + (((JointState, "~/torquer_current"),) if self.dtg else ()))
         # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
         nav_age = {"nav": values["command_max_age_s"]} if self.follows_navigator else {}
         self.policy = control_policy(
@@ -88,18 +107,19 @@ class PlatformServoNode(Node):
             lockstep=lambda: LockstepControl(self._needs, self.rate, values["clock_jump_s"],
                                              ticks=("clock",) if self.imu_every > 1 else (),
                                              logger=self.get_logger()),
-            free=lambda: FreeControl("imu", {"res": values["max_input_age_s"], **nav_age},
+            free=lambda: FreeControl(gyro, {"res": values["max_input_age_s"], **nav_age},
                                      1.0 / values["imu_rate_hz"], values["clock_jump_s"], held=tuple(nav_age),
                                      once=("res", *nav_age), warn=edge.warn))
         edge.advertise_diagnostics(self.policy)
         # steps without a gyro sample tick on /clock, they still need their command
-        edge.subscribe_all((("imu", Imu, "/platform/imu"), ("res", JointState, "/platform/resolvers"))
+        edge.subscribe_all((self.gyro_input, ("res", JointState, "/platform/resolvers"))
                            + ((("nav", Vector3Stamped, NAVIGATOR_TOPIC),) if self.follows_navigator else ())
                            + tuple((tick, Clock, "/clock") for tick in self.policy.ticks), self._on_input)
 
     def _needs(self, k: int) -> tuple[str, ...]:
         if k % self.imu_every == 0:
-            need = ("imu", "nav") if self.follows_navigator else ("imu",)
+            gyro = self.gyro_input[0]
+            need = (gyro, "nav") if self.follows_navigator else (gyro,)
         else:
             need = ("clock",)
         return need + ("res",) if k % self.res_every == 0 else need
@@ -122,6 +142,12 @@ class PlatformServoNode(Node):
                 return self.edge.reject("rejected_no_rates", "platform gyro angular velocity marked not provided; "
                                         "not fused")
             return m.vec_of(msg.angular_velocity)
+        if kind == "dtg":
+            names = list(msg.name)
+            if not all(j in names for j in DTG_PICKOFF_JOINTS) or len(msg.position) != len(names):
+                return self.edge.reject("rejected_pickoff_names", "pickoff message without the four DTG pickoff "
+                                        "angles ignored")
+            return tuple(float(msg.position[names.index(j)]) for j in DTG_PICKOFF_JOINTS)  # non-finite: the core's
         if kind == "nav":
             return m.vec_of(msg.vector)  # a non-finite rate is the core's to count
         return msg  # a clock tick
@@ -134,10 +160,10 @@ class PlatformServoNode(Node):
         if step.zero_command:
             volts = ZERO
         else:
-            res, imu, nav = inputs.get("res"), inputs.get("imu"), inputs.get("nav")
+            res, gyro, nav = inputs.get("res"), inputs.get(self.gyro_input[0]), inputs.get("nav")
             fed = ((core.on_resolvers(res.t, res.value) if res is not None else None),
                    (core.on_command_rate(nav.t, nav.value) if nav is not None else None),
-                   (core.on_gyro(step.t, imu.value) if imu is not None else None))
+                   (self._tick(step.t, gyro.value) if gyro is not None else None))
             out = None if fed[2] is None else fed[2].output
             volts = out.voltages if out is not None else core.command_voltages
             why = "; ".join(f.why for f in fed if f is not None and f.why is not None)
@@ -149,8 +175,16 @@ class PlatformServoNode(Node):
             self._ticks += 1
         due = out is not None and (self._ticks - 1) % self.diag_every == 0
         # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
-        self.edge.publish(platform_servo_messages(t_ns, volts, out if due else None))
+        self.edge.publish(platform_servo_messages(t_ns, volts, out if due else None,
+                                                  core.torquer_current if self.dtg else None))
         self.edge.diagnostics(t_ns, lambda: self.health(step))
+
+    def _tick(self, t: float, value) -> Fed:
+        """The control tick on the step's gyro sample: the triad's rates, or the DTG pickoffs."""
+        if not self.dtg:
+            return self.core.on_gyro(t, value)
+        out = self.core.on_pickoffs(t, value[:2], value[2:])
+        return Fed(out is not None, output=out)
 
     def health(self, step: ControlStep):
         """The /diagnostics message (:mod:`gimbal_kinematics.ros.diagnostics`)."""

@@ -58,6 +58,15 @@ class PlatformServoNodeParams(CommandingParams):
         1e-6, INF, unit="s")
     clock_jump_s: float = param(1.0, "a stamp this far before the last one restarts the servo (bag loop)",
         1e-6, INF, unit="s", aliases=CLOCK_JUMP_ALIASES)
+    gyro_source: str = param("rate_triad", "what the loops close on: rate_triad (the platform gyro triad on "
+        "/platform/imu, its rates integrated into emulated pickoffs) or dtg (paper 3's two DTGs: their pickoff angles "
+        "on /platform/dtg_pickoffs, the command rate put into them as torquer currents on ~/torquer_current, "
+        "JointState efforts [A], published every step; the gains placed in discrete time at imu_rate_hz, the "
+        "pickoffs' read rate)", choices=("rate_triad", "dtg"))
+    dtg_torquer_scale_deg_h_ma: float = param(72.0, "dtg: the torquers' nominal scale factor the processor converts "
+        "the command rate with (paper 3's own numbers: 4320 deg/h at 60 mA)", 1e-9, INF, unit="deg/h/mA")
+    dtg_max_current_ma: float = param(200.0, "dtg: the torquing electronics' range +-; a larger command is clipped",
+        1e-9, INF, unit="mA")
     diagnostics_every_steps: int = param(1, "publish ~/control_error and ~/modulation every N control ticks",
         1, 10**6)
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Sequence
 
 from gimbal_kinematics.maths.frames import (
-    GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME, PLATFORM_JOINTS,
+    DTG_TORQUER_JOINTS, GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME, PLATFORM_JOINTS,
 )
 from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
 
@@ -37,12 +37,17 @@ def geo_pointer_messages(t_ns: int, operator_topic: str, command: tuple[float, f
     return out
 
 
-def platform_servo_messages(t_ns: int, volts: Sequence[float], out=None) -> Messages:
-    """``platform_servo``: the step's gimbal motor voltages (a, q, p, r) [V] on
+def platform_servo_messages(t_ns: int, volts: Sequence[float], out=None,
+                            torquer: Sequence[float] | None = None) -> Messages:
+    """``platform_servo``: with ``gyro_source: dtg``, the step's torquer currents (x_s, y_s,
+    z_s) [A] ``torquer`` as a JointState's efforts on ``~/torquer_current`` (first: the DTG
+    pair's next step waits for them); the step's gimbal motor voltages (a, q, p, r) [V] on
     ``/platform/voltage_cmd``, and, with a servo tick's output ``out`` (when its report is
     due), the eq. 1 control signals [rad] on ``~/control_error`` and the modulation angle φz
     [rad] with its rate [rad/s] on ``~/modulation``."""
-    msgs = [("/platform/voltage_cmd", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, effort=volts))]
+    msgs = [] if torquer is None else [("~/torquer_current", JOINT_STATE,
+                                        joint_state_cdr(t_ns, DTG_TORQUER_JOINTS, effort=torquer))]
+    msgs.append(("/platform/voltage_cmd", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, effort=volts)))
     if out is not None:
         msgs += [("~/control_error", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, position=out.control_signals)),
                  ("~/modulation", JOINT_STATE, joint_state_cdr(t_ns, (MODULATION_JOINT,), position=(out.phi_z,),

@@ -50,7 +50,8 @@ N_JOINT = 10
 
 def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tuple[str, dict]] | None:
     """executable -> (node name, values) when the nodes are the chain with the parameters the
-    compiled step reproduces (resolver azimuth, a static base); None otherwise."""
+    compiled step reproduces (resolver azimuth, a static base, the servo on its gyro triad);
+    None otherwise (a servo on DTGs runs in the Python loop)."""
     by_exe = {exe: (name, v) for name, (exe, v) in values.items()}
     if len(values) != len(CHAIN) or set(by_exe) != set(CHAIN):
         return None
@@ -58,6 +59,8 @@ def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tup
     sen = by_exe["sensor_models"][1]
     nav = by_exe["platform_navigator"][1]
     if veh["plant"] != "four_gimbal_platform" or set(sen["sensors"]) != {"platform_imu", "resolvers"}:
+        return None
+    if by_exe["platform_servo"][1]["gyro_source"] != "rate_triad":
         return None
     if nav["azimuth_source"] != "resolver" or nav["joint_topic"] != "/platform/resolvers" \
             or nav["azimuth_joint"] not in PLATFORM_JOINTS:

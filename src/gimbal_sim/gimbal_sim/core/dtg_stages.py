@@ -1,5 +1,8 @@
 """Paper 3's platform on its two DTGs, as engine stages (:func:`.core_loop.run_stages`):
-the gyros (world) and the servo closed on their pickoffs (processor).
+the gyros (world) and the servo closed on their pickoffs (processor). The paper runner's
+stages (:func:`dtg_stage`, :func:`dtg_servo_stage`, on Python objects) and the scenario
+node's (:func:`dtg_servo_node_stage`: ``platform_servo`` with ``gyro_source: dtg``, whose
+gyros are ``sensor_models``' ``dtg``, :func:`.core_stages.sensor_stage`).
 
 Per step k: :func:`dtg_stage` integrates the gyros over the step k−1 → k, through the
 platform's exact inertial rotation (from the plant's attitudes of k−1 and k and the earth's
@@ -11,7 +14,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from gimbal_control.dtg_servo import DtgPlatformServo
+from gimbal_control.dtg_servo import DtgPlatformServo, dtg_servo_from_values
+from gimbal_control.wire import platform_servo_messages
+from gimbal_kinematics.params.table import steps_per_sample
 
 from .core_stages import Bus
 from ..world.sensors.dtg import DtgOnPlatform, DtgPair
@@ -39,4 +44,38 @@ def dtg_servo_stage(servo: DtgPlatformServo) -> Callable[[Bus], None]:
             if out is not None:
                 bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
         bus.command = servo.command_voltages
+    return stage
+
+
+def dtg_servo_node_stage(values: dict, name: str = "platform_servo") -> Callable[[Bus], None]:
+    """The ``platform_servo`` node with ``gyro_source: dtg`` (lockstep): per step the
+    resolvers, the navigator's command rate of the step (``command_source: navigator``),
+    then, on the steps its ``imu_rate_hz`` reads the pickoffs, the tick on them; the step's
+    voltages on ``bus.command``, its torquer currents on ``bus.torquer_current`` (which the
+    next step's gyros are held under), and its messages as the node publishes them
+    (``gimbal_control.wire.platform_servo_messages``)."""
+    servo = dtg_servo_from_values(values)
+    follows = values["command_source"] == "navigator"
+    every = values["diagnostics_every_steps"]
+    rate = values["sim_rate_hz"]
+    read_every = steps_per_sample(values, "imu_rate_hz")
+    ticks = [0]
+
+    def stage(bus: Bus) -> None:
+        out = None
+        if bus.resolvers is not None:
+            servo.on_resolvers(bus.t, bus.resolvers.angles)
+        if follows and bus.nav_command is not None:
+            servo.on_command_rate(bus.t, bus.nav_command)
+        if bus.dtg is not None and bus.k % read_every == 0:
+            out = servo.on_pickoffs(bus.k / rate, bus.dtg[:2], bus.dtg[2:])  # the node's step time, k / rate
+        volts = out.voltages if out is not None else servo.command_voltages
+        bus.command = volts
+        bus.torquer_current = servo.torquer_current
+        if out is not None:
+            ticks[0] += 1
+            bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
+        if bus.record is not None:
+            due = out is not None and (ticks[0] - 1) % every == 0
+            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None, servo.torquer_current))
     return stage

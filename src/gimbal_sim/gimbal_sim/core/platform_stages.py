@@ -41,6 +41,7 @@ from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 from .core_stages import Bus, joint_sample
+from .dtg_stages import dtg_servo_node_stage
 from ..world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite
 
 
@@ -118,7 +119,10 @@ def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Cal
     navigator's command rate of the step (``command_source: navigator``), then the gyro
     tick; the step's voltages on ``bus.command`` (held between ticks) and every
     ``diagnostics_every_steps``-th tick's control error and modulation, as the node
-    publishes them (``gimbal_control.wire.platform_servo_messages``)."""
+    publishes them (``gimbal_control.wire.platform_servo_messages``); with ``gyro_source:
+    dtg``, :func:`.dtg_stages.dtg_servo_node_stage`."""
+    if values["gyro_source"] == "dtg":
+        return dtg_servo_node_stage(values, name)
     servo = PlatformServo(PlatformServoParams.from_values(values))
     follows = values["command_source"] == "navigator"
     every = values["diagnostics_every_steps"]

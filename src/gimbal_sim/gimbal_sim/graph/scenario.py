@@ -18,7 +18,7 @@ the user's own file::
         remap: {}          # topic remappings, from: to
     variants:              # optional: run the scenario once per variant ...
       feedback_off: {los_rate_controller.feedback: false}
-      feedback_on:  {los_rate_controller.feedback: true, seed: 3}   # also sim_rate_hz
+      feedback_on:  {los_rate_controller.feedback: true, seed: 3}   # also sim_rate_hz, record
     comparison: bias_feedback   # ... and compare the runs with this report
     prelude:               # optional (also as a variant's override): run another scenario first
       scenario: rotational_ins_alignment   # built-in name or YAML file
@@ -186,9 +186,7 @@ def validate(data: Any, where: str = "scenario") -> Scenario:
                          "remap": {str(k): str(v) for k, v in remap.items()}}
     if "bag_recorder" in {s["executable"] for s in checked.values()}:
         raise ScenarioError(f"{where}: the orchestrator adds the recorder itself; remove it from 'nodes'")
-    record = data.get("record", "all")
-    if record != "all" and not (isinstance(record, list) and all(isinstance(t, str) for t in record)):
-        raise ScenarioError(f"{where}: 'record' must be 'all' or a list of topics")
+    record = _record(data.get("record", "all"), where)
     rates = data.get("record_rates_hz") or {}
     if not isinstance(rates, dict) or not all(isinstance(t, str) and t.startswith("/") and not isinstance(r, bool)
                                               and isinstance(r, (int, float)) and 0 <= r < float("inf")
@@ -216,6 +214,13 @@ def validate(data: Any, where: str = "scenario") -> Scenario:
     prelude = _prelude(data["prelude"], f"{where}: prelude") if "prelude" in data else None
     return replace(scenario, variants={str(k): dict(v) for k, v in variants.items()}, comparison=comparison,
                    prelude=prelude)
+
+
+def _record(value: Any, where: str) -> str | list[str]:
+    """A checked ``record``: 'all' or a list of topics."""
+    if value != "all" and not (isinstance(value, list) and all(isinstance(t, str) for t in value)):
+        raise ScenarioError(f"{where}: 'record' must be 'all' or a list of topics")
+    return value if value == "all" else list(value)
 
 
 def _prelude(value: Any, where: str) -> dict[str, Any]:
@@ -262,8 +267,10 @@ def _prelude_param(scenario: Scenario, key: str, value: Any, where: str) -> Scen
 
 
 def override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
-    """``scenario`` with one override applied: ``seed``, ``sim_rate_hz``, ``prelude``,
-    ``prelude.node.param`` or ``node.param``."""
+    """``scenario`` with one override applied: ``seed``, ``sim_rate_hz``, ``record`` (a
+    variant that publishes other topics), ``prelude``, ``prelude.node.param`` or ``node.param``."""
+    if key == "record":
+        return replace(scenario, record=_record(value, f"{where}: record"))
     if key == "sim_rate_hz":
         return replace(scenario, sim_rate_hz=_number(f"{where}: sim_rate_hz", value))
     if key == "prelude":
@@ -276,7 +283,8 @@ def override(scenario: Scenario, key: str, value: Any, where: str) -> Scenario:
         return replace(scenario, seed=value)
     node, dot, param = str(key).partition(".")
     if not dot or node not in scenario.nodes:
-        raise ScenarioError(f"{where}: override {key!r} is not 'seed', 'sim_rate_hz', 'prelude' or 'node.param' of a node in the "
+        raise ScenarioError(f"{where}: override {key!r} is not 'seed', 'sim_rate_hz', 'record', 'prelude' or "
+                            f"'node.param' of a node in the "
                             f"scenario (nodes: {', '.join(scenario.nodes)})")
     new = copy.deepcopy(scenario)
     spec = new.nodes[node]

@@ -25,7 +25,7 @@ from .los_pointing import los_pointing_report
 from .operator import sighting_operator_comparison, sighting_operator_report
 from .navigation import navigation_report
 from .navigation import rotation_comparison as navigation_rotation_comparison
-from .platform_servo import platform_servo_report
+from .platform_servo import platform_servo_comparison, platform_servo_report
 from .sighting import sighting_comparison, sighting_report
 from .slew import slew_comparison, slew_report
 
@@ -60,6 +60,7 @@ COMPARISONS: dict[str, Callable[[dict[str, Path], Path], dict]] = {
     "navigation_rotation": navigation_rotation_comparison,
     "slew": slew_comparison,
     "flexure_sea_states": flexure_sea_states_comparison,
+    "platform_servo_gyro_source": platform_servo_comparison,
 }
 
 

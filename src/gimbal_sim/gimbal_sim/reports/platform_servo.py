@@ -18,7 +18,12 @@ Figures (arc-seconds unless named otherwise):
   outside [t_k, t_k + ``TRANSIENT_WINDOW_S``) after every reversal t_k (φ̇z changes sign);
   ``reversal`` is the largest |error| inside those windows;
 * level errors: Δθ_qm, Δθ_pm, Δθ_rm (sensed) and the truth tilts relative to their start;
-* torque current: the azimuth motor's armature current, truth torque / k_t (Table 1), in mA.
+* torque current: the azimuth motor's armature current, truth torque / k_t (Table 1), in mA;
+* the DTG torquer currents (``/platform_servo/torquer_current``, a servo with ``gyro_source:
+  dtg``): the azimuth torquer current i_z, its mean and relative standard deviation over the
+  steady samples of each direction of rotation (paper 3: 60 mA at 1.2 °/s), in mA.
+
+The comparison ``platform_servo_gyro_source`` puts the variants' figures side by side.
 
 Acceptance: steady control error < 40″ (goal 20″), reversal transient < 240″
 (goal 120″), both for the sensed and the truth error.
@@ -46,6 +51,7 @@ MODULATION = "/platform_servo/modulation"
 CONTROL_ERROR = "/platform_servo/control_error"
 TRUTH_JOINTS = "/truth/platform/joint_states"
 GYRO_BIAS = "/truth/platform/gyro_bias"
+TORQUER = "/platform_servo/torquer_current"
 
 
 def stream_columns(bag_dir: Path, extract: dict[str, Callable]) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]],
@@ -67,8 +73,8 @@ def stream_columns(bag_dir: Path, extract: dict[str, Callable]) -> tuple[dict[st
         s = msg.header.stamp
         stamps[item.topic].append(s.sec + 1e-9 * s.nanosec)
         rows[item.topic].append(extract[item.topic](msg))
-    out = {topic: (np.array(stamps[topic]), np.array(rows[topic], dtype=float).reshape(len(rows[topic]), -1))
-           for topic in extract}
+    out = {topic: (np.array(stamps[topic]), np.array(rows[topic], dtype=float).reshape(len(rows[topic]), -1)
+                   if rows[topic] else np.zeros((0, 1))) for topic in extract}
     return out, contents
 
 
@@ -250,13 +256,32 @@ def _servo_plots(out: Path, r: _ServoRun) -> list[str]:
     return plots
 
 
-def platform_servo_report(bag_dir: Path, out: Path) -> dict:
-    """Paper 3 servo figures (module docstring) into ``out``; returns the metrics."""
+def _torquer_figures(r: _ServoRun, cols: dict) -> dict | None:
+    """The azimuth torquer current i_z over the steady ticks of each direction [mA] (None
+    without a torquer topic in the bag)."""
+    t_i, cur = cols[TORQUER]
+    if not len(t_i):
+        return None
+    i_z = _on(t_i, cur[:, 2], r.t)
+    legs = {}
+    for sign, name in ((1.0, "positive_rate"), (-1.0, "negative_rate")):
+        mask = r.steady & (np.sign(r.phi_rate) == sign)
+        if mask.any():
+            leg = 1e3 * i_z[mask]
+            legs[name] = {"mean_ma": float(np.mean(leg)), "rsd": float(np.std(leg) / abs(np.mean(leg))),
+                          "samples": int(mask.sum())}
+    return {"azimuth": legs, "level_max_abs_ma": float(1e3 * np.max(np.abs(_on(t_i, cur[:, :2], r.t)[r.steady])))
+            if r.steady.any() else None}
+
+
+def servo_metrics(bag_dir: Path) -> tuple[dict, _ServoRun]:
+    """The report's figures (module docstring) without its plots, and the series."""
     cols, contents = stream_columns(bag_dir, {
         MODULATION: lambda msg: (msg.position[0], msg.velocity[0]),
         CONTROL_ERROR: lambda msg: tuple(msg.position),
         TRUTH_JOINTS: lambda msg: tuple(msg.position) + (msg.effort[0],),
         GYRO_BIAS: lambda msg: (msg.vector.z,),
+        TORQUER: lambda msg: tuple(msg.effort),
     })
     for topic in (MODULATION, CONTROL_ERROR, TRUTH_JOINTS):
         if len(cols[topic][0]) < 2:
@@ -270,5 +295,43 @@ def platform_servo_report(bag_dir: Path, out: Path) -> dict:
                      "rate_deg_s": float(np.degrees(np.abs(r.phi_rate).max()))},
         **_servo_figures(r),
     }
+    torquer = _torquer_figures(r, cols)
+    if torquer is not None:
+        metrics["dtg_torquer_current"] = torquer
+    return metrics, r
+
+
+def platform_servo_report(bag_dir: Path, out: Path) -> dict:
+    """Paper 3 servo figures (module docstring) into ``out``; returns the metrics."""
+    metrics, r = servo_metrics(bag_dir)
     metrics["plots"] = _servo_plots(out, r)
     return metrics
+
+
+def _fmt(v) -> str:
+    return "-" if v is None else f"{v:.4g}"
+
+
+def platform_servo_comparison(runs: dict[str, Path], out: Path) -> dict:
+    """The variants (e.g. the gyro triad against the DTGs) side by side: steady and reversal
+    control errors, level tilt, and the DTG azimuth torquer current where there is one."""
+    cases = {name: servo_metrics(bag)[0] for name, bag in runs.items()}
+    rows = [("figure", *cases)]
+    for label, get in (
+            ("steady azimuth error, truth, max [arcsec]",
+             lambda c: c["control_error_arcsec"]["truth_drift_removed"]["steady"]["max"]),
+            ("reversal azimuth error, truth, max [arcsec]",
+             lambda c: c["control_error_arcsec"]["truth_drift_removed"]["reversal"]["max"]),
+            ("steady level tilt, truth, max [arcsec]",
+             lambda c: max(v for v in c["level_error_arcsec"]["truth_tilt_steady_max"].values() if v is not None)
+             if any(v is not None for v in c["level_error_arcsec"]["truth_tilt_steady_max"].values()) else None),
+            ("azimuth torquer current, + rate [mA]",
+             lambda c: c.get("dtg_torquer_current", {}).get("azimuth", {}).get("positive_rate", {}).get("mean_ma")),
+            ("azimuth torquer current, - rate [mA]",
+             lambda c: c.get("dtg_torquer_current", {}).get("azimuth", {}).get("negative_rate", {}).get("mean_ma"))):
+        rows.append((label, *(_fmt(get(c)) for c in cases.values())))
+    widths = [max(len(str(row[i])) for row in rows) for i in range(len(rows[0]))]
+    table = "\n".join("  ".join(str(c).rjust(w) if i else str(c).ljust(w) for i, (c, w) in enumerate(zip(row, widths)))
+                      for row in rows)
+    return {"cases": cases, "table": "Platform servo by gyro source:\n" + table, "plots": [],
+            "runs": {k: str(v) for k, v in runs.items()}}
