@@ -81,3 +81,10 @@ def dtg_servo_from_values(v: dict) -> DtgPlatformServo:
             raise ParameterError(f"parameter {name!r} must be > 0, got {v[name]!r}")
     return DtgPlatformServo(params, scale_deg_h_ma=v["dtg_torquer_scale_deg_h_ma"],
                             max_current_ma=v["dtg_max_current_ma"])
+
+
+def platform_servo_core(v: dict) -> PlatformServo:
+    """The core of a ``platform_servo`` node from its values: on its gyro triad, or
+    (``gyro_source: dtg``) on the DTGs (:func:`dtg_servo_from_values`); :class:`ParameterError`
+    names the parameter refused."""
+    return dtg_servo_from_values(v) if v["gyro_source"] == "dtg" else PlatformServo(PlatformServoParams.from_values(v))

@@ -66,8 +66,7 @@ from gimbal_kinematics.ros.params import declare_and_read
 from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, LockstepControl, control_policy
 
 from . import messages as m
-from .dtg_servo import dtg_servo_from_values
-from .platform_servo import PlatformServo, PlatformServoParams
+from .dtg_servo import platform_servo_core
 from .platform_servo_params import DESCRIPTION, PARAMS
 from .wire import platform_servo_messages
 
@@ -89,8 +88,7 @@ class PlatformServoNode(Node):
         self.imu_every = steps_per_sample(values, "imu_rate_hz")
         self.res_every = steps_per_sample(values, "resolver_rate_hz")
         self.dtg = values["gyro_source"] == "dtg"
-        self.core = (dtg_servo_from_values(values) if self.dtg
-                     else PlatformServo(PlatformServoParams.from_values(values)))
+        self.core = platform_servo_core(values)
         self.gyro_input = GYRO_INPUTS[values["gyro_source"]]
         gyro = self.gyro_input[0]
         self.follows_navigator = values["command_source"] == "navigator"

@@ -21,7 +21,7 @@ from gimbal_control.geo_pointer import GeoPointerParams
 from gimbal_control.los_hold import LosHoldParams
 from gimbal_control.los_rate_controller import LosRateControllerParams
 from gimbal_control.operator_command import OperatorCommandParams
-from gimbal_control.platform_servo import PlatformServoParams
+from gimbal_control.dtg_servo import platform_servo_core
 from gimbal_estimators import (
     flexure_estimator_params, free_gyro_positioning_params, gyro_bias_ekf_params, platform_alignment_params,
     platform_navigator_params,
@@ -173,7 +173,7 @@ NODE_TYPES: dict[str, NodeType] = {
                                             _encoder_fusion_controller, EncoderFusionParams.from_values),
     "flexure_estimator": _node_type("gimbal_estimators", flexure_estimator_params, _flexure_estimator, _flexure_params),
     "platform_servo": _node_type("gimbal_control", platform_servo_params, _platform_servo,
-                                 PlatformServoParams.from_values),
+                                 platform_servo_core),
     "platform_alignment": _node_type("gimbal_estimators", platform_alignment_params, _platform_alignment,
                                      RotationAlignmentParams.from_values),
     "geo_pointer": _node_type("gimbal_control", geo_pointer_params, _geo_pointer, GeoPointerParams.from_values),
