@@ -200,11 +200,12 @@ SWEEP_DEG = 6.0  # one reversal at 5 s
 @pytest.fixture(scope="module")
 def graph_run(module_ros_domain_env, tmp_path_factory):
     out = tmp_path_factory.mktemp("servo") / "run"
-    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "rotational_platform_servo", "--duration", str(DURATION_S),
-                             "--set", f"platform_servo.sweep_deg={SWEEP_DEG}", "--out", str(out), "--mode", "container",
-                             "--no-progress"], env=module_ros_domain_env, capture_output=True, text=True, timeout=900)
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "rotational_platform_servo", "--variant", "rate_triad",
+                             "--duration", str(DURATION_S), "--set", f"platform_servo.sweep_deg={SWEEP_DEG}", "--out",
+                             str(out), "--mode", "container", "--no-progress"], env=module_ros_domain_env,
+                            capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stdout + result.stderr
-    return out
+    return out / "rate_triad"
 
 
 def _read_bag(out):
