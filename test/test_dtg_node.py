@@ -12,7 +12,8 @@ same through the node graph, then:
   factor S = 72 (°/h)/mA; the level currents' magnitude is Ω cos L / S whatever the azimuth;
 * the default (rate triad) path is the scenario as it was, and publishes no torquer or
   pickoff topic; the compiled chain leaves a DTG servo to the Python loop;
-* bad DTG parameters are refused before anything starts, naming the parameter (exit 2).
+* bad DTG parameters, and the DTGs without the servo on them (or the reverse), are refused
+  before anything starts, naming the parameter (exit 2).
 """
 from __future__ import annotations
 
@@ -122,15 +123,19 @@ def test_the_compiled_chain_leaves_a_dtg_servo_to_the_python_loop():
     assert compiled.compiled_runner(node_values(apply_set(nav, "platform_servo.gyro_source=dtg"))) is None
 
 
-@pytest.mark.parametrize("assignment, named", [
-    ("platform_servo.gyro_source=fibre", "gyro_source"),
-    ("platform_servo.dtg_max_current_ma=0", "dtg_max_current_ma"),
-    ("sensor_models.dtg_scale_error_ppm=[1.0, 2.0]", "dtg_scale_error_ppm"),
-    ("sensor_models.dtg_lat_deg=95", "dtg_lat_deg"),
+@pytest.mark.parametrize("run, assignment, named", [
+    ("dtg", "platform_servo.gyro_source=fibre", "gyro_source"),
+    ("dtg", "platform_servo.dtg_max_current_ma=0", "dtg_max_current_ma"),
+    ("dtg", "sensor_models.dtg_scale_error_ppm=[1.0, 2.0]", "dtg_scale_error_ppm"),
+    ("dtg", "sensor_models.dtg_lat_deg=95", "dtg_lat_deg"),
+    # the DTGs without the servo that torques them, and the servo on DTGs that are not there
+    ("rate_triad", "sensor_models.sensors=[platform_imu, resolvers, dtg]", "gyro_source"),
+    ("rate_triad", "platform_servo.gyro_source=dtg", "sensors"),
 ])
-def test_bad_dtg_parameters_are_refused_before_anything_starts(module_ros_domain_env, tmp_path, assignment, named):
-    result = subprocess.run([str(VENV_BIN / "gimbal-run"), SCENARIO, "--variant", "dtg", "--engine", "core",
+def test_bad_dtg_parameters_are_refused_before_anything_starts(module_ros_domain_env, tmp_path, run, assignment,
+                                                               named):
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), SCENARIO, "--variant", run, "--engine", "core",
                              "--duration", "1", "--set", assignment, "--out", str(tmp_path / "bad")],
                             env=module_ros_domain_env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 2 and f"'{named}'" in result.stderr, result.stderr[-2000:]
-    assert not (tmp_path / "bad" / "dtg").exists()
+    assert not (tmp_path / "bad" / run).exists()

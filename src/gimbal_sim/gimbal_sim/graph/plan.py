@@ -123,7 +123,9 @@ def check_nodes(scenario: Scenario, where: str = "") -> None:
     params files' and ``--set`` values, and what the orchestrator sets) through the node's own
     start-up checks (:attr:`.registry.NodeType.check`, the ``from_values`` its ``__init__``
     runs): what a node would refuse is refused here, naming the node and the parameter,
-    before anything starts. Raises :class:`.scenario.ScenarioError`."""
+    before anything starts; then the checks across nodes (:func:`_check_dtg`). Raises
+    :class:`.scenario.ScenarioError`."""
+    finals = {}
     for node in plan_nodes(scenario, Path("unused")):
         node_type = NODE_TYPES[node.executable]
         canonical = {alias: p.name for p in node_type.params for alias in (p.name, *p.aliases)}
@@ -133,6 +135,24 @@ def check_nodes(scenario: Scenario, where: str = "") -> None:
             node_type.check(values)
         except (ValueError, TypeError) as exc:
             raise ScenarioError(f"{where}node {node.name!r}: {exc}") from None
+        finals[node.name] = (node.executable, values)
+    _check_dtg(finals, where)
+
+
+def _check_dtg(finals: dict[str, tuple[str, dict[str, Any]]], where: str) -> None:
+    """Paper 3's DTGs come with the servo that torques them: where a scenario runs both
+    ``sensor_models`` and ``platform_servo``, the sensor ``dtg`` and ``gyro_source: dtg`` go
+    together (either alone waits for ever: the gyros for currents, the servo for pickoffs)."""
+    sensors = [n for n, (exe, v) in finals.items() if exe == "sensor_models"]
+    servos = [n for n, (exe, v) in finals.items() if exe == "platform_servo"]
+    if not sensors or not servos:
+        return
+    has_dtg = any("dtg" in finals[n][1]["sensors"] for n in sensors)
+    on_dtg = any(finals[n][1]["gyro_source"] == "dtg" for n in servos)
+    if has_dtg != on_dtg:
+        raise ScenarioError(f"{where}parameters 'sensors' of {sensors[0]!r} ({'with' if has_dtg else 'without'} dtg) "
+                            f"and 'gyro_source' of {servos[0]!r} ({'dtg' if on_dtg else 'rate_triad'}) disagree: "
+                            "the DTGs need the servo's torquer currents and the servo on them their pickoffs")
 
 
 def write_run_files(scenario: Scenario, nodes: list[PlannedNode], out_dir: Path) -> None:
