@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from gimbal_control.dtg_servo import DtgPlatformServo, dtg_servo_from_values
-from gimbal_control.wire import platform_servo_messages
+from gimbal_control.dtg_servo import DtgPlatformServo
+from gimbal_control.platform_servo import ServoCommand
 from gimbal_kinematics.params.table import steps_per_sample
 
 from .core_stages import Bus
@@ -47,35 +47,15 @@ def dtg_servo_stage(servo: DtgPlatformServo) -> Callable[[Bus], None]:
     return stage
 
 
-def dtg_servo_node_stage(values: dict, name: str = "platform_servo") -> Callable[[Bus], None]:
-    """The ``platform_servo`` node with ``gyro_source: dtg`` (lockstep): per step the
-    resolvers, the navigator's command rate of the step (``command_source: navigator``),
-    then, on the steps its ``imu_rate_hz`` reads the pickoffs, the tick on them; the step's
-    voltages on ``bus.command``, its torquer currents on ``bus.torquer_current`` (which the
-    next step's gyros are held under), and its messages as the node publishes them
-    (``gimbal_control.wire.platform_servo_messages``)."""
-    servo = dtg_servo_from_values(values)
-    follows = values["command_source"] == "navigator"
-    every = values["diagnostics_every_steps"]
-    rate = values["sim_rate_hz"]
+def dtg_servo_tick(servo: DtgPlatformServo, values: dict) -> Callable[[Bus], ServoCommand | None]:
+    """The ``platform_servo`` node's tick with ``gyro_source: dtg`` (lockstep): on the steps its
+    ``imu_rate_hz`` reads the pickoffs, the servo on the step's pickoffs at the node's step
+    time k / rate; None on the others."""
     read_every = steps_per_sample(values, "imu_rate_hz")
-    ticks = [0]
+    rate = values["sim_rate_hz"]
 
-    def stage(bus: Bus) -> None:
-        out = None
-        if bus.resolvers is not None:
-            servo.on_resolvers(bus.t, bus.resolvers.angles)
-        if follows and bus.nav_command is not None:
-            servo.on_command_rate(bus.t, bus.nav_command)
-        if bus.dtg is not None and bus.k % read_every == 0:
-            out = servo.on_pickoffs(bus.k / rate, bus.dtg[:2], bus.dtg[2:])  # the node's step time, k / rate
-        volts = out.voltages if out is not None else servo.command_voltages
-        bus.command = volts
-        bus.torquer_current = servo.torquer_current
-        if out is not None:
-            ticks[0] += 1
-            bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
-        if bus.record is not None:
-            due = out is not None and (ticks[0] - 1) % every == 0
-            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None, servo.torquer_current))
-    return stage
+    def tick(bus: Bus) -> ServoCommand | None:
+        if bus.dtg is None or bus.k % read_every != 0:
+            return None
+        return servo.on_pickoffs(bus.k / rate, bus.dtg[:2], bus.dtg[2:])
+    return tick

@@ -30,7 +30,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
+from gimbal_control.dtg_servo import dtg_servo_from_values
+from gimbal_control.platform_servo import PlatformServo, PlatformServoParams, ServoCommand
 from gimbal_control.wire import platform_servo_messages
 from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
@@ -41,7 +42,7 @@ from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 from .core_stages import Bus, joint_sample
-from .dtg_stages import dtg_servo_node_stage
+from .dtg_stages import dtg_servo_tick
 from ..world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite
 
 
@@ -116,36 +117,47 @@ def servo_stage(servo: PlatformServo) -> Callable[[Bus], None]:
 
 def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Callable[[Bus], None]:
     """The ``platform_servo`` node of a scenario (lockstep): per step the resolvers, the
-    navigator's command rate of the step (``command_source: navigator``), then the gyro
-    tick; the step's voltages on ``bus.command`` (held between ticks) and every
-    ``diagnostics_every_steps``-th tick's control error and modulation, as the node
-    publishes them (``gimbal_control.wire.platform_servo_messages``); with ``gyro_source:
-    dtg``, :func:`.dtg_stages.dtg_servo_node_stage`."""
-    if values["gyro_source"] == "dtg":
-        return dtg_servo_node_stage(values, name)
-    servo = PlatformServo(PlatformServoParams.from_values(values))
+    navigator's command rate of the step (``command_source: navigator``), then the tick on
+    the step's gyro sample (``gyro_source: dtg``: on its DTG pickoffs,
+    :func:`.dtg_stages.dtg_servo_tick`, its torquer currents on ``bus.torquer_current``, which
+    the next step's gyros are held under); the step's voltages on ``bus.command`` (held
+    between ticks) and every ``diagnostics_every_steps``-th tick's control error and
+    modulation, as the node publishes them (``gimbal_control.wire.platform_servo_messages``)."""
+    dtg = values["gyro_source"] == "dtg"
+    servo = dtg_servo_from_values(values) if dtg else PlatformServo(PlatformServoParams.from_values(values))
+    tick = dtg_servo_tick(servo, values) if dtg else _gyro_tick(servo, values["sim_rate_hz"])
     follows = values["command_source"] == "navigator"
     every = values["diagnostics_every_steps"]
-    rate = values["sim_rate_hz"]
     ticks = [0]
 
     def stage(bus: Bus) -> None:
-        out = None
         if bus.resolvers is not None:
             servo.on_resolvers(bus.t, bus.resolvers.angles)
         if follows and bus.nav_command is not None:
             servo.on_command_rate(bus.t, bus.nav_command)
-        if bus.platform_imu is not None:
-            out = servo.on_gyro(bus.k / rate, bus.platform_imu.omega).output  # the node's step time, k / rate
+        out = tick(bus)
         volts = out.voltages if out is not None else servo.command_voltages
         bus.command = volts
+        torquer = servo.torquer_current if dtg else None
+        if dtg:
+            bus.torquer_current = torquer
         if out is not None:
             ticks[0] += 1
             bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
         if bus.record is not None:
             due = out is not None and (ticks[0] - 1) % every == 0
-            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None))
+            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None, torquer))
     return stage
+
+
+def _gyro_tick(servo: PlatformServo, rate: float) -> Callable[[Bus], ServoCommand | None]:
+    """The rate-gyro servo's tick on the step's platform IMU sample, at the node's step time k / rate."""
+
+    def tick(bus: Bus) -> ServoCommand | None:
+        if bus.platform_imu is None:
+            return None
+        return servo.on_gyro(bus.k / rate, bus.platform_imu.omega).output
+    return tick
 
 
 def platform_navigator_node_stage(values: dict, name: str = "platform_navigator") -> Callable[[Bus], None]:
