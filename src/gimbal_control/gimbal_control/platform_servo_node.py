@@ -56,7 +56,6 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from gimbal_kinematics.maths.frames import DTG_PICKOFF_JOINTS
 from gimbal_kinematics.maths.outcome import Fed
 from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.diagnostics import health_msg
@@ -68,7 +67,7 @@ from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, Lo
 from . import messages as m
 from .dtg_servo import platform_servo_core
 from .platform_servo_params import DESCRIPTION, PARAMS
-from .wire import platform_servo_messages
+from .wire import pickoff_angles, platform_servo_messages
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names", "rejected_pickoff_names")
@@ -90,7 +89,7 @@ class PlatformServoNode(Node):
         self.dtg = values["gyro_source"] == "dtg"
         self.core = platform_servo_core(values)
         self.gyro_input = GYRO_INPUTS[values["gyro_source"]]
-        gyro = self.gyro_input[0]
+        self.gyro = self.gyro_input[0]
         self.follows_navigator = values["command_source"] == "navigator"
         self.diag_every = values["diagnostics_every_steps"]
         self._ticks = 0
@@ -105,19 +104,17 @@ class PlatformServoNode(Node):
             lockstep=lambda: LockstepControl(self._needs, self.rate, values["clock_jump_s"],
                                              ticks=("clock",) if self.imu_every > 1 else (),
                                              logger=self.get_logger()),
-            free=lambda: FreeControl(gyro, {"res": values["max_input_age_s"], **nav_age},
+            free=lambda: FreeControl(self.gyro, {"res": values["max_input_age_s"], **nav_age},
                                      1.0 / values["imu_rate_hz"], values["clock_jump_s"], held=tuple(nav_age),
                                      once=("res", *nav_age), warn=edge.warn))
         edge.advertise_diagnostics(self.policy)
-        # steps without a gyro sample tick on /clock, they still need their command
         edge.subscribe_all((self.gyro_input, ("res", JointState, "/platform/resolvers"))
                            + ((("nav", Vector3Stamped, NAVIGATOR_TOPIC),) if self.follows_navigator else ())
                            + tuple((tick, Clock, "/clock") for tick in self.policy.ticks), self._on_input)
 
     def _needs(self, k: int) -> tuple[str, ...]:
         if k % self.imu_every == 0:
-            gyro = self.gyro_input[0]
-            need = (gyro, "nav") if self.follows_navigator else (gyro,)
+            need = (self.gyro, "nav") if self.follows_navigator else (self.gyro,)
         else:
             need = ("clock",)
         return need + ("res",) if k % self.res_every == 0 else need
@@ -141,11 +138,9 @@ class PlatformServoNode(Node):
                                         "not fused")
             return m.vec_of(msg.angular_velocity)
         if kind == "dtg":
-            names = list(msg.name)
-            if not all(j in names for j in DTG_PICKOFF_JOINTS) or len(msg.position) != len(names):
-                return self.edge.reject("rejected_pickoff_names", "pickoff message without the four DTG pickoff "
-                                        "angles ignored")
-            return tuple(float(msg.position[names.index(j)]) for j in DTG_PICKOFF_JOINTS)  # non-finite: the core's
+            angles = pickoff_angles(msg.name, msg.position)  # non-finite: the core's to count
+            return angles if angles is not None else self.edge.reject(
+                "rejected_pickoff_names", "pickoff message without the four DTG pickoff angles ignored")
         if kind == "nav":
             return m.vec_of(msg.vector)  # a non-finite rate is the core's to count
         return msg  # a clock tick
@@ -158,7 +153,7 @@ class PlatformServoNode(Node):
         if step.zero_command:
             volts = ZERO
         else:
-            res, gyro, nav = inputs.get("res"), inputs.get(self.gyro_input[0]), inputs.get("nav")
+            res, gyro, nav = inputs.get("res"), inputs.get(self.gyro), inputs.get("nav")
             fed = ((core.on_resolvers(res.t, res.value) if res is not None else None),
                    (core.on_command_rate(nav.t, nav.value) if nav is not None else None),
                    (self._tick(step.t, gyro.value) if gyro is not None else None))

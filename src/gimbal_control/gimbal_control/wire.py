@@ -8,7 +8,8 @@ from __future__ import annotations
 from typing import Sequence
 
 from gimbal_kinematics.maths.frames import (
-    DTG_TORQUER_JOINTS, GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME, PLATFORM_JOINTS,
+    DTG_PICKOFF_JOINTS, DTG_TORQUER_JOINTS, GIMBAL_COMMAND_JOINTS, GIMBAL_FRAME, MODULATION_JOINT, NAV_FRAME,
+    PLATFORM_JOINTS,
 )
 from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
 
@@ -67,3 +68,12 @@ def encoder_fusion_messages(t_ns: int, tau: tuple[float, float], feedback: tuple
     if correction is not None:
         out.append(("~/drift_correction", VECTOR3_STAMPED, vector3_cdr(t_ns, GIMBAL_FRAME, (0.0, *correction))))
     return out
+
+
+def pickoff_angles(names: Sequence[str], positions: Sequence[float]) -> tuple[float, ...] | None:
+    """The four DTG pickoff angles [rad] of a ``/platform/dtg_pickoffs`` JointState in
+    :data:`DTG_PICKOFF_JOINTS`' order; None when a name is missing or the lengths differ."""
+    names = list(names)
+    if not all(j in names for j in DTG_PICKOFF_JOINTS) or len(positions) != len(names):
+        return None
+    return tuple(float(positions[names.index(j)]) for j in DTG_PICKOFF_JOINTS)
