@@ -138,21 +138,32 @@ def test_both_subprotocols_get_the_bags_values(node_client, tmp_path, ros_domain
     _assert_same_as_bag(received, tmp_path / "run" / "ekf_on")
     _assert_frames_match_bag(frames, tmp_path / "run" / "ekf_on")
 
-    # gimbal-bag play --live relays the bag it plays the same way
+    # gimbal-bag play --live relays the bag it plays the same way. The replay is paced by the wall
+    # clock, so it starts paused and plays once the client is connected: a client slow to start
+    # under load would otherwise find the replay over.
     port = _free_port()
     play = subprocess.Popen([str(VENV_BIN / "gimbal-bag"), "play", str(tmp_path / "run" / "ekf_on"), "--topics",
-                             *TOPICS, "--playback-duration", "4", "--live", "--live-port", str(port)],
-                            env=ros_domain_env,
+                             *TOPICS, "--playback-duration", "4", "--start-paused", "--live", "--live-port", str(port)],
+                            env=ros_domain_env, stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    client = None
     try:
         _wait_listening(port, play)
-        replayed = _client(node_client, port, LEGACY_SUBPROTOCOL, 5)
+        client = subprocess.Popen(["node", str(node_client), f"ws://127.0.0.1:{port}", LEGACY_SUBPROTOCOL.decode(),
+                                   "5", *TOPICS], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        opened = client.stdout.readline()  # connected; it subscribes on the advertisement that follows
+        play.stdin.write("\n")
+        play.stdin.flush()
+        rest, client_err = client.communicate(timeout=120)
         output, _ = play.communicate(timeout=120)
     finally:
-        if play.poll() is None:
-            play.kill()
-            play.wait()
+        for proc in (play, client):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait()
     assert play.returncode == 0, output
+    assert client.returncode == 0 and json.loads(opened) == {"open": LEGACY_SUBPROTOCOL.decode()}, client_err
+    replayed = [json.loads(line) for line in rest.splitlines()]
     assert len(replayed) == 10
     _assert_same_as_bag(replayed, tmp_path / "run" / "ekf_on")
 
