@@ -12,11 +12,17 @@ same through the node graph, then:
   factor S = 72 (°/h)/mA; the level currents' magnitude is Ω cos L / S whatever the azimuth;
 * the default (rate triad) path is the scenario as it was, and publishes no torquer or
   pickoff topic; the compiled chain leaves a DTG servo to the Python loop;
+* in ``rotational_ins_navigation`` (variant ``dtg_1khz``) the navigator's command rate
+  becomes the torquer currents: each recorded azimuth current is (φ̇z + ω_c,D)/S, ω_c,D the
+  down component of the command the navigator published at the same stamp (the platform
+  level), recorded at 1 Hz as the paper's voltmeter sampled it; the navigation report's legs
+  are those currents;
 * bad DTG parameters, and the DTGs without the servo on them (or the reverse), are refused
   before anything starts, naming the parameter (exit 2).
 """
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 from pathlib import Path
@@ -115,6 +121,28 @@ def test_the_default_path_is_the_scenario_as_it_was_and_has_no_torquer(module_ro
         counts = {c.topic: c.msgcount for c in reader.connections}
     assert TORQUER not in topics and PICKOFFS not in topics
     assert counts["/platform/voltage_cmd"] == counts[MODULATION] == 8001
+
+
+def test_the_navigators_command_becomes_the_torquer_currents(module_ros_domain_env, tmp_path):
+    out = tmp_path / "nav"
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), "rotational_ins_navigation", "--variant", "dtg_1khz",
+                             "--engine", "core", "--duration", "12", "--no-progress", "--out", str(out)],
+                            env=module_ros_domain_env, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr[-3000:]
+    command = "/platform_navigator/command_rate"
+    series = _read(out / "dtg_1khz", {TORQUER, command})
+    currents = series[TORQUER]
+    assert sorted(currents) == [k * 1_000_000_000 for k in range(13)]  # 1 Hz, every second of 12 s
+    for stamp, msg in currents.items():
+        i = dict(zip(msg.name, msg.effort))
+        down = series[command][stamp].vector.z
+        assert abs(down + OMEGA_IE * math.sin(math.radians(40.0))) < 1e-7  # earth rate at 40° N, and a little
+        assert i["dtg_torquer_z"] == pytest.approx((RATE + down) / SCALE_A, rel=1e-12, abs=0.0)
+    report = json.loads((out / "dtg_1khz" / "report" / "metrics.json").read_text())
+    leg = report["navigation"]["dtg_torquer_current"]["azimuth"]["positive_rate"]
+    steady = [1e3 * dict(zip(m.name, m.effort))["dtg_torquer_z"] for s, m in currents.items() if s >= 5e9]
+    assert leg["samples"] == len(steady) == 8
+    assert leg["mean_ma"] == pytest.approx(sum(steady) / len(steady), rel=1e-12)
 
 
 def test_the_compiled_chain_leaves_a_dtg_servo_to_the_python_loop():

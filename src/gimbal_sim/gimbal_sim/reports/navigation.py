@@ -7,14 +7,17 @@ Series (decoded one message at a time):
 * ``/truth/host/fix`` and ``/truth/host/velocity``: the vehicle's true position and
   velocity (interpolated to the navigator's stamps);
 * ``/platform_servo/control_error``: the servo's eq. 1 control signals (level and azimuth);
-* ``/truth/platform/gyro_bias``, ``/truth/platform/accel_bias``: the sensors' true biases.
+* ``/truth/platform/gyro_bias``, ``/truth/platform/accel_bias``: the sensors' true biases;
+* ``/platform_servo/torquer_current`` (a servo on DTGs): the torquer currents.
 
 Figures: north, east and radial position error [m] and the north and east velocity error
 [m/s] against time; the radial error at the end and its largest value, each as a rate in
 n mile/h (error / elapsed hours, the unit of paper 3's 0.38 n mile/h CEP); the Schuler
 period read off the run — the period of the sinusoid plus trend that best fits both
 velocity errors, scanned over 40–160 min — beside the local 2π√(R/g) (84.4 min); the
-control error (rms and largest |Δθ|, arc-seconds) of the four loops.
+control error (rms and largest |Δθ|, arc-seconds) of the four loops. On DTGs, the azimuth
+torquer current per direction of rotation (its sign), mean [mA] and relative standard
+deviation, leaving out the first ``TORQUER_SETTLE_S`` and that long after each reversal.
 
 After a prelude (``original_system``, ``upgraded``: the chained alignment run), the run
 directory's ``hand_off.json`` (:mod:`.hand_off`) goes into the metrics as ``hand_off``, with
@@ -35,13 +38,16 @@ from gimbal_kinematics.maths.units import ARCSEC, NMI_M, UG
 from ..bag.reader import BagError
 from ..figures import save_stacked, stacked, style
 from .hand_off import FIGURES_FILE
-from .platform_servo import bag_summary, stream_columns
+from .platform_servo import bag_summary, stream_columns, torquer_legs
 
 FIX, VELOCITY = "/platform_navigator/fix", "/platform_navigator/velocity"
 TRUTH_FIX, TRUTH_VELOCITY = "/truth/host/fix", "/truth/host/velocity"
 CONTROL_ERROR = "/platform_servo/control_error"
 GYRO_BIAS, ACCEL_BIAS = "/truth/platform/gyro_bias", "/truth/platform/accel_bias"
+TORQUER = "/platform_servo/torquer_current"
 LOOPS = ("azimuth", "inner_roll", "pitch", "outer_roll")
+#: torquer samples left out at the start and after each reversal (the loops' transients) [s]
+TORQUER_SETTLE_S = 5.0
 
 _fix = lambda msg: (math.radians(msg.latitude), math.radians(msg.longitude), msg.altitude)  # noqa: E731
 _vec = lambda msg: (msg.vector.x, msg.vector.y, msg.vector.z)  # noqa: E731
@@ -74,7 +80,8 @@ def navigation_errors(bag_dir: Path) -> dict:
     """Time [s], position error (N, E) [m], radial [m], velocity error (N, E, D) [m/s], the
     control signals and the true biases, from the bag."""
     extract = {FIX: _fix, VELOCITY: _vec, TRUTH_FIX: _fix, TRUTH_VELOCITY: _vec,
-               CONTROL_ERROR: lambda msg: tuple(msg.position), GYRO_BIAS: _vec, ACCEL_BIAS: _vec}
+               CONTROL_ERROR: lambda msg: tuple(msg.position), GYRO_BIAS: _vec, ACCEL_BIAS: _vec,
+               TORQUER: lambda msg: tuple(msg.effort)}
     cols, contents = stream_columns(bag_dir, extract)
     t, fix = cols[FIX]
     tv, vel = cols[VELOCITY]
@@ -92,7 +99,7 @@ def navigation_errors(bag_dir: Path) -> dict:
     return {"t": t - t[0], "pos_ne": np.column_stack([d_n, d_e]), "radial": np.hypot(d_n, d_e),
             "t_vel": tv - t[0], "vel": vel - vel_true, "lat": lat0, "height": float(true_at[0, 2]),
             "control": cols[CONTROL_ERROR][1], "gyro_bias": cols[GYRO_BIAS][1], "accel_bias": cols[ACCEL_BIAS][1],
-            "contents": contents}
+            "torquer": cols[TORQUER], "contents": contents}
 
 
 def navigation_figures(e: dict) -> dict:
@@ -121,7 +128,21 @@ def navigation_figures(e: dict) -> dict:
         out["true_gyro_bias_deg_h"] = (np.degrees(e["gyro_bias"][0]) * 3600.0).tolist()
     if len(e["accel_bias"]):
         out["true_accel_bias_ug"] = (e["accel_bias"][0] / UG).tolist()
+    if len(e["torquer"][0]):
+        out["dtg_torquer_current"] = torquer_figures(*e["torquer"])
     return out
+
+
+def torquer_figures(t: np.ndarray, current: np.ndarray) -> dict:
+    """The azimuth torquer current's legs (module docstring) from the stamps [s] and the
+    (x, y, z) currents [A]; the level currents' largest magnitude [mA]."""
+    i_z = current[:, 2]
+    direction = np.sign(i_z)
+    steady = t - t[0] >= TORQUER_SETTLE_S
+    for t_rev in t[1:][direction[1:] != direction[:-1]]:
+        steady &= ~((t >= t_rev) & (t < t_rev + TORQUER_SETTLE_S))
+    return {"azimuth": torquer_legs(i_z, direction, steady),
+            "level_max_abs_ma": float(1e3 * np.max(np.abs(current[:, :2])))}
 
 
 def _hand_off(path: Path, nav: dict) -> dict:

@@ -263,15 +263,23 @@ def _torquer_figures(r: _ServoRun, cols: dict) -> dict | None:
     if not len(t_i):
         return None
     i_z = _on(t_i, cur[:, 2], r.t)
+    return {"azimuth": torquer_legs(i_z, np.sign(r.phi_rate), r.steady),
+            "level_max_abs_ma": float(1e3 * np.max(np.abs(_on(t_i, cur[:, :2], r.t)[r.steady])))
+            if r.steady.any() else None}
+
+
+def torquer_legs(i_z: np.ndarray, direction: np.ndarray, steady: np.ndarray) -> dict:
+    """Per direction of rotation (``direction`` ±1 per sample), the mean [mA], relative
+    standard deviation and count of the azimuth torquer current ``i_z`` [A] over the
+    ``steady`` samples."""
     legs = {}
     for sign, name in ((1.0, "positive_rate"), (-1.0, "negative_rate")):
-        mask = r.steady & (np.sign(r.phi_rate) == sign)
+        mask = steady & (direction == sign)
         if mask.any():
             leg = 1e3 * i_z[mask]
             legs[name] = {"mean_ma": float(np.mean(leg)), "rsd": float(np.std(leg) / abs(np.mean(leg))),
                           "samples": int(mask.sum())}
-    return {"azimuth": legs, "level_max_abs_ma": float(1e3 * np.max(np.abs(_on(t_i, cur[:, :2], r.t)[r.steady])))
-            if r.steady.any() else None}
+    return legs
 
 
 def servo_metrics(bag_dir: Path) -> tuple[dict, _ServoRun]:
