@@ -207,7 +207,6 @@ def test_free_timing_reports_the_counters_on_diagnostics(ros_domain_env):
     ({"accel_bias_ug": [1.0, 2.0]}, "accel_bias_ug"),
     ({"fix_every_samples": 0}, "fix_every_samples"),
     ({"azimuth_source": "gyro"}, "azimuth_source"),
-    ({"azimuth_source": "servo", "timing": "lockstep"}, "azimuth_source"),
     ({"odom_frame_id": " "}, "odom_frame_id"),
     ({"odom_child_frame_id": "odom"}, "odom_child_frame_id"),
     ({"odom_cep_rate_nmi_h": -1.0}, "odom_cep_rate_nmi_h"),
