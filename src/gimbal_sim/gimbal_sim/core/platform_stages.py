@@ -15,10 +15,14 @@ then integrates the hand-off torquing pulse to exactly its angle (the pulse in N
 covers N intervals). On steps without a new sample each core keeps what it has.
 
 Azimuth angle: the resolver's θ_a of the step, or (navigator ``azimuth_source: servo``) the
-servo's rotation angle φz, which the servo makes after the navigator in a step: its last
-(φz, φ̇z) (``bus.modulation``, what the node's ``~/modulation`` carries) extrapolated to the
-step, as the node extrapolates its newest joint sample; exact except across a reversal
-(≤ φ̇z Δt, 11″ at 400 Hz).
+servo's rotation angle φz, which the servo makes after the navigator in a step. The paper
+stages take its last (φz, φ̇z) (``bus.modulation``, what the node's ``~/modulation``
+carries) extrapolated to the step, as the node extrapolates its newest joint sample; exact
+except across a reversal (≤ φ̇z Δt, 11″ at 400 Hz). The node stages do what the lockstep
+graph does: the servo (``modulation_next: true``) makes at each gyro step the φz of its next
+one from its schedule, stamped with it (``bus.modulation_next``, its ``~/modulation_next``),
+and the navigator takes that at the step it is stamped for (exact; none at the first step,
+whose sample is refused, counted).
 
 Multi-rate (``every`` > 1): the navigator steps on every ``every``-th IMU sample with the mean
 specific force of the samples since its last step (the IMU's velocity increment over the
