@@ -162,3 +162,29 @@ def test_the_engine_compiles_the_chain_only():
     python = run_core_loop(short, observer=lambda bus: seen.append(bus.k))  # an observer keeps the Python loop
     fast = run_core_loop(short)
     assert seen == list(range(51)) and python.steps == fast.steps == 50 and fast.sim_s == python.sim_s
+
+
+@pytest.mark.parametrize("v", ["ship_rotation_on", "ship_rotation_off"])
+def test_the_compiled_chain_on_the_ship_publishes_the_python_loops_bytes(v, monkeypatch):
+    """Paper 5's moored ship under the 1 kHz platform (the host's truth per step, the base
+    torques −J ω̇_A, the navigator on the servo's φz a step ahead): the Python loop's every
+    message, byte for byte, over 1.5 s in blocks of 400 steps (the host's step rotation
+    across a block's edge)."""
+    monkeypatch.setattr(compiled_platform, "BLOCK_STEPS", 400)
+    scenario = dataclasses.replace(variant(load("rotational_ins_navigation"), v), duration_s=1.5)
+    assert compiled.compiled_runner(node_values(scenario)) is compiled._platform_run
+    python, fast = _messages(scenario, False), _messages(scenario, True)
+    assert python.keys() == fast.keys()
+    assert {"/truth/host/delta_angle", "~/modulation_next", "~/command_rate"} <= {t for _, t in python}
+    for key, data in python.items():
+        assert data == fast[key], key
+
+
+def test_the_outer_member_rates_kernel_is_four_gimbals_to_the_bit():
+    from gimbal_kinematics.maths.four_gimbal import outer_member_rates
+    from gimbal_kinematics.maths.platform_kernels import outer_member_rates as kernel
+    for _ in range(2000):
+        w, ang, rate = RNG.normal(0.0, 0.2, 3), RNG.normal(0.0, 1.0, 4), RNG.normal(0.0, 0.1, 4)
+        want = outer_member_rates(w.tolist(), ang.tolist(), rate.tolist())
+        args = (*w.tolist(), *ang[1:].tolist(), *rate[1:].tolist())
+        assert kernel(*args) == want == kernel.py_func(*args)

@@ -176,3 +176,30 @@ def test_a_constant_host_keeps_its_delta_angle_the_earth_rate_over_a_step():
     C_nb = Rotation.from_euler("ZYX", np.radians([30.0, -2.0, 1.0])).as_matrix()
     expected = C_nb.T @ np.asarray(core.env.omega_in_n) * core.config.dt
     np.testing.assert_allclose(deltas[-1], expected, rtol=1e-9, atol=1e-22)
+
+
+def test_a_moving_hosts_rows_and_base_torques_are_the_vehicle_cores_to_the_bit():
+    """Paper 5's ship with the base motion on (what the compiled platform chain computes per
+    block and per step): the host's rows (Euler angles, ω_ib^b, f_b) are ``VehicleCore.truth``'s
+    and ``base_torques`` gives the torques ``VehicleCore`` steps the plant under, float for
+    float, compiled and interpreted, over 300 steps of driven loops."""
+    vehicle = VehicleCore(VehicleConfig(profile="paper5_ship", profile_params={"lat_deg": 40.0},
+                                        plant="four_gimbal_platform", platform_base_motion=True))
+    env = (*(float(v) for v in vehicle.env.omega_in_n), float(vehicle.env.gravity_m_s2))
+    rows, src = np.empty((300, 9)), np.empty((300, 9))
+    prk.host_truth_rows(*vehicle.profile.packed, 0, 300, vehicle.config.dt, *env, rows)
+    prk.host_truth_rows.py_func(*vehicle.profile.packed, 0, 300, vehicle.config.dt, *env, src)
+    assert np.array_equal(rows, src)
+    last, last_src, out, out_src = np.zeros(5), np.zeros(5), np.zeros(4), np.zeros(4)
+    stepped = []
+    core_torques = VehicleCore._base_torques
+    vehicle._base_torques = lambda: stepped.append(core_torques(vehicle)) or stepped[-1]
+    for k in range(300):
+        tr = vehicle.truth()
+        assert rows[k].tolist() == [*tr.euler, *tr.omega_ib_b, *tr.specific_force_b], k
+        x = vehicle._platform_x.copy()
+        pk.base_torques(*rows[k, 3:6], x, last, vehicle._platform_params, vehicle.config.dt, out)
+        pk.base_torques.py_func(*rows[k, 3:6], x, last_src, vehicle._platform_params, vehicle.config.dt, out_src)
+        vehicle.step(tuple(2.0 * math.sin(0.05 * k + j) for j in range(4)))
+        assert out.tolist() == out_src.tolist() == list(stepped[-1]), k
+    assert any(abs(t) > 1e-6 for t in stepped[-1])  # the ship torques the gimbals

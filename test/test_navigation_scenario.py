@@ -124,3 +124,23 @@ def test_the_paper_rate_systems_run_every_node_at_1_khz_on_the_servos_own_design
         assert scenario.prelude == variant(load("rotational_ins_navigation"), at_50_hz).prelude
     if name != "rotation_off_1khz":  # the scale-factor study's, not the campaign's
         assert name in {SCENARIO_VARIANTS[label] for label in CAMPAIGN.default_variants}
+
+
+def test_the_ship_variants_navigate_on_phi_z_with_the_servo_a_step_ahead_and_both_go_together():
+    """ship_rotation_on/off: paper 5's ship (base motion on) under the 1 kHz system, the
+    navigator on the servo's φz, which the servo then publishes a step ahead; one without the
+    other would wait for ever in lockstep, so the scenario check refuses it before anything
+    starts."""
+    from gimbal_sim.graph.plan import check_nodes
+    from gimbal_sim.graph.scenario import ScenarioError, apply_set, variant
+    base = load("rotational_ins_navigation")
+    for name, rotation in (("ship_rotation_on", "bidirectional"), ("ship_rotation_off", "off")):
+        ship = variant(base, name)
+        check_nodes(ship)
+        p = {node: ship.nodes[node]["params"] for node in ship.nodes}
+        assert ship.sim_rate_hz == 1000.0 and p["platform_servo"]["rotation"] == rotation
+        assert p["vehicle_dynamics"]["profile"] == "paper5_ship" and p["vehicle_dynamics"]["platform_base_motion"]
+        assert p["platform_navigator"]["azimuth_source"] == "servo" and p["platform_servo"]["modulation_next"]
+        for assignment in ("platform_servo.modulation_next=false", "platform_navigator.azimuth_source=resolver"):
+            with pytest.raises(ScenarioError, match="modulation_next"):
+                check_nodes(apply_set(ship, assignment))

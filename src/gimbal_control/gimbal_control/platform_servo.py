@@ -361,6 +361,12 @@ class PlatformServo:
         sk.servo_command(self.state, float(t), *vals)
         return _USED
 
+    def modulation_at(self, t: float) -> tuple[float, float]:
+        """(φz, φ̇z) [rad, rad/s] the schedule gives a tick at ``t`` [s]
+        (:func:`.servo_kernels.servo_modulation`): what ``~/modulation_next`` carries."""
+        phi, rate = sk.servo_modulation(self.state, self.kernel_params, float(t))
+        return float(phi), float(rate)
+
     def _finite(self, name: str, values: Sequence[float], axes: str) -> tuple[float, ...] | None:
         """``values`` as floats, one per axis of ``axes``; None (counted) when one is not finite."""
         vals = tuple(float(v) for v in values)

@@ -15,6 +15,13 @@ For the report it also publishes, every ``diagnostics_every_steps`` steps:
 * ``~/modulation`` (JointState, joint ``modulation_angle``): the commanded modulation angle
   φz [rad] (about NED down, from the first tick) and its rate φ̇z [rad/s].
 
+With ``modulation_next: true`` it publishes at each gyro step k, on ``~/modulation_next``, φz
+and φ̇z of its next gyro step, stamped with that step: the schedule is a function of time,
+so the value is known a step ahead, and a navigator on φz (``azimuth_source: servo``) groups it
+with its accelerometer sample of that step in lockstep, without a cycle (the servo's step
+waits for the navigator's command, which waits for φz). The navigator's first sample has
+none, so the first gyro step waits for no command (the core uses its internal one, counted).
+
 Bad input: a NaN/inf gyro sample (or resolvers at gimbal lock) holds the last command; a
 NaN/inf or malformed resolver sample is ignored (the last angles are kept); both are counted
 and warned about at most once a second. A stamp at or before the last step is rejected and
@@ -67,7 +74,7 @@ from gimbal_kinematics.timing.control_policy import ControlStep, FreeControl, Lo
 from . import messages as m
 from .dtg_servo import platform_servo_core
 from .platform_servo_params import DESCRIPTION, PARAMS
-from .wire import pickoff_angles, platform_servo_messages
+from .wire import modulation_next, pickoff_angles, platform_servo_messages
 
 #: the node's own counters of inputs it could not use (/diagnostics, after the policy's)
 COUNTERS = ("malformed", "rejected_no_rates", "rejected_nonfinite", "rejected_joint_names", "rejected_pickoff_names")
@@ -91,12 +98,13 @@ class PlatformServoNode(Node):
         self.gyro_input = GYRO_INPUTS[values["gyro_source"]]
         self.gyro = self.gyro_input[0]
         self.follows_navigator = values["command_source"] == "navigator"
-        self.diag_every = values["diagnostics_every_steps"]
+        self.diag_every, self.mod_next = values["diagnostics_every_steps"], values["modulation_next"]
         self._ticks = 0
         self.edge = edge = NodeEdge(self, values, COUNTERS)
         edge.pubs["/platform/voltage_cmd"] = edge.io.advertise_command(JointState, "/platform/voltage_cmd", values)
         edge.advertise_all(((JointState, "~/control_error"), (JointState, "~/modulation"))
-                           + (((JointState, "~/torquer_current"),) if self.dtg else ()))
+                           + (((JointState, "~/torquer_current"),) if self.dtg else ())
+                           + (((JointState, "~/modulation_next"),) if self.mod_next else ()))
         # the one choice of timing (module docstring); steps without a gyro sample tick on /clock
         nav_age = {"nav": values["command_max_age_s"]} if self.follows_navigator else {}
         self.policy = control_policy(
@@ -113,8 +121,8 @@ class PlatformServoNode(Node):
                            + tuple((tick, Clock, "/clock") for tick in self.policy.ticks), self._on_input)
 
     def _needs(self, k: int) -> tuple[str, ...]:
-        if k % self.imu_every == 0:
-            need = (self.gyro, "nav") if self.follows_navigator else (self.gyro,)
+        if k % self.imu_every == 0:  # the first step of a servo feeding the navigator has no command
+            need = (self.gyro, "nav") if self.follows_navigator and (k or not self.mod_next) else (self.gyro,)
         else:
             need = ("clock",)
         return need + ("res",) if k % self.res_every == 0 else need
@@ -167,9 +175,10 @@ class PlatformServoNode(Node):
         if out is not None:
             self._ticks += 1
         due = out is not None and (self._ticks - 1) % self.diag_every == 0
+        nxt = modulation_next(core, step.t, self.imu_every, self.rate) if self.mod_next else None
         # serialized by gimbal_control.wire (the engine writes the same bytes into its bag)
         self.edge.publish(platform_servo_messages(t_ns, volts, out if due else None,
-                                                  core.torquer_current if self.dtg else None))
+                                                  core.torquer_current if self.dtg else None, nxt))
         self.edge.diagnostics(t_ns, lambda: self.health(step))
 
     def _tick(self, t: float, value) -> Fed:

@@ -69,6 +69,10 @@ class PlatformServoNodeParams(CommandingParams):
         1e-9, INF, unit="mA")
     diagnostics_every_steps: int = param(1, "publish ~/control_error and ~/modulation every N control ticks",
         1, 10**6)
+    modulation_next: bool = param(False, "publish on ~/modulation_next, at each gyro step, phi_z and its rate at the "
+        "next gyro step, stamped with that step (the schedule is a function of time): what platform_navigator's "
+        "azimuth_source servo reads in lockstep. Its first sample has none, so the servo's first step waits for no "
+        "navigator command")
 
 
 PARAMS, DESCRIPTION = declaration(PlatformServoNodeParams)

@@ -98,6 +98,13 @@ def _phi(s: np.ndarray, p: np.ndarray, t: float) -> tuple:
 
 
 @njit(cache=True)
+def servo_modulation(s: np.ndarray, p: np.ndarray, t: float) -> tuple:
+    """(φz, φ̇z) [rad, rad/s] of the schedule at a tick at ``t`` (the rest, (0, 0), before the
+    first tick or with rotation off): a function of time, so known before its tick."""
+    return _phi(s, p, t)
+
+
+@njit(cache=True)
 def _command_rate(s: np.ndarray, p: np.ndarray, t: float, phi: float, phi_rate: float) -> tuple:
     """ω_c in s: the navigator's while fresh, else the internal command (counted)."""
     c, sn = math.cos(phi), math.sin(phi)

@@ -12,6 +12,7 @@ from gimbal_kinematics.maths.frames import (
     PLATFORM_JOINTS,
 )
 from gimbal_kinematics.ros.wire import JOINT_STATE, VECTOR3_STAMPED, joint_state_cdr, vector3_cdr
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 Messages = list[tuple[str, str, bytes]]
 
@@ -39,13 +40,14 @@ def geo_pointer_messages(t_ns: int, operator_topic: str, command: tuple[float, f
 
 
 def platform_servo_messages(t_ns: int, volts: Sequence[float], out=None,
-                            torquer: Sequence[float] | None = None) -> Messages:
+                            torquer: Sequence[float] | None = None, modulation_next=None) -> Messages:
     """``platform_servo``: with ``gyro_source: dtg``, the step's torquer currents (x_s, y_s,
     z_s) [A] ``torquer`` as a JointState's efforts on ``~/torquer_current`` (first: the DTG
     pair's next step waits for them); the step's gimbal motor voltages (a, q, p, r) [V] on
     ``/platform/voltage_cmd``, and, with a servo tick's output ``out`` (when its report is
     due), the eq. 1 control signals [rad] on ``~/control_error`` and the modulation angle φz
-    [rad] with its rate [rad/s] on ``~/modulation``."""
+    [rad] with its rate [rad/s] on ``~/modulation``; with ``modulation_next`` (stamp [ns] of the
+    next gyro step, φz [rad], φ̇z [rad/s] there) that on ``~/modulation_next``, stamped with it."""
     msgs = [] if torquer is None else [("~/torquer_current", JOINT_STATE,
                                         joint_state_cdr(t_ns, DTG_TORQUER_JOINTS, effort=torquer))]
     msgs.append(("/platform/voltage_cmd", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, effort=volts)))
@@ -53,7 +55,22 @@ def platform_servo_messages(t_ns: int, volts: Sequence[float], out=None,
         msgs += [("~/control_error", JOINT_STATE, joint_state_cdr(t_ns, PLATFORM_JOINTS, position=out.control_signals)),
                  ("~/modulation", JOINT_STATE, joint_state_cdr(t_ns, (MODULATION_JOINT,), position=(out.phi_z,),
                                                                velocity=(out.phi_z_rate,)))]
+    if modulation_next is not None:
+        t_next, phi, rate = modulation_next
+        msgs.append(("~/modulation_next", JOINT_STATE, joint_state_cdr(t_next, (MODULATION_JOINT,), position=(phi,),
+                                                                       velocity=(rate,))))
     return msgs
+
+
+def modulation_next(servo, t: float, every: int, rate_hz: float) -> tuple[int, float, float] | None:
+    """What ``platform_servo``'s step at core time ``t`` = k / ``rate_hz`` puts on
+    ``~/modulation_next`` (``modulation_next: true``): at a gyro step (k a multiple of
+    ``every``) the (stamp [ns], φz [rad], φ̇z [rad/s]) of its next gyro step k + ``every``, from
+    the schedule (:meth:`.platform_servo.PlatformServo.modulation_at`); None at other steps."""
+    k = round(t * rate_hz)
+    if k % every:
+        return None
+    return (step_stamp_ns(k + every, rate_hz), *servo.modulation_at((k + every) / rate_hz))
 
 
 def encoder_fusion_messages(t_ns: int, tau: tuple[float, float], feedback: tuple[float, float] | None = None,

@@ -4,9 +4,12 @@
 Inputs: the stable element's accelerometers (``/platform/imu`` linear_acceleration,
 platform axes) and the azimuth angle: the resolver angle θ_a (``joint_topic``, joint
 ``azimuth_joint``) or, with ``azimuth_source: servo`` (a moving base), the servo's rotation
-angle φz (``/platform_servo/modulation``, joint ``modulation_angle``; remap it for another
-servo), free timing only: in lockstep the servo's φz of a step comes after the navigator's
-command of that step, a cycle (refused at startup). The newest joint sample is extrapolated with its rate to each
+angle φz (joint ``modulation_angle``; remap the topic for another servo): in free timing
+``/platform_servo/modulation``; in lockstep ``/platform_servo/modulation_next``, the servo's
+φz of a step published by its previous step (servo ``modulation_next: true``), since the
+servo's φz of a step follows the navigator's command of that step. So in lockstep the first
+accelerometer sample has no φz: it is refused and counted, and the grid of that input starts
+a sample later. The newest joint sample is extrapolated with its rate to each
 accelerometer stamp (a joint sample older than ``max_joint_age_s``, or none, leaves the
 sample without a resolver angle: the core refuses and counts it). Within one stamp the joint
 goes before the accelerometer, so the result does not depend on arrival order.
@@ -67,8 +70,9 @@ from .platform_navigator import NavigatorOutput, PlatformNavigator
 from .platform_navigator_params import DESCRIPTION, PARAMS, PlatformNavigatorParams
 from .wire import navigator_messages
 
-#: ``platform_servo``'s φz (``~/modulation``, joint ``modulation_angle``) for ``azimuth_source: servo``
-SERVO_MODULATION_TOPIC = "/platform_servo/modulation"
+#: ``platform_servo``'s φz (joint ``modulation_angle``) for ``azimuth_source: servo``, by timing:
+#: its ``~/modulation`` (free), its ``~/modulation_next`` (lockstep: the step's φz made a step ahead)
+SERVO_MODULATION_TOPICS = {"free": "/platform_servo/modulation", "lockstep": "/platform_servo/modulation_next"}
 #: Counters whose non-zero value is a WARN on /diagnostics.
 WARN_COUNTERS = ("rejected_nonfinite", "rejected_out_of_order", "rejected_no_resolver", "resets",
                  "rejected_joints", *input_warnings("imu", "joint"))
@@ -80,9 +84,6 @@ class PlatformNavigatorNode(Node):
         values = declare_and_read(self, PARAMS)
         self.core = PlatformNavigator(PlatformNavigatorParams.from_values(values))
         from_servo = values["azimuth_source"] == "servo"
-        if from_servo and values["timing"] == "lockstep":
-            raise ParameterError("parameter 'azimuth_source' = 'servo' needs timing free: in lockstep the servo's "
-                                 "phi_z of a step follows the navigator's command of that step (a cycle)")
         frames = (values["odom_frame_id"], values["odom_child_frame_id"])
         for name, frame in zip(("odom_frame_id", "odom_child_frame_id"), frames):
             if not isinstance(frame, str) or not frame.strip():
@@ -92,12 +93,13 @@ class PlatformNavigatorNode(Node):
         self.odom_frames = frames
         self.odometry = NavigatorOdometry(OdometryModel.from_values(values, heading_known=not from_servo),
                                           UNMEASURED_VARIANCE)
-        joint_topic = SERVO_MODULATION_TOPIC if from_servo else values["joint_topic"]
+        joint_topic = SERVO_MODULATION_TOPICS.get(values["timing"]) if from_servo else values["joint_topic"]
         self.azimuth_joint = MODULATION_JOINT if from_servo else values["azimuth_joint"]
         self.max_joint_age_ns = int(round(values["max_joint_age_s"] * 1e9))
         self.fix_every = values["fix_every_samples"]
         # the one choice of timing (module docstring); within a step the joint goes first
-        self.policy = grouped_policy_of(self, values, ("joint", "imu"), "imu", self.core.reset)
+        self.policy = grouped_policy_of(self, values, ("joint", "imu"), "imu", self.core.reset,
+                                        ahead=("joint",) if from_servo else ())
         self._joint: tuple[int, float, float] | None = None  # (stamp ns, θ_a, rate) of the newest sample
         self._last_command: tuple[float, float, float] | None = None
         self.edge = edge = NodeEdge(self, values, ("rejected_joints",))

@@ -44,8 +44,9 @@ class PlatformNavigatorParams:
                                     "resolver) or the platform's azimuth at phi_z = 0 (servo)", -360.0, 360.0,
                                     unit="deg")
     azimuth_source: str = param("resolver", "platform azimuth from the azimuth resolver (joint_topic; static base) "
-                                "or from the servo's rotation angle phi_z (/platform_servo/modulation; a moving "
-                                "base, free timing only)", choices=AZIMUTH_SOURCES)
+                                "or from the servo's rotation angle phi_z (a moving base: free timing "
+                                "/platform_servo/modulation; lockstep /platform_servo/modulation_next, the servo "
+                                "with modulation_next true)", choices=AZIMUTH_SOURCES)
     gyro_drift_deg_h: tuple[float, float, float] = param((0.0, 0.0, 0.0), "platform gyro drift estimate (x, y, z in "
                                                          "platform axes) compensated in the command", unit="deg/h")
     north_drift_deg_h: float = param(0.0, "north drift estimate (fixed in NED) compensated in the command",

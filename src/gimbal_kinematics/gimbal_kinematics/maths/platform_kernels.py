@@ -2,7 +2,9 @@
 
 Plain functions over floats and float64 arrays with no state; the vehicle core's truth of
 each step calls :func:`platform_truth`, :mod:`.four_gimbal` calls :func:`dcm_bs`,
-:func:`platform_rate_s` and :func:`inner_signals` (the closed forms are documented there).
+:func:`platform_rate_s` and :func:`inner_signals` (the closed forms are documented there);
+the compiled platform chain calls :func:`outer_member_rates` (a moving base's rates into the
+gimbal loops; :func:`.four_gimbal.outer_member_rates`, to the bit).
 The matrix product C_ns = C_nb C_bs is summed in index order, so results may differ from
 numpy's ``@`` in the last bit.
 """
@@ -96,3 +98,23 @@ def servo_signals(d0: float, d1: float, d2: float, ex: float, ey: float, ez: flo
         return False, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0
     return (True, inner_signals(d0, d1, d2, theta_a, theta_q), inner_signals(ex, ey, ez, theta_a, theta_q),
             theta_q / cp)
+
+
+@njit(cache=True)
+def outer_member_rates(wx: float, wy: float, wz: float, q: float, p: float, r: float,
+                       dq: float, dp: float, dr: float) -> tuple:
+    """Inertial rate [rad/s] of each joint's outer member about that joint's axis (a, q, p, r)
+    from the base rate ω_ib^b (wx, wy, wz), the angles θ_q, θ_p, θ_r and rates θ̇_q, θ̇_p,
+    θ̇_r: :func:`.four_gimbal.outer_member_rates` in the same operation order (the base
+    about b-x; rot1(θ_r), then θ̇_r about r-x and rot2(θ_p), the pitch gimbal about p-y;
+    θ̇_p about p-y and rot1(θ_q), the inner-roll gimbal about q-x and about q-z)."""
+    w_r = wx
+    c, s = math.cos(r), math.sin(r)
+    x, y, z = wx, c * wy + s * wz, -s * wy + c * wz
+    w_p = y
+    c, s = math.cos(p), math.sin(p)
+    x, z = c * (x + dr) - s * z, s * (x + dr) + c * z
+    w_q = x
+    c, s = math.cos(q), math.sin(q)
+    y, z = c * (y + dp) + s * z, -s * (y + dp) + c * z
+    return z, w_q, w_p, w_r

@@ -50,16 +50,19 @@ def input_warnings(*streams: str) -> tuple[str, ...]:
 
 
 def grouped_policy_of(node: Node, values: dict[str, Any], kinds: tuple[str, ...], paced: str,
-                      on_restart: Callable[[str], None]) -> Any:
+                      on_restart: Callable[[str], None], ahead: tuple[str, ...] = ()) -> Any:
     """The grouped input policy (:func:`gimbal_kinematics.timing.input_policy.grouped_policy`)
     of a node whose inputs ``kinds`` are sampled at ``<kind>_rate_hz``, from its timing
     parameters (``timing``, ``sim_rate_hz``, ``progress_every_steps``, ``clock_jump_s``,
-    ``max_sync_wait_s``); ``~/progress`` on ``paced``; a clock jump back calls ``on_restart``."""
+    ``max_sync_wait_s``); ``~/progress`` on ``paced``; a clock jump back calls ``on_restart``.
+    ``ahead``: inputs stamped one sample ahead of the step that makes them (in lockstep the
+    first sample step has none: their grid starts a sample later)."""
     every = {kind: steps_per_sample(values, f"{kind}_rate_hz") for kind in kinds}
     return grouped_policy(values["timing"], every, rate_hz=values["sim_rate_hz"],
                           progress_every=values["progress_every_steps"], clock_jump_s=values["clock_jump_s"],
                           max_wait_ns=int(round(values["max_sync_wait_s"] * 1e9)), paced=paced,
-                          logger=node.get_logger(), on_restart=on_restart)
+                          logger=node.get_logger(), on_restart=on_restart,
+                          first={kind: every[kind] for kind in ahead})
 
 
 def publish_progress(pub: Any, stamp_ns: int | None) -> None:

@@ -79,15 +79,18 @@ Fields = Mapping[str, Any]
 
 class SampleGrid:
     """The lockstep grid of streams sampled every n steps: which sample at step k, in the
-    order given (within a step the first goes first), and the next step that samples any."""
+    order given (within a step the first goes first), and the next step that samples any.
+    ``first``: stream -> the first step it samples at (0 when absent): a stream made a step
+    ahead of its stamp by a node that waits for this one (the servo's next φz) has none at 0."""
 
-    def __init__(self, every: Mapping[str, int]) -> None:
+    def __init__(self, every: Mapping[str, int], first: Mapping[str, int] | None = None) -> None:
         if not every or any(n < 1 for n in every.values()):
             raise ValueError(f"every stream needs a sampling period of >= 1 step, got {dict(every)}")
         self.every = dict(every)
+        self.first = dict(first or {})
 
     def needs(self, k: int) -> tuple[str, ...]:
-        return tuple(stream for stream, n in self.every.items() if k % n == 0)
+        return tuple(stream for stream, n in self.every.items() if k % n == 0 and k >= self.first.get(stream, 0))
 
     def next_due(self, k: int) -> int:
         """The first step after ``k`` at which a stream samples."""
@@ -472,13 +475,15 @@ def sample_policy(timing: str, streams: Sequence[str], *, rate_hz: float, sample
 
 def grouped_policy(timing: str, every: Mapping[str, int], *, rate_hz: float, progress_every: int,
                    clock_jump_s: float, max_wait_ns: int, paced: str, logger: Any,
-                   on_restart: Callable[[str], None] | None = None) -> LockstepGroups | FreeOrder:
+                   on_restart: Callable[[str], None] | None = None,
+                   first: Mapping[str, int] | None = None) -> LockstepGroups | FreeOrder:
     """The input policy of ``timing`` for a node whose lockstep inputs are grouped by step,
     each stream sampled every ``every[stream]`` steps (:class:`SampleGrid`; within a step in
     that order): lockstep :class:`LockstepGroups`; free :class:`FreeOrder` (stamp order,
     ``~/progress`` on the ``paced`` stream). A clock jump back calls ``on_restart(reason)``,
-    the node's core reset (None: the core judges the jump itself)."""
-    streams, grid = tuple(every), SampleGrid(every)
+    the node's core reset (None: the core judges the jump itself). ``first``: the lockstep
+    grid's first sample step of a stream (:class:`SampleGrid`)."""
+    streams, grid = tuple(every), SampleGrid(every, first)
     if timing == "lockstep":
         return LockstepGroups(streams, grid.needs, rate_hz, clock_jump_s, grid.next_due, progress_every, logger,
                               on_restart)

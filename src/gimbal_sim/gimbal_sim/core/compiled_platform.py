@@ -1,5 +1,5 @@
 """Paper 3's platform INS chain as one compiled block loop: ``vehicle_dynamics`` (the
-four-gimbal platform on a static base), ``sensor_models`` (its IMU and resolvers),
+four-gimbal platform, on a static base or a moving one), ``sensor_models`` (its IMU and resolvers),
 ``platform_navigator`` and ``platform_servo``, the node set of ``rotational_ins_*``.
 
 The cores are built from the nodes' parameter values exactly as :mod:`.core_loop` builds
@@ -11,6 +11,12 @@ steps at a time, in the Python loop's order (truth k → resolvers, IMU → navi
 the navigator (``gimbal_estimators.navigator_kernels``) and the servo
 (``gimbal_control.servo_kernels``). Each sensor's normals are drawn per block from its own
 seeded stream in the order its model takes them, so a seed gives the Python loop's numbers.
+A moving host's truth (Euler angles, ω_ib^b, f_b) is computed per block by the profile's
+kernel in the vehicle core's operation order (``world.plant.profile_kernels.host_truth_rows``),
+and with ``platform_base_motion`` its torques −J ω̇_A into the loops by
+``world.plant.platform_kernels.base_torques``, as the vehicle core computes them. With the
+navigator on the servo's φz, each IMU step's servo leaves φz of the next on the navigator's
+joint sample (``~/modulation_next``), which the navigator takes at that step.
 
 Recorded, the block hands back each step's outputs (:data:`OUT_COLUMNS`) and
 :mod:`.compiled_platform_record` serialises what each node publishes at the steps the
@@ -32,17 +38,16 @@ from gimbal_kinematics.maths.platform_kernels import platform_truth
 from .loop_plan import CoreLoopResult, node_values
 from .compiled_platform_record import ChainRecorder
 from .compiled_platform_setup import (
-    C_CONTROLLED, C_DT, C_FOLLOWS, C_IMU_EVERY, C_JOINT, C_MAX_AGE_NS, C_N, C_QUASI, C_RATE, C_RES_CYCLIC,
-    C_RES_EVERY, C_RES_GATE_STEPS, C_RES_GATE_TIME, C_RES_HARMONIC, C_RES_NOISE, C_RES_PHASES, C_RES_QUANTUM,
-    C_SUBSTEPS,
-    J_CMD, J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_RATE, J_T_NS, J_THETA, N_OUT, PlatformChain, build_chain,
-    chain_values,
+    C_BASE_MOTION, C_CONTROLLED, C_DT, C_FOLLOWS, C_FROM_SERVO, C_IMU_EVERY, C_JOINT, C_MAX_AGE_NS, C_N, C_QUASI,
+    C_RATE, C_RES_CYCLIC, C_RES_EVERY, C_RES_GATE_STEPS, C_RES_GATE_TIME, C_RES_HARMONIC, C_RES_NOISE,
+    C_RES_PHASES, C_RES_QUANTUM, C_SUBSTEPS,
+    J_CMD, J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_NEXT_PHI, J_NEXT_RATE, J_NEXT_T, J_RATE, J_T_NS, J_THETA,
+    N_OUT, PlatformChain, build_chain, chain_values,
 )
-from ..world.plant.platform_kernels import P_KT, P_VMAX, platform_step, saturate
+from ..world.plant.platform_kernels import P_KT, P_VMAX, base_torques, platform_step, saturate
+from ..world.plant.profile_kernels import host_truth_rows
 from ..world.sensors.sensor_kernels import R_FIXED, R_GM, R_RRW, cyclic_error, encoder_step, inertial_step
 
-#: configuration vector of the block (``C_*``)
-N_CONFIG = 15
 #: steps per block: the normals and (recorded) the output rows of one block in memory
 BLOCK_STEPS = 16384
 
@@ -55,10 +60,13 @@ def matches(scenario) -> bool:
 @njit(cache=True)
 def _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, f) -> bool:
     """``platform_navigator``'s step (``core.platform_stages.platform_navigator_node_stage``):
-    the azimuth joint of the step's resolver sample, extrapolated to the IMU sample; True when
-    the navigator took a sample."""
-    j = int(c[C_JOINT])
-    if res_due:
+    the azimuth joint of the step's resolver sample, or the servo's φz made for this step,
+    extrapolated to the IMU sample; True when the navigator took a sample."""
+    if c[C_FROM_SERVO] != 0.0:
+        if imu_due and joint[J_NEXT_T] == t_ns:
+            joint[J_HAS], joint[J_T_NS], joint[J_THETA], joint[J_RATE] = 1.0, t_ns, joint[J_NEXT_PHI], joint[J_NEXT_RATE]
+    elif res_due:
+        j = int(c[C_JOINT])
         joint[J_HAS], joint[J_T_NS], joint[J_THETA], joint[J_RATE] = 1.0, t_ns, ra[j], rr[j]
     if not imu_due:
         return False
@@ -82,16 +90,22 @@ def _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, f) -> bool
 
 
 @njit(cache=True)
-def _servo_node(c, ss, sp, pid_s, pid_g, joint, t, t_tick, res_due, ra, imu_due, w) -> int:
-    """``platform_servo``'s step (``core.platform_stages.platform_servo_node_stage``): the
-    resolvers, the navigator's command, then the gyro tick (-2: no gyro sample this step)."""
+def _servo_node(c, ss, sp, pid_s, pid_g, joint, t, k, res_due, ra, imu_due, w) -> int:
+    """``platform_servo``'s step k (``core.platform_stages.platform_servo_node_stage``): the
+    resolvers, the navigator's command, then the gyro tick (-2: no gyro sample this step) at
+    the node's step time k / rate."""
     if res_due:
         sk.servo_resolvers(ss, t, ra[0], ra[1], ra[2], ra[3])
     if c[C_FOLLOWS] != 0.0 and imu_due and joint[J_HAS_CMD] != 0.0:
         sk.servo_command(ss, t, joint[J_CMD], joint[J_CMD + 1], joint[J_CMD + 2])
     if not imu_due:
         return -2
-    return sk.servo_tick(ss, sp, pid_s, pid_g, t_tick, w[0], w[1], w[2])
+    tick = sk.servo_tick(ss, sp, pid_s, pid_g, k / c[C_RATE], w[0], w[1], w[2])
+    if c[C_FROM_SERVO] != 0.0:  # ~/modulation_next: φz of the next IMU step, stamped with it
+        k_next = k + int(c[C_IMU_EVERY])
+        joint[J_NEXT_T] = np.rint(k_next * 1e9 / c[C_RATE])
+        joint[J_NEXT_PHI], joint[J_NEXT_RATE] = sk.servo_modulation(ss, sp, k_next / c[C_RATE])
+    return tick
 
 
 @njit(cache=True)
@@ -126,6 +140,7 @@ def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks, acc, g
     for a in range(4):
         row[52 + a], row[56 + a] = ss[sk.S_V0 + a], ss[sk.S_G0 + a]
     row[60], row[61] = ss[sk.S_PHI], ss[sk.S_PHI_RATE]
+    row[68], row[69] = joint[J_NEXT_PHI], joint[J_NEXT_RATE]
     for a in range(3):
         row[62 + a] = acc[R_FIXED, a] + acc[R_GM, a] + acc[R_RRW, a]
         row[65 + a] = gyr[R_FIXED, a] + gyr[R_GM, a] + gyr[R_RRW, a]
@@ -133,20 +148,23 @@ def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks, acc, g
 
 @njit(cache=True)
 def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c, az, gyr, gyr_k, gyr_c, gz, ns,
-                   nq, joint, ss, sp, pid_s, pid_g, counts, out) -> None:
+                   nq, joint, ss, sp, pid_s, pid_g, counts, base_last, out) -> None:
     """Steps k0 … k1−1 of the chain (module docstring); ``stamps`` their stamps [ns] (as
-    floats), ``rz``/``az``/``gz`` the resolvers', accelerometers' and gyros' normals of the
+    floats), ``host`` the host's truth (euler, ω_ib^b, f_b) of each step (k1 − k0, 9), or of
+    all (1, 9) when static, ``base_last`` the base torques' state (has one, ω_A a, q, p, r),
+    ``rz``/``az``/``gz`` the resolvers', accelerometers' and gyros' normals of the
     block (row per sample), ``counts`` (servo ticks, rows of normals used: resolver, IMU),
     ``out`` (k1 − k0, :data:`N_OUT`) the steps' outputs, or (0, N_OUT) when not recorded."""
     angles, rates, ra, rr = np.empty(4), np.empty(4), np.zeros(4), np.zeros(4)
-    fm, wm, volts, zeros = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
+    fm, wm, volts, torques = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
     wt, ft = np.zeros(3), np.zeros(3)
     empty, cyc = np.empty(0), np.empty(4)
     res_every, imu_every, n = int(c[C_RES_EVERY]), int(c[C_IMU_EVERY]), int(c[C_N])
     for k in range(k0, k1):
         t_ns = stamps[k - k0]
         row = out[k - k0] if out.shape[0] > 0 else empty
-        _truth(x, pp, host, angles, rates, wt, ft, row)
+        h = host[k - k0] if host.shape[0] > 1 else host[0]
+        _truth(x, pp, h, angles, rates, wt, ft, row)
         res_due, imu_due = k % res_every == 0, k % imu_every == 0
         if res_due:
             read = angles
@@ -161,7 +179,7 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c
             inertial_step(wt, gyr, gyr_k, gyr_c, gz[int(counts[2])], False, wm)
             counts[2] += 1.0
         nav_out = _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, fm)
-        tick = _servo_node(c, ss, sp, pid_s, pid_g, joint, t_ns * 1e-9, k / c[C_RATE], res_due, ra, imu_due, wm)
+        tick = _servo_node(c, ss, sp, pid_s, pid_g, joint, t_ns * 1e-9, k, res_due, ra, imu_due, wm)
         if tick >= 0:
             counts[0] += 1.0
         if row.shape[0] > 0:
@@ -170,7 +188,9 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c
             for a in range(4):
                 v = ss[sk.S_V0 + a] if c[C_CONTROLLED] != 0.0 else 0.0
                 volts[a] = saturate(v, pp[a, P_VMAX])
-            platform_step(x, volts, zeros, c[C_DT], int(c[C_SUBSTEPS]), c[C_QUASI] != 0.0, pp)
+            if c[C_BASE_MOTION] != 0.0:
+                base_torques(h[3], h[4], h[5], x, base_last, pp, c[C_DT], torques)
+            platform_step(x, volts, torques, c[C_DT], int(c[C_SUBSTEPS]), c[C_QUASI] != 0.0, pp)
 
 
 def _multiples(k0: int, k1: int, every: int) -> int:
@@ -207,10 +227,15 @@ def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopRe
         rz, az, gz = _block_normals(chain, k0, k1)
         counts[1] = counts[2] = 0.0
         out = np.empty((k1 - k0, N_OUT)) if recorder is not None else np.empty((0, N_OUT))
-        platform_block(k0, k1, stamps, chain.config, chain.host, chain.x, chain.plant_params, chain.res_state, rz,
-                       chain.acc, chain.acc_k, chain.acc_c, az, chain.gyr, chain.gyr_k, chain.gyr_c, gz, chain.nav_state, chain.nav_params, chain.joint, chain.servo_state,
-                       chain.servo_params, chain.pid_state, chain.pid_gains, counts, out)
+        host = chain.host.reshape(1, 9)
+        if chain.moving is not None:
+            host = np.empty((k1 - k0, 9))
+            host_truth_rows(*chain.moving, k0, k1, chain.dt, *chain.env, host)
+        platform_block(k0, k1, stamps, chain.config, host, chain.x, chain.plant_params, chain.res_state, rz,
+                       chain.acc, chain.acc_k, chain.acc_c, az, chain.gyr, chain.gyr_k, chain.gyr_c, gz, chain.nav_state,
+                       chain.nav_params, chain.joint, chain.servo_state, chain.servo_params, chain.pid_state,
+                       chain.pid_gains, counts, chain.base_last, out)
         if recorder is not None:
-            recorder.block(k0, stamps.astype(np.int64), out)
+            recorder.block(k0, stamps.astype(np.int64), out, host)
     wall = time.perf_counter() - t0
     return CoreLoopResult(n, n * chain.dt, wall, time.process_time() - c0, array("d"), None)

@@ -17,11 +17,13 @@ from gimbal_control.wire import platform_servo_messages
 from gimbal_estimators.platform_navigator import NavigatorOutput
 from gimbal_estimators.wire import navigator_messages
 from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
+from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 from .compiled_platform_setup import O
 from .recording import EngineBag, resolve
 from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
 from ..world.sensor_suite import PlatformImuSample, ResolverSample
+from ..world.vehicle import host_quat, step_rotation
 
 _TRUTH_EVERY = ("/truth/host/imu", "/truth/host/delta_angle", "/truth/platform/joint_states", "/truth/platform/imu",
                 "/clock")
@@ -32,6 +34,7 @@ _NAV_FIX = ("~/fix", "~/velocity", "~/odom")
 _NAV_CMD = ("~/command_rate",)
 _SERVO_EVERY = ("/platform/voltage_cmd",)
 _SERVO_DIAG = ("~/control_error", "~/modulation")
+_SERVO_NEXT = ("~/modulation_next",)
 #: the nodes in the loop's order, by executable
 _ORDER = ("vehicle_dynamics", "sensor_models", "platform_navigator", "platform_servo")
 
@@ -52,6 +55,10 @@ class ChainRecorder:
         self.position_every = v["vehicle_dynamics"]["position_truth_every_steps"]
         self.fix_every = v["platform_navigator"]["fix_every_samples"]
         self.diag_every = v["platform_servo"]["diagnostics_every_steps"]
+        self.next_phi = v["platform_servo"]["modulation_next"]
+        self._host: np.ndarray | None = None  # a moving host's rows of the block, and the last row before it
+        self._host_before: np.ndarray | None = None
+        self._k0 = 0
         self.frames = (v["platform_navigator"]["odom_frame_id"], v["platform_navigator"]["odom_child_frame_id"])
         self.cov = noise_covariances(chain.suite.config)
 
@@ -100,26 +107,45 @@ class ChainRecorder:
             "platform_navigator": kept(names["platform_navigator"], _NAV_FIX, fix, stamps)
             | kept(names["platform_navigator"], _NAV_CMD, cmd, stamps) | fix,  # odometry sees every fix
             "platform_servo": kept(names["platform_servo"], _SERVO_EVERY, every, stamps)
-            | kept(names["platform_servo"], _SERVO_DIAG, diag, stamps),
+            | kept(names["platform_servo"], _SERVO_DIAG, diag, stamps)
+            | kept(names["platform_servo"], _SERVO_NEXT, imu & self.next_phi, stamps),
         }
 
-    def block(self, k0: int, stamps: np.ndarray, out: np.ndarray) -> None:
-        """Record the block of steps k0 … k0 + len(stamps) − 1 from their output rows."""
+    def block(self, k0: int, stamps: np.ndarray, out: np.ndarray, host: np.ndarray) -> None:
+        """Record the block of steps k0 … k0 + len(stamps) − 1 from their output rows and the
+        host's truth rows (one row: a static host)."""
+        self._host, self._k0 = host, k0
         masks = self._masks(k0, stamps, out)
         steps = sorted((i, order) for order, exe in enumerate(_ORDER) for i in np.flatnonzero(masks[exe]).tolist())
         make = (self._vehicle, self._sensors, self._navigator, self._servo)
         for i, order in steps:
             make[order](k0 + i, int(stamps[i]), out[i])
+        self._host_before = host[-1]
 
     def _vehicle(self, k: int, t_ns: int, row: np.ndarray) -> None:
         ch = self.chain
         base = ch.truth0 if k == 0 else ch.truth1
+        if ch.moving is not None:
+            base = self._moving_host(k, base)
         truth = base._replace(k=k, t=k * ch.dt, joint_position=_tuple(row, 0, 4), joint_velocity=_tuple(row, 4, 8),
                               joint_effort=_tuple(row, 8, 12), quat_nm=np.array(row[12:16]),
                               omega_im_m=_tuple(row, 16, 19), specific_force_m=_tuple(row, 19, 22))
         due = self.position_every and k % self.position_every == 0
         self.record(ch.names["vehicle_dynamics"], truth_messages(t_ns, truth, "four_gimbal_platform",
                                                                    ch.site if due else None))
+
+    def _moving_host(self, k: int, base):
+        """``base`` with a moving host's truth of step k: its row's Euler angles, ω_ib^b, f_b,
+        the attitude and the rotation over the step from the row before (the vehicle core's)."""
+        i = k - self._k0
+        row = self._host[i].tolist()
+        q1 = host_quat(*row[0:3])
+        delta = (0.0, 0.0, 0.0)
+        if k > 0:
+            before = self._host[i - 1] if i > 0 else self._host_before
+            delta = step_rotation(host_quat(*before[0:3].tolist()), self.chain.q_earth, q1)
+        return base._replace(euler=tuple(row[0:3]), quat_nb=np.array(q1), omega_ib_b=tuple(row[3:6]),
+                             specific_force_b=tuple(row[6:9]), delta_angle_b=np.array(delta))
 
     def _sensors(self, k: int, t_ns: int, row: np.ndarray) -> None:
         ch, name, t = self.chain, self.chain.names["sensor_models"], k * self.chain.dt
@@ -151,4 +177,8 @@ class ChainRecorder:
         if row[O["tick"]] >= 0.0 and (row[O["ticks"]] - 1.0) % self.diag_every == 0.0:
             out = ServoCommand(k / self.chain.rate_hz, volts, _tuple(row, O["g0"], O["g3"] + 1), float(row[O["phi"]]),
                                float(row[O["phi_rate"]]), row[O["tick"]] == 0.0)
-        self.record(self.chain.names["platform_servo"], platform_servo_messages(t_ns, volts, out))
+        nxt = None
+        if self.next_phi and k % self.chain.imu_every == 0:
+            nxt = (step_stamp_ns(k + self.chain.imu_every, self.chain.rate_hz), float(row[O["phin"]]),
+                   float(row[O["phin_rate"]]))
+        self.record(self.chain.names["platform_servo"], platform_servo_messages(t_ns, volts, out, None, nxt))

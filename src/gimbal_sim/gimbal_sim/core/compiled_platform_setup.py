@@ -20,6 +20,7 @@ from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_kinematics.gimbal.gimbal_params import GIMBAL_MODELS
 from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
+from gimbal_kinematics.params.table import steps_per_sample
 from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 
 from .loop_plan import node_values
@@ -39,19 +40,22 @@ OUT_COLUMNS = (
     "ra0", "ra1", "ra2", "ra3", "rr0", "rr1", "rr2", "rr3", "if0", "if1", "if2", "iw0", "iw1", "iw2",
     "nav_out", "accepted", "lat", "lon", "h", "vn", "ve", "vd", "cmd_n", "cmd_e", "cmd_d", "has_cmd", "psi", "torquing",
     "tick", "ticks", "v0", "v1", "v2", "v3", "g0", "g1", "g2", "g3", "phi", "phi_rate",
-    "ab0", "ab1", "ab2", "gb0", "gb1", "gb2")
+    "ab0", "ab1", "ab2", "gb0", "gb1", "gb2", "phin", "phin_rate")
 O = {name: i for i, name in enumerate(OUT_COLUMNS)}
 N_OUT = len(OUT_COLUMNS)
 #: the navigator node's joint sample (has one, stamp ns, θ, rate), held command (has one, N, E,
-#: D) and the navigator's last and first stamps [ns] (NaN: none yet)
-J_HAS, J_T_NS, J_THETA, J_RATE, J_HAS_CMD, J_CMD, J_NAV_LAST, J_NAV_T0 = 0, 1, 2, 3, 4, 5, 8, 9
-N_JOINT = 10
+#: D), the navigator's last and first stamps [ns] (NaN: none yet) and the servo's
+#: ``~/modulation_next`` (stamp ns, NaN: none yet; φz, φ̇z)
+J_HAS, J_T_NS, J_THETA, J_RATE, J_HAS_CMD, J_CMD, J_NAV_LAST, J_NAV_T0, J_NEXT_T, J_NEXT_PHI, J_NEXT_RATE = \
+    0, 1, 2, 3, 4, 5, 8, 9, 10, 11, 12
+N_JOINT = 13
 
 
 def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tuple[str, dict]] | None:
     """executable -> (node name, values) when the nodes are the chain with the parameters the
-    compiled step reproduces (resolver azimuth, a static base, the servo on its gyro triad);
-    None otherwise (a servo on DTGs runs in the Python loop)."""
+    compiled step reproduces (the servo on its gyro triad; the azimuth from the resolvers, or
+    from the servo's ``~/modulation_next`` at the servo's and the IMU's rate); None otherwise
+    (a servo on DTGs runs in the Python loop)."""
     by_exe = {exe: (name, v) for name, (exe, v) in values.items()}
     if len(values) != len(CHAIN) or set(by_exe) != set(CHAIN):
         return None
@@ -60,19 +64,29 @@ def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tup
     nav = by_exe["platform_navigator"][1]
     if veh["plant"] != "four_gimbal_platform" or set(sen["sensors"]) != {"platform_imu", "resolvers"}:
         return None
-    if by_exe["platform_servo"][1]["gyro_source"] != "rate_triad":
-        return None
-    if nav["azimuth_source"] != "resolver" or nav["joint_topic"] != "/platform/resolvers" \
-            or nav["azimuth_joint"] not in PLATFORM_JOINTS:
+    srv = by_exe["platform_servo"][1]
+    if srv["gyro_source"] != "rate_triad" or not _azimuth_compiled(nav, srv, sen):
         return None
     try:
         vehicle = VehicleCore(VehicleConfig.from_values(veh), GIMBAL_MODELS[veh["gimbal_model"]])
         suite = SensorSuite(SensorSuiteConfig.from_values(sen))
     except (ValueError, KeyError):
         return None  # the Python loop refuses it, naming the parameter
-    if not vehicle.profile.constant or vehicle.config.platform_base_motion:
-        return None
+    if not hasattr(vehicle.profile, "packed"):
+        return None  # a host the profile kernels do not sample
     return by_exe
+
+
+def _azimuth_compiled(nav: dict, srv: dict, sen: dict) -> bool:
+    """Whether the block loop reads the navigator's azimuth as the node does: the resolvers'
+    azimuth joint, or the servo's φz of each IMU step, made by the servo a step ahead
+    (``modulation_next``; the navigator's joint, the servo's and the IMU's rates one)."""
+    if nav["azimuth_source"] == "resolver":
+        return nav["joint_topic"] == "/platform/resolvers" and nav["azimuth_joint"] in PLATFORM_JOINTS \
+            and not srv["modulation_next"]
+    rates = {steps_per_sample(nav, "joint_rate_hz"), steps_per_sample(srv, "imu_rate_hz"),
+             steps_per_sample(sen, "platform_imu_rate_hz")}
+    return srv["modulation_next"] and srv["command_source"] == "navigator" and len(rates) == 1
 
 
 @dataclass
@@ -112,6 +126,10 @@ class PlatformChain:
     values: dict[str, dict]           # executable -> node values
     truth0: VehicleTruth              # the truth of step 0 (host and joints)
     truth1: VehicleTruth              # a truth after one step (the host's step rotation)
+    moving: Any                       # a moving host: (lines, terms, starts) of its profile; None: static
+    env: tuple                        # the NED frame's inertial rate (x, y, z) [rad/s], gravity [m/s²]
+    q_earth: tuple                    # n's inertial rotation over one step (quaternion)
+    base_last: np.ndarray             # the base torques' last outer-member rates (has one, a, q, p, r)
     suite: SensorSuite
     site: Any
     odometry: NavigatorOdometry
@@ -120,7 +138,7 @@ class PlatformChain:
 def _joint() -> np.ndarray:
     """The navigator node's joint sample, held command and stamps, before the first sample."""
     j = np.zeros(N_JOINT)
-    j[J_NAV_LAST] = j[J_NAV_T0] = math.nan
+    j[J_NAV_LAST] = j[J_NAV_T0] = j[J_NEXT_T] = math.nan
     return j
 
 
@@ -130,7 +148,9 @@ def _joint() -> np.ndarray:
 (C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
  C_RES_GATE_TIME, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT, C_RES_CYCLIC,
  C_RES_HARMONIC, C_RES_PHASES) = range(18)
-N_CONFIG = C_RES_PHASES + 4
+#: and after the phases: the base motion into the loops, the azimuth from the servo's φz
+C_BASE_MOTION, C_FROM_SERVO = C_RES_PHASES + 4, C_RES_PHASES + 5
+N_CONFIG = C_FROM_SERVO + 1
 
 
 def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, controlled: bool) -> np.ndarray:
@@ -144,6 +164,8 @@ def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, co
             PLATFORM_JOINTS.index(nav["azimuth_joint"]))
     c[C_RES_CYCLIC], c[C_RES_HARMONIC] = res.cyclic_rad, res.cyclic_harmonic
     c[C_RES_PHASES:C_RES_PHASES + 4] = res.cyclic_phases
+    c[C_BASE_MOTION] = 1.0 if vehicle.config.platform_base_motion else 0.0
+    c[C_FROM_SERVO] = 1.0 if nav["azimuth_source"] == "servo" else 0.0
     return c
 
 
@@ -159,7 +181,8 @@ def build_chain(scenario) -> PlatformChain:
     suite = SensorSuite(SensorSuiteConfig.from_values(values["sensor_models"]))
     navigator = PlatformNavigator(PlatformNavigatorParams.from_values(nav))
     servo = PlatformServo(PlatformServoParams.from_values(srv))
-    odometry = NavigatorOdometry(OdometryModel.from_values(nav, heading_known=True), UNMEASURED_VARIANCE)
+    odometry = NavigatorOdometry(OdometryModel.from_values(nav, heading_known=nav["azimuth_source"] != "servo"),
+                                 UNMEASURED_VARIANCE)
     truth0 = vehicle.truth()
     scratch = VehicleCore(vehicle.config, GIMBAL_MODELS[veh["gimbal_model"]])
     scratch.step((0.0,) * 4)
@@ -176,4 +199,7 @@ def build_chain(scenario) -> PlatformChain:
         gyr_stream=gyr._normals, nav_state=navigator.state.copy(), nav_params=navigator.kernel_params.copy(), joint=_joint(),
         servo_state=servo.state.copy(), servo_params=servo.kernel_params, pid_state=servo._pid_state.copy(),
         pid_gains=servo._pid_gains.copy(), names=names, values=values, truth0=truth0, truth1=scratch.truth(),
-        suite=suite, site=vehicle.profile.site, odometry=odometry)
+        suite=suite, site=vehicle.profile.site, odometry=odometry,
+        moving=None if vehicle.profile.constant else vehicle.profile.packed,
+        env=(*(float(v) for v in vehicle.env.omega_in_n), float(vehicle.env.gravity_m_s2)), q_earth=vehicle._q_earth,
+        base_last=np.zeros(5))

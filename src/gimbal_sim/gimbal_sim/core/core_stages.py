@@ -57,7 +57,7 @@ class Bus:
 
     __slots__ = ("k", "t", "t_ns", "record", "truth", "gyro", "encoders", "ins", "ins_euler", "command", "bias",
                  "ekf", "operator", "operator_error", "platform_imu", "resolvers", "nav", "nav_command", "modulation",
-                 "geo_budget", "lgu", "free_gyro", "dtg", "torquer_current")
+                 "modulation_next", "geo_budget", "lgu", "free_gyro", "dtg", "torquer_current")
 
     def __init__(self) -> None:
         self.k, self.t, self.t_ns = 0, 0.0, 0
@@ -73,6 +73,8 @@ class Bus:
         self.lgu = self.free_gyro = None
         # the servo's last (t [s], φz [rad], φ̇z [rad/s]), what its ~/modulation carries
         self.modulation = None
+        # the servo's (stamp [ns], φz, φ̇z) of its next gyro step, what its ~/modulation_next carries
+        self.modulation_next = None
         # paper 3's DTG pickoffs of the step (lower θ_x, θ_y, upper θ_x, θ_y) [rad] (:mod:`.dtg_stages`)
         self.dtg = None
         # the DTG servo's torquer currents (x_s, y_s, z_s) [A] of its last step (what its ~/torquer_current

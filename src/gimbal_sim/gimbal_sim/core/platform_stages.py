@@ -15,10 +15,14 @@ then integrates the hand-off torquing pulse to exactly its angle (the pulse in N
 covers N intervals). On steps without a new sample each core keeps what it has.
 
 Azimuth angle: the resolver's θ_a of the step, or (navigator ``azimuth_source: servo``) the
-servo's rotation angle φz, which the servo makes after the navigator in a step: its last
-(φz, φ̇z) (``bus.modulation``, what the node's ``~/modulation`` carries) extrapolated to the
-step, as the node extrapolates its newest joint sample; exact except across a reversal
-(≤ φ̇z Δt, 11″ at 400 Hz).
+servo's rotation angle φz, which the servo makes after the navigator in a step. The paper
+stages take its last (φz, φ̇z) (``bus.modulation``, what the node's ``~/modulation``
+carries) extrapolated to the step, as the node extrapolates its newest joint sample; exact
+except across a reversal (≤ φ̇z Δt, 11″ at 400 Hz). The node stages do what the lockstep
+graph does: the servo (``modulation_next: true``) makes at each gyro step the φz of its next
+one from its schedule, stamped with it (``bus.modulation_next``, its ``~/modulation_next``),
+and the navigator takes that at the step it is stamped for (exact; none at the first step,
+whose sample is refused, counted).
 
 Multi-rate (``every`` > 1): the navigator steps on every ``every``-th IMU sample with the mean
 specific force of the samples since its last step (the IMU's velocity increment over the
@@ -32,7 +36,7 @@ from typing import Callable
 
 from gimbal_control.dtg_servo import dtg_servo_from_values
 from gimbal_control.platform_servo import PlatformServo, PlatformServoParams, ServoCommand
-from gimbal_control.wire import platform_servo_messages
+from gimbal_control.wire import modulation_next, platform_servo_messages
 from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
@@ -122,12 +126,14 @@ def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Cal
     :func:`.dtg_stages.dtg_servo_tick`, its torquer currents on ``bus.torquer_current``, which
     the next step's gyros are held under); the step's voltages on ``bus.command`` (held
     between ticks) and every ``diagnostics_every_steps``-th tick's control error and
-    modulation, as the node publishes them (``gimbal_control.wire.platform_servo_messages``)."""
+    modulation, as the node publishes them (``gimbal_control.wire.platform_servo_messages``);
+    with ``modulation_next``, at each gyro step φz of the next on ``bus.modulation_next``."""
     dtg = values["gyro_source"] == "dtg"
     servo = dtg_servo_from_values(values) if dtg else PlatformServo(PlatformServoParams.from_values(values))
     tick = dtg_servo_tick(servo, values) if dtg else _gyro_tick(servo, values["sim_rate_hz"])
     follows = values["command_source"] == "navigator"
     every = values["diagnostics_every_steps"]
+    rate, imu_every, ahead = values["sim_rate_hz"], steps_per_sample(values, "imu_rate_hz"), values["modulation_next"]
     ticks = [0]
 
     def stage(bus: Bus) -> None:
@@ -144,9 +150,12 @@ def platform_servo_node_stage(values: dict, name: str = "platform_servo") -> Cal
         if out is not None:
             ticks[0] += 1
             bus.modulation = (out.t, out.phi_z, out.phi_z_rate)
+        nxt = modulation_next(servo, bus.k / rate, imu_every, rate) if ahead else None
+        if nxt is not None:
+            bus.modulation_next = nxt
         if bus.record is not None:
             due = out is not None and (ticks[0] - 1) % every == 0
-            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None, torquer))
+            bus.record(name, platform_servo_messages(bus.t_ns, volts, out if due else None, torquer, nxt))
     return stage
 
 
@@ -161,28 +170,28 @@ def _gyro_tick(servo: PlatformServo, rate: float) -> Callable[[Bus], ServoComman
 
 
 def platform_navigator_node_stage(values: dict, name: str = "platform_navigator") -> Callable[[Bus], None]:
-    """The ``platform_navigator`` node of a scenario (lockstep, ``azimuth_source:
-    resolver``): the newest azimuth joint sample (``joint_topic``: the resolvers or the true
-    joint states) extrapolated with its rate to each accelerometer sample, no older than
+    """The ``platform_navigator`` node of a scenario (lockstep): the newest azimuth joint
+    sample (``joint_topic``: the resolvers or the true joint states; ``azimuth_source: servo``:
+    the servo's φz of the step, made by its previous step, ``bus.modulation_next``)
+    extrapolated with its rate to each accelerometer sample, no older than
     ``max_joint_age_s``; one navigator step per sample, its fix every ``fix_every_samples``
     accepted samples and its command rate (the last one again when a sample is refused) on
     ``bus.nav_command``, as the node publishes them (``gimbal_estimators.wire``)."""
-    if values["azimuth_source"] != "resolver":
-        raise ValueError("parameter 'azimuth_source': the engine steps the navigator in lockstep, on the resolver")
+    from_servo = values["azimuth_source"] == "servo"
     topic = values["joint_topic"]
-    if topic not in ("/platform/resolvers", "/truth/platform/joint_states"):
+    if not from_servo and topic not in ("/platform/resolvers", "/truth/platform/joint_states"):
         raise ValueError(f"parameter 'joint_topic' = {topic!r}: the engine reads the azimuth joint from "
                          f"/platform/resolvers or /truth/platform/joint_states")
     navigator = PlatformNavigator(PlatformNavigatorParams.from_values(values))
     frames = (values["odom_frame_id"], values["odom_child_frame_id"])
-    odometry = NavigatorOdometry(OdometryModel.from_values(values, heading_known=True), UNMEASURED_VARIANCE)
+    odometry = NavigatorOdometry(OdometryModel.from_values(values, heading_known=not from_servo), UNMEASURED_VARIANCE)
     joint_name, max_age_ns, fix_every = values["azimuth_joint"], int(round(values["max_joint_age_s"] * 1e9)), \
         values["fix_every_samples"]
     joint: list = [None, None]  # (stamp ns, θ, rate) of the newest joint sample; the last command
     every_joint = steps_per_sample(values, "joint_rate_hz")
 
     def stage(bus: Bus) -> None:
-        sample = joint_sample(bus, topic, every_joint, joint_name)
+        sample = _servo_sample(bus, every_joint) if from_servo else joint_sample(bus, topic, every_joint, joint_name)
         if sample is not None:
             joint[0] = (bus.t_ns, sample[0], sample[1] or 0.0)
         bus.nav_command = None
@@ -202,3 +211,12 @@ def platform_navigator_node_stage(values: dict, name: str = "platform_navigator"
         if bus.record is not None:
             bus.record(name, navigator_messages(bus.t_ns, fix, joint[1], odom))
     return stage
+
+
+def _servo_sample(bus: Bus, every: int) -> tuple[float, float] | None:
+    """(φz, φ̇z) of the servo's ``~/modulation_next`` stamped with the step (joint
+    ``modulation_angle``), at the steps the navigator's joint grid samples; None otherwise."""
+    nxt = bus.modulation_next
+    if bus.k % every or nxt is None or nxt[0] != bus.t_ns:
+        return None
+    return nxt[1], nxt[2]

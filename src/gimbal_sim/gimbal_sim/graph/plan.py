@@ -137,6 +137,25 @@ def check_nodes(scenario: Scenario, where: str = "") -> None:
             raise ScenarioError(f"{where}node {node.name!r}: {exc}") from None
         finals[node.name] = (node.executable, values)
     _check_dtg(finals, where)
+    _check_servo_azimuth(finals, where)
+
+
+def _check_servo_azimuth(finals: dict[str, tuple[str, dict[str, Any]]], where: str) -> None:
+    """Paper 3's navigator on the servo's φz in lockstep (``azimuth_source: servo``) reads the
+    servo's ``~/modulation_next`` (``modulation_next: true``), whose servo then waits for no
+    command on its first step: one without the other waits for ever, or for a command never sent."""
+    navs = [n for n, (exe, v) in finals.items() if exe == "platform_navigator" and v["timing"] == "lockstep"]
+    servos = [n for n, (exe, v) in finals.items() if exe == "platform_servo" and v["timing"] == "lockstep"
+              and v["command_source"] == "navigator"]
+    if not navs or not servos:
+        return
+    on_phi = any(finals[n][1]["azimuth_source"] == "servo" for n in navs)
+    ahead = any(finals[n][1]["modulation_next"] for n in servos)
+    if on_phi != ahead:
+        raise ScenarioError(f"{where}parameters 'azimuth_source' of {navs[0]!r} "
+                            f"({'servo' if on_phi else 'resolver'}) and 'modulation_next' of {servos[0]!r} "
+                            f"({str(ahead).lower()}) disagree: in lockstep the navigator on phi_z reads the servo's "
+                            "~/modulation_next")
 
 
 def _check_dtg(finals: dict[str, tuple[str, dict[str, Any]]], where: str) -> None:

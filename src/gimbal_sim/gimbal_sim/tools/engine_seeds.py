@@ -26,24 +26,26 @@ from .engine_speed import paper_rate_navigation
 
 #: the per-seed arrays of a chain, in :func:`platform_block`'s order (the normals apart)
 FIELDS = ("config", "host", "x", "plant_params", "res_state", "acc", "acc_k", "acc_c", "gyr", "gyr_k", "gyr_c",
-          "nav_state", "nav_params", "joint", "servo_state", "servo_params", "pid_state", "pid_gains")
+          "nav_state", "nav_params", "joint", "servo_state", "servo_params", "pid_state", "pid_gains", "base_last")
 
 
 @njit(parallel=True, cache=True)
 def seeds_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c, az, gyr, gyr_k, gyr_c, gz, ns, nq,
-                joint, ss, sp, pid_s, pid_g, counts):
-    """:func:`platform_block` of each seed (leading axis) over steps k0 … k1−1, in parallel."""
+                joint, ss, sp, pid_s, pid_g, counts, base_last):
+    """:func:`platform_block` of each seed (leading axis) over steps k0 … k1−1, in parallel
+    (a static host: one row each)."""
     out = np.empty((0, N_OUT))
     for i in prange(c.shape[0]):
         platform_block(k0, k1, stamps, c[i], host[i], x[i], pp[i], rstate[i], rz[i], acc[i], acc_k[i], acc_c[i], az[i],
                        gyr[i], gyr_k[i], gyr_c[i], gz[i], ns[i], nq[i], joint[i], ss[i], sp[i], pid_s[i], pid_g[i],
-                       counts[i], out)
+                       counts[i], base_last[i], out)
 
 
 def run_together(scenarios: list) -> tuple[float, float, np.ndarray]:
     """All seeds' chains stepped in one parallel call per block: (wall, CPU [s], final plant states)."""
     chains = [build_chain(s) for s in scenarios]
     stacked = {name: np.stack([getattr(ch, name) for ch in chains]) for name in FIELDS}
+    stacked["host"] = stacked["host"].reshape(len(chains), 1, 9)
     n, rate = chains[0].n_steps, chains[0].rate_hz
     counts = np.zeros((len(chains), 3))
     c0, t0 = time.process_time(), time.perf_counter()
@@ -55,7 +57,8 @@ def run_together(scenarios: list) -> tuple[float, float, np.ndarray]:
         a = stacked
         seeds_block(k0, k1, stamps, a["config"], a["host"], a["x"], a["plant_params"], a["res_state"], rz, a["acc"],
                     a["acc_k"], a["acc_c"], az, a["gyr"], a["gyr_k"], a["gyr_c"], gz, a["nav_state"], a["nav_params"],
-                    a["joint"], a["servo_state"], a["servo_params"], a["pid_state"], a["pid_gains"], counts)
+                    a["joint"], a["servo_state"], a["servo_params"], a["pid_state"], a["pid_gains"], counts,
+                    a["base_last"])
     return time.perf_counter() - t0, time.process_time() - c0, stacked["x"]
 
 

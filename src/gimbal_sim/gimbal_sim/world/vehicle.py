@@ -216,7 +216,7 @@ class VehicleCore:
             self._platform_x = np.array([(angle, 0.0, 0.0) for angle in init], dtype=float)
             self._platform_params = np.array([axis.kernel_params for axis in self._platform])
             self._platform_quasi_static = config.platform_integrator == "quasi_static"
-        self._q_nb = quat_canonical(quat_from_euler321(self._host.roll, self._host.pitch, self._host.yaw))
+        self._q_nb = host_quat(self._host.roll, self._host.pitch, self._host.yaw)
         self._delta = (0.0, 0.0, 0.0)
         self._constant_delta: tuple[float, float, float] | None = None
         self._outer_rates: tuple[float, ...] | None = None  # ω_A of the last step (platform_base_motion)
@@ -265,9 +265,8 @@ class VehicleCore:
             platform_step(self._platform_x, np.array(self._applied), np.array(torques), dt,
                           self.config.platform_substeps, self._platform_quasi_static, self._platform_params)
         if self._constant_delta is None:
-            q_nb1 = quat_canonical(quat_from_euler321(host1.roll, host1.pitch, host1.yaw))
-            # δ = log(C_nb(t_k)ᵀ exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions
-            self._delta = rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(self._q_nb), self._q_earth), q_nb1))
+            q_nb1 = host_quat(host1.roll, host1.pitch, host1.yaw)
+            self._delta = step_rotation(self._q_nb, self._q_earth, q_nb1)
             self._q_nb = q_nb1
             if self.profile.constant:  # the same attitude every step: the same δ, bit for bit
                 self._constant_delta = self._delta
@@ -312,6 +311,17 @@ class VehicleCore:
             joint_velocity=vel, joint_effort=effort, quat_nm=quat_nm, omega_im_m=omega_m,
             specific_force_m=f_m,
         )
+
+
+def host_quat(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    """The host's attitude q_nb (x, y, z, w) of its Euler angles [rad], canonical sign."""
+    return quat_canonical(quat_from_euler321(roll, pitch, yaw))
+
+
+def step_rotation(q0, q_earth, q1) -> tuple[float, float, float]:
+    """The host's rotation vector over a step, in b at its start: δ = log(C_nb(t_k)ᵀ
+    exp([ω_in dt×]) C_nb(t_k+1)), composed as quaternions (q_earth: n's inertial step rotation)."""
+    return rotation_vector_from_quat(*quat_mul(quat_mul(quat_conj(q0), q_earth), q1))
 
 
 def _inner_gimbal_truth(q_nb, pos, vel, omega_b, f_b):

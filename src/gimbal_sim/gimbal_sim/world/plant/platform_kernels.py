@@ -24,6 +24,8 @@ import math
 import numpy as np
 from numba import njit
 
+from gimbal_kinematics.maths.platform_kernels import outer_member_rates
+
 P_J, P_INV_J, P_INV_L, P_R, P_KT, P_KE, P_B, P_TC, P_INV_WS, P_VMAX = range(10)
 N_PARAMS = 10
 
@@ -135,3 +137,22 @@ def platform_step(x: np.ndarray, voltages: np.ndarray, disturbance: np.ndarray, 
         else:
             th, w, i = axis_rk4(x[j, 0], x[j, 1], x[j, 2], voltages[j], (0.0, 0.0, 0.0), (d, d, d), dt, substeps, p)
         x[j, 0], x[j, 1], x[j, 2] = th, w, i
+
+
+@njit(cache=True)
+def base_torques(wx: float, wy: float, wz: float, x: np.ndarray, last: np.ndarray, params: np.ndarray, dt: float,
+                 out: np.ndarray) -> None:
+    """A moving base's torque −J ω̇_A on each axis (a, q, p, r) [N·m] into ``out``: the outer
+    members' inertial rates ω_A about the joint axes
+    (:func:`gimbal_kinematics.maths.platform_kernels.outer_member_rates`) of the base rate
+    ω_ib^b (wx, wy, wz) and the joint states ``x`` (4, 3), differenced from the last step's,
+    ``last`` = (has one, ω_A per axis), which this updates (none yet: no torque). What
+    :meth:`..vehicle.VehicleCore._base_torques` computes, in the same order."""
+    w = outer_member_rates(wx, wy, wz, x[1, 0], x[2, 0], x[3, 0], x[1, 1], x[2, 1], x[3, 1])
+    if last[0] == 0.0:
+        last[0] = 1.0
+        for j in range(4):
+            last[1 + j] = w[j]
+    for j in range(4):
+        out[j] = -params[j, P_J] * (w[j] - last[1 + j]) / dt
+        last[1 + j] = w[j]

@@ -4,7 +4,9 @@ A profile is packed once into arrays (:func:`pack`): the seven channels' (offset
 in ``lines`` (7, 2), in the order roll, pitch, yaw, ψt, a_x, a_y, a_z, and their terms
 (ω, φ, A, Aω, Aω²) concatenated in ``terms`` (n, 5), channel c's rows being
 ``starts[c]:starts[c + 1]``. :func:`sample` evaluates every channel at t and builds the
-host sample with :func:`gimbal_kinematics.gimbal.host_kernels.host_fields`. Each channel::
+host sample with :func:`gimbal_kinematics.gimbal.host_kernels.host_fields`;
+:func:`host_truth_rows` gives a block of steps' host truth as the vehicle core computes it.
+Each channel::
 
     x(t) = x₀ + ẋ₀ t + Σ A sin(ω t + φ),  ẋ = ẋ₀ + Σ Aω cos(ω t + φ),  ẍ = −Σ Aω² sin(ω t + φ)
 """
@@ -15,7 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
-from gimbal_kinematics.gimbal.host_kernels import host_fields
+from gimbal_kinematics.gimbal.host_kernels import host_fields, inertial_rates
 
 
 def pack(channels) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -55,3 +57,21 @@ def sample(lines: np.ndarray, terms: np.ndarray, starts: np.ndarray, t: float) -
     ay = channel(lines, terms, starts, 5, t)[0]
     az = channel(lines, terms, starts, 6, t)[0]
     return host_fields(t, r0, p0, y0, r1, p1, y1, r2, p2, y2, t0, t1, t2, ax, ay, az)
+
+
+@njit(cache=True)
+def host_truth_rows(lines: np.ndarray, terms: np.ndarray, starts: np.ndarray, k0: int, k1: int, dt: float,
+                    wx: float, wy: float, wz: float, g: float, out: np.ndarray) -> None:
+    """The host's truth of steps k0 … k1−1 (t = k·dt) into ``out`` (k1 − k0, 9): the Euler
+    angles (roll, pitch, yaw), ω_ib^b (the NED frame's inertial rate (wx, wy, wz) added,
+    :func:`gimbal_kinematics.gimbal.host_kernels.inertial_rates`) and f_b = a_b − C_bn (0, 0, g),
+    in the operation order of :meth:`..vehicle.VehicleCore.truth` (the same floats)."""
+    for k in range(k0, k1):
+        h = sample(lines, terms, starts, k * dt)
+        roll, pitch, yaw = h[1], h[2], h[3]
+        cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+        w = inertial_rates(h[10], h[11], h[12], h[13], h[14], h[15], yaw, wx, wy, wz, cr, sr, cp, sp)
+        row = out[k - k0]
+        row[0], row[1], row[2] = roll, pitch, yaw
+        row[3], row[4], row[5] = w[0], w[1], w[2]
+        row[6], row[7], row[8] = h[19] - (-sp) * g, h[20] - (sr * cp) * g, h[21] - (cr * cp) * g
