@@ -16,7 +16,8 @@ from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_sim.campaign.experiment import plan_experiment
 from gimbal_sim.campaign.spec import CampaignSpec
-from gimbal_sim.experiments.navigation import CAMPAIGN, RUNNER_CAMPAIGN, SHIP_NAV_RATE_HZ, SHIP_RATE_HZ, SHIP_VARIANTS, run_navigation
+from gimbal_sim.experiments.navigation import CAMPAIGN, SCENARIO_VARIANTS, SHIP_NAV_RATE_HZ, SHIP_RATE_HZ, run_navigation
+from gimbal_sim.graph.scenario import load
 from gimbal_sim.world.sensors import AccelerometerParams, EncoderParams, GyroParams
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -65,12 +66,17 @@ def test_unknown_azimuth_source_is_refused_naming_it():
 
 
 def test_ship_variants_run_only_when_named():
-    """A 3-hour ship run is 4.3 M steps at 400 Hz: the navigation campaign's default set (no
-    --variant) stays the static systems, and the ship's own campaign plans what it is given."""
+    """The navigation campaign's default set (no --variant) stays the static systems; named,
+    the ship's labels run the scenario's own ship variants."""
     default = plan_experiment(CampaignSpec(scenario="", seeds=(1,), engine="core",
                                            experiment="rotational_ins_navigation"), CAMPAIGN)
     assert {r.variant for r in default.runs} == {"original_system", "upgraded", "perfectly_aligned"}
-    assert set(RUNNER_CAMPAIGN.variants) == set(SHIP_VARIANTS)
-    named = plan_experiment(CampaignSpec(scenario="", seeds=(1, 2), variants=SHIP_VARIANTS, engine="core",
-                                         experiment="rotational_ins_navigation_runner"), RUNNER_CAMPAIGN)
-    assert sorted((r.variant, r.seed) for r in named.runs) == sorted((v, s) for v in SHIP_VARIANTS for s in (1, 2))
+    ship = ("ship_rotation_on", "ship_rotation_off")
+    named = plan_experiment(CampaignSpec(scenario="", seeds=(1, 2), variants=ship, engine="core",
+                                         experiment="rotational_ins_navigation"), CAMPAIGN)
+    assert sorted((r.variant, r.seed) for r in named.runs) == sorted((v, s) for v in ship for s in (1, 2))
+    scenario = load("rotational_ins_navigation")
+    for label in ship:
+        overrides = scenario.variants[SCENARIO_VARIANTS[label]]
+        assert overrides["vehicle_dynamics.profile"] == "paper5_ship"
+        assert overrides["vehicle_dynamics.platform_base_motion"] is True

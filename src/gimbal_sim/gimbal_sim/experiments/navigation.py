@@ -34,7 +34,9 @@ The CEP campaign (:data:`CAMPAIGN`) is a declaration: its runs are scenario
 ``rotational_ins_navigation``'s (:data:`SCENARIO_VARIANTS`; this module's 5 Hz system is its
 variants ``rotation_on_5hz`` and ``rotation_off_5hz``, ``platform_integrator: quasi_static``),
 run on the one engine with their bags, and its table reads the runs' ``navigation`` reports.
-The moored ship stays on this module's stages (:data:`RUNNER_CAMPAIGN`).
+Paper 5's moored ship is the scenario's ``ship_rotation_on`` / ``ship_rotation_off`` (1 kHz,
+run only when named); :func:`run_navigation` keeps its own ship (``--ship``, 400 Hz) for the
+rate studies.
 
 Errors (truth is the site: a static base): north and east position error [m] from the
 navigated latitude and longitude through the WGS-84 radii, radial = their norm; velocity
@@ -43,7 +45,7 @@ error = the navigated NED velocity. CEP rate: radial error at the end / duration
     python -m gimbal_sim.experiments.navigation run --duration 10800 --seed 1 --no-rotation
     gimbal-campaign rotational_ins_navigation --seeds 1-20 --out DIR      # the three systems' CEP50 table
     gimbal-campaign rotational_ins_navigation --variant rotation_on --variant rotation_off --seeds 1-20 --out DIR
-    gimbal-campaign rotational_ins_navigation_runner --variant ship_rotation_on --seeds 1-7 --out DIR
+    gimbal-campaign rotational_ins_navigation --variant ship_rotation_on --variant ship_rotation_off --seeds 1-10 --out DIR
     python -m gimbal_sim.experiments.navigation cep DIR [DIR...] --per-seed  # the table again, campaigns merged
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
     python -m gimbal_sim.experiments.navigation servo-rate              # the servo at 1 kHz and at the graph's 50 Hz
@@ -87,7 +89,7 @@ from .platform_servo import RATE_HZ as SERVO_RATE_HZ, run_platform_servo
 HAND_OFF_RATE_HZ = 50.0
 #: IMU = resolver = servo = navigator rate of the navigation runs [Hz] (module docstring).
 NAV_RATE_HZ = 5.0
-#: The moored ship's runs (``--ship``, variants ``ship_rotation_*``): IMU, resolvers, servo and
+#: :func:`run_navigation`'s moored ship (``--ship``): IMU, resolvers, servo and
 #: plant at 400 Hz (the servo's loops at 10 Hz hold the platform against the ship's 6–15 s
 #: motion to arc-seconds; at 200 Hz the pickoff rms is 29× larger), the navigator at 50 Hz on
 #: the mean specific force of 8 samples and its azimuth from the servo's φz (module docstring).
@@ -227,23 +229,12 @@ SCENARIO_VARIANTS = {"original_system": "original_system_1khz", "upgraded": "upg
                      "original_system_50hz": "original_system", "upgraded_50hz": "upgraded",
                      "perfectly_aligned_50hz": "rotation_on",
                      "rotation_on": "rotation_on_5hz", "rotation_off": "rotation_off_5hz",
-                     "rotation_off_50hz": "rotation_off"}
-#: The variants on paper 5's moored ship, which the scenario cannot express yet, run by
-#: :func:`campaign_run` (:data:`RUNNER_CAMPAIGN`, :data:`SHIP_RATE_HZ`).
-SHIP_VARIANTS = ("ship_rotation_on", "ship_rotation_off")
+                     "rotation_off_50hz": "rotation_off",
+                     "ship_rotation_on": "ship_rotation_on", "ship_rotation_off": "ship_rotation_off"}
 #: Each variant -> whether its platform rotates.
 VARIANTS = {"original_system": False, "upgraded": True, "perfectly_aligned": True,
             "original_system_50hz": False, "upgraded_50hz": True, "perfectly_aligned_50hz": True, "rotation_on": True,
             "rotation_off": False, "rotation_off_50hz": False, "ship_rotation_on": True, "ship_rotation_off": False}
-
-
-def campaign_run(variant: str, seed: int, options: dict) -> dict:
-    """:data:`RUNNER_CAMPAIGN`'s core run: one ship run's metrics, no series."""
-    m = run_navigation(options["duration_s"], seed, rotate=VARIANTS[variant], rate_hz=SHIP_RATE_HZ,
-                       lat_deg=options["lat_deg"], ship=True, nav_rate_hz=SHIP_NAV_RATE_HZ, azimuth_source="servo")
-    m["variant"] = variant
-    m.pop("series")
-    return {"navigation": m}
 
 
 def navigation_translate(options: dict[str, Any]) -> tuple[float, tuple[tuple[str, Any], ...]]:
@@ -412,12 +403,6 @@ CAMPAIGN = ExperimentCampaign(
     graph=GraphEquivalent("rotational_ins_navigation", SCENARIO_VARIANTS, ("duration_s", "lat_deg"),
                           navigation_translate),
     table=cep_table)
-#: ``gimbal-campaign rotational_ins_navigation_runner``: the moored ship, which the scenario does
-#: not express yet, on this module's own stages (its navigator averages the IMU over each 50 Hz
-#: step and takes its azimuth from the servo, which the lockstep node does not).
-RUNNER_CAMPAIGN = ExperimentCampaign(
-    name="rotational_ins_navigation_runner", variants=SHIP_VARIANTS, default_variants=SHIP_VARIANTS,
-    defaults={"duration_s": 10800.0, "lat_deg": 40.0}, run=campaign_run, table=cep_table)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,7 +26,7 @@ from . import encoder_fusion_study, flexure, flexure_sea, free_gyro, free_gyro_e
 EXPERIMENTS: dict[str, ExperimentCampaign] = {
     e.name: e for e in (sighting_loop.CAMPAIGN, flexure.CAMPAIGN, flexure_sea.CAMPAIGN, free_gyro.CAMPAIGN, platform_servo.CAMPAIGN,
                         encoder_fusion_study.CAMPAIGN, encoder_fusion_study.RQ_CAMPAIGN,
-                        free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN, navigation.RUNNER_CAMPAIGN, slew.CAMPAIGN)}
+                        free_gyro_errors.CAMPAIGN, navigation.CAMPAIGN, slew.CAMPAIGN)}
 
 
 def experiment(name: str) -> ExperimentCampaign:
