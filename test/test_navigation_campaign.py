@@ -70,3 +70,22 @@ def _radial_rate_from_bag(run_dir) -> float:
     east = np.radians(last.longitude - site.longitude) * a / w * np.cos(lat)
     hours = (t_end - nav[0][0]) * 1e-9 / 3600.0
     return float(np.hypot(north, east) / 1852.0 / hours)
+
+
+def test_one_run_takes_the_noise_from_the_command_line_and_refuses_a_negative_one(capsys):
+    """``navigation run --gyro-arw G --accel-noise A`` runs with that white noise: with both 0
+    the run is the seed's biases alone and repeats exactly; with the scenarios' noise the same
+    seed (the same biases) ends elsewhere. A negative figure is refused with exit 2, naming the
+    option."""
+    def radial(*extra):
+        assert navigation_main(["run", "--duration", "20", "--rate", "50", "--seed", "3", *extra]) == 0
+        lines = dict(line.split(None, 1) for line in capsys.readouterr().out.splitlines() if line.strip())
+        return float(lines["radial_error_m"])
+
+    quiet = radial("--gyro-arw", "0", "--accel-noise", "0")
+    assert quiet == radial("--gyro-arw", "0", "--accel-noise", "0")
+    assert radial() != quiet
+    with pytest.raises(SystemExit) as exit_info:
+        navigation_main(["run", "--duration", "1", "--gyro-arw", "-1"])
+    assert exit_info.value.code == 2
+    assert "--gyro-arw" in capsys.readouterr().err

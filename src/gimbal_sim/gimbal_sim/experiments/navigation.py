@@ -53,6 +53,7 @@ error = the navigated NED velocity. CEP rate: radial error at the end / duration
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -80,7 +81,8 @@ from ..core.platform_stages import navigator_stage, platform_sensor_stage, servo
 from ..world.sensor_suite import PAPER3_RESOLVER, SensorSuite, SensorSuiteConfig
 from ..world.sensors import AccelerometerParams, EncoderParams, GyroParams
 from ..world.vehicle import VehicleConfig, VehicleCore
-from .platform_servo import RATE_HZ as SERVO_RATE_HZ, run_platform_servo
+from .platform_servo import ALIGNMENT_ACCEL_NOISE_UG_RT_HZ, ALIGNMENT_GYRO_ARW_DEG_RT_H, RATE_HZ as SERVO_RATE_HZ, \
+    run_platform_servo
 
 #: The navigation rate after a hand-off [Hz] (the graph scenario's): at 5 Hz
 #: the servo's 0.125 Hz loops ring for minutes after the torque-out pulse (1000″ of azimuth
@@ -97,8 +99,8 @@ SHIP_RATE_HZ = 400.0
 SHIP_NAV_RATE_HZ = 50.0
 #: Paper 3's sensor grades (run-to-run bias, 1σ per axis) and the white noise the alignment
 #: experiment uses (:mod:`.platform_servo`: ``ALIGNMENT_*``).
-PAPER3_NAV_GYRO = GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=0.001)
-PAPER3_NAV_ACCEL = AccelerometerParams(bias_sigma_ug=100.0, noise_ug_rt_hz=20.0)
+PAPER3_NAV_GYRO = GyroParams(bias_sigma_deg_h=0.03, arw_deg_rt_h=ALIGNMENT_GYRO_ARW_DEG_RT_H)
+PAPER3_NAV_ACCEL = AccelerometerParams(bias_sigma_ug=100.0, noise_ug_rt_hz=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ)
 
 
 class PlatformStart(NamedTuple):
@@ -418,6 +420,10 @@ def main(argv: list[str] | None = None) -> int:
     one.add_argument("--nav-rate", type=float, default=None, help="navigator rate [Hz], dividing --rate (default: --rate)")
     one.add_argument("--azimuth-source", choices=("resolver", "servo"), default="resolver",
                      help="the navigator's azimuth: resolver + fixed base heading, or the servo's phi_z (moving base)")
+    one.add_argument("--gyro-arw", type=float, default=ALIGNMENT_GYRO_ARW_DEG_RT_H,
+                     help="platform gyro angle random walk [deg/sqrt(h)] (default: the scenarios')")
+    one.add_argument("--accel-noise", type=float, default=ALIGNMENT_ACCEL_NOISE_UG_RT_HZ,
+                     help="platform accelerometer noise density [micro-g/sqrt(Hz)] (default: the scenarios')")
     cep = sub.add_parser("cep", help="the CEP table of a finished campaign directory (gimbal-campaign "
                                      "rotational_ins_navigation --seeds 1-20 --out DIR)")
     cep.add_argument("campaign_dir", nargs="+", help="one or more campaign directories, their runs merged")
@@ -438,8 +444,13 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{row:42s}" + "".join(f"{f[key]:>38.2f}" for f in figures.values()))
         return 0
     if args.what == "run":
+        try:
+            gyro = dataclasses.replace(PAPER3_NAV_GYRO, arw_deg_rt_h=args.gyro_arw)
+            accel = dataclasses.replace(PAPER3_NAV_ACCEL, noise_ug_rt_hz=args.accel_noise)
+        except ValueError as exc:
+            parser.error(f"--gyro-arw/--accel-noise: {exc}")
         m = run_navigation(args.duration, args.seed, rotate=not args.no_rotation, rate_hz=args.rate, ship=args.ship,
-                           nav_rate_hz=args.nav_rate, azimuth_source=args.azimuth_source)
+                           nav_rate_hz=args.nav_rate, azimuth_source=args.azimuth_source, gyro=gyro, accel=accel)
         for key, value in m.items():
             if key != "series":
                 print(f"{key:36s} {value}")
