@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from gimbal_sim.campaign_cli import main as campaign_main
-from gimbal_sim.experiments.navigation import cep_summary, main as navigation_main, median_interval
+from gimbal_sim.experiments.navigation import _campaign_table, cep_summary, main as navigation_main, median_interval
 
 
 def test_median_interval_is_the_distribution_free_order_statistics_interval():
@@ -89,3 +89,28 @@ def test_one_run_takes_the_noise_from_the_command_line_and_refuses_a_negative_on
         navigation_main(["run", "--duration", "1", "--gyro-arw", "-1"])
     assert exit_info.value.code == 2
     assert "--gyro-arw" in capsys.readouterr().err
+
+
+def test_cep_table_lists_the_scenarios_own_variants_and_their_ratio():
+    """A campaign run from the scenario's file records the scenario's variant names
+    (rotation_on_1khz, ...): the table lists them after the experiment's and gives their ratio."""
+    summary = cep_summary({"rotation_off_1khz": [{"final_radial_rate_nmi_h": r} for r in (1.0, 2.0, 3.0)],
+                           "rotation_on_1khz": [{"final_radial_rate_nmi_h": r} for r in (0.2, 0.4, 0.6)],
+                           "perfectly_aligned": [{"final_radial_rate_nmi_h": 0.3}]})
+    assert summary["ratio_off_on_1khz"] == pytest.approx(2.0 / 0.4)
+    lines = _campaign_table(summary).splitlines()
+    assert [line.split()[0] for line in lines[2:5]] == ["perfectly_aligned", "rotation_off_1khz", "rotation_on_1khz"]
+    assert "ratio rotation_off_1khz / rotation_on_1khz: 5.00" in lines[-1]
+
+
+def test_cep_on_a_campaign_without_a_finished_run_says_so(tmp_path, capsys):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "c"
+    (out / "runs").mkdir(parents=True)
+    pq.write_table(pa.Table.from_pylist([{"run_id": "abc", "scenario": "rotational_ins_navigation",
+                                          "variant": "rotation_on_1khz", "seed": 1, "status": "failed"}]),
+                   out / "results.parquet")  # written by pyarrow, as a campaign writes it
+    assert navigation_main(["cep", str(out)]) == 1
+    assert "no finished run with a navigation report" in capsys.readouterr().err

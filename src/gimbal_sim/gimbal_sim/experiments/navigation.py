@@ -278,13 +278,28 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
             out[variant]["hand_off_residual_rms_arcsec"] = [float(v) for v in np.sqrt(np.mean(res ** 2, axis=0))]
             out[variant]["azimuth_alignment_std_arcmin"] = float(np.std(res[:, 2], ddof=1)) / 60.0 \
                 if len(res) > 1 else None
-    for num, den, key in (("rotation_off", "rotation_on", "ratio_off_on"),
-                          ("original_system", "upgraded", "ratio_original_upgraded"),
-                          ("original_system_50hz", "upgraded_50hz", "ratio_original_upgraded_50hz"),
-                          ("ship_rotation_off", "ship_rotation_on", "ship_ratio_off_on")):
+    for num, den, key in RATIOS:
         if num in out and den in out:
             out[key] = out[num]["cep50_nmi_h"] / out[den]["cep50_nmi_h"]
     return out
+
+
+#: The CEP ratios a summary carries when both variants ran: (numerator, denominator, key); the
+#: scenario's own variant names are the ones a campaign run from its file records.
+RATIOS = (("rotation_off", "rotation_on", "ratio_off_on"),
+          ("original_system", "upgraded", "ratio_original_upgraded"),
+          ("original_system_50hz", "upgraded_50hz", "ratio_original_upgraded_50hz"),
+          ("ship_rotation_off", "ship_rotation_on", "ship_ratio_off_on"),
+          ("rotation_off_1khz", "rotation_on_1khz", "ratio_off_on_1khz"),
+          ("original_system_1khz", "upgraded_1khz", "ratio_original_upgraded_1khz"),
+          ("rotation_off_5hz", "rotation_on_5hz", "ratio_off_on_5hz"))
+
+
+def ordered_variants(names) -> list[str]:
+    """The variants among ``names``: :data:`VARIANTS`' first, in its order, then any other
+    (a campaign run from the scenario's file records the scenario's variant names), sorted."""
+    names = set(names)
+    return [v for v in VARIANTS if v in names] + sorted(names - set(VARIANTS))
 
 
 # ------------------------------------------------------------------------------ commands
@@ -367,7 +382,8 @@ def _campaign_table(summary: dict[str, Any]) -> str:
             "median (paper 3: 0.38 n mile/h rotating, 2 n mile/h not)",
             f"{'variant':<19} {'runs':>4} {'CEP50 [n mile/h]':>17} {'95 % interval':>20} {'control rms [″]':>16} "
             f"{'control max [″]':>16} {'null max [″]':>13} {'lock':>5}"]
-    for v in VARIANTS:
+    variants = ordered_variants(v for v, s in summary.items() if isinstance(s, dict))
+    for v in variants:
         if v in summary:
             s = summary[v]
             lo, hi = s["cep50_ci95_nmi_h"]
@@ -375,22 +391,17 @@ def _campaign_table(summary: dict[str, Any]) -> str:
             rows.append(f"{v:<19} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {interval:>20} "
                         f"{_cell(s['control_rms_arcsec_median'], 16, '.2f')} {_cell(s['control_max_arcsec'], 16, '.2f')} "
                         f"{_cell(s['inner_roll_null_max_arcsec'], 13, '.1f')} {_cell(s['gimbal_lock_events'], 5, 'd')}")
-    for v in VARIANTS:
+    for v in variants:
         if "hand_off_residual_rms_arcsec" in summary.get(v, {}):
             e, n, u = summary[v]["hand_off_residual_rms_arcsec"]
             std = summary[v]["azimuth_alignment_std_arcmin"]
             rows.append(f"{v}: residual misalignment at hand-off (truth − estimate), rms over runs: "
                         f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″ = {u / 60.0:.2f}′ (std {_cell(std, 0, '.2f').strip()}′; "
                         f"{PAPER_AZIMUTH.get(v, 'paper 3: -')})")
-    for suffix in ("", "_50hz"):
-        if f"ratio_original_upgraded{suffix}" in summary:
-            rows.append(f"ratio original_system{suffix} / upgraded{suffix}: "
-                        f"{summary[f'ratio_original_upgraded{suffix}']:.2f}   "
-                        f"(paper 3: 2 / 0.38 = 5.3, 'improved by almost 5 times')")
-    if "ratio_off_on" in summary:
-        rows.append(f"ratio rotation_off / rotation_on: {summary['ratio_off_on']:.2f}   (paper 3: 2 / 0.38 = 5.3)")
-    if "ship_ratio_off_on" in summary:
-        rows.append(f"ratio ship_rotation_off / ship_rotation_on: {summary['ship_ratio_off_on']:.2f}")
+    for num, den, key in RATIOS:
+        if key in summary:
+            paper = "'improved by almost 5 times'" if num.startswith("original_system") else "about 5×"
+            rows.append(f"ratio {num} / {den}: {summary[key]:.2f}   (paper 3: 2 / 0.38 = 5.3, {paper})")
     return "\n".join(rows)
 
 
@@ -476,9 +487,12 @@ def _cep_command(campaign_dirs: Sequence[str], per_seed: bool) -> int:
             if row["status"] == "ok" and path.is_file():
                 m = run_navigation_metrics(json.loads(path.read_text()))
                 runs.setdefault(row["variant"], []).append({**m, "seed": int(row["seed"])})
+    if not runs:
+        print(f"navigation cep: {', '.join(campaign_dirs)}: no finished run with a navigation report", file=sys.stderr)
+        return 1
     print(_campaign_table(cep_summary(runs)))
     if per_seed:
-        variants = [v for v in VARIANTS if v in runs]
+        variants = ordered_variants(runs)
         rates = {v: {m["seed"]: m.get("radial_rate_nmi_h", m.get("final_radial_rate_nmi_h")) for m in runs[v]}
                  for v in variants}
         print("radial rate at the end [n mile/h] per seed\nseed " + " ".join(f"{v:>19}" for v in variants))
