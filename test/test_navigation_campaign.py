@@ -7,7 +7,8 @@ import pytest
 from scipy import stats
 
 from gimbal_sim.campaign_cli import main as campaign_main
-from gimbal_sim.experiments.navigation import _campaign_table, cep_summary, main as navigation_main, median_interval
+from gimbal_sim.experiments.navigation import _campaign_table, cep_summary, change_table, main as navigation_main, \
+    median_interval
 
 
 def test_median_interval_is_the_distribution_free_order_statistics_interval():
@@ -44,6 +45,10 @@ def test_gimbal_campaign_runs_the_scenario_variants_on_the_engine_and_its_table_
     assert navigation_main(["cep", str(out), "--per-seed"]) == 0
     row = capsys.readouterr().out.splitlines()[-1].split()
     assert row[0] == "1" and sorted(float(v) for v in row[1:]) == pytest.approx(from_bags, abs=1e-3)
+    assert navigation_main(["cep", str(out), "--against", str(out)]) == 0  # each run against itself: no change
+    changes = capsys.readouterr().out.split("per-seed change")[1].splitlines()[2:]
+    assert [line.split()[:5] for line in changes] == [[v, "1", "+0.000", "0.000", "0/1"]
+                                                      for v in ("rotation_on", "rotation_off")]
     assert navigation_main(["cep", str(tmp_path / "none")]) == 2
     assert campaign_main(["rotational_ins_navigation", "--sweep", "a.b=1:2:2", "--out", str(tmp_path / "x")]) == 2
 
@@ -112,5 +117,21 @@ def test_cep_on_a_campaign_without_a_finished_run_says_so(tmp_path, capsys):
     pq.write_table(pa.Table.from_pylist([{"run_id": "abc", "scenario": "rotational_ins_navigation",
                                           "variant": "rotation_on_1khz", "seed": 1, "status": "failed"}]),
                    out / "results.parquet")  # written by pyarrow, as a campaign writes it
+    (out / "campaign.yaml").write_text("campaign: {scenario: rotational_ins_navigation}\n")
     assert navigation_main(["cep", str(out)]) == 1
     assert "no finished run with a navigation report" in capsys.readouterr().err
+
+
+def test_change_table_pairs_runs_by_scenario_variant_and_seed():
+    """An experiment campaign's perfectly_aligned is the scenario's rotation_on_1khz: a study run
+    from the scenario's file pairs with it seed by seed; a seed without a baseline is left out."""
+    def run(variant, seed, rate):
+        return {"scenario_variant": variant, "seed": seed, "final_radial_rate_nmi_h": rate}
+
+    base = {"perfectly_aligned": [run("rotation_on_1khz", s, r) for s, r in ((1, 0.3), (2, 0.5), (3, 0.2))]}
+    study = {"rotation_on_1khz": [run("rotation_on_1khz", s, r) for s, r in ((1, 0.4), (2, 0.3), (3, 0.6), (4, 9.0))],
+             "rotation_off_1khz": [run("rotation_off_1khz", 1, 2.0)]}
+    rows = {line.split()[0]: line.split()[1:] for line in change_table(study, base).splitlines()[2:]}
+    # changes +0.1, -0.2, +0.4: median +0.1, sizes 0.1, 0.2, 0.4: median 0.2, two of three worse
+    assert rows["rotation_on_1khz"] == ["3", "+0.100", "0.200", "2/3"]
+    assert rows["rotation_off_1khz"][:3] == ["0", "no", "baseline"]

@@ -47,6 +47,7 @@ error = the navigated NED velocity. CEP rate: radial error at the end / duration
     gimbal-campaign rotational_ins_navigation --variant rotation_on --variant rotation_off --seeds 1-20 --out DIR
     gimbal-campaign rotational_ins_navigation --variant ship_rotation_on --variant ship_rotation_off --seeds 1-10 --out DIR
     python -m gimbal_sim.experiments.navigation cep DIR [DIR...] --per-seed  # the table again, campaigns merged
+    python -m gimbal_sim.experiments.navigation cep DIR --against BASE_DIR...  # each seed against its baseline run
     python -m gimbal_sim.experiments.navigation closed-forms            # the 3-hour closed-form figures
     python -m gimbal_sim.experiments.navigation servo-rate              # the servo at 1 kHz and at the graph's 50 Hz
 """
@@ -61,6 +62,7 @@ from pathlib import Path
 from typing import Any, NamedTuple, Sequence
 
 import numpy as np
+import yaml
 
 from gimbal_control.platform_servo import BANDWIDTH_RATE_DIVISOR, PlatformServo, PlatformServoParams, \
     platform_pid_gains
@@ -440,6 +442,9 @@ def main(argv: list[str] | None = None) -> int:
     cep.add_argument("campaign_dir", nargs="+", help="one or more campaign directories, their runs merged")
     cep.add_argument("--per-seed", action="store_true",
                      help="also each seed's radial rate per variant (seeds pair runs: same sensor biases)")
+    cep.add_argument("--against", nargs="+", metavar="BASE_DIR",
+                     help="baseline campaign directories: each run's change against the baseline run of the same "
+                          "scenario variant and seed (a study that changes one setting)")
     cf = sub.add_parser("closed-forms", help="one error source at a time, rotation off and on, radial error at the end")
     cf.add_argument("--duration", type=float, default=10800.0)
     cf.add_argument("--rate", type=float, default=NAV_RATE_HZ)
@@ -471,36 +476,74 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:26s} off {r['rotation_off_m']:10.1f} m   on {r['rotation_on_m']:10.1f} m   "
                   f"off/on {r['off_over_on']:8.2f}")
         return 0
-    return _cep_command(args.campaign_dir, args.per_seed)
+    return _cep_command(args.campaign_dir, args.per_seed, args.against or ())
 
 
-def _cep_command(campaign_dirs: Sequence[str], per_seed: bool) -> int:
-    runs: dict[str, list[dict]] = {}
-    for campaign_dir in campaign_dirs:
-        try:
-            rows = read_results(Path(campaign_dir))
-        except (OSError, ValueError) as exc:
-            print(f"navigation cep: {campaign_dir}: not a finished campaign directory ({exc})", file=sys.stderr)
-            return 2
-        for row in rows:
-            path = Path(campaign_dir) / "runs" / row["run_id"] / "report" / "metrics.json"
-            if row["status"] == "ok" and path.is_file():
-                m = run_navigation_metrics(json.loads(path.read_text()))
-                runs.setdefault(row["variant"], []).append({**m, "seed": int(row["seed"])})
-    if not runs:
-        print(f"navigation cep: {', '.join(campaign_dirs)}: no finished run with a navigation report", file=sys.stderr)
+def _cep_command(campaign_dirs: Sequence[str], per_seed: bool, against: Sequence[str] = ()) -> int:
+    try:
+        runs, base = _campaign_runs(campaign_dirs), (_campaign_runs(against) if against else {})
+    except ValueError as exc:
+        print(f"navigation cep: {exc}", file=sys.stderr)
+        return 2
+    if not runs or (against and not base):
+        dirs = ", ".join(campaign_dirs if not runs else against)
+        print(f"navigation cep: {dirs}: no finished run with a navigation report", file=sys.stderr)
         return 1
     print(_campaign_table(cep_summary(runs)))
     if per_seed:
         variants = ordered_variants(runs)
-        rates = {v: {m["seed"]: m.get("radial_rate_nmi_h", m.get("final_radial_rate_nmi_h")) for m in runs[v]}
-                 for v in variants}
+        rates = {v: {m["seed"]: _rate(m) for m in runs[v]} for v in variants}
         print("radial rate at the end [n mile/h] per seed\nseed " + " ".join(f"{v:>19}" for v in variants))
         for seed in sorted({seed for r in rates.values() for seed in r}):
             print(f"{seed:>4} " + " ".join(f"{rates[v][seed]:>19.3f}" if seed in rates[v] else f"{'-':>19}"
                                            for v in variants))
+    if against:
+        print(change_table(runs, base))
     return 0
 
+
+def _rate(m: dict) -> float:
+    return m.get("radial_rate_nmi_h", m.get("final_radial_rate_nmi_h"))
+
+
+def _campaign_runs(campaign_dirs: Sequence[str]) -> dict[str, list[dict]]:
+    """Each variant's finished runs' ``navigation`` metrics (with the seed and the scenario
+    variant they ran: an experiment campaign's names mapped by :data:`SCENARIO_VARIANTS`),
+    the campaigns merged. ValueError names a directory that is not a finished campaign."""
+    runs: dict[str, list[dict]] = {}
+    for campaign_dir in map(Path, campaign_dirs):
+        try:
+            rows = read_results(campaign_dir)
+            asked = (yaml.safe_load((campaign_dir / "campaign.yaml").read_text()) or {}).get("campaign", {})
+        except (OSError, ValueError, yaml.YAMLError) as exc:
+            raise ValueError(f"{campaign_dir}: not a finished campaign directory ({exc})") from None
+        names = SCENARIO_VARIANTS if asked.get("experiment") else {}
+        for row in rows:
+            path = campaign_dir / "runs" / row["run_id"] / "report" / "metrics.json"
+            if row["status"] == "ok" and path.is_file():
+                m = run_navigation_metrics(json.loads(path.read_text()))
+                scenario_variant = names.get(row["variant"], row["variant"])
+                runs.setdefault(row["variant"], []).append({**m, "seed": int(row["seed"]),
+                                                            "scenario_variant": scenario_variant})
+    return runs
+
+
+def change_table(runs: dict[str, list[dict]], base: dict[str, list[dict]]) -> str:
+    """Each variant's per-seed change of the radial rate against the baseline run of the same
+    scenario variant and seed (a paired design: the same sensors, one setting changed): the
+    median change, the median of its size and how many seeds got worse."""
+    by_key = {(m["scenario_variant"], m["seed"]): _rate(m) for ms in base.values() for m in ms}
+    rows = ["per-seed change of the radial rate against the baseline's run of the same scenario variant and seed",
+            f"{'variant':<19} {'pairs':>5} {'median change':>14} {'median size':>12} {'worse':>6}"]
+    for v in ordered_variants(runs):
+        d = np.array([_rate(m) - by_key[(m["scenario_variant"], m["seed"])] for m in runs[v]
+                      if (m["scenario_variant"], m["seed"]) in by_key])
+        if d.size:
+            rows.append(f"{v:<19} {d.size:>5} {np.median(d):>+14.3f} {np.median(np.abs(d)):>12.3f} "
+                        f"{int(np.sum(d > 0)):>3}/{d.size:<2}")
+        else:
+            rows.append(f"{v:<19} {0:>5}  no baseline run of its scenario variant and seeds")
+    return "\n".join(rows)
 
 if __name__ == "__main__":
     sys.exit(main())
