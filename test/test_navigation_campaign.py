@@ -135,3 +135,21 @@ def test_change_table_pairs_runs_by_scenario_variant_and_seed():
     # changes +0.1, -0.2, +0.4: median +0.1, sizes 0.1, 0.2, 0.4: median 0.2, two of three worse
     assert rows["rotation_on_1khz"] == ["3", "+0.100", "0.200", "2/3"]
     assert rows["rotation_off_1khz"][:3] == ["0", "no", "baseline"]
+
+
+def test_experiment3_figures_count_the_runs_inside_the_papers_bounds():
+    """Exp. 3: largest radial error < 2,200 m, azimuth at hand-off < 1′, level < 5″; counted
+    per run against hand-made metrics."""
+    def run(radial_m, v_north, v_east, residual):
+        return {"final_radial_rate_nmi_h": 0.3, "max_radial_error_m": radial_m,
+                "max_velocity_error_m_s": {"north": v_north, "east": v_east},
+                "hand_off": {"residual_misalignment_arcsec": residual}}
+
+    runs = [run(1000.0, 0.5, 0.7, [1.0, -2.0, 59.0]), run(2500.0, 0.9, 0.2, [6.0, 0.0, -30.0]),
+            run(2199.0, 0.1, 0.3, [0.0, 4.9, 61.0])]
+    s = cep_summary({"upgraded": runs})["upgraded"]
+    assert s["max_radial_error_m"] == [2199.0, 1000.0, 2500.0] and s["max_radial_under_2200_m"] == 2
+    assert s["max_velocity_error_m_s_median"] == pytest.approx(0.7)  # the larger axis of each: 0.7, 0.9, 0.3
+    assert s["azimuth_under_1_arcmin"] == 2 and s["level_under_5_arcsec"] == 2
+    table = _campaign_table({"upgraded": {**s, "runs": 3}})
+    assert "azimuth under 1′ in 2 of 3 runs" in table and "under 2,200 m in 2 of 3 runs" in table

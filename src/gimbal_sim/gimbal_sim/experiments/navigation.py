@@ -275,8 +275,11 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
                         "inner_roll_null_max_arcsec": float(max(m["inner_roll_null_max_arcsec"] for m in metrics))
                         if core else None,
                         "gimbal_lock_events": int(sum(m["gimbal_lock_events"] for m in metrics)) if core else None}
+        out[variant].update(experiment3_figures(metrics))
         if all("hand_off" in m for m in metrics):
             res = np.array([m["hand_off"]["residual_misalignment_arcsec"] for m in metrics])
+            out[variant]["azimuth_under_1_arcmin"] = int(np.sum(np.abs(res[:, 2]) < 60.0))
+            out[variant]["level_under_5_arcsec"] = int(np.sum(np.all(np.abs(res[:, :2]) < 5.0, axis=1)))
             out[variant]["hand_off_residual_rms_arcsec"] = [float(v) for v in np.sqrt(np.mean(res ** 2, axis=0))]
             out[variant]["azimuth_alignment_std_arcmin"] = float(np.std(res[:, 2], ddof=1)) / 60.0 \
                 if len(res) > 1 else None
@@ -284,6 +287,20 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
         if num in out and den in out:
             out[key] = out[num]["cep50_nmi_h"] / out[den]["cep50_nmi_h"]
     return out
+
+
+def experiment3_figures(metrics: Sequence[dict]) -> dict[str, Any]:
+    """Paper 3's Experiment 3 figures over a variant's runs (graph-run ``navigation`` reports;
+    none for the hand-built runs): the largest radial error of each run (median, least,
+    largest, and how many stay under the paper's 2,200 m) and the largest horizontal velocity
+    error of each run, the larger of north and east (median; the paper: about 0.6 m/s)."""
+    if not all("max_radial_error_m" in m and "max_velocity_error_m_s" in m for m in metrics):
+        return {}
+    radial = np.array([m["max_radial_error_m"] for m in metrics])
+    velocity = [max(m["max_velocity_error_m_s"]["north"], m["max_velocity_error_m_s"]["east"]) for m in metrics]
+    return {"max_radial_error_m": [float(np.median(radial)), float(radial.min()), float(radial.max())],
+            "max_radial_under_2200_m": int(np.sum(radial < 2200.0)),
+            "max_velocity_error_m_s_median": float(np.median(velocity))}
 
 
 #: The CEP ratios a summary carries when both variants ran: (numerator, denominator, key); the
@@ -395,11 +412,22 @@ def _campaign_table(summary: dict[str, Any]) -> str:
                         f"{_cell(s['inner_roll_null_max_arcsec'], 13, '.1f')} {_cell(s['gimbal_lock_events'], 5, 'd')}")
     for v in variants:
         if "hand_off_residual_rms_arcsec" in summary.get(v, {}):
-            e, n, u = summary[v]["hand_off_residual_rms_arcsec"]
-            std = summary[v]["azimuth_alignment_std_arcmin"]
+            s = summary[v]
+            e, n, u = s["hand_off_residual_rms_arcsec"]
             rows.append(f"{v}: residual misalignment at hand-off (truth − estimate), rms over runs: "
-                        f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″ = {u / 60.0:.2f}′ (std {_cell(std, 0, '.2f').strip()}′; "
-                        f"{PAPER_AZIMUTH.get(v, 'paper 3: -')})")
+                        f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″ = {u / 60.0:.2f}′ "
+                        f"(std {_cell(s['azimuth_alignment_std_arcmin'], 0, '.2f').strip()}′; "
+                        f"{PAPER_AZIMUTH.get(v, 'paper 3: -')}); azimuth under 1′ in {s['azimuth_under_1_arcmin']} "
+                        f"of {s['runs']} runs, both level angles under 5″ in {s['level_under_5_arcsec']} "
+                        f"(paper 3, Exp. 3: < 1′ and < 5″)")
+    for v in variants:
+        if "max_radial_error_m" in summary.get(v, {}):
+            s = summary[v]
+            med, lo, hi = s["max_radial_error_m"]
+            rows.append(f"{v}: largest radial error of a run, median {med:.0f} m [{lo:.0f}, {hi:.0f}], under "
+                        f"2,200 m in {s['max_radial_under_2200_m']} of {s['runs']} runs; largest horizontal velocity "
+                        f"error, median {s['max_velocity_error_m_s_median']:.2f} m/s (paper 3, Exp. 3: < 2,200 m, "
+                        f"about 0.6 m/s)")
     for num, den, key in RATIOS:
         if key in summary:
             paper = "'improved by almost 5 times'" if num.startswith("original_system") else "about 5×"
