@@ -49,6 +49,9 @@ def test_gimbal_campaign_runs_the_scenario_variants_on_the_engine_and_its_table_
     changes = capsys.readouterr().out.split("per-seed change")[1].splitlines()[2:]
     assert [line.split()[:5] for line in changes] == [[v, "1", "+0.000", "0.000", "0/1"]
                                                       for v in ("rotation_on", "rotation_off")]
+    assert navigation_main(["cep", str(out), "--seeds", "2-3"]) == 1  # seed 1 ran, only
+    assert "no finished run" in capsys.readouterr().err
+    assert navigation_main(["cep", str(out), "--seeds", "1-"]) == 2
     assert navigation_main(["cep", str(tmp_path / "none")]) == 2
     assert campaign_main(["rotational_ins_navigation", "--sweep", "a.b=1:2:2", "--out", str(tmp_path / "x")]) == 2
 

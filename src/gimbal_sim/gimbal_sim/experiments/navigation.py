@@ -76,6 +76,7 @@ from gimbal_kinematics.maths.units import ARCSEC, NMI_M, UG
 
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent
 from ..campaign.order_stats import quantile_interval
+from ..campaign.parsing import parse_seeds
 from ..campaign.results import read_results
 from ..graph.scenario import load as load_scenario
 from ..core.core_loop import node_values, run_stages
@@ -470,6 +471,7 @@ def main(argv: list[str] | None = None) -> int:
     cep.add_argument("campaign_dir", nargs="+", help="one or more campaign directories, their runs merged")
     cep.add_argument("--per-seed", action="store_true",
                      help="also each seed's radial rate per variant (seeds pair runs: same sensor biases)")
+    cep.add_argument("--seeds", help="only these seeds' runs, e.g. 1-10 or 1,3,5 (default: every run)")
     cep.add_argument("--against", nargs="+", metavar="BASE_DIR",
                      help="baseline campaign directories: each run's change against the baseline run of the same "
                           "scenario variant and seed (a study that changes one setting)")
@@ -504,13 +506,17 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:26s} off {r['rotation_off_m']:10.1f} m   on {r['rotation_on_m']:10.1f} m   "
                   f"off/on {r['off_over_on']:8.2f}")
         return 0
-    return _cep_command(args.campaign_dir, args.per_seed, args.against or ())
+    return _cep_command(args.campaign_dir, args.per_seed, args.against or (), args.seeds)
 
 
-def _cep_command(campaign_dirs: Sequence[str], per_seed: bool, against: Sequence[str] = ()) -> int:
+def _cep_command(campaign_dirs: Sequence[str], per_seed: bool, against: Sequence[str] = (),
+                 seeds: str | None = None) -> int:
     try:
         runs, base = _campaign_runs(campaign_dirs), (_campaign_runs(against) if against else {})
-    except ValueError as exc:
+        if seeds is not None:
+            chosen = set(parse_seeds(seeds))
+            runs = {v: kept for v, ms in runs.items() if (kept := [m for m in ms if m["seed"] in chosen])}
+    except ValueError as exc:  # a CampaignError too: a malformed --seeds
         print(f"navigation cep: {exc}", file=sys.stderr)
         return 2
     if not runs or (against and not base):
