@@ -45,7 +45,7 @@ def test_whole_matrix_matches_a_monte_carlo():
 
 
 def test_white_noise_and_random_walk_records_get_no_extra_term():
-    # short records (1 h at 10 Hz) of the gyro; nothing but the two terms may be detected
+    # short records (1 h at 10 Hz) of the characterised gyro; nothing but the two terms may be detected
     N, K = 0.2 * math.pi / 180 / 60, 20 * math.pi / 180 / 3600 / 60
     for seed in range(4):
         rng = np.random.default_rng(100 + seed)

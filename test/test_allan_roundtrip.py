@@ -1,6 +1,6 @@
 """Closed loop of gimbal-allan on the simulator's own cores: a bag of the ``gyro_at_rest``
 scenario's INS gyro → fit → the fitted ``sensor_models`` parameters → a new bag (another
-seed) → fit again, within the issue's bounds; and the new simulator parameters at their
+seed) → fit again, within the round trip's bounds; and the new simulator parameters at their
 default 0 leave every random stream as it was.
 
 The CI record is 1 h of the Gauss-Markov mix (``arw_gm``) instead of the runner's 6 h of

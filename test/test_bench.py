@@ -1,4 +1,4 @@
-"""gimbal-bench on a tiny run: the report has every figure the issue asks for, the bags it
+"""gimbal-bench on a tiny run: the report has every figure it promises, the bags it
 keeps hold the same data in both modes (read back with the mcap library), and the pure-core
 loop computes the torque commands the graph recorded. No timing assertions."""
 from __future__ import annotations

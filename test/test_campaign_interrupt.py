@@ -46,7 +46,7 @@ def test_interrupted_campaign_then_resume_counts_every_run_on_disk(tmp_path):
     assert sorted(r["run_id"] for r in read_results(out)) == on_disk
     assert (_summary(out)["runs"], _summary(out)["ok"]) == (6, 6)
 
-    # a report written before the last runs landed (what the issue saw: "2 of 2 runs ok")
+    # a report written before the last runs landed (the failure this guards: "2 of 2 runs ok")
     stale = dict(_summary(out), runs=2, ok=2, results_digest=results_digest(read_results(out)[:2]))
     (out / "report" / "summary.json").write_text(json.dumps(stale))
     result = run_campaign(spec, out, resume=True, serial=True, progress=False, run_fn=_mean_run)

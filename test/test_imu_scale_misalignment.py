@@ -61,7 +61,7 @@ def test_a_scale_factor_error_turning_at_1_2_deg_s_drifts_the_azimuth_by_sf_time
     T = 250.0
     assert theta0 / T == pytest.approx(RATE, rel=1e-3)  # it did turn at 1.2 °/s
     drift_rate = (theta1 - theta0) / T
-    assert drift_rate == pytest.approx(-sf * RATE, rel=0.01)  # the closed form, within 1 %
+    assert drift_rate == pytest.approx(-sf * RATE, rel=0.01)  # the closed form, within 1 %
     # and to 0.1 % against the chain's own truth: the z gyro's inertial angle (the earth rate in it)
     turned = float(np.sum(w0[:-1]) * dt)  # the rate held over each IMU interval, the last one not stepped
     assert theta1 - theta0 == pytest.approx(-sf / (1.0 + sf) * turned, rel=1e-3)

@@ -1,7 +1,7 @@
 """Paper 3's rotational INS against the classical platform-INS error closed forms: static
 base, one error source at a time, no noise, the navigator and the servo in the loop on the
 core engine (gimbal_sim.experiments.navigation) with the plant, at 2 Hz so that a Schuler
-period (84 min) is 10,000 steps. The rotation tests run the issue's 3-hour window; the same
+period (84 min) is 10,000 steps. The rotation tests run paper 3's 3-hour window; the same
 figures at 5 Hz come from ``python -m gimbal_sim.experiments.navigation closed-forms``
 (docs/results/paper3.md)."""
 import math

@@ -23,8 +23,8 @@ steps. The limit is per axis because each axis has its own torque authority (pap
 gimbal: azimuth and elevation torquers with different limits and inertias).
 
 Rate limit and bad input. A command with an axis above ``max_rate_deg_s`` is rejected and
-counted, not clipped: the issue's acceptance lists "a rate above the limit" among the bad
-input that is counted and never acted on, and a rate beyond the limit means the sender's
+counted, not clipped: a rate above the limit is bad input, counted and never acted on,
+because it means the sender's
 scaling disagrees with ours (a deg-for-rad error is 57×), so clipping would turn a wrong
 message into a full-rate slew; the previous valid command stays in force and the dead-man
 retires it. The joystick path cannot exceed the limit: a ``joy_scale_rad_s`` above it is
@@ -48,7 +48,7 @@ the lapses of a moving command). The controller is then back to holding (:attr:`
 
 Defaults (argued; the paper gives none):
 
-* ``max_rate_deg_s`` = 10: twice the issue's 5 °/s acceptance slew, ten times the simulated
+* ``max_rate_deg_s`` = 10: twice the 5 °/s slew the tests command, ten times the simulated
   operator's and the automatic LOS hold's 1 °/s ceilings, so neither is ever rejected.
 * ``max_accel_deg_s2`` = 100 (1.75 rad/s²): paper 1's gimbal at rest has joint inertias
   M(0) of 0.110 and 0.060 kg·m² (azimuth, elevation), so the slew asks for 0.19 and

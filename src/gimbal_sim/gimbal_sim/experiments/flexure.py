@@ -303,8 +303,8 @@ CAMPAIGN = ExperimentCampaign(
 
 
 def monte_carlo_table(runs: list[tuple[int, dict[str, Any]]], models: list[str]) -> str:
-    """Per model, statistics over seeds (``runs``: [(seed, figures)]) of the figures the issue
-    scores (arcsec, °/h)."""
+    """Per model, statistics over seeds (``runs``: [(seed, figures)]) of the figures the
+    comparison scores (arcsec, °/h)."""
     lines = []
     seeds = sorted(seed for seed, _ in runs)
     f = lambda v, d=1: " / ".join(f"{x:.{d}f}" for x in v)  # noqa: E731

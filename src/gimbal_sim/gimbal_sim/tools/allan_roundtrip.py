@@ -132,7 +132,7 @@ def closed_loop(mix: str, seed: int, duration_s: float) -> dict:
 
 def summarise(runs: list[dict]) -> dict:
     """Per mix and term: ratios over seeds and axes, their mean and spread, the worst error, the
-    fit's mean 1σ (relative), and whether the issue's bounds hold."""
+    fit's mean 1σ (relative), and whether the round trip's bounds hold."""
     out: dict = {}
     for mix in dict.fromkeys(r["mix"] for r in runs):
         rows = [r for r in runs if r["mix"] == mix]

@@ -42,7 +42,7 @@ Defaults (cited or argued):
 * ``gain_1_s`` = 1.5: the largest gain with which a delayed proportional loop
   s + K e^{−τs} = 0 still has real roots (no overshoot) is K = 1/(e τ) = 1.47 s⁻¹ at 0.25 s;
   an operator re-centring a precise sight avoids overshooting the target.
-* ``tolerance_mrad`` = 1: the issue's example; 1 m at 1 km.
+* ``tolerance_mrad`` = 1: 1 m at 1 km.
 * ``settle_band_mrad`` = 0.3: the eye's resolution, 1 arcmin (0.29 mrad; 20/20 acuity),
   at unit magnification: inside it the operator cannot see the target off centre (a sight
   of magnification M lets him see M times finer, a smaller band).
