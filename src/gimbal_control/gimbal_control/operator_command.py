@@ -24,8 +24,7 @@ gimbal: azimuth and elevation torquers with different limits and inertias).
 
 Rate limit and bad input. A command with an axis above ``max_rate_deg_s`` is rejected and
 counted, not clipped: a rate above the limit is bad input, counted and never acted on,
-because it means the sender's
-scaling disagrees with ours (a deg-for-rad error is 57×), so clipping would turn a wrong
+because it means the sender's scaling disagrees with ours (a deg-for-rad error is 57×), so clipping would turn a wrong
 message into a full-rate slew; the previous valid command stays in force and the dead-man
 retires it. The joystick path cannot exceed the limit: a ``joy_scale_rad_s`` above it is
 refused at construction. Also rejected and counted: non-finite rates, a joystick message
