@@ -397,6 +397,23 @@ PAPER_AZIMUTH = {"original_system": "paper 3: 9′, the original system", "upgra
 PAPER_AZIMUTH.update({f"{v}_50hz": text for v, text in PAPER_AZIMUTH.items()})
 
 
+def _hand_off_row(v: str, s: dict[str, Any]) -> str:
+    e, n, u = s["hand_off_residual_rms_arcsec"]
+    return (f"{v}: residual misalignment at hand-off (truth − estimate), rms over runs: "
+            f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″ = {u / 60.0:.2f}′ "
+            f"(std {_cell(s['azimuth_alignment_std_arcmin'], 0, '.2f').strip()}′; "
+            f"{PAPER_AZIMUTH.get(v, 'paper 3: -')}); azimuth under 1′ in {s['azimuth_under_1_arcmin']} "
+            f"of {s['runs']} runs, both level angles under 5″ in {s['level_under_5_arcsec']} "
+            f"(paper 3, Exp. 3: < 1′ and < 5″)")
+
+
+def _experiment3_row(v: str, s: dict[str, Any]) -> str:
+    med, lo, hi = s["max_radial_error_m"]
+    return (f"{v}: largest radial error of a run, median {med:.0f} m [{lo:.0f}, {hi:.0f}], under "
+            f"2,200 m in {s['max_radial_under_2200_m']} of {s['runs']} runs; largest horizontal velocity "
+            f"error, median {s['max_velocity_error_m_s_median']:.2f} m/s (paper 3, Exp. 3: < 2,200 m, about 0.6 m/s)")
+
+
 def _campaign_table(summary: dict[str, Any]) -> str:
     rows = ["CEP50 at the end of the runs: the median radial error / duration, with the 95 % interval of the "
             "median (paper 3: 0.38 n mile/h rotating, 2 n mile/h not)",
@@ -404,31 +421,14 @@ def _campaign_table(summary: dict[str, Any]) -> str:
             f"{'control max [″]':>16} {'null max [″]':>13} {'lock':>5}"]
     variants = ordered_variants(v for v, s in summary.items() if isinstance(s, dict))
     for v in variants:
-        if v in summary:
-            s = summary[v]
-            lo, hi = s["cep50_ci95_nmi_h"]
-            interval = f"[{lo:.3f}, {hi:.3f}]" if math.isfinite(lo) else "none under 6 runs"
-            rows.append(f"{v:<19} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {interval:>20} "
-                        f"{_cell(s['control_rms_arcsec_median'], 16, '.2f')} {_cell(s['control_max_arcsec'], 16, '.2f')} "
-                        f"{_cell(s['inner_roll_null_max_arcsec'], 13, '.1f')} {_cell(s['gimbal_lock_events'], 5, 'd')}")
-    for v in variants:
-        if "hand_off_residual_rms_arcsec" in summary.get(v, {}):
-            s = summary[v]
-            e, n, u = s["hand_off_residual_rms_arcsec"]
-            rows.append(f"{v}: residual misalignment at hand-off (truth − estimate), rms over runs: "
-                        f"E {e:.2f}″, N {n:.2f}″, U {u:.1f}″ = {u / 60.0:.2f}′ "
-                        f"(std {_cell(s['azimuth_alignment_std_arcmin'], 0, '.2f').strip()}′; "
-                        f"{PAPER_AZIMUTH.get(v, 'paper 3: -')}); azimuth under 1′ in {s['azimuth_under_1_arcmin']} "
-                        f"of {s['runs']} runs, both level angles under 5″ in {s['level_under_5_arcsec']} "
-                        f"(paper 3, Exp. 3: < 1′ and < 5″)")
-    for v in variants:
-        if "max_radial_error_m" in summary.get(v, {}):
-            s = summary[v]
-            med, lo, hi = s["max_radial_error_m"]
-            rows.append(f"{v}: largest radial error of a run, median {med:.0f} m [{lo:.0f}, {hi:.0f}], under "
-                        f"2,200 m in {s['max_radial_under_2200_m']} of {s['runs']} runs; largest horizontal velocity "
-                        f"error, median {s['max_velocity_error_m_s_median']:.2f} m/s (paper 3, Exp. 3: < 2,200 m, "
-                        f"about 0.6 m/s)")
+        s = summary[v]
+        lo, hi = s["cep50_ci95_nmi_h"]
+        interval = f"[{lo:.3f}, {hi:.3f}]" if math.isfinite(lo) else "none under 6 runs"
+        rows.append(f"{v:<19} {s['runs']:>4} {s['cep50_nmi_h']:>17.3f} {interval:>20} "
+                    f"{_cell(s['control_rms_arcsec_median'], 16, '.2f')} {_cell(s['control_max_arcsec'], 16, '.2f')} "
+                    f"{_cell(s['inner_roll_null_max_arcsec'], 13, '.1f')} {_cell(s['gimbal_lock_events'], 5, 'd')}")
+    rows += [_hand_off_row(v, summary[v]) for v in variants if "hand_off_residual_rms_arcsec" in summary[v]]
+    rows += [_experiment3_row(v, summary[v]) for v in variants if "max_radial_error_m" in summary[v]]
     for num, den, key in RATIOS:
         if key in summary:
             paper = "'improved by almost 5 times'" if num.startswith("original_system") else "about 5×"
