@@ -5,8 +5,9 @@ The short graph run (20 s, rotation off, perfectly aligned) must show the naviga
 integrating the true accelerometer bias: over 20 s the Schuler feedback (ω_s²t²/6 ≈ 1e-4
 relative) and the gyro drift (gεt²/2 ≈ 3e-4 m/s) are small, so the velocity error is b·t to
 within the accelerometer noise (50 µg/√Hz: σ_v = q·g·√t ≈ 2.2e-3 m/s at 20 s, taken at 3σ)
-and the servo's level tracking error (pickoffs ~0.1″: g·5e-7·t ≈ 1e-4 m/s). The report's Schuler-period reader is checked on a synthetic
-oscillation, and the local period against 2π√(R/g) from WGS-84 closed forms written here.
+and the servo's level tracking error (pickoffs ~0.1″: g·5e-7·t ≈ 1e-4 m/s). The report's
+Schuler-period reader is checked on a synthetic oscillation, and the local period against
+2π√(R/g) from WGS-84 closed forms written here.
 """
 from __future__ import annotations
 

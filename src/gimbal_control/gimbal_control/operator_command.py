@@ -24,18 +24,18 @@ gimbal: azimuth and elevation torquers with different limits and inertias).
 
 Rate limit and bad input. A command with an axis above ``max_rate_deg_s`` is rejected and
 counted, not clipped: a rate above the limit is bad input, counted and never acted on,
-because it means the sender's scaling disagrees with ours (a deg-for-rad error is 57×), so clipping would turn a wrong
-message into a full-rate slew; the previous valid command stays in force and the dead-man
-retires it. The joystick path cannot exceed the limit: a ``joy_scale_rad_s`` above it is
-refused at construction. Also rejected and counted: non-finite rates, a joystick message
-too short for the configured axes or with an axis outside [−1, 1], a command stamp at or
-before the newest accepted one (duplicate or out of order), a command already older than
-``timeout_s`` at the newest step (stale: it would stop at once), and one stamped more than
-``timeout_s`` ahead of it (a different clock; holding it would defeat the dead-man). Step
-stamps follow the project's stamp rule: at or before the last step and within
-``clock_jump_s`` of it, rejected and counted (the output is returned unchanged); further
-back, the clock jumped (a bag loop) and the shaper resets (output and commands forgotten).
-Those stamp rules are the node's timing policy
+because it means the sender's scaling disagrees with ours (a deg-for-rad error is 57×), so
+clipping would turn a wrong message into a full-rate slew; the previous valid command stays
+in force and the dead-man retires it. The joystick path cannot exceed the limit: a
+``joy_scale_rad_s`` above it is refused at construction. Also rejected and counted:
+non-finite rates, a joystick message too short for the configured axes or with an axis
+outside [−1, 1], a command stamp at or before the newest accepted one (duplicate or out of
+order), a command already older than ``timeout_s`` at the newest step (stale: it would stop
+at once), and one stamped more than ``timeout_s`` ahead of it (a different clock; holding it
+would defeat the dead-man). Step stamps follow the project's stamp rule: at or before the
+last step and within ``clock_jump_s`` of it, rejected and counted (the output is returned
+unchanged); further back, the clock jumped (a bag loop) and the shaper resets (output and
+commands forgotten). Those stamp rules are the node's timing policy
 (:class:`gimbal_kinematics.timing.control_policy.CommandStamps`): the shaper takes only the
 values (:meth:`OperatorCommand.check_rate`, :meth:`OperatorCommand.check_joy`, each
 returning what it did) and, at each step, the commands that step reached, in stamp order.

@@ -267,7 +267,7 @@ def cep_summary(runs: dict[str, list[dict]]) -> dict[str, Any]:
     runs (the ``navigation`` report: ``final_radial_rate_nmi_h``, no servo figures: None)."""
     out: dict[str, Any] = {}
     for variant, metrics in runs.items():
-        med, lo, hi = median_interval([m.get("radial_rate_nmi_h", m.get("final_radial_rate_nmi_h")) for m in metrics])
+        med, lo, hi = median_interval([_rate(m) for m in metrics])
         core = all("control_rms_arcsec" in m for m in metrics)
         out[variant] = {"runs": len(metrics), "cep50_nmi_h": med, "cep50_ci95_nmi_h": [lo, hi],
                         "control_rms_arcsec_median": float(np.median([m["control_rms_arcsec"] for m in metrics]))
@@ -578,6 +578,7 @@ def change_table(runs: dict[str, list[dict]], base: dict[str, list[dict]]) -> st
         else:
             rows.append(f"{v:<19} {0:>5}  no baseline run of its scenario variant and seeds")
     return "\n".join(rows)
+
 
 if __name__ == "__main__":
     sys.exit(main())
