@@ -55,6 +55,19 @@ def test_the_bagless_loop_is_the_engines_bag_run(tmp_path, mode):
     assert bag["rms_mrad"] == pytest.approx(core["rms_mrad"], rel=1e-3)
 
 
+def test_set_reaches_the_run_and_a_run_made_without_it_is_not_reused(tmp_path):
+    """``--set`` applies after the case's world, and a finished run is reused only when it was
+    made with the same settings: the scale factor's run is not the default's figures."""
+    setting = "sensor_models.gimbal_gyro_scale_factor_ppm=[20000.0]"
+    scenario = case_scenario("paper", "fused", 2, 2.0, settings=[setting])
+    assert scenario.nodes["sensor_models"]["params"]["gimbal_gyro_scale_factor_ppm"] == [20000.0]
+    plain = run_one("paper", "fused", 2, tmp_path, duration_s=2.0)
+    assert run_one("paper", "fused", 2, tmp_path, duration_s=2.0) == plain    # reused
+    scaled = run_one("paper", "fused", 2, tmp_path, duration_s=2.0, settings=[setting])
+    assert scaled["set"] == [setting] and plain["set"] == []
+    assert scaled["rms_mrad"] != plain["rms_mrad"]
+
+
 def test_headline_at_least_8x_on_peaks_on_the_papers_baseline():
     """Seeds 1-5 (each its own disturbance phases and gyro noise), 20 s, after 5 s: the
     encoder-only loop's peaks are the paper's 1.2 deg (mean within 10 %), and the per-seed

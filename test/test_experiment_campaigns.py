@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gimbal_sim.experiments import flexure, free_gyro, sighting_loop
-from gimbal_sim.campaign.spec import CampaignError, CampaignSpec, Sweep
+from gimbal_sim.campaign.spec import CampaignError, CampaignSpec, Sweep, spec_from_mapping
 from gimbal_sim.experiments.registry import plan
 
 
@@ -133,6 +133,27 @@ def test_experiment_specs_are_validated_before_anything_runs():
     two = plan(CampaignSpec("", (2,), experiment="alignment", variants=("rotate",), options=(("duration_s", 60.0),)))
     assert {r.run_id for r in two.runs} < {r.run_id for r in one.runs}
     assert len(one.runs) == 4
+
+
+def test_a_runner_whose_runs_are_a_scenarios_takes_set_and_its_own_loop_refuses_it():
+    target, value = "sensor_models.free_gyro_triad_scale_factor_sigma_ppm", 5.0
+    spec = CampaignSpec("", (1,), experiment="free_gyro", overrides=((target, value),))
+    planned = plan(spec)
+    assert planned.base.nodes["sensor_models"]["params"]["free_gyro_triad_scale_factor_sigma_ppm"] == value
+    # the fingerprint carries it (a resume with another --set is another campaign), and so
+    # does the campaign's YAML record
+    assert planned.fingerprint != plan(CampaignSpec("", (1,), experiment="free_gyro")).fingerprint
+    assert spec_from_mapping(spec.to_dict()).overrides == ((target, value),)
+    # a parameter one of the experiment's options sets is refused, naming it
+    clash = CampaignSpec("", (1,), experiment="sighting_loop", overrides=(("sensor_models.ins_attitude_model", "white"),))
+    with pytest.raises(CampaignError, match="ins_attitude_model: an option of the experiment sets it"):
+        plan(clash)
+    # a runner's own loop has no scenario parameters
+    with pytest.raises(CampaignError, match="its own loop"):
+        plan(CampaignSpec("", (1,), experiment="flexure", engine="core",
+                          overrides=(("sensor_models.lgu_arw_deg_rt_h", 0.01),)))
+    with pytest.raises(CampaignError, match="no parameter 'nope'"):
+        plan(CampaignSpec("", (1,), experiment="free_gyro", overrides=(("sensor_models.nope", 1.0),)))
 
 
 @pytest.mark.ros

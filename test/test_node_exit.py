@@ -29,3 +29,32 @@ def test_unexpected_exception_in_a_node_is_reported_as_a_bug(ros_domain_env):
     assert result.returncode == 1, result.stderr
     assert "Traceback" in result.stderr and "ZeroDivisionError: a node bug" in result.stderr, result.stderr
     assert BUG_LINE.format(prog="bug_node") in result.stderr, result.stderr
+
+
+def test_after_a_stop_a_node_that_counts_what_it_hears_takes_what_is_waiting():
+    """node_main's settle step: what was already sent to the recorder when the stop came is
+    taken before the bag closes; a node without the count is left as it is."""
+    from gimbal_kinematics.ros.node_main import _settle
+
+    class Waiting:
+        """An executor with ``pending`` messages queued for the node, one per spin."""
+
+        def __init__(self, node, pending: int):
+            self.node, self.pending, self.spins = node, pending, 0
+
+        def spin_once(self, timeout_sec: float) -> None:
+            self.spins += 1
+            if self.pending:
+                self.pending -= 1
+                self.node.messages_heard += 1
+
+    class Recorder:
+        messages_heard = 0
+
+    recorder = Recorder()
+    executor = Waiting(recorder, pending=40)
+    _settle(executor, recorder)
+    assert executor.pending == 0 and recorder.messages_heard == 40
+    untouched = Waiting(object(), pending=3)
+    _settle(untouched, untouched.node)
+    assert untouched.spins == 0

@@ -35,6 +35,7 @@ import yaml
 
 from gimbal_kinematics.cli.boundary import cli_boundary, finite, read_text, writable_dir
 
+from .campaign.parsing import parse_assignments, parse_set
 from .campaign.report import diff_results
 from .campaign.dispersion import SAMPLINGS as DISPERSION_SAMPLINGS
 from .campaign.sensitivity import METHODS as SENSITIVITY_METHODS
@@ -108,27 +109,18 @@ def _is_campaign_file(text: str) -> bool:
                                and "nodes" not in data)
 
 
-def _assignments(items: list[str] | None, option: str) -> dict[str, str]:
-    out = {}
-    for item in items or []:
-        target, sep, value = item.partition("=")
-        if not sep or not target.strip() or not value.strip():
-            raise CampaignError(f"{option} {item!r}: expected NODE.PARAM=VALUE")
-        out[target.strip()] = value.strip()
-    return out
-
-
 def _experiment_spec(args: argparse.Namespace) -> CampaignSpec:
     """An experiment runner's campaign named like its scenario (``rotational_ins_navigation``):
     the runner's own loop (``--engine core``, the default) or the scenario's nodes."""
-    for flag in ("sweep", "set", "sampling", "samples", "disperse", "sensitivity"):
+    for flag in ("sweep", "sampling", "samples", "disperse", "sensitivity"):
         if getattr(args, flag):
-            raise CampaignError(f"--{flag}: experiment {args.campaign} takes seeds, variants, --duration, --engine "
-                                f"and --require")
+            raise CampaignError(f"--{flag}: experiment {args.campaign} takes seeds, variants, --duration, --engine, "
+                                f"--set and --require")
     options = (("duration_s", float(args.duration)),) if args.duration is not None else ()
     return CampaignSpec(scenario="", experiment=args.campaign, seeds=parse_seeds(args.seeds or "0", "--seeds"),
                         variants=tuple(args.variant or ()), engine=args.engine or "core",
                         mode=args.mode or "container", options=options,
+                        overrides=tuple(parse_set(args.set).items()),
                         requirements=parse_requirements(args.require, "--require"))
 
 
@@ -162,17 +154,13 @@ def spec_from_args(args: argparse.Namespace) -> CampaignSpec | None:
             raise CampaignError(f"--no-bags contradicts --keep-bags {args.keep_bags}")
         data["keep_bags"] = "none"
     if args.sweep:
-        data["sweep"] = _assignments(args.sweep, "--sweep")
+        data["sweep"] = parse_assignments(args.sweep, "--sweep")
     if args.disperse:
-        data["dispersions"] = _assignments(args.disperse, "--disperse")
+        data["dispersions"] = parse_assignments(args.disperse, "--disperse")
     if args.require:
         data["requirements"] = list(args.require)
     if args.set:
-        try:
-            data["set"] = {**(data.get("set") or {}),
-                           **{k: yaml.safe_load(v) for k, v in _assignments(args.set, "--set").items()}}
-        except yaml.YAMLError as exc:
-            raise CampaignError(f"--set: value is not valid YAML: {exc}") from None
+        data["set"] = {**(data.get("set") or {}), **parse_set(args.set)}
     return spec_from_mapping(data, "campaign")
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import sys
+import time
 from typing import Callable
 
 import rclpy
@@ -29,6 +30,11 @@ from .ros_domain import localhost_env
 
 #: How long one spin slice lasts [s]: a SIGINT is acted on within it.
 SPIN_SLICE_S = 0.5
+#: After a stop signal, a node that counts what it hears (``messages_heard``, e.g. the
+#: recorder) spins on until it has heard nothing for SETTLE_QUIET_S [s], at most SETTLE_MAX_S:
+#: what was sent to it before the stop is kept, not dropped with the process.
+SETTLE_QUIET_S = 0.2
+SETTLE_MAX_S = 5.0
 
 ROS_ARGS_EPILOG = (
     "ROS arguments follow --ros-args, e.g. "
@@ -100,6 +106,19 @@ def check_params_addressed(node: Node, argv: list[str]) -> None:
                                  f"not have: {names}; ROS 2 would ignore them and run on the defaults")
 
 
+def _settle(executor, node: Node) -> None:
+    """Spin ``node`` until it has heard nothing for SETTLE_QUIET_S (nodes without a
+    ``messages_heard`` count are left as they are)."""
+    if not hasattr(node, "messages_heard"):
+        return
+    start = time.monotonic()
+    heard, quiet_since = node.messages_heard, start
+    while time.monotonic() - quiet_since < SETTLE_QUIET_S and time.monotonic() - start < SETTLE_MAX_S:
+        executor.spin_once(timeout_sec=0.05)
+        if node.messages_heard != heard:
+            heard, quiet_since = node.messages_heard, time.monotonic()
+
+
 def run_node(make_node: Callable[[], Node], prog: str, description: str, argv: list[str] | None = None) -> int:
     """Parse ``--help``, start rclpy, build the node and spin it; returns the exit code."""
     return cli_boundary(prog, "stopped the node")(_run_node)(make_node, prog, description, argv)
@@ -157,6 +176,8 @@ def _run_node(make_node: Callable[[], Node], prog: str, description: str, argv: 
         # timeout (spin(), or spin_until_future_complete(f) with none), and holds the GIL.
         while not done.done() and not stopping:
             executor.spin_until_future_complete(done, timeout_sec=SPIN_SLICE_S)
+        if stopping:
+            _settle(executor, node)
     except ExternalShutdownException:
         pass
     finally:

@@ -96,9 +96,8 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
     with the experiment's variant names."""
     if spec.experiment != exp.name:
         raise CampaignError(f"experiment: campaign of {spec.experiment!r} given experiment {exp.name!r}")
-    if spec.sweeps or spec.overrides:
-        raise CampaignError(f"experiment {exp.name}: sweeps and --set are for scenario campaigns; "
-                            "its settings are options")
+    if spec.sweeps:
+        raise CampaignError(f"experiment {exp.name}: sweeps are for scenario campaigns; its settings are options")
     variants = spec.variants or exp.default_variants or exp.variants
     for name in variants:
         if name not in exp.variants:
@@ -107,6 +106,10 @@ def plan_experiment(spec: CampaignSpec, exp: ExperimentCampaign) -> CampaignPlan
     fingerprint = {"experiment": exp.name, "engine": spec.engine, "options": options,
                    "mode": spec.mode if spec.engine == "graph" else None, **spec.review_dict()}
     if spec.engine == "core" and exp.run is not None:
+        if spec.overrides:
+            graph = " (--engine graph runs its scenario)" if exp.graph is not None else ""
+            raise CampaignError(f"experiment {exp.name}: --set sets a scenario's parameter; its core engine is its "
+                                f"own loop, which takes options{graph}")
         runs = tuple(PlannedRun(run_id(exp.name, v, seed, options), v, seed, {}, None)
                      for seed in spec.seeds for v in variants)
         return CampaignPlan(spec, None, runs, fingerprint)
@@ -130,6 +133,10 @@ def _scenario_plan(spec: CampaignSpec, exp: ExperimentCampaign, graph: GraphEqui
         raise CampaignError(f"experiment {exp.name}: option(s) {fixed} have no equivalent in scenario "
                             f"{graph.scenario!r}; --engine {spec.engine} takes only {sorted(graph.options)}")
     duration, overrides = graph.translate(options)
+    clash = sorted({t for t, _ in overrides} & {t for t, _ in spec.overrides})
+    if clash:
+        raise CampaignError(f"experiment {exp.name}: --set {', '.join(clash)}: an option of the experiment sets it")
+    overrides = (*overrides, *spec.overrides)
     scenario_variants = tuple(graph.variants[v] for v in variants if graph.variants[v] is not None)
     inner = plan(CampaignSpec(scenario=graph.scenario, seeds=spec.seeds, variants=scenario_variants,
                               duration_s=duration, mode=spec.mode, engine=spec.engine, overrides=overrides,

@@ -116,3 +116,22 @@ def parse_sweep(target: str, spec: Any, sampling: str = "grid") -> Sweep:
     if any(v is None for v in values):
         raise CampaignError(f"{where}: empty value in {text!r}")
     return Sweep(target, values=tuple(values), text=text)
+
+
+def parse_assignments(items: list[str] | None, option: str) -> dict[str, str]:
+    """``NODE.PARAM=VALUE`` items (``--set``, ``--sweep``, ``--disperse``) as target -> text."""
+    out = {}
+    for item in items or []:
+        target, sep, value = item.partition("=")
+        if not sep or not target.strip() or not value.strip():
+            raise CampaignError(f"{option} {item!r}: expected NODE.PARAM=VALUE")
+        out[target.strip()] = value.strip()
+    return out
+
+
+def parse_set(items: list[str] | None) -> dict[str, Any]:
+    """``--set NODE.PARAM=VALUE`` items as target -> value (each value read as YAML)."""
+    try:
+        return {k: yaml.safe_load(v) for k, v in parse_assignments(items, "--set").items()}
+    except yaml.YAMLError as exc:
+        raise CampaignError(f"--set: value is not valid YAML: {exc}") from None

@@ -4,6 +4,7 @@ campaign run on the engine (:func:`run_for_cli`)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import shutil
 import sys
 import tempfile
@@ -14,6 +15,7 @@ from typing import Iterator
 
 from .engine import CoreRun, Runners, run_campaign
 from .experiment import ExperimentCampaign, plan_experiment, run_experiment_task
+from .parsing import parse_set
 from .report import write_campaign_report
 from .results import CampaignResult
 from .spec import CampaignError, CampaignSpec
@@ -48,6 +50,10 @@ def add_engine_arguments(ap: argparse.ArgumentParser, *, graph: bool) -> None:
     ap.add_argument("--out", metavar="DIR", help="keep the campaign directory (runs, results.parquet, report); "
                                                  "default: a temporary one, removed after the table")
     ap.add_argument("--resume", action="store_true", help="with --out: skip the runs that have results")
+    if graph:
+        ap.add_argument("--set", action="append", metavar="NODE.PARAM=VALUE",
+                        help="fix a parameter of the scenario's nodes in every run (a runner whose runs are a "
+                             "scenario's: on either engine, or with --engine graph); repeatable")
 
 
 def experiment_runners(spec: CampaignSpec, exp: ExperimentCampaign, core_run: CoreRun | None = None) -> Runners:
@@ -73,6 +79,7 @@ def run_for_cli(ap: argparse.ArgumentParser, args: argparse.Namespace, spec: Cam
         ap.error(f"--jobs must be >= 1, got {args.jobs}")
     serial = args.jobs == 1 and not args.scheduler
     try:
+        spec = dataclasses.replace(spec, overrides=(*spec.overrides, *parse_set(getattr(args, "set", None)).items()))
         result = run_campaign(spec, out, plan=partial(plan_experiment, exp=exp), report=write_campaign_report,
                               runners=experiment_runners(spec, exp, core_run), resume=args.resume,
                               scheduler=args.scheduler, workers=args.jobs, serial=serial)

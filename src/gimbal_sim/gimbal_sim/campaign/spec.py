@@ -124,7 +124,7 @@ class CampaignSpec:
             return {"experiment": self.experiment, "variants": list(self.variants), "seeds": list(self.seeds),
                     "options": {k: v for k, v in self.options}, "mode": self.mode, "engine": self.engine,
                     "keep_bags": self.keep_bags, "timeout_s": self.timeout_s, "compress": self.compress,
-                    **self.review_dict()}
+                    **({"set": {k: v for k, v in self.overrides}} if self.overrides else {}), **self.review_dict()}
         return {"scenario": self.scenario, "variants": list(self.variants), "seeds": list(self.seeds),
                 "duration_s": self.duration_s, "mode": self.mode, "engine": self.engine,
                 "set": {k: v for k, v in self.overrides},
@@ -169,7 +169,7 @@ WALL_PER_SIM_S = {"graph": 104.0 / 120.0, "core": 13.5 / 120.0}
 
 #: an experiment runner's campaign as YAML (``CampaignSpec.to_dict``); duration_s joins the options
 _EXPERIMENT_KEYS = {"experiment", "variants", "seeds", "options", "duration_s", "mode", "engine", "keep_bags",
-                    "timeout_s", "compress", "requirements"}
+                    "timeout_s", "compress", "requirements", "set"}
 #: what a campaign directory's own ``campaign.yaml`` holds around the campaign it asked for
 RECORD_KEYS = {"campaign", "fingerprint", "runs", "design"}
 
@@ -187,7 +187,7 @@ def _experiment_from_mapping(data: dict[str, Any], where: str) -> CampaignSpec:
     options = dict(data.get("options") or {})
     if data.get("duration_s") is not None:
         options["duration_s"] = data["duration_s"]
-    rest = {k: v for k, v in data.items() if k in ("mode", "engine", "keep_bags", "timeout_s", "compress")}
+    rest = {k: v for k, v in data.items() if k in ("mode", "engine", "keep_bags", "timeout_s", "compress", "set")}
     scenario_form = spec_from_mapping({"scenario": "", "variants": data.get("variants") or [],
                                        "seeds": data.get("seeds", [0]), **rest}, where)
     return replace(scenario_form, experiment=str(data["experiment"]), options=tuple(sorted(options.items())),

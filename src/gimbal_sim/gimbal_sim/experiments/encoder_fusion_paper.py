@@ -89,14 +89,15 @@ CASES: dict[str, tuple[str, float, str, float]] = {
 MODES = ("encoder", "fused")
 
 
-def case_scenario(case: str, mode: str, seed: int, duration_s: float = 20.0):
+def case_scenario(case: str, mode: str, seed: int, duration_s: float = 20.0, settings: Sequence[str] = ()):
     """Scenario ``gimbal_encoder_fusion_paper``'s ``mode`` variant in ``case``'s world, with
-    ``seed`` and the seed's disturbance phases."""
+    ``seed``, the seed's disturbance phases and then ``settings`` (``NODE.PARAM=VALUE``)."""
     _, scale, actuator, gate = CASES[case]
     s = variant(load(SCENARIO), mode)
     profile = yaml.safe_dump(disturbance(scale, seed), default_flow_style=True, width=10_000).strip()
     for assignment in (f"vehicle_dynamics.profile_params='{profile}'", f"vehicle_dynamics.gimbal_actuator={actuator}",
-                       f"sensor_models.encoder_velocity_gate_s={gate!r}", f"encoder_fusion_controller.encoder_gate_s={gate!r}"):
+                       f"sensor_models.encoder_velocity_gate_s={gate!r}", f"encoder_fusion_controller.encoder_gate_s={gate!r}",
+                       *settings):
         s = apply_set(s, assignment)
     return dataclasses.replace(s, seed=int(seed), duration_s=float(duration_s))
 
@@ -114,20 +115,24 @@ def core_run(case: str, mode: str, seed: int, duration_s: float = 20.0, settle_s
             "peak_mrad": 1e3 * out["peak_error_rad"]}
 
 
-def run_one(case: str, mode: str, seed: int, out: Path, duration_s: float = 20.0, keep_bag: bool = False) -> dict:
+def run_one(case: str, mode: str, seed: int, out: Path, duration_s: float = 20.0, keep_bag: bool = False,
+            settings: Sequence[str] = ()) -> dict:
     """One run on the engine into ``out`` (its bag, then its figures from the bag); the bag is
-    removed after unless ``keep_bag`` (``run.json`` and ``figures.json`` stay)."""
+    removed after unless ``keep_bag`` (``run.json`` and ``figures.json`` stay). A finished run
+    is reused when it was made with the same ``settings``."""
     out = Path(out)
     done = out / "figures.json"
     if done.is_file():
-        return json.loads(done.read_text())
+        fig = json.loads(done.read_text())
+        if fig.get("set", []) == list(settings):
+            return fig
     if out.exists():
         shutil.rmtree(out)
-    run = run_engine(case_scenario(case, mode, seed, duration_s), out, compress=True)
+    run = run_engine(case_scenario(case, mode, seed, duration_s, settings), out, compress=True)
     m = run_metrics(load_run(out))
     fig = {"case": case, "mode": mode, "seed": seed, "rms_mrad": 1e-3 * m["stabilization_error_urad"]["rms_after_settle"],
            "peak_mrad": 1e-3 * m["stabilization_error_urad"]["peak_after_settle"], "cpu_s": run.result.cpu_s,
-           "velocity_error_rms_deg_s": m["velocity_error_rms_deg_s"]}
+           "velocity_error_rms_deg_s": m["velocity_error_rms_deg_s"], "set": list(settings)}
     if not keep_bag:
         for f in list(out.glob("*.mcap")) + [out / "metadata.yaml"]:
             f.unlink(missing_ok=True)
@@ -140,9 +145,9 @@ def _job(args: tuple) -> dict:
 
 
 def run_cases(cases: Sequence[str], seeds: Sequence[int], out: Path, jobs: int = 1, duration_s: float = 20.0,
-              keep_seed: int | None = None) -> list[dict]:
-    """Every case × mode × seed (``keep_seed``'s bags kept)."""
-    tasks = [(c, m, s, Path(out) / c / m / f"seed_{s}", duration_s, s == keep_seed)
+              keep_seed: int | None = None, settings: Sequence[str] = ()) -> list[dict]:
+    """Every case × mode × seed (``keep_seed``'s bags kept), with ``settings`` (``NODE.PARAM=VALUE``)."""
+    tasks = [(c, m, s, Path(out) / c / m / f"seed_{s}", duration_s, s == keep_seed, tuple(settings))
              for c in cases for s in seeds for m in MODES]
     if jobs > 1:
         with ProcessPoolExecutor(jobs) as pool:
@@ -197,6 +202,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                           "finished runs are reused")
     ap.add_argument("--png", help="fig8: the PNG to write")
     ap.add_argument("--window", default="8,12", help="fig8: time window [s] 'start,end'")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                    help="fix a parameter of the scenario's nodes in every run, after the case's; repeatable")
     a = ap.parse_args(argv)
     if a.study == "fig8":
         if not a.bag or not a.png:
@@ -206,10 +213,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         seeds = parse_seeds(a.seeds)
-    except ValueError as exc:
+        for item in a.set:
+            apply_set(load(SCENARIO), item)
+    except ValueError as exc:  # ScenarioError included
         ap.error(str(exc))
     cases = ["paper"] if a.study == "headline" else list(CASES)
-    figs = run_cases(cases, seeds, Path(a.out), a.jobs, a.duration, keep_seed=seeds[0])
+    figs = run_cases(cases, seeds, Path(a.out), a.jobs, a.duration, keep_seed=seeds[0], settings=a.set)
     tables = [case_table(figs, c) for c in cases]
     Path(a.out).mkdir(parents=True, exist_ok=True)
     (Path(a.out) / f"{a.study}.json").write_text(json.dumps(tables, indent=1) + "\n")

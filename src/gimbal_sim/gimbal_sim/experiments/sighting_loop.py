@@ -30,7 +30,7 @@ from ..campaign.report import stats
 from ..campaign.spec import CampaignSpec
 from ..campaign.experiment import ExperimentCampaign, GraphEquivalent, numbered_table, run_metrics
 from ..campaign.runner_cli import add_engine_arguments, campaign_dir, run_for_cli
-from ..graph.scenario import apply_set, load, variant
+from ..graph.scenario import ScenarioError, apply_set, load, variant
 from .engine_runs import run_on_engine
 
 MODES = ("off", "feedback", "los_hold")
@@ -110,9 +110,11 @@ HEADLINE_RECORD = {"/truth/gimbal/imu": 10.0, "/truth/gimbal/gyro_bias": 10.0}
 
 
 def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple(HEADLINE_CASES),
-                   scenario: str = "sighting_land_vehicle", duration_s: float = 120.0) -> str:
+                   scenario: str = "sighting_land_vehicle", duration_s: float = 120.0,
+                   settings: Sequence[str] = ()) -> str:
     """Paper 1's headline over ``seeds``: ``scenario``'s ``ekf_off`` and ``ekf_on`` runs of
-    ``duration_s`` (``sighting_land_vehicle_100hz``: the paper's 100 Hz loop) in each case (:data:`HEADLINE_CASES`) on the engine, each run's bag (the truth
+    ``duration_s`` (``sighting_land_vehicle_100hz``: the paper's 100 Hz loop) in each case (:data:`HEADLINE_CASES`)
+    and with ``settings`` (``NODE.PARAM=VALUE``, after the case's) on the engine, each run's bag (the truth
     LOS and bias at 10 Hz) under ``out``; per case and variant, |drift| at the run's end
     (azimuth and elevation pooled per run), its seed mean with the 95 % Student-t interval,
     and the worst seed."""
@@ -124,8 +126,8 @@ def headline_table(seeds: Sequence[int], out: Path, cases: Sequence[str] = tuple
     drift: dict[tuple[str, str], list[float]] = {}
     for ins, v, seed in tqdm(jobs, desc="headline runs", unit="run"):
         s = dataclasses.replace(variant(load(scenario), v), duration_s=duration_s)
-        for key, value in HEADLINE_CASES[ins]:
-            s = apply_set(s, f"{key}={value}")
+        for item in (*(f"{key}={value}" for key, value in HEADLINE_CASES[ins]), *settings):
+            s = apply_set(s, item)
         s = dataclasses.replace(s, seed=seed, record=list(HEADLINE_RECORD), record_rates_hz=dict(HEADLINE_RECORD))
         d = run_on_engine(s, out / f"{ins.replace(', ', '_').replace('-', '_')}_{v}_seed{seed}")["sighting"]["final_drift_deg"]
         drift.setdefault((ins, v), []).append((abs(d["azimuth"]) + abs(d["elevation"])) / 2.0)
@@ -164,9 +166,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_engine_arguments(ap, graph=True)
     a = ap.parse_args(argv)
     if a.headline:
+        for item in a.set or ():
+            try:
+                apply_set(load(a.headline_scenario), item)
+            except ScenarioError as exc:
+                ap.error(str(exc))
         with campaign_dir(a.out) as out:
             print(headline_table(range(1, a.headline + 1), out, scenario=a.headline_scenario,
-                                 duration_s=a.duration))
+                                 duration_s=a.duration, settings=a.set or ()))
         return 0
     if a.monte_carlo < 1 or not 0 < a.duration < float("inf"):
         ap.error("--monte-carlo must be >= 1 and --duration a finite number > 0")

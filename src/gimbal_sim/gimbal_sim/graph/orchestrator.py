@@ -30,7 +30,7 @@ from .registry import NODE_TYPES
 from .scenario import Scenario
 
 STOP_GRACE_S = 10.0      # how long a node may take to exit after SIGINT
-DRAIN_QUIET_S = 0.3      # quiet time after the recorder reached the end before stopping
+DRAIN_QUIET_S = 0.3      # quiet time after the run's end (or Ctrl-C) for its last /clock steps
 
 
 class RunError(RuntimeError):
@@ -284,9 +284,11 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
     executor.add_node(monitor.node)
     bar = Progress(scenario.duration_s, progress)
 
-    def check_nodes() -> str | None:
-        """None while every node runs; why the recorder stopped the run; else RunError."""
+    def check_nodes(names: Iterable[str] | None = None) -> str | None:
+        """None while every node (of ``names``) runs; why the recorder stopped the run; else RunError."""
         for name, proc in procs.items():
+            if names is not None and name not in names:
+                continue
             code = proc.poll()
             if code is not None and name == RECORDER and _recorder_stopped(out_dir):
                 return _recorder_stopped(out_dir)
@@ -310,12 +312,19 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
         wall, interrupted = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
                       bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()},
                                    stop)
+        stats = {name: process_stats(proc.pid) for name, proc in procs.items()
+                 if name != RECORDER and proc.poll() is None}
+        # the nodes stop before the time reached is read, the recorder still running: nothing
+        # is simulated after that, and the recorder takes what they sent (a Ctrl-C's last steps)
+        stop_processes(proc for name, proc in procs.items() if name != RECORDER)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until and stop.reason is None:
             executor.spin_once(timeout_sec=0.05)
-            stop.reason = check_nodes()
+            stop.reason = check_nodes([RECORDER])
         # a recorder the disk stopped has exited: nothing left to read of it
-        stats = {name: process_stats(proc.pid) for name, proc in procs.items() if proc.poll() is None}
+        recorder = procs.get(RECORDER)
+        if recorder is not None and recorder.poll() is None:
+            stats[RECORDER] = process_stats(recorder.pid)
         return _result(out_dir, wall, monitor, logs=logs, processes=stats, interrupted=interrupted,
                        stopped=stop.reason)
     finally:

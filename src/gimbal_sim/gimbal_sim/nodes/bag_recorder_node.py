@@ -61,6 +61,8 @@ class BagRecorderNode(Node):
         self.live_subs: dict[str, object] = {}  # live view sources not recorded (no readiness, no pacing)
         self.stamps = TopicStamps()
         self.lost = 0           # middleware message-lost events
+        #: messages taken from the recorded topics (node_main spins on after a stop while it grows)
+        self.messages_heard = 0
         self.ready = False
         #: why the recording stopped before its end (a full disk), for node_main's exit code
         self.failure: str | None = None
@@ -109,6 +111,7 @@ class BagRecorderNode(Node):
         self.get_logger().error(f"{topic}: {status.total_count_change} messages lost by the middleware")
 
     def _on_message(self, topic: str, data: bytes) -> None:
+        self.messages_heard += 1
         stamp = self.stamps.heard(topic, data)
         if self.failure is not None:
             return
