@@ -312,19 +312,19 @@ def _run_processes(scenario, nodes, out_dir, env, progress, stall_timeout_s, sto
         wall, interrupted = _watch(scenario, monitor, lambda timeout: _spin_slice(executor, monitor, timeout),
                       bar, stall_timeout_s, check_nodes, {name: proc.pid for name, proc in procs.items()},
                                    stop)
-        stats = {name: process_stats(proc.pid) for name, proc in procs.items()
-                 if name != RECORDER and proc.poll() is None}
-        # the nodes stop before the time reached is read, the recorder still running: nothing
-        # is simulated after that, and the recorder takes what they sent (a Ctrl-C's last steps)
-        stop_processes(proc for name, proc in procs.items() if name != RECORDER)
         quiet_until = time.monotonic() + DRAIN_QUIET_S
         while time.monotonic() < quiet_until and stop.reason is None:
             executor.spin_once(timeout_sec=0.05)
-            stop.reason = check_nodes([RECORDER])
+            stop.reason = check_nodes()
         # a recorder the disk stopped has exited: nothing left to read of it
-        recorder = procs.get(RECORDER)
-        if recorder is not None and recorder.poll() is None:
-            stats[RECORDER] = process_stats(recorder.pid)
+        stats = {name: process_stats(proc.pid) for name, proc in procs.items() if proc.poll() is None}
+        # the nodes stop before the time reached is read, the recorder still running: after a
+        # Ctrl-C nothing is simulated past that time, and the recorder takes what was sent
+        stop_processes(proc for name, proc in procs.items() if name != RECORDER)
+        quiet_until = time.monotonic() + (DRAIN_QUIET_S if interrupted else 0.0)
+        while time.monotonic() < quiet_until and stop.reason is None:
+            executor.spin_once(timeout_sec=0.05)
+            stop.reason = check_nodes([RECORDER])
         return _result(out_dir, wall, monitor, logs=logs, processes=stats, interrupted=interrupted,
                        stopped=stop.reason)
     finally:

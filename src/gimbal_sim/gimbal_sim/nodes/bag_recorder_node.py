@@ -61,8 +61,7 @@ class BagRecorderNode(Node):
         self.live_subs: dict[str, object] = {}  # live view sources not recorded (no readiness, no pacing)
         self.stamps = TopicStamps()
         self.lost = 0           # middleware message-lost events
-        #: messages taken from the recorded topics (node_main spins on after a stop while it grows)
-        self.messages_heard = 0
+        self.messages_heard = 0  # node_main spins on after a stop while this grows
         self.ready = False
         #: why the recording stopped before its end (a full disk), for node_main's exit code
         self.failure: str | None = None
