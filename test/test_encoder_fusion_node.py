@@ -17,6 +17,7 @@ from gimbal_control.encoder_fusion import EncoderFusionController
 from gimbal_sim.experiments.encoder_fusion import MEMS_GYRO, UAV_INITIAL_JOINTS_DEG, UAV_PROFILE, run_encoder_fusion
 from gimbal_sim.graph.scenario import BUILTIN_DIR
 from gimbal_sim.world.sensors import PAPER2_ENCODER
+from imu_grades import no_grade_args
 
 pytestmark = pytest.mark.ros
 
@@ -154,7 +155,9 @@ def graph_runs(module_ros_domain_env, tmp_path_factory) -> dict[str, Path]:
     for mode in ("encoder", "fused"):
         out = tmp / mode
         result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(scenario), "--duration", str(DURATION_S),
-                                 "--set", f"encoder_fusion_controller.mode={mode}", "--out", str(out), "--mode", "container",
+                                 "--set", f"encoder_fusion_controller.mode={mode}",
+                                 *no_grade_args("gimbal_gyro"),  # run_encoder_fusion's gyro has no grade draws
+                                 "--out", str(out), "--mode", "container",
                                  "--no-progress"], env=module_ros_domain_env, capture_output=True, text=True,
                                 timeout=900)
         assert result.returncode == 0, result.stderr

@@ -18,6 +18,7 @@ from gimbal_sim.experiments.encoder_fusion import UAV_PROFILE
 from gimbal_sim.experiments.registry import EXPERIMENTS
 from gimbal_sim.graph.scenario import apply_set, load
 from gimbal_sim.reports.gyro_encoder import GyroEncoderSeries, figures
+from imu_grades import no_grade
 
 DEG = math.pi / 180.0
 
@@ -71,7 +72,7 @@ def test_fig2_gyro_integrated_angle_at_rest_is_bias_times_t():
     gyro-integrated angle is b·t / cos θm exactly and the encoders never move."""
     scenario = load("gimbal_gyro_encoder_rest")
     for assign in ("sensor_models.gimbal_gyro_bi_deg_h=0.0", "sensor_models.gimbal_gyro_arw_deg_rt_h=0.0",
-                   "sensor_models.gimbal_gyro_scale_factor_ppm=[0.0, 0.0]"):
+                   "sensor_models.gimbal_gyro_scale_factor_ppm=[0.0, 0.0]", *no_grade("gimbal_gyro")):
         scenario = apply_set(scenario, assign)
     scenario = dataclasses.replace(scenario, duration_s=30.0)
     s, _ = _core_series(scenario)

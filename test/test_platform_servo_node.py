@@ -24,6 +24,7 @@ from gimbal_control.platform_servo_params import PARAMS as SERVO_PARAMS
 from gimbal_kinematics.ros import messages as m
 from gimbal_sim.experiments.platform_servo import run_platform_servo
 from gimbal_sim.world.sensor_suite import PlatformImuSample, ResolverSample, SensorSuite, SensorSuiteConfig
+from imu_grades import no_grade_args
 from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
 from gimbal_sim.world.vehicle import VehicleConfig, VehicleCore
 from ros_harness import ros_args, start_refused
@@ -201,8 +202,10 @@ SWEEP_DEG = 6.0  # one reversal at 5 s
 def graph_run(module_ros_domain_env, tmp_path_factory):
     out = tmp_path_factory.mktemp("servo") / "run"
     result = subprocess.run([str(VENV_BIN / "gimbal-run"), "rotational_platform_servo", "--variant", "rate_triad",
-                             "--duration", str(DURATION_S), "--set", f"platform_servo.sweep_deg={SWEEP_DEG}", "--out",
-                             str(out), "--mode", "container", "--no-progress"], env=module_ros_domain_env,
+                             "--duration", str(DURATION_S), "--set", f"platform_servo.sweep_deg={SWEEP_DEG}",
+                             # the hand-built loop it is compared with has sensors without the grade
+                             *no_grade_args("platform_gyro", "platform_accel"),
+                             "--out", str(out), "--mode", "container", "--no-progress"], env=module_ros_domain_env,
                             capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stdout + result.stderr
     return out / "rate_triad"
