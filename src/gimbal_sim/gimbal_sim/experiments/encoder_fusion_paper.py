@@ -96,8 +96,8 @@ def case_scenario(case: str, mode: str, seed: int, duration_s: float = 20.0, set
     s = variant(load(SCENARIO), mode)
     profile = yaml.safe_dump(disturbance(scale, seed), default_flow_style=True, width=10_000).strip()
     for assignment in (f"vehicle_dynamics.profile_params='{profile}'", f"vehicle_dynamics.gimbal_actuator={actuator}",
-                       f"sensor_models.encoder_velocity_gate_s={gate!r}", f"encoder_fusion_controller.encoder_gate_s={gate!r}",
-                       *settings):
+                       f"sensor_models.encoder_velocity_gate_s={gate!r}",
+                       f"encoder_fusion_controller.encoder_gate_s={gate!r}", *settings):
         s = apply_set(s, assignment)
     return dataclasses.replace(s, seed=int(seed), duration_s=float(duration_s))
 
