@@ -45,11 +45,11 @@ def test_the_scenarios_profile_is_the_study_disturbance_at_the_baseline_scale():
 
 @pytest.mark.parametrize("mode", ["encoder", "fused"])
 def test_the_bagless_loop_is_the_engines_bag_run(tmp_path, mode):
-    """The headline test below runs the engine's own loop; the headline table runs the engine
-    with bags and reads its figures from them (the report settles over min(5 s, duration/4)).
-    Same scenario, same numbers (4 s, seed 2, both after 1 s; the bag holds the final
-    step's truth too, one sample more), once the scenario's gyro grade is off: the loop's gyro
-    has no scale-factor or misalignment draws."""
+    """The headline table and the headline test below run the engine with bags and read the
+    figures from them (the report settles over min(5 s, duration/4)); the engine's own loop
+    without a bag computes the same numbers (4 s, seed 2, both after 1 s; the bag holds the
+    final step's truth too, one sample more), once the scenario's gyro grade is off: the
+    loop's gyro has no scale-factor or misalignment draws."""
     bag = run_one("paper", mode, 2, tmp_path / mode, duration_s=4.0, settings=no_grade("gimbal_gyro"))
     core = core_run("paper", mode, 2, duration_s=4.0, settle_s=1.0)
     assert case_scenario("paper", mode, 2, 4.0).seed == 2
