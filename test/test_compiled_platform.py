@@ -4,7 +4,8 @@ counting closed form, the inertial kernel against its source and the
 error model's closed form, the block normals against
 the stream's own takes), and the compiled block loop against the Python loop over the same
 cores: the same messages, byte for byte, across a modulation reversal, with and without the
-IMU's scale-factor, asymmetry and misalignment errors; and the engine's
+IMU's scale-factor, asymmetry and misalignment errors, and with the servo on paper 3's DTG
+pair (the pair's kernel against its model, every drift term on); and the engine's
 dispatch, which compiles only the chain it reproduces."""
 import dataclasses
 import math
@@ -20,6 +21,10 @@ from gimbal_sim.graph.scenario import apply_set, load, variant
 from gimbal_sim.tools.engine_speed import paper_rate_navigation
 from gimbal_sim.world.sensors import EncoderModel, EncoderParams, GyroModel, GyroParams
 from gimbal_sim.world.sensors._normals import NormalStream
+from gimbal_sim.world.sensors import dtg_kernels
+from gimbal_sim.world.sensors.dtg import DtgOnPlatform, DtgPair, DtgPairParams
+from gimbal_kinematics.maths.earth import earth_rate_n
+from gimbal_kinematics.maths.rotations import quat_from_rotation_vector, quat_mul
 
 RNG = np.random.default_rng(20261128)
 from gimbal_sim.world.sensors import sensor_kernels as sk_
@@ -188,3 +193,49 @@ def test_the_outer_member_rates_kernel_is_four_gimbals_to_the_bit():
         want = outer_member_rates(w.tolist(), ang.tolist(), rate.tolist())
         args = (*w.tolist(), *ang[1:].tolist(), *rate[1:].tolist())
         assert kernel(*args) == want == kernel.py_func(*args)
+
+
+@pytest.mark.parametrize("v, assignments", [
+    ("dtg_1khz", ()),
+    ("dtg_1khz", ("sensor_models.dtg_pickoff_noise_arcsec=0.5",
+                  "sensor_models.dtg_scale_error_ppm=[100.0, -200.0, 50.0, 300.0]",
+                  "sensor_models.dtg_drift_deg_h=[0.1, -0.2, 0.05, 0.3]")),
+    ("dtg_1khz", ("sensor_models.dtg_arw_deg_rt_h=0.0", "platform_servo.sweep_deg=1.2")),
+    ("ship_rotation_on", ("sensor_models.sensors=[platform_imu, resolvers, dtg]", "platform_servo.gyro_source=dtg")),
+])
+def test_the_compiled_chain_on_the_dtgs_publishes_the_python_loops_bytes(v, assignments, monkeypatch):
+    """Paper 3's servo closed on the DTG pickoffs, its torquer currents held over the next
+    step: the pickoffs, the currents and every other message as the Python loop makes them,
+    over 1.5 s in blocks of 400 steps (the pair's normals across a block's edge)."""
+    monkeypatch.setattr(compiled_platform, "BLOCK_STEPS", 400)
+    scenario = dataclasses.replace(variant(load("rotational_ins_navigation"), v), duration_s=1.5)
+    for assignment in assignments:
+        scenario = apply_set(scenario, assignment)
+    assert compiled.compiled_runner(node_values(scenario)) is compiled._platform_run
+    python, fast = _messages(scenario, False), _messages(scenario, True)
+    assert python.keys() == fast.keys()
+    assert {"/platform/dtg_pickoffs", "~/torquer_current"} <= {t for _, t in python}
+    for key, data in python.items():
+        assert data == fast[key], key
+
+
+def test_the_dtg_pair_kernel_is_its_model_to_the_bit_with_every_drift_term():
+    # g-sensitive drift (no node parameter sets it), scale errors, both noises, currents near the range
+    params = DtgPairParams(scale_error_ppm=(300.0, -100.0, 50.0, 0.0), drift_deg_h=(0.2, -0.1, 0.0, 0.3),
+                           drift_g_deg_h_g=((0.5, -0.2, 0.1), (0.0, 0.3, -0.4), (0.2, 0.2, 0.2), (-0.6, 0.0, 0.1)),
+                           arw_deg_rt_h=0.01, pickoff_noise_arcsec=2.0)
+    dt, w_earth = 1e-3, earth_rate_n(math.radians(40.0))
+    model = DtgOnPlatform(DtgPair(params, np.random.default_rng(5)), w_earth, dt)
+    twin = DtgPair(params, np.random.default_rng(5))  # the same drift draw, then the same stream
+    s, g, mounts, q_earth = dtg_kernels.pack(twin, model._q_earth, (0.0, 0.0, 0.0))
+    q, out = (0.0, 0.0, 0.0, 1.0), np.zeros(4)
+    for k in range(300):
+        f = (0.3 * math.sin(0.01 * k), -0.2, 9.8 + 0.01 * k)
+        currents = (0.15 * math.cos(0.02 * k), -0.05, 0.17)
+        want = model.update(q, f, currents)
+        z = twin.rng.standard_normal(8) if k > 0 else np.zeros(0)
+        s[dtg_kernels.S_I:dtg_kernels.S_I + 3] = currents
+        dtg_kernels.dtg_update(s, g, mounts, q_earth, np.array(q), np.array(f), dt, twin._arw / math.sqrt(dt),
+                               twin._pick_sigma, z, out)
+        assert out.tolist() == list(want), k
+        q = quat_mul(q, quat_from_rotation_vector(2e-3, -1e-3 * math.cos(0.05 * k), 2.1e-2))

@@ -11,12 +11,14 @@ same through the node graph, then:
   the vertical (down) component of the WGS-84 earth rate, −Ω sin L, over the nominal scale
   factor S = 72 (°/h)/mA; the level currents' magnitude is Ω cos L / S whatever the azimuth;
 * the default (rate triad) path is the scenario as it was, and publishes no torquer or
-  pickoff topic; the compiled chain leaves a DTG servo to the Python loop;
+  pickoff topic; the compiled chain takes a DTG servo only with the DTG pair among the sensors;
 * in ``rotational_ins_navigation`` (variant ``dtg_1khz``) the navigator's command rate
   becomes the torquer currents: each recorded azimuth current is (φ̇z + ω_c,D)/S, ω_c,D the
   down component of the command the navigator published at the same stamp (the platform
   level), recorded at 1 Hz as the paper's voltmeter sampled it; the navigation report's legs
   are those currents;
+* paper 3's two systems on the DTGs (``upgraded_dtg``, ``original_system_dtg``) align on them,
+  hand off, and navigate with the command in the torquers;
 * bad DTG parameters, and the DTGs without the servo on them (or the reverse), are refused
   before anything starts, naming the parameter (exit 2).
 """
@@ -28,6 +30,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+import yaml
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
@@ -145,9 +148,11 @@ def test_the_navigators_command_becomes_the_torquer_currents(module_ros_domain_e
     assert leg["mean_ma"] == pytest.approx(sum(steady) / len(steady), rel=1e-12)
 
 
-def test_the_compiled_chain_leaves_a_dtg_servo_to_the_python_loop():
+def test_the_compiled_chain_takes_a_dtg_servo_only_with_the_dtg_pair():
     nav = variant(load("rotational_ins_navigation"), "rotation_off")
     assert compiled.compiled_runner(node_values(nav)) is compiled._platform_run
+    on_dtg = variant(load("rotational_ins_navigation"), "dtg_1khz")
+    assert compiled.compiled_runner(node_values(on_dtg)) is compiled._platform_run
     assert compiled.compiled_runner(node_values(apply_set(nav, "platform_servo.gyro_source=dtg"))) is None
 
 
@@ -167,3 +172,36 @@ def test_bad_dtg_parameters_are_refused_before_anything_starts(module_ros_domain
                             env=module_ros_domain_env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 2 and f"'{named}'" in result.stderr, result.stderr[-2000:]
     assert not (tmp_path / "bad" / run).exists()
+
+
+def test_paper_3s_two_systems_align_and_navigate_on_the_dtgs(module_ros_domain_env, tmp_path):
+    """``upgraded_dtg`` and ``original_system_dtg``, each chained short (a 10 s alignment on the
+    DTGs, its hand-off, 6 s of navigation on the compiled chain): both phases' servos close on
+    the pickoffs, and each recorded azimuth torquer current is (φ̇z + ω_c,D)/S, rotating at
+    1.2 °/s (upgraded) or held still (original), ω_c,D the navigator's command at that stamp,
+    which carries the alignment's drift estimates."""
+    data = yaml.safe_load(load("rotational_ins_navigation").to_yaml())
+    chains = {"upgraded_dtg": RATE, "original_system_dtg": 0.0}
+    data["variants"] = {v: dict(data["variants"][v]) for v in chains}
+    for v in chains:
+        data["variants"][v]["prelude"] = dict(data["variants"][v]["prelude"], duration_s=10.0)
+    spec = tmp_path / "chains.yaml"
+    spec.write_text(yaml.safe_dump(data))
+    out = tmp_path / "runs"
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(spec), "--engine", "core", "--duration", "6",
+                             "--no-progress", "--out", str(out)],
+                            env=module_ros_domain_env, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr[-3000:]
+    command = "/platform_navigator/command_rate"
+    for v, rate in chains.items():
+        for phase in (out / v / "prelude", out / v):
+            nodes = yaml.safe_load((phase / "scenario.yaml").read_text())["nodes"]
+            assert nodes["platform_servo"]["params"]["gyro_source"] == "dtg", phase
+            assert "dtg" in nodes["sensor_models"]["params"]["sensors"], phase
+        assert json.loads((out / v / "prelude" / "hand_off.json").read_text())["hand_off_s"] == pytest.approx(10.0)
+        series = _read(out / v, {TORQUER, command})
+        assert sorted(series[TORQUER]) == [k * 1_000_000_000 for k in range(7)]
+        for stamp, msg in series[TORQUER].items():
+            i = dict(zip(msg.name, msg.effort))
+            down = series[command][stamp].vector.z
+            assert i["dtg_torquer_z"] == pytest.approx((rate + down) / SCALE_A, rel=1e-12, abs=1e-15), (v, stamp)

@@ -38,14 +38,15 @@ from gimbal_kinematics.maths.platform_kernels import platform_truth
 from .loop_plan import CoreLoopResult, node_values
 from .compiled_platform_record import ChainRecorder
 from .compiled_platform_setup import (
-    C_BASE_MOTION, C_CONTROLLED, C_DT, C_FOLLOWS, C_FROM_SERVO, C_IMU_EVERY, C_JOINT, C_MAX_AGE_NS, C_N, C_QUASI,
-    C_RATE, C_RES_CYCLIC, C_RES_EVERY, C_RES_GATE_STEPS, C_RES_GATE_TIME, C_RES_HARMONIC, C_RES_NOISE,
-    C_RES_PHASES, C_RES_QUANTUM, C_SUBSTEPS,
-    J_CMD, J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_NEXT_PHI, J_NEXT_RATE, J_NEXT_T, J_RATE, J_T_NS, J_THETA,
-    N_OUT, PlatformChain, build_chain, chain_values,
+    C_BASE_MOTION, C_CONTROLLED, C_DT, C_DTG, C_DTG_ARW, C_DTG_EVERY, C_DTG_IMAX, C_DTG_PICK, C_DTG_SCALE,
+    C_FOLLOWS, C_FROM_SERVO, C_IMU_EVERY, C_JOINT, C_MAX_AGE_NS, C_N, C_QUASI, C_RATE, C_RES_CYCLIC, C_RES_EVERY,
+    C_RES_GATE_STEPS, C_RES_GATE_TIME, C_RES_HARMONIC, C_RES_NOISE, C_RES_PHASES, C_RES_QUANTUM, C_SUBSTEPS, J_CMD,
+    J_HAS, J_HAS_CMD, J_NAV_LAST, J_NAV_T0, J_NEXT_PHI, J_NEXT_RATE, J_NEXT_T, J_RATE, J_T_NS, J_THETA, N_OUT,
+    PlatformChain, build_chain, chain_values,
 )
 from ..world.plant.platform_kernels import P_KT, P_VMAX, base_torques, platform_step, saturate
 from ..world.plant.profile_kernels import host_truth_rows
+from ..world.sensors.dtg_kernels import S_HAS_Q, S_I, dtg_update
 from ..world.sensors.sensor_kernels import R_FIXED, R_GM, R_RRW, cyclic_error, encoder_step, inertial_step
 
 #: steps per block: the normals and (recorded) the output rows of one block in memory
@@ -90,18 +91,25 @@ def _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, f) -> bool
 
 
 @njit(cache=True)
-def _servo_node(c, ss, sp, pid_s, pid_g, joint, t, k, res_due, ra, imu_due, w) -> int:
+def _servo_node(c, ss, sp, pid_s, pid_g, joint, t, k, res_due, ra, imu_due, w, pk, dtg_s) -> int:
     """``platform_servo``'s step k (``core.platform_stages.platform_servo_node_stage``): the
-    resolvers, the navigator's command, then the gyro tick (-2: no gyro sample this step) at
-    the node's step time k / rate."""
+    resolvers, the navigator's command, then the tick (-2: none this step) at the node's step
+    time k / rate, on the gyro triad's sample or on the DTGs' pickoffs ``pk`` (its torquer
+    currents then held in ``dtg_s``)."""
     if res_due:
         sk.servo_resolvers(ss, t, ra[0], ra[1], ra[2], ra[3])
     if c[C_FOLLOWS] != 0.0 and imu_due and joint[J_HAS_CMD] != 0.0:
         sk.servo_command(ss, t, joint[J_CMD], joint[J_CMD + 1], joint[J_CMD + 2])
-    if not imu_due:
-        return -2
-    tick = sk.servo_tick(ss, sp, pid_s, pid_g, k / c[C_RATE], w[0], w[1], w[2])
-    if c[C_FROM_SERVO] != 0.0:  # ~/modulation_next: φz of the next IMU step, stamped with it
+    tick = -2
+    if c[C_DTG] != 0.0:
+        if k % int(c[C_DTG_EVERY]) == 0:
+            tick, ix, iy, iz = sk.servo_tick_pickoff(ss, sp, pid_s, pid_g, k / c[C_RATE], -pk[0], -pk[1], -pk[3],
+                                                     c[C_DTG_SCALE], c[C_DTG_IMAX])
+            if tick != sk.TICK_NONE:
+                dtg_s[S_I], dtg_s[S_I + 1], dtg_s[S_I + 2] = ix, iy, iz
+    elif imu_due:
+        tick = sk.servo_tick(ss, sp, pid_s, pid_g, k / c[C_RATE], w[0], w[1], w[2])
+    if imu_due and c[C_FROM_SERVO] != 0.0:  # ~/modulation_next: φz of the next IMU step, stamped with it
         k_next = k + int(c[C_IMU_EVERY])
         joint[J_NEXT_T] = np.rint(k_next * 1e9 / c[C_RATE])
         joint[J_NEXT_PHI], joint[J_NEXT_RATE] = sk.servo_modulation(ss, sp, k_next / c[C_RATE])
@@ -109,14 +117,15 @@ def _servo_node(c, ss, sp, pid_s, pid_g, joint, t, k, res_due, ra, imu_due, w) -
 
 
 @njit(cache=True)
-def _truth(x, pp, host, angles, rates, wt, ft, out_row) -> None:
-    """The step's stable-element truth (ω_s into ``wt``, f_s into ``ft``) from the plant
-    state; with an output row, the joint states and q_ns into it too."""
+def _truth(x, pp, host, angles, rates, wt, ft, qt, out_row) -> None:
+    """The step's stable-element truth (ω_s into ``wt``, f_s into ``ft``, q_ns into ``qt``) from
+    the plant state; with an output row, the joint states and q_ns into it too."""
     for a in range(4):
         angles[a], rates[a] = x[a, 0], x[a, 1]
     q, w, f = platform_truth(host[0:3], angles, rates, host[3:6], host[6:9])
     wt[0], wt[1], wt[2] = w
     ft[0], ft[1], ft[2] = f
+    qt[0], qt[1], qt[2], qt[3] = q
     if out_row.shape[0] > 0:
         for a in range(4):
             out_row[a], out_row[4 + a], out_row[8 + a] = x[a, 0], x[a, 1], x[a, 2] * pp[a, P_KT]
@@ -126,7 +135,7 @@ def _truth(x, pp, host, angles, rates, wt, ft, out_row) -> None:
 
 
 @njit(cache=True)
-def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks, acc, gyr) -> None:
+def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks, acc, gyr, pk, dtg_s) -> None:
     for a in range(4):
         row[22 + a], row[26 + a] = ra[a], rr[a]
     for a in range(3):
@@ -144,27 +153,31 @@ def _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, ticks, acc, g
     for a in range(3):
         row[62 + a] = acc[R_FIXED, a] + acc[R_GM, a] + acc[R_RRW, a]
         row[65 + a] = gyr[R_FIXED, a] + gyr[R_GM, a] + gyr[R_RRW, a]
+        row[74 + a] = dtg_s[S_I + a]
+    for a in range(4):
+        row[70 + a] = pk[a]
 
 
 @njit(cache=True)
 def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c, az, gyr, gyr_k, gyr_c, gz, ns,
-                   nq, joint, ss, sp, pid_s, pid_g, counts, base_last, out) -> None:
+                   nq, joint, ss, sp, pid_s, pid_g, counts, base_last, dtg_s, dtg_g, dtg_m, dtg_qe, dz, out) -> None:
     """Steps k0 … k1−1 of the chain (module docstring); ``stamps`` their stamps [ns] (as
     floats), ``host`` the host's truth (euler, ω_ib^b, f_b) of each step (k1 − k0, 9), or of
     all (1, 9) when static, ``base_last`` the base torques' state (has one, ω_A a, q, p, r),
-    ``rz``/``az``/``gz`` the resolvers', accelerometers' and gyros' normals of the
-    block (row per sample), ``counts`` (servo ticks, rows of normals used: resolver, IMU),
+    ``rz``/``az``/``gz``/``dz`` the resolvers', accelerometers', gyros' and DTGs' normals of
+    the block (row per sample), ``counts`` (servo ticks, rows of normals used: resolver, IMU,
+    DTG), ``dtg_*`` the DTG pair (:mod:`..world.sensors.dtg_kernels`; unused without it),
     ``out`` (k1 − k0, :data:`N_OUT`) the steps' outputs, or (0, N_OUT) when not recorded."""
     angles, rates, ra, rr = np.empty(4), np.empty(4), np.zeros(4), np.zeros(4)
     fm, wm, volts, torques = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
-    wt, ft = np.zeros(3), np.zeros(3)
+    wt, ft, qt, pk = np.zeros(3), np.zeros(3), np.zeros(4), np.zeros(4)
     empty, cyc = np.empty(0), np.empty(4)
     res_every, imu_every, n = int(c[C_RES_EVERY]), int(c[C_IMU_EVERY]), int(c[C_N])
     for k in range(k0, k1):
         t_ns = stamps[k - k0]
         row = out[k - k0] if out.shape[0] > 0 else empty
         h = host[k - k0] if host.shape[0] > 1 else host[0]
-        _truth(x, pp, h, angles, rates, wt, ft, row)
+        _truth(x, pp, h, angles, rates, wt, ft, qt, row)
         res_due, imu_due = k % res_every == 0, k % imu_every == 0
         if res_due:
             read = angles
@@ -178,12 +191,18 @@ def platform_block(k0, k1, stamps, c, host, x, pp, rstate, rz, acc, acc_k, acc_c
             inertial_step(ft, acc, acc_k, acc_c, az[int(counts[2])], False, fm)
             inertial_step(wt, gyr, gyr_k, gyr_c, gz[int(counts[2])], False, wm)
             counts[2] += 1.0
+        if c[C_DTG] != 0.0:
+            zd = empty
+            if dtg_s[S_HAS_Q] != 0.0:
+                zd = dz[int(counts[3])]
+                counts[3] += 1.0
+            dtg_update(dtg_s, dtg_g, dtg_m, dtg_qe, qt, ft, c[C_DT], c[C_DTG_ARW], c[C_DTG_PICK], zd, pk)
         nav_out = _navigator_node(c, ns, nq, joint, t_ns, res_due, ra, rr, imu_due, fm)
-        tick = _servo_node(c, ss, sp, pid_s, pid_g, joint, t_ns * 1e-9, k, res_due, ra, imu_due, wm)
+        tick = _servo_node(c, ss, sp, pid_s, pid_g, joint, t_ns * 1e-9, k, res_due, ra, imu_due, wm, pk, dtg_s)
         if tick >= 0:
             counts[0] += 1.0
         if row.shape[0] > 0:
-            _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, counts[0], acc, gyr)
+            _record_row(row, ra, rr, fm, wm, ns, joint, nav_out, ss, tick, counts[0], acc, gyr, pk, dtg_s)
         if k < n:
             for a in range(4):
                 v = ss[sk.S_V0 + a] if c[C_CONTROLLED] != 0.0 else 0.0
@@ -206,7 +225,10 @@ def _block_normals(chain: PlatformChain, k0: int, k1: int) -> tuple:
         else np.zeros((res, 4))
     az = chain.acc_stream.take_block(chain.acc_need, imu) if chain.acc_need else np.zeros((imu, 1))
     gz = chain.gyr_stream.take_block(chain.gyr_need, imu) if chain.gyr_need else np.zeros((imu, 1))
-    return rz, az, gz
+    _, rng, need = chain.dtg
+    steps = k1 - max(k0, 1)  # the pair draws from its second step on
+    dz = rng.standard_normal((steps, need)) if need and steps > 0 else np.zeros((max(steps, 0), 1))
+    return rz, az, gz, dz
 
 
 def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopResult:
@@ -217,15 +239,15 @@ def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopRe
     chain = build_chain(scenario) if chain is None else chain
     recorder = None if record is None else ChainRecorder(chain, record)
     n = chain.n_steps
-    counts = np.zeros(3)
+    counts = np.zeros(4)
     c0 = time.process_time()
     t0 = time.perf_counter()
     for k0 in range(0, n + 1, BLOCK_STEPS):
         k1 = min(n + 1, k0 + BLOCK_STEPS)
         ks = np.arange(k0, k1)
         stamps = np.rint(ks * 1e9 / chain.rate_hz)
-        rz, az, gz = _block_normals(chain, k0, k1)
-        counts[1] = counts[2] = 0.0
+        rz, az, gz, dz = _block_normals(chain, k0, k1)
+        counts[1] = counts[2] = counts[3] = 0.0
         out = np.empty((k1 - k0, N_OUT)) if recorder is not None else np.empty((0, N_OUT))
         host = chain.host.reshape(1, 9)
         if chain.moving is not None:
@@ -234,7 +256,7 @@ def run(scenario, record=None, chain: PlatformChain | None = None) -> CoreLoopRe
         platform_block(k0, k1, stamps, chain.config, host, chain.x, chain.plant_params, chain.res_state, rz,
                        chain.acc, chain.acc_k, chain.acc_c, az, chain.gyr, chain.gyr_k, chain.gyr_c, gz, chain.nav_state,
                        chain.nav_params, chain.joint, chain.servo_state, chain.servo_params, chain.pid_state,
-                       chain.pid_gains, counts, chain.base_last, out)
+                       chain.pid_gains, counts, chain.base_last, *chain.dtg[0], dz, out)
         if recorder is not None:
             recorder.block(k0, stamps.astype(np.int64), out, host)
     wall = time.perf_counter() - t0

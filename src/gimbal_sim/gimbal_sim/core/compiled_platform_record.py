@@ -16,13 +16,13 @@ from gimbal_control.platform_servo import ServoCommand
 from gimbal_control.wire import platform_servo_messages
 from gimbal_estimators.platform_navigator import NavigatorOutput
 from gimbal_estimators.wire import navigator_messages
-from gimbal_kinematics.maths.frames import PLATFORM_JOINTS
+from gimbal_kinematics.maths.frames import DTG_PICKOFF_JOINTS, PLATFORM_JOINTS
 from gimbal_kinematics.timing.stamps import step_stamp_ns
 
 from .compiled_platform_setup import O
 from .recording import EngineBag, resolve
 from ..nodes.wire import noise_covariances, sensor_messages, truth_messages
-from ..world.sensor_suite import PlatformImuSample, ResolverSample
+from ..world.sensor_suite import DtgSample, PlatformImuSample, ResolverSample
 from ..world.vehicle import host_quat, step_rotation
 
 _TRUTH_EVERY = ("/truth/host/imu", "/truth/host/delta_angle", "/truth/platform/joint_states", "/truth/platform/imu",
@@ -30,9 +30,11 @@ _TRUTH_EVERY = ("/truth/host/imu", "/truth/host/delta_angle", "/truth/platform/j
 _TRUTH_FIX = ("/truth/host/fix", "/truth/host/velocity")
 _RESOLVERS = ("/platform/resolvers",)
 _IMU = ("/platform/imu", "/truth/platform/accel_bias", "/truth/platform/gyro_bias")
+_DTG = ("/platform/dtg_pickoffs",)
 _NAV_FIX = ("~/fix", "~/velocity", "~/odom")
 _NAV_CMD = ("~/command_rate",)
 _SERVO_EVERY = ("/platform/voltage_cmd",)
+_SERVO_TORQUER = ("~/torquer_current",)
 _SERVO_DIAG = ("~/control_error", "~/modulation")
 _SERVO_NEXT = ("~/modulation_next",)
 #: the nodes in the loop's order, by executable
@@ -56,6 +58,7 @@ class ChainRecorder:
         self.fix_every = v["platform_navigator"]["fix_every_samples"]
         self.diag_every = v["platform_servo"]["diagnostics_every_steps"]
         self.next_phi = v["platform_servo"]["modulation_next"]
+        self.dtg = chain.suite.dtg is not None
         self._host: np.ndarray | None = None  # a moving host's rows of the block, and the last row before it
         self._host_before: np.ndarray | None = None
         self._k0 = 0
@@ -99,14 +102,16 @@ class ChainRecorder:
         cmd = imu & (out[:, O["has_cmd"]] != 0.0)
         diag = (out[:, O["tick"]] >= 0.0) & ((out[:, O["ticks"]] - 1.0) % self.diag_every == 0.0)
         kept = self._kept
+        on_dtg = every if self.dtg else np.zeros(n, dtype=bool)
         return {
             "vehicle_dynamics": kept(names["vehicle_dynamics"], _TRUTH_EVERY, every, stamps)
             | kept(names["vehicle_dynamics"], _TRUTH_FIX, pos, stamps),
             "sensor_models": kept(names["sensor_models"], _RESOLVERS, res, stamps)
-            | kept(names["sensor_models"], _IMU, imu, stamps),
+            | kept(names["sensor_models"], _IMU, imu, stamps) | kept(names["sensor_models"], _DTG, on_dtg, stamps),
             "platform_navigator": kept(names["platform_navigator"], _NAV_FIX, fix, stamps)
             | kept(names["platform_navigator"], _NAV_CMD, cmd, stamps) | fix,  # odometry sees every fix
             "platform_servo": kept(names["platform_servo"], _SERVO_EVERY, every, stamps)
+            | kept(names["platform_servo"], _SERVO_TORQUER, on_dtg, stamps)
             | kept(names["platform_servo"], _SERVO_DIAG, diag, stamps)
             | kept(names["platform_servo"], _SERVO_NEXT, imu & self.next_phi, stamps),
         }
@@ -157,6 +162,10 @@ class ChainRecorder:
             s = PlatformImuSample(t, _tuple(row, 30, 33), _tuple(row, 33, 36), _tuple(row, ab, ab + 3),
                                   _tuple(row, gb, gb + 3))
             self.record(name, sensor_messages(t_ns, s, self.cov))
+        if self.dtg:
+            pk = self.O["pk0"]
+            self.record(name, sensor_messages(t_ns, DtgSample(t, DTG_PICKOFF_JOINTS, _tuple(row, pk, pk + 4), ()),
+                                              self.cov))
 
     def _navigator(self, k: int, t_ns: int, row: np.ndarray) -> None:
         O = self.O
@@ -181,4 +190,5 @@ class ChainRecorder:
         if self.next_phi and k % self.chain.imu_every == 0:
             nxt = (step_stamp_ns(k + self.chain.imu_every, self.chain.rate_hz), float(row[O["phin"]]),
                    float(row[O["phin_rate"]]))
-        self.record(self.chain.names["platform_servo"], platform_servo_messages(t_ns, volts, out, None, nxt))
+        torquer = _tuple(row, O["tq0"], O["tq2"] + 1) if self.dtg else None
+        self.record(self.chain.names["platform_servo"], platform_servo_messages(t_ns, volts, out, torquer, nxt))

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from gimbal_control.platform_servo import PlatformServo, PlatformServoParams
+from gimbal_control.dtg_servo import platform_servo_core
 from gimbal_estimators.navigator_odometry import NavigatorOdometry, OdometryModel
 from gimbal_estimators.platform_navigator import PlatformNavigator
 from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
@@ -25,6 +25,7 @@ from gimbal_kinematics.ros.wire import UNMEASURED_VARIANCE
 
 from .loop_plan import node_values
 from ..world.sensor_suite import SensorSuite, SensorSuiteConfig
+from ..world.sensors import dtg_kernels
 from ..world.vehicle import VehicleConfig, VehicleCore, VehicleTruth
 
 CHAIN = ("vehicle_dynamics", "sensor_models", "platform_navigator", "platform_servo")
@@ -33,14 +34,15 @@ CHAIN = ("vehicle_dynamics", "sensor_models", "platform_navigator", "platform_se
 #: q_ns, ω_s, f_s), the resolver and IMU samples, the navigator (output this step, accepted
 #: samples, L, λ, h, v, held command and whether there is one, ψ̂, torquing) and the servo
 #: (tick result, ticks, voltages, signals, φz, φ̇z); the accelerometers' and gyros' true biases
-#: (their run-constant and in-run parts) after the step's IMU sample.
+#: (their run-constant and in-run parts) after the step's IMU sample; on DTGs, the pickoffs
+#: (lower x, y, upper x, y) and the torquer currents (x, y, z) the servo holds after the step.
 OUT_COLUMNS = (
     "pos0", "pos1", "pos2", "pos3", "vel0", "vel1", "vel2", "vel3", "eff0", "eff1", "eff2", "eff3",
     "qx", "qy", "qz", "qw", "wx", "wy", "wz", "fx", "fy", "fz",
     "ra0", "ra1", "ra2", "ra3", "rr0", "rr1", "rr2", "rr3", "if0", "if1", "if2", "iw0", "iw1", "iw2",
     "nav_out", "accepted", "lat", "lon", "h", "vn", "ve", "vd", "cmd_n", "cmd_e", "cmd_d", "has_cmd", "psi", "torquing",
     "tick", "ticks", "v0", "v1", "v2", "v3", "g0", "g1", "g2", "g3", "phi", "phi_rate",
-    "ab0", "ab1", "ab2", "gb0", "gb1", "gb2", "phin", "phin_rate")
+    "ab0", "ab1", "ab2", "gb0", "gb1", "gb2", "phin", "phin_rate", "pk0", "pk1", "pk2", "pk3", "tq0", "tq1", "tq2")
 O = {name: i for i, name in enumerate(OUT_COLUMNS)}
 N_OUT = len(OUT_COLUMNS)
 #: the navigator node's joint sample (has one, stamp ns, θ, rate), held command (has one, N, E,
@@ -53,19 +55,21 @@ N_JOINT = 13
 
 def chain_values(values: dict[str, tuple[str, dict[str, Any]]]) -> dict[str, tuple[str, dict]] | None:
     """executable -> (node name, values) when the nodes are the chain with the parameters the
-    compiled step reproduces (the servo on its gyro triad; the azimuth from the resolvers, or
-    from the servo's ``~/modulation_next`` at the servo's and the IMU's rate); None otherwise
-    (a servo on DTGs runs in the Python loop)."""
+    compiled step reproduces (the servo on its gyro triad, or on the DTG pair with ``dtg``
+    among the sensors; the azimuth from the resolvers, or from the servo's
+    ``~/modulation_next`` at the servo's and the IMU's rate); None otherwise."""
     by_exe = {exe: (name, v) for name, (exe, v) in values.items()}
     if len(values) != len(CHAIN) or set(by_exe) != set(CHAIN):
         return None
     veh = by_exe["vehicle_dynamics"][1]
     sen = by_exe["sensor_models"][1]
     nav = by_exe["platform_navigator"][1]
-    if veh["plant"] != "four_gimbal_platform" or set(sen["sensors"]) != {"platform_imu", "resolvers"}:
-        return None
     srv = by_exe["platform_servo"][1]
-    if srv["gyro_source"] != "rate_triad" or not _azimuth_compiled(nav, srv, sen):
+    on_dtg = srv["gyro_source"] == "dtg"
+    gyros = {"platform_imu", "resolvers", "dtg"} if on_dtg else {"platform_imu", "resolvers"}
+    if veh["plant"] != "four_gimbal_platform" or set(sen["sensors"]) != gyros:
+        return None
+    if not _azimuth_compiled(nav, srv, sen):
         return None
     try:
         vehicle = VehicleCore(VehicleConfig.from_values(veh), GIMBAL_MODELS[veh["gimbal_model"]])
@@ -133,6 +137,8 @@ class PlatformChain:
     suite: SensorSuite
     site: Any
     odometry: NavigatorOdometry
+    dtg: tuple                        # the DTG pair's (state, parameters, mounts, q_earth), its Generator and
+                                      # normals per step (dtg_kernels); empty arrays without DTGs
 
 
 def _joint() -> np.ndarray:
@@ -148,9 +154,12 @@ def _joint() -> np.ndarray:
 (C_DT, C_SUBSTEPS, C_QUASI, C_RES_EVERY, C_IMU_EVERY, C_RES_QUANTUM, C_RES_NOISE, C_RES_GATE_STEPS,
  C_RES_GATE_TIME, C_MAX_AGE_NS, C_FOLLOWS, C_CONTROLLED, C_RATE, C_N, C_JOINT, C_RES_CYCLIC,
  C_RES_HARMONIC, C_RES_PHASES) = range(18)
-#: and after the phases: the base motion into the loops, the azimuth from the servo's φz
-C_BASE_MOTION, C_FROM_SERVO = C_RES_PHASES + 4, C_RES_PHASES + 5
-N_CONFIG = C_FROM_SERVO + 1
+#: and after the phases: the base motion into the loops, the azimuth from the servo's φz; the
+#: servo on DTGs, its pickoff read decimation, the rotors' drift noise per step [rad/s] and the
+#: pickoff read-out noise [rad], the torquer's nominal scale [rad/s/A] and range [A]
+(C_BASE_MOTION, C_FROM_SERVO, C_DTG, C_DTG_EVERY, C_DTG_ARW, C_DTG_PICK, C_DTG_SCALE,
+ C_DTG_IMAX) = range(C_RES_PHASES + 4, C_RES_PHASES + 12)
+N_CONFIG = C_DTG_IMAX + 1
 
 
 def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, controlled: bool) -> np.ndarray:
@@ -166,7 +175,22 @@ def _config(vehicle: VehicleCore, suite: SensorSuite, nav: dict, servo: dict, co
     c[C_RES_PHASES:C_RES_PHASES + 4] = res.cyclic_phases
     c[C_BASE_MOTION] = 1.0 if vehicle.config.platform_base_motion else 0.0
     c[C_FROM_SERVO] = 1.0 if nav["azimuth_source"] == "servo" else 0.0
+    if suite.dtg is not None:
+        pair = suite.dtg.pair
+        c[C_DTG], c[C_DTG_EVERY] = 1.0, steps_per_sample(servo, "imu_rate_hz")
+        c[C_DTG_ARW] = pair._arw / math.sqrt(vehicle.config.dt) if pair._arw > 0.0 else 0.0
+        c[C_DTG_PICK] = pair._pick_sigma
     return c
+
+
+def _dtg(suite: SensorSuite, servo) -> tuple:
+    """The DTG pair packed (:func:`.dtg_kernels.pack`), its Generator and normals per step."""
+    if suite.dtg is None:
+        empty = np.zeros(0)
+        return (np.zeros(dtg_kernels.N_STATE), np.zeros((2, dtg_kernels.N_GYRO)), np.zeros((2, 3, 3)), empty), None, 0
+    pair = suite.dtg.pair
+    need = (4 if pair._arw > 0.0 else 0) + (4 if pair._pick_sigma > 0.0 else 0)
+    return dtg_kernels.pack(pair, suite.dtg._q_earth, servo.torquer_current), pair.rng, need
 
 
 def build_chain(scenario) -> PlatformChain:
@@ -180,7 +204,7 @@ def build_chain(scenario) -> PlatformChain:
     vehicle = VehicleCore(VehicleConfig.from_values(veh), GIMBAL_MODELS[veh["gimbal_model"]])
     suite = SensorSuite(SensorSuiteConfig.from_values(values["sensor_models"]))
     navigator = PlatformNavigator(PlatformNavigatorParams.from_values(nav))
-    servo = PlatformServo(PlatformServoParams.from_values(srv))
+    servo = platform_servo_core(srv)
     odometry = NavigatorOdometry(OdometryModel.from_values(nav, heading_known=nav["azimuth_source"] != "servo"),
                                  UNMEASURED_VARIANCE)
     truth0 = vehicle.truth()
@@ -188,9 +212,12 @@ def build_chain(scenario) -> PlatformChain:
     scratch.step((0.0,) * 4)
     host = np.array([*truth0.euler, *truth0.omega_ib_b, *truth0.specific_force_b], dtype=float)
     acc, gyr = suite.platform_accel, suite.platform_gyro
+    config = _config(vehicle, suite, nav, srv, veh["controlled"])
+    if suite.dtg is not None:
+        config[C_DTG_SCALE], config[C_DTG_IMAX] = servo.scale_rad_s_a, servo.max_current_a
     return PlatformChain(
         n_steps=vehicle.config.n_steps, rate_hz=vehicle.config.sim_rate_hz, dt=vehicle.config.dt,
-        config=_config(vehicle, suite, nav, srv, veh["controlled"]), host=host, x=vehicle._platform_x.copy(),
+        config=config, host=host, x=vehicle._platform_x.copy(),
         plant_params=vehicle._platform_params, res_every=suite._dec["resolver_rate_hz"],
         imu_every=suite._dec["platform_imu_rate_hz"], res_noise=suite.resolvers._noise,
         res_state=suite.resolvers._state.copy(), res_stream=suite.resolvers._normals, acc=acc.rows.copy(),
@@ -202,4 +229,4 @@ def build_chain(scenario) -> PlatformChain:
         suite=suite, site=vehicle.profile.site, odometry=odometry,
         moving=None if vehicle.profile.constant else vehicle.profile.packed,
         env=(*(float(v) for v in vehicle.env.omega_in_n), float(vehicle.env.gravity_m_s2)), q_earth=vehicle._q_earth,
-        base_last=np.zeros(5))
+        base_last=np.zeros(5), dtg=_dtg(suite, servo))

@@ -228,9 +228,12 @@ def run_navigation(duration_s: float = 10800.0, seed: int = 0, *, rotate: bool =
 #: The CEP campaign's variants -> scenario ``rotational_ins_navigation``'s: paper 3's two systems
 #: (each aligned by its own method in a 1 kHz prelude, then navigating at paper 3's 1 kHz) and
 #: the upgraded one perfectly aligned (the default campaign); the same three at the graph's
-#: 50 Hz (``*_50hz``), the 5 Hz stand-in system and the 50 Hz loop without rotation, when named.
+#: 50 Hz (``*_50hz``), the same three with the servo on the DTG pair (``*_dtg``), the 5 Hz
+#: stand-in system and the 50 Hz loop without rotation, when named.
 SCENARIO_VARIANTS = {"original_system": "original_system_1khz", "upgraded": "upgraded_1khz",
                      "perfectly_aligned": "rotation_on_1khz",
+                     "original_system_dtg": "original_system_dtg", "upgraded_dtg": "upgraded_dtg",
+                     "perfectly_aligned_dtg": "dtg_1khz",
                      "original_system_50hz": "original_system", "upgraded_50hz": "upgraded",
                      "perfectly_aligned_50hz": "rotation_on",
                      "rotation_on": "rotation_on_5hz", "rotation_off": "rotation_off_5hz",
@@ -238,6 +241,7 @@ SCENARIO_VARIANTS = {"original_system": "original_system_1khz", "upgraded": "upg
                      "ship_rotation_on": "ship_rotation_on", "ship_rotation_off": "ship_rotation_off"}
 #: Each variant -> whether its platform rotates.
 VARIANTS = {"original_system": False, "upgraded": True, "perfectly_aligned": True,
+            "original_system_dtg": False, "upgraded_dtg": True, "perfectly_aligned_dtg": True,
             "original_system_50hz": False, "upgraded_50hz": True, "perfectly_aligned_50hz": True, "rotation_on": True,
             "rotation_off": False, "rotation_off_50hz": False, "ship_rotation_on": True, "ship_rotation_off": False}
 
@@ -308,6 +312,7 @@ def experiment3_figures(metrics: Sequence[dict]) -> dict[str, Any]:
 #: scenario's own variant names are the ones a campaign run from its file records.
 RATIOS = (("rotation_off", "rotation_on", "ratio_off_on"),
           ("original_system", "upgraded", "ratio_original_upgraded"),
+          ("original_system_dtg", "upgraded_dtg", "ratio_original_upgraded_dtg"),
           ("original_system_50hz", "upgraded_50hz", "ratio_original_upgraded_50hz"),
           ("ship_rotation_off", "ship_rotation_on", "ship_ratio_off_on"),
           ("rotation_off_1khz", "rotation_on_1khz", "ratio_off_on_1khz"),
