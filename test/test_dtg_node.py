@@ -176,10 +176,11 @@ def test_bad_dtg_parameters_are_refused_before_anything_starts(module_ros_domain
 
 def test_paper_3s_two_systems_align_and_navigate_on_the_dtgs(module_ros_domain_env, tmp_path):
     """``upgraded_dtg`` and ``original_system_dtg``, each chained short (a 10 s alignment on the
-    DTGs, its hand-off, 6 s of navigation on the compiled chain): both phases' servos close on
+    DTGs, its hand-off, 20 s of navigation on the compiled chain): both phases' servos close on
     the pickoffs, and each recorded azimuth torquer current is (φ̇z + ω_c,D)/S, rotating at
     1.2 °/s (upgraded) or held still (original), ω_c,D the navigator's command at that stamp,
-    which carries the alignment's drift estimates."""
+    which carries the alignment's drift estimates and, for its first 10 s, the pulse that
+    torques the handed misalignment out; the report's legs leave that pulse out."""
     data = yaml.safe_load(load("rotational_ins_navigation").to_yaml())
     chains = {"upgraded_dtg": RATE, "original_system_dtg": 0.0}
     data["variants"] = {v: dict(data["variants"][v]) for v in chains}
@@ -188,7 +189,7 @@ def test_paper_3s_two_systems_align_and_navigate_on_the_dtgs(module_ros_domain_e
     spec = tmp_path / "chains.yaml"
     spec.write_text(yaml.safe_dump(data))
     out = tmp_path / "runs"
-    result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(spec), "--engine", "core", "--duration", "6",
+    result = subprocess.run([str(VENV_BIN / "gimbal-run"), str(spec), "--engine", "core", "--duration", "20",
                              "--no-progress", "--out", str(out)],
                             env=module_ros_domain_env, capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -200,8 +201,19 @@ def test_paper_3s_two_systems_align_and_navigate_on_the_dtgs(module_ros_domain_e
             assert "dtg" in nodes["sensor_models"]["params"]["sensors"], phase
         assert json.loads((out / v / "prelude" / "hand_off.json").read_text())["hand_off_s"] == pytest.approx(10.0)
         series = _read(out / v, {TORQUER, command})
-        assert sorted(series[TORQUER]) == [k * 1_000_000_000 for k in range(7)]
+        assert sorted(series[TORQUER]) == [k * 1_000_000_000 for k in range(21)]
+        i_z = {}
         for stamp, msg in series[TORQUER].items():
-            i = dict(zip(msg.name, msg.effort))
+            i_z[stamp] = dict(zip(msg.name, msg.effort))["dtg_torquer_z"]
             down = series[command][stamp].vector.z
-            assert i["dtg_torquer_z"] == pytest.approx((rate + down) / SCALE_A, rel=1e-12, abs=1e-15), (v, stamp)
+            assert i_z[stamp] == pytest.approx((rate + down) / SCALE_A, rel=1e-12, abs=1e-15), (v, stamp)
+        if rate:
+            # the pulse: the handed azimuth estimate over the 10 s, through the scale factor
+            up = json.loads((out / v / "prelude" / "hand_off.json").read_text())["misalignment_estimate_arcsec"][2]
+            assert abs(i_z[5_000_000_000] - i_z[15_000_000_000]) == pytest.approx(
+                abs(math.radians(up / 3600.0)) / 10.0 / SCALE_A, rel=0.02)
+            leg = json.loads((out / v / "report" / "metrics.json").read_text())[
+                "navigation"]["dtg_torquer_current"]["azimuth"]["positive_rate"]
+            steady = [1e3 * i for s, i in i_z.items() if s >= 15e9]
+            assert leg["samples"] == len(steady) == 6
+            assert leg["mean_ma"] == pytest.approx(sum(steady) / len(steady), rel=1e-12)

@@ -17,7 +17,9 @@ period read off the run — the period of the sinusoid plus trend that best fits
 velocity errors, scanned over 40–160 min — beside the local 2π√(R/g) (84.4 min); the
 control error (rms and largest |Δθ|, arc-seconds) of the four loops. On DTGs, the azimuth
 torquer current per direction of rotation (its sign), mean [mA] and relative standard
-deviation, leaving out the first ``TORQUER_SETTLE_S`` and that long after each reversal.
+deviation, leaving out the first ``TORQUER_SETTLE_S`` and that long after each reversal; after
+a hand-off, also the navigator's torque-out of the handed misalignment (its ``torque_out_s``,
+from the run's ``scenario.yaml``), whose command-rate pulse is in the currents.
 
 After a prelude (``original_system``, ``upgraded``: the chained alignment run), the run
 directory's ``hand_off.json`` (:mod:`.hand_off`) goes into the metrics as ``hand_off``, with
@@ -31,7 +33,9 @@ import math
 from pathlib import Path
 
 import numpy as np
+import yaml
 
+from gimbal_estimators.platform_navigator_params import PlatformNavigatorParams
 from gimbal_kinematics.maths.earth import meridian_radius, normal_gravity, prime_vertical_radius
 from gimbal_kinematics.maths.units import ARCSEC, NMI_M, UG
 
@@ -102,8 +106,9 @@ def navigation_errors(bag_dir: Path) -> dict:
             "torquer": cols[TORQUER], "contents": contents}
 
 
-def navigation_figures(e: dict) -> dict:
-    """The report's figures (module docstring) from :func:`navigation_errors`."""
+def navigation_figures(e: dict, torquer_start_s: float = TORQUER_SETTLE_S) -> dict:
+    """The report's figures (module docstring) from :func:`navigation_errors`; the torquer
+    current's legs from ``torquer_start_s`` after the first sample."""
     t, radial = e["t"], e["radial"]
     hours = max(t[-1], 1e-9) / 3600.0
     i_max = int(np.argmax(radial))
@@ -129,20 +134,31 @@ def navigation_figures(e: dict) -> dict:
     if len(e["accel_bias"]):
         out["true_accel_bias_ug"] = (e["accel_bias"][0] / UG).tolist()
     if len(e["torquer"][0]):
-        out["dtg_torquer_current"] = torquer_figures(*e["torquer"])
+        out["dtg_torquer_current"] = torquer_figures(*e["torquer"], start_s=torquer_start_s)
     return out
 
 
-def torquer_figures(t: np.ndarray, current: np.ndarray) -> dict:
+def torquer_figures(t: np.ndarray, current: np.ndarray, start_s: float = TORQUER_SETTLE_S) -> dict:
     """The azimuth torquer current's legs (module docstring) from the stamps [s] and the
-    (x, y, z) currents [A]; the level currents' largest magnitude [mA]."""
+    (x, y, z) currents [A], from ``start_s`` on; the level currents' largest magnitude [mA]."""
     i_z = current[:, 2]
     direction = np.sign(i_z)
-    steady = t - t[0] >= TORQUER_SETTLE_S
+    steady = t - t[0] >= start_s
     for t_rev in t[1:][direction[1:] != direction[:-1]]:
         steady &= ~((t >= t_rev) & (t < t_rev + TORQUER_SETTLE_S))
     return {"azimuth": torquer_legs(i_z, direction, steady),
             "level_max_abs_ma": float(1e3 * np.max(np.abs(current[:, :2])))}
+
+
+def _torque_out_s(run_dir: Path) -> float:
+    """The navigator's ``torque_out_s`` in the run's ``scenario.yaml`` (its default if unset)."""
+    default = PlatformNavigatorParams().torque_out_s
+    scenario = Path(run_dir) / "scenario.yaml"
+    if not scenario.is_file():
+        return default
+    nodes = (yaml.safe_load(scenario.read_text()) or {}).get("nodes", {})
+    nav = next((n.get("params", {}) for n in nodes.values() if n.get("executable") == "platform_navigator"), {})
+    return float(nav.get("torque_out_s", default))
 
 
 def _hand_off(path: Path, nav: dict) -> dict:
@@ -170,8 +186,10 @@ def _plot(e: dict, path: Path, title: str) -> None:
 def navigation_report(bag_dir: Path, report_dir: Path) -> dict:
     """Write ``navigation_errors.png``; return the figures (module docstring) and the bag summary."""
     e = navigation_errors(bag_dir)
-    metrics = {"navigation": navigation_figures(e), **bag_summary(bag_dir, e["contents"])}
-    if (Path(bag_dir) / FIGURES_FILE).is_file():
+    handed = (Path(bag_dir) / FIGURES_FILE).is_file()
+    start = TORQUER_SETTLE_S + (_torque_out_s(bag_dir) if handed else 0.0)
+    metrics = {"navigation": navigation_figures(e, start), **bag_summary(bag_dir, e["contents"])}
+    if handed:
         metrics["hand_off"] = _hand_off(Path(bag_dir) / FIGURES_FILE, metrics["navigation"])
     report_dir.mkdir(parents=True, exist_ok=True)
     nav = metrics["navigation"]
